@@ -1,0 +1,13 @@
+"""NumPy reference of the analytic Bernoulli substep (SPEC §2)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def bernoulli(u: np.ndarray, decay: float) -> np.ndarray:
+    """Exact solution of ``u_t = (u − u³)/ε²`` after a time τ, with ``decay = e^{−2τ/ε²}``:
+    ``u / sqrt(decay + u² (1 − decay))``.  Any shape."""
+    t = u.dtype.type
+    d = t(decay)
+    return u / np.sqrt(d + u * u * (t(1) - d))

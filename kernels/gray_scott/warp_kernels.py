@@ -1,0 +1,119 @@
+"""Warp kernels of the fused forward-Euler Gray-Scott step (SPEC §3); the maths of
+``reference.py``.
+
+Two launch shapes share one ``@wp.func`` cell update: ``rows`` (one thread per row,
+``i = tid + row0``, branch-free interior columns, edge columns peeled; the CPU shape) and
+``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).
+
+``KERNELS[(np.dtype, F_is_field, k_is_field)]`` is ``(rows, cells)``; a scalar ``F`` or
+``k`` is a kernel argument of the array's dtype, a field is a 2-D array of the grid shape.
+"""
+
+import numpy as np
+import warp as wp
+from rdgpu._kernels.warp_common import field_at, ghost, scalar_at
+
+wp.set_module_options({"enable_backward": False})
+
+
+def _build(dtype, f_field, k_field):
+    A2 = wp.array2d(dtype=dtype)
+    FT = A2 if f_field else dtype
+    KT = A2 if k_field else dtype
+    f_at = field_at if f_field else scalar_at
+    k_at = field_at if k_field else scalar_at
+    one = dtype(1.0)
+    two = dtype(2.0)
+
+    @wp.func
+    def update(
+        uc: dtype, vc: dtype,
+        uw: dtype, ue: dtype, us: dtype, un: dtype,
+        vw: dtype, ve: dtype, vs: dtype, vn: dtype,
+        Fc: dtype, kc: dtype, cx: dtype, cy: dtype, Du: dtype, Dv: dtype, h: dtype,
+    ):
+        lap_u = (ue + uw - two * uc) * cx + (un + us - two * uc) * cy
+        lap_v = (ve + vw - two * vc) * cx + (vn + vs - two * vc) * cy
+        uvv = uc * vc * vc
+        return (
+            uc + h * (Du * lap_u - uvv + Fc * (one - uc)),
+            vc + h * (Dv * lap_v + uvv - (Fc + kc) * vc),
+        )
+
+    @wp.func
+    def direct(
+        u: A2, v: A2, uo: A2, vo: A2, i: int, j: int,
+        F: FT, k: KT, cx: dtype, cy: dtype, Du: dtype, Dv: dtype, h: dtype,
+    ):
+        un_, vn_ = update(
+            u[i, j], v[i, j],
+            u[i, j - 1], u[i, j + 1], u[i - 1, j], u[i + 1, j],
+            v[i, j - 1], v[i, j + 1], v[i - 1, j], v[i + 1, j],
+            f_at(F, i, j), k_at(k, i, j), cx, cy, Du, Dv, h,
+        )
+        uo[i, j] = un_
+        vo[i, j] = vn_
+
+    @wp.func
+    def edge(
+        u: A2, v: A2, uo: A2, vo: A2, i: int, j: int,
+        F: FT, k: KT, cx: dtype, cy: dtype, Du: dtype, Dv: dtype, h: dtype,
+        yk: int, yv: dtype, xk: int, xv: dtype,
+    ):
+        un_, vn_ = update(
+            u[i, j], v[i, j],
+            ghost(u, i, j - 1, yk, yv, xk, xv),
+            ghost(u, i, j + 1, yk, yv, xk, xv),
+            ghost(u, i - 1, j, yk, yv, xk, xv),
+            ghost(u, i + 1, j, yk, yv, xk, xv),
+            ghost(v, i, j - 1, yk, yv, xk, xv),
+            ghost(v, i, j + 1, yk, yv, xk, xv),
+            ghost(v, i - 1, j, yk, yv, xk, xv),
+            ghost(v, i + 1, j, yk, yv, xk, xv),
+            f_at(F, i, j), k_at(k, i, j), cx, cy, Du, Dv, h,
+        )
+        uo[i, j] = un_
+        vo[i, j] = vn_
+
+    @wp.kernel
+    def rows(
+        u: A2, v: A2, uo: A2, vo: A2,
+        F: FT, k: KT, cx: dtype, cy: dtype, Du: dtype, Dv: dtype, h: dtype,
+        yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
+    ):
+        i = wp.tid() + row0
+        ny = u.shape[0]
+        nx = u.shape[1]
+        if i > 0 and i < ny - 1:
+            edge(u, v, uo, vo, i, 0, F, k, cx, cy, Du, Dv, h, yk, yv, xk, xv)
+            j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
+            while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
+                direct(u, v, uo, vo, i, j, F, k, cx, cy, Du, Dv, h)
+                j += 1
+            if nx > 1:
+                edge(u, v, uo, vo, i, nx - 1, F, k, cx, cy, Du, Dv, h, yk, yv, xk, xv)
+        else:
+            for j in range(nx):
+                edge(u, v, uo, vo, i, j, F, k, cx, cy, Du, Dv, h, yk, yv, xk, xv)
+
+    @wp.kernel
+    def cells(
+        u: A2, v: A2, uo: A2, vo: A2,
+        F: FT, k: KT, cx: dtype, cy: dtype, Du: dtype, Dv: dtype, h: dtype,
+        yk: int, yv: dtype, xk: int, xv: dtype,
+    ):
+        i, j = wp.tid()
+        if i > 0 and i < u.shape[0] - 1 and j > 0 and j < u.shape[1] - 1:
+            direct(u, v, uo, vo, i, j, F, k, cx, cy, Du, Dv, h)
+        else:
+            edge(u, v, uo, vo, i, j, F, k, cx, cy, Du, Dv, h, yk, yv, xk, xv)
+
+    return rows, cells
+
+
+KERNELS = {
+    (np.dtype(npt), f_field, k_field): _build(wt, f_field, k_field)
+    for npt, wt in ((np.float32, wp.float32), (np.float64, wp.float64))
+    for f_field in (False, True)
+    for k_field in (False, True)
+}

@@ -1,0 +1,123 @@
+"""Warp kernels of the grid Laplacian (SPEC §1); the maths of ``reference.py``.
+
+Every kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
+
+* ``rows`` -- one thread per row (``i = tid + row0``), an inner loop over the columns with
+  branch-free interior cells and the two edge columns peeled (CPU: fast serial loops,
+  launched as row chunks from several host threads);
+* ``cells`` -- one thread per cell, ``dim = (ny, nx)`` (CUDA).
+
+``KERNELS[(np.dtype, stencil)]`` is ``(rows, cells)``.
+"""
+
+import numpy as np
+import warp as wp
+from rdgpu._kernels.warp_common import ghost
+
+wp.set_module_options({"enable_backward": False})
+
+
+def _build(dtype, stencil):
+    A2 = wp.array2d(dtype=dtype)
+    two = dtype(2.0)
+    four = dtype(4.0)
+    twenty = dtype(20.0)
+
+    @wp.func
+    def lap5(c: dtype, w: dtype, e: dtype, s: dtype, n: dtype, cx: dtype, cy: dtype) -> dtype:
+        return (e + w - two * c) * cx + (n + s - two * c) * cy
+
+    @wp.func
+    def lap9(
+        c: dtype, w: dtype, e: dtype, s: dtype, n: dtype,
+        sw: dtype, se: dtype, nw: dtype, ne: dtype, coef: dtype,
+    ) -> dtype:
+        edge = w + e + s + n
+        corner = sw + se + nw + ne
+        return (four * edge + corner - twenty * c) * coef
+
+    if stencil == 5:
+
+        @wp.func
+        def direct(u: A2, out: A2, i: int, j: int, cx: dtype, cy: dtype):
+            out[i, j] = lap5(u[i, j], u[i, j - 1], u[i, j + 1], u[i - 1, j], u[i + 1, j], cx, cy)
+
+        @wp.func
+        def edge(
+            u: A2, out: A2, i: int, j: int, cx: dtype, cy: dtype,
+            yk: int, yv: dtype, xk: int, xv: dtype,
+        ):
+            out[i, j] = lap5(
+                u[i, j],
+                ghost(u, i, j - 1, yk, yv, xk, xv),
+                ghost(u, i, j + 1, yk, yv, xk, xv),
+                ghost(u, i - 1, j, yk, yv, xk, xv),
+                ghost(u, i + 1, j, yk, yv, xk, xv),
+                cx,
+                cy,
+            )
+
+    else:
+
+        @wp.func
+        def direct(u: A2, out: A2, i: int, j: int, cx: dtype, cy: dtype):
+            out[i, j] = lap9(
+                u[i, j], u[i, j - 1], u[i, j + 1], u[i - 1, j], u[i + 1, j],
+                u[i - 1, j - 1], u[i - 1, j + 1], u[i + 1, j - 1], u[i + 1, j + 1], cx,
+            )
+
+        @wp.func
+        def edge(
+            u: A2, out: A2, i: int, j: int, cx: dtype, cy: dtype,
+            yk: int, yv: dtype, xk: int, xv: dtype,
+        ):
+            out[i, j] = lap9(
+                u[i, j],
+                ghost(u, i, j - 1, yk, yv, xk, xv),
+                ghost(u, i, j + 1, yk, yv, xk, xv),
+                ghost(u, i - 1, j, yk, yv, xk, xv),
+                ghost(u, i + 1, j, yk, yv, xk, xv),
+                ghost(u, i - 1, j - 1, yk, yv, xk, xv),
+                ghost(u, i - 1, j + 1, yk, yv, xk, xv),
+                ghost(u, i + 1, j - 1, yk, yv, xk, xv),
+                ghost(u, i + 1, j + 1, yk, yv, xk, xv),
+                cx,
+            )
+
+    # cx, cy: 1/dx², 1/dy² (5-point); cx = 1/(6h²), cy unused (9-point)
+    @wp.kernel
+    def rows(
+        u: A2, out: A2, cx: dtype, cy: dtype,
+        yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
+    ):
+        i = wp.tid() + row0
+        ny = u.shape[0]
+        nx = u.shape[1]
+        if i > 0 and i < ny - 1:
+            edge(u, out, i, 0, cx, cy, yk, yv, xk, xv)
+            j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
+            while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
+                direct(u, out, i, j, cx, cy)
+                j += 1
+            if nx > 1:
+                edge(u, out, i, nx - 1, cx, cy, yk, yv, xk, xv)
+        else:
+            for j in range(nx):
+                edge(u, out, i, j, cx, cy, yk, yv, xk, xv)
+
+    @wp.kernel
+    def cells(u: A2, out: A2, cx: dtype, cy: dtype, yk: int, yv: dtype, xk: int, xv: dtype):
+        i, j = wp.tid()
+        if i > 0 and i < u.shape[0] - 1 and j > 0 and j < u.shape[1] - 1:
+            direct(u, out, i, j, cx, cy)
+        else:
+            edge(u, out, i, j, cx, cy, yk, yv, xk, xv)
+
+    return rows, cells
+
+
+KERNELS = {
+    (np.dtype(npt), stencil): _build(wt, stencil)
+    for npt, wt in ((np.float32, wp.float32), (np.float64, wp.float64))
+    for stencil in (5, 9)
+}

@@ -1,0 +1,203 @@
+"""The device-array layer and the interface every backend implements.
+
+A :class:`DeviceArray` is a backend's buffer plus its shape and dtype.  The functional
+API (``rdgpu.api``) uploads its inputs once, calls backend kernels any number of times on
+device arrays (ping-ponging buffers between steps) and downloads once: nothing returns to
+the host between the steps of one call.
+
+Scalars reach the kernels in the array's dtype.  Kernels never allocate: the caller
+passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is y.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..boundary import GridBC
+
+Scalar = float
+FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape
+
+
+@dataclass(eq=False)
+class DeviceArray:
+    """A buffer owned by one backend: ``handle`` is a NumPy array (numpy backend),
+    a ``warp.array`` (warp) or a ``pyopencl.Buffer`` (opencl)."""
+
+    backend: Backend
+    handle: Any
+    shape: tuple[int, ...]
+    dtype: np.dtype
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape))
+
+    @property
+    def nbytes(self) -> int:
+        return self.size * self.dtype.itemsize
+
+    def numpy(self) -> np.ndarray:
+        """Copy to a new host array."""
+        return self.backend.download(self)
+
+
+@dataclass(eq=False)
+class DeviceCSR:
+    """A CSR matrix on a backend: int32 ``indptr`` (n+1) and ``indices`` (nnz), ``data``
+    (nnz, real) and the ``diagonal`` (n, real; needed by SOR).  Indices sorted per row."""
+
+    indptr: DeviceArray
+    indices: DeviceArray
+    data: DeviceArray
+    diagonal: DeviceArray
+    shape: tuple[int, int]
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.data.dtype
+
+    @property
+    def nnz(self) -> int:
+        return self.indices.size
+
+
+class Backend(ABC):
+    """One compute backend on one device."""
+
+    #: "numpy", "warp" or "opencl"
+    name: str = ""
+
+    #: human-readable device description, e.g. "cpu" or "pthread-AMD EPYC (PoCL 3.0)"
+    device: str = ""
+
+    # ------------------------------------------------------------------ memory
+    @abstractmethod
+    def upload(self, a: np.ndarray) -> DeviceArray:
+        """Copy a C-contiguous host array to a new device array (same shape and dtype)."""
+
+    @abstractmethod
+    def download(self, d: DeviceArray) -> np.ndarray:
+        """Copy a device array into a new host array."""
+
+    @abstractmethod
+    def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> DeviceArray:
+        """A new uninitialised device array."""
+
+    @abstractmethod
+    def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
+        """Device-to-device copy of ``src`` into ``dst`` (same shape and dtype)."""
+
+    def empty_like(self, d: DeviceArray) -> DeviceArray:
+        return self.empty(d.shape, d.dtype)
+
+    def upload_csr(self, matrix: Any, dtype: np.dtype) -> DeviceCSR:
+        """Upload a ``scipy.sparse`` matrix (any format) as a :class:`DeviceCSR` of ``dtype``."""
+        import scipy.sparse as sp
+
+        m = sp.csr_matrix(matrix)
+        m.sum_duplicates()
+        m.sort_indices()
+        n_rows, n_cols = m.shape
+        if max(n_rows, n_cols, m.nnz) >= 2**31:
+            raise ValueError(f"matrix too large for int32 CSR indices: shape {m.shape}, nnz {m.nnz}")
+        dtype = np.dtype(dtype)
+        return DeviceCSR(
+            indptr=self.upload(m.indptr.astype(np.int32)),
+            indices=self.upload(m.indices.astype(np.int32)),
+            data=self.upload(m.data.astype(dtype)),
+            diagonal=self.upload(np.ascontiguousarray(m.diagonal().astype(dtype))),
+            shape=(n_rows, n_cols),
+        )
+
+    def synchronize(self) -> None:  # noqa: B027 - optional hook
+        """Wait until every queued kernel has finished (for timing)."""
+
+    # ------------------------------------------------------------------ grid kernels
+    @abstractmethod
+    def laplacian(
+        self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
+    ) -> None:
+        """``out = Lu`` with the 5- or 9-point stencil (SPEC §1)."""
+
+    @abstractmethod
+    def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
+        """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (SPEC §2).
+
+        Works on arrays of any shape (grid or mesh vertices)."""
+
+    @abstractmethod
+    def gray_scott(
+        self,
+        u: DeviceArray,
+        v: DeviceArray,
+        u_out: DeviceArray,
+        v_out: DeviceArray,
+        *,
+        Du: float,
+        Dv: float,
+        F: FieldOrScalar,
+        k: FieldOrScalar,
+        dt: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        """One fused forward-Euler Gray-Scott step with the 5-point stencil (SPEC §3)."""
+
+    @abstractmethod
+    def sor_half_sweep(
+        self,
+        c: DeviceArray,
+        fixed: DeviceArray,
+        rhs: DeviceArray | None,
+        row_change: DeviceArray,
+        *,
+        color: int,
+        omega: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        """Update in place the cells of one colour (``(i + j) % 2 == color``) that are not
+        ``fixed`` (uint8 mask, 1 = held) by SOR (SPEC §4).  ``rhs`` is ``f`` or None (0).
+
+        ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
+        colour 0 overwrites it, colour 1 takes the max with what is there."""
+
+    @abstractmethod
+    def levelset_step(
+        self,
+        phi: DeviceArray,
+        speed: FieldOrScalar,
+        out: DeviceArray,
+        *,
+        dt: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (SPEC §5)."""
+
+    @abstractmethod
+    def reinit_step(
+        self,
+        phi: DeviceArray,
+        phi0: DeviceArray,
+        out: DeviceArray,
+        *,
+        dtau: float,
+        width: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+        subcell: bool = True,
+    ) -> None:
+        """One pseudo-time step of ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with
+        ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (SPEC §5); with ``subcell``,
+        cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py)."""

@@ -1,0 +1,75 @@
+"""The NumPy backend: runs the references in ``kernels/*/reference.py`` on host arrays."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..boundary import GridBC
+from ..kernel_files import load_module
+from .base import Backend, DeviceArray
+
+
+def _value(x):
+    """A scalar stays a scalar; a DeviceArray gives its NumPy handle."""
+    return x.handle if isinstance(x, DeviceArray) else x
+
+
+class NumpyBackend(Backend):
+    """Reference backend; its "device" is host memory."""
+
+    name = "numpy"
+
+    def __init__(self) -> None:
+        self.device = "cpu (host memory)"
+        self._lap = load_module("laplacian", "reference.py")
+        self._ber = load_module("bernoulli", "reference.py")
+        self._gs = load_module("gray_scott", "reference.py")
+        self._sor = load_module("sor", "reference.py")
+        self._ls = load_module("levelset", "reference.py")
+
+    # memory
+    def upload(self, a: np.ndarray) -> DeviceArray:
+        a = np.array(a, order="C", copy=True)
+        return DeviceArray(self, a, a.shape, a.dtype)
+
+    def download(self, d: DeviceArray) -> np.ndarray:
+        return d.handle.copy()
+
+    def empty(self, shape, dtype) -> DeviceArray:
+        dtype = np.dtype(dtype)
+        return DeviceArray(self, np.empty(shape, dtype), tuple(shape), dtype)
+
+    def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
+        np.copyto(dst.handle, src.handle)
+
+    # kernels
+    def laplacian(self, u, out, *, dx, dy, bc: GridBC, stencil):
+        out.handle[...] = self._lap.laplacian(u.handle, dx, dy, bc, stencil)
+
+    def bernoulli(self, u, out, *, decay):
+        out.handle[...] = self._ber.bernoulli(u.handle, decay)
+
+    def gray_scott(self, u, v, u_out, v_out, *, Du, Dv, F, k, dt, dx, dy, bc):
+        un, vn = self._gs.gray_scott_step(
+            u.handle, v.handle, Du, Dv, _value(F), _value(k), dt, dx, dy, bc
+        )
+        u_out.handle[...] = un
+        v_out.handle[...] = vn
+
+    def sor_half_sweep(self, c, fixed, rhs, row_change, *, color, omega, dx, dy, bc):
+        new, change = self._sor.sor_half_sweep(
+            c.handle, fixed.handle, _value(rhs), color, omega, dx, dy, bc
+        )
+        c.handle[...] = new
+        if color == 0:
+            row_change.handle[...] = change
+        else:
+            np.maximum(row_change.handle, change, out=row_change.handle)
+
+    def levelset_step(self, phi, speed, out, *, dt, dx, dy, bc):
+        out.handle[...] = self._ls.levelset_step(phi.handle, _value(speed), dt, dx, dy, bc)
+
+    def reinit_step(self, phi, phi0, out, *, dtau, width, dx, dy, bc, subcell=True):
+        out.handle[...] = self._ls.reinit_step(
+            phi.handle, phi0.handle, dtau, width, dx, dy, bc, subcell
+        )

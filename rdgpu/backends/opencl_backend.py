@@ -1,0 +1,477 @@
+"""OpenCL backend (PyOpenCL): the kernels of ``kernels/<family>/<family>.cl`` on any device.
+
+One program per (context, dtype, layout) is built from ``kernels/common.cl`` followed by
+every family source, and its kernel objects are cached.  Launches go to one in-order
+queue without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
+
+Two launch layouts run the same inline cell functions (see ``kernels/common.cl``):
+
+* ``"row"`` (default on CPU devices, e.g. PoCL): one work-item per grid row with a
+  branch-free, vectorisable inner loop over the columns;
+* ``"strided"`` (default on GPUs): work-group ``(col_stride, 1)`` per row, consecutive
+  work-items on consecutive columns (coalesced).
+
+The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment variable
+``RDGPU_OPENCL_LAYOUT``; the device with ``OpenCLBackend(device=...)`` or
+``RDGPU_OPENCL_DEVICE``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from typing import Any
+
+import numpy as np
+
+from ..boundary import GridBC
+from ..errors import BackendUnavailableError
+from ..kernel_files import read_source
+from .base import Backend, DeviceArray, FieldOrScalar
+
+_INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
+_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset")
+# Argument types of every kernel (must match the .cl signatures): B = buffer, i = int32,
+# l = int64, r = the real type.  Declaring them lets PyOpenCL pack scalars fast (untyped
+# scalar arguments cost ~15 us each on PoCL).
+_GRID = "iiirir"  # nx, ny, y_kind, g_y, x_kind, g_x
+_KERNEL_ARGS = {
+    "laplacian5": "BB" + _GRID + "rr",
+    "laplacian9": "BB" + _GRID + "r",
+    "bernoulli": "BBllrr",
+    "gray_scott_ss": "BBBBBB" + _GRID + "rrrrrrr",
+    "gray_scott_fs": "BBBBBB" + _GRID + "rrrrrrr",
+    "gray_scott_sf": "BBBBBB" + _GRID + "rrrrrrr",
+    "gray_scott_ff": "BBBBBB" + _GRID + "rrrrrrr",
+    "sor_half_sweep": "BBBBi" + _GRID + "rrrrrr",
+    "sor_half_sweep_rhs": "BBBBi" + _GRID + "rrrrrr",
+    "levelset_step_s": "BBB" + _GRID + "rrrr",
+    "levelset_step_f": "BBB" + _GRID + "rrrr",
+    "reinit_step": "BBB" + _GRID + "rrrrrrrr",
+    "reinit_step_subcell": "BBB" + _GRID + "rrrrrrrr",
+}
+_GS_NAMES = {
+    (False, False): "gray_scott_ss",
+    (True, False): "gray_scott_fs",
+    (False, True): "gray_scott_sf",
+    (True, True): "gray_scott_ff",
+}
+_LAYOUTS = ("row", "strided")
+_REALS = (np.dtype(np.float32), np.dtype(np.float64))
+_MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
+_BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
+_MAX_CELLS = 2**31 - 1  # the grid kernels index with 32-bit ints
+
+# (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
+# kernels: shared by every backend instance on the same device.
+_CONTEXTS: dict[int, tuple[Any, Any]] = {}
+_KERNELS: dict[tuple, dict[str, Any]] = {}
+
+
+def _import_pyopencl():
+    try:
+        import pyopencl as cl
+    except Exception as exc:  # ImportError, or OSError for a missing libOpenCL
+        raise BackendUnavailableError(
+            f"the OpenCL backend needs the Python package pyopencl, which cannot be imported "
+            f"({type(exc).__name__}: {exc}); fix: {_INSTALL_HINT}"
+        ) from exc
+    return cl
+
+
+def list_devices() -> list[tuple[str, Any, Any]]:
+    """Every OpenCL device as ``("P:D", platform, device)``."""
+    cl = _import_pyopencl()
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error as exc:
+        platforms = []
+        reason = f" ({exc})"
+    else:
+        reason = ""
+    found = []
+    for p_index, platform in enumerate(platforms):
+        try:
+            devices = platform.get_devices()
+        except cl.Error:
+            continue
+        for d_index, device in enumerate(devices):
+            found.append((f"{p_index}:{d_index}", platform, device))
+    if not found:
+        raise BackendUnavailableError(
+            f"no OpenCL platform/device found{reason}: pyopencl is installed but no OpenCL "
+            f"driver (ICD) is; for the portable CPU driver PoCL: {_INSTALL_HINT}"
+        )
+    return found
+
+
+def _describe(platform, device) -> str:
+    return f"{device.name.strip()} ({platform.name.strip()})"
+
+
+def _select_device(spec: str | None):
+    cl = _import_pyopencl()
+    devices = list_devices()
+    if spec is None or not str(spec).strip():
+        # Oclgrind (a debugging simulator that claims every device type) only on request
+        real = [(p, d) for _k, p, d in devices if "oclgrind" not in p.name.lower()]
+        real = real or [(p, d) for _k, p, d in devices]
+        for platform, device in real:
+            if device.type & cl.device_type.GPU:
+                return platform, device
+        return real[0]
+    spec = str(spec).strip()
+    m = re.fullmatch(r"(\d+)\s*:\s*(\d+)", spec)
+    if m:
+        key = f"{int(m.group(1))}:{int(m.group(2))}"
+        for k, platform, device in devices:
+            if k == key:
+                return platform, device
+    else:
+        low = spec.lower()
+        for _key, platform, device in devices:
+            if low in device.name.lower() or low in platform.name.lower():
+                return platform, device
+    listing = "; ".join(f"{k} = {_describe(p, d)}" for k, p, d in devices)
+    raise BackendUnavailableError(
+        f"no OpenCL device matches {spec!r}; give 'P:D' (platform:device index) or part of "
+        f"a platform or device name. Devices: {listing}"
+    )
+
+
+def _has_fp64(device) -> bool:
+    return bool(device.double_fp_config) or "cl_khr_fp64" in device.extensions
+
+
+def _pow2_floor(n: int) -> int:
+    return 1 << (max(int(n), 1).bit_length() - 1)
+
+
+class OpenCLBackend(Backend):
+    """The rdgpu kernels in OpenCL C on one device.
+
+    ``device``: None (the first GPU, else the first device; the Oclgrind simulator only
+    when named), ``"P:D"`` (platform and device index) or a case-insensitive part of the
+    platform or device name.
+    ``layout``: ``"row"`` or ``"strided"`` (default: row on CPU devices, strided on others).
+    ``col_stride``: work-items per row in the strided layout (a power of two).
+    """
+
+    name = "opencl"
+
+    def __init__(
+        self, device: str | None = None, *, layout: str | None = None, col_stride: int | None = None
+    ):
+        cl = _import_pyopencl()
+        self._cl = cl
+        if device is None:
+            device = os.environ.get("RDGPU_OPENCL_DEVICE") or None
+        platform, dev = _select_device(device)
+        self.cl_device = dev
+        self.device = _describe(platform, dev)
+        key = dev.int_ptr
+        if key not in _CONTEXTS:
+            ctx = cl.Context([dev])
+            _CONTEXTS[key] = (ctx, cl.CommandQueue(ctx, dev))
+        self.context, self.queue = _CONTEXTS[key]
+        self.fp64 = _has_fp64(dev)
+
+        is_cpu = bool(dev.type & cl.device_type.CPU)
+        layout = layout or os.environ.get("RDGPU_OPENCL_LAYOUT") or ("row" if is_cpu else "strided")
+        layout = layout.strip().lower()
+        if layout not in _LAYOUTS:
+            raise ValueError(f"unknown OpenCL layout {layout!r}; allowed: {', '.join(_LAYOUTS)}")
+        self.layout = layout
+        max_wg = int(dev.max_work_group_size)
+        if layout == "row":
+            self.col_stride = 1
+        else:
+            stride = 128 if col_stride is None else int(col_stride)
+            if stride < 1 or stride & (stride - 1):
+                raise ValueError(f"col_stride must be a power of two, got {stride}")
+            self.col_stride = min(stride, _pow2_floor(max_wg))
+        self._options = [
+            f"-D COL_STRIDE={self.col_stride}",
+            f"-D ROW_LAYOUT={int(layout == 'row')}",
+        ]
+        if (
+            "portable computing language" in platform.name.lower()
+            or "pocl" in platform.name.lower()
+        ):
+            # PoCL calls its builtin sqrt/fabs out of line, which blocks vectorisation
+            self._options.append("-D RDGPU_CLANG_BUILTINS")
+        if "oclgrind" in platform.name.lower():
+            # Oclgrind's interpreter cannot run the noalias intrinsics that inlining
+            # functions with restrict or by-value struct arguments produces
+            self._options += ["-D RDGPU_NO_RESTRICT", "-cl-opt-disable"]
+        if dev.single_fp_config & cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT:
+            self._options.append("-cl-fp32-correctly-rounded-divide-sqrt")
+        self._kernels: dict[np.dtype, dict[str, Any]] = {}
+
+    def __repr__(self) -> str:
+        return f"OpenCLBackend({self.device!r}, layout={self.layout!r})"
+
+    # ------------------------------------------------------------------ programs
+    def _program_source(self) -> str:
+        parts = ['#line 1 "common.cl"\n' + read_source("", "common.cl")]
+        for family in _FAMILIES:
+            parts.append(f'#line 1 "{family}/{family}.cl"\n' + read_source(family, f"{family}.cl"))
+        return "\n".join(parts)
+
+    def kernels(self, dtype: np.dtype) -> dict[str, Any]:
+        """The kernel objects for ``dtype`` (built on first use, then cached)."""
+        dtype = np.dtype(dtype)
+        cached = self._kernels.get(dtype)
+        if cached is not None:
+            return cached
+        self._check_real(dtype)
+        key = (self.context.int_ptr, dtype.char, self.layout, self.col_stride)
+        if key not in _KERNELS:
+            cl = self._cl
+            options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
+            program = cl.Program(self.context, self._program_source()).build(options=options)
+            codes = {"B": None, "i": np.int32, "l": np.int64, "r": dtype}
+            kernels = {}
+            for name, spec in _KERNEL_ARGS.items():
+                kernel = cl.Kernel(program, name)
+                kernel.set_scalar_arg_dtypes([codes[c] for c in spec])
+                kernels[name] = kernel
+            _KERNELS[key] = kernels
+        self._kernels[dtype] = _KERNELS[key]
+        return self._kernels[dtype]
+
+    def _check_real(self, dtype: np.dtype) -> None:
+        if dtype not in _REALS:
+            raise TypeError(f"rdgpu kernels take float32 or float64 arrays, got {dtype}")
+        if dtype == np.float64 and not self.fp64:
+            raise BackendUnavailableError(
+                f"OpenCL device {self.device} has no float64 support (cl_khr_fp64); "
+                "use float32 or another device/backend"
+            )
+
+    # ------------------------------------------------------------------ memory
+    def _buffer(self, nbytes: int, host: np.ndarray | None = None):
+        cl = self._cl
+        mf = cl.mem_flags
+        if host is not None and nbytes > 0:
+            return cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=host)
+        return cl.Buffer(self.context, mf.READ_WRITE, size=max(int(nbytes), 1))
+
+    def _check_alloc_dtype(self, dtype: np.dtype) -> None:
+        if dtype == np.float64 and not self.fp64:
+            self._check_real(dtype)
+        if dtype.hasobject:
+            raise TypeError(f"cannot put an object array on an OpenCL device ({dtype})")
+
+    def upload(self, a: np.ndarray) -> DeviceArray:
+        a = np.ascontiguousarray(a)
+        self._check_alloc_dtype(a.dtype)
+        return DeviceArray(self, self._buffer(a.nbytes, a), tuple(a.shape), a.dtype)
+
+    def download(self, d: DeviceArray) -> np.ndarray:
+        out = np.empty(d.shape, dtype=d.dtype)
+        if out.nbytes:
+            self._cl.enqueue_copy(self.queue, out, d.handle, is_blocking=True)
+        else:
+            self.queue.finish()
+        return out
+
+    def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> DeviceArray:
+        dtype = np.dtype(dtype)
+        self._check_alloc_dtype(dtype)
+        shape = tuple(int(s) for s in shape)
+        nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        return DeviceArray(self, self._buffer(nbytes), shape, dtype)
+
+    def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
+        if src.shape != dst.shape or src.dtype != dst.dtype:
+            raise ValueError(
+                f"copy needs equal shapes and dtypes, got {src.shape} {src.dtype} -> "
+                f"{dst.shape} {dst.dtype}"
+            )
+        if src.nbytes and src.handle is not dst.handle:
+            self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=src.nbytes)
+
+    def synchronize(self) -> None:
+        self.queue.finish()
+
+    # ------------------------------------------------------------------ launch helpers
+    # Kernel scalars are passed as Python numbers where the kernel value is just the number
+    # rounded to the real type (the typed invoker packs them exactly like ``dtype.type(x)``)
+    # and as NumPy scalars where the reference rounds intermediate results in the dtype.
+
+    def _grid(self, bc: GridBC, u: DeviceArray, *others: DeviceArray | None):
+        """Check a grid kernel's arrays; return ``(ny, (nx, ny, y_kind, g_y, x_kind, g_x))``."""
+        shape = u.shape
+        if len(shape) != 2:
+            raise ValueError(f"grid kernels take 2-D [ny, nx] arrays, got shape {shape}")
+        if not isinstance(u.backend, OpenCLBackend):
+            raise TypeError(f"array belongs to the {u.backend.name} backend, not opencl")
+        for o in others:
+            if o is not None and (o.shape != shape or o.dtype != u.dtype):
+                raise ValueError(
+                    f"array shape/dtype mismatch: {o.shape} {o.dtype} vs {shape} {u.dtype}"
+                )
+        ny, nx = shape
+        if ny * nx > _MAX_CELLS:
+            raise ValueError(f"a grid of {ny}x{nx} cells is too large for the OpenCL kernels")
+        y, x = bc.y, bc.x
+        return (ny if nx else 0), (nx, ny, y.kind, y.value, x.kind, x.value)
+
+    def _launch_grid(self, kernel, ny: int, args) -> None:
+        if ny == 0:
+            return
+        kernel.set_args(*args)
+        if self.layout == "row":
+            gsize, lsize = (1, ny), (1, 1)
+        else:
+            gsize, lsize = (self.col_stride, ny), (self.col_stride, 1)
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, lsize)
+
+    # ------------------------------------------------------------------ grid kernels
+    def laplacian(
+        self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
+    ) -> None:
+        ny, grid = self._grid(bc, u, out)
+        ks = self.kernels(u.dtype)
+        if stencil == 5:
+            args = (u.handle, out.handle, *grid, 1.0 / dx**2, 1.0 / dy**2)
+            self._launch_grid(ks["laplacian5"], ny, args)
+        elif stencil == 9:
+            if dx != dy:
+                raise ValueError(f"the 9-point stencil needs dx == dy, got dx={dx}, dy={dy}")
+            args = (u.handle, out.handle, *grid, 1.0 / (6.0 * dx * dx))
+            self._launch_grid(ks["laplacian9"], ny, args)
+        else:
+            raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
+
+    def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
+        if out.shape != u.shape or out.dtype != u.dtype:
+            raise ValueError(f"bernoulli: out {out.shape} {out.dtype} != u {u.shape} {u.dtype}")
+        n = u.size
+        if n == 0:
+            return
+        t = u.dtype.type
+        kernel = self.kernels(u.dtype)["bernoulli"]
+        d = t(decay)
+        # fixed local sizes: PoCL compiles one work-group function per local size
+        if self.layout == "row":
+            chunk, group = _BERNOULLI_CHUNK, 1
+        else:
+            chunk, group = 1, self.col_stride
+        items = -(-n // chunk)
+        kernel.set_args(u.handle, out.handle, n, chunk, d, t(1) - d)
+        gsize = (-(-items // group) * group,)
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
+
+    @staticmethod
+    def _field_or_scalar(f: FieldOrScalar, u: DeviceArray, what: str):
+        """``(is_field, buffer, scalar)`` for a scalar or a DeviceArray of u's shape."""
+        if isinstance(f, DeviceArray):
+            if f.shape != u.shape or f.dtype != u.dtype:
+                raise ValueError(
+                    f"{what} field must have the grid's shape {u.shape} and dtype {u.dtype}, "
+                    f"got {f.shape} {f.dtype}"
+                )
+            return True, f.handle, 0.0
+        return False, u.handle, float(f)
+
+    def gray_scott(
+        self,
+        u: DeviceArray,
+        v: DeviceArray,
+        u_out: DeviceArray,
+        v_out: DeviceArray,
+        *,
+        Du: float,
+        Dv: float,
+        F: FieldOrScalar,
+        k: FieldOrScalar,
+        dt: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        ny, grid = self._grid(bc, u, v, u_out, v_out)
+        f_field, f_buf, f_val = self._field_or_scalar(F, u, "F")
+        k_field, k_buf, k_val = self._field_or_scalar(k, u, "k")
+        name = _GS_NAMES[f_field, k_field]
+        kernel = self.kernels(u.dtype)[name]
+        args = (
+            u.handle, v.handle, u_out.handle, v_out.handle, f_buf, k_buf, *grid,
+            1.0 / dx**2, 1.0 / dy**2, Du, Dv, f_val, k_val, dt,
+        )  # fmt: skip
+        self._launch_grid(kernel, ny, args)
+
+    def sor_half_sweep(
+        self,
+        c: DeviceArray,
+        fixed: DeviceArray,
+        rhs: DeviceArray | None,
+        row_change: DeviceArray,
+        *,
+        color: int,
+        omega: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        ny, grid = self._grid(bc, c, rhs)
+        if fixed.shape != c.shape or fixed.dtype not in _MASK_DTYPES:
+            raise ValueError(
+                f"fixed must be a uint8 mask of shape {c.shape}, got {fixed.shape} {fixed.dtype}"
+            )
+        if row_change.shape != (c.shape[0],) or row_change.dtype != c.dtype:
+            raise ValueError(
+                f"row_change must have shape ({c.shape[0]},) and dtype {c.dtype}, "
+                f"got {row_change.shape} {row_change.dtype}"
+            )
+        if color not in (0, 1):
+            raise ValueError(f"color must be 0 or 1, got {color!r}")
+        t = c.dtype.type
+        ks = self.kernels(c.dtype)
+        dx2, dy2, om = t(dx * dx), t(dy * dy), t(omega)
+        kernel = ks["sor_half_sweep"] if rhs is None else ks["sor_half_sweep_rhs"]
+        args = (
+            c.handle, fixed.handle, c.handle if rhs is None else rhs.handle, row_change.handle,
+            color, *grid, dx2, dy2, dx2 * dy2, 1.0 / (2.0 * (dx * dx + dy * dy)), om, t(1) - om,
+        )  # fmt: skip
+        self._launch_grid(kernel, ny, args)
+
+    def levelset_step(
+        self,
+        phi: DeviceArray,
+        speed: FieldOrScalar,
+        out: DeviceArray,
+        *,
+        dt: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        ny, grid = self._grid(bc, phi, out)
+        is_field, f_buf, f_val = self._field_or_scalar(speed, phi, "speed")
+        kernel = self.kernels(phi.dtype)["levelset_step_f" if is_field else "levelset_step_s"]
+        args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, dt)
+        self._launch_grid(kernel, ny, args)
+
+    def reinit_step(
+        self,
+        phi: DeviceArray,
+        phi0: DeviceArray,
+        out: DeviceArray,
+        *,
+        dtau: float,
+        width: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+        subcell: bool = True,
+    ) -> None:
+        ny, grid = self._grid(bc, phi, phi0, out)
+        kernel = self.kernels(phi.dtype)["reinit_step_subcell" if subcell else "reinit_step"]
+        args = (
+            phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
+            dtau, 0.5 / dx, 0.5 / dy, dtau / min(dx, dy), 1e-30,
+        )  # fmt: skip
+        self._launch_grid(kernel, ny, args)

@@ -1,0 +1,410 @@
+"""The NVIDIA Warp backend: the kernels of ``kernels/*/warp_kernels.py`` on a Warp device.
+
+Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
+
+* on a CPU device, ``rows``: one Warp thread per row with a serial inner loop over the
+  columns.  Warp runs a CPU launch as one serial loop on one core and releases the GIL
+  while it runs, so a large grid is cut into ``os.cpu_count()`` row chunks launched at
+  the same time from a thread pool (one chunk in the calling thread);
+* on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
+
+Each kernel family is one Warp module holding the float32 and float64 versions of its
+kernels; it is compiled once per device (and cached by Warp on disk) the first time the
+backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
+"""
+
+from __future__ import annotations
+
+import os
+import weakref
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from types import ModuleType
+
+import numpy as np
+
+from ..boundary import GridBC
+from ..errors import BackendUnavailableError
+from ..kernel_files import load_module
+from .base import Backend, DeviceArray, FieldOrScalar
+
+#: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
+#: thread costs tens of microseconds), larger ones in up to one chunk per core
+CHUNK_MIN_CELLS = 1 << 15
+#: elements per thread of the pointwise (Bernoulli) kernel on the CPU
+BLOCK = 4096
+
+_REAL = (np.dtype(np.float32), np.dtype(np.float64))
+
+
+@contextmanager
+def _quiet(wp):
+    """No greeting or module-load lines from Warp (older Warp reads ``config.quiet``,
+    newer ``config.log_level``); the settings are restored afterwards."""
+    config = wp.config
+    saved = {n: getattr(config, n) for n in ("quiet", "log_level") if hasattr(config, n)}
+    config.quiet = True
+    if "log_level" in saved and hasattr(wp, "LOG_WARNING"):
+        config.log_level = max(saved["log_level"], wp.LOG_WARNING)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(config, name, value)
+        if "quiet" not in saved:
+            del config.quiet
+
+
+def _cpu_count() -> int:
+    """Cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def _import_warp():
+    try:
+        import warp as wp
+    except ImportError as exc:
+        raise BackendUnavailableError(
+            "the 'warp' backend needs NVIDIA Warp (Python package 'warp'), which is not "
+            f"installed or failed to import ({exc}); install it with: pip install warp-lang"
+        ) from exc
+    return wp
+
+
+class WarpBackend(Backend):
+    """rdgpu kernels on one Warp device (``"cpu"``, ``"cuda"``, ``"cuda:0"``, …).
+
+    One instance is meant to be driven from one Python thread at a time (it replays
+    recorded launches and owns a small thread pool of its own)."""
+
+    name = "warp"
+
+    def __init__(self, device: str = "cpu", *, launch: str = "auto"):
+        """``launch`` picks the kernels' launch shape: ``"auto"`` (row loops on a CPU
+        device, one thread per cell on CUDA), ``"rows"`` or ``"cells"`` (for tests: the
+        CUDA code path runs on the CPU too)."""
+        if launch not in ("auto", "rows", "cells"):
+            raise ValueError(f"launch must be 'auto', 'rows' or 'cells', got {launch!r}")
+        wp = _import_warp()
+        try:
+            with _quiet(wp):
+                wp.init()
+        except Exception as exc:  # a broken install, a driver failure
+            raise BackendUnavailableError(f"NVIDIA Warp failed to initialise: {exc}") from exc
+        dev = None
+        if not (str(device).startswith("cuda") and not wp.is_cuda_available()):
+            try:  # (asking for "cuda" without a driver would print native errors)
+                dev = wp.get_device(device)
+            except Exception:
+                pass
+        if dev is None:
+            names = ", ".join(repr(d.alias) for d in wp.get_devices())
+            raise BackendUnavailableError(
+                f"Warp has no device {device!r}; the devices here are: {names}"
+            )
+
+        self._wp = wp
+        self._dev = dev
+        self.device = "cpu" if dev.is_cpu else f"{dev.alias} ({dev.name})"
+        self._cells = launch == "cells" or (launch == "auto" and not dev.is_cpu)
+        # row chunks run side by side only on a CPU device (a CUDA launch is asynchronous)
+        self._chunks = _cpu_count() if dev.is_cpu else 1
+        self._pool = (
+            ThreadPoolExecutor(self._chunks - 1, thread_name_prefix="rdgpu-warp")
+            if self._chunks > 1
+            else None
+        )
+        self._families: dict[str, ModuleType] = {}
+        # recorded launches, one per (kernel, dim, chunk offset): see _launch
+        self._cmds: dict[tuple, list] = {}
+
+    def __repr__(self) -> str:
+        return f"WarpBackend(device={self.device!r})"
+
+    # ------------------------------------------------------------------ plumbing
+    def _family(self, family: str) -> ModuleType:
+        """The family's kernel module, compiled and loaded for this device on first use
+        (before any launch from the thread pool, so two threads never compile at once)."""
+        mod = self._families.get(family)
+        if mod is None:
+            mod = load_module(family, "warp_kernels.py")
+            with _quiet(self._wp):
+                self._wp.load_module(mod, device=self._dev)
+            self._families[family] = mod
+        return mod
+
+    def _launch(self, kernel, dim, args: list, key) -> None:
+        """``wp.launch`` through a recorded :class:`warp.Launch` per ``(kernel, dim, key)``:
+        only the arguments that differ from the previous call are re-packed, which makes
+        a launch several times cheaper in Python than ``wp.launch`` (that packs all).
+        Arrays compare by identity, scalars by value.  The record keeps no reference to
+        the arrays (``fwd_args`` is dropped), so it never holds device memory alive; a
+        new array object is always re-packed, even at a recycled address."""
+        ck = (kernel, dim, key)
+        cmd = self._cmds.get(ck)
+        if cmd is None:
+            wp = self._wp
+            if len(self._cmds) >= 1024:
+                self._cmds.clear()
+            rec = wp.launch(kernel, dim=dim, inputs=args, device=self._dev, record_cmd=True)
+            rec.fwd_args = None
+            last = [a if not isinstance(a, wp.array) else weakref.ref(a) for a in args]
+            self._cmds[ck] = [rec, last]
+            rec.launch()
+            return
+        rec, last = cmd
+        array = self._wp.array
+        for idx, a in enumerate(args):
+            b = last[idx]
+            if isinstance(a, array):
+                if b.__class__ is weakref.ref and b() is a:
+                    continue
+                rec.set_param_at_index(idx, a)
+                last[idx] = weakref.ref(a)
+            elif a.__class__ is not b.__class__ or a != b:
+                rec.set_param_at_index(idx, a)
+                last[idx] = a
+        rec.launch()
+
+    def _run_grid(self, kernels, shape: tuple[int, ...], args: list) -> None:
+        """Launch a ``(rows, cells)`` kernel pair over a ``[ny, nx]`` grid."""
+        ny, nx = shape
+        if ny == 0 or nx == 0:
+            return
+        rows, cells = kernels
+        if self._cells:
+            self._launch(cells, (ny, nx), args, 0)
+            return
+        self._run_split(rows, ny, ny * nx, args)
+
+    def _run_split(self, kernel, n_threads: int, work: int, args: list) -> None:
+        """Launch ``kernel`` over ``n_threads`` Warp threads (its last argument is the
+        thread offset), cut into chunks run side by side when ``work`` is large."""
+        n = min(self._chunks, n_threads, work // CHUNK_MIN_CELLS)
+        if n <= 1:
+            self._launch(kernel, n_threads, [*args, 0], 0)
+            return
+        bounds = [n_threads * c // n for c in range(n + 1)]
+        futures = [
+            self._pool.submit(
+                self._launch, kernel, bounds[c + 1] - bounds[c], [*args, bounds[c]], bounds[c]
+            )
+            for c in range(1, n)
+        ]
+        try:
+            self._launch(kernel, bounds[1], [*args, 0], 0)
+        finally:
+            for f in futures:
+                f.result()
+
+    @staticmethod
+    def _real(d: DeviceArray, what: str) -> type:
+        if d.dtype not in _REAL:
+            raise TypeError(f"{what} must be float32 or float64, got {d.dtype}")
+        return d.dtype.type
+
+    @staticmethod
+    def _same(a: DeviceArray, b: DeviceArray, what: str) -> None:
+        if a.shape != b.shape or a.dtype != b.dtype:
+            raise ValueError(
+                f"{what}: shape/dtype {b.shape} {b.dtype} does not match {a.shape} {a.dtype}"
+            )
+
+    def _param(self, p: FieldOrScalar, like: DeviceArray, what: str):
+        """``(value, is_field)`` for a scalar-or-field kernel parameter."""
+        if isinstance(p, DeviceArray):
+            self._same(like, p, what)
+            return p.handle, True
+        return like.dtype.type(p), False
+
+    @staticmethod
+    def _bc_args(bc: GridBC, t: type) -> list:
+        return [bc.y.kind, t(bc.y.value), bc.x.kind, t(bc.x.value)]
+
+    # ------------------------------------------------------------------ memory
+    def upload(self, a: np.ndarray) -> DeviceArray:
+        a = np.ascontiguousarray(a)
+        wp = self._wp
+        handle = wp.array(a, dtype=wp.dtype_from_numpy(a.dtype), device=self._dev, copy=True)
+        return DeviceArray(self, handle, tuple(a.shape), a.dtype)
+
+    def download(self, d: DeviceArray) -> np.ndarray:
+        self._wp.synchronize_device(self._dev)
+        return np.array(d.handle.numpy(), copy=True).reshape(d.shape)
+
+    def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> DeviceArray:
+        dtype = np.dtype(dtype)
+        shape = tuple(int(s) for s in shape)
+        wp = self._wp
+        handle = wp.empty(shape, dtype=wp.dtype_from_numpy(dtype), device=self._dev)
+        return DeviceArray(self, handle, shape, dtype)
+
+    def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
+        self._same(src, dst, "copy destination")
+        self._wp.copy(dst.handle, src.handle)
+
+    def synchronize(self) -> None:
+        self._wp.synchronize_device(self._dev)
+
+    # ------------------------------------------------------------------ grid kernels
+    def laplacian(
+        self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
+    ) -> None:
+        t = self._real(u, "laplacian input")
+        self._same(u, out, "laplacian output")
+        if stencil == 5:
+            cx, cy = t(1.0 / dx**2), t(1.0 / dy**2)
+        elif stencil == 9:
+            cx, cy = t(1.0 / (6.0 * dx * dx)), t(0)
+        else:
+            raise ValueError(f"stencil must be 5 or 9, got {stencil}")
+        kernels = self._family("laplacian").KERNELS[(u.dtype, stencil)]
+        args = [u.handle, out.handle, cx, cy, *self._bc_args(bc, t)]
+        self._run_grid(kernels, u.shape, args)
+
+    def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
+        t = self._real(u, "bernoulli input")
+        self._same(u, out, "bernoulli output")
+        n = u.size
+        if n == 0:
+            return
+        d = t(decay)
+        blocks, cells = self._family("bernoulli").KERNELS[u.dtype]
+        args = [self._flat(u), self._flat(out), d, t(1) - d]
+        if self._cells:
+            self._launch(cells, n, args, 0)
+            return
+        self._run_split(blocks, -(-n // BLOCK), n, [*args, BLOCK])
+
+    @staticmethod
+    def _flat(d: DeviceArray):
+        """A cached 1-D view of a device array."""
+        h = d.handle
+        if h.ndim == 1:
+            return h
+        flat = d.meta.get("warp_flat")
+        if flat is None or flat._ref is not h:
+            flat = h.flatten()
+            d.meta["warp_flat"] = flat
+        return flat
+
+    def gray_scott(
+        self,
+        u: DeviceArray,
+        v: DeviceArray,
+        u_out: DeviceArray,
+        v_out: DeviceArray,
+        *,
+        Du: float,
+        Dv: float,
+        F: FieldOrScalar,
+        k: FieldOrScalar,
+        dt: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        t = self._real(u, "gray_scott u")
+        for other, what in ((v, "v"), (u_out, "u_out"), (v_out, "v_out")):
+            self._same(u, other, f"gray_scott {what}")
+        f_val, f_field = self._param(F, u, "gray_scott F")
+        k_val, k_field = self._param(k, u, "gray_scott k")
+        kernels = self._family("gray_scott").KERNELS[(u.dtype, f_field, k_field)]
+        args = [
+            u.handle, v.handle, u_out.handle, v_out.handle, f_val, k_val,
+            t(1.0 / dx**2), t(1.0 / dy**2), t(Du), t(Dv), t(dt), *self._bc_args(bc, t),
+        ]
+        self._run_grid(kernels, u.shape, args)
+
+    def sor_half_sweep(
+        self,
+        c: DeviceArray,
+        fixed: DeviceArray,
+        rhs: DeviceArray | None,
+        row_change: DeviceArray,
+        *,
+        color: int,
+        omega: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        t = self._real(c, "sor c")
+        if fixed.shape != c.shape or fixed.dtype != np.uint8:
+            raise ValueError(f"sor fixed must be uint8 of shape {c.shape}, got "
+                             f"{fixed.dtype} {fixed.shape}")
+        if row_change.shape != (c.shape[0],) or row_change.dtype != c.dtype:
+            raise ValueError(f"sor row_change must be {c.dtype} of shape ({c.shape[0]},), got "
+                             f"{row_change.dtype} {row_change.shape}")
+        if color not in (0, 1):
+            raise ValueError(f"color must be 0 or 1, got {color}")
+        if rhs is None:
+            r_val, r_field = t(0), False
+        else:
+            r_val, r_field = self._param(rhs, c, "sor rhs")
+        dx2, dy2 = t(dx * dx), t(dy * dy)
+        om = t(omega)
+        rows, cells = self._family("sor").KERNELS[(c.dtype, r_field)]
+        args = [
+            c.handle, fixed.handle, r_val, row_change.handle, int(color),
+            dx2, dy2, dx2 * dy2, t(1.0 / (2.0 * (dx * dx + dy * dy))), om, t(1) - om,
+            *self._bc_args(bc, t),
+        ]
+        ny, nx = c.shape
+        if ny == 0:
+            return
+        if self._cells:
+            if color == 0:
+                row_change.handle.zero_()
+            if nx:
+                self._launch(cells, (ny, nx), args, 0)
+            return
+        self._run_split(rows, ny, ny * nx, args)
+
+    def levelset_step(
+        self,
+        phi: DeviceArray,
+        speed: FieldOrScalar,
+        out: DeviceArray,
+        *,
+        dt: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+    ) -> None:
+        t = self._real(phi, "levelset phi")
+        self._same(phi, out, "levelset output")
+        s_val, s_field = self._param(speed, phi, "levelset speed")
+        kernels = self._family("levelset").STEP[(phi.dtype, s_field)]
+        args = [
+            phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
+            *self._bc_args(bc, t),
+        ]
+        self._run_grid(kernels, phi.shape, args)
+
+    def reinit_step(
+        self,
+        phi: DeviceArray,
+        phi0: DeviceArray,
+        out: DeviceArray,
+        *,
+        dtau: float,
+        width: float,
+        dx: float,
+        dy: float,
+        bc: GridBC,
+        subcell: bool = True,
+    ) -> None:
+        t = self._real(phi, "reinit phi")
+        self._same(phi, phi0, "reinit phi0")
+        self._same(phi, out, "reinit output")
+        kernels = self._family("levelset").REINIT[(phi.dtype, bool(subcell))]
+        args = [
+            phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
+            t(1.0 / dx), t(1.0 / dy), t(0.5 / dx), t(0.5 / dy), t(dtau / min(dx, dy)),
+            *self._bc_args(bc, t),
+        ]
+        self._run_grid(kernels, phi.shape, args)

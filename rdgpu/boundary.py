@@ -1,0 +1,102 @@
+"""Boundary conditions of cell-centred grids, parsed once for every backend.
+
+Each axis has one condition, implemented with a ghost cell beyond the edge:
+
+* ``"periodic"`` -- the ghost is the cell at the other end of the axis;
+* ``"neumann"`` -- the ghost equals the adjacent edge cell (zero flux);
+* ``("dirichlet", g)`` -- the ghost holds the value ``g``.
+
+A user passes one condition for both axes or a pair ``(y_bc, x_bc)``.  Kernels receive
+each axis as an integer code plus a value (see :class:`AxisBC`).
+
+Corner ghosts (used only by the 9-point stencil) follow one rule on every backend: the
+y axis is resolved first.  If the row index is out of range and the y condition is
+Dirichlet the ghost is ``g_y``; otherwise the row is wrapped (periodic) or clamped
+(Neumann) and the column is resolved the same way with the x condition.  In NumPy this is
+``np.pad`` along x first, then along y.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+PERIODIC = 0
+NEUMANN = 1
+DIRICHLET = 2
+
+_NAMES = {PERIODIC: "periodic", NEUMANN: "neumann", DIRICHLET: "dirichlet"}
+
+ALLOWED = "'periodic', 'neumann' or ('dirichlet', value)"
+
+
+@dataclass(frozen=True)
+class AxisBC:
+    """One axis' condition: ``kind`` is PERIODIC, NEUMANN or DIRICHLET; ``value`` is ``g``."""
+
+    kind: int
+    value: float = 0.0
+
+    @property
+    def name(self) -> str:
+        return _NAMES[self.kind]
+
+    def __str__(self) -> str:
+        return f"('dirichlet', {self.value})" if self.kind == DIRICHLET else self.name
+
+
+@dataclass(frozen=True)
+class GridBC:
+    """Conditions of a 2-D grid: ``y`` for the rows (axis 0), ``x`` for the columns (axis 1)."""
+
+    y: AxisBC
+    x: AxisBC
+
+    def kernel_args(self) -> tuple[int, float, int, float]:
+        """``(y_kind, y_value, x_kind, x_value)`` as the kernels take them."""
+        return self.y.kind, self.y.value, self.x.kind, self.x.value
+
+
+def _parse_axis(spec: Any) -> AxisBC:
+    if isinstance(spec, AxisBC):
+        return spec
+    if isinstance(spec, str):
+        name = spec.lower()
+        if name == "periodic":
+            return AxisBC(PERIODIC)
+        if name == "neumann":
+            return AxisBC(NEUMANN)
+        if name == "dirichlet":
+            raise ValueError(f"bc 'dirichlet' needs a value: use ('dirichlet', g); allowed: {ALLOWED}")
+        raise ValueError(f"unknown boundary condition {spec!r}; allowed: {ALLOWED}")
+    if (
+        isinstance(spec, (tuple, list))
+        and len(spec) == 2
+        and isinstance(spec[0], str)
+        and spec[0].lower() == "dirichlet"
+    ):
+        try:
+            value = float(spec[1])
+        except (TypeError, ValueError):
+            raise ValueError(f"Dirichlet value must be a number, got {spec[1]!r}") from None
+        if value != value or value in (float("inf"), float("-inf")):
+            raise ValueError(f"Dirichlet value must be finite, got {value}")
+        return AxisBC(DIRICHLET, value)
+    raise ValueError(f"unknown boundary condition {spec!r}; allowed: {ALLOWED}")
+
+
+def parse_bc(bc: Any) -> GridBC:
+    """Parse ``bc`` (one condition, or a pair ``(y_bc, x_bc)``) into a :class:`GridBC`."""
+    if isinstance(bc, GridBC):
+        return bc
+    if isinstance(bc, (tuple, list)) and len(bc) == 2 and not isinstance(bc[0], str):
+        return GridBC(_parse_axis(bc[0]), _parse_axis(bc[1]))
+    if (
+        isinstance(bc, (tuple, list))
+        and len(bc) == 2
+        and isinstance(bc[0], str)
+        and bc[0].lower() != "dirichlet"
+    ):
+        return GridBC(_parse_axis(bc[0]), _parse_axis(bc[1]))
+    axis = _parse_axis(bc)
+    return GridBC(axis, axis)

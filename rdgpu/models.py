@@ -1,0 +1,791 @@
+"""Reaction-diffusion models on a grid or a triangle mesh (the ``Model`` / ``Stepper``
+protocols of :mod:`rdgpu.stepping`), and the presets that reproduce the seed papers.
+
+A two-species model is a few declarative lines::
+
+    ReactionDiffusion2(
+        "brusselator",
+        reactions=("a - (b + 1)*u + u*u*v", "b*u - u*u*v"),
+        diffusion=("Du", "Dv"),
+        defaults={"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 9.0},
+    )
+
+The reaction expressions follow the rules of :mod:`rdgpu.reaction` (``+ - * /``, names,
+numbers); :class:`rdgpu.reaction.ReactionKernel` turns them into one fused pointwise
+kernel per backend.  A step is: the Laplacian of each diffusing species (the 5-point
+stencil on a :class:`~rdgpu.domains.Grid`, ``L = A⁻¹W`` on a
+:class:`~rdgpu.mesh.SurfaceMesh`), then ``x ← x + dt (D Δx + R(x))`` for all species at
+once.  Gray-Scott on a grid uses the fused ``backend.gray_scott`` kernel instead.
+
+Parameters: any default may be replaced by a number, a per-cell / per-vertex array of the
+domain's shape, or a field spec (:func:`param_field`: ``{"kind": "random", "low": ..,
+"high": ..}``, ``{"kind": "sine", ...}``, ``{"kind": "linear", ...}``).  Diffusion
+coefficients must be numbers.
+
+Stability: :meth:`dt_limit` is the forward-Euler limit of the *diffusion* part only —
+``1/(2 max D (1/dx² + 1/dy²))`` on a grid, ``mesh.max_stable_dt(max D)`` on a mesh.  The
+reaction terms add a limit of their own that depends on the state (``dt ≲ 2/|λ|`` for the
+reaction Jacobian's eigenvalues along the trajectory); it is not included because it
+cannot be bounded honestly from the parameters alone — stiff models (Barkley with a small
+``eps``) say so in their description and their presets use a safe ``dt``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .backends.base import Backend, DeviceArray
+from .boundary import DIRICHLET, NEUMANN, PERIODIC
+from .dispatch import get_backend
+from .domains import Grid
+from .errors import StabilityError
+from .reaction import ReactionKernel
+
+__all__ = [
+    "MODELS",
+    "PRESETS",
+    "AllenCahn",
+    "AllenCahnStepper",
+    "GrayScott",
+    "Preset",
+    "ReactionDiffusion2",
+    "ReactionDiffusionStepper",
+    "build_domain",
+    "domain_shape",
+    "param_field",
+    "resolve_params",
+]
+
+
+# ---------------------------------------------------------------------------- domains
+def _is_mesh(domain: Any) -> bool:
+    from .mesh import SurfaceMesh
+
+    return isinstance(domain, SurfaceMesh)
+
+
+def domain_shape(domain: Any) -> tuple[int, ...]:
+    """``(ny, nx)`` of a grid, ``(n_vertices,)`` of a mesh."""
+    if isinstance(domain, Grid):
+        return domain.shape
+    if _is_mesh(domain):
+        return (domain.n_vertices,)
+    raise TypeError(
+        f"a domain is an rdgpu.domains.Grid or an rdgpu.mesh.SurfaceMesh, got "
+        f"{type(domain).__name__}"
+    )
+
+
+def build_domain(spec: Mapping[str, Any]) -> Any:
+    """A domain from a preset's dict: ``{"grid": (ny, nx), "dx": 1.0, "bc": "periodic"}``,
+    ``{"mesh": "sphere", "subdivisions": 4, "radius": 1.0}``, ``{"mesh": "torus", "R": 1,
+    "r": 0.3, "n_major": 96, "n_minor": 48}`` or ``{"mesh": "path/to/file.obj"}``."""
+    spec = dict(spec)
+    if "grid" in spec:
+        ny, nx = (int(n) for n in spec["grid"])
+        return Grid((ny, nx), dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
+                    bc=spec.get("bc", "periodic"))
+    if "mesh" in spec:
+        from .mesh import SurfaceMesh
+
+        kind = spec["mesh"]
+        if kind == "sphere":
+            return SurfaceMesh.icosphere(int(spec.get("subdivisions", 4)),
+                                         float(spec.get("radius", 1.0)))
+        if kind == "torus":
+            return SurfaceMesh.torus(
+                float(spec.get("R", 1.0)), float(spec.get("r", 0.3)),
+                int(spec.get("n_major", 96)), int(spec.get("n_minor", 48)),
+            )
+        return SurfaceMesh.load(kind, repair=bool(spec.get("repair", False)))
+    raise ValueError(f"a domain spec has a 'grid' or a 'mesh' key, got {sorted(spec)}")
+
+
+def _coordinates(domain: Any, axis: str) -> np.ndarray:
+    """Coordinate ``axis`` of every cell / vertex, scaled to [0, 1] over the domain."""
+    if isinstance(domain, Grid):
+        ny, nx = domain.shape
+        if axis == "x":
+            c = (np.arange(nx) + 0.5) / nx
+            return np.broadcast_to(c[None, :], (ny, nx)).copy()
+        if axis == "y":
+            c = (np.arange(ny) + 0.5) / ny
+            return np.broadcast_to(c[:, None], (ny, nx)).copy()
+        raise ValueError(f"a grid axis is 'x' or 'y', got {axis!r}")
+    k = {"x": 0, "y": 1, "z": 2}.get(axis)
+    if k is None:
+        raise ValueError(f"a mesh axis is 'x', 'y' or 'z', got {axis!r}")
+    c = np.asarray(domain.vertices[:, k], dtype=np.float64)
+    span = c.max() - c.min()
+    return (c - c.min()) / span if span > 0 else np.zeros_like(c)
+
+
+# ---------------------------------------------------------------------------- parameters
+def param_field(spec: Mapping[str, Any], domain: Any, rng: np.random.Generator) -> np.ndarray:
+    """A float64 parameter field over ``domain`` from a spec:
+
+    * ``{"kind": "random", "low": a, "high": b}`` — independent uniform values per cell;
+    * ``{"kind": "sine", "mean": m, "amplitude": A, "axis": "x", "periods": 1}`` —
+      ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
+    * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
+    """
+    kind = spec.get("kind")
+    shape = domain_shape(domain)
+    if kind == "random":
+        return rng.uniform(float(spec["low"]), float(spec["high"]), size=shape)
+    if kind == "sine":
+        s = _coordinates(domain, spec.get("axis", "x"))
+        periods = float(spec.get("periods", 1.0))
+        return float(spec["mean"]) + float(spec["amplitude"]) * np.sin(2 * np.pi * periods * s)
+    if kind == "linear":
+        s = _coordinates(domain, spec.get("axis", "x"))
+        a, b = float(spec["start"]), float(spec["stop"])
+        return a + (b - a) * s
+    raise ValueError(
+        f"unknown parameter field kind {kind!r}; allowed: 'random', 'sine', 'linear'"
+    )
+
+
+def resolve_params(
+    model: Any, domain: Any, params: Mapping[str, Any] | None, *, seed: int = 0
+) -> dict[str, float | np.ndarray]:
+    """The model's defaults updated by ``params``: every value a float or a float64 array
+    of the domain's shape (field specs are drawn with ``numpy.random.default_rng(seed)``)."""
+    params = dict(params or {})
+    unknown = sorted(set(params) - set(model.defaults))
+    if unknown:
+        raise ValueError(
+            f"model {model.name!r} has no parameter(s) {unknown}; its parameters are "
+            f"{sorted(model.defaults)}"
+        )
+    shape = domain_shape(domain)
+    rng = np.random.default_rng(seed)
+    out: dict[str, float | np.ndarray] = {}
+    for name in sorted(model.defaults):
+        value = params.get(name, model.defaults[name])
+        if isinstance(value, Mapping):
+            value = param_field(value, domain, rng)
+        if isinstance(value, DeviceArray):
+            value = value.numpy()
+        if np.ndim(value) == 0:
+            v = float(value)
+            if not math.isfinite(v):
+                raise ValueError(f"parameter {name!r} must be finite, got {v}")
+            out[name] = v
+            continue
+        a = np.asarray(value, dtype=np.float64)
+        if a.shape != shape:
+            if a.size == int(np.prod(shape)) and (a.ndim == 1 or a.shape == shape[::-1]) \
+                    and shape[0] == 1:
+                a = a.reshape(shape)
+            else:
+                raise ValueError(
+                    f"parameter {name!r} has shape {a.shape}; a field must match the "
+                    f"domain's shape {shape}"
+                )
+        if not np.isfinite(a).all():
+            raise ValueError(f"parameter field {name!r} contains NaN or Inf")
+        out[name] = np.ascontiguousarray(a)
+    return out
+
+
+def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
+    v = params[name]
+    if np.ndim(v) != 0:
+        raise ValueError(f"{what} {name!r} must be a number, not a field")
+    return float(v)
+
+
+# ---------------------------------------------------------------------------- Laplacian
+class _Laplacian:
+    """``out = Δx`` on a backend: the 5-point stencil on a grid; ``L x`` on a mesh, through
+    ``backend.spmv`` when the backend has it, otherwise (temporarily) through the host."""
+
+    def __init__(self, domain: Any, backend: Backend, dtype: np.dtype):
+        self.domain, self.backend, self.dtype = domain, backend, dtype
+        self.grid = isinstance(domain, Grid)
+        if not self.grid:
+            self.L = domain.laplacian
+            if hasattr(backend, "spmv"):
+                self.mode = "spmv"
+                self.dev = backend.upload_csr(self.L, dtype)
+            else:
+                self.mode = "host"
+                self.Lt = self.L.astype(dtype)
+
+    def __call__(self, x: DeviceArray, out: DeviceArray) -> None:
+        be = self.backend
+        if self.grid:
+            g = self.domain
+            be.laplacian(x, out, dx=g.dx, dy=g.dy, bc=g.bcs, stencil=5)
+        elif self.mode == "spmv":
+            be.spmv(self.dev, x, out)
+        elif be.name == "numpy":
+            out.handle[...] = self.Lt @ x.handle
+        else:  # fallback until the backend has an SpMV kernel
+            y = (self.Lt @ x.numpy()).astype(self.dtype, copy=False)
+            be.copy(be.upload(np.ascontiguousarray(y)), out)
+
+
+def _check_dt(dt: float, limit: float, what: str, check: bool) -> float:
+    dt = float(dt)
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive number, got {dt}")
+    if check and dt > limit:
+        raise StabilityError(
+            f"dt={dt} exceeds the forward-Euler limit {limit:.6g} of {what}; reduce dt or "
+            "pass check_stability=False"
+        )
+    return dt
+
+
+# ---------------------------------------------------------------------------- steppers
+class _BaseStepper:
+    """Device fields of every species, ping-pong buffers, step counting."""
+
+    def __init__(self, species, domain, dt, backend, dtype):
+        self.species = tuple(species)
+        self.domain = domain
+        self.dt = float(dt)
+        self.backend = backend
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
+            raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
+        self.shape = domain_shape(domain)
+        zero = np.zeros(self.shape, self.dtype)
+        self._x = [backend.upload(zero) for _ in self.species]
+        self._y = [backend.empty(self.shape, self.dtype) for _ in self.species]
+        #: steps taken since construction (or since the last ``set_state(..., steps=)``)
+        self.steps_done = 0
+
+    @property
+    def time(self) -> float:
+        return self.steps_done * self.dt
+
+    def _host_field(self, name: str, a: Any) -> np.ndarray:
+        if isinstance(a, DeviceArray):
+            a = a.numpy()
+        a = np.asarray(a)
+        if a.shape != self.shape:
+            if a.size == int(np.prod(self.shape)) and self.shape[0] == 1 and a.ndim == 1:
+                a = a.reshape(self.shape)
+            else:
+                raise ValueError(f"field {name!r} has shape {a.shape}, the domain {self.shape}")
+        return np.ascontiguousarray(a, dtype=self.dtype)
+
+    def set_state(self, fields: Mapping[str, np.ndarray], *, steps: int | None = None) -> None:
+        missing = [s for s in self.species if s not in fields]
+        if missing:
+            raise KeyError(f"set_state needs every species {self.species}; missing {missing}")
+        for i, s in enumerate(self.species):
+            self.backend.copy(self.backend.upload(self._host_field(s, fields[s])), self._x[i])
+        if steps is not None:
+            self.steps_done = int(steps)
+
+    def state(self) -> dict[str, DeviceArray]:
+        return dict(zip(self.species, self._x, strict=True))
+
+    def get_state(self) -> dict[str, np.ndarray]:
+        return {s: x.numpy() for s, x in zip(self.species, self._x, strict=True)}
+
+    def advance(self, steps: int) -> None:
+        steps = int(steps)
+        if steps < 0:
+            raise ValueError(f"steps must be >= 0, got {steps}")
+        for _ in range(steps):
+            self._step()
+            self._x, self._y = self._y, self._x
+            self.steps_done += 1
+
+    def _step(self) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class ReactionDiffusionStepper(_BaseStepper):
+    """A :class:`ReactionDiffusion2` model bound to a domain: per step the Laplacian of
+    each diffusing species, then one fused pointwise reaction kernel."""
+
+    def __init__(self, model, domain, params, dt, backend, dtype):
+        super().__init__(model.species, domain, dt, backend, dtype)
+        self.model = model
+        self.params = dict(params)
+        self.D = model.diffusion_coefficients(params)
+        self._laplacian = _Laplacian(domain, backend, self.dtype) if any(self.D) else None
+        self._lap = [
+            backend.empty(self.shape, self.dtype) if d != 0 else None for d in self.D
+        ]
+        self._dev = {
+            p: (backend.upload(np.ascontiguousarray(v, dtype=self.dtype))
+                if isinstance(v, np.ndarray) else float(v))
+            for p, v in self.params.items()
+        }
+        self._kparams = {p: self._dev[p] for p in model.kernel.param_names}
+
+    def _step(self) -> None:
+        for x, lap, d in zip(self._x, self._lap, self.D, strict=True):
+            if d != 0:
+                self._laplacian(x, lap)
+        self.model.kernel.launch(
+            self.backend, self._x, self._lap, self._y, D=self.D, dt=self.dt,
+            params=self._kparams,
+        )
+
+
+class _GrayScottGridStepper(ReactionDiffusionStepper):
+    """Gray-Scott on a grid through the fused ``backend.gray_scott`` kernel."""
+
+    def _step(self) -> None:
+        g = self.domain
+        (u, v), (u2, v2) = self._x, self._y
+        self.backend.gray_scott(
+            u, v, u2, v2, Du=self.D[0], Dv=self.D[1], F=self._dev["F"], k=self._dev["k"],
+            dt=self.dt, dx=g.dx, dy=g.dy, bc=g.bcs,
+        )
+
+
+class _GrayScottMeshStepper(ReactionDiffusionStepper):
+    """Gray-Scott on a mesh through the fused ``backend.mesh_gray_scott`` kernel."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._L = self.backend.upload_csr(self.domain.laplacian, self.dtype)
+
+    def _step(self) -> None:
+        (u, v), (u2, v2) = self._x, self._y
+        self.backend.mesh_gray_scott(
+            self._L, u, v, u2, v2, Du=self.D[0], Dv=self.D[1], F=self._dev["F"],
+            k=self._dev["k"], dt=self.dt,
+        )
+
+
+# ---------------------------------------------------------------------------- models
+class ReactionDiffusion2:
+    """A declarative reaction-diffusion model ``∂x_s/∂t = D_s Δx_s + R_s(x)``.
+
+    ``reactions``: one expression per species (``species`` defaults to ``("u", "v")``);
+    ``diffusion``: per species a parameter name or a number; ``defaults``: every parameter
+    and its default value; ``steady_guess(params) -> [x_s]``: a starting point for
+    :func:`rdgpu.analysis.steady_state` (the homogeneous state of interest)."""
+
+    def __init__(
+        self,
+        name: str,
+        reactions: Sequence[str],
+        diffusion: Sequence[str | float] = ("Du", "Dv"),
+        defaults: Mapping[str, float] | None = None,
+        description: str = "",
+        source: str = "",
+        species: Sequence[str] = ("u", "v"),
+        steady_guess: Callable[[Mapping[str, float]], Sequence[float]] | None = None,
+    ):
+        self.name = name
+        self.species = tuple(species)
+        self.defaults = dict(defaults or {})
+        self.reactions = tuple(reactions)
+        self.diffusion = tuple(diffusion)
+        self.description = description
+        self.source = source
+        self._steady_guess = steady_guess
+        if len(self.diffusion) != len(self.species):
+            raise ValueError(f"need one diffusion coefficient per species {self.species}")
+        for d in self.diffusion:
+            if isinstance(d, str) and d not in self.defaults:
+                raise ValueError(f"diffusion parameter {d!r} has no default value")
+        self.kernel = ReactionKernel(self.species, self.reactions, params=list(self.defaults))
+
+    def __repr__(self) -> str:
+        return f"<model {self.name!r}: {self.description}>"
+
+    # -- parameters
+    def diffusion_coefficients(self, params: Mapping[str, Any]) -> list[float]:
+        merged = {**self.defaults, **dict(params)}
+        out = []
+        for d in self.diffusion:
+            value = _scalar_param(merged, d, "diffusion coefficient") if isinstance(d, str) \
+                else float(d)
+            if value < 0 or not math.isfinite(value):
+                raise ValueError(f"diffusion coefficients must be finite and >= 0, got {value}")
+            out.append(value)
+        return out
+
+    def rates(self, fields: Sequence[Any], params: Mapping[str, Any], dtype: Any = None):
+        """``R_s`` in NumPy (any real or complex dtype), fields in species order."""
+        merged = {**self.defaults, **dict(params)}
+        return self.kernel.rates(fields, merged, dtype)
+
+    def steady_guess(self, params: Mapping[str, Any]) -> list[float] | None:
+        if self._steady_guess is None:
+            return None
+        merged = {**self.defaults, **dict(params)}
+        merged = {k: float(np.mean(v)) for k, v in merged.items()}
+        return [float(x) for x in self._steady_guess(merged)]
+
+    # -- protocol
+    def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None) -> float:
+        d = max(self.diffusion_coefficients(params or {}), default=0.0)
+        if d == 0:
+            return math.inf
+        if isinstance(domain, Grid):
+            return 1.0 / (2.0 * d * (1.0 / domain.dx**2 + 1.0 / domain.dy**2))
+        domain_shape(domain)
+        return domain.max_stable_dt(d)
+
+    def _limit_text(self, domain: Any) -> str:
+        if isinstance(domain, Grid):
+            return "diffusion, 1/(2 max D (1/dx² + 1/dy²))"
+        return "diffusion on this mesh, 2/(max D λ_max(−L))"
+
+    def stepper(
+        self,
+        domain: Any,
+        params: Mapping[str, Any] | None = None,
+        *,
+        dt: float,
+        backend: Backend | str | None = None,
+        dtype: Any = np.float64,
+        check_stability: bool = True,
+        seed: int = 0,
+    ) -> ReactionDiffusionStepper:
+        """Bind the model (see :class:`rdgpu.stepping.Model`); field specs in ``params``
+        are drawn with ``seed``.  The fields start at zero: call ``set_state``."""
+        p = resolve_params(self, domain, params, seed=seed)
+        dt = _check_dt(dt, self.dt_limit(domain, p), self._limit_text(domain), check_stability)
+        return self._make_stepper(domain, p, dt, get_backend(backend), np.dtype(dtype))
+
+    def _make_stepper(self, domain, p, dt, be, dtype):
+        return ReactionDiffusionStepper(self, domain, p, dt, be, dtype)
+
+
+class GrayScott(ReactionDiffusion2):
+    """Gray-Scott: the fused ``backend.gray_scott`` kernel on grids (``F``, ``k`` scalars or
+    fields), ``backend.mesh_gray_scott`` on meshes where the backend has it, otherwise the
+    generic Laplacian + reaction kernel path."""
+
+    def _make_stepper(self, domain, p, dt, be, dtype):
+        if isinstance(domain, Grid):
+            return _GrayScottGridStepper(self, domain, p, dt, be, dtype)
+        if hasattr(be, "mesh_gray_scott"):
+            return _GrayScottMeshStepper(self, domain, p, dt, be, dtype)
+        return ReactionDiffusionStepper(self, domain, p, dt, be, dtype)
+
+
+# ---------------------------------------------------------------------------- Allen-Cahn
+def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
+    """Differences across every face of ``axis`` under its boundary condition (the faces
+    the 5-point stencil couples): periodic wraps, Neumann has no boundary face, a
+    Dirichlet ghost ``g`` adds the two faces to it."""
+    if bc.kind == PERIODIC:
+        return np.roll(u, -1, axis=axis) - u
+    d = np.diff(u, axis=axis)
+    if bc.kind == NEUMANN:
+        return d
+    if bc.kind == DIRICHLET:
+        first = np.take(u, [0], axis=axis) - bc.value
+        last = bc.value - np.take(u, [-1], axis=axis)
+        return np.concatenate([first, d, last], axis=axis)
+    raise ValueError(f"unknown boundary kind {bc.kind}")  # pragma: no cover
+
+
+class AllenCahn:
+    """Modified Allen-Cahn ``u_t = Δu − (u³ − u + b)/ε²`` (seed 000, SPEC §2) by Strang
+    splitting: the exact Bernoulli substep for ``dt/2`` → diffusion ``ū_t = Δū − b/ε²`` for
+    ``dt`` → Bernoulli ``dt/2``.
+
+    ``method="explicit"``: forward-Euler diffusion (one Laplacian + the pointwise kernel),
+    stable for ``dt ≤ dx²/4`` on a square grid (``1/(2(1/dx² + 1/dy²))``) or
+    ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"``: backward Euler /
+    Crank-Nicolson diffusion through the backend's implicit solver (unconditionally stable;
+    needs ``backend.implicit_diffusion``).  ``eps`` must be a number; ``b`` may be a field.
+    """
+
+    name = "allen-cahn"
+    species = ("u",)
+    defaults = {"b": 0.0, "eps": 1.0}
+    description = (
+        "modified Allen-Cahn u_t = Δu − (u³ − u + b)/ε²: b < 0 spots, b > 0 inverted spots, "
+        "b = 0 stripes (Strang splitting with the exact Bernoulli substep)"
+    )
+    source = "seed 000 (Dascal, Pai, Kimmel), SPEC §2"
+    methods = ("explicit", "implicit", "crank-nicolson")
+
+    def __init__(self) -> None:
+        # the reaction as a kernel, for rates() / analysis; the diffusion substep's kernel
+        self.kernel = ReactionKernel(("u",), ("(u - u*u*u - b)/(eps*eps)",), ("b", "eps"))
+        self._diffusion = ReactionKernel(("u",), ("-b/eps2",), ("b", "eps2"))
+
+    def __repr__(self) -> str:
+        return f"<model {self.name!r}: {self.description}>"
+
+    def diffusion_coefficients(self, params: Mapping[str, Any] | None = None) -> list[float]:
+        return [1.0]
+
+    def rates(self, fields, params, dtype=None):
+        return self.kernel.rates(fields, {**self.defaults, **dict(params)}, dtype)
+
+    def steady_guess(self, params: Mapping[str, Any]) -> list[float]:
+        return [1.0]
+
+    def dt_limit(
+        self, domain: Any, params: Mapping[str, Any] | None = None, method: str = "explicit"
+    ) -> float:
+        if method != "explicit":
+            return math.inf
+        if isinstance(domain, Grid):
+            return 1.0 / (2.0 * (1.0 / domain.dx**2 + 1.0 / domain.dy**2))
+        domain_shape(domain)
+        return domain.max_stable_dt(1.0)
+
+    def stepper(
+        self,
+        domain: Any,
+        params: Mapping[str, Any] | None = None,
+        *,
+        dt: float,
+        backend: Backend | str | None = None,
+        dtype: Any = np.float64,
+        check_stability: bool = True,
+        seed: int = 0,
+        method: str = "explicit",
+    ) -> AllenCahnStepper:
+        if method not in self.methods:
+            raise ValueError(f"method must be one of {self.methods}, got {method!r}")
+        p = resolve_params(self, domain, params, seed=seed)
+        eps = _scalar_param(p, "eps", "parameter")
+        if not eps > 0:
+            raise ValueError(f"eps must be > 0, got {eps}")
+        what = "explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh"
+        dt = _check_dt(dt, self.dt_limit(domain, p, method), what, check_stability)
+        return AllenCahnStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
+                                method)
+
+    @staticmethod
+    def energy(domain: Any, u: Any, params: Mapping[str, Any] | None = None) -> float:
+        """``J(u) = ∫ ½|∇u|² + ((u² − 1)²/4 + b u)/ε²`` (float64).
+
+        Grid: ``dx dy [½ Σ_faces (Δ_face u / h)² + Σ_cells ((u²−1)²/4 + b u)/ε²]`` with the
+        faces of the 5-point stencil and its boundary conditions, so ``−∂J/∂u = dx dy
+        (Δ_h u − (u³ − u + b)/ε²)`` exactly.  Mesh: ``½ uᵀ(−W)u + Σ A_i ((u_i² − 1)²/4 +
+        b u_i)/ε²`` (cotangent form)."""
+        p = {**AllenCahn.defaults, **dict(params or {})}
+        if isinstance(u, DeviceArray):
+            u = u.numpy()
+        u = np.asarray(u, dtype=np.float64)
+        b = np.asarray(p["b"], dtype=np.float64)
+        eps = float(p["eps"])
+        if isinstance(domain, Grid):
+            u = u.reshape(domain.shape)
+            b = b.reshape(domain.shape) if b.size > 1 else b
+            gx = _grid_face_differences(u, 1, domain.bcs.x) / domain.dx
+            gy = _grid_face_differences(u, 0, domain.bcs.y) / domain.dy
+            pot = ((u * u - 1.0) ** 2 / 4.0 + b * u) / eps**2
+            return float(domain.dx * domain.dy * (0.5 * (np.sum(gx * gx) + np.sum(gy * gy))
+                                                  + np.sum(pot)))
+        domain_shape(domain)
+        u = u.ravel()
+        grad = 0.5 * float(u @ (-(domain.weights @ u)))
+        pot = ((u * u - 1.0) ** 2 / 4.0 + b.ravel() * u) / eps**2 if b.size > 1 else \
+            ((u * u - 1.0) ** 2 / 4.0 + float(b) * u) / eps**2
+        return grad + float(np.sum(domain.areas * pot))
+
+
+class AllenCahnStepper(_BaseStepper):
+    """Strang splitting of the modified Allen-Cahn equation on the device (see
+    :class:`AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
+    ``dt/2``; three device buffers, no host transfer (except a mesh on a backend without
+    an SpMV kernel yet)."""
+
+    def __init__(self, model, domain, params, dt, backend, dtype, method):
+        super().__init__(model.species, domain, dt, backend, dtype)
+        self.model = model
+        self.params = dict(params)
+        self.method = method
+        eps = float(params["eps"])
+        self.decay = math.exp(-2.0 * (self.dt / 2.0) / eps**2)
+        b = params["b"]
+        self._b = (backend.upload(np.ascontiguousarray(b, dtype=self.dtype))
+                   if isinstance(b, np.ndarray) else float(b))
+        self._kparams = {"b": self._b, "eps2": eps * eps}
+        self._tmp = backend.empty(self.shape, self.dtype)
+        if method == "explicit":
+            self._laplacian = _Laplacian(domain, backend, self.dtype)
+            self._lap = backend.empty(self.shape, self.dtype)
+        else:
+            self._implicit = _implicit_solver(domain, backend, self.dtype, self.dt, method)
+            # the source −b/ε² is added by the pointwise kernel with D = 0 (explicit in
+            # time, exact for a constant source), then the implicit diffusion solve
+            self._rhs = backend.empty(self.shape, self.dtype)
+
+    def _step(self) -> None:
+        be = self.backend
+        (x,), (y,) = self._x, self._y
+        # x is free once the first substep has read it: it takes the diffusion result
+        be.bernoulli(x, self._tmp, decay=self.decay)
+        if self.method == "explicit":
+            self._laplacian(self._tmp, self._lap)
+            self.model._diffusion.launch(
+                be, [self._tmp], [self._lap], [x], D=[1.0], dt=self.dt, params=self._kparams
+            )
+            be.bernoulli(x, y, decay=self.decay)
+        else:
+            self.model._diffusion.launch(
+                be, [self._tmp], [None], [x], D=[0.0], dt=self.dt, params=self._kparams
+            )
+            self._implicit(x, self._rhs)
+            be.bernoulli(self._rhs, y, decay=self.decay)
+
+
+def _implicit_solver(domain, backend, dtype, dt, method):
+    """``out = (I − dt L)⁻¹ rhs`` (backward Euler) or the Crank-Nicolson step, through the
+    backend's implicit diffusion solver."""
+    solver = getattr(backend, "implicit_diffusion", None)
+    if solver is None:
+        raise NotImplementedError(
+            f"implicit Allen-Cahn diffusion needs the backend's implicit diffusion solver "
+            f"(backend.implicit_diffusion), which the {backend.name} backend does not have "
+            "yet; use method='explicit' with dt <= AllenCahn().dt_limit(domain)"
+        )
+    theta = 1.0 if method == "implicit" else 0.5
+
+    def solve(rhs, out):  # pragma: no cover - wired when the solver exists
+        solver(domain, rhs, out, dt=dt, theta=theta)
+
+    return solve
+
+
+# ---------------------------------------------------------------------------- the models
+def _cbrt(x: float) -> float:
+    return math.copysign(abs(x) ** (1.0 / 3.0), x)
+
+
+GRAY_SCOTT = GrayScott(
+    "gray-scott",
+    reactions=("-u*v*v + F*(1 - u)", "u*v*v - (F + k)*v"),
+    diffusion=("Du", "Dv"),
+    defaults={"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060},
+    description="Gray-Scott u_t = Du Δu − uv² + F(1 − u), v_t = Dv Δv + uv² − (F + k)v",
+    source="seed 001 (Camphuijsen, Kasim); Pearson 1993; SPEC §3",
+    steady_guess=lambda p: (1.0, 0.0),
+)
+
+BRUSSELATOR = ReactionDiffusion2(
+    "brusselator",
+    reactions=("a - (b + 1)*u + u*u*v", "b*u - u*u*v"),
+    diffusion=("Du", "Dv"),
+    defaults={"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 9.0},
+    description="Brusselator u_t = Du Δu + a − (b+1)u + u²v, v_t = Dv Δv + bu − u²v "
+    "(seed 004's α, β are a, b); Turing unstable for b > (1 + a√(Du/Dv))²",
+    source="seed 004 (Quillen) §1.1, Fig. 1; SPEC §3",
+    steady_guess=lambda p: (p["a"], p["b"] / p["a"]),
+)
+
+FITZHUGH_NAGUMO = ReactionDiffusion2(
+    "fitzhugh-nagumo",
+    reactions=("u - u*u*u - v + alpha", "beta*(u - v)"),
+    diffusion=("Du", "Dv"),
+    defaults={"Du": 1.0, "Dv": 10.0, "alpha": 0.01, "beta": 1.0},
+    description="FitzHugh-Nagumo u_t = Du Δu + u − u³ − v + α, v_t = Dv Δv + β(u − v)",
+    source="seed 004 (Quillen) §1.8, Fig. 8; SPEC §3",
+    steady_guess=lambda p: (_cbrt(p["alpha"]), _cbrt(p["alpha"])),
+)
+
+SCHNAKENBERG = ReactionDiffusion2(
+    "schnakenberg",
+    reactions=("a - u + u*u*v", "b - u*u*v"),
+    diffusion=("Du", "Dv"),
+    defaults={"Du": 1.0, "Dv": 40.0, "a": 0.1, "b": 0.9},
+    description="Schnakenberg u_t = Du Δu + a − u + u²v, v_t = Dv Δv + b − u²v; steady "
+    "state u = a + b, v = b/(a + b)²",
+    source="Schnakenberg 1979; SPEC §3",
+    steady_guess=lambda p: (p["a"] + p["b"], p["b"] / (p["a"] + p["b"]) ** 2),
+)
+
+BARKLEY = ReactionDiffusion2(
+    "barkley",
+    reactions=("u*(1 - u)*(u - (v + b)/a)/eps", "u - v"),
+    diffusion=("Du", 0.0),
+    defaults={"Du": 1.0, "a": 0.75, "b": 0.02, "eps": 0.02},
+    description="Barkley u_t = Du Δu + u(1 − u)(u − (v + b)/a)/ε, v_t = u − v (v does not "
+    "diffuse): excitable medium, spirals. Stiff: explicit Euler also needs dt ≲ ε",
+    source="seed 004 (Quillen) §1.9, eq. 51; Barkley 1991; SPEC §3",
+    steady_guess=lambda p: (0.0, 0.0),
+)
+
+TURING = ReactionDiffusion2(
+    "turing",
+    reactions=("s*(16 - u*v)", "s*(u*v - v - beta)"),
+    diffusion=("Du", "Dv"),
+    defaults={"Du": 0.25, "Dv": 0.0625, "s": 0.05, "beta": 12.0},
+    description="Turing's 1952 spot model as in seed 003 eq. 2.15 (u = a, v = b): "
+    "u_t = Du Δu + s(16 − uv), v_t = Dv Δv + s(uv − v − β); β is usually a random field "
+    "12 ± 0.1; steady state u = 16/(16 − β), v = 16 − β",
+    source="seed 003 (Chattopadhyay) eq. 2.15, after Turing 1952 / Turk 1991; SPEC §3",
+    steady_guess=lambda p: (16.0 / (16.0 - p["beta"]), 16.0 - p["beta"]),
+)
+
+ALLEN_CAHN = AllenCahn()
+
+#: every model by its command-line name
+MODELS: dict[str, Any] = {
+    m.name: m
+    for m in (GRAY_SCOTT, ALLEN_CAHN, BRUSSELATOR, FITZHUGH_NAGUMO, SCHNAKENBERG, BARKLEY,
+              TURING)
+}
+
+
+# ---------------------------------------------------------------------------- presets
+@dataclass
+class Preset:
+    """A run that reproduces a pattern from a seed paper.
+
+    ``model``: a key of :data:`MODELS`; ``params``: values or field specs
+    (:func:`param_field`); ``domain``: a :func:`build_domain` spec; ``init``: the initial
+    condition spec of the simulation driver; ``expect``: the pattern class it should give
+    (``"spots"``, ``"inverted-spots"``, ``"stripes"``, ``"uniform"`` — what
+    :func:`rdgpu.analysis.classify_pattern` measures — or ``"spirals"``); ``classify``:
+    how to measure it (``field`` and ``threshold`` for ``classify_pattern``);
+    ``options``: extra keyword arguments of ``model.stepper`` (e.g. ``method``)."""
+
+    name: str
+    model: str
+    params: dict[str, Any]
+    dt: float
+    steps: int
+    domain: dict[str, Any]
+    init: dict[str, Any]
+    source: str
+    expect: str
+    snapshot_every: int = 0
+    description: str = ""
+    classify: dict[str, Any] = field(default_factory=dict)
+    seed: int = 0
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def build_domain(self) -> Any:
+        return build_domain(self.domain)
+
+    def get_model(self) -> Any:
+        return MODELS[self.model]
+
+    def stepper(self, *, backend: Backend | str | None = None, dtype: Any = np.float64,
+                domain: Any = None, seed: int | None = None, **kwargs) -> Any:
+        """The preset's stepper (fields at zero: the driver sets the initial state)."""
+        domain = self.build_domain() if domain is None else domain
+        opts = {**self.options, **kwargs}
+        return self.get_model().stepper(
+            domain, self.params, dt=self.dt, backend=backend, dtype=dtype,
+            seed=self.seed if seed is None else seed, **opts,
+        )
+
+
+PRESETS: dict[str, Preset] = {}
+
+
+def _add(p: Preset) -> None:
+    if p.model not in MODELS:
+        raise ValueError(f"preset {p.name!r}: unknown model {p.model!r}")
+    PRESETS[p.name] = p

@@ -1,0 +1,443 @@
+"""Writing what a run produced: pictures, movies, mesh files and one data file per run.
+
+* :func:`save_png` -- a colour-mapped PNG of a field: a grid field pixel for pixel
+  (:mod:`rdgpu.images`), a mesh field rendered off-screen with pyvista
+  (:func:`render_mesh_png`).
+* :func:`save_movie` -- a GIF or MP4 of the snapshots (imageio; MP4 needs
+  ``imageio-ffmpeg``), with one colour scale for all frames.
+* :func:`save_mesh` -- VTK/VTP/VTU or PLY files of a mesh with its fields attached.
+* :func:`save_npz` / :func:`load_npz` -- one NPZ per run with the final fields, the
+  snapshots, their times and steps, the parameters, the model, the domain, the backend, the
+  device, the dtype and the package versions.
+* :func:`write_outputs` -- all of the above for a :class:`~rdgpu.simulation.Result`, by
+  file extension (what the command line uses).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .domains import Grid
+from .images import to_rgb
+
+__all__ = [
+    "MESH_FORMATS",
+    "MOVIE_FORMATS",
+    "load_npz",
+    "render_mesh",
+    "render_mesh_png",
+    "save_mesh",
+    "save_movie",
+    "save_npz",
+    "save_png",
+    "write_outputs",
+]
+
+MOVIE_FORMATS = (".gif", ".mp4")
+MESH_FORMATS = (".vtk", ".vtp", ".vtu", ".ply")
+_NPZ_FORMAT = 1
+
+PathLike = str | os.PathLike
+
+
+def _is_mesh(domain: Any) -> bool:
+    return hasattr(domain, "faces") and hasattr(domain, "vertices")
+
+
+def _grid_field(field: np.ndarray, domain: Any) -> np.ndarray:
+    a = np.asarray(field)
+    if isinstance(domain, Grid) and a.ndim == 1 and a.size == domain.n_points:
+        a = a.reshape(domain.shape)
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2:
+        raise ValueError(f"a grid picture needs a 2-D field, got shape {a.shape}")
+    return a
+
+
+def _limits(a: np.ndarray, vmin: float | None, vmax: float | None) -> tuple[float, float]:
+    finite = np.asarray(a)[np.isfinite(a)]
+    lo = float(finite.min()) if vmin is None and finite.size else (vmin or 0.0)
+    hi = float(finite.max()) if vmax is None and finite.size else (vmax if vmax is not None
+                                                                    else 1.0)
+    return lo, hi
+
+
+# ------------------------------------------------------------------------- mesh renders
+def _camera(plotter: Any, camera: Any) -> None:
+    if camera is None:
+        plotter.camera_position = "iso"
+        plotter.camera.zoom(1.3)
+    elif isinstance(camera, str):
+        plotter.camera_position = camera
+    elif isinstance(camera, Mapping):
+        cam = dict(camera)
+        allowed = {"position", "focal_point", "viewup", "azimuth", "elevation", "roll", "zoom"}
+        unknown = set(cam) - allowed
+        if unknown:
+            raise ValueError(f"unknown camera key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
+        if {"position", "focal_point", "viewup"} & set(cam):
+            pos = plotter.camera_position
+            plotter.camera_position = [cam.get("position", pos[0]),
+                                       cam.get("focal_point", pos[1]),
+                                       cam.get("viewup", pos[2])]
+        else:
+            plotter.camera_position = "iso"
+        for key in ("azimuth", "elevation", "roll"):
+            if key in cam:
+                setattr(plotter.camera, key, getattr(plotter.camera, key) + float(cam[key]))
+        if "zoom" in cam:
+            plotter.camera.zoom(float(cam["zoom"]))
+    else:
+        plotter.camera_position = list(camera)
+
+
+_opencl_loaded = False
+
+
+def _load_opencl_first() -> None:
+    """Load the OpenCL platforms (PoCL) before VTK renders for the first time.
+
+    VTK's off-screen rendering (EGL/OSMesa on Mesa's llvmpipe) and PoCL each link a copy of
+    LLVM; when Mesa's is loaded first, PoCL initialising later in the same process aborts
+    with "LLVM ERROR: inconsistency in registered CommandLine options".  Loaded in the
+    other order they coexist, so an OpenCL backend used after a rendering keeps working."""
+    global _opencl_loaded
+    if _opencl_loaded:
+        return
+    _opencl_loaded = True
+    try:
+        import pyopencl
+
+        pyopencl.get_platforms()
+    except Exception:  # noqa: BLE001 - no OpenCL here: nothing to protect
+        pass
+
+
+class _MeshRenderer:
+    """One off-screen pyvista plotter for a mesh; :meth:`image` renders a field."""
+
+    def __init__(self, mesh: Any, *, cmap: str, clim: tuple[float, float], camera: Any,
+                 window_size: tuple[int, int], background: str, show_edges: bool,
+                 scalar_bar: bool) -> None:
+        try:
+            import pyvista as pv
+        except ImportError as exc:  # pragma: no cover - pyvista is a test dependency
+            raise RuntimeError(f"rendering a mesh needs pyvista ({exc}): pip install pyvista") \
+                from None
+        try:  # VTK warns when no X display exists, then renders with EGL/OSMesa anyway
+            from vtkmodules.vtkCommonCore import vtkLogger
+
+            vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+        except ImportError:  # pragma: no cover
+            pass
+        _load_opencl_first()
+        self.pd = mesh.to_pyvista()
+        self.pd.point_data["field"] = np.zeros(mesh.n_vertices)
+        self.n = mesh.n_vertices
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background(background)
+        self.plotter.add_mesh(self.pd, scalars="field", cmap=cmap, clim=list(clim),
+                              show_edges=show_edges, show_scalar_bar=scalar_bar,
+                              smooth_shading=True)
+        _camera(self.plotter, camera)
+
+    def image(self, field: np.ndarray) -> np.ndarray:
+        a = np.asarray(field, dtype=np.float64).ravel()
+        if a.size != self.n:
+            raise ValueError(f"a mesh field needs one value per vertex ({self.n}), got {a.size}")
+        self.pd.point_data["field"][:] = a
+        self.pd.point_data["field"].Modified()
+        self.plotter.render()
+        return np.asarray(self.plotter.screenshot(return_img=True))[..., :3]
+
+    def close(self) -> None:
+        self.plotter.close()
+
+
+def render_mesh(
+    mesh: Any,
+    field: np.ndarray,
+    *,
+    cmap: str = "viridis",
+    camera: Any = None,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    window_size: tuple[int, int] = (800, 800),
+    background: str = "white",
+    show_edges: bool = False,
+    scalar_bar: bool = False,
+) -> np.ndarray:
+    """Render a per-vertex ``field`` on ``mesh`` off-screen; an ``(h, w, 3)`` uint8 image.
+
+    ``camera``: ``None`` (isometric view), a pyvista view name (``"xy"``, ``"iso"``, ...),
+    a ``[position, focal_point, viewup]`` triple, or a dict with any of ``position``,
+    ``focal_point``, ``viewup``, ``azimuth``, ``elevation``, ``roll`` (degrees, added to the
+    isometric view) and ``zoom``."""
+    clim = _limits(field, vmin, vmax)
+    r = _MeshRenderer(mesh, cmap=cmap, clim=clim, camera=camera, window_size=window_size,
+                      background=background, show_edges=show_edges, scalar_bar=scalar_bar)
+    try:
+        return r.image(field)
+    finally:
+        r.close()
+
+
+def render_mesh_png(mesh: Any, field: np.ndarray, path: PathLike, *, cmap: str = "viridis",
+                    camera: Any = None, **kwargs: Any) -> Path:
+    """Write :func:`render_mesh` of ``field`` on ``mesh`` to the PNG ``path``."""
+    import imageio.v3 as iio
+
+    img = render_mesh(mesh, field, cmap=cmap, camera=camera, **kwargs)
+    path = _prepare(path)
+    iio.imwrite(path, img)
+    return path
+
+
+def _prepare(path: PathLike) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+# ------------------------------------------------------------------------------- PNG
+def save_png(
+    path: PathLike,
+    field: np.ndarray,
+    domain: Any = None,
+    *,
+    cmap: str = "viridis",
+    vmin: float | None = None,
+    vmax: float | None = None,
+    scale: int = 1,
+    camera: Any = None,
+    window_size: tuple[int, int] = (800, 800),
+) -> Path:
+    """A colour-mapped PNG of ``field``: on a mesh ``domain`` a pyvista rendering
+    (:func:`render_mesh_png`), otherwise the grid field with each cell ``scale``×``scale``
+    pixels (row 0 at the top)."""
+    if _is_mesh(domain):
+        return render_mesh_png(domain, field, path, cmap=cmap, camera=camera, vmin=vmin,
+                               vmax=vmax, window_size=window_size)
+    from .images import save_png as _save
+
+    return _save(_prepare(path), _grid_field(field, domain), cmap=cmap, vmin=vmin, vmax=vmax,
+                 scale=scale)
+
+
+# ---------------------------------------------------------------------------- movies
+def _even(img: np.ndarray) -> np.ndarray:
+    """Pad an image by edge replication to even height and width (for H.264)."""
+    h, w = img.shape[:2]
+    return np.pad(img, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
+
+
+def save_movie(
+    path: PathLike,
+    frames: Sequence[np.ndarray] | np.ndarray,
+    domain: Any = None,
+    *,
+    cmap: str = "viridis",
+    vmin: float | None = None,
+    vmax: float | None = None,
+    fps: float = 10.0,
+    scale: int = 1,
+    camera: Any = None,
+    window_size: tuple[int, int] = (480, 480),
+) -> Path:
+    """A GIF or MP4 (by extension) of ``frames`` (``[n, ny, nx]`` grid fields, or
+    ``[n, n_vertices]`` on a mesh ``domain``, rendered with pyvista) with one colour scale
+    (``vmin``/``vmax``, default the range over all frames).  MP4 needs ``imageio-ffmpeg``
+    (H.264, frames padded to even sizes)."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in MOVIE_FORMATS:
+        raise ValueError(f"a movie must be {' or '.join(MOVIE_FORMATS)}, got {str(path)!r}")
+    data = np.asarray(frames)
+    if data.ndim < 2 or data.shape[0] == 0:
+        raise ValueError("a movie needs at least one frame (take snapshots: snapshot_every)")
+    if fps <= 0:
+        raise ValueError(f"fps must be > 0, got {fps}")
+    lo, hi = _limits(data, vmin, vmax)
+    if _is_mesh(domain):
+        r = _MeshRenderer(domain, cmap=cmap, clim=(lo, hi), camera=camera,
+                          window_size=window_size, background="white", show_edges=False,
+                          scalar_bar=False)
+        try:
+            images = [r.image(f) for f in data]
+        finally:
+            r.close()
+    else:
+        images = []
+        for f in data:
+            rgb = to_rgb(_grid_field(f, domain), cmap, lo, hi)
+            if scale > 1:
+                rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
+            images.append(rgb)
+    path = _prepare(path)
+    if ext == ".gif":
+        import imageio.v3 as iio
+
+        iio.imwrite(path, np.stack(images), extension=".gif", duration=1000.0 / fps, loop=0)
+    else:
+        try:
+            import imageio_ffmpeg  # noqa: F401
+        except ImportError:
+            raise RuntimeError("writing MP4 needs imageio-ffmpeg: pip install imageio-ffmpeg "
+                               "(or write a .gif)") from None
+        import imageio.v2 as iio2
+
+        with iio2.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264",
+                             pixelformat="yuv420p", macro_block_size=1, quality=8) as w:
+            for img in images:
+                w.append_data(_even(img))
+    return path
+
+
+# ------------------------------------------------------------------------ mesh files
+def save_mesh(mesh: Any, path: PathLike, fields: Mapping[str, np.ndarray] | None = None) -> Path:
+    """Write ``mesh`` with per-vertex ``fields`` attached (``.vtk``, ``.vtp``, ``.vtu``,
+    ``.ply``; see ``SurfaceMesh.save``)."""
+    if not _is_mesh(mesh):
+        raise ValueError("VTK/PLY files need a mesh domain; use save_npz or save_png for a grid")
+    path = Path(path)
+    if path.suffix.lower() not in MESH_FORMATS:
+        raise ValueError(f"a mesh file with fields must be one of {', '.join(MESH_FORMATS)}, "
+                         f"got {str(path)!r}")
+    mesh.save(_prepare(path), {k: np.asarray(v) for k, v in (fields or {}).items()})
+    return path
+
+
+# ---------------------------------------------------------------------------- NPZ
+def save_npz(result: Any, path: PathLike) -> Path:
+    """One data file for a run: ``final_<s>`` and ``snapshots_<s>`` per species, ``times``,
+    ``snapshot_steps``, ``param_<name>`` for field-valued parameters, ``mesh_vertices`` and
+    ``mesh_faces`` on a mesh, and JSON strings ``meta`` (everything else: model, step, time,
+    dt, dtype, seed, init, domain, wall time, divergence message), ``params``, ``backend``,
+    ``device`` and ``versions``.  Written atomically (temporary file, fsync, rename)."""
+    from .simulation import _atomic_savez, _json_str, _split_params
+
+    scalars, fields = _split_params(result.params)
+    meta = {
+        "format": _NPZ_FORMAT,
+        "model": result.model,
+        "species": list(result.fields),
+        "step": int(result.step),
+        "time": float(result.time),
+        "dt": float(result.dt),
+        "dtype": result.dtype,
+        "seed": result.seed,
+        "init": result.init,
+        "domain": result.domain_info,
+        "param_fields": sorted(fields),
+        "wall_seconds": float(result.wall_seconds),
+        "diverged": result.diverged,
+    }
+    arrays: dict[str, np.ndarray] = {
+        "meta": _json_str(meta),
+        "params": _json_str(scalars),
+        "backend": np.array(result.backend),
+        "device": np.array(result.device),
+        "versions": _json_str(result.versions),
+        "times": np.asarray(result.times, dtype=np.float64),
+        "snapshot_steps": np.asarray(result.snapshot_steps, dtype=np.int64),
+    }
+    for s, a in result.fields.items():
+        arrays[f"final_{s}"] = np.asarray(a)
+        arrays[f"snapshots_{s}"] = np.asarray(result.snapshots[s])
+    for k, a in fields.items():
+        arrays[f"param_{k}"] = a
+    if _is_mesh(result.domain):
+        arrays["mesh_vertices"] = np.asarray(result.domain.vertices)
+        arrays["mesh_faces"] = np.asarray(result.domain.faces)
+    path = Path(path)
+    if path.suffix.lower() != ".npz":
+        raise ValueError(f"the data file must end in .npz, got {str(path)!r}")
+    _atomic_savez(path, arrays, compressed=True)
+    return path
+
+
+def load_npz(path: PathLike) -> Any:
+    """Read a :func:`save_npz` file back into a :class:`~rdgpu.simulation.Result`."""
+    from .simulation import Result, _domain_from_description
+
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        meta = json.loads(str(arrays["meta"]))
+    except (OSError, ValueError, KeyError) as exc:
+        raise ValueError(f"{str(path)!r} is not an rdgpu data file ({exc})") from None
+    params = json.loads(str(arrays["params"]))
+    for k in meta["param_fields"]:
+        params[k] = arrays[f"param_{k}"]
+    species = meta["species"]
+    domain = _domain_from_description(meta["domain"], arrays)
+    return Result(
+        model=meta["model"],
+        fields={s: arrays[f"final_{s}"] for s in species},
+        snapshots={s: arrays[f"snapshots_{s}"] for s in species},
+        times=arrays["times"],
+        snapshot_steps=arrays["snapshot_steps"],
+        step=meta["step"],
+        time=meta["time"],
+        dt=meta["dt"],
+        params=params,
+        domain=domain,
+        domain_info=meta["domain"],
+        backend=str(arrays["backend"]),
+        device=str(arrays["device"]),
+        dtype=meta["dtype"],
+        seed=meta["seed"],
+        init=meta["init"],
+        versions=json.loads(str(arrays["versions"])),
+        wall_seconds=meta["wall_seconds"],
+        diverged=meta["diverged"],
+    )
+
+
+# ----------------------------------------------------------------------- everything
+def write_outputs(
+    result: Any,
+    *,
+    png: PathLike | None = None,
+    movie: PathLike | None = None,
+    data: PathLike | Sequence[PathLike] | None = None,
+    field: str | None = None,
+    cmap: str = "viridis",
+    scale: int = 1,
+    fps: float = 10.0,
+    camera: Any = None,
+) -> list[Path]:
+    """Write the outputs of a run, by extension: ``png`` (the final ``field``), ``movie``
+    (``.gif``/``.mp4`` of that field's snapshots), ``data`` (``.npz`` data files and
+    ``.vtk``/``.vtp``/``.vtu``/``.ply`` meshes with every final field).  ``field`` defaults
+    to the first species."""
+    species = list(result.fields)
+    name = species[0] if field is None else field
+    if name not in result.fields:
+        raise ValueError(f"no field {name!r}; the model has {species}")
+    written: list[Path] = []
+    if png is not None:
+        written.append(save_png(png, result.fields[name], result.domain, cmap=cmap, scale=scale,
+                                camera=camera))
+    if movie is not None:
+        written.append(save_movie(movie, result.snapshots[name], result.domain, cmap=cmap,
+                                  fps=fps, scale=scale, camera=camera))
+    if data is not None:
+        for p in [data] if isinstance(data, (str, os.PathLike)) else data:
+            ext = Path(p).suffix.lower()
+            if ext == ".npz":
+                written.append(save_npz(result, p))
+            elif ext in MESH_FORMATS:
+                written.append(save_mesh(result.domain, p, result.fields))
+            else:
+                raise ValueError(f"a data file must be .npz or a mesh file "
+                                 f"({', '.join(MESH_FORMATS)}), got {str(p)!r}")
+    return written

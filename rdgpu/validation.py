@@ -1,0 +1,98 @@
+"""Input checks shared by the public API: every message says what was wrong and what is allowed."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+
+
+def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2)) -> np.ndarray:
+    """Check a float32/float64, finite array of an allowed ndim; return it C-contiguous."""
+    if not isinstance(a, np.ndarray):
+        if isinstance(a, (list, tuple)):
+            a = np.asarray(a, dtype=np.float64)
+        else:
+            raise TypeError(f"{name} must be a NumPy array, got {type(a).__name__}")
+    if a.dtype not in DTYPES:
+        raise TypeError(
+            f"{name} has unsupported dtype {a.dtype}; allowed: float32, float64 "
+            f"(convert with {name}.astype(np.float64))"
+        )
+    if a.ndim not in ndim:
+        allowed = " or ".join(f"{d}-D" for d in ndim)
+        raise ValueError(f"{name} must be {allowed}, got a {a.ndim}-D array of shape {a.shape}")
+    if a.size == 0:
+        raise ValueError(f"{name} is empty (shape {a.shape}); every axis needs at least one cell")
+    if not np.isfinite(a).all():
+        bad = int(np.count_nonzero(~np.isfinite(a)))
+        raise ValueError(f"{name} contains {bad} NaN or Inf value(s); all values must be finite")
+    return np.ascontiguousarray(a)
+
+
+def as_grid(a: Any, name: str) -> np.ndarray:
+    """A grid field as ``[ny, nx]`` (a 1-D array is a grid with ``ny = 1``)."""
+    a = as_field(a, name, ndim=(1, 2))
+    return a.reshape(1, -1) if a.ndim == 1 else a
+
+
+def same_shape(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
+    if a.shape != b.shape:
+        raise ValueError(f"{name_b} has shape {b.shape} but {name_a} has shape {a.shape}; they must match")
+
+
+def same_dtype(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
+    if a.dtype != b.dtype:
+        raise TypeError(
+            f"{name_b} has dtype {b.dtype} but {name_a} has dtype {a.dtype}; they must match"
+        )
+
+
+def scalar(x: Any, name: str, *, minimum: float | None = 0.0, strict: bool = False) -> float:
+    """A finite real number, ``>= minimum`` (``> minimum`` when ``strict``)."""
+    try:
+        value = float(x)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a real number, got {type(x).__name__}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value}")
+    if minimum is not None and (value < minimum or (strict and value == minimum)):
+        rel = ">" if strict else ">="
+        raise ValueError(f"{name} must be {rel} {minimum}, got {value}")
+    return value
+
+
+def spacing(dx: Any, dy: Any) -> tuple[float, float]:
+    """Grid spacings, both > 0; ``dy`` defaults to ``dx``."""
+    dx = scalar(dx, "dx", strict=True)
+    dy = dx if dy is None else scalar(dy, "dy", strict=True)
+    return dx, dy
+
+
+def scalar_or_field(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
+    """A finite scalar, or a finite field of ``like``'s shape cast to its dtype."""
+    if np.ndim(x) == 0:
+        return scalar(x, name, minimum=None)
+    a = np.asarray(x)
+    if a.dtype.kind not in "fiu":
+        raise TypeError(f"{name} must be a number or a numeric array, got dtype {a.dtype}")
+    if a.shape != like.shape:
+        a_shape = a.shape
+        if a.ndim == 1 and like.shape[0] == 1 and a.shape[0] == like.shape[1]:
+            a = a.reshape(like.shape)
+        else:
+            raise ValueError(f"{name} has shape {a_shape}; it must be a scalar or match {like.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} contains NaN or Inf; all values must be finite")
+    return np.ascontiguousarray(a, dtype=like.dtype)
+
+
+def steps(n: Any, name: str = "steps") -> int:
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(n).__name__}")
+    if n < 0:
+        raise ValueError(f"{name} must be >= 0, got {n}")
+    return int(n)

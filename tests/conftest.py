@@ -1,0 +1,56 @@
+"""Shared fixtures: the backends to cross-check and the reference modules."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import rdgpu
+from rdgpu.errors import BackendUnavailableError
+from rdgpu.kernel_files import load_module
+
+BACKENDS = ["numpy", "warp", "opencl"]
+DTYPES = [np.float32, np.float64]
+
+
+def backend_or_skip(name: str):
+    """The backend, or a skip where it cannot run -- a failure on CI, where all must run."""
+    try:
+        return rdgpu.get_backend(name)
+    except BackendUnavailableError as exc:
+        if os.environ.get("CI"):
+            pytest.fail(f"backend {name} unavailable on CI: {exc}")
+        pytest.skip(f"backend {name} unavailable: {exc}")
+
+
+@pytest.fixture(params=BACKENDS)
+def backend(request):
+    return backend_or_skip(request.param)
+
+
+@pytest.fixture(params=DTYPES, ids=["f32", "f64"])
+def dtype(request):
+    return np.dtype(request.param)
+
+
+@pytest.fixture(scope="session")
+def ref():
+    """The NumPy reference modules, by family."""
+
+    class Refs:
+        laplacian = load_module("laplacian", "reference.py")
+        bernoulli = load_module("bernoulli", "reference.py")
+        gray_scott = load_module("gray_scott", "reference.py")
+        sor = load_module("sor", "reference.py")
+        levelset = load_module("levelset", "reference.py")
+
+    return Refs
+
+
+def tolerance(dtype, scale: float = 1.0) -> dict:
+    """Round-off tolerance for comparing two implementations of one kernel: a few ulps of
+    the largest term (``scale``), so it fails on any real disagreement."""
+    eps = np.finfo(dtype).eps
+    return {"rtol": 16 * eps, "atol": 16 * eps * scale}

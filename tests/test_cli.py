@@ -1,0 +1,261 @@
+"""The ``rdgpu`` command line: run, presets, models, backends, --help, errors, resume."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+from conftest import backend_or_skip
+
+import rdgpu
+from rdgpu.cli import main
+from rdgpu.output import load_npz
+from rdgpu.simulation import Simulation
+
+ROOT = Path(rdgpu.__file__).resolve().parents[1]
+models = pytest.importorskip("rdgpu.models")
+
+
+def cli(capsys, *argv):
+    """Run the CLI in-process: (exit status, stdout, stderr)."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse: --help and usage errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def subprocess_env():
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(ROOT), os.environ.get("PYTHONPATH", "")])}
+
+
+def assert_same_data(a, b):
+    ra, rb = load_npz(a), load_npz(b)
+    assert ra.step == rb.step
+    np.testing.assert_array_equal(ra.snapshot_steps, rb.snapshot_steps)
+    for s in ra.fields:
+        np.testing.assert_array_equal(ra.fields[s], rb.fields[s])
+        np.testing.assert_array_equal(ra.snapshots[s], rb.snapshots[s])
+
+
+# --------------------------------------------------------------------------- help
+@pytest.mark.parametrize("argv", [[], ["run"], ["presets"], ["models"], ["backends"]])
+def test_help_everywhere(capsys, argv):
+    code, out, _ = cli(capsys, *argv, "--help")
+    assert code == 0 and out.startswith("usage: rdgpu")
+
+
+def test_run_help_lists_the_options(capsys):
+    _, out, _ = cli(capsys, "run", "--help")
+    for opt in ("--preset", "--size", "--mesh", "--steps", "--dt", "--backend", "--seed",
+                "--out", "--movie", "--resume", "--param", "--checkpoint", "--data"):
+        assert opt in out
+
+
+# --------------------------------------------------------------------------- run
+def test_quick_start_shape(capsys, tmp_path):
+    """The README quick start, scaled down: `rdgpu run gray-scott --size N --steps S --out`."""
+    png = tmp_path / "gray_scott.png"
+    code, _, err = cli(capsys, "run", "gray-scott", "--size", "24", "--steps", "200",
+                       "--out", png, "--backend", "numpy")
+    assert code == 0, err
+    assert "wrote" in err and "gray-scott" in err
+    img = iio.imread(png)
+    assert img.shape == (48, 48, 3) and img.std() > 1  # scale 2, the central square shows
+
+
+def test_run_writes_every_output(capsys, tmp_path):
+    code, _, err = cli(capsys, "run", "gray-scott", "--size", "20x30", "--steps", "60",
+                       "--param", "F=0.03", "--param", "k=0.055", "--seed", "4",
+                       "--dtype", "float64", "--backend", "numpy", "--snapshot-every", "20",
+                       "--out", tmp_path / "a.png", "--movie", tmp_path / "a.gif",
+                       "--data", tmp_path / "a.npz", "--field", "u", "--quiet")
+    assert code == 0, err
+    assert err == ""  # --quiet
+    res = load_npz(tmp_path / "a.npz")
+    assert res.params["F"] == 0.03 and res.params["k"] == 0.055 and res.seed == 4
+    assert res.dtype == "float64" and res.fields["u"].shape == (20, 30)
+    np.testing.assert_array_equal(res.snapshot_steps, [0, 20, 40, 60])
+    assert iio.imread(tmp_path / "a.gif", index=None).shape[:3] == (4, 40, 60)
+    sim = Simulation("gray-scott", {"grid": (20, 30)}, {"F": 0.03, "k": 0.055}, seed=4,
+                     dtype="float64", backend="numpy")
+    np.testing.assert_array_equal(sim.run(60, progress=False).fields["u"], res.fields["u"])
+
+
+def test_run_on_a_mesh(capsys, tmp_path):
+    code, _, err = cli(capsys, "run", "allen-cahn", "--mesh", "sphere", "--steps", "20",
+                       "--param", "eps=0.2", "--backend", "numpy", "--out", tmp_path / "s.png",
+                       "--data", tmp_path / "s.vtk", "--data", tmp_path / "s.npz", "--quiet")
+    assert code == 0, err
+    img = iio.imread(tmp_path / "s.png")
+    assert img.ndim == 3 and img.std() > 5
+    assert (tmp_path / "s.vtk").stat().st_size > 0
+    assert load_npz(tmp_path / "s.npz").domain.n_vertices == 2562  # icosphere(4)
+
+
+def test_presets_lists_source_and_pattern(capsys):
+    code, out, _ = cli(capsys, "presets")
+    assert code == 0
+    if not models.PRESETS:
+        assert "no presets" in out
+    for name, p in models.PRESETS.items():
+        assert name in out and p.source in out and p.expect in out
+
+
+def test_models_and_backends(capsys):
+    code, out, _ = cli(capsys, "models")
+    assert code == 0 and all(name in out for name in models.MODELS)
+    code, out, _ = cli(capsys, "backends")
+    assert code == 0
+    assert "numpy" in out and "available" in out and "cpu" in out
+    assert {line.split()[0] for line in out.splitlines()} >= {"numpy", "warp", "opencl"}
+
+
+# --------------------------------------------------------------------------- errors
+BAD = [
+    (["run", "no-such-model"], "unknown model"),
+    (["run", "gray-scott", "--preset", "no-such-preset"], "unknown preset"),
+    (["run", "gray-scott", "--param", "Q=1"], "--param Q"),
+    (["run", "gray-scott", "--param", "F=abc"], "must be a number"),
+    (["run", "gray-scott", "--param", "F"], "NAME=VALUE"),
+    (["run", "gray-scott", "--size", "0x5"], "size must look like"),
+    (["run", "gray-scott", "--size", "8", "--mesh", "sphere"], "not allowed with"),
+    (["run", "gray-scott", "--mesh", "no-such-file.obj"], "no such file"),
+    (["run", "gray-scott", "--steps", "-3"], ">= 0"),
+    (["run", "gray-scott", "--dt", "-1"], "positive"),
+    (["run", "gray-scott", "--dt", "5", "--size", "8"], "exceeds"),
+    (["run", "gray-scott", "--out", "x.jpg"], "--out must end in .png"),
+    (["run", "gray-scott", "--movie", "x.avi"], "--movie must end in"),
+    (["run", "gray-scott", "--data", "x.csv"], "--data must end in"),
+    (["run", "gray-scott", "--size", "8", "--data", "x.vtk"], "need a mesh"),
+    (["run", "gray-scott", "--size", "8", "--field", "w"], "--field 'w'"),
+    (["run", "gray-scott", "--backend", "cuda"], "unknown backend"),
+    (["run", "gray-scott", "--dtype", "float16"], "invalid choice"),
+    (["run", "gray-scott", "--resume", "no-such-checkpoint.npz"], "does not exist"),
+    (["presets", "no-such-model"], "unknown model"),
+    (["frobnicate"], "invalid choice"),
+]
+
+
+@pytest.mark.parametrize("argv, message", BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_bad_input_is_one_clear_line(capsys, tmp_path, monkeypatch, argv, message):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = cli(capsys, *argv)
+    assert code == 2
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("rdgpu") and "error:" in last and message in last, err
+    if not last.startswith("rdgpu run:") and not last.startswith("rdgpu:  "):
+        assert len(err.strip().splitlines()) in (1, 2) or err.startswith("usage:")
+
+
+def test_errors_exit_2_without_traceback_in_a_subprocess(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "rdgpu.cli", "run", "gray-scott", "--param",
+                           "nope=1"], capture_output=True, text=True, env=subprocess_env(),
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 2
+    lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("rdgpu")]
+    assert lines == ["rdgpu: error: --param nope: model gray-scott has parameters Du, Dv, F, k"]
+    assert "Traceback" not in proc.stderr
+
+
+def test_divergence_exits_1_and_keeps_the_last_good_state(capsys, tmp_path):
+    code, _, err = cli(capsys, "run", "gray-scott", "--size", "16", "--steps", "100", "--dt",
+                       "5", "--no-stability-check", "--check-every", "50", "--backend",
+                       "numpy", "--out", tmp_path / "last.png", "--data", tmp_path / "d.npz")
+    assert code == 1
+    msg = [ln for ln in err.splitlines() if ln.startswith("rdgpu: error:")]
+    assert len(msg) == 1
+    assert "diverged at step" in msg[0] and "field 'u'" in msg[0] or "field 'v'" in msg[0]
+    assert "stability limit" in msg[0]
+    res = load_npz(tmp_path / "d.npz")
+    assert res.diverged and np.isfinite(res.fields["u"]).all()
+    assert iio.imread(tmp_path / "last.png").shape == (32, 32, 3)
+
+
+# --------------------------------------------------------------------------- resume
+def test_resume_from_an_interrupted_run(capsys, tmp_path):
+    settings = ["--size", "24", "--snapshot-every", "40", "--check-every", "50",
+                "--checkpoint-every", "100", "--backend", "numpy", "--quiet"]
+    code, _, err = cli(capsys, "run", "gray-scott", "--steps", "330", *settings,
+                       "--checkpoint", tmp_path / "full.ckpt.npz", "--data", tmp_path / "full.npz")
+    assert code == 0, err
+
+    # the same run, interrupted between its checkpoints at 200 and 300
+    sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
+    real, done = sim.stepper.advance, [0]
+
+    def dying(n):
+        if done[0] + n > 250:
+            raise KeyboardInterrupt
+        done[0] += n
+        real(n)
+
+    sim.stepper.advance = dying
+    ck = tmp_path / "part.ckpt.npz"
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,
+                progress=False)
+    assert Simulation.read_checkpoint(ck)[0]["step"] == 200
+
+    code, _, err = cli(capsys, "run", "gray-scott", "--resume", ck, "--data",
+                       tmp_path / "resumed.npz", "--quiet")
+    assert code == 0, err
+    assert_same_data(tmp_path / "full.npz", tmp_path / "resumed.npz")
+    assert Simulation.read_checkpoint(ck)[0]["step"] == 330  # kept checkpointing to it
+
+    code, _, err = cli(capsys, "run", "gray-scott", "--resume", ck, "--size", "30")
+    assert code == 2 and "--size cannot change a resumed run" in err
+    code, _, err = cli(capsys, "run", "brusselator", "--resume", ck)
+    assert code == 2 and "is a run of 'gray-scott'" in err
+
+
+def test_kill_and_resume_from_the_command_line(capsys, tmp_path):
+    """SIGKILL `rdgpu run` after its first checkpoint, resume it with --resume: the data
+    file equals that of an uninterrupted run."""
+    backend = "opencl" if _available("opencl") else "numpy"
+    steps = "20000" if backend == "opencl" else "3000"
+    args = ["run", "gray-scott", "--size", "48", "--steps", steps, "--backend", backend,
+            "--snapshot-every", "1000", "--checkpoint-every", "500", "--quiet"]
+    ck = tmp_path / "killed.ckpt.npz"
+    proc = subprocess.Popen([sys.executable, "-m", "rdgpu.cli", *args, "--checkpoint", str(ck),
+                             "--data", str(tmp_path / "never.npz")], env=subprocess_env(),
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 90
+        while not ck.exists():
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "no checkpoint after 90 s"
+            time.sleep(0.01)
+        time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait(30)
+    assert proc.returncode == -signal.SIGKILL
+    assert not (tmp_path / "never.npz").exists()
+    assert Simulation.read_checkpoint(ck)[0]["step"] < int(steps)
+
+    code, _, err = cli(capsys, "run", "gray-scott", "--resume", ck, "--data",
+                       tmp_path / "resumed.npz", "--quiet")
+    assert code == 0, err
+    code, _, err = cli(capsys, *args, "--checkpoint", tmp_path / "ref.ckpt.npz", "--data",
+                       tmp_path / "ref.npz")
+    assert code == 0, err
+    assert_same_data(tmp_path / "ref.npz", tmp_path / "resumed.npz")
+
+
+def _available(name):
+    try:
+        backend_or_skip(name)
+        return True
+    except BaseException:  # noqa: BLE001 - pytest's skip is a BaseException
+        return False

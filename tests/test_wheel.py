@@ -1,0 +1,58 @@
+"""The installed wheel, not only the source tree, finds the kernels."""
+
+from __future__ import annotations
+
+import site
+import subprocess
+import sys
+import sysconfig
+import venv
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SCRIPT = """
+import numpy as np, rdgpu
+from rdgpu.kernel_files import kernel_dir
+print("RDGPU_FILE", rdgpu.__file__)
+print("KERNEL_DIR", kernel_dir())
+u = np.random.default_rng(0).random((6, 9))
+ref = rdgpu.laplacian(u, backend="numpy")
+for name in ("warp", "opencl"):
+    out = rdgpu.laplacian(u, backend=name)
+    assert np.allclose(out, ref, atol=1e-12), name
+    print("OK", name)
+"""
+
+
+@pytest.mark.slow
+def test_wheel_installs_and_runs_every_backend(tmp_path):
+    dist = tmp_path / "dist"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(ROOT)],
+        check=True,
+    )
+    wheel = next(dist.glob("rdgpu-*.whl"))
+    env_dir = tmp_path / "venv"
+    venv.create(env_dir, with_pip=True)
+    python = env_dir / "bin" / "python"
+    # reuse this interpreter's dependencies (no network): a .pth appends its site-packages
+    # *after* the new environment's own, so the wheel's rdgpu wins over any other copy.
+    target = Path(
+        subprocess.check_output(
+            [python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], text=True
+        ).strip()
+    )
+    parents = [sysconfig.get_paths()["purelib"], *site.getsitepackages()]
+    (target / "zz_parent.pth").write_text("\n".join(dict.fromkeys(parents)) + "\n")
+    subprocess.run([python, "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
+                   check=True)
+    out = subprocess.run([python, "-c", SCRIPT], capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    lines = dict(line.split(" ", 1) for line in out.stdout.splitlines())
+    assert lines["RDGPU_FILE"].startswith(str(env_dir))
+    assert lines["KERNEL_DIR"].startswith(str(env_dir))
+    assert Path(lines["KERNEL_DIR"], "gray_scott", "gray_scott.cl").is_file()
+    assert "OK warp" in out.stdout and "OK opencl" in out.stdout
