@@ -30,6 +30,7 @@ __all__ = [
     "grid_wavenumber",
     "jacobian",
     "phase_components",
+    "spiral_tips",
     "steady_state",
 ]
 
@@ -161,9 +162,11 @@ def phase_components(
 
     Returns ``threshold``; ``fraction_high``; ``high`` and ``low``: the sizes (points) of
     each phase's components, largest first; ``elongation_high`` / ``elongation_low``: per
-    component (same order) ``size / r²`` with ``r`` its inradius in graph steps (the
-    largest number of edges from one of its points to the other phase): about π for a
-    round island, ``4 L / w`` for a band of length ``L`` and width ``w``."""
+    component (same order) ``size / (r + ½)²`` with ``r`` its inradius in graph steps (the
+    largest number of edges from one of its points to the other phase; the ½ makes islands
+    a point or two across come out compact): about π (less for small ones) for a round
+    island, about 2π for a 2:1 ellipse, ``~4 L / w`` for a band of length ``L`` and width
+    ``w``."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components, dijkstra
 
@@ -200,7 +203,7 @@ def phase_components(
         order = ids[np.argsort(-sizes[ids], kind="stable")]
         out[name] = sizes[order]
         with np.errstate(divide="ignore"):
-            out[f"elongation_{name}"] = sizes[order] / np.maximum(inradius[order], 1.0) ** 2
+            out[f"elongation_{name}"] = sizes[order] / (np.maximum(inradius[order], 1.0) + 0.5) ** 2
     return out
 
 
@@ -210,9 +213,10 @@ def classify_pattern(
     threshold: float | None = 0.0,
     *,
     connected: float = 0.9,
-    elongated: float = 12.0,
+    elongated: float = 6.0,
     min_size: int = 1,
     rtol: float = 1e-3,
+    atol: float = 1e-12,
 ) -> str:
     """``"spots"``, ``"inverted-spots"``, ``"stripes"`` or ``"uniform"``.
 
@@ -222,11 +226,11 @@ def classify_pattern(
     :class:`~rdgpu.mesh.SurfaceMesh`; ``domain=None``: a non-periodic grid).  Components
     smaller than ``min_size`` points are ignored.  A phase is *connected* when its largest
     component holds at least ``connected`` (0.9) of it; a component is *elongated* when
-    ``size / inradius² > elongated`` (12: a band longer than ~3 times its width; a round
-    island gives 3 to 6, see :func:`phase_components`).
+    its elongation (:func:`phase_components`) exceeds ``elongated`` (6: longer than about
+    twice its width; a round island gives 2 to 3.5).
 
     * ``uniform``: a phase is absent, or (``threshold=None``) the field's range is below
-      ``rtol · max|field|``;
+      ``max(rtol · max|field|, atol)``;
     * ``spots``: the high phase is connected and the low phase is not, and most of the low
       phase (by area) lies in compact islands — isolated islands of low values in a sea of
       high ones;
@@ -239,7 +243,7 @@ def classify_pattern(
     f = np.asarray(field.numpy() if hasattr(field, "numpy") else field, dtype=np.float64)
     if not np.isfinite(f).all():
         raise ValueError("classify_pattern: the field contains NaN or Inf")
-    if threshold is None and float(np.ptp(f)) <= rtol * max(float(np.abs(f).max()), 1e-300):
+    if threshold is None and float(np.ptp(f)) <= max(rtol * float(np.abs(f).max()), atol):
         return "uniform"
     comps = phase_components(f, domain, threshold)
     keep_hi = comps["high"] >= min_size
@@ -259,3 +263,44 @@ def classify_pattern(
         return "inverted-spots" if compact(hi, comps["elongation_high"][keep_hi]) \
             else "stripes"
     return "stripes"
+
+
+# ---------------------------------------------------------------------------- spirals
+def _wrapped(d: np.ndarray) -> np.ndarray:
+    return (d + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def spiral_tips(
+    u: Any,
+    v: Any,
+    domain: Any = None,
+    center: Sequence[float] | None = None,
+) -> int:
+    """Number of phase singularities (spiral tips) of the pair ``(u, v)``.
+
+    The phase ``θ = atan2(v − v_c, u − u_c)`` around ``center = (u_c, v_c)`` (default: the
+    fields' means) winds by ±2π around each spiral tip; the tips are the elementary loops
+    with a nonzero winding number: the plaquettes of four neighbouring cells on a grid
+    (wrapped across periodic sides), the faces of a mesh.  A rotating spiral keeps its tips;
+    target waves, stripes and spots have none."""
+    a = np.asarray(u, dtype=np.float64)
+    b = np.asarray(v, dtype=np.float64)
+    uc, vc = (float(a.mean()), float(b.mean())) if center is None else map(float, center)
+    theta = np.arctan2(b - vc, a - uc)
+    if domain is None or isinstance(domain, Grid):
+        if domain is not None:
+            theta = theta.reshape(domain.shape)
+        px = domain is not None and domain.bcs.x.kind == PERIODIC
+        py = domain is not None and domain.bcs.y.kind == PERIODIC
+        t = theta
+        if px:
+            t = np.concatenate([t, t[:, :1]], axis=1)
+        if py:
+            t = np.concatenate([t, t[:1, :]], axis=0)
+        c00, c01, c11, c10 = t[:-1, :-1], t[:-1, 1:], t[1:, 1:], t[1:, :-1]
+        w = _wrapped(c01 - c00) + _wrapped(c11 - c01) + _wrapped(c10 - c11) + _wrapped(c00 - c10)
+    else:
+        f = np.asarray(domain.faces)
+        t0, t1, t2 = theta.ravel()[f[:, 0]], theta.ravel()[f[:, 1]], theta.ravel()[f[:, 2]]
+        w = _wrapped(t1 - t0) + _wrapped(t2 - t1) + _wrapped(t0 - t2)
+    return int(np.count_nonzero(np.abs(w) > np.pi))

@@ -67,7 +67,9 @@ def _parse_axis(spec: Any) -> AxisBC:
         if name == "neumann":
             return AxisBC(NEUMANN)
         if name == "dirichlet":
-            raise ValueError(f"bc 'dirichlet' needs a value: use ('dirichlet', g); allowed: {ALLOWED}")
+            raise ValueError(
+                f"bc 'dirichlet' needs a value: use ('dirichlet', g); allowed: {ALLOWED}"
+            )
         raise ValueError(f"unknown boundary condition {spec!r}; allowed: {ALLOWED}")
     if (
         isinstance(spec, (tuple, list))

@@ -323,7 +323,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     rate = n_points * max(result.step - first_step, 0) / seconds / 1e6 if seconds > 0 else 0.0
     for path in written:
         _say(args, f"wrote {path}")
-    _say(args, f"step {result.step}, t={result.time:g} ({seconds:.2f} s, ~{rate:.0f} Mcell/s)")
+    _say(args, f"step {result.step}, t={result.time:g} ({seconds:.2f} s, "
+               f"{rate:.3g} M point-steps/s)")
     return status
 
 
@@ -338,8 +339,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser(
         "run", help="run a model (or a preset) and write a PNG, a movie, data files",
-        description="Run a reaction-diffusion model on a grid or a mesh. Without --preset "
-        "the model runs with its default parameters and initial condition on a "
+        description="Run a reaction-diffusion model on a grid or a mesh. Without --preset\n"
+        "the model runs with its default parameters and initial condition on a\n"
         f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]} periodic grid.",
         epilog="examples:\n"
         "  rdgpu run gray-scott --size 256 --steps 10000 --out gray_scott.png\n"

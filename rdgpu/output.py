@@ -98,34 +98,12 @@ def _camera(plotter: Any, camera: Any) -> None:
         plotter.camera_position = list(camera)
 
 
-_opencl_loaded = False
-
-
-def _load_opencl_first() -> None:
-    """Load the OpenCL platforms (PoCL) before VTK renders for the first time.
-
-    VTK's off-screen rendering (EGL/OSMesa on Mesa's llvmpipe) and PoCL each link a copy of
-    LLVM; when Mesa's is loaded first, PoCL initialising later in the same process aborts
-    with "LLVM ERROR: inconsistency in registered CommandLine options".  Loaded in the
-    other order they coexist, so an OpenCL backend used after a rendering keeps working."""
-    global _opencl_loaded
-    if _opencl_loaded:
-        return
-    _opencl_loaded = True
-    try:
-        import pyopencl
-
-        pyopencl.get_platforms()
-    except Exception:  # noqa: BLE001 - no OpenCL here: nothing to protect
-        pass
-
-
 class _MeshRenderer:
     """One off-screen pyvista plotter for a mesh; :meth:`image` renders a field."""
 
-    def __init__(self, mesh: Any, *, cmap: str, clim: tuple[float, float], camera: Any,
-                 window_size: tuple[int, int], background: str, show_edges: bool,
-                 scalar_bar: bool) -> None:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, cmap: str,
+                 clim: tuple[float, float], camera: Any, window_size: tuple[int, int],
+                 background: str, show_edges: bool, scalar_bar: bool) -> None:
         try:
             import pyvista as pv
         except ImportError as exc:  # pragma: no cover - pyvista is a test dependency
@@ -137,10 +115,10 @@ class _MeshRenderer:
             vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
         except ImportError:  # pragma: no cover
             pass
-        _load_opencl_first()
-        self.pd = mesh.to_pyvista()
-        self.pd.point_data["field"] = np.zeros(mesh.n_vertices)
-        self.n = mesh.n_vertices
+        cells = np.hstack([np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel()
+        self.pd = pv.PolyData(np.asarray(vertices, dtype=np.float64), cells)
+        self.n = len(vertices)
+        self.pd.point_data["field"] = np.zeros(self.n)
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background(background)
         self.plotter.add_mesh(self.pd, scalars="field", cmap=cmap, clim=list(clim),
@@ -149,16 +127,79 @@ class _MeshRenderer:
         _camera(self.plotter, camera)
 
     def image(self, field: np.ndarray) -> np.ndarray:
-        a = np.asarray(field, dtype=np.float64).ravel()
-        if a.size != self.n:
-            raise ValueError(f"a mesh field needs one value per vertex ({self.n}), got {a.size}")
-        self.pd.point_data["field"][:] = a
+        self.pd.point_data["field"][:] = np.asarray(field, dtype=np.float64).ravel()
         self.pd.point_data["field"].Modified()
         self.plotter.render()
-        return np.asarray(self.plotter.screenshot(return_img=True))[..., :3]
+        return np.asarray(self.plotter.screenshot(return_img=True))[..., :3].copy()
 
     def close(self) -> None:
         self.plotter.close()
+
+
+def _render_frames(mesh: Any, frames: np.ndarray, options: dict) -> np.ndarray:
+    """Render every frame (``[n, n_vertices]``) of a mesh field to ``[n, h, w, 3]`` uint8.
+
+    The rendering runs in a child Python process: VTK's off-screen rendering loads Mesa's
+    LLVM, and an OpenCL driver that links another LLVM (PoCL, Oclgrind) and initialises
+    later in the same process aborts it ("LLVM ERROR: inconsistency in registered
+    CommandLine options").  ``RDGPU_RENDER_INPROCESS=1`` renders in this process instead
+    (faster; safe when no OpenCL device is opened after the first rendering)."""
+    frames = np.asarray(frames, dtype=np.float64)
+    if frames.ndim != 2 or frames.shape[1] != mesh.n_vertices:
+        raise ValueError(f"a mesh field needs one value per vertex ({mesh.n_vertices}), got "
+                         f"shape {frames.shape[1:]}")
+    if os.environ.get("RDGPU_RENDER_INPROCESS"):
+        return _render_here(np.asarray(mesh.vertices), np.asarray(mesh.faces), frames, options)
+    import subprocess
+    import sys
+    import tempfile
+
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        p for p in (root, os.environ.get("PYTHONPATH")) if p)}
+    with tempfile.TemporaryDirectory(prefix="rdgpu-render-") as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        np.savez(src, vertices=np.asarray(mesh.vertices), faces=np.asarray(mesh.faces),
+                 frames=frames, options=np.array(json.dumps(options)))
+        code = "import sys; from rdgpu.output import _render_main; _render_main(*sys.argv[1:])"
+        proc = subprocess.run([sys.executable, "-c", code, str(src), str(dst)], env=env,
+                              capture_output=True, text=True)
+        if proc.returncode != 0 or not dst.exists():
+            lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+            raise RuntimeError("rendering the mesh failed: "
+                               + (lines[-1] if lines else f"exit status {proc.returncode}"))
+        with np.load(dst) as z:
+            return z["images"]
+
+
+def _render_here(vertices: np.ndarray, faces: np.ndarray, frames: np.ndarray,
+                 options: dict) -> np.ndarray:
+    r = _MeshRenderer(vertices, faces, **options)
+    try:
+        return np.stack([r.image(f) for f in frames])
+    finally:
+        r.close()
+
+
+def _render_main(src: str, dst: str) -> None:
+    """Entry point of the rendering child process (see :func:`_render_frames`)."""
+    with np.load(src, allow_pickle=False) as z:
+        vertices, faces, frames = z["vertices"], z["faces"], z["frames"]
+        options = json.loads(str(z["options"]))
+    options["clim"] = tuple(options["clim"])
+    options["window_size"] = tuple(options["window_size"])
+    images = _render_here(vertices, faces, frames, options)
+    np.savez(dst, images=images)
+
+
+def _render_options(frames: np.ndarray, *, cmap: str, camera: Any, vmin: float | None,
+                    vmax: float | None, window_size: tuple[int, int], background: str = "white",
+                    show_edges: bool = False, scalar_bar: bool = False) -> dict:
+    if isinstance(camera, (tuple, list)):
+        camera = [list(map(float, p)) for p in camera]
+    return {"cmap": cmap, "clim": list(_limits(frames, vmin, vmax)), "camera": camera,
+            "window_size": [int(w) for w in window_size], "background": background,
+            "show_edges": bool(show_edges), "scalar_bar": bool(scalar_bar)}
 
 
 def render_mesh(
@@ -174,19 +215,18 @@ def render_mesh(
     show_edges: bool = False,
     scalar_bar: bool = False,
 ) -> np.ndarray:
-    """Render a per-vertex ``field`` on ``mesh`` off-screen; an ``(h, w, 3)`` uint8 image.
+    """Render a per-vertex ``field`` on ``mesh`` off-screen with pyvista; an ``(h, w, 3)``
+    uint8 image (rendered in a child process, see :func:`_render_frames`).
 
-    ``camera``: ``None`` (isometric view), a pyvista view name (``"xy"``, ``"iso"``, ...),
-    a ``[position, focal_point, viewup]`` triple, or a dict with any of ``position``,
-    ``focal_point``, ``viewup``, ``azimuth``, ``elevation``, ``roll`` (degrees, added to the
-    isometric view) and ``zoom``."""
-    clim = _limits(field, vmin, vmax)
-    r = _MeshRenderer(mesh, cmap=cmap, clim=clim, camera=camera, window_size=window_size,
-                      background=background, show_edges=show_edges, scalar_bar=scalar_bar)
-    try:
-        return r.image(field)
-    finally:
-        r.close()
+    ``camera``: ``None`` (isometric view, zoomed 1.3), a pyvista view name (``"xy"``,
+    ``"iso"``, ...), a ``[position, focal_point, viewup]`` triple, or a dict with any of
+    ``position``, ``focal_point``, ``viewup``, ``azimuth``, ``elevation``, ``roll``
+    (degrees, added to the isometric view) and ``zoom``."""
+    field = np.asarray(field, dtype=np.float64).ravel()
+    options = _render_options(field, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
+                              window_size=window_size, background=background,
+                              show_edges=show_edges, scalar_bar=scalar_bar)
+    return _render_frames(mesh, field[None, :], options)[0]
 
 
 def render_mesh_png(mesh: Any, field: np.ndarray, path: PathLike, *, cmap: str = "viridis",
@@ -266,13 +306,9 @@ def save_movie(
         raise ValueError(f"fps must be > 0, got {fps}")
     lo, hi = _limits(data, vmin, vmax)
     if _is_mesh(domain):
-        r = _MeshRenderer(domain, cmap=cmap, clim=(lo, hi), camera=camera,
-                          window_size=window_size, background="white", show_edges=False,
-                          scalar_bar=False)
-        try:
-            images = [r.image(f) for f in data]
-        finally:
-            r.close()
+        options = _render_options(data, cmap=cmap, camera=camera, vmin=lo, vmax=hi,
+                                  window_size=window_size)
+        images = list(_render_frames(domain, data.reshape(len(data), -1), options))
     else:
         images = []
         for f in data:

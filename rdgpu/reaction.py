@@ -176,13 +176,19 @@ class ReactionKernel:
     ``species``: names of the fields (1 or more); ``reactions``: one expression per species
     (rules in the module docstring); ``params``: the allowed parameter names (None: every
     name in the expressions that is not a species).  :attr:`param_names` lists the
-    parameters the expressions actually use: a launch needs a value for each."""
+    parameters the expressions actually use: a launch needs a value for each.
+
+    ``bounds``: optional clamps of the updated values, ``{species: (low, high)}`` with
+    ``None`` for no bound (e.g. ``{"v": (0.0, None)}`` keeps ``v >= 0``, as Turk 1991 does
+    for Turing's model).  A clamp keeps NaN (``x < low ? low : x``)."""
 
     def __init__(
         self,
         species: Sequence[str],
         reactions: Sequence[str],
         params: Iterable[str] | None = None,
+        *,
+        bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
     ):
         species = tuple(_check_identifier(s, "species name") for s in species)
         if not species:
@@ -209,10 +215,19 @@ class ReactionKernel:
         for p in used:
             _check_identifier(p, "parameter name")
         self.param_names: tuple[str, ...] = tuple(sorted(used))
+        bounds = dict(bounds or {})
+        unknown = set(bounds) - set(species)
+        if unknown:
+            raise ValueError(f"bounds for unknown species {sorted(unknown)}")
+        self.bounds: tuple[tuple[float | None, float | None], ...] = tuple(
+            tuple(None if b is None else float(b) for b in bounds.get(s, (None, None)))
+            for s in species
+        )
         self._numpy_fns: dict = {}
 
     def __repr__(self) -> str:
-        rs = ", ".join(f"{s}: {e.text}" for s, e in zip(self.species, self.expressions))
+        pairs = zip(self.species, self.expressions, strict=True)
+        rs = ", ".join(f"{s}: {e.text}" for s, e in pairs)
         return f"ReactionKernel({rs})"
 
     # ------------------------------------------------------------------ names
@@ -261,7 +276,8 @@ class ReactionKernel:
         ref = load_module("reaction", "reference.py")
         t = xs[0].dtype.type
         return ref.reaction_step(
-            list(xs), list(laps), list(D), dt, lambda fs: self.rates(fs, params, t)
+            list(xs), list(laps), list(D), dt, lambda fs: self.rates(fs, params, t),
+            bounds=self.bounds,
         )
 
     # ------------------------------------------------------------------ launch
@@ -289,7 +305,7 @@ class ReactionKernel:
         for what, arrs in (("field", xs), ("output", outs)):
             for a in arrs:
                 _same(x0, a, what)
-        for s, (lap, dif) in enumerate(zip(laps, diffusing)):
+        for s, (lap, dif) in enumerate(zip(laps, diffusing, strict=True)):
             if dif:
                 if lap is None:
                     raise ValueError(f"species {self.species[s]!r} diffuses but has no Laplacian")
@@ -321,7 +337,7 @@ class ReactionKernel:
         args = [("in", f"x{i}") for i in range(len(self.species))]
         args += [("lap", f"l{i}") for i, d in enumerate(diffusing) if d]
         args += [("out", f"o{i}") for i in range(len(self.species))]
-        for p, f in zip(self.param_names, fields):
+        for p, f in zip(self.param_names, fields, strict=True):
             args.append(("pfield" if f else "pscalar", f"p_{p}"))
         args += [("D", f"D{i}") for i, d in enumerate(diffusing) if d]
         args.append(("h", "h"))
@@ -330,7 +346,8 @@ class ReactionKernel:
     def _param_local(self, spec):
         """How an expression names each parameter in the loop body."""
         _, fields, _ = spec
-        return {p: (f"f_{p}" if f else f"p_{p}") for p, f in zip(self.param_names, fields)}
+        pairs = zip(self.param_names, fields, strict=True)
+        return {p: (f"f_{p}" if f else f"p_{p}") for p, f in pairs}
 
     def opencl_source(self, spec) -> str:
         """The OpenCL C kernel ``reaction_step`` for ``spec`` (needs ``common.cl`` first)."""
@@ -353,14 +370,22 @@ class ReactionKernel:
             else:
                 decl.append(f"const real {nm}")
         body = [f"const real s_{s} = x{i}[k];" for i, s in enumerate(self.species)]
-        body += [f"const real f_{p} = p_{p}[k];" for p, f in zip(self.param_names, fields) if f]
+        pairs = zip(self.param_names, fields, strict=True)
+        body += [f"const real f_{p} = p_{p}[k];" for p, f in pairs if f]
         for i, e in enumerate(self.expressions):
             body.append(f"const real r{i} = {e.emit(name, lit)};")
-        for i, (s, d) in enumerate(zip(self.species, diffusing)):
+        for i, (s, d) in enumerate(zip(self.species, diffusing, strict=True)):
             upd = f"(D{i} * l{i}[k] + r{i})" if d else f"r{i}"
-            body.append(f"o{i}[k] = s_{s} + h * {upd};")
+            body.append(f"real n{i} = s_{s} + h * {upd};")
+            lo, hi = self.bounds[i]
+            if lo is not None:
+                body.append(f"n{i} = (n{i} < {lit(lo)}) ? {lit(lo)} : n{i};")
+            if hi is not None:
+                body.append(f"n{i} = (n{i} > {lit(hi)}) ? {lit(hi)} : n{i};")
+            body.append(f"o{i}[k] = n{i};")
         template = read_source("reaction", "reaction.cl")
-        comment = "\n".join(f" *   R_{s} = {e.text}" for s, e in zip(self.species, self.expressions))
+        pairs = zip(self.species, self.expressions, strict=True)
+        comment = "\n".join(f" *   R_{s} = {e.text}" for s, e in pairs)
         return (
             template.replace("@REACTIONS@", comment)
             .replace("@ARGS@", ",\n                            ".join(decl))
@@ -383,15 +408,19 @@ class ReactionKernel:
             return f"s_{n}" if n in self.species else local[n]
 
         exprs = [e.emit(name, lit) for e in self.expressions]
+        bounds = [tuple(None if b is None else lit(b) for b in pair) for pair in self.bounds]
         return helpers.module_source(
             dtype="float64" if dtype == np.float64 else "float32",
             signature=self._signature(spec),
             species=[f"s_{s}" for s in self.species],
-            fields=[p for p, f in zip(self.param_names, fields) if f],
+            fields=[p for p, f in zip(self.param_names, fields, strict=True) if f],
             rates=exprs,
             diffusing=list(diffusing),
             constants=lits,
-            doc="\n".join(f"R_{s} = {e.text}" for s, e in zip(self.species, self.expressions)),
+            bounds=bounds,
+            doc="\n".join(
+                f"R_{s} = {e.text}" for s, e in zip(self.species, self.expressions, strict=True)
+            ),
         )
 
 
@@ -417,12 +446,12 @@ def _same(a: DeviceArray, b: DeviceArray, what: str) -> None:
 def _launch_numpy(kernel, backend, spec, xs, laps, outs, D, dt, pvals):
     params = {
         p: (v.handle if isinstance(v, DeviceArray) else v)
-        for p, v in zip(kernel.param_names, pvals)
+        for p, v in zip(kernel.param_names, pvals, strict=True)
     }
     hx = [x.handle for x in xs]
-    hl = [lap.handle if d else None for lap, d in zip(laps, spec[0])]
+    hl = [lap.handle if d else None for lap, d in zip(laps, spec[0], strict=True)]
     res = kernel.step_numpy(hx, hl, D, dt, params)
-    for o, r in zip(outs, res):
+    for o, r in zip(outs, res, strict=True):
         o.handle[...] = r
 
 
@@ -430,11 +459,11 @@ def _launch_fallback(kernel, backend, spec, xs, laps, outs, D, dt, pvals):
     """Any other backend: through the host (download, NumPy reference, upload)."""
     params = {
         p: (v.numpy() if isinstance(v, DeviceArray) else v)
-        for p, v in zip(kernel.param_names, pvals)
+        for p, v in zip(kernel.param_names, pvals, strict=True)
     }
     hx = [x.numpy() for x in xs]
-    hl = [lap.numpy() if d else None for lap, d in zip(laps, spec[0])]
-    for o, r in zip(outs, kernel.step_numpy(hx, hl, D, dt, params)):
+    hl = [lap.numpy() if d else None for lap, d in zip(laps, spec[0], strict=True)]
+    for o, r in zip(outs, kernel.step_numpy(hx, hl, D, dt, params), strict=True):
         backend.copy(backend.upload(np.ascontiguousarray(r, dtype=o.dtype)), o)
 
 
@@ -488,10 +517,10 @@ def _launch_warp(kernel, backend, spec, xs, laps, outs, D, dt, pvals):
     t = spec[2].type
     flat = backend._flat
     args = [flat(x) for x in xs]
-    args += [flat(lap) for lap, d in zip(laps, spec[0]) if d]
+    args += [flat(lap) for lap, d in zip(laps, spec[0], strict=True) if d]
     args += [flat(o) for o in outs]
     args += [flat(v) if isinstance(v, DeviceArray) else t(v) for v in pvals]
-    args += [t(d) for d, dif in zip(D, spec[0]) if dif]
+    args += [t(d) for d, dif in zip(D, spec[0], strict=True) if dif]
     args.append(t(dt))
     if backend._cells:
         backend._launch(mod.cells, n, args, 0)
@@ -538,10 +567,10 @@ def _launch_opencl(kernel, backend, spec, xs, laps, outs, D, dt, pvals):
     k = _opencl_kernel(kernel, backend, spec)
     t = spec[2].type
     args = [x.handle for x in xs]
-    args += [lap.handle for lap, d in zip(laps, spec[0]) if d]
+    args += [lap.handle for lap, d in zip(laps, spec[0], strict=True) if d]
     args += [o.handle for o in outs]
     args += [v.handle if isinstance(v, DeviceArray) else t(v) for v in pvals]
-    args += [t(d) for d, dif in zip(D, spec[0]) if dif]
+    args += [t(d) for d, dif in zip(D, spec[0], strict=True) if dif]
     args.append(t(dt))
     if backend.layout == "row":
         chunk, group = OPENCL_CHUNK, 1

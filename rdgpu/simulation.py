@@ -10,9 +10,11 @@ values, a time step, a backend and a dtype, and runs it::
 While it runs, the fields stay on the device.  Snapshots are device-to-device copies into
 preallocated buffers, downloaded in batches (when the batch is full, at a checkpoint and at
 the end).  Every ``check_every`` steps the state is downloaded and checked for NaN, Inf and
-blow-up; a bad state stops the run with :class:`~rdgpu.errors.SimulationDiverged`, naming
-the first bad step (found by replaying from the last good state), the field and a likely
-cause, and keeping the last good state in ``exc.result``.
+blow-up (``|x| >`` :data:`DEFAULT_BOUND`, or the model's optional ``blowup_bound``: a number
+or a per-species dict); a bad state stops the run with
+:class:`~rdgpu.errors.SimulationDiverged`, naming the first bad step (found by replaying
+from the last good state), the field and a likely cause, and keeping the last good state
+in ``exc.result``.
 
 Checkpoints (``checkpoint=PATH``) are NPZ files written atomically (temporary file in the
 same folder, ``fsync``, ``os.replace``): the state, the step, the parameters, the model,
@@ -43,13 +45,17 @@ from .errors import SimulationDiverged
 
 __all__ = [
     "DEFAULT_BOUND",
+    "FALLBACK_INITS",
+    "INIT_KINDS",
     "Result",
     "Simulation",
+    "SimulationDiverged",
     "build_domain",
+    "default_dt",
+    "default_init",
     "describe_domain",
     "initial_state",
     "package_versions",
-    "SimulationDiverged",
 ]
 
 #: default blow-up bound: ``|x| > DEFAULT_BOUND`` counts as diverged

@@ -41,7 +41,9 @@ def as_grid(a: Any, name: str) -> np.ndarray:
 
 def same_shape(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
     if a.shape != b.shape:
-        raise ValueError(f"{name_b} has shape {b.shape} but {name_a} has shape {a.shape}; they must match")
+        raise ValueError(
+            f"{name_b} has shape {b.shape} but {name_a} has shape {a.shape}; they must match"
+        )
 
 
 def same_dtype(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
@@ -84,7 +86,9 @@ def scalar_or_field(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
         if a.ndim == 1 and like.shape[0] == 1 and a.shape[0] == like.shape[1]:
             a = a.reshape(like.shape)
         else:
-            raise ValueError(f"{name} has shape {a_shape}; it must be a scalar or match {like.shape}")
+            raise ValueError(
+                f"{name} has shape {a_shape}; it must be a scalar or match {like.shape}"
+            )
     if not np.isfinite(a).all():
         raise ValueError(f"{name} contains NaN or Inf; all values must be finite")
     return np.ascontiguousarray(a, dtype=like.dtype)

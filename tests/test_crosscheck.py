@@ -76,7 +76,7 @@ def test_gray_scott(backend, dtype, shape, bc, fields, ref):
 @pytest.mark.parametrize("shape", EVEN_SHAPES + [(1, 7), (3, 5), (7, 1)], ids=str)
 def test_sor_sweep(backend, dtype, shape, bc, ref):
     parsed = parse_bc(bc)
-    if any(a.kind == 0 and n % 2 for a, n in zip((parsed.y, parsed.x), shape)):
+    if any(a.kind == 0 and n % 2 for a, n in zip((parsed.y, parsed.x), shape, strict=True)):
         pytest.skip("odd periodic axis: rejected by the API (tested in test_errors)")
     c = rand(shape, dtype, 7)
     fixed = np.random.default_rng(8).random(shape) < 0.2

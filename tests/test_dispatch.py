@@ -73,11 +73,27 @@ def test_environment_variable_selects_backend():
 
 def test_opencl_device_by_name_and_index():
     be = rdgpu.get_backend("opencl")
+    word = be.device.split()[0].split("-")[0]  # e.g. "pthread" for PoCL's CPU device
+    by_name = rdgpu.get_backend(f"opencl:{word}")
+    assert by_name.name == "opencl" and by_name.device == be.device
     by_index = rdgpu.get_backend("opencl:0:0")
-    assert by_index.device == be.device or "0:0"
+    assert by_index.name == "opencl"
     u = np.random.default_rng(0).random((5, 7))
-    np.testing.assert_allclose(rdgpu.laplacian(u, backend=by_index),
+    np.testing.assert_allclose(rdgpu.laplacian(u, backend=by_name),
                                rdgpu.laplacian(u, backend="numpy"), atol=1e-12)
+
+
+def test_opencl_device_from_environment():
+    be = rdgpu.get_backend("opencl")
+    word = be.device.split()[0].split("-")[0]
+    code = "import rdgpu; print(rdgpu.get_backend('opencl').device)"
+    env = {**__import__("os").environ, "RDGPU_OPENCL_DEVICE": word}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         check=True)
+    assert out.stdout.strip() == be.device
+    env["RDGPU_OPENCL_DEVICE"] = "no-such-device"
+    bad = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert bad.returncode != 0 and "no-such-device" in bad.stderr
 
 
 def test_same_result_from_every_backend_via_context():

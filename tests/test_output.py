@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
+from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
 import pytest
 from test_simulation import toy_sim
 
+import rdgpu
 from rdgpu import output
 from rdgpu.domains import Grid
 from rdgpu.mesh import SurfaceMesh, load_with_fields
@@ -22,7 +26,13 @@ def grid_result():
 
 @pytest.fixture(scope="module")
 def sphere():
+    pytest.importorskip("trimesh")
     return SurfaceMesh.icosphere(2)
+
+
+@pytest.fixture
+def pyvista():
+    return pytest.importorskip("pyvista")
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +121,7 @@ def test_npz_of_a_mesh_run(mesh_result, tmp_path):
 
 
 @pytest.mark.parametrize("ext", [".vtk", ".ply"])
-def test_mesh_files_keep_the_fields(mesh_result, tmp_path, ext):
+def test_mesh_files_keep_the_fields(mesh_result, tmp_path, ext, pyvista):
     written = output.write_outputs(mesh_result, data=[tmp_path / f"f{ext}"])
     mesh, fields = load_with_fields(written[0])
     assert mesh.n_vertices == mesh_result.domain.n_vertices
@@ -125,21 +135,18 @@ def test_mesh_file_needs_a_mesh(grid_result, tmp_path):
         output.write_outputs(grid_result, data=tmp_path / "g.csv")
 
 
-def test_mesh_png_renders_the_field(mesh_result, tmp_path):
+def test_mesh_png_renders_the_field(mesh_result, tmp_path, pyvista):
     p = output.save_png(tmp_path / "mesh.png", mesh_result.fields["u"], mesh_result.domain,
-                        window_size=(160, 160))
+                        window_size=(160, 160), camera={"azimuth": 30, "zoom": 1.2})
     img = iio.imread(p)[..., :3]
     assert img.shape == (160, 160, 3)
     assert (img[0, 0] == 255).all()  # white background
     centre = img[50:110, 50:110].reshape(-1, 3)
     assert (centre.astype(int).sum(axis=1) < 3 * 250).mean() > 0.9  # the sphere is there
     assert len(np.unique(centre, axis=0)) > 20  # coloured by the field, not flat
-    other = output.render_mesh(mesh_result.domain, -mesh_result.fields["u"],
-                               window_size=(160, 160), camera={"azimuth": 30, "zoom": 1.2})
-    assert np.abs(other.astype(int) - img).mean() > 5
 
 
-def test_mesh_movie(mesh_result, tmp_path):
+def test_mesh_movie(mesh_result, tmp_path, pyvista):
     p = output.write_outputs(mesh_result, movie=tmp_path / "mesh.gif", camera="xy")[0]
     frames = iio.imread(p, index=None)
     assert frames.shape[0] == 3
@@ -149,3 +156,28 @@ def test_mesh_movie(mesh_result, tmp_path):
 def test_write_outputs_rejects_unknown_field(grid_result, tmp_path):
     with pytest.raises(ValueError, match="no field 'w'"):
         output.write_outputs(grid_result, png=tmp_path / "x.png", field="w")
+
+
+@pytest.mark.slow
+def test_rendering_leaves_opencl_usable(tmp_path, pyvista):
+    """Rendering must not break OpenCL drivers opened later in the same process (Mesa's and
+    PoCL's/Oclgrind's LLVM copies abort when loaded in that order); run in a subprocess so
+    a regression fails this test instead of killing the session."""
+    script = """
+import numpy as np, pyopencl as cl, rdgpu
+from rdgpu import output
+from rdgpu.mesh import SurfaceMesh
+m = SurfaceMesh.icosphere(1)
+output.render_mesh(m, m.vertices[:, 2], window_size=(64, 64))
+u = np.random.default_rng(0).random((4, 6))
+for i, p in enumerate(cl.get_platforms()):
+    rdgpu.laplacian(u, backend=f"opencl:{i}:0")
+print("ok")
+"""
+    pytest.importorskip("pyopencl")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(Path(rdgpu.__file__).resolve().parents[1]), os.environ.get("PYTHONPATH", "")])}
+    env.pop("RDGPU_RENDER_INPROCESS", None)
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=env, timeout=300)
+    assert proc.returncode == 0 and "ok" in proc.stdout, proc.stderr[-2000:]

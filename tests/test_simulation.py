@@ -105,6 +105,7 @@ GRID = Grid((40, 50))
 
 @pytest.fixture(scope="module")
 def sphere():
+    pytest.importorskip("trimesh")
     return SurfaceMesh.icosphere(2)
 
 
@@ -423,3 +424,52 @@ def test_resume_rejects_another_simulation(tmp_path):
     (tmp_path / "junk.npz").write_bytes(b"not a checkpoint")
     with pytest.raises(ValueError, match="not a readable"):
         toy_sim().run(40, resume=tmp_path / "junk.npz")
+
+
+# ------------------------------------------------------------- with the real models
+def test_mesh_run_with_a_field_parameter_resumes_bitwise(tmp_path):
+    models = pytest.importorskip("rdgpu.models")
+    pytest.importorskip("trimesh")
+    mesh = SurfaceMesh.icosphere(2)
+    b = np.where(np.asarray(mesh.vertices)[:, 2] > 0, -0.1, 0.1)
+    init = {"kind": "patch", "values": {"u": 1.0}, "patch": {"u": "random"}, "radius": 0.4}
+
+    def make():
+        return Simulation(models.MODELS["allen-cahn"], mesh, {"b": b, "eps": 0.3},
+                          backend="numpy", dtype="float64", seed=2, init=init)
+
+    settings = {"snapshot_every": 25, "check_every": 20, "checkpoint_every": 40,
+                "progress": False}
+    ref = make().run(130, **settings)
+    sim = make()
+    real, done = sim.stepper.advance, [0]
+
+    def dying(n):
+        if done[0] + n > 90:
+            raise Interrupt
+        done[0] += n
+        real(n)
+
+    sim.stepper.advance = dying
+    with pytest.raises(Interrupt):
+        sim.run(130, checkpoint=tmp_path / "m.npz", **settings)
+    resumed = Simulation.resume(tmp_path / "m.npz")  # model looked up by name
+    assert resumed.step == 80 and resumed.domain.n_vertices == mesh.n_vertices
+    np.testing.assert_array_equal(resumed.params["b"], b)
+    assert_same_result(ref, resumed.run(progress=False))
+
+
+def test_from_preset(tmp_path):
+    models = pytest.importorskip("rdgpu.models")
+    preset = models.Preset(
+        name="tiny", model="gray-scott", params={"F": 0.03, "k": 0.055}, dt=1.0, steps=40,
+        domain={"grid": (16, 16)}, init=SQUARE, source="a test", expect="spots",
+        snapshot_every=10, seed=5,
+    )
+    sim = Simulation.from_preset(preset, backend="numpy")
+    assert sim.params["F"] == 0.03 and sim.seed == 5 and sim.domain.shape == (16, 16)
+    res = sim.run(progress=False)
+    assert res.step == 40 and list(res.snapshot_steps) == [0, 10, 20, 30, 40]
+    other = Simulation.from_preset(preset, backend="numpy", params={"k": 0.06}, seed=1,
+                                   domain={"grid": (8, 12)})
+    assert other.params == {**sim.params, "k": 0.06} and other.shape == (8, 12)

@@ -21,18 +21,25 @@ def reaction_step(
     D: Sequence[float],
     dt: float,
     rates: Callable[[list[np.ndarray]], list],
+    bounds: Sequence[tuple[float | None, float | None]] | None = None,
 ) -> list[np.ndarray]:
     """One forward-Euler update of every species.
 
     ``xs``: the fields (same shape and dtype); ``laps[s]``: ``Δx_s`` (ignored, may be None,
-    where ``D[s] == 0``); ``rates(xs)`` returns ``R_s`` per species (arrays or scalars)."""
+    where ``D[s] == 0``); ``rates(xs)`` returns ``R_s`` per species (arrays or scalars);
+    ``bounds[s] = (low, high)`` clamps the new value (None: no bound; NaN stays NaN)."""
     t = xs[0].dtype.type
     h = t(dt)
+    bounds = bounds or [(None, None)] * len(xs)
     out = []
-    for x, lap, d, r in zip(xs, laps, D, rates(list(xs)), strict=True):
+    for x, lap, d, r, (lo, hi) in zip(xs, laps, D, rates(list(xs)), bounds, strict=True):
         if float(d) != 0.0:
             new = x + h * (t(d) * lap + r)
         else:
             new = x + h * r
+        if lo is not None:
+            new = np.where(new < t(lo), t(lo), new)
+        if hi is not None:
+            new = np.where(new > t(hi), t(hi), new)
         out.append(np.asarray(np.broadcast_to(new, x.shape), dtype=x.dtype))
     return out

@@ -39,6 +39,7 @@ def module_source(
     diffusing: list[bool],
     constants: list[str],
     doc: str,
+    bounds: list[tuple[str | None, str | None]] | None = None,
 ) -> str:
     """The module text.
 
@@ -47,16 +48,24 @@ def module_source(
     (``p_NAME``), ``D`` (``D{i}``) and ``h``; ``species``: the local names of the species
     values; ``fields``: parameters that are per-element arrays (read into ``f_NAME``);
     ``rates``: the expressions (already in those local names); ``constants``: module lines
-    defining the literal constants."""
+    defining the literal constants; ``bounds``: per species the names of the constants
+    that clamp the new value from below / above (None: no clamp)."""
     types = {"in": "A1", "lap": "A1", "out": "A1", "pfield": "A1"}
     decl = ", ".join(f"{name}: {types.get(kind, 'real')}" for kind, name in signature)
     names = ", ".join(name for _, name in signature)
     body = [f"    {s} = x{i}[idx]" for i, s in enumerate(species)]
     body += [f"    f_{p} = p_{p}[idx]" for p in fields]
     body += [f"    r{i} = {r}" for i, r in enumerate(rates)]
+    bounds = bounds or [(None, None)] * len(species)
     for i, (s, d) in enumerate(zip(species, diffusing, strict=True)):
         upd = f"(D{i} * l{i}[idx] + r{i})" if d else f"r{i}"
-        body.append(f"    o{i}[idx] = {s} + h * {upd}")
+        body.append(f"    n{i} = {s} + h * {upd}")
+        lo, hi = bounds[i]
+        if lo is not None:
+            body.append(f"    n{i} = wp.where(n{i} < {lo}, {lo}, n{i})")
+        if hi is not None:
+            body.append(f"    n{i} = wp.where(n{i} > {hi}, {hi}, n{i})")
+        body.append(f"    o{i}[idx] = n{i}")
     text = _HEADER.format(doc=doc, dtype=dtype, constants="\n".join(constants))
     text += f"""
 

@@ -14,6 +14,9 @@ Two launch layouts run the same inline cell functions (see ``kernels/common.cl``
 The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment variable
 ``RDGPU_OPENCL_LAYOUT``; the device with ``OpenCLBackend(device=...)`` or
 ``RDGPU_OPENCL_DEVICE``.
+
+Contexts, queues and kernel objects are shared by every backend instance on one device;
+a launch is ``set_args`` then enqueue, so one backend must not be driven from two threads.
 """
 
 from __future__ import annotations

@@ -38,6 +38,28 @@ _REAL = (np.dtype(np.float32), np.dtype(np.float64))
 
 
 @contextmanager
+def _native_stderr_silenced():
+    """Hide what native code prints on file descriptor 2 (Warp's "CUDA driver not found"
+    notice on CPU-only machines); Python exceptions still propagate."""
+    import sys
+    import tempfile
+
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real stderr (e.g. some notebooks)
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+@contextmanager
 def _quiet(wp):
     """No greeting or module-load lines from Warp (older Warp reads ``config.quiet``,
     newer ``config.log_level``); the settings are restored afterwards."""
@@ -90,7 +112,7 @@ class WarpBackend(Backend):
             raise ValueError(f"launch must be 'auto', 'rows' or 'cells', got {launch!r}")
         wp = _import_warp()
         try:
-            with _quiet(wp):
+            with _quiet(wp), _native_stderr_silenced():
                 wp.init()
         except Exception as exc:  # a broken install, a driver failure
             raise BackendUnavailableError(f"NVIDIA Warp failed to initialise: {exc}") from exc
@@ -408,3 +430,17 @@ class WarpBackend(Backend):
             *self._bc_args(bc, t),
         ]
         self._run_grid(kernels, phi.shape, args)
+
+
+def cuda_device_count() -> int:
+    """How many CUDA devices Warp can use here (0 without a driver); used by ``"auto"``.
+
+    Without an NVIDIA driver on the machine this answers 0 without importing Warp."""
+    import ctypes.util
+
+    if ctypes.util.find_library("cuda") is None and not os.path.exists("/dev/nvidiactl"):
+        return 0
+    wp = _import_warp()
+    with _quiet(wp), _native_stderr_silenced():
+        wp.init()
+    return wp.get_cuda_device_count() if wp.is_cuda_available() else 0
