@@ -1,11 +1,25 @@
-"""Benchmark every grid kernel on every backend, side by side in one run.
+"""Benchmark every grid kernel and the mesh (CSR) kernels on every backend, in one run.
 
     python perf/bench.py [--sizes 256 1024 2048] [--seconds 0.4] [--out perf/results]
+                         [--mesh-vertices 1000000] [--mesh-kernels spmv mesh_gray_scott]
 
 Prints and saves (JSON and a Markdown table) Mcell/s, the ratio to NumPy measured in the
 same run, and the fraction of the memory-bandwidth roofline: the machine's bandwidth is
 measured here (a STREAM-style triad, the best of NumPy on one core and OpenCL on all),
 and each kernel's roofline is bandwidth / (bytes it must move per cell).
+
+Mesh rows (``--mesh-vertices N``, 0 to skip): a geodesic icosphere with about N vertices
+(class-I subdivision of the icosahedron at frequency f, ``10 f² + 2`` vertices, ordered face
+by face), float32 ``L = A⁻¹W``.  ``spmv`` is ``y = L x``; ``mesh_gray_scott`` one fused
+Gray-Scott step.  Rows per backend plus a ``scipy`` baseline (``L @ x``, single-threaded;
+for Gray-Scott two ``L @`` products plus the NumPy update); Mvertex/s, the ratio to SciPy and
+to the NumPy backend (the reference kernels), and the roofline fraction.  Bytes a CSR row
+moves (float32, int32): ``indptr`` 4 + (``indices`` 4 + ``data`` 4) per stored entry + ``x``
+4 + ``y`` 4 — ``x`` counted once per vertex, the *lower* bound (the caches catch the reuse of
+``x[j]`` by the ~7 rows that share it; counting it once per stored entry, the upper bound,
+adds 4 per entry and is saved as ``bytes_per_row_upper``).  Gray-Scott: ``indptr``, indices
+and data once, ``u``, ``v`` read, ``u'``, ``v'`` written.  The roofline fraction uses the
+lower bound, i.e. the most demanding roofline.
 """
 
 from __future__ import annotations
@@ -13,12 +27,17 @@ from __future__ import annotations
 import argparse
 import json
 import platform
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-import rdgpu
+try:
+    import rdgpu
+except ImportError:  # run from a source checkout without installing
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import rdgpu
 from rdgpu.boundary import parse_bc
 
 # Bytes a kernel must move per cell in float32 (reads + writes of full arrays).
@@ -159,6 +178,161 @@ def time_case(be, step, seconds: float) -> float:
     return best
 
 
+# ---------------------------------------------------------------------------- mesh rows
+MESH_KERNELS = ("spmv", "mesh_gray_scott")
+
+
+def geodesic_sphere(frequency: int):
+    """Unit geodesic sphere: every icosahedron face cut into ``frequency²`` triangles,
+    vertices projected to the sphere; ``10 f² + 2`` vertices numbered face by face (each
+    new vertex in the order the faces' barycentric grids reach it), ``20 f²`` faces."""
+    import trimesh
+
+    from rdgpu.mesh import SurfaceMesh
+
+    f = int(frequency)
+    ico = trimesh.creation.icosahedron()
+    V0, F0 = np.asarray(ico.vertices, dtype=np.float64), np.asarray(ico.faces, dtype=np.int64)
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(f + 1), np.arange(f + 1), indexing="ij"))
+    keep = i + j <= f
+    i, j = i[keep], j[keep]
+    k = f - i - j
+    lut = np.full((f + 1, f + 1), -1, dtype=np.int64)
+    lut[i, j] = np.arange(i.size)
+    up = i + j < f
+    tri = [np.stack([lut[i[up], j[up]], lut[i[up] + 1, j[up]], lut[i[up], j[up] + 1]], 1)]
+    dn = i + j < f - 1
+    tri.append(np.stack([lut[i[dn] + 1, j[dn]], lut[i[dn] + 1, j[dn] + 1],
+                         lut[i[dn], j[dn] + 1]], 1))
+    local_tris = np.concatenate(tri)
+    # every point of every face as (corner, weight) pairs; a canonical key merges the points
+    # that faces share (edges, corners) exactly, without comparing coordinates
+    corners = np.repeat(F0, i.size, axis=0).reshape(20, i.size, 3)
+    weights = np.broadcast_to(np.stack([k, i, j], 1), (20, i.size, 3))
+    corners = np.where(weights > 0, corners, 15).reshape(-1, 3)
+    weights = weights.reshape(-1, 3)
+    order = np.argsort(corners, axis=1, kind="stable")
+    c = np.take_along_axis(corners, order, 1)
+    w = np.take_along_axis(weights, order, 1)
+    key = ((c[:, 0] * 4096 + w[:, 0]) * 65536 + c[:, 1] * 4096 + w[:, 1]) * 65536 \
+        + c[:, 2] * 4096 + w[:, 2]
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    rank = np.empty(first.size, dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.size)
+    vid = rank[inverse.ravel()]
+    pts = (weights[:, :, None] * V0[np.where(corners == 15, 0, corners)]).sum(1) / f
+    V = np.empty((first.size, 3))
+    V[vid] = pts
+    V /= np.linalg.norm(V, axis=1, keepdims=True)
+    faces = (vid.reshape(20, i.size)[:, local_tris]).reshape(-1, 3)
+    return SurfaceMesh(V, faces)
+
+
+def mesh_bytes(L) -> tuple[float, float]:
+    """(lower, upper) bytes per row of ``y = L x`` in float32 (see the module doc)."""
+    n = L.shape[0]
+    per_row_entries = L.nnz / n
+    base = 4 + 8 * per_row_entries + 4  # indptr, indices + data, y
+    return base + 4, base + 4 * per_row_entries
+
+
+def make_mesh_case(kernel: str, name: str, be, L, n: int):
+    """A closure running one step of ``kernel`` on backend ``be`` (``name == "scipy"``: the
+    SciPy baseline on the host)."""
+    f32 = np.float32
+    rng = np.random.default_rng(0)
+    x = rng.random(n, f32)
+    u = np.ones(n, f32)
+    v = np.zeros(n, f32)
+    u[: n // 20], v[: n // 20] = 0.5, 0.25
+    params = dict(Du=2e-5, Dv=1e-5, F=0.035, k=0.06, dt=1e-3)
+    if name == "scipy":
+        L32 = L.astype(f32)
+        if kernel == "spmv":
+            return lambda: L32 @ x
+        h, F, k = f32(params["dt"]), f32(params["F"]), f32(params["k"])
+        Du, Dv = f32(params["Du"]), f32(params["Dv"])
+
+        def gs():
+            uvv = u * v * v
+            return (u + h * (Du * (L32 @ u) - uvv + F * (f32(1) - u)),
+                    v + h * (Dv * (L32 @ v) + uvv - (F + k) * v))
+
+        return gs
+    A = be.upload_csr(L, f32)
+    if kernel == "spmv":
+        dx, y = be.upload(x), be.empty((n,), f32)
+        return lambda: be.spmv(A, dx, y)
+    bufs = [be.upload(u), be.upload(v), be.empty((n,), f32), be.empty((n,), f32)]
+
+    def step():
+        be.mesh_gray_scott(A, bufs[0], bufs[1], bufs[2], bufs[3], **params)
+        bufs[:] = [bufs[2], bufs[3], bufs[0], bufs[1]]
+
+    return step
+
+
+def mesh_rows(args, backends: dict, bw: dict) -> list[dict]:
+    f = max(1, round(((args.mesh_vertices - 2) / 10) ** 0.5))
+    t0 = time.perf_counter()
+    mesh = geodesic_sphere(f)
+    L = mesh.laplacian
+    n = mesh.n_vertices
+    print(f"mesh: geodesic sphere f={f}: {n} vertices, {L.nnz} stored entries "
+          f"({L.nnz / n:.2f}/row), assembled in {time.perf_counter() - t0:.1f} s", flush=True)
+    lower, upper = mesh_bytes(L)
+    gs_bytes = 4 + 8 * L.nnz / n + 16
+    rows = []
+    host = rdgpu.get_backend("numpy")
+    for kernel in args.mesh_kernels:
+        per_row = lower if kernel == "spmv" else gs_bytes
+        roof = bw["GBps"] * 1e9 / per_row / 1e6
+        timed = {}
+        for name in ("scipy", *backends):
+            be = host if name == "scipy" else backends[name]
+            timed[name] = time_case(be, make_mesh_case(kernel, name, be, L, n), args.seconds)
+        for name, seconds in timed.items():
+            mv = n / seconds / 1e6
+            row = dict(kernel=kernel, size=n, backend=name,
+                       device="cpu (SciPy, 1 thread)" if name == "scipy"
+                       else backends[name].device,
+                       seconds_per_step=seconds, mvertices=mv, mcells=mv,
+                       vs_scipy=timed["scipy"] / seconds,
+                       speedup=timed["numpy"] / seconds if "numpy" in timed else float("nan"),
+                       bytes_per_row=per_row,
+                       bytes_per_row_upper=upper if kernel == "spmv" else gs_bytes
+                       + 8 * L.nnz / n,
+                       roofline_mcells=roof, roofline_fraction=mv / roof, nnz=L.nnz)
+            rows.append(row)
+            print(f"{kernel:16s} {n:8d}v {name:7s} {mv:9.1f} Mvertex/s  x{row['vs_scipy']:5.2f} "
+                  f"scipy  x{row['speedup']:6.1f} numpy  "
+                  f"{100 * row['roofline_fraction']:5.1f}% roofline", flush=True)
+    return rows
+
+
+def mesh_markdown(rows: list[dict]) -> str:
+    if not rows:
+        return ""
+    lines = [
+        "",
+        "Mesh kernels (float32 CSR `L = A⁻¹W` on a geodesic icosphere). Roofline bytes per "
+        f"row: {rows[0]['bytes_per_row']:.1f} (SpMV, x counted once per vertex: the lower "
+        "bound; once per entry would be "
+        f"{rows[0]['bytes_per_row_upper']:.1f}).",
+        "",
+        "| kernel | vertices | backend | Mvertex/s | × SciPy | × NumPy | roofline Mvertex/s "
+        "| % roofline |",
+        "|---|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['kernel']} | {r['size']} | {r['backend']} | {r['mvertices']:.0f} | "
+            f"{r['vs_scipy']:.2f} | {r['speedup']:.1f} | {r['roofline_mcells']:.0f} | "
+            f"{100 * r['roofline_fraction']:.0f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def markdown(rows: list[dict], bandwidth: float) -> str:
     lines = [
         f"Measured bandwidth (triad): {bandwidth:.1f} GB/s. float32, periodic, best of repeats.",
@@ -167,20 +341,29 @@ def markdown(rows: list[dict], bandwidth: float) -> str:
         "|---|---|---|---:|---:|---:|---:|",
     ]
     for r in rows:
+        if r["kernel"] in MESH_KERNELS:
+            continue
         lines.append(
             f"| {r['kernel']} | {r['size']}² | {r['backend']} | {r['mcells']:.0f} | "
-            f"{r['speedup']:.1f} | {r['roofline_mcells']:.0f} | {100 * r['roofline_fraction']:.0f} |"
+            f"{r['speedup']:.1f} | {r['roofline_mcells']:.0f} | "
+            f"{100 * r['roofline_fraction']:.0f} |"
         )
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n" + mesh_markdown(
+        [r for r in rows if r["kernel"] in MESH_KERNELS])
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument("--sizes", type=int, nargs="+", default=[256, 1024, 2048])
-    parser.add_argument("--kernels", nargs="+", default=list(BYTES_PER_CELL))
+    parser.add_argument("--kernels", nargs="*", default=list(BYTES_PER_CELL),
+                        help="grid kernels (none: only the mesh rows)")
     parser.add_argument("--backends", nargs="+", default=["numpy", "warp", "opencl"])
     parser.add_argument("--seconds", type=float, default=0.4, help="timing per case")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
+    parser.add_argument("--mesh-vertices", type=int, default=1_000_000,
+                        help="vertices of the mesh rows' icosphere (about; 0: no mesh rows)")
+    parser.add_argument("--mesh-kernels", nargs="+", default=list(MESH_KERNELS),
+                        choices=MESH_KERNELS)
     args = parser.parse_args(argv)
 
     bw = measure_bandwidth(min(args.seconds, 0.5))
@@ -201,11 +384,14 @@ def main(argv: list[str] | None = None) -> int:
                            roofline_mcells=roof, roofline_fraction=mcells / roof)
                 rows.append(row)
                 print(f"{kernel:14s} {n:5d}² {name:7s} {mcells:9.1f} Mcell/s "
-                      f"x{row['speedup']:5.1f} numpy  {100 * row['roofline_fraction']:5.1f}% roofline",
-                      flush=True)
+                      f"x{row['speedup']:5.1f} numpy  "
+                      f"{100 * row['roofline_fraction']:5.1f}% roofline", flush=True)
+    if args.mesh_vertices > 0 and args.mesh_kernels:
+        rows += mesh_rows(args, backends, bw)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    meta = dict(machine=platform.processor() or platform.machine(), python=platform.python_version(),
+    meta = dict(machine=platform.processor() or platform.machine(),
+                python=platform.python_version(),
                 rdgpu=rdgpu.__version__, numpy=np.__version__, bandwidth=bw,
                 devices={n: b.device for n, b in backends.items()},
                 date=time.strftime("%Y-%m-%d %H:%M"))

@@ -10,7 +10,9 @@ per process (``rdgpu.set_backend("numpy")`` or ``RDGPU_BACKEND``); ``"auto"`` ot
 """
 
 from .api import (
+    allen_cahn,
     bernoulli_substep,
+    diffusion_step,
     gray_scott,
     gray_scott_dt_limit,
     laplacian,
@@ -20,17 +22,33 @@ from .api import (
     reinitialize,
     sor_solve,
     sor_sweep,
+    spmv,
 )
 from .dispatch import available_backends, get_backend, set_backend, use_backend
 from .errors import BackendUnavailableError, StabilityError
+from .implicit import ImplicitDiffusion
 
 __version__ = "0.1.0"
 
+
+def __getattr__(name: str):
+    # rdgpu.SurfaceMesh without importing the mesh module (SciPy, trimesh) at import time
+    if name == "SurfaceMesh":
+        from .mesh import SurfaceMesh
+
+        return SurfaceMesh
+    raise AttributeError(f"module 'rdgpu' has no attribute {name!r}")
+
+
 __all__ = [
     "BackendUnavailableError",
+    "ImplicitDiffusion",
     "StabilityError",
+    "SurfaceMesh",
+    "allen_cahn",
     "available_backends",
     "bernoulli_substep",
+    "diffusion_step",
     "get_backend",
     "gray_scott",
     "gray_scott_dt_limit",
@@ -42,5 +60,6 @@ __all__ = [
     "set_backend",
     "sor_solve",
     "sor_sweep",
+    "spmv",
     "use_backend",
 ]

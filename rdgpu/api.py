@@ -31,6 +31,52 @@ def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceA
     return backend.upload(x) if isinstance(x, np.ndarray) else x
 
 
+def _check_mesh(mesh: Any) -> Any:
+    from .mesh import SurfaceMesh
+
+    if not isinstance(mesh, SurfaceMesh):
+        raise TypeError(f"mesh must be an rdgpu.SurfaceMesh, got {type(mesh).__name__}")
+    return mesh
+
+
+def _mesh_field(u: Any, mesh: Any, name: str) -> np.ndarray:
+    """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite."""
+    n = _check_mesh(mesh).n_vertices
+    shape = np.shape(u)
+    if len(shape) != 1 or shape[0] != n:
+        raise ValueError(
+            f"{name} has shape {shape}; on a mesh of {n} vertices it must be a 1-D array of "
+            f"{n} values (one per vertex, in the order of mesh.vertices)"
+        )
+    return check.as_field(u, name, ndim=(1,))
+
+
+def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
+    """With ``mesh=``, the grid arguments must keep their defaults."""
+    given = [name for name, value, default in (("dx", dx, 1.0), ("dy", dy, None),
+                                               ("bc", bc, "periodic"), ("stencil", stencil, 5))
+             if not (value is default or (isinstance(value, (int, float, str))
+                                         and not isinstance(value, bool) and value == default))]
+    if given:
+        raise ValueError(
+            f"{', '.join(given)} given together with mesh=: a mesh carries its own geometry "
+            "(its boundary, if open, is zero-flux), so the grid arguments dx, dy, bc and "
+            "stencil do not apply"
+        )
+
+
+def _grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u"):
+    """``(field, domain)``: a per-vertex field and the mesh, or a grid field and its Grid."""
+    from .domains import Grid
+
+    if mesh is not None:
+        _no_grid_args(dx, dy, bc)
+        return _mesh_field(u, mesh, name), mesh
+    grid = check.as_grid(u, name)
+    dx, dy = check.spacing(dx, dy)
+    return grid, Grid(grid.shape, dx=dx, dy=dy, bc=bc)
+
+
 class _progress_bar:
     """A tqdm bar over ``total`` steps, refreshed at most ~200 times; a no-op when off."""
 
@@ -74,13 +120,28 @@ def laplacian(
     dy: float | None = None,
     bc: Any = "periodic",
     stencil: int = 5,
+    mesh: Any = None,
     backend: BackendSpec = None,
 ) -> np.ndarray:
-    """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (SPEC §1).
+    """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (SPEC §1),
+    or on a triangle mesh (SPEC §6).
 
     ``bc`` is one condition or a pair ``(y_bc, x_bc)``: ``"periodic"``, ``"neumann"`` or
     ``("dirichlet", g)``.  The 9-point stencil needs ``dx == dy``.  Units: ``[u]/length²``.
+
+    ``mesh``: a :class:`rdgpu.SurfaceMesh`; ``u`` is then one value per vertex (1-D, length
+    ``n_vertices``) and the result is ``L u`` with the cotangent operator ``L = A⁻¹W``
+    (``mesh.laplacian``; open boundaries are zero-flux).  ``dx``, ``dy``, ``bc`` and
+    ``stencil`` do not apply to a mesh and must be left at their defaults.
     """
+    if mesh is not None:
+        _no_grid_args(dx, dy, bc, stencil)
+        field = _mesh_field(u, mesh, "u")
+        be = get_backend(backend)
+        d_u = be.upload(field)
+        out = be.empty_like(d_u)
+        be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, out)
+        return out.numpy()
     grid = check.as_grid(u, "u")
     dx, dy = check.spacing(dx, dy)
     if stencil not in (5, 9):
@@ -127,6 +188,7 @@ def gray_scott(
     dx: float = 1.0,
     dy: float | None = None,
     bc: Any = "periodic",
+    mesh: Any = None,
     check_stability: bool = True,
     progress: bool = False,
     backend: BackendSpec = None,
@@ -137,16 +199,47 @@ def gray_scott(
     are scalars or per-cell arrays.  Raises :class:`StabilityError` when
     ``dt > 1 / (2 max(Du, Dv)(1/dx² + 1/dy²))`` unless ``check_stability=False``.
     ``progress=True`` shows a progress bar (tqdm) on stderr.
+
+    ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``: ``u``, ``v``
+    (and field ``F``, ``k``) hold one value per vertex and ``Δ`` is the cotangent operator
+    (SPEC §6), one fused kernel per step; the limit is then
+    ``mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L))``.
     """
-    gu, gv = check.as_grid(u, "u"), check.as_grid(v, "v")
-    check.same_shape(gu, gv, "u", "v")
+    if mesh is not None:
+        _no_grid_args(dx, dy, bc)
+        gu, gv = _mesh_field(u, mesh, "u"), _mesh_field(v, mesh, "v")
+    else:
+        gu, gv = check.as_grid(u, "u"), check.as_grid(v, "v")
+        check.same_shape(gu, gv, "u", "v")
     check.same_dtype(gu, gv, "u", "v")
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
-    dx, dy = check.spacing(dx, dy)
     F_ = check.scalar_or_field(F, "F", gu)
     k_ = check.scalar_or_field(k, "k", gu)
+    if mesh is not None:
+        d = max(Du, Dv)
+        limit = mesh.max_stable_dt(d) if d > 0 else math.inf
+        if check_stability and dt > limit:
+            raise StabilityError(
+                f"dt={dt} exceeds the forward-Euler diffusion limit {limit:.6g} = "
+                "mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L)); reduce dt or "
+                "pass check_stability=False"
+            )
+        be = get_backend(backend)
+        L = be.upload_csr(mesh.laplacian, gu.dtype)
+        cur_u, cur_v = be.upload(gu), be.upload(gv)
+        nxt_u, nxt_v = be.empty_like(cur_u), be.empty_like(cur_v)
+        d_F, d_k = _upload_optional(be, F_), _upload_optional(be, k_)
+        with _progress_bar(n, "gray-scott", progress) as bar:
+            for step in range(n):
+                be.mesh_gray_scott(L, cur_u, cur_v, nxt_u, nxt_v, Du=Du, Dv=Dv, F=d_F, k=d_k,
+                                   dt=dt)
+                cur_u, nxt_u = nxt_u, cur_u
+                cur_v, nxt_v = nxt_v, cur_v
+                bar.tick(step + 1)
+        return cur_u.numpy(), cur_v.numpy()
+    dx, dy = check.spacing(dx, dy)
     limit = gray_scott_dt_limit(Du, Dv, dx, dy)
     if check_stability and dt > limit:
         raise StabilityError(
@@ -168,6 +261,179 @@ def gray_scott(
             cur_v, nxt_v = nxt_v, cur_v
             bar.tick(step + 1)
     return _restore(cur_u.numpy(), u), _restore(cur_v.numpy(), v)
+
+
+# ---------------------------------------------------------------------------- SpMV
+def spmv(csr: Any, x: np.ndarray, backend: BackendSpec = None) -> np.ndarray:
+    """``y = A x`` on a backend for any ``scipy.sparse`` matrix or array ``A`` (any format,
+    square or not): a drop-in for ``A @ x`` with a 1-D ``x``.
+
+    The result has ``x``'s dtype (float32 or float64); ``A`` is cast to it.  Each row is
+    summed in index order in that dtype.  ``A`` is uploaded on every call: to apply one
+    operator many times, upload it once with ``backend.upload_csr`` and call
+    ``backend.spmv``.  Neither input is modified."""
+    import scipy.sparse as sp
+
+    if not sp.issparse(csr):
+        raise TypeError(
+            f"csr must be a scipy.sparse matrix or array, got {type(csr).__name__} (convert a "
+            "dense array with scipy.sparse.csr_matrix(a))"
+        )
+    if len(csr.shape) != 2:
+        raise ValueError(f"csr must be 2-D, got shape {csr.shape}")
+    if csr.dtype.kind not in "biuf":
+        raise TypeError(f"csr has dtype {csr.dtype}; only real matrices are supported")
+    n_rows, n_cols = csr.shape
+    xa = np.asarray(x) if isinstance(x, (list, tuple)) else x
+    if not isinstance(xa, np.ndarray):
+        raise TypeError(f"x must be a NumPy array, got {type(x).__name__}")
+    if xa.ndim != 1 or xa.shape[0] != n_cols:
+        raise ValueError(
+            f"x has shape {xa.shape}; the matrix of shape {csr.shape} needs a 1-D x of length "
+            f"{n_cols}"
+        )
+    if n_cols == 0 or n_rows == 0:
+        if xa.dtype not in check.DTYPES:
+            raise TypeError(f"x has unsupported dtype {xa.dtype}; allowed: float32, float64")
+        return np.zeros(n_rows, dtype=xa.dtype)
+    field = check.as_field(xa, "x", ndim=(1,))
+    m = sp.csr_matrix(csr)
+    if m.nnz and not np.isfinite(m.data).all():
+        bad = int(np.count_nonzero(~np.isfinite(m.data)))
+        raise ValueError(f"csr contains {bad} NaN or Inf value(s); all entries must be finite")
+    be = get_backend(backend)
+    A = be.upload_csr(m, field.dtype)
+    d_x = be.upload(field)
+    y = be.empty((n_rows,), field.dtype)
+    be.spmv(A, d_x, y)
+    return y.numpy()
+
+
+# ---------------------------------------------------------------------------- diffusion
+DIFFUSION_METHODS = ("explicit", "backward-euler", "crank-nicolson")
+
+
+def diffusion_step(
+    u: np.ndarray,
+    *,
+    D: float,
+    dt: float,
+    steps: int = 1,
+    method: str = "explicit",
+    source: float | np.ndarray = 0.0,
+    mesh: Any = None,
+    dx: float = 1.0,
+    dy: float | None = None,
+    bc: Any = "periodic",
+    tol: float | None = None,
+    check_stability: bool = True,
+    backend: BackendSpec = None,
+) -> np.ndarray:
+    """Advance ``u_t = D Δu + source`` by ``steps`` steps of ``dt`` on a grid or a mesh.
+
+    ``method``: ``"explicit"`` (forward Euler ``u + dt (D Δu + source)``; raises
+    :class:`StabilityError` above ``1/(2D(1/dx² + 1/dy²))`` on a grid,
+    ``mesh.max_stable_dt(D)`` on a mesh, unless ``check_stability=False``),
+    ``"backward-euler"`` (alias ``"implicit"``) or ``"crank-nicolson"``: the θ-scheme
+    ``(I − θ dt D L) u' = u + (1 − θ) dt D L u + dt source``, solved by multicolour SOR on
+    the device to ``tol`` (default 1e-8 in float64, 1e-5 in float32; see
+    :class:`rdgpu.implicit.ImplicitDiffusion`), stable at any ``dt``.
+
+    ``source`` is a number or a field of u's shape.  Grid: ``dx``, ``dy``, ``bc`` as in
+    :func:`laplacian` (5-point stencil, Dirichlet ghosts included).  ``mesh``: a
+    :class:`rdgpu.SurfaceMesh`; ``u`` has one value per vertex; the grid arguments must stay
+    at their defaults.  On a closed mesh (or a periodic/Neumann grid) every method keeps
+    ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step."""
+    from .implicit import ImplicitDiffusion, operator_matrix
+
+    method = "backward-euler" if method == "implicit" else method
+    if method not in DIFFUSION_METHODS:
+        raise ValueError(f"method must be one of {DIFFUSION_METHODS} (or 'implicit'), got "
+                         f"{method!r}")
+    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
+    D = check.scalar(D, "D")
+    dt = check.scalar(dt, "dt", strict=True)
+    n = check.steps(steps)
+    src = check.scalar_or_field(source, "source", field)
+    be = get_backend(backend)
+    cur = be.upload(field)
+    nxt = be.empty_like(cur)
+    if method == "explicit":
+        if mesh is not None:
+            limit = mesh.max_stable_dt(D) if D > 0 else math.inf
+            what = "mesh.max_stable_dt(D) = 2/(D λ_max(−L))"
+        else:
+            limit = gray_scott_dt_limit(D, D, domain.dx, domain.dy)
+            what = "1/(2 D (1/dx² + 1/dy²))"
+        if check_stability and dt > limit:
+            raise StabilityError(
+                f"dt={dt} exceeds the forward-Euler diffusion limit {limit:.6g} = {what}; "
+                "reduce dt, use method='backward-euler' or 'crank-nicolson', or pass "
+                "check_stability=False"
+            )
+        M, b = operator_matrix(domain)
+        if D != 0.0 and np.any(b != 0.0):  # Dirichlet ghosts: L u = M u + b
+            src = np.ascontiguousarray((np.asarray(src, dtype=np.float64)
+                                        + D * b.reshape(field.shape)).astype(field.dtype))
+        L = be.upload_csr(M, field.dtype)
+        d_src = _upload_optional(be, src)
+        for _ in range(n):
+            be.mesh_diffusion(L, cur, nxt, D=D, dt=dt, source=d_src)
+            cur, nxt = nxt, cur
+    else:
+        theta = 1.0 if method == "backward-euler" else 0.5
+        solver = ImplicitDiffusion(domain, D=D, dt=dt, theta=theta, backend=be,
+                                   dtype=field.dtype, tol=tol)
+        d_src = _upload_optional(be, src)
+        for _ in range(n):
+            solver.step(cur, nxt, source=d_src)
+            cur, nxt = nxt, cur
+    out = cur.numpy()
+    return out if mesh is not None else _restore(out, u)
+
+
+def allen_cahn(
+    u: np.ndarray,
+    *,
+    eps: float,
+    dt: float,
+    b: float | np.ndarray = 0.0,
+    steps: int = 1,
+    method: str = "explicit",
+    mesh: Any = None,
+    dx: float = 1.0,
+    dy: float | None = None,
+    bc: Any = "periodic",
+    check_stability: bool = True,
+    backend: BackendSpec = None,
+) -> np.ndarray:
+    """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (seed 000,
+    SPEC §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
+    source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (the stepper of
+    :class:`rdgpu.models.AllenCahn`).
+
+    ``method``: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
+    ``mesh.max_stable_dt(1)`` on a mesh; :class:`StabilityError` above it unless
+    ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
+    (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
+    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``."""
+    from .models import AllenCahn
+
+    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
+    eps = check.scalar(eps, "eps", strict=True)
+    dt = check.scalar(dt, "dt", strict=True)
+    n = check.steps(steps)
+    b_ = check.scalar_or_field(b, "b", field)
+    if method not in AllenCahn.methods:
+        raise ValueError(f"method must be one of {AllenCahn.methods}, got {method!r}")
+    stepper = AllenCahn().stepper(
+        domain, {"eps": eps, "b": b_}, dt=dt, backend=get_backend(backend), dtype=field.dtype,
+        check_stability=check_stability, method=method,
+    )
+    stepper.set_state({"u": field})
+    stepper.advance(n)
+    out = stepper.get_state()["u"]
+    return out if mesh is not None else _restore(out, u)
 
 
 # ---------------------------------------------------------------------------- SOR
@@ -195,7 +461,7 @@ def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc):
         f = f.astype(grid.dtype, copy=False)
     dx, dy = check.spacing(dx, dy)
     bcs = parse_bc(bc)
-    for axis, (n, axis_bc) in enumerate(zip(grid.shape, (bcs.y, bcs.x))):
+    for axis, (n, axis_bc) in enumerate(zip(grid.shape, (bcs.y, bcs.x), strict=True)):
         if axis_bc.kind == PERIODIC and n % 2 == 1:
             raise ValueError(
                 f"red-black SOR needs an even size along a periodic axis, but axis {axis} "

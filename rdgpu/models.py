@@ -518,9 +518,10 @@ class AllenCahn:
 
     ``method="explicit"``: forward-Euler diffusion (one Laplacian + the pointwise kernel),
     stable for ``dt ≤ dx²/4`` on a square grid (``1/(2(1/dx² + 1/dy²))``) or
-    ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"``: backward Euler /
-    Crank-Nicolson diffusion through the backend's implicit solver (unconditionally stable;
-    needs ``backend.implicit_diffusion``).  ``eps`` must be a number; ``b`` may be a field.
+    ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"`` (backward Euler) or
+    ``"crank-nicolson"``: θ-scheme diffusion solved by multicolour SOR on the device
+    (:class:`rdgpu.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
+    a number; ``b`` may be a field.
     """
 
     name = "allen-cahn"
@@ -595,8 +596,11 @@ class AllenCahn:
         The continuous flow decreases J; the Strang-split explicit scheme does so step by
         step (to round-off) at ``dt ≤ dt_limit/2`` when the interface is resolved (ε ≳ the
         spacing).  With ε well below the spacing (the pinned regime of the sphere presets)
-        the split step can raise J by ~1e-8 relative near its discrete equilibrium (a
-        splitting error that falls like dt²; measured ≤ 1.4e-8 at dt = ε²/2)."""
+        the split step can raise J slightly near its discrete equilibrium: a splitting
+        error that falls faster than dt (halving dt cut it 14× in tests/test_presets.py).
+        Measured at dt = ε²/2, as the largest one-step rise over J(0) = |Γ|/(4ε²): ≤ 1e-8
+        for the global sphere presets (ε = 0.15 h), ≤ 2e-7 for the localized ones
+        (ε = 0.3 h); use a smaller dt where a strictly monotone J matters."""
         p = {**AllenCahn.defaults, **dict(params or {})}
         if isinstance(u, DeviceArray):
             u = u.numpy()
@@ -622,8 +626,8 @@ class AllenCahn:
 class AllenCahnStepper(_BaseStepper):
     """Strang splitting of the modified Allen-Cahn equation on the device (see
     :class:`AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
-    ``dt/2``; three device buffers, no host transfer (except a mesh on a backend without
-    an SpMV kernel yet)."""
+    ``dt/2``; three device buffers, no host transfer (the implicit methods download the
+    SOR's per-vertex change to test convergence)."""
 
     def __init__(self, model, domain, params, dt, backend, dtype, method):
         super().__init__(model.species, domain, dt, backend, dtype)
@@ -642,9 +646,12 @@ class AllenCahnStepper(_BaseStepper):
             self._lap = backend.empty(self.shape, self.dtype)
         else:
             self._implicit = _implicit_solver(domain, backend, self.dtype, self.dt, method)
-            # the source −b/ε² is added by the pointwise kernel with D = 0 (explicit in
-            # time, exact for a constant source), then the implicit diffusion solve
-            self._rhs = backend.empty(self.shape, self.dtype)
+            # the source −b/ε² enters the θ-scheme of ū_t = Δū − b/ε² directly:
+            # (I − θ dt L) ū' = ū + (1 − θ) dt L ū − dt b/ε²
+            self._source = (backend.upload(np.ascontiguousarray(-b / (eps * eps),
+                                                                dtype=self.dtype))
+                            if isinstance(b, np.ndarray) else -float(b) / (eps * eps))
+            self._rhs = backend.empty(self.shape, self.dtype)  # the diffusion result
 
     def _step(self) -> None:
         be = self.backend
@@ -658,34 +665,19 @@ class AllenCahnStepper(_BaseStepper):
             )
             be.bernoulli(x, y, decay=self.decay)
         else:
-            self.model._diffusion.launch(
-                be, [self._tmp], [None], [x], D=[0.0], dt=self.dt, params=self._kparams
-            )
-            self._implicit(x, self._rhs)
+            self._implicit.step(self._tmp, self._rhs, source=self._source)
             be.bernoulli(self._rhs, y, decay=self.decay)
 
 
 def _implicit_solver(domain, backend, dtype, dt, method):
-    """``out`` from ``rhs`` by one θ-step of ``ū_t = Δū``: ``(I − θ dt L) out =
-    (I + (1 − θ) dt L) rhs`` with θ = 1 (backward Euler, ``method="implicit"``) or ½
-    (Crank-Nicolson), through the backend's implicit diffusion solver, expected as
-    ``backend.implicit_diffusion(domain, rhs, out, dt=dt, theta=θ)``.  (The constant
-    source −b/ε² is added to ``rhs`` before the solve; for a scalar ``b`` that is exact,
-    since ``L`` annihilates constants.)"""
-    solver = getattr(backend, "implicit_diffusion", None)
-    if not _accepts_keywords(solver, ("dt", "theta")):
-        raise NotImplementedError(
-            f"implicit Allen-Cahn diffusion needs an implicit diffusion solver on the "
-            f"{backend.name} backend (backend.implicit_diffusion(domain, rhs, out, dt=, "
-            "theta=)), which is not available yet; use method='explicit' with "
-            "dt <= AllenCahn().dt_limit(domain)"
-        )
+    """The θ-step solver of ``ū_t = Δū + s``: ``(I − θ dt L) out = u + (1 − θ) dt L u +
+    dt s`` with θ = 1 (backward Euler, ``method="implicit"``) or ½ (Crank-Nicolson), by
+    multicolour SOR on the device (:class:`rdgpu.implicit.ImplicitDiffusion`; red-black on
+    a grid)."""
+    from .implicit import ImplicitDiffusion
+
     theta = 1.0 if method == "implicit" else 0.5
-
-    def solve(rhs, out):  # pragma: no cover - wired when the solver exists
-        solver(domain, rhs, out, dt=dt, theta=theta)
-
-    return solve
+    return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)
 
 
 # ---------------------------------------------------------------------------- the models

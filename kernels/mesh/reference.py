@@ -17,14 +17,30 @@ from __future__ import annotations
 
 import numpy as np
 
+#: rows up to this long are summed exactly in the kernels' order (one vectorised pass per
+#: entry slot); longer rows by ``np.add.reduceat`` (same sum, last bits may differ)
+SEQUENTIAL_MAX_ROW = 256
+
 
 def _row_sums(indptr: np.ndarray, products: np.ndarray, n_rows: int, dtype) -> np.ndarray:
-    """``Σ`` of ``products`` over each CSR row (0 for an empty row), in ``dtype``."""
+    """``Σ`` of ``products`` over each CSR row (0 for an empty row), in ``dtype``: slot
+    ``k`` of every row with more than ``k`` entries is added in pass ``k``, so each row is
+    ``((0 + p_0) + p_1) + …`` exactly like the kernels' loop."""
     out = np.zeros(n_rows, dtype=dtype)
+    indptr = np.asarray(indptr, dtype=np.int64)
     counts = np.diff(indptr)
-    rows = np.flatnonzero(counts > 0)
-    if rows.size:
-        out[rows] = np.add.reduceat(products, indptr[rows].astype(np.int64))
+    if n_rows == 0 or products.size == 0:
+        return out
+    if int(counts.max()) > SEQUENTIAL_MAX_ROW:
+        rows = np.flatnonzero(counts > 0)
+        out[rows] = np.add.reduceat(products, indptr[rows])
+        return out
+    order = np.argsort(-counts, kind="stable")  # longest rows first
+    starts = indptr[:-1][order]
+    neg_sorted = -counts[order]
+    for k in range(int(counts.max())):
+        m = int(np.searchsorted(neg_sorted, -k, side="left"))  # rows with > k entries
+        out[order[:m]] += products[starts[:m] + k]
     return out
 
 

@@ -20,7 +20,9 @@ import numpy as np
 from ..boundary import GridBC
 
 Scalar = float
-FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape
+FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
+
+_REAL_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 
 
 @dataclass(eq=False)
@@ -101,11 +103,15 @@ class Backend(ABC):
         import scipy.sparse as sp
 
         m = sp.csr_matrix(matrix)
-        m.sum_duplicates()
-        m.sort_indices()
+        if not m.has_canonical_format:  # sorted, no duplicates: fix a copy, never the input
+            m = m.copy()
+            m.sum_duplicates()
+            m.sort_indices()
         n_rows, n_cols = m.shape
         if max(n_rows, n_cols, m.nnz) >= 2**31:
-            raise ValueError(f"matrix too large for int32 CSR indices: shape {m.shape}, nnz {m.nnz}")
+            raise ValueError(
+                f"matrix too large for int32 CSR indices: shape {m.shape}, nnz {m.nnz}"
+            )
         dtype = np.dtype(dtype)
         return DeviceCSR(
             indptr=self.upload(m.indptr.astype(np.int32)),
@@ -114,6 +120,29 @@ class Backend(ABC):
             diagonal=self.upload(np.ascontiguousarray(m.diagonal().astype(dtype))),
             shape=(n_rows, n_cols),
         )
+
+    @staticmethod
+    def _check_csr(A: DeviceCSR, x: DeviceArray, y: DeviceArray, what: str) -> None:
+        """Check the operands of a CSR kernel: ``x`` has ``A.shape[1]`` elements, ``y``
+        ``A.shape[0]`` (any array shape: a grid field is its flat C-order vector), all of
+        A's real dtype, on the same backend."""
+        dtype = A.data.dtype
+        if dtype not in _REAL_DTYPES:
+            raise TypeError(f"{what}: the matrix must be float32 or float64, got {dtype}")
+        if A.indptr.dtype != np.int32 or A.indices.dtype != np.int32:
+            raise TypeError(f"{what}: CSR indptr/indices must be int32")
+        if A.indptr.size != A.shape[0] + 1 or A.data.size != A.indices.size:
+            raise ValueError(f"{what}: inconsistent CSR arrays for shape {A.shape}")
+        for d, n, name in ((x, A.shape[1], "input"), (y, A.shape[0], "output")):
+            if d.backend is not A.data.backend:
+                raise ValueError(f"{what}: the {name} array is on another backend")
+            if d.dtype != dtype:
+                raise TypeError(f"{what}: {name} dtype {d.dtype} != matrix dtype {dtype}")
+            if d.size != n:
+                raise ValueError(
+                    f"{what}: {name} has {d.size} elements (shape {d.shape}), the matrix of "
+                    f"shape {A.shape} needs {n}"
+                )
 
     def synchronize(self) -> None:  # noqa: B027 - optional hook
         """Wait until every queued kernel has finished (for timing)."""
@@ -201,3 +230,71 @@ class Backend(ABC):
         """One pseudo-time step of ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with
         ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (SPEC §5); with ``subcell``,
         cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py)."""
+
+    # ------------------------------------------------------------------ CSR / mesh kernels
+    # A CSR kernel's vector operands may have any shape: they are read as flat C-order
+    # vectors (so a grid field [ny, nx] is the vector of ``u.ravel()``).  Every row is
+    # summed in index order in the matrix's dtype (kernels/mesh/reference.py).
+
+    @abstractmethod
+    def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
+        """``y = A x`` for any CSR matrix (square or not; empty rows give 0)."""
+
+    @abstractmethod
+    def mesh_gray_scott(
+        self,
+        L: DeviceCSR,
+        u: DeviceArray,
+        v: DeviceArray,
+        u_out: DeviceArray,
+        v_out: DeviceArray,
+        *,
+        Du: float,
+        Dv: float,
+        F: FieldOrScalar,
+        k: FieldOrScalar,
+        dt: float,
+    ) -> None:
+        """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (SPEC §3, §6):
+        ``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``.
+        ``F``, ``k``: numbers or DeviceArrays of u's shape."""
+
+    @abstractmethod
+    def mesh_diffusion(
+        self,
+        L: DeviceCSR,
+        u: DeviceArray,
+        out: DeviceArray,
+        *,
+        D: float,
+        dt: float,
+        source: FieldOrScalar = 0.0,
+    ) -> None:
+        """``out = u + dt (D (L u) + source)`` (``source`` a number or a DeviceArray of u's
+        shape): the explicit diffusion step of Allen-Cahn with its ``−b/ε²`` source."""
+
+    @abstractmethod
+    def csr_sor_colour(
+        self,
+        A: DeviceCSR,
+        x: DeviceArray,
+        rhs: DeviceArray,
+        rows: DeviceArray,
+        change: DeviceArray,
+        *,
+        omega: float,
+    ) -> None:
+        """One colour of multicolour SOR for ``A x = rhs``, in place on ``x``: for each row
+        ``i`` in ``rows`` (int32, rows that share no stored entry),
+        ``x_i ← (1 − ω) x_i + ω (rhs_i − Σ_{j≠i} a_ij x_j) / a_ii`` (``a_ii`` from
+        ``A.diagonal``) and ``change[i] = |Δx_i|``; other entries of ``change`` are left as
+        they are.  A is square; x, rhs and change have n elements."""
+
+    def _check_sor(self, A, x, rhs, rows, change) -> None:
+        if A.shape[0] != A.shape[1]:
+            raise ValueError(f"csr_sor_colour needs a square matrix, got shape {A.shape}")
+        self._check_csr(A, x, rhs, "csr_sor_colour")
+        self._check_csr(A, x, change, "csr_sor_colour change")
+        if rows.dtype != np.int32 or len(rows.shape) != 1:
+            raise TypeError(f"csr_sor_colour rows must be a 1-D int32 array, got {rows.dtype} "
+                            f"{rows.shape}")

@@ -14,6 +14,15 @@ def _value(x):
     return x.handle if isinstance(x, DeviceArray) else x
 
 
+def _flat(x):
+    """A scalar stays a scalar; a DeviceArray gives a flat view of its NumPy handle."""
+    return x.handle.reshape(-1) if isinstance(x, DeviceArray) else x
+
+
+def _csr(A):
+    return A.indptr.handle, A.indices.handle, A.data.handle
+
+
 class NumpyBackend(Backend):
     """Reference backend; its "device" is host memory."""
 
@@ -26,6 +35,7 @@ class NumpyBackend(Backend):
         self._gs = load_module("gray_scott", "reference.py")
         self._sor = load_module("sor", "reference.py")
         self._ls = load_module("levelset", "reference.py")
+        self._mesh = load_module("mesh", "reference.py")
 
     # memory
     def upload(self, a: np.ndarray) -> DeviceArray:
@@ -73,3 +83,42 @@ class NumpyBackend(Backend):
         out.handle[...] = self._ls.reinit_step(
             phi.handle, phi0.handle, dtau, width, dx, dy, bc, subcell
         )
+
+    # CSR / mesh kernels (vectors are flat views of the handles)
+    def spmv(self, A, x, y):
+        self._check_csr(A, x, y, "spmv")
+        y.handle.reshape(-1)[...] = self._mesh.spmv(*_csr(A), _flat(x), A.shape)
+
+    def mesh_gray_scott(self, L, u, v, u_out, v_out, *, Du, Dv, F, k, dt):
+        for a in (u, v, u_out, v_out):
+            self._check_csr(L, u, a, "mesh_gray_scott")
+        un, vn = self._mesh.mesh_gray_scott(
+            *_csr(L), _flat(u), _flat(v), Du, Dv, _param(F, u, "F"), _param(k, u, "k"), dt
+        )
+        u_out.handle.reshape(-1)[...] = un
+        v_out.handle.reshape(-1)[...] = vn
+
+    def mesh_diffusion(self, L, u, out, *, D, dt, source=0.0):
+        self._check_csr(L, u, out, "mesh_diffusion")
+        out.handle.reshape(-1)[...] = self._mesh.mesh_diffusion(
+            *_csr(L), _flat(u), D, dt, _param(source, u, "source")
+        )
+
+    def csr_sor_colour(self, A, x, rhs, rows, change, *, omega):
+        self._check_sor(A, x, rhs, rows, change)
+        r = rows.handle
+        new, delta = self._mesh.csr_sor_colour(
+            *_csr(A), A.diagonal.handle, _flat(x), _flat(rhs), r, omega
+        )
+        x.handle.reshape(-1)[r] = new[r]
+        change.handle.reshape(-1)[r] = delta[r]
+
+
+def _param(p, like, what):
+    """A scalar, or the flat NumPy view of a DeviceArray with like's size and dtype."""
+    if isinstance(p, DeviceArray):
+        if p.size != like.size or p.dtype != like.dtype:
+            raise ValueError(f"{what} field must have {like.size} elements of {like.dtype}, "
+                             f"got {p.shape} {p.dtype}")
+        return p.handle.reshape(-1)
+    return float(p)

@@ -33,7 +33,7 @@ from ..kernel_files import read_source
 from .base import Backend, DeviceArray, FieldOrScalar
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
-_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset")
+_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh")
 # Argument types of every kernel (must match the .cl signatures): B = buffer, i = int32,
 # l = int64, r = the real type.  Declaring them lets PyOpenCL pack scalars fast (untyped
 # scalar arguments cost ~15 us each on PoCL).
@@ -52,6 +52,14 @@ _KERNEL_ARGS = {
     "levelset_step_f": "BBB" + _GRID + "rrrr",
     "reinit_step": "BBB" + _GRID + "rrrrrrrr",
     "reinit_step_subcell": "BBB" + _GRID + "rrrrrrrr",
+    "csr_spmv": "BBBBBii",
+    "mesh_gray_scott_ss": "BBBBBBBBBiirrrrr",
+    "mesh_gray_scott_fs": "BBBBBBBBBiirrrrr",
+    "mesh_gray_scott_sf": "BBBBBBBBBiirrrrr",
+    "mesh_gray_scott_ff": "BBBBBBBBBiirrrrr",
+    "mesh_diffusion_s": "BBBBBBiirrr",
+    "mesh_diffusion_f": "BBBBBBiirrr",
+    "csr_sor_colour": "BBBBBBBBiirr",
 }
 _GS_NAMES = {
     (False, False): "gray_scott_ss",
@@ -63,6 +71,10 @@ _LAYOUTS = ("row", "strided")
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
 _BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
+# CSR kernels in the row layout: rows per work-item at least, and work-items per compute
+# unit at most (fewer, longer work-items: PoCL costs about a microsecond per work-group)
+_CSR_MIN_BLOCK = 512
+_CSR_ITEMS_PER_CU = 32
 _MAX_CELLS = 2**31 - 1  # the grid kernels index with 32-bit ints
 
 # (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
@@ -478,3 +490,117 @@ class OpenCLBackend(Backend):
             dtau, 0.5 / dx, 0.5 / dy, dtau / min(dx, dy), 1e-30,
         )  # fmt: skip
         self._launch_grid(kernel, ny, args)
+
+    # ------------------------------------------------------------------ CSR / mesh kernels
+    def _launch_rows(self, kernel, n_rows: int, head: tuple, tail: tuple = ()) -> None:
+        """Launch a CSR kernel over ``n_rows`` rows with the arguments ``(*head, n,
+        block, *tail)``: blocks of rows per work-item in the row layout, one row per
+        work-item in work-groups of ``col_stride`` otherwise."""
+        if n_rows == 0:
+            return
+        if self.layout == "row":
+            cus = max(1, int(self.cl_device.max_compute_units))
+            block = max(_CSR_MIN_BLOCK, -(-n_rows // (_CSR_ITEMS_PER_CU * cus)))
+            group = 1
+        else:
+            block, group = 1, self.col_stride
+        items = -(-n_rows // block)
+        kernel.set_args(*head, n_rows, block, *tail)
+        gsize = (-(-items // group) * group,)
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
+
+    @staticmethod
+    def _csr_buffers(A) -> tuple:
+        return A.indptr.handle, A.indices.handle, A.data.handle
+
+    @staticmethod
+    def _vertex_param(f: FieldOrScalar, u: DeviceArray, what: str):
+        """``(is_field, buffer, scalar)`` for a number or a DeviceArray of u's size."""
+        if isinstance(f, DeviceArray):
+            if f.size != u.size or f.dtype != u.dtype:
+                raise ValueError(
+                    f"{what} field must have {u.size} elements of {u.dtype}, got {f.shape} "
+                    f"{f.dtype}"
+                )
+            return True, f.handle, 0.0
+        return False, u.handle, float(f)
+
+    def _check_on_device(self, *arrays: DeviceArray) -> None:
+        for a in arrays:
+            if not isinstance(a.backend, OpenCLBackend):
+                raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")
+        self._check_real(arrays[0].dtype)
+
+    def spmv(self, A, x: DeviceArray, y: DeviceArray) -> None:
+        self._check_csr(A, x, y, "spmv")
+        self._check_on_device(A.data, x, y)
+        kernel = self.kernels(A.dtype)["csr_spmv"]
+        self._launch_rows(kernel, A.shape[0], (*self._csr_buffers(A), x.handle, y.handle))
+
+    def mesh_gray_scott(
+        self,
+        L,
+        u: DeviceArray,
+        v: DeviceArray,
+        u_out: DeviceArray,
+        v_out: DeviceArray,
+        *,
+        Du: float,
+        Dv: float,
+        F: FieldOrScalar,
+        k: FieldOrScalar,
+        dt: float,
+    ) -> None:
+        for a in (u, v, u_out, v_out):
+            self._check_csr(L, u, a, "mesh_gray_scott")
+        self._check_on_device(L.data, u, v, u_out, v_out)
+        f_field, f_buf, f_val = self._vertex_param(F, u, "F")
+        k_field, k_buf, k_val = self._vertex_param(k, u, "k")
+        name = "mesh_" + _GS_NAMES[f_field, k_field]
+        args = (
+            *self._csr_buffers(L), u.handle, v.handle, u_out.handle, v_out.handle, f_buf,
+            k_buf,
+        )
+        kernel = self.kernels(u.dtype)[name]
+        self._launch_rows(kernel, L.shape[0], args, (Du, Dv, f_val, k_val, dt))
+
+    def mesh_diffusion(
+        self,
+        L,
+        u: DeviceArray,
+        out: DeviceArray,
+        *,
+        D: float,
+        dt: float,
+        source: FieldOrScalar = 0.0,
+    ) -> None:
+        self._check_csr(L, u, out, "mesh_diffusion")
+        self._check_on_device(L.data, u, out)
+        s_field, s_buf, s_val = self._vertex_param(source, u, "source")
+        kernel = self.kernels(u.dtype)["mesh_diffusion_f" if s_field else "mesh_diffusion_s"]
+        self._launch_rows(
+            kernel, L.shape[0], (*self._csr_buffers(L), u.handle, out.handle, s_buf),
+            (D, s_val, dt),
+        )
+
+    def csr_sor_colour(
+        self,
+        A,
+        x: DeviceArray,
+        rhs: DeviceArray,
+        rows: DeviceArray,
+        change: DeviceArray,
+        *,
+        omega: float,
+    ) -> None:
+        self._check_sor(A, x, rhs, rows, change)
+        self._check_on_device(A.data, x, rhs, change)
+        t = x.dtype.type
+        om = t(omega)
+        kernel = self.kernels(x.dtype)["csr_sor_colour"]
+        self._launch_rows(
+            kernel, rows.size,
+            (*self._csr_buffers(A), A.diagonal.handle, x.handle, rhs.handle, rows.handle,
+             change.handle),
+            (om, t(1) - om),
+        )

@@ -1,0 +1,226 @@
+"""Regenerate the README gallery: ``docs/gallery/*.png`` and ``docs/gallery/gallery.md``.
+
+    python examples/gallery.py                    # every picture, OpenCL backend
+    python examples/gallery.py --only gs-seed001-spots ac-sphere-spots
+    python examples/gallery.py --backend warp     # another backend (same classes)
+
+Every picture is made by the command line itself: the script calls ``rdgpu.cli.main`` with
+the arguments that ``gallery.md`` shows next to the picture (run from the repository
+root), so the table's command is the one that made the image.  Two things happen after
+the command:
+
+* the script also passes ``--data TMP.npz`` (a temporary file, not shown in the table, no
+  influence on the run) and measures the final field's pattern with
+  ``rdgpu.analysis.classify_pattern`` (``spiral_tips`` for the Barkley spirals): the
+  table's "measured" column;
+* the PNG is made small for the repository (≤ 60 kB): a grid picture (≤ 256 colours, one
+  per entry of the colour map) is re-encoded as a palette PNG, pixel for pixel the same,
+  or, where that is still too large (the 256² and 300² Gray-Scott grids), with 64 (or 32)
+  of the map's colours at full resolution, or else (the 400² grid) downscaled to 256²; a
+  mesh rendering (pyvista, 800 × 800) is downscaled to 256 × 256 with 256 colours.  The
+  table says which.
+
+About two minutes on a 2-core CPU with the OpenCL backend (PoCL).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # run from a clone without installing
+
+from rdgpu.analysis import classify_pattern, spiral_tips  # noqa: E402
+from rdgpu.cli import main as rdgpu_main  # noqa: E402
+from rdgpu.models import PRESETS  # noqa: E402
+from rdgpu.output import load_npz  # noqa: E402
+
+OUT = Path("docs/gallery")  # relative to the repository root, as in the commands
+MESH_SIZE = 256
+MAX_BYTES = 60_000
+
+#: (preset, caption, extra command-line options)
+ENTRIES: list[tuple[str, str, list[str]]] = [
+    ("gs-seed001-stripes", "Gray-Scott stripes: the labyrinth of seed 001 (F = 0.035, "
+     "k = 0.060, 300², dt = dx = 1)", []),
+    ("gs-seed001-spots", "Gray-Scott spots: seed 001's second parameter set (F = 0.030, "
+     "k = 0.055)", []),
+    ("gs-pearson-alpha", "Pearson α (F = 0.010, k = 0.047): spatio-temporal chaos", []),
+    ("gs-pearson-delta", "Pearson δ (F = 0.030, k = 0.055): hexagonal lattice of spots", []),
+    ("gs-pearson-theta", "Pearson θ (F = 0.030, k = 0.057): stripes and loops", []),
+    ("gs-pearson-kappa", "Pearson κ (F = 0.050, k = 0.063): worms grown into a labyrinth",
+     []),
+    ("gs-pearson-lambda", "Pearson λ (F = 0.026, k = 0.061): solitons in a hexagonal "
+     "lattice (inverted spots)", []),
+    ("gs-pearson-mu", "Pearson μ (F = 0.046, k = 0.065): worms into parallel stripes", []),
+    ("ac-sphere-spots", "Modified Allen-Cahn on the sphere, b = −0.25: spots (islands of "
+     "u < 0)", []),
+    ("ac-sphere-stripes", "Modified Allen-Cahn, b = 0: stripes (both phases connected "
+     "into a labyrinth)", []),
+    ("ac-sphere-inverted-spots", "Modified Allen-Cahn, b = +0.25: inverted spots", []),
+    ("ac-sphere-local-spots", "Modified Allen-Cahn, b = −0.08, random data in a patch: "
+     "the spots stay localized (seed 12 puts the patch in view)", ["--seed", "12"]),
+    ("ac-sphere-local-spreads", "Modified Allen-Cahn, b = 0, random data in a patch: the "
+     "pattern spreads over the sphere", []),
+    ("brusselator-spots", "Brusselator just past the Turing onset (a = 5, b = 6.6): spots",
+     []),
+    ("brusselator-stripes", "Brusselator further past onset (b = 8): stripes", []),
+    ("brusselator-seed004-fig1", "Brusselator with a and b varying across the domain "
+     "(seed 004, Fig. 1): stripes and spots side by side", []),
+    ("fitzhugh-nagumo-stripes", "FitzHugh-Nagumo (α = 0.01): a labyrinth of worms", []),
+    ("fitzhugh-nagumo-spots", "FitzHugh-Nagumo (α = 0.05): spots", []),
+    ("barkley-spirals", "Barkley's excitable medium: rotating spirals (field u)", []),
+    ("turing-seed003-spots", "Turing's 1952 spot model, seed 003 eq. 2.15 on 64² "
+     "(field b; D_a = 0.25)", ["--scale", "4"]),
+]
+
+
+def command(name: str, extra: list[str], backend: str) -> list[str]:
+    p = PRESETS[name]
+    argv = ["run", p.model, "--preset", name, "--backend", backend]
+    if "grid" in p.domain and "--scale" not in extra:
+        argv += ["--scale", "1"]
+    return argv + extra + ["--out", str(OUT / f"{name}.png")]
+
+
+def measure(name: str, data: Path) -> str:
+    p = PRESETS[name]
+    res = load_npz(data)
+    if p.expect == "spirals":
+        tips = spiral_tips(res.fields["u"], res.fields["v"], res.domain,
+                           center=p.classify["center"])
+        return f"{tips} spiral tips"
+    c = p.classify
+    found = classify_pattern(res.fields[c["field"]], res.domain, threshold=c["threshold"])
+    if p.expect == "chaos":  # never steady: the class of this instant only
+        return f"chaos ({found} at the last step)"
+    return found
+
+
+def shrink(path: Path, mesh: bool) -> str:
+    """Make the PNG small (see the module docstring); what was done, for the table."""
+    import io
+
+    from PIL import Image
+
+    img = Image.open(path).convert("RGB")
+
+    def encode(picture) -> bytes:
+        buf = io.BytesIO()
+        picture.save(buf, format="PNG", optimize=True)
+        return buf.getvalue()
+
+    def palette(picture, colours: int):
+        return picture.quantize(colours, method=Image.Quantize.MEDIANCUT,
+                                dither=Image.Dither.NONE)
+
+    if mesh:
+        img = img.resize((MESH_SIZE, MESH_SIZE), Image.Resampling.LANCZOS)
+        data, note = encode(palette(img, 256)), f"rendering downscaled to {MESH_SIZE}²"
+    else:
+        exact = palette(img, 256)
+        if not np.array_equal(np.asarray(exact.convert("RGB")), np.asarray(img)):
+            raise RuntimeError(f"{path}: more than 256 colours, not re-encoded losslessly")
+        data, note = encode(exact), "pixel for pixel"
+        for colours in (64, 32):
+            if len(data) <= MAX_BYTES:
+                break
+            data, note = encode(palette(img, colours)), f"{colours} colours of the map"
+        if len(data) > MAX_BYTES:  # the 400² grid: fewer pixels
+            small = img.resize((MESH_SIZE, MESH_SIZE), Image.Resampling.LANCZOS)
+            data, note = encode(palette(small, 64)), f"downscaled to {MESH_SIZE}², 64 colours"
+    path.write_bytes(data)
+    return note
+
+
+def write_table(rows: list[tuple[str, str, str, str, str]]) -> Path:
+    intro = (
+        "The seed papers' patterns as rdgpu reproduces them. Each image is the PNG that "
+        "the command beside it writes (run from the repository root, OpenCL backend); "
+        "[`examples/gallery.py`](../../examples/gallery.py) regenerates them all through "
+        "that command-line code path, then makes the PNGs small: grid pictures keep every "
+        "pixel (with 64 or 32 of the colour map's 256 colours where the lossless PNG is "
+        f"over {MAX_BYTES // 1000} kB; the 400² grid is downscaled), mesh renderings "
+        f"(800 × 800) are downscaled to {MESH_SIZE}²; each caption says which. "
+        "\"Measured\" is the class `rdgpu.analysis.classify_pattern` gives the final field "
+        "(the number of spiral tips for Barkley); `rdgpu presets` lists what each preset "
+        "should give."
+    )
+    lines = ["# Gallery", "", *textwrap.wrap(intro, 90), "",
+             "| image | pattern (source) | measured | command |", "|---|---|---|---|"]
+    for name, caption, note, measured, cmd in rows:
+        src = PRESETS[name].source.replace("|", "\\|")
+        lines.append(f"| ![{name}]({name}.png) | {caption} ({src}; picture: {note}) | "
+                     f"{measured} | `{cmd}` |")
+    path = ROOT / OUT / "gallery.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--backend", default="opencl", help="rdgpu backend (default opencl)")
+    parser.add_argument("--only", nargs="+", metavar="PRESET",
+                        help="only these presets (gallery.md keeps the others' rows)")
+    args = parser.parse_args(argv)
+
+    import os
+
+    os.chdir(ROOT)
+    (ROOT / OUT).mkdir(parents=True, exist_ok=True)
+    previous = _previous_rows()
+    rows = []
+    for name, caption, extra in ENTRIES:
+        argv_run = command(name, extra, args.backend)
+        shown = "rdgpu " + " ".join(argv_run)
+        if args.only and name not in args.only:
+            if name in previous:
+                rows.append(previous[name])
+            continue
+        t0 = time.perf_counter()
+        with tempfile.TemporaryDirectory() as tmp:
+            data = Path(tmp) / "run.npz"
+            code = rdgpu_main(argv_run + ["--data", str(data), "--quiet"])
+            if code != 0:
+                print(f"{shown}: exit status {code}", file=sys.stderr)
+                return code
+            measured = measure(name, data)
+        png = ROOT / OUT / f"{name}.png"
+        note = shrink(png, mesh="mesh" in PRESETS[name].domain)
+        size = png.stat().st_size
+        print(f"{name}: {measured}, {size / 1000:.1f} kB, {time.perf_counter() - t0:.1f} s",
+              flush=True)
+        if size > MAX_BYTES:
+            print(f"warning: {png} is {size} bytes (> {MAX_BYTES})", file=sys.stderr)
+        rows.append((name, caption, note, measured, shown))
+    print(f"wrote {write_table(rows)}")
+    return 0
+
+
+def _previous_rows() -> dict[str, tuple[str, str, str, str, str]]:
+    """Rows of an existing gallery.md, by preset (kept by --only)."""
+    path = ROOT / OUT / "gallery.md"
+    captions = {name: caption for name, caption, _ in ENTRIES}
+    rows = {}
+    if not path.exists():
+        return rows
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("| ![") or "; picture: " not in line:
+            continue
+        name = line[len("| !["):line.index("]")]
+        cells = [c.strip() for c in line.strip().strip("|").split(" | ")]
+        if name in captions and len(cells) == 4:
+            note = cells[1].rsplit("; picture: ", 1)[1].rstrip(")")
+            rows[name] = (name, captions[name], note, cells[2], cells[3].strip("`"))
+    return rows
+
+
+if __name__ == "__main__":
+    sys.exit(main())
