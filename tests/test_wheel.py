@@ -38,6 +38,10 @@ def test_wheel_installs_and_runs_every_backend(tmp_path):
     env_dir = tmp_path / "venv"
     venv.create(env_dir, with_pip=True)
     python = env_dir / "bin" / "python"
+    # install first: once the parent's packages are visible, pip would see this
+    # interpreter's own rdgpu as "already satisfied" and skip the wheel
+    subprocess.run([python, "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
+                   check=True)
     # reuse this interpreter's dependencies (no network): a .pth appends its site-packages
     # *after* the new environment's own, so the wheel's rdgpu wins over any other copy.
     target = Path(
@@ -47,8 +51,6 @@ def test_wheel_installs_and_runs_every_backend(tmp_path):
     )
     parents = [sysconfig.get_paths()["purelib"], *site.getsitepackages()]
     (target / "zz_parent.pth").write_text("\n".join(dict.fromkeys(parents)) + "\n")
-    subprocess.run([python, "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
-                   check=True)
     out = subprocess.run([python, "-c", SCRIPT], capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     lines = dict(line.split(" ", 1) for line in out.stdout.splitlines())
