@@ -164,8 +164,14 @@ def _say(args: argparse.Namespace, text: str) -> None:
 def _cmd_backends(args: argparse.Namespace) -> int:
     from .dispatch import available_backends
 
-    for info in available_backends():
+    infos = available_backends()
+    for info in infos:
         print(info)
+    missing = [name for name in args.require
+               if not any(i.name == name and i.available for i in infos)]
+    if missing:
+        print(f"rdgpu: required backend(s) unavailable: {', '.join(missing)}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -415,6 +421,10 @@ def build_parser() -> argparse.ArgumentParser:
     backends = sub.add_parser("backends", help="list the backends and their devices",
                               description="List the backends, whether each can run here, "
                               "and on which device.")
+    backends.add_argument("--require", action="append", default=[], metavar="NAME",
+                          choices=("numpy", "warp", "opencl"),
+                          help="exit with status 1 unless backend NAME can run here "
+                          "(repeatable)")
     backends.set_defaults(func=_cmd_backends)
     return parser
 

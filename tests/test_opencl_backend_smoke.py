@@ -246,3 +246,22 @@ def test_unavailable_messages(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyopencl", None)
     with pytest.raises(BackendUnavailableError, match="pyopencl"):
         OpenCLBackend()
+
+
+def test_default_device_skips_a_driver_that_cannot_compile(monkeypatch):
+    """A driver whose compiler cannot target this CPU (PoCL 3.0 on AMD Zen 5) is passed
+    over by the default choice, and naming it explicitly says why it cannot be used."""
+    from rdgpu.errors import BackendUnavailableError
+
+    devices = opencl_backend.list_devices()
+    first = devices[0][2]
+    monkeypatch.setattr(opencl_backend, "_PROBED", {first.int_ptr: "error: unknown target CPU"})
+    if len(devices) > 1:
+        _platform, chosen = opencl_backend._select_device(None)
+        assert chosen.int_ptr != first.int_ptr
+    with pytest.raises(BackendUnavailableError, match="cannot compile kernels.*unknown target"):
+        opencl_backend._select_device(devices[0][0])
+    monkeypatch.setattr(opencl_backend, "_PROBED",
+                        {d.int_ptr: "error: unknown target CPU" for _k, _p, d in devices})
+    with pytest.raises(BackendUnavailableError, match="no OpenCL device here can compile"):
+        opencl_backend._select_device(None)

@@ -166,13 +166,17 @@ def test_rendering_leaves_opencl_usable(tmp_path, pyvista):
     script = """
 import numpy as np, pyopencl as cl, rdgpu
 from rdgpu import output
+from rdgpu.backends.opencl_backend import probe_compiler
 from rdgpu.mesh import SurfaceMesh
 m = SurfaceMesh.icosphere(1)
 output.render_mesh(m, m.vertices[:, 2], window_size=(64, 64))
 u = np.random.default_rng(0).random((4, 6))
+used = 0
 for i, p in enumerate(cl.get_platforms()):
-    rdgpu.laplacian(u, backend=f"opencl:{i}:0")
-print("ok")
+    if probe_compiler(p.get_devices()[0]) is None:  # skip drivers that cannot target this CPU
+        rdgpu.laplacian(u, backend=f"opencl:{i}:0")
+        used += 1
+print("ok" if used else "no usable OpenCL platform")
 """
     pytest.importorskip("pyopencl")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(

@@ -124,34 +124,83 @@ def _describe(platform, device) -> str:
     return f"{device.name.strip()} ({platform.name.strip()})"
 
 
+_PROBE_SOURCE = "__kernel void rdgpu_probe(__global float *a) { a[get_global_id(0)] *= 2.0f; }"
+# device int_ptr -> None (the device's compiler works) or the reason it does not
+_PROBED: dict[int, str | None] = {}
+
+
+def probe_compiler(device) -> str | None:
+    """Build and run a one-line kernel on ``device``: ``None`` when that works, else the
+    reason (for instance PoCL 3.0, built on LLVM 14, cannot target CPUs newer than its
+    LLVM -- "unknown target CPU 'generic'" on AMD Zen 5)."""
+    key = device.int_ptr
+    if key not in _PROBED:
+        cl = _import_pyopencl()
+        try:
+            ctx = cl.Context([device])
+            program = cl.Program(ctx, _PROBE_SOURCE).build()
+            buf = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, size=4)
+            queue = cl.CommandQueue(ctx, device)
+            cl.Kernel(program, "rdgpu_probe")(queue, (1,), None, buf)
+            queue.finish()
+            _PROBED[key] = None
+        except Exception as exc:  # noqa: BLE001 - any failure means "cannot compile here"
+            lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+            detail = next((ln for ln in lines if ln.lower().startswith("error")), None)
+            _PROBED[key] = detail or (lines[0] if lines else type(exc).__name__)
+    return _PROBED[key]
+
+
+_BROKEN_HINT = (
+    "PoCL releases built on an LLVM older than "
+    "this CPU cannot target it (pip's pocl-binary-distribution 3.0 uses LLVM 14: AMD Zen 5 "
+    "and newer fail); install a newer OpenCL driver, e.g. Debian/Ubuntu's "
+    "'apt-get install pocl-opencl-icd', or use backend='warp' or 'numpy'"
+)
+
+
 def _select_device(spec: str | None):
+    """The device named by ``spec`` (``"P:D"`` or part of a name), or by default the first
+    GPU, else the first CPU device whose compiler works (see :func:`probe_compiler`)."""
     cl = _import_pyopencl()
     devices = list_devices()
     if spec is None or not str(spec).strip():
         # Oclgrind (a debugging simulator that claims every device type) only on request
         real = [(p, d) for _k, p, d in devices if "oclgrind" not in p.name.lower()]
         real = real or [(p, d) for _k, p, d in devices]
+        real.sort(key=lambda pd: not (pd[1].type & cl.device_type.GPU))  # GPUs first
+        failures = []
         for platform, device in real:
-            if device.type & cl.device_type.GPU:
+            reason = probe_compiler(device)
+            if reason is None:
                 return platform, device
-        return real[0]
+            failures.append(f"{_describe(platform, device)}: {reason}")
+        raise BackendUnavailableError(
+            f"no OpenCL device here can compile kernels ({'; '.join(failures)}). {_BROKEN_HINT}"
+        )
     spec = str(spec).strip()
+    chosen = None
     m = re.fullmatch(r"(\d+)\s*:\s*(\d+)", spec)
     if m:
         key = f"{int(m.group(1))}:{int(m.group(2))}"
-        for k, platform, device in devices:
-            if k == key:
-                return platform, device
+        chosen = next(((p, d) for k, p, d in devices if k == key), None)
     else:
         low = spec.lower()
-        for _key, platform, device in devices:
-            if low in device.name.lower() or low in platform.name.lower():
-                return platform, device
-    listing = "; ".join(f"{k} = {_describe(p, d)}" for k, p, d in devices)
-    raise BackendUnavailableError(
-        f"no OpenCL device matches {spec!r}; give 'P:D' (platform:device index) or part of "
-        f"a platform or device name. Devices: {listing}"
-    )
+        chosen = next(((p, d) for _k, p, d in devices
+                       if low in d.name.lower() or low in p.name.lower()), None)
+    if chosen is None:
+        listing = "; ".join(f"{k} = {_describe(p, d)}" for k, p, d in devices)
+        raise BackendUnavailableError(
+            f"no OpenCL device matches {spec!r}; give 'P:D' (platform:device index) or part "
+            f"of a platform or device name. Devices: {listing}"
+        )
+    reason = probe_compiler(chosen[1])
+    if reason is not None:
+        raise BackendUnavailableError(
+            f"OpenCL device {_describe(*chosen)} cannot compile kernels ({reason}); "
+            f"{_BROKEN_HINT}"
+        )
+    return chosen
 
 
 def _has_fp64(device) -> bool:
