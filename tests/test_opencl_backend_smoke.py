@@ -255,7 +255,9 @@ def test_default_device_skips_a_driver_that_cannot_compile(monkeypatch):
 
     devices = opencl_backend.list_devices()
     first = devices[0][2]
-    monkeypatch.setattr(opencl_backend, "_PROBED", {first.int_ptr: "error: unknown target CPU"})
+    probed = {d.int_ptr: None for _k, _p, d in devices}  # pretend the others work
+    probed[first.int_ptr] = "error: unknown target CPU"
+    monkeypatch.setattr(opencl_backend, "_PROBED", probed)
     if len(devices) > 1:
         _platform, chosen = opencl_backend._select_device(None)
         assert chosen.int_ptr != first.int_ptr
