@@ -2,8 +2,10 @@
 
 Every function checks its input, uploads it once, runs all its steps on the device and
 downloads once.  Inputs are never modified; results keep the input dtype (float32 or
-float64).  Grid arrays are ``u[ny, nx]`` (row index is y); a 1-D array is a grid with
-``ny = 1`` and comes back 1-D.  See SPEC.md for every scheme.
+float64).  Grid arrays are ``u[ny, nx]`` (row index is y); a 1-D array ``u[nx]`` is a 1-D
+problem: ``bc`` is its one condition, ``dy`` does not apply, and the stability limits are
+the 1-D ones (the kernels run it as one row with no y axis, see :class:`rdgpu.domains.Grid`).
+See SPEC.md for every scheme.
 """
 
 from __future__ import annotations
@@ -16,15 +18,17 @@ import numpy as np
 
 from . import validation as check
 from .backends.base import Backend, DeviceArray
-from .boundary import PERIODIC, parse_bc
+from .boundary import PERIODIC
 from .dispatch import get_backend
+from .domains import Grid
 from .errors import StabilityError
 
 BackendSpec = str | Backend | None
 
 
-def _restore(result: np.ndarray, original: np.ndarray) -> np.ndarray:
-    return result.reshape(original.shape)
+def _restore(result: np.ndarray, original: Any) -> np.ndarray:
+    """``result`` in the shape of the caller's input (which may be a list)."""
+    return result.reshape(np.shape(original))
 
 
 def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceArray:
@@ -65,16 +69,26 @@ def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
         )
 
 
+def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any) -> tuple[np.ndarray, Grid]:
+    """``(field [ny, nx], Grid)`` of a 1-D ``u[nx]`` or 2-D ``u[ny, nx]`` grid field."""
+    field = check.as_field(u, name, ndim=(1, 2))
+    dx, dy = check.spacing(dx, dy)
+    if field.ndim == 1:
+        if dy != dx:
+            raise ValueError(f"dy={dy} given for the 1-D array {name}: a 1-D problem has only "
+                             "the x axis (spacing dx); leave dy out")
+        grid = Grid(field.shape, dx=dx, bc=bc)
+    else:
+        grid = Grid(field.shape, dx=dx, dy=dy, bc=bc)
+    return field.reshape(grid.shape), grid
+
+
 def _grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u"):
     """``(field, domain)``: a per-vertex field and the mesh, or a grid field and its Grid."""
-    from .domains import Grid
-
     if mesh is not None:
         _no_grid_args(dx, dy, bc)
         return _mesh_field(u, mesh, name), mesh
-    grid = check.as_grid(u, name)
-    dx, dy = check.spacing(dx, dy)
-    return grid, Grid(grid.shape, dx=dx, dy=dy, bc=bc)
+    return _grid_problem(u, name, dx, dy, bc)
 
 
 class _progress_bar:
@@ -101,6 +115,13 @@ class _progress_bar:
 
 
 # ---------------------------------------------------------------------------- stability
+def _explicit_limit_formula(grid: Grid, d: str) -> str:
+    """The forward-Euler diffusion limit of ``grid`` as text, for error messages."""
+    if grid.ndim == 1:
+        return f"dx²/(2 {d}) (1-D)"
+    return f"1/(2 {d} (1/dx² + 1/dy²))"
+
+
 def gray_scott_dt_limit(Du: float, Dv: float, dx: float, dy: float) -> float:
     """Forward-Euler limit of the 5-point diffusion: ``1 / (2 max(Du, Dv) (1/dx² + 1/dy²))``."""
     d = max(Du, Dv)
@@ -142,17 +163,17 @@ def laplacian(
         out = be.empty_like(d_u)
         be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, out)
         return out.numpy()
-    grid = check.as_grid(u, "u")
-    dx, dy = check.spacing(dx, dy)
-    if stencil not in (5, 9):
+    if isinstance(stencil, bool) or stencil not in (5, 9):
         raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
-    if stencil == 9 and dx != dy:
-        raise ValueError(f"the 9-point stencil needs dx == dy, got dx={dx}, dy={dy}")
-    bcs = parse_bc(bc)
+    field, grid = _grid_problem(u, "u", dx, dy, bc)
+    if grid.ndim == 1:
+        stencil = 5  # both stencils are the 3-point (E + W − 2u)/dx² in 1-D
+    elif stencil == 9 and grid.dx != grid.dy:
+        raise ValueError(f"the 9-point stencil needs dx == dy, got dx={grid.dx}, dy={grid.dy}")
     be = get_backend(backend)
-    d_u = be.upload(grid)
+    d_u = be.upload(field)
     out = be.empty_like(d_u)
-    be.laplacian(d_u, out, dx=dx, dy=dy, bc=bcs, stencil=stencil)
+    be.laplacian(d_u, out, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
     return _restore(out.numpy(), u)
 
 
@@ -209,8 +230,9 @@ def gray_scott(
         _no_grid_args(dx, dy, bc)
         gu, gv = _mesh_field(u, mesh, "u"), _mesh_field(v, mesh, "v")
     else:
-        gu, gv = check.as_grid(u, "u"), check.as_grid(v, "v")
-        check.same_shape(gu, gv, "u", "v")
+        gu, grid = _grid_problem(u, "u", dx, dy, bc)
+        gv, _ = _grid_problem(v, "v", dx, dy, bc)
+        check.same_shape(check.as_field(u, "u"), check.as_field(v, "v"), "u", "v")
     check.same_dtype(gu, gv, "u", "v")
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dt = check.scalar(dt, "dt")
@@ -239,14 +261,14 @@ def gray_scott(
                 cur_v, nxt_v = nxt_v, cur_v
                 bar.tick(step + 1)
         return cur_u.numpy(), cur_v.numpy()
-    dx, dy = check.spacing(dx, dy)
-    limit = gray_scott_dt_limit(Du, Dv, dx, dy)
+    limit = gray_scott_dt_limit(Du, Dv, grid.dx, grid.dy)
     if check_stability and dt > limit:
         raise StabilityError(
             f"dt={dt} exceeds the forward-Euler diffusion limit {limit:.6g} = "
-            "1/(2 max(Du, Dv)(1/dx² + 1/dy²)); reduce dt or pass check_stability=False"
+            f"{_explicit_limit_formula(grid, 'max(Du, Dv)')}; reduce dt or pass "
+            "check_stability=False"
         )
-    bcs = parse_bc(bc)
+    dx, dy, bcs = grid.dx, grid.dy, grid.bcs
     be = get_backend(backend)
     cur_u, cur_v = be.upload(gu), be.upload(gv)
     nxt_u, nxt_v = be.empty_like(cur_u), be.empty_like(cur_v)
@@ -364,7 +386,7 @@ def diffusion_step(
             what = "mesh.max_stable_dt(D) = 2/(D λ_max(−L))"
         else:
             limit = gray_scott_dt_limit(D, D, domain.dx, domain.dy)
-            what = "1/(2 D (1/dx² + 1/dy²))"
+            what = _explicit_limit_formula(domain, "D")
         if check_stability and dt > limit:
             raise StabilityError(
                 f"dt={dt} exceeds the forward-Euler diffusion limit {limit:.6g} = {what}; "
@@ -444,31 +466,41 @@ def optimal_omega(shape: tuple[int, ...]) -> float:
 
 
 def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc):
-    grid = check.as_grid(c, "c")
-    mask = np.asarray(fixed)
-    if mask.dtype != bool and mask.dtype.kind not in "iu":
-        raise TypeError(f"fixed must be a boolean mask, got dtype {mask.dtype}")
-    mask = mask.reshape(grid.shape) if mask.size == grid.size and mask.ndim == 1 else mask
-    check.same_shape(grid, mask, "c", "fixed")
+    """Checked SOR inputs: ``(c [ny, nx], mask uint8, omega, rhs or None, dx, dy, bcs)``."""
+    grid, domain = _grid_problem(c, "c", dx, dy, bc)
+    if isinstance(fixed, (list, tuple)):
+        fixed = np.asarray(fixed)
+    if not isinstance(fixed, np.ndarray):
+        raise TypeError(f"fixed must be a NumPy boolean (or integer) mask, got "
+                        f"{type(fixed).__name__}")
+    if fixed.dtype != bool and fixed.dtype.kind not in "iu":
+        raise TypeError(f"fixed must be a boolean mask (or integers, non-zero = fixed), got "
+                        f"dtype {fixed.dtype}")
+    if fixed.shape != np.shape(c):
+        raise ValueError(f"fixed has shape {fixed.shape} but c has shape {np.shape(c)}; they "
+                         "must match")
+    mask = np.ascontiguousarray((fixed != 0).reshape(grid.shape), dtype=np.uint8)
     omega = check.scalar(omega, "omega", minimum=None)
     if not 0.0 < omega < 2.0:
         raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
     f = None
     if rhs is not None:
-        f = check.as_grid(rhs, "rhs").reshape(grid.shape) if np.size(rhs) == grid.size else rhs
-        f = check.as_grid(f, "rhs")
-        check.same_shape(grid, f, "c", "rhs")
-        f = f.astype(grid.dtype, copy=False)
-    dx, dy = check.spacing(dx, dy)
-    bcs = parse_bc(bc)
-    for axis, (n, axis_bc) in enumerate(zip(grid.shape, (bcs.y, bcs.x), strict=True)):
+        f = check.as_field(rhs, "rhs", ndim=(1, 2))
+        if f.shape != np.shape(c):
+            raise ValueError(f"rhs has shape {f.shape} but c has shape {np.shape(c)}; they "
+                             "must match")
+        f = np.ascontiguousarray(f.reshape(grid.shape).astype(grid.dtype, copy=False))
+    bcs = domain.bcs
+    axes = (("x", grid.shape[1], bcs.x),) if domain.ndim == 1 else (
+        ("y", grid.shape[0], bcs.y), ("x", grid.shape[1], bcs.x))
+    for name, n, axis_bc in axes:
         if axis_bc.kind == PERIODIC and n % 2 == 1:
             raise ValueError(
-                f"red-black SOR needs an even size along a periodic axis, but axis {axis} "
-                f"({'y' if axis == 0 else 'x'}) has {n} cells; use an even size or a "
-                "'neumann'/('dirichlet', g) boundary on that axis"
+                f"red-black SOR needs an even size along a periodic axis, but the {name} axis "
+                f"has {n} cells; use an even size or a 'neumann'/('dirichlet', g) boundary on "
+                "that axis"
             )
-    return grid, np.ascontiguousarray(mask.astype(np.uint8)), omega, f, dx, dy, bcs
+    return grid, mask, omega, f, domain.dx, domain.dy, domain.bcs
 
 
 class _SOR:
@@ -575,18 +607,18 @@ def levelset_advance(
 
     ``φ < 0`` is inside; ``F > 0`` moves the front outward.  ``speed`` is a scalar or a
     per-cell field.  Raises :class:`StabilityError` if ``dt · max|F| · (1/dx + 1/dy) > 1``."""
-    grid = check.as_grid(phi, "phi")
+    grid, domain = _grid_problem(phi, "phi", dx, dy, bc)
     F = check.scalar_or_field(speed, "speed", grid)
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
-    dx, dy = check.spacing(dx, dy)
+    dx, dy, bcs = domain.dx, domain.dy, domain.bcs
     limit = levelset_dt_limit(float(np.max(np.abs(F))), dx, dy)
     if check_stability and dt > limit:
+        formula = "dx/max|F| (1-D)" if domain.ndim == 1 else "1/(max|F| (1/dx + 1/dy))"
         raise StabilityError(
-            f"dt={dt} exceeds the upwind CFL limit {limit:.6g} = 1/(max|F| (1/dx + 1/dy)); "
+            f"dt={dt} exceeds the upwind CFL limit {limit:.6g} = {formula}; "
             "reduce dt or pass check_stability=False"
         )
-    bcs = parse_bc(bc)
     be = get_backend(backend)
     cur = be.upload(grid)
     nxt = be.empty_like(cur)
@@ -617,14 +649,14 @@ def reinitialize(
     ``subcell_fix`` (Russo & Smereka 2000) anchors the cells next to the front to φ₀'s own
     distance estimate, so the front does not drift however many iterations run; without
     it the plain Godunov scheme moves the front by a fraction of a cell per ~100 steps."""
-    grid = check.as_grid(phi, "phi")
-    dx, dy = check.spacing(dx, dy)
+    grid, domain = _grid_problem(phi, "phi", dx, dy, bc)
+    dx, dy, bcs = domain.dx, domain.dy, domain.bcs
     limit = 1.0 / (1.0 / dx + 1.0 / dy)
     dtau = limit if dtau is None else check.scalar(dtau, "dtau", strict=True)
     if dtau > limit:
-        raise StabilityError(f"dtau={dtau} exceeds the CFL limit {limit:.6g} = 1/(1/dx + 1/dy)")
+        formula = "dx (1-D)" if domain.ndim == 1 else "1/(1/dx + 1/dy)"
+        raise StabilityError(f"dtau={dtau} exceeds the CFL limit {limit:.6g} = {formula}")
     n = max(grid.shape) if iterations is None else check.steps(iterations, "iterations")
-    bcs = parse_bc(bc)
     be = get_backend(backend)
     phi0 = be.upload(grid)
     cur = be.upload(grid)

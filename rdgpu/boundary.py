@@ -6,7 +6,9 @@ Each axis has one condition, implemented with a ghost cell beyond the edge:
 * ``"neumann"`` -- the ghost equals the adjacent edge cell (zero flux);
 * ``("dirichlet", g)`` -- the ghost holds the value ``g``.
 
-A user passes one condition for both axes or a pair ``(y_bc, x_bc)``.  Kernels receive
+A user passes one condition for both axes or a pair ``(y_bc, x_bc)``.  A 1-D problem has
+one axis and takes one condition; the kernels see it as a grid of one row whose y axis is
+absent (``dy = inf``, a Neumann y condition, so nothing flows along y).  Kernels receive
 each axis as an integer code plus a value (see :class:`AxisBC`).
 
 Corner ghosts (used only by the 9-point stencil) follow one rule on every backend: the
@@ -87,18 +89,30 @@ def _parse_axis(spec: Any) -> AxisBC:
     raise ValueError(f"unknown boundary condition {spec!r}; allowed: {ALLOWED}")
 
 
-def parse_bc(bc: Any) -> GridBC:
-    """Parse ``bc`` (one condition, or a pair ``(y_bc, x_bc)``) into a :class:`GridBC`."""
+def _is_pair(bc: Any) -> bool:
+    """Whether ``bc`` is a pair ``(y_bc, x_bc)`` rather than one condition."""
+    if not isinstance(bc, (tuple, list)) or len(bc) != 2:
+        return False
+    return not (isinstance(bc[0], str) and bc[0].lower() == "dirichlet")
+
+
+def parse_bc(bc: Any, ndim: int = 2) -> GridBC:
+    """Parse ``bc`` into a :class:`GridBC`.
+
+    ``ndim = 2``: one condition for both axes, or a pair ``(y_bc, x_bc)``.
+    ``ndim = 1``: one condition for the only axis (x); the absent y axis gets Neumann."""
     if isinstance(bc, GridBC):
         return bc
-    if isinstance(bc, (tuple, list)) and len(bc) == 2 and not isinstance(bc[0], str):
-        return GridBC(_parse_axis(bc[0]), _parse_axis(bc[1]))
-    if (
-        isinstance(bc, (tuple, list))
-        and len(bc) == 2
-        and isinstance(bc[0], str)
-        and bc[0].lower() != "dirichlet"
-    ):
+    if ndim == 1:
+        if _is_pair(bc):
+            raise ValueError(
+                f"a 1-D problem has one axis and takes one boundary condition, got the pair "
+                f"{bc!r}; allowed: {ALLOWED}"
+            )
+        return GridBC(AxisBC(NEUMANN), _parse_axis(bc))
+    if ndim != 2:
+        raise ValueError(f"ndim must be 1 or 2, got {ndim!r}")
+    if _is_pair(bc):
         return GridBC(_parse_axis(bc[0]), _parse_axis(bc[1]))
     axis = _parse_axis(bc)
     return GridBC(axis, axis)

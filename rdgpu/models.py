@@ -87,8 +87,9 @@ def build_domain(spec: Mapping[str, Any]) -> Any:
     "r": 0.3, "n_major": 96, "n_minor": 48}`` or ``{"mesh": "path/to/file.obj"}``."""
     spec = dict(spec)
     if "grid" in spec:
-        ny, nx = (int(n) for n in spec["grid"])
-        return Grid((ny, nx), dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
+        shape = spec["grid"]
+        shape = (int(shape),) * 2 if np.ndim(shape) == 0 else tuple(int(n) for n in shape)
+        return Grid(shape, dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
                     bc=spec.get("bc", "periodic"))
     if "mesh" in spec:
         from .mesh import SurfaceMesh
@@ -613,7 +614,7 @@ class AllenCahn:
             gx = _grid_face_differences(u, 1, domain.bcs.x) / domain.dx
             gy = _grid_face_differences(u, 0, domain.bcs.y) / domain.dy
             pot = ((u * u - 1.0) ** 2 / 4.0 + b * u) / eps**2
-            return float(domain.dx * domain.dy * (0.5 * (np.sum(gx * gx) + np.sum(gy * gy))
+            return float(domain.cell_volume * (0.5 * (np.sum(gx * gx) + np.sum(gy * gy))
                                                   + np.sum(pot)))
         domain_shape(domain)
         u = u.ravel()

@@ -158,8 +158,9 @@ def build_domain(spec: Any) -> Any:
 
 
 def _bc_json(grid: Grid) -> list:
+    """The grid's conditions as JSON: ``[y_bc, x_bc]`` (2-D) or ``[x_bc]`` (1-D)."""
     out = []
-    for axis in (grid.bcs.y, grid.bcs.x):
+    for axis in (grid.bcs.x,) if grid.ndim == 1 else (grid.bcs.y, grid.bcs.x):
         out.append(["dirichlet", axis.value] if axis.name == "dirichlet" else axis.name)
     return out
 
@@ -167,8 +168,8 @@ def _bc_json(grid: Grid) -> list:
 def describe_domain(domain: Any, source: Any = None) -> dict:
     """A JSON-able description of a domain (meshes: the generator/path if known, sizes)."""
     if isinstance(domain, Grid):
-        return {"kind": "grid", "shape": list(domain.shape), "dx": float(domain.dx),
-                "dy": float(domain.dy), "bc": _bc_json(domain)}
+        return {"kind": "grid", "shape": list(domain.field_shape), "dx": float(domain.dx),
+                "dy": float(domain.dy) if domain.ndim == 2 else None, "bc": _bc_json(domain)}
     if _is_mesh(domain):
         out: dict[str, Any] = {"kind": "mesh", "n_vertices": int(domain.n_vertices),
                                "n_faces": int(domain.n_faces)}
@@ -181,8 +182,8 @@ def describe_domain(domain: Any, source: Any = None) -> dict:
 
 def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) -> Any:
     if desc["kind"] == "grid":
-        y, x = (tuple(b) if isinstance(b, list) else b for b in desc["bc"])
-        bc = y if y == x else (y, x)
+        conds = [tuple(b) if isinstance(b, list) else b for b in desc["bc"]]
+        bc = conds[0] if len(set(conds)) == 1 else tuple(conds)
         return Grid(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"], bc=bc)
     from .mesh import SurfaceMesh
 
@@ -214,6 +215,8 @@ def _number(x: Any, what: str) -> float:
 
 def _extent(domain: Any) -> float:
     if isinstance(domain, Grid):
+        if domain.ndim == 1:
+            return domain.shape[1] * domain.dx
         return max(domain.shape[0] * domain.dy, domain.shape[1] * domain.dx)
     V = np.asarray(domain.vertices)
     return float((V.max(axis=0) - V.min(axis=0)).max())
@@ -226,6 +229,8 @@ def _grid_distance(grid: Grid, centre: tuple[float, float], *, cells: bool) -> n
 
     ny, nx = grid.shape
     sy, sx = (1.0, 1.0) if cells else (grid.dy, grid.dx)
+    if grid.ndim == 1:
+        sy = 0.0  # one row, no y axis
     d = []
     axes = ((ny, centre[0], sy, grid.bcs.y, 0), (nx, centre[1], sx, grid.bcs.x, 1))
     for n, c, s, axis, along in axes:

@@ -56,7 +56,7 @@ def test_omega_outside_open_interval(omega):
 
 def test_odd_periodic_sor_rejected():
     c = np.zeros((5, 6))
-    with pytest.raises(ValueError, match="even size along a periodic axis.*axis 0 \\(y\\) has 5"):
+    with pytest.raises(ValueError, match="even size along a periodic axis.*the y axis has 5"):
         rdgpu.sor_sweep(c, np.zeros_like(c, bool), omega=1.5, bc="periodic", backend="numpy")
     # the same grid is fine once the odd axis is not periodic
     rdgpu.sor_sweep(c, np.zeros_like(c, bool), omega=1.5, bc=("neumann", "periodic"),
