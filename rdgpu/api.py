@@ -31,6 +31,24 @@ def _restore(result: np.ndarray, original: Any) -> np.ndarray:
     return result.reshape(np.shape(original))
 
 
+def _finite(out: np.ndarray, what: str, *, stepping: bool = False,
+            check_stability: bool = True) -> np.ndarray:
+    """``out``, unless finite inputs produced NaN or Inf (an overflow of the dtype, or a run
+    that diverged): that is an error, never a silent result (not checked when the caller
+    turned the stability check off)."""
+    if check_stability and not np.isfinite(out).all():
+        bad = int(np.count_nonzero(~np.isfinite(out)))
+        cause = ("the run diverged (the reaction or the time step is too large for these "
+                 "values); reduce dt, or pass check_stability=False to get the raw result"
+                 if stepping else
+                 f"the values overflow {out.dtype} (largest {np.finfo(out.dtype).max:.3g}); "
+                 + ("use float64 or rescale the input" if out.dtype == np.float32
+                    else "rescale the input"))
+        raise FloatingPointError(f"{what} produced {bad} NaN/Inf value(s) from finite "
+                                 f"inputs: {cause}")
+    return out
+
+
 def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceArray:
     return backend.upload(x) if isinstance(x, np.ndarray) else x
 
@@ -80,6 +98,7 @@ def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any) -> tuple[np.ndar
         grid = Grid(field.shape, dx=dx, bc=bc)
     else:
         grid = Grid(field.shape, dx=dx, dy=dy, bc=bc)
+    check.spacing_fits(grid.dx, grid.dy, field.dtype)
     return field.reshape(grid.shape), grid
 
 
@@ -123,13 +142,20 @@ def _explicit_limit_formula(grid: Grid, d: str) -> str:
 
 
 def gray_scott_dt_limit(Du: float, Dv: float, dx: float, dy: float) -> float:
-    """Forward-Euler limit of the 5-point diffusion: ``1 / (2 max(Du, Dv) (1/dx² + 1/dy²))``."""
+    """Forward-Euler limit of the 5-point diffusion: ``1 / (2 max(Du, Dv) (1/dx² + 1/dy²))``
+    (``dy = inf`` for a 1-D grid: ``dx²/(2 max(Du, Dv))``)."""
+    Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
+    dx = check.scalar(dx, "dx", strict=True)
+    dy = math.inf if dy == math.inf else check.scalar(dy, "dy", strict=True)
     d = max(Du, Dv)
     return math.inf if d == 0 else 1.0 / (2.0 * d * (1.0 / dx**2 + 1.0 / dy**2))
 
 
 def levelset_dt_limit(max_speed: float, dx: float, dy: float) -> float:
     """Upwind CFL limit: ``Δt · max|F| · (1/dx + 1/dy) ≤ 1``."""
+    max_speed = check.scalar(max_speed, "max_speed")
+    dx = check.scalar(dx, "dx", strict=True)
+    dy = math.inf if dy == math.inf else check.scalar(dy, "dy", strict=True)
     return math.inf if max_speed == 0 else 1.0 / (max_speed * (1.0 / dx + 1.0 / dy))
 
 
@@ -162,7 +188,7 @@ def laplacian(
         d_u = be.upload(field)
         out = be.empty_like(d_u)
         be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, out)
-        return out.numpy()
+        return _finite(out.numpy(), "laplacian")
     if isinstance(stencil, bool) or stencil not in (5, 9):
         raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
     field, grid = _grid_problem(u, "u", dx, dy, bc)
@@ -174,10 +200,19 @@ def laplacian(
     d_u = be.upload(field)
     out = be.empty_like(d_u)
     be.laplacian(d_u, out, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
-    return _restore(out.numpy(), u)
+    return _restore(_finite(out.numpy(), "laplacian"), u)
 
 
 # ---------------------------------------------------------------------------- Bernoulli
+def bernoulli_decay(tau: float, eps: float, dtype: Any) -> float:
+    """``e^{−2τ/ε²}`` of the Bernoulli substep, never below ``dtype``'s smallest normal
+    number: an exact 0 (``τ/ε²`` past ~745, or ε² underflowing) would make ``u = 0`` a
+    0/0, and a subnormal would be flushed to 0 on the device.  For every ``|u|`` above
+    ~1e-150 (float64) / ~1e-19 (float32) the result is the same as with the exact value."""
+    decay = math.exp(-2.0 * ((tau / eps) / eps))
+    return max(decay, float(np.finfo(np.dtype(dtype)).tiny))
+
+
 def bernoulli_substep(
     u: np.ndarray, *, tau: float, eps: float, backend: BackendSpec = None
 ) -> np.ndarray:
@@ -187,12 +222,12 @@ def bernoulli_substep(
     field = check.as_field(u, "u", ndim=tuple(range(1, 8)))
     tau = check.scalar(tau, "tau")
     eps = check.scalar(eps, "eps", strict=True)
-    decay = math.exp(-2.0 * tau / eps**2)
+    decay = bernoulli_decay(tau, eps, field.dtype)
     be = get_backend(backend)
     d_u = be.upload(field)
     out = be.empty_like(d_u)
     be.bernoulli(d_u, out, decay=decay)
-    return out.numpy()
+    return _finite(out.numpy(), "bernoulli_substep")
 
 
 # ---------------------------------------------------------------------------- Gray-Scott
@@ -260,7 +295,10 @@ def gray_scott(
                 cur_u, nxt_u = nxt_u, cur_u
                 cur_v, nxt_v = nxt_v, cur_v
                 bar.tick(step + 1)
-        return cur_u.numpy(), cur_v.numpy()
+        return (_finite(cur_u.numpy(), "gray_scott", stepping=True,
+                        check_stability=check_stability),
+                _finite(cur_v.numpy(), "gray_scott", stepping=True,
+                        check_stability=check_stability))
     limit = gray_scott_dt_limit(Du, Dv, grid.dx, grid.dy)
     if check_stability and dt > limit:
         raise StabilityError(
@@ -282,7 +320,9 @@ def gray_scott(
             cur_u, nxt_u = nxt_u, cur_u
             cur_v, nxt_v = nxt_v, cur_v
             bar.tick(step + 1)
-    return _restore(cur_u.numpy(), u), _restore(cur_v.numpy(), v)
+    gs = {"stepping": True, "check_stability": check_stability}
+    return (_restore(_finite(cur_u.numpy(), "gray_scott", **gs), u),
+            _restore(_finite(cur_v.numpy(), "gray_scott", **gs), v))
 
 
 # ---------------------------------------------------------------------------- SpMV
@@ -323,12 +363,13 @@ def spmv(csr: Any, x: np.ndarray, backend: BackendSpec = None) -> np.ndarray:
     if m.nnz and not np.isfinite(m.data).all():
         bad = int(np.count_nonzero(~np.isfinite(m.data)))
         raise ValueError(f"csr contains {bad} NaN or Inf value(s); all entries must be finite")
+    check.fits_dtype(m.data, field.dtype, "csr")
     be = get_backend(backend)
     A = be.upload_csr(m, field.dtype)
     d_x = be.upload(field)
     y = be.empty((n_rows,), field.dtype)
     be.spmv(A, d_x, y)
-    return y.numpy()
+    return _finite(y.numpy(), "spmv")
 
 
 # ---------------------------------------------------------------------------- diffusion
@@ -410,7 +451,7 @@ def diffusion_step(
         for _ in range(n):
             solver.step(cur, nxt, source=d_src)
             cur, nxt = nxt, cur
-    out = cur.numpy()
+    out = _finite(cur.numpy(), "diffusion_step", stepping=True, check_stability=check_stability)
     return out if mesh is not None else _restore(out, u)
 
 
@@ -443,6 +484,11 @@ def allen_cahn(
 
     field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
     eps = check.scalar(eps, "eps", strict=True)
+    if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
+        raise ValueError(
+            f"eps={eps:g} is too small for {field.dtype}: the reaction term (u³ − u + b)/eps² "
+            f"overflows; allowed: eps > {1 / math.sqrt(float(np.finfo(field.dtype).max)):.3g}"
+        )
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
     b_ = check.scalar_or_field(b, "b", field)
@@ -454,14 +500,24 @@ def allen_cahn(
     )
     stepper.set_state({"u": field})
     stepper.advance(n)
-    out = stepper.get_state()["u"]
+    out = _finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
+                  check_stability=check_stability)
     return out if mesh is not None else _restore(out, u)
 
 
 # ---------------------------------------------------------------------------- SOR
 def optimal_omega(shape: tuple[int, ...]) -> float:
     """``2 / (1 + sin(π/N))`` with ``N`` the larger side: the optimal ω of the model problem."""
-    n = max(max(shape), 2)
+    if isinstance(shape, (int, np.integer)) and not isinstance(shape, bool):
+        shape = (shape,)
+    try:
+        sizes = [int(n) for n in shape if not isinstance(n, bool) and int(n) == n]
+    except (TypeError, ValueError):
+        sizes = []
+    if not sizes or len(sizes) != len(tuple(shape)) or min(sizes) < 1:
+        raise ValueError(f"shape must be a non-empty tuple of positive integers (a grid's "
+                         f"shape), got {shape!r}")
+    n = max(max(sizes), 2)
     return 2.0 / (1.0 + math.sin(math.pi / n))
 
 
@@ -626,7 +682,8 @@ def levelset_advance(
     for _ in range(n):
         be.levelset_step(cur, d_F, nxt, dt=dt, dx=dx, dy=dy, bc=bcs)
         cur, nxt = nxt, cur
-    return _restore(cur.numpy(), phi)
+    out = _finite(cur.numpy(), "levelset_advance", stepping=True, check_stability=check_stability)
+    return _restore(out, phi)
 
 
 def reinitialize(

@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from .api import bernoulli_decay
 from .backends.base import Backend, DeviceArray
 from .boundary import DIRICHLET, NEUMANN, PERIODIC
 from .dispatch import get_backend
@@ -636,7 +637,7 @@ class AllenCahnStepper(_BaseStepper):
         self.params = dict(params)
         self.method = method
         eps = float(params["eps"])
-        self.decay = math.exp(-2.0 * (self.dt / 2.0) / eps**2)
+        self.decay = bernoulli_decay(self.dt / 2.0, eps, self.dtype)
         b = params["b"]
         self._b = (backend.upload(np.ascontiguousarray(b, dtype=self.dtype))
                    if isinstance(b, np.ndarray) else float(b))

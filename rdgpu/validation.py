@@ -55,6 +55,8 @@ def same_dtype(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
 
 def scalar(x: Any, name: str, *, minimum: float | None = 0.0, strict: bool = False) -> float:
     """A finite real number, ``>= minimum`` (``> minimum`` when ``strict``)."""
+    if isinstance(x, (str, bytes)) or (isinstance(x, np.ndarray) and x.dtype.kind not in "biuf"):
+        raise TypeError(f"{name} must be a real number, got {type(x).__name__} {x!r}")
     try:
         value = float(x)
     except (TypeError, ValueError):
@@ -76,6 +78,8 @@ def spacing(dx: Any, dy: Any) -> tuple[float, float]:
 
 def scalar_or_field(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
     """A finite scalar, or a finite field of ``like``'s shape cast to its dtype."""
+    if isinstance(x, (str, bytes)):
+        raise TypeError(f"{name} must be a number or a numeric array, got str {x!r}")
     if np.ndim(x) == 0:
         return scalar(x, name, minimum=None)
     a = np.asarray(x)
@@ -100,3 +104,31 @@ def steps(n: Any, name: str = "steps") -> int:
     if n < 0:
         raise ValueError(f"{name} must be >= 0, got {n}")
     return int(n)
+
+
+def fits_dtype(values: np.ndarray, dtype: np.dtype, name: str) -> None:
+    """Values that become ±inf when cast to ``dtype`` are an error, not a silent overflow."""
+    dtype = np.dtype(dtype)
+    if values.size and dtype.kind == "f":
+        big = float(np.max(np.abs(values)))
+        limit = float(np.finfo(dtype).max)
+        if big > limit:
+            raise ValueError(
+                f"{name} has values up to {big:.3g}, beyond the largest {dtype} ({limit:.3g}): "
+                f"they would become inf; use float64 data or rescale {name}"
+            )
+
+
+def spacing_fits(dx: float, dy: float, dtype: np.dtype) -> None:
+    """The kernels use ``1/dx²`` and ``1/dy²`` in the field's dtype: both must be finite."""
+    limit = float(np.finfo(dtype).max)
+    for name, h in (("dx", dx), ("dy", dy)):
+        if h == math.inf:  # the absent y axis of a 1-D grid
+            continue
+        inverse_square = 1.0 / (h * h) if h * h > 0.0 else math.inf
+        if inverse_square > limit:
+            raise ValueError(
+                f"{name}={h:g} is too small for {np.dtype(dtype)}: 1/{name}² overflows "
+                f"(largest {np.dtype(dtype)} {limit:.3g}); use float64 or a larger spacing "
+                "(rescale lengths, e.g. measure in cells)"
+            )
