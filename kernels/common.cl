@@ -26,6 +26,12 @@
  * Arithmetic follows the NumPy references operation by operation (same order, no
  * contraction into FMAs), so float64 results agree bit for bit and float32 results too
  * wherever the device rounds sqrt/division correctly.
+ *
+ * Subnormals (SPEC): every value a kernel writes goes through FLUSH, which turns a value
+ * whose magnitude is below the smallest normal number of `real` into 0.  The host also
+ * builds with -cl-denorms-are-zero: devices that honour it (PoCL sets the x86 FTZ/DAZ
+ * bits while a kernel runs) then flush intermediate results too, so that no kernel slows
+ * down on subnormal arithmetic; FLUSH makes the outputs follow the rule on every device.
  */
 
 #pragma OPENCL FP_CONTRACT OFF
@@ -88,6 +94,14 @@ typedef float real;
 #define R0 ((real)0)
 #define R1 ((real)1)
 #define R2 ((real)2)
+
+/* Flush a subnormal to 0 (NaN and infinities pass): a select, so loops still vectorise. */
+#if REAL_IS_DOUBLE
+#define REAL_MIN_NORMAL DBL_MIN
+#else
+#define REAL_MIN_NORMAL FLT_MIN
+#endif
+INLINE real FLUSH(real x) { return (FABS(x) < REAL_MIN_NORMAL) ? R0 : x; }
 
 /* max/min with 0 that propagate NaN like np.maximum / np.minimum */
 INLINE real max0(real a) { return (a < R0) ? R0 : a; }

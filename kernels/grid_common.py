@@ -1,10 +1,19 @@
-"""NumPy ghost-cell padding shared by the grid references (see rdgpu.boundary)."""
+"""NumPy helpers shared by the references: ghost-cell padding of the grid kernels (see
+rdgpu.boundary) and :func:`flush`, the subnormal rule every reference applies to the values
+it returns (as every Warp and OpenCL kernel does to the values it writes)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 PERIODIC, NEUMANN, DIRICHLET = 0, 1, 2
+
+
+def flush(x):
+    """Subnormals flushed (SPEC): 0 where ``|x|`` is below the smallest normal number of
+    x's dtype, else ``x`` (NaN and infinities pass).  Same dtype; 0-d input gives 0-d."""
+    x = np.asarray(x)
+    return np.where(np.abs(x) < np.finfo(x.dtype).tiny, x.dtype.type(0), x)
 
 
 def pad_axis(a: np.ndarray, axis: int, kind: int, value: float, width: int = 1) -> np.ndarray:

@@ -1,13 +1,26 @@
-"""Warp helpers shared by the kernel families: ghost cells and scalar-or-field parameters.
+"""Warp helpers shared by the kernel families: ghost cells, scalar-or-field parameters and
+the flushing of subnormal numbers.
 
 Imported by the families as ``rdgpu._kernels.warp_common`` (see ``rdgpu.kernel_files``).
 The ghost rule is the one of ``rdgpu.boundary`` / ``grid_common.pad``: a neighbour index
 just outside the grid is resolved along y first (Dirichlet ``g_y`` wins, else wrap or
 clamp the row), then along x.  Kernels pass each axis as ``(kind, value)``.
+
+Subnormals (SPEC): a value whose magnitude is below the dtype's smallest normal number
+becomes 0.  Every kernel passes each value it writes through :func:`flush` (a select, on
+every device and launch shape).  The CPU-shaped kernels (``rows``/``blocks``) also switch
+the x86 FTZ/DAZ bits on for their body -- ``saved = ftz_begin()`` first, ``ftz_end(saved)``
+last -- so that intermediate subnormals are flushed too and no loop runs at the speed of
+subnormal arithmetic.  Warp runs CPU kernels in the calling thread (and the backend's pool
+threads), so the exact MXCSR value is restored at the end of every thread's body: nothing
+leaks into the user's thread.  On CUDA (which ignores MXCSR; nvrtc does not flush by
+default) and on non-x86 CPUs the two calls compile to nothing and :func:`flush` alone
+makes the outputs follow the rule.
 """
 
 from typing import Any
 
+import numpy as np
 import warp as wp
 
 PERIODIC = wp.constant(0)
@@ -61,3 +74,55 @@ def nanmax(a: Any, b: Any):
     if b > a or b != b:
         r = b
     return r
+
+
+# ------------------------------------------------------------------ subnormals
+_TINY32 = wp.constant(wp.float32(np.finfo(np.float32).tiny))
+_TINY64 = wp.constant(wp.float64(np.finfo(np.float64).tiny))
+
+
+@wp.func
+def flush(x: wp.float32) -> wp.float32:
+    """``x``, or 0 where ``|x|`` is below the smallest normal float32 (NaN passes)."""
+    return wp.where(wp.abs(x) < _TINY32, wp.float32(0.0), x)
+
+
+@wp.func
+def flush(x: wp.float64) -> wp.float64:  # noqa: F811 - the float64 overload
+    """``x``, or 0 where ``|x|`` is below the smallest normal float64 (NaN passes)."""
+    return wp.where(wp.abs(x) < _TINY64, wp.float64(0.0), x)
+
+
+# 0x8040 = FTZ (bit 15: results flushed to zero) | DAZ (bit 6: subnormal inputs read as 0).
+# The clang builtins work in Warp's CPU JIT (inline asm does not); nvcc/nvrtc define
+# __CUDA_ARCH__ and get an empty body.
+_X86_HOST = "#if !defined(__CUDA_ARCH__) && (defined(__x86_64__) || defined(__i386__))"
+
+
+@wp.func_native(
+    _X86_HOST
+    + """
+    unsigned int saved_ = __builtin_ia32_stmxcsr();
+    __builtin_ia32_ldmxcsr(saved_ | 0x8040u);
+    return (int)saved_;
+#else
+    return 0;
+#endif
+"""
+)
+def ftz_begin() -> int:
+    """Switch FTZ/DAZ on in this thread (x86 CPU); return the previous MXCSR for
+    :func:`ftz_end`.  Elsewhere: nothing, returns 0."""
+    ...
+
+
+@wp.func_native(
+    _X86_HOST
+    + """
+    __builtin_ia32_ldmxcsr((unsigned int)saved);
+#endif
+"""
+)
+def ftz_end(saved: int):
+    """Restore the MXCSR value :func:`ftz_begin` returned (x86 CPU; elsewhere nothing)."""
+    ...

@@ -23,6 +23,9 @@ gives it (left to right for ``a*b*c``), into NumPy, Warp and OpenCL C alike; Ope
 compiles with ``FP_CONTRACT OFF`` and the literals are exact in the dtype (hex floats), so
 the three backends agree to round-off (bit for bit in practice).
 
+Subnormals (SPEC, :mod:`rdgpu.fpenv`): every new value is flushed (after its clamp) in all
+three implementations, and a literal that would be subnormal in the fields' dtype is 0.
+
 Warp needs a real source file for a kernel: the module text is written to
 ``$RDGPU_CACHE_DIR/warp/<hash>.py`` (default ``~/.cache/rdgpu``) and imported.
 """
@@ -45,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from .backends.base import Backend, DeviceArray
+from .fpenv import flush_subnormals
 from .kernel_files import load_module, read_source
 
 __all__ = ["Expression", "ExpressionError", "ReactionKernel", "cache_dir", "parse_expression"]
@@ -266,7 +270,7 @@ class ReactionKernel:
         missing = [p for p in self.param_names if p not in params]
         if missing:
             raise KeyError(f"missing reaction parameter(s) {missing}")
-        c = [t(v) for v in lits]
+        c = [_literal(v, t) for v in lits]
         xs = [_as_dtype(x, t) for x in fields]
         ps = [_as_dtype(params[p], t) for p in self.param_names]
         return list(f(c, *xs, *ps))
@@ -354,9 +358,9 @@ class ReactionKernel:
         diffusing, fields, dtype = spec
         local = self._param_local(spec)
         if dtype == np.float64:
-            lit = lambda v: f"({float(v).hex()})"  # noqa: E731 - exact double literal
+            lit = lambda v: f"({float(_literal(v, np.float64)).hex()})"  # noqa: E731 - exact
         else:
-            lit = lambda v: f"({float(np.float32(v)).hex()}f)"  # noqa: E731
+            lit = lambda v: f"({float(_literal(v, np.float32)).hex()}f)"  # noqa: E731
 
         def name(n: str) -> str:
             return f"s_{n}" if n in self.species else local[n]
@@ -382,7 +386,7 @@ class ReactionKernel:
                 body.append(f"n{i} = (n{i} < {lit(lo)}) ? {lit(lo)} : n{i};")
             if hi is not None:
                 body.append(f"n{i} = (n{i} > {lit(hi)}) ? {lit(hi)} : n{i};")
-            body.append(f"o{i}[k] = n{i};")
+            body.append(f"o{i}[k] = FLUSH(n{i});")
         template = read_source("reaction", "reaction.cl")
         pairs = zip(self.species, self.expressions, strict=True)
         comment = "\n".join(f" *   R_{s} = {e.text}" for s, e in pairs)
@@ -400,7 +404,7 @@ class ReactionKernel:
         lits: list[str] = []
 
         def lit(v: float) -> str:
-            value = float(np.dtype(dtype).type(v))
+            value = float(_literal(v, np.dtype(dtype).type))
             lits.append(f"_c{len(lits)} = wp.constant(real({value!r}))")
             return f"_c{len(lits) - 1}"
 
@@ -422,6 +426,11 @@ class ReactionKernel:
                 f"R_{s} = {e.text}" for s, e in zip(self.species, self.expressions, strict=True)
             ),
         )
+
+
+def _literal(v: float, t: type):
+    """A literal rounded to the dtype ``t``, subnormals flushed to 0."""
+    return t(flush_subnormals(np.asarray(v, dtype=t)))
 
 
 def _as_dtype(x: Any, t: type):

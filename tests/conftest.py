@@ -30,6 +30,27 @@ def backend(request):
     return backend_or_skip(request.param)
 
 
+#: every backend plus the GPU launch shapes run on the CPU: Warp's one-thread-per-cell
+#: kernels and OpenCL's strided layout
+VARIANTS = ["numpy", "warp", "warp-cells", "opencl", "opencl-strided"]
+
+
+@pytest.fixture(params=VARIANTS)
+def variant_backend(request):
+    """A backend of :data:`VARIANTS` (skipped where unavailable)."""
+    name = request.param
+    base = backend_or_skip(name.split("-")[0])
+    if name == "warp-cells":
+        from rdgpu.backends.warp_backend import WarpBackend
+
+        return WarpBackend("cpu", launch="cells")
+    if name == "opencl-strided":
+        from rdgpu.backends.opencl_backend import OpenCLBackend
+
+        return OpenCLBackend(layout="strided", col_stride=4)
+    return base
+
+
 @pytest.fixture(params=DTYPES, ids=["f32", "f64"])
 def dtype(request):
     return np.dtype(request.param)

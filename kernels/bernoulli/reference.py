@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from rdgpu._kernels.grid_common import flush
 
 
 def bernoulli(u: np.ndarray, decay: float) -> np.ndarray:
     """Exact solution of ``u_t = (u − u³)/ε²`` after a time τ, with ``decay = e^{−2τ/ε²}``:
-    ``u / sqrt(decay + u² (1 − decay))``.  Any shape."""
+    ``u / sqrt(decay + u² (1 − decay))``, subnormals flushed to 0.  Any shape."""
     t = u.dtype.type
     d = t(decay)
-    return u / np.sqrt(d + u * u * (t(1) - d))
+    return flush(u / np.sqrt(d + u * u * (t(1) - d)))

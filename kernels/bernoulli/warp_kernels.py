@@ -4,11 +4,13 @@ Pointwise on flat 1-D views (any shape: grids or mesh vertices).  Two launch sha
 one ``@wp.func``: ``blocks`` (thread ``b`` does the elements ``[(b + b0)·block, … + block)``
 in a serial loop; the CPU shape) and ``cells`` (one thread per element; the CUDA shape).
 
-``KERNELS[np.dtype]`` is ``(blocks, cells)``.
+``KERNELS[np.dtype]`` is ``(blocks, cells)``.  The output is flushed of subnormals;
+``blocks`` runs with FTZ/DAZ on (see ``warp_common``).
 """
 
 import numpy as np
 import warp as wp
+from rdgpu._kernels.warp_common import flush, ftz_begin, ftz_end
 
 wp.set_module_options({"enable_backward": False})
 
@@ -18,17 +20,19 @@ def _build(dtype):
 
     @wp.func
     def bern(x: dtype, d: dtype, one_minus_d: dtype) -> dtype:
-        return x / wp.sqrt(d + x * x * one_minus_d)
+        return flush(x / wp.sqrt(d + x * x * one_minus_d))
 
     # d = decay, omd = 1 − decay (both in the array's dtype)
     @wp.kernel
     def blocks(u: A1, out: A1, d: dtype, omd: dtype, block: int, b0: int):
+        saved = ftz_begin()
         start = (wp.tid() + b0) * block
         end = wp.min(start + block, u.shape[0])
         idx = start
         while idx < end:
             out[idx] = bern(u[idx], d, omd)
             idx += 1
+        ftz_end(saved)
 
     @wp.kernel
     def cells(u: A1, out: A1, d: dtype, omd: dtype):

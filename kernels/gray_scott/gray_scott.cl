@@ -3,9 +3,10 @@
  *   u' = u + h (Du Δu - u v² + F (1 - u))
  *   v' = v + h (Dv Δv + u v² - (F + k) v)
  *
- * with the 5-point Laplacian.  F and k are scalars or per-cell fields: four kernels
- * gray_scott_{s,f}{s,f} (F then k; s = scalar, f = field) share one inline body.  A
- * scalar's pointer argument is unused (the host passes any buffer).
+ * with the 5-point Laplacian; both outputs are flushed of subnormals (see common.cl).
+ * F and k are scalars or per-cell fields: four kernels gray_scott_{s,f}{s,f} (F then k;
+ * s = scalar, f = field) share one inline body.  A scalar's pointer argument is unused
+ * (the host passes any buffer).
  */
 
 INLINE void gs_cell(Nbr5 a, Nbr5 b, real cx, real cy, real Du, real Dv, real F, real k,
@@ -14,8 +15,8 @@ INLINE void gs_cell(Nbr5 a, Nbr5 b, real cx, real cy, real Du, real Dv, real F, 
     const real lap_u = (a.e + a.w - R2 * a.c) * cx + (a.n + a.s - R2 * a.c) * cy;
     const real lap_v = (b.e + b.w - R2 * b.c) * cx + (b.n + b.s - R2 * b.c) * cy;
     const real uvv = a.c * b.c * b.c;
-    uo[idx] = a.c + h * (Du * lap_u - uvv + F * (R1 - a.c));
-    vo[idx] = b.c + h * (Dv * lap_v + uvv - (F + k) * b.c);
+    uo[idx] = FLUSH(a.c + h * (Du * lap_u - uvv + F * (R1 - a.c)));
+    vo[idx] = FLUSH(b.c + h * (Dv * lap_v + uvv - (F + k) * b.c));
 }
 
 #define GRAY_SCOTT_KERNEL(NAME, F_FIELD, K_FIELD)                                         \

@@ -7,11 +7,12 @@ Two launch shapes share one ``@wp.func`` cell update: ``rows`` (one thread per r
 
 ``KERNELS[(np.dtype, F_is_field, k_is_field)]`` is ``(rows, cells)``; a scalar ``F`` or
 ``k`` is a kernel argument of the array's dtype, a field is a 2-D array of the grid shape.
+Both outputs are flushed of subnormals; ``rows`` runs with FTZ/DAZ on (see ``warp_common``).
 """
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import field_at, ghost, scalar_at
+from rdgpu._kernels.warp_common import field_at, flush, ftz_begin, ftz_end, ghost, scalar_at
 
 wp.set_module_options({"enable_backward": False})
 
@@ -36,8 +37,8 @@ def _build(dtype, f_field, k_field):
         lap_v = (ve + vw - two * vc) * cx + (vn + vs - two * vc) * cy
         uvv = uc * vc * vc
         return (
-            uc + h * (Du * lap_u - uvv + Fc * (one - uc)),
-            vc + h * (Dv * lap_v + uvv - (Fc + kc) * vc),
+            flush(uc + h * (Du * lap_u - uvv + Fc * (one - uc))),
+            flush(vc + h * (Dv * lap_v + uvv - (Fc + kc) * vc)),
         )
 
     @wp.func
@@ -81,6 +82,7 @@ def _build(dtype, f_field, k_field):
         F: FT, k: KT, cx: dtype, cy: dtype, Du: dtype, Dv: dtype, h: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
     ):
+        saved = ftz_begin()
         i = wp.tid() + row0
         ny = u.shape[0]
         nx = u.shape[1]
@@ -95,6 +97,7 @@ def _build(dtype, f_field, k_field):
         else:
             for j in range(nx):
                 edge(u, v, uo, vo, i, j, F, k, cx, cy, Du, Dv, h, yk, yv, xk, xv)
+        ftz_end(saved)
 
     @wp.kernel
     def cells(

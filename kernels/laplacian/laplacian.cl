@@ -2,18 +2,19 @@
  *
  * laplacian5: out = (E + W - 2u) cx + (N + S - 2u) cy      with cx = 1/dx², cy = 1/dy²
  * laplacian9: out = (4 (W + E + S + N) + SW + SE + NW + NE - 20u) c9   with c9 = 1/(6h²)
+ * (outputs flushed of subnormals, see common.cl)
  */
 
 INLINE real lap5_cell(Nbr5 q, real cx, real cy)
 {
-    return (q.e + q.w - R2 * q.c) * cx + (q.n + q.s - R2 * q.c) * cy;
+    return FLUSH((q.e + q.w - R2 * q.c) * cx + (q.n + q.s - R2 * q.c) * cy);
 }
 
 INLINE real lap9_cell(Nbr5 q, Nbr4d d, real c9)
 {
     const real edge = q.w + q.e + q.s + q.n;
     const real corner = d.sw + d.se + d.nw + d.ne;
-    return ((real)4 * edge + corner - (real)20 * q.c) * c9;
+    return FLUSH(((real)4 * edge + corner - (real)20 * q.c) * c9);
 }
 
 __kernel void laplacian5(__global const real *RESTRICT u, __global real *RESTRICT out,

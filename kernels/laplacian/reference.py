@@ -3,20 +3,21 @@
 from __future__ import annotations
 
 import numpy as np
-from rdgpu._kernels.grid_common import neighbours, pad
+from rdgpu._kernels.grid_common import flush, neighbours, pad
 
 
 def laplacian(u: np.ndarray, dx: float, dy: float, bc, stencil: int = 5) -> np.ndarray:
     """5-point ``(E + W − 2u)/dx² + (N + S − 2u)/dy²`` or the isotropic 9-point
-    ``(4(E + W + N + S) + NE + NW + SE + SW − 20u)/(6h²)`` (needs dx == dy == h)."""
+    ``(4(E + W + N + S) + NE + NW + SE + SW − 20u)/(6h²)`` (needs dx == dy == h);
+    subnormal results are flushed to 0."""
     t = u.dtype.type
     if stencil == 5:
         w, e, s, n = neighbours(u, bc)
-        return (e + w - t(2) * u) * t(1.0 / dx**2) + (n + s - t(2) * u) * t(1.0 / dy**2)
+        return flush((e + w - t(2) * u) * t(1.0 / dx**2) + (n + s - t(2) * u) * t(1.0 / dy**2))
     p = pad(u, bc)
     edge = p[1:-1, :-2] + p[1:-1, 2:] + p[:-2, 1:-1] + p[2:, 1:-1]
     corner = p[:-2, :-2] + p[:-2, 2:] + p[2:, :-2] + p[2:, 2:]
-    return (t(4) * edge + corner - t(20) * u) * t(1.0 / (6.0 * dx * dx))
+    return flush((t(4) * edge + corner - t(20) * u) * t(1.0 / (6.0 * dx * dx)))
 
 
 def laplacian_matrix(shape: tuple[int, int], dx: float, dy: float, bc):

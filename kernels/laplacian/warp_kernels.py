@@ -7,12 +7,13 @@ Every kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
   launched as row chunks from several host threads);
 * ``cells`` -- one thread per cell, ``dim = (ny, nx)`` (CUDA).
 
-``KERNELS[(np.dtype, stencil)]`` is ``(rows, cells)``.
+``KERNELS[(np.dtype, stencil)]`` is ``(rows, cells)``.  Every output is flushed of
+subnormals; ``rows`` runs with FTZ/DAZ on (see ``warp_common``).
 """
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import ghost
+from rdgpu._kernels.warp_common import flush, ftz_begin, ftz_end, ghost
 
 wp.set_module_options({"enable_backward": False})
 
@@ -25,7 +26,7 @@ def _build(dtype, stencil):
 
     @wp.func
     def lap5(c: dtype, w: dtype, e: dtype, s: dtype, n: dtype, cx: dtype, cy: dtype) -> dtype:
-        return (e + w - two * c) * cx + (n + s - two * c) * cy
+        return flush((e + w - two * c) * cx + (n + s - two * c) * cy)
 
     @wp.func
     def lap9(
@@ -34,7 +35,7 @@ def _build(dtype, stencil):
     ) -> dtype:
         edge = w + e + s + n
         corner = sw + se + nw + ne
-        return (four * edge + corner - twenty * c) * coef
+        return flush((four * edge + corner - twenty * c) * coef)
 
     if stencil == 5:
 
@@ -90,6 +91,7 @@ def _build(dtype, stencil):
         u: A2, out: A2, cx: dtype, cy: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
     ):
+        saved = ftz_begin()
         i = wp.tid() + row0
         ny = u.shape[0]
         nx = u.shape[1]
@@ -104,6 +106,7 @@ def _build(dtype, stencil):
         else:
             for j in range(nx):
                 edge(u, out, i, j, cx, cy, yk, yv, xk, xv)
+        ftz_end(saved)
 
     @wp.kernel
     def cells(u: A2, out: A2, cx: dtype, cy: dtype, yk: int, yv: dtype, xk: int, xv: dtype):

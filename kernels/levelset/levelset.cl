@@ -7,6 +7,7 @@
  * reinit_step:        out = φ - h (max(S,0) ∇+ + min(S,0) ∇- - S),  S = φ0/SQRT(φ0² + w2)
  * reinit_step_subcell: the same with the Russo-Smereka fix at the front of φ0 (below)
  * Host constants: ix = 1/dx, iy = 1/dy, w2 = width² (rounded in `real`).
+ * Every output is flushed of subnormals (FLUSH, see common.cl).
  */
 
 typedef struct {
@@ -77,7 +78,8 @@ __kernel void NAME(__global const real *RESTRICT phi, __global const real *RESTR
 #define LS_CELL_GEN(j, cc, FV)                                                            \
     do {                                                                                  \
         const long idx_ = r.c + (j);                                                       \
-        out[idx_] = levelset_cell(load5(phi, r, (cc), (j), gy, gx), (FV), ix, iy, h);     \
+        out[idx_] = FLUSH(levelset_cell(load5(phi, r, (cc), (j), gy, gx), (FV), ix, iy,  \
+                                        h));                                              \
     } while (0)
 #define LS_CELL_S(j, cc) LS_CELL_GEN(j, cc, fs)
 #define LS_CELL_F(j, cc) LS_CELL_GEN(j, cc, fp[idx_])
@@ -100,7 +102,8 @@ __kernel void NAME(__global const real *RESTRICT phi, __global const real *RESTR
 #define RI_CELL_0(j, cc)                                                                  \
     do {                                                                                  \
         const long idx_ = r.c + (j);                                                       \
-        out[idx_] = reinit_cell(load5(phi, r, (cc), (j), gy, gx), phi0[idx_], w2, ix, iy, h); \
+        out[idx_] = FLUSH(reinit_cell(load5(phi, r, (cc), (j), gy, gx), phi0[idx_], w2, ix, iy, \
+                                      h));                                                \
     } while (0)
 #define RI_CELL_1(j, cc)                                                                  \
     do {                                                                                  \
@@ -108,8 +111,8 @@ __kernel void NAME(__global const real *RESTRICT phi, __global const real *RESTR
         const long idx_ = r.c + (j);                                                       \
         const Nbr5 q_ = load5(phi, r, cc_, (j), gy, gx);                                  \
         const real away_ = reinit_cell(q_, phi0[idx_], w2, ix, iy, h);                    \
-        out[idx_] = reinit_subcell(away_, q_.c, load5(phi0, r, cc_, (j), gy, gx), ix, iy,  \
-                                   hx, hy, rel, tiny);                                    \
+        out[idx_] = FLUSH(reinit_subcell(away_, q_.c, load5(phi0, r, cc_, (j), gy, gx), ix, \
+                                         iy, hx, hy, rel, tiny));                         \
     } while (0)
 
 REINIT_KERNEL(reinit_step, 0)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from rdgpu._kernels.grid_common import neighbours
+from rdgpu._kernels.grid_common import flush, neighbours
 
 
 def upwind_gradients(phi: np.ndarray, dx: float, dy: float, bc):
@@ -30,11 +30,12 @@ def upwind_gradients(phi: np.ndarray, dx: float, dy: float, bc):
 
 
 def levelset_step(phi, speed, dt, dx, dy, bc) -> np.ndarray:
-    """``φ − Δt [max(F, 0) ∇⁺ + min(F, 0) ∇⁻]``; ``speed`` is a scalar or a field."""
+    """``φ − Δt [max(F, 0) ∇⁺ + min(F, 0) ∇⁻]``, subnormals flushed to 0; ``speed`` is a
+    scalar or a field."""
     t = phi.dtype.type
     f = np.asarray(speed, dtype=phi.dtype)
     gp, gm = upwind_gradients(phi, dx, dy, bc)
-    return phi - t(dt) * (np.maximum(f, t(0)) * gp + np.minimum(f, t(0)) * gm)
+    return flush(phi - t(dt) * (np.maximum(f, t(0)) * gp + np.minimum(f, t(0)) * gm))
 
 
 def reinit_step(phi, phi0, dtau, width, dx, dy, bc, subcell=True) -> np.ndarray:
@@ -45,13 +46,14 @@ def reinit_step(phi, phi0, dtau, width, dx, dy, bc, subcell=True) -> np.ndarray:
     φ₀ changes sign to one of its 4 neighbours (or is 0) is instead relaxed towards its
     distance estimate ``D = φ₀ / |∇φ₀|``: ``φ − (Δτ/h)(sgn(φ₀)|φ| − D)``, ``h = min(dx, dy)``,
     with ``|∇φ₀| = max(central 2-D gradient, each one-sided difference, 1e-30)``.  This pins
-    the front where φ₀ put it instead of letting it drift."""
+    the front where φ₀ put it instead of letting it drift.  Subnormal results are flushed
+    to 0."""
     t = phi.dtype.type
     sign = phi0 / np.sqrt(phi0 * phi0 + t(width * width))
     gp, gm = upwind_gradients(phi, dx, dy, bc)
     out = phi - t(dtau) * (np.maximum(sign, t(0)) * gp + np.minimum(sign, t(0)) * gm - sign)
     if not subcell:
-        return out
+        return flush(out)
     w, e, s, n = neighbours(phi0, bc)
     zero = t(0)
     front = (phi0 * w < zero) | (phi0 * e < zero) | (phi0 * s < zero) | (phi0 * n < zero)
@@ -64,4 +66,4 @@ def reinit_step(phi, phi0, dtau, width, dx, dy, bc, subcell=True) -> np.ndarray:
     grad = np.maximum(grad, t(1e-30))
     dist = phi0 / grad
     relaxed = phi - t(dtau / min(dx, dy)) * (np.sign(phi0) * np.abs(phi) - dist)
-    return np.where(front, relaxed, out)
+    return flush(np.where(front, relaxed, out))

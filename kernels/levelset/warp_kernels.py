@@ -6,12 +6,13 @@ Two launch shapes share the ``@wp.func`` cell formulas: ``rows`` (one thread per
 ``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).
 
 ``STEP[(np.dtype, speed_is_field)]`` and ``REINIT[(np.dtype, subcell)]`` are
-``(rows, cells)``.
+``(rows, cells)``.  Every output is flushed of subnormals; ``rows`` runs with FTZ/DAZ on
+(see ``warp_common``).
 """
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import field_at, ghost, scalar_at
+from rdgpu._kernels.warp_common import field_at, flush, ftz_begin, ftz_end, ghost, scalar_at
 
 wp.set_module_options({"enable_backward": False})
 
@@ -54,7 +55,7 @@ def _build_step(dtype, speed_field):
         dt: dtype, ix: dtype, iy: dtype,
     ) -> dtype:
         gp, gm = upwind(c, w, e, s, n, ix, iy)
-        return c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm)
+        return flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
 
     @wp.func
     def direct(phi: A2, speed: ST, out: A2, i: int, j: int, dt: dtype, ix: dtype, iy: dtype):
@@ -83,6 +84,7 @@ def _build_step(dtype, speed_field):
         phi: A2, speed: ST, out: A2, dt: dtype, ix: dtype, iy: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
     ):
+        saved = ftz_begin()
         i = wp.tid() + row0
         ny = phi.shape[0]
         nx = phi.shape[1]
@@ -97,6 +99,7 @@ def _build_step(dtype, speed_field):
         else:
             for j in range(nx):
                 edge(phi, speed, out, i, j, dt, ix, iy, yk, yv, xk, xv)
+        ftz_end(saved)
 
     @wp.kernel
     def cells(
@@ -147,7 +150,7 @@ def _build_reinit(dtype, subcell):
                 elif p0 < zero:
                     sg = -one
                 res = c - crel * (sg * wp.abs(c) - p0 / g)
-        return res
+        return flush(res)
 
     @wp.func
     def direct(
@@ -187,6 +190,7 @@ def _build_reinit(dtype, subcell):
         dtau: dtype, w2: dtype, ix: dtype, iy: dtype, hx: dtype, hy: dtype, crel: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
     ):
+        saved = ftz_begin()
         i = wp.tid() + row0
         ny = phi.shape[0]
         nx = phi.shape[1]
@@ -201,6 +205,7 @@ def _build_reinit(dtype, subcell):
         else:
             for j in range(nx):
                 edge(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
+        ftz_end(saved)
 
     @wp.kernel
     def cells(

@@ -17,6 +17,7 @@
  *   csr_sor_colour             one colour of multicolour SOR for A x = rhs, in place:
  *                              for i = rows[t], x_i <- om1 x_i + om (rhs_i - Σ_{j≠i} a_ij x_j)
  *                              / diag_i, change[i] = |Δx_i|
+ * Every value written is flushed of subnormals (FLUSH, see common.cl).
  */
 
 /* the rows [*first, *stop) of this work-item */
@@ -56,7 +57,7 @@ __kernel void csr_spmv(__global const int *RESTRICT indptr, __global const int *
     int p = indptr[first_];
     for (long i = first_; i < stop_; ++i) {
         const int end = indptr[i + 1];
-        y[i] = csr_dot(indices, data, x, p, end);
+        y[i] = FLUSH(csr_dot(indices, data, x, p, end));
         p = end;
     }
 }
@@ -95,8 +96,8 @@ __kernel void NAME(__global const int *RESTRICT indptr, __global const int *REST
         const real uc = u[i], vc = v[i];                                                  \
         const real Fc = (FV), kc = (KV);                                                  \
         const real uvv = uc * vc * vc;                                                    \
-        uo[i] = uc + h * (Du * lu - uvv + Fc * (R1 - uc));                                \
-        vo[i] = vc + h * (Dv * lv + uvv - (Fc + kc) * vc);                                \
+        uo[i] = FLUSH(uc + h * (Du * lu - uvv + Fc * (R1 - uc)));                         \
+        vo[i] = FLUSH(vc + h * (Dv * lv + uvv - (Fc + kc) * vc));                         \
     }                                                                                     \
 }
 
@@ -116,7 +117,7 @@ __kernel void NAME(__global const int *RESTRICT indptr, __global const int *REST
     CSR_RANGE(n_rows, block);                                                             \
     for (long i = first_; i < stop_; ++i) {                                               \
         const real lap = csr_dot(indices, data, u, indptr[i], indptr[i + 1]);             \
-        out[i] = u[i] + h * (D * lap + (SV));                                             \
+        out[i] = FLUSH(u[i] + h * (D * lap + (SV)));                                      \
     }                                                                                     \
 }
 
@@ -144,8 +145,8 @@ __kernel void csr_sor_colour(__global const int *RESTRICT indptr,
             if (j != i) sigma += data[p] * x[j];
         }
         const real old = x[i];
-        const real nw = om1 * old + om * ((rhs[i] - sigma) / diag[i]);
+        const real nw = FLUSH(om1 * old + om * ((rhs[i] - sigma) / diag[i]));
         x[i] = nw;
-        change[i] = FABS(nw - old);
+        change[i] = FLUSH(FABS(nw - old));
     }
 }

@@ -3,7 +3,9 @@
 A CSR matrix is passed as its arrays ``(indptr, indices, data)`` (int32 ``indptr`` and
 ``indices``, indices sorted per row; ``data`` real) plus its shape.  Every row is summed in
 index order, ``acc = 0; acc += a_ij x_j``, in the dtype of ``x`` — the order the Warp and
-OpenCL kernels use, so the backends agree with these functions to round-off.
+OpenCL kernels use, so the backends agree with these functions to round-off.  Every
+value a function returns has its subnormals flushed to 0 (SPEC; ``grid_common.flush``),
+as the kernels do with every value they write.
 
 * :func:`spmv` ``y = A x`` (any CSR matrix, square or not, empty rows allowed);
 * :func:`mesh_gray_scott` one fused forward-Euler Gray-Scott step with ``Δ = L``;
@@ -16,6 +18,7 @@ OpenCL kernels use, so the backends agree with these functions to round-off.
 from __future__ import annotations
 
 import numpy as np
+from rdgpu._kernels.grid_common import flush
 
 #: rows up to this long are summed exactly in the kernels' order (one vectorised pass per
 #: entry slot); longer rows by ``np.add.reduceat`` (same sum, last bits may differ)
@@ -44,36 +47,38 @@ def _row_sums(indptr: np.ndarray, products: np.ndarray, n_rows: int, dtype) -> n
     return out
 
 
+def _product(indptr, indices, data, x, n_rows: int) -> np.ndarray:
+    """``A x`` in x's dtype, not flushed (a fused kernel's intermediate, as in the kernels)."""
+    products = data.astype(x.dtype, copy=False) * x[indices]
+    return _row_sums(indptr, products, n_rows, x.dtype)
+
+
 def spmv(indptr, indices, data, x, shape) -> np.ndarray:
     """``y = A x`` for the CSR matrix ``(indptr, indices, data)`` of ``shape``; y has x's dtype."""
-    n_rows = int(shape[0])
-    t = x.dtype.type
-    products = data.astype(x.dtype, copy=False) * x[indices]
-    return _row_sums(indptr, products, n_rows, x.dtype).astype(t, copy=False)
+    return flush(_product(indptr, indices, data, x, int(shape[0])))
 
 
 def mesh_gray_scott(indptr, indices, data, u, v, Du, Dv, F, k, dt) -> tuple[np.ndarray, ...]:
     """``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``
     with ``L`` the CSR Laplacian; ``F``, ``k`` scalars or per-vertex arrays."""
     t = u.dtype.type
-    shape = (u.shape[0], u.shape[0])
-    lap_u = spmv(indptr, indices, data, u, shape)
-    lap_v = spmv(indptr, indices, data, v, shape)
+    lap_u = _product(indptr, indices, data, u, u.shape[0])
+    lap_v = _product(indptr, indices, data, v, u.shape[0])
     F = np.asarray(F, dtype=u.dtype)
     k = np.asarray(k, dtype=u.dtype)
     uvv = u * v * v
     h = t(dt)
     u_new = u + h * (t(Du) * lap_u - uvv + F * (t(1) - u))
     v_new = v + h * (t(Dv) * lap_v + uvv - (F + k) * v)
-    return u_new, v_new
+    return flush(u_new), flush(v_new)
 
 
 def mesh_diffusion(indptr, indices, data, u, D, dt, source) -> np.ndarray:
     """``out = u + dt (D (L u) + source)``; ``source`` a scalar or a per-vertex array."""
     t = u.dtype.type
-    lap = spmv(indptr, indices, data, u, (u.shape[0], u.shape[0]))
+    lap = _product(indptr, indices, data, u, u.shape[0])
     s = np.asarray(source, dtype=u.dtype)
-    return u + t(dt) * (t(D) * lap + s)
+    return flush(u + t(dt) * (t(D) * lap + s))
 
 
 def csr_sor_colour(indptr, indices, data, diagonal, x, rhs, rows, omega):
@@ -97,8 +102,9 @@ def csr_sor_colour(indptr, indices, data, diagonal, x, rhs, rows, omega):
     om = t(omega)
     old = x[rows]
     new = (t(1) - om) * old + om * ((rhs[rows] - sigma) / diagonal[rows].astype(x.dtype))
+    new = flush(new)
     x_new[rows] = new
-    change[rows] = np.abs(new - old)
+    change[rows] = flush(np.abs(new - old))
     return x_new, change
 
 
@@ -125,5 +131,5 @@ def sor_sequential(indptr, indices, data, diagonal, x, rhs, order, omega) -> np.
             j = int(indices[p])
             if j != i:
                 acc = t(acc + t(data[p]) * x[j])
-        x[i] = (t(1) - om) * x[i] + om * ((rhs[i] - acc) / t(diagonal[i]))
+        x[i] = flush((t(1) - om) * x[i] + om * ((rhs[i] - acc) / t(diagonal[i])))
     return x

@@ -16,13 +16,16 @@ Tables (``(blocks, rows)`` pairs):
 * ``SOR[dtype]``: one colour of multicolour SOR, in place, over the rows listed in
   ``rows`` (thread ``t`` of the ``rows`` shape takes ``rows[t]``).
 
-A scalar parameter is a kernel argument of the array's dtype, a field a 1-D array.
+A scalar parameter is a kernel argument of the array's dtype, a field a 1-D array.  Every
+value written is flushed of subnormals; the ``blocks`` kernels run with FTZ/DAZ on (see
+``warp_common``).
 """
 
 from typing import Any
 
 import numpy as np
 import warp as wp
+from rdgpu._kernels.warp_common import flush, ftz_begin, ftz_end
 
 wp.set_module_options({"enable_backward": False})
 
@@ -73,20 +76,22 @@ def _build(dtype):
     def spmv_blocks(
         indptr: I1, indices: I1, data: A1, x: A1, y: A1, n_rows: int, block: int, b0: int
     ):
+        saved = ftz_begin()
         i = ((wp.tid() + b0) * block) & NONNEG
         end = wp.min(i + block, n_rows)
         if i < end:
             p = indptr[i] & NONNEG
             while i < end:
                 e = indptr[i + 1] & NONNEG
-                y[i] = row_dot(indices, data, x, p, e)
+                y[i] = flush(row_dot(indices, data, x, p, e))
                 p = e
                 i += 1
+        ftz_end(saved)
 
     @wp.kernel
     def spmv_rows(indptr: I1, indices: I1, data: A1, x: A1, y: A1):
         i = wp.tid()
-        y[i] = row_dot(indices, data, x, indptr[i] & NONNEG, indptr[i + 1] & NONNEG)
+        y[i] = flush(row_dot(indices, data, x, indptr[i] & NONNEG, indptr[i + 1] & NONNEG))
 
     @wp.func
     def sor_row(
@@ -102,20 +107,22 @@ def _build(dtype):
                 sigma += data[p] * x[j]
             p += 1
         old = x[i]
-        new = om1 * old + om * ((rhs[i] - sigma) / diag[i])
+        new = flush(om1 * old + om * ((rhs[i] - sigma) / diag[i]))
         x[i] = new
-        change[i] = wp.abs(new - old)
+        change[i] = flush(wp.abs(new - old))
 
     @wp.kernel
     def sor_blocks(
         indptr: I1, indices: I1, data: A1, diag: A1, x: A1, rhs: A1, rows: I1, change: A1,
         om: dtype, om1: dtype, n: int, block: int, b0: int,
     ):
+        saved = ftz_begin()
         t = ((wp.tid() + b0) * block) & NONNEG
         end = wp.min(t + block, n)
         while t < end:
             sor_row(indptr, indices, data, diag, x, rhs, change, rows[t] & NONNEG, om, om1)
             t += 1
+        ftz_end(saved)
 
     @wp.kernel
     def sor_rows(
@@ -174,19 +181,21 @@ def _build_gs(dtype, row_dot, f_field, k_field):
         Fc = f_at(F, i)
         kc = k_at(k, i)
         uvv = uc * vc * vc
-        uo[i] = uc + h * (Du * lu - uvv + Fc * (one - uc))
-        vo[i] = vc + h * (Dv * lv + uvv - (Fc + kc) * vc)
+        uo[i] = flush(uc + h * (Du * lu - uvv + Fc * (one - uc)))
+        vo[i] = flush(vc + h * (Dv * lv + uvv - (Fc + kc) * vc))
 
     @wp.kernel
     def blocks(
         indptr: I1, indices: I1, data: A1, u: A1, v: A1, uo: A1, vo: A1,
         F: FT, k: KT, Du: dtype, Dv: dtype, h: dtype, n_rows: int, block: int, b0: int,
     ):
+        saved = ftz_begin()
         i = (wp.tid() + b0) * block
         end = wp.min(i + block, n_rows)
         while i < end:
             gs_row(indptr, indices, data, u, v, uo, vo, i, F, k, Du, Dv, h)
             i += 1
+        ftz_end(saved)
 
     @wp.kernel
     def rows(
@@ -209,18 +218,20 @@ def _build_diffusion(dtype, row_dot, s_field):
     ):
         lap = row_dot(indices, data, u, indptr[i] & NONNEG, indptr[i + 1] & NONNEG)
         sc = s_at(s, i)
-        out[i] = u[i] + h * (D * lap + sc)
+        out[i] = flush(u[i] + h * (D * lap + sc))
 
     @wp.kernel
     def blocks(
         indptr: I1, indices: I1, data: A1, u: A1, out: A1, D: dtype, s: ST, h: dtype,
         n_rows: int, block: int, b0: int,
     ):
+        saved = ftz_begin()
         i = (wp.tid() + b0) * block
         end = wp.min(i + block, n_rows)
         while i < end:
             diffusion_row(indptr, indices, data, u, out, i, D, s, h)
             i += 1
+        ftz_end(saved)
 
     @wp.kernel
     def rows(indptr: I1, indices: I1, data: A1, u: A1, out: A1, D: dtype, s: ST, h: dtype):

@@ -5,7 +5,8 @@
 model's reaction expressions, evaluated by ``rdgpu.reaction.ReactionKernel.rates`` with
 every literal and scalar parameter rounded to the fields' dtype first, so float32 stays
 float32 throughout.  The Warp and OpenCL kernels evaluate the same fully parenthesised
-expressions in the same order.
+expressions in the same order.  The new values are clamped (where the model has bounds),
+then their subnormals are flushed to 0 (SPEC), in that order in every implementation.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from rdgpu._kernels.grid_common import flush
 
 
 def reaction_step(
@@ -41,5 +43,6 @@ def reaction_step(
             new = np.where(new < t(lo), t(lo), new)
         if hi is not None:
             new = np.where(new > t(hi), t(hi), new)
+        new = flush(np.asarray(new, dtype=x.dtype))
         out.append(np.asarray(np.broadcast_to(new, x.shape), dtype=x.dtype))
     return out

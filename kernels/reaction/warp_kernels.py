@@ -8,7 +8,9 @@ serial loop; the CPU shape, launched through the backend's row-chunk thread pool
 ``cells`` (one thread per element; the CUDA shape).  All arrays are flat 1-D views.
 
 Every literal of an expression is a module constant of the real type (exact), every
-operation fully parenthesised, so the result matches the NumPy reference.
+operation fully parenthesised, so the result matches the NumPy reference.  Each new value
+is clamped, then flushed of subnormals (``warp_common.flush``); ``blocks`` runs its loop
+with FTZ/DAZ on (``ftz_begin``/``ftz_end``, see ``kernels/warp_common.py``).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ out_s = x_s + h * (D_s * lap_s + R_s)   with
 """
 
 import warp as wp
+from rdgpu._kernels.warp_common import flush, ftz_begin, ftz_end
 
 wp.set_module_options({{"enable_backward": False}})
 
@@ -65,7 +68,7 @@ def module_source(
             body.append(f"    n{i} = wp.where(n{i} < {lo}, {lo}, n{i})")
         if hi is not None:
             body.append(f"    n{i} = wp.where(n{i} > {hi}, {hi}, n{i})")
-        body.append(f"    o{i}[idx] = n{i}")
+        body.append(f"    o{i}[idx] = flush(n{i})")
     text = _HEADER.format(doc=doc, dtype=dtype, constants="\n".join(constants))
     text += f"""
 
@@ -76,12 +79,14 @@ def update(idx: int, {decl}):
 
 @wp.kernel
 def blocks({decl}, block: int, b0: int):
+    saved = ftz_begin()
     start = (wp.tid() + b0) * block
     end = wp.min(start + block, x0.shape[0])
     idx = start
     while idx < end:
         update(idx, {names})
         idx += 1
+    ftz_end(saved)
 
 
 @wp.kernel

@@ -1,14 +1,17 @@
 /* One red-black SOR half-sweep for Δc = f (SPEC §4).  Needs common.cl.
  *
  * Cells with (i + j) % 2 == color and fixed == 0 get, in place,
- *   c <- (1 - ω) c + ω (dy² (E + W) + dx² (N + S) - dx² dy² f) / (2 (dx² + dy²)).
+ *   c <- (1 - ω) c + ω (wx (E + W) + wy (N + S) - wf f),
+ * with r = dx²/dy² (0 when dy = ∞: a grid without a y axis), wx = 1/(2(1 + r)),
+ * wy = r/(2(1 + r)), wf = dx²/(2(1 + r)): (dy² (E + W) + dx² (N + S) - dx² dy² f) /
+ * (2 (dx² + dy²)) rearranged.  New values and changes are flushed of subnormals.
  * A half-sweep reads only the other colour (and, for a Neumann edge cell, the cell
  * itself), so updating in place is exact.  Periodic axes must have even length (the
  * caller checks).  row_change[i] receives the row's max |Δc| over updated cells
  * (color 0 overwrites, color 1 takes the NaN-propagating max with what is there).
  *
- * Host-side constants (rounded in `real` like the reference):
- *   dx2 = dx², dy2 = dy², dxdy2 = dx2 * dy2, cinv = 1/(2(dx² + dy²)), om = ω, om1 = 1 - ω.
+ * Host-side constants: wx, wy, wf computed in double (sor/reference.py `weights`) and
+ * rounded to `real`, om = ω, om1 = 1 - ω (rounded in `real` like the reference).
  * Two kernels: sor_half_sweep (f = 0) and sor_half_sweep_rhs.
  *
  * Layouts: in the row layout a work-item updates the colour's cells of its row
@@ -16,13 +19,12 @@
  * change in local memory, so the host must launch it with local size (COL_STRIDE, 1).
  */
 
-INLINE real sor_cell(Nbr5 q, real f, bool has_rhs, real dx2, real dy2, real dxdy2, real cinv,
-                     real om, real om1)
+INLINE real sor_cell(Nbr5 q, real f, bool has_rhs, real wx, real wy, real wf, real om,
+                     real om1)
 {
-    real gs = dy2 * (q.e + q.w) + dx2 * (q.n + q.s);
-    if (has_rhs) gs = gs - dxdy2 * f;
-    gs = gs * cinv;
-    return om1 * q.c + om * gs;
+    real gs = wx * (q.e + q.w) + wy * (q.n + q.s);
+    if (has_rhs) gs = gs - wf * f;
+    return FLUSH(om1 * q.c + om * gs);
 }
 
 /* Update cell j of the row described by r; returns |Δc| (0 for a fixed cell). */
@@ -31,10 +33,10 @@ INLINE real sor_cell(Nbr5 q, real f, bool has_rhs, real dx2, real dy2, real dxdy
         const long idx_ = r.c + (j);                                                       \
         const Nbr5 q_ = load5(c, r, (cc), (j), gy, gx);                                   \
         const real f_ = HAS_RHS_ ? rhs[idx_] : R0;                                         \
-        const real new_ = sor_cell(q_, f_, HAS_RHS_, dx2, dy2, dxdy2, cinv, om, om1);     \
+        const real new_ = sor_cell(q_, f_, HAS_RHS_, wx, wy, wf, om, om1);                \
         const bool held_ = fixed[idx_] != 0;                                              \
         c[idx_] = held_ ? q_.c : new_;                                                    \
-        const real d_ = held_ ? R0 : FABS(new_ - q_.c);                                   \
+        const real d_ = held_ ? R0 : FLUSH(FABS(new_ - q_.c));                            \
         m = nanmax(m, d_);                                                                \
     } while (0)
 
@@ -80,9 +82,8 @@ INLINE real sor_cell(Nbr5 q, real f, bool has_rhs, real dx2, real dy2, real dxdy
 __kernel void NAME(__global real *c, __global const uchar *RESTRICT fixed,                \
                    __global const real *RESTRICT rhs, __global real *RESTRICT row_change, \
                    const int color, const int nx, const int ny, const int y_kind,         \
-                   const real gy, const int x_kind, const real gx, const real dx2,        \
-                   const real dy2, const real dxdy2, const real cinv, const real om,      \
-                   const real om1)                                                        \
+                   const real gy, const int x_kind, const real gx, const real wx,         \
+                   const real wy, const real wf, const real om, const real om1)           \
 {                                                                                         \
     SOR_LOCAL_DECL                                                                        \
     const bool HAS_RHS_ = (HAS_RHS);                                                      \

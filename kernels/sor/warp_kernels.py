@@ -12,13 +12,26 @@ launch shapes share one ``@wp.func``:
   once and the change goes through ``wp.atomic_max`` (the caller zeroes ``row_change``
   before colour 0); the CUDA shape.
 
+The update is ``(1 − ω) c + ω (wx (E + W) + wy (N + S) − wf f)`` with the weights of
+``reference.weights`` (host-computed in float64, rounded to the dtype; ``dy = ∞``, a grid
+without a y axis, gives ``wy = 0``).  New values and changes are flushed of subnormals;
+``rows`` runs with FTZ/DAZ on (see ``warp_common``).
+
 ``KERNELS[(np.dtype, rhs_is_field)]`` is ``(rows, cells)``; without a right-hand side the
-kernels take a scalar ``f = 0`` (``gs − dx²dy²·0`` is ``gs`` exactly).
+kernels take a scalar ``f = 0`` (``gs − wf·0`` is ``gs`` exactly).
 """
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import field_at, ghost, nanmax, scalar_at
+from rdgpu._kernels.warp_common import (
+    field_at,
+    flush,
+    ftz_begin,
+    ftz_end,
+    ghost,
+    nanmax,
+    scalar_at,
+)
 
 wp.set_module_options({"enable_backward": False})
 
@@ -33,12 +46,11 @@ def _build(dtype, rhs_field):
     @wp.func
     def relax(
         c: dtype, w: dtype, e: dtype, s: dtype, n: dtype, f: dtype,
-        dx2: dtype, dy2: dtype, dx2dy2: dtype, coef: dtype, om: dtype, one_m_om: dtype,
+        wx: dtype, wy: dtype, wf: dtype, om: dtype, one_m_om: dtype,
     ) -> dtype:
-        gs = dy2 * (e + w) + dx2 * (n + s)
-        gs = gs - dx2dy2 * f
-        gs = gs * coef
-        return one_m_om * c + om * gs
+        gs = wx * (e + w) + wy * (n + s)
+        gs = gs - wf * f
+        return flush(one_m_om * c + om * gs)
 
     @wp.func
     def store(cc: A2, fixed: M2, i: int, j: int, old: dtype, new: dtype) -> dtype:
@@ -46,25 +58,25 @@ def _build(dtype, rhs_field):
         d = zero
         if fixed[i, j] == wp.uint8(0):
             cc[i, j] = new
-            d = wp.abs(new - old)
+            d = flush(wp.abs(new - old))
         return d
 
     @wp.func
     def direct(
         cc: A2, fixed: M2, rhs: RT, i: int, j: int,
-        dx2: dtype, dy2: dtype, dx2dy2: dtype, coef: dtype, om: dtype, one_m_om: dtype,
+        wx: dtype, wy: dtype, wf: dtype, om: dtype, one_m_om: dtype,
     ) -> dtype:
         old = cc[i, j]
         new = relax(
             old, cc[i, j - 1], cc[i, j + 1], cc[i - 1, j], cc[i + 1, j], f_at(rhs, i, j),
-            dx2, dy2, dx2dy2, coef, om, one_m_om,
+            wx, wy, wf, om, one_m_om,
         )
         return store(cc, fixed, i, j, old, new)
 
     @wp.func
     def edge(
         cc: A2, fixed: M2, rhs: RT, i: int, j: int,
-        dx2: dtype, dy2: dtype, dx2dy2: dtype, coef: dtype, om: dtype, one_m_om: dtype,
+        wx: dtype, wy: dtype, wf: dtype, om: dtype, one_m_om: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype,
     ) -> dtype:
         old = cc[i, j]
@@ -75,16 +87,17 @@ def _build(dtype, rhs_field):
             ghost(cc, i - 1, j, yk, yv, xk, xv),
             ghost(cc, i + 1, j, yk, yv, xk, xv),
             f_at(rhs, i, j),
-            dx2, dy2, dx2dy2, coef, om, one_m_om,
+            wx, wy, wf, om, one_m_om,
         )
         return store(cc, fixed, i, j, old, new)
 
     @wp.kernel
     def rows(
         cc: A2, fixed: M2, rhs: RT, row_change: wp.array(dtype=dtype), color: int,
-        dx2: dtype, dy2: dtype, dx2dy2: dtype, coef: dtype, om: dtype, one_m_om: dtype,
+        wx: dtype, wy: dtype, wf: dtype, om: dtype, one_m_om: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
     ):
+        saved = ftz_begin()
         i = wp.tid() + row0
         ny = cc.shape[0]
         nx = cc.shape[1]
@@ -92,21 +105,21 @@ def _build(dtype, rhs_field):
         m = zero
         if i > 0 and i < ny - 1:
             if j == 0:
-                d0 = edge(cc, fixed, rhs, i, 0, dx2, dy2, dx2dy2, coef, om, one_m_om,
+                d0 = edge(cc, fixed, rhs, i, 0, wx, wy, wf, om, one_m_om,
                           yk, yv, xk, xv)
                 m = nanmax(m, d0)
                 j = 2
             while j < nx - 1:
-                d1 = direct(cc, fixed, rhs, i, j, dx2, dy2, dx2dy2, coef, om, one_m_om)
+                d1 = direct(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om)
                 m = nanmax(m, d1)
                 j += 2
             if j == nx - 1 and j > 0:
-                d2 = edge(cc, fixed, rhs, i, j, dx2, dy2, dx2dy2, coef, om, one_m_om,
+                d2 = edge(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om,
                           yk, yv, xk, xv)
                 m = nanmax(m, d2)
         else:
             while j < nx:
-                d3 = edge(cc, fixed, rhs, i, j, dx2, dy2, dx2dy2, coef, om, one_m_om,
+                d3 = edge(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om,
                           yk, yv, xk, xv)
                 m = nanmax(m, d3)
                 j += 2
@@ -114,11 +127,12 @@ def _build(dtype, rhs_field):
             row_change[i] = m
         else:
             row_change[i] = nanmax(row_change[i], m)
+        ftz_end(saved)
 
     @wp.kernel
     def cells(
         cc: A2, fixed: M2, rhs: RT, row_change: wp.array(dtype=dtype), color: int,
-        dx2: dtype, dy2: dtype, dx2dy2: dtype, coef: dtype, om: dtype, one_m_om: dtype,
+        wx: dtype, wy: dtype, wf: dtype, om: dtype, one_m_om: dtype,
         yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         i, j = wp.tid()
@@ -126,9 +140,9 @@ def _build(dtype, rhs_field):
             return
         d = zero
         if i > 0 and i < cc.shape[0] - 1 and j > 0 and j < cc.shape[1] - 1:
-            d = direct(cc, fixed, rhs, i, j, dx2, dy2, dx2dy2, coef, om, one_m_om)
+            d = direct(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om)
         else:
-            d = edge(cc, fixed, rhs, i, j, dx2, dy2, dx2dy2, coef, om, one_m_om,
+            d = edge(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om,
                      yk, yv, xk, xv)
         wp.atomic_max(row_change, i, d)
 

@@ -6,7 +6,11 @@ device arrays (ping-ponging buffers between steps) and downloads once: nothing r
 the host between the steps of one call.
 
 Scalars reach the kernels in the array's dtype.  Kernels never allocate: the caller
-passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is y.
+passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is y.  A grid
+without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann y
+condition: every grid kernel then computes its 1-D formula.
+
+Every value a kernel writes has its subnormals flushed to 0 (SPEC, :mod:`rdgpu.fpenv`).
 """
 
 from __future__ import annotations
@@ -195,6 +199,8 @@ class Backend(ABC):
     ) -> None:
         """Update in place the cells of one colour (``(i + j) % 2 == color``) that are not
         ``fixed`` (uint8 mask, 1 = held) by SOR (SPEC §4).  ``rhs`` is ``f`` or None (0).
+        The update is ``(1 − ω) c + ω (wx (E + W) + wy (N + S) − wf f)`` with the weights of
+        ``kernels/sor/reference.py`` (``weights``; ``dy = inf`` gives ``wy = 0``).
 
         ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
         colour 0 overwrites it, colour 1 takes the max with what is there."""

@@ -15,6 +15,9 @@ The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment v
 ``RDGPU_OPENCL_LAYOUT``; the device with ``OpenCLBackend(device=...)`` or
 ``RDGPU_OPENCL_DEVICE``.
 
+Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the values it
+writes (``FLUSH`` in ``common.cl``): subnormals are flushed (SPEC, :mod:`rdgpu.fpenv`).
+
 Contexts, queues and kernel objects are shared by every backend instance on one device;
 a launch is ``set_args`` then enqueue, so one backend must not be driven from two threads.
 """
@@ -29,7 +32,7 @@ import numpy as np
 
 from ..boundary import GridBC
 from ..errors import BackendUnavailableError
-from ..kernel_files import read_source
+from ..kernel_files import load_module, read_source
 from .base import Backend, DeviceArray, FieldOrScalar
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
@@ -46,8 +49,8 @@ _KERNEL_ARGS = {
     "gray_scott_fs": "BBBBBB" + _GRID + "rrrrrrr",
     "gray_scott_sf": "BBBBBB" + _GRID + "rrrrrrr",
     "gray_scott_ff": "BBBBBB" + _GRID + "rrrrrrr",
-    "sor_half_sweep": "BBBBi" + _GRID + "rrrrrr",
-    "sor_half_sweep_rhs": "BBBBi" + _GRID + "rrrrrr",
+    "sor_half_sweep": "BBBBi" + _GRID + "rrrrr",
+    "sor_half_sweep_rhs": "BBBBi" + _GRID + "rrrrr",
     "levelset_step_s": "BBB" + _GRID + "rrrr",
     "levelset_step_f": "BBB" + _GRID + "rrrr",
     "reinit_step": "BBB" + _GRID + "rrrrrrrr",
@@ -257,6 +260,10 @@ class OpenCLBackend(Backend):
         self._options = [
             f"-D COL_STRIDE={self.col_stride}",
             f"-D ROW_LAYOUT={int(layout == 'row')}",
+            # subnormals are flushed (SPEC): the kernels flush every value they write
+            # (FLUSH in common.cl); this lets a device flush intermediate results too (PoCL
+            # sets the x86 FTZ/DAZ bits in its worker threads, for float and double)
+            "-cl-denorms-are-zero",
         ]
         if (
             "portable computing language" in platform.name.lower()
@@ -271,6 +278,8 @@ class OpenCLBackend(Backend):
         if dev.single_fp_config & cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT:
             self._options.append("-cl-fp32-correctly-rounded-divide-sqrt")
         self._kernels: dict[np.dtype, dict[str, Any]] = {}
+        # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
+        self._sor_weights = load_module("sor", "reference.py").weights
 
     def __repr__(self) -> str:
         return f"OpenCLBackend({self.device!r}, layout={self.layout!r})"
@@ -494,11 +503,12 @@ class OpenCLBackend(Backend):
             raise ValueError(f"color must be 0 or 1, got {color!r}")
         t = c.dtype.type
         ks = self.kernels(c.dtype)
-        dx2, dy2, om = t(dx * dx), t(dy * dy), t(omega)
+        wx, wy, wf = self._sor_weights(dx, dy)
+        om = t(omega)
         kernel = ks["sor_half_sweep"] if rhs is None else ks["sor_half_sweep_rhs"]
         args = (
             c.handle, fixed.handle, c.handle if rhs is None else rhs.handle, row_change.handle,
-            color, *grid, dx2, dy2, dx2 * dy2, 1.0 / (2.0 * (dx * dx + dy * dy)), om, t(1) - om,
+            color, *grid, wx, wy, wf, om, t(1) - om,
         )  # fmt: skip
         self._launch_grid(kernel, ny, args)
 

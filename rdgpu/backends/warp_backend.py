@@ -8,6 +8,11 @@ Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell form
   the same time from a thread pool (one chunk in the calling thread);
 * on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
 
+Subnormals are flushed (SPEC, :mod:`rdgpu.fpenv`): every kernel flushes what it writes,
+and the CPU shapes run their bodies with the x86 FTZ/DAZ bits on, restoring each thread's
+MXCSR at the end (see ``kernels/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
+are zeroed, so ``warp.config.verify_fp`` runs clean.
+
 Each kernel family is one Warp module holding the float32 and float64 versions of its
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
 backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
@@ -142,6 +147,8 @@ class WarpBackend(Backend):
             else None
         )
         self._families: dict[str, ModuleType] = {}
+        # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
+        self._sor_weights = load_module("sor", "reference.py").weights
         # recorded launches, one per (kernel, dim, chunk offset): see _launch
         self._cmds: dict[tuple, list] = {}
 
@@ -260,10 +267,13 @@ class WarpBackend(Backend):
         return np.array(d.handle.numpy(), copy=True).reshape(d.shape)
 
     def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> DeviceArray:
+        """A new device array, zeroed: the kernels never read what they have not written,
+        but Warp's ``verify_fp`` mode checks the old value of every element a kernel
+        stores to, and uninitialised memory may hold NaN (one memset per allocation)."""
         dtype = np.dtype(dtype)
         shape = tuple(int(s) for s in shape)
         wp = self._wp
-        handle = wp.empty(shape, dtype=wp.dtype_from_numpy(dtype), device=self._dev)
+        handle = wp.zeros(shape, dtype=wp.dtype_from_numpy(dtype), device=self._dev)
         return DeviceArray(self, handle, shape, dtype)
 
     def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
@@ -369,13 +379,12 @@ class WarpBackend(Backend):
             r_val, r_field = t(0), False
         else:
             r_val, r_field = self._param(rhs, c, "sor rhs")
-        dx2, dy2 = t(dx * dx), t(dy * dy)
+        wx, wy, wf = self._sor_weights(dx, dy)
         om = t(omega)
         rows, cells = self._family("sor").KERNELS[(c.dtype, r_field)]
         args = [
             c.handle, fixed.handle, r_val, row_change.handle, int(color),
-            dx2, dy2, dx2 * dy2, t(1.0 / (2.0 * (dx * dx + dy * dy))), om, t(1) - om,
-            *self._bc_args(bc, t),
+            t(wx), t(wy), t(wf), om, t(1) - om, *self._bc_args(bc, t),
         ]
         ny, nx = c.shape
         if ny == 0:
