@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from .fpenv import flush_subnormals
+
 DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 
 
@@ -30,7 +32,7 @@ def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2)) -> np.ndarray
     if not np.isfinite(a).all():
         bad = int(np.count_nonzero(~np.isfinite(a)))
         raise ValueError(f"{name} contains {bad} NaN or Inf value(s); all values must be finite")
-    return np.ascontiguousarray(a)
+    return np.ascontiguousarray(flush_subnormals(a))  # the SPEC rule, applied to inputs too
 
 
 def as_grid(a: Any, name: str) -> np.ndarray:
@@ -95,7 +97,7 @@ def scalar_or_field(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
             )
     if not np.isfinite(a).all():
         raise ValueError(f"{name} contains NaN or Inf; all values must be finite")
-    return np.ascontiguousarray(a, dtype=like.dtype)
+    return np.ascontiguousarray(flush_subnormals(np.asarray(a, dtype=like.dtype)))
 
 
 def steps(n: Any, name: str = "steps") -> int:

@@ -114,7 +114,8 @@ def test_sor_solve_equals_spsolve(backend, bc):
     expect[free] = spla.spsolve(A.tocsc(), rhs_free)
     assert c.shape == (n,)
     np.testing.assert_allclose(c, expect, atol=1e-9)
-    assert sweeps < 4 * n  # SOR at the 1-D optimal ω: O(N) sweeps
+    # O(N) sweeps at the default ω (Gauss-Seidel, ω = 1, needs ~1700 here: O(N²))
+    assert sweeps < 10 * n
 
 
 def test_sor_periodic_odd_1d_rejected_only_along_x(backend):
