@@ -8,6 +8,10 @@ same run, and the fraction of the memory-bandwidth roofline: the machine's bandw
 measured here (a STREAM-style triad, the best of NumPy on one core and OpenCL on all),
 and each kernel's roofline is bandwidth / (bytes it must move per cell).
 
+Real-state rows (``--real-size N``, 0 to skip): presets advanced from their default initial
+conditions, the first 200 steps against steps 2000-2200 of the same run (see
+``perf/real_states.py``): random fields never show the slowdown of subnormal floats.
+
 Mesh rows (``--mesh-vertices N``, 0 to skip): a geodesic icosphere with about N vertices
 (class-I subdivision of the icosahedron at frequency f, ``10 f² + 2`` vertices, ordered face
 by face), float32 ``L = A⁻¹W``.  ``spmv`` is ``y = L x``; ``mesh_gray_scott`` one fused
@@ -364,6 +368,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="vertices of the mesh rows' icosphere (about; 0: no mesh rows)")
     parser.add_argument("--mesh-kernels", nargs="+", default=list(MESH_KERNELS),
                         choices=MESH_KERNELS)
+    parser.add_argument("--real-size", type=int, default=1024,
+                        help="grid size of the real-state rows (perf/real_states.py; 0: none)")
     args = parser.parse_args(argv)
 
     bw = measure_bandwidth(min(args.seconds, 0.5))
@@ -388,6 +394,13 @@ def main(argv: list[str] | None = None) -> int:
                       f"{100 * row['roofline_fraction']:5.1f}% roofline", flush=True)
     if args.mesh_vertices > 0 and args.mesh_kernels:
         rows += mesh_rows(args, backends, bw)
+    real = []
+    if args.real_size > 0:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import real_states
+
+        real = real_states.run(args.real_size, list(backends), ["float32", "float64"],
+                               early=200, late=2000)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     meta = dict(machine=platform.processor() or platform.machine(),
@@ -395,8 +408,11 @@ def main(argv: list[str] | None = None) -> int:
                 rdgpu=rdgpu.__version__, numpy=np.__version__, bandwidth=bw,
                 devices={n: b.device for n, b in backends.items()},
                 date=time.strftime("%Y-%m-%d %H:%M"))
-    (out / "bench.json").write_text(json.dumps(dict(meta=meta, rows=rows), indent=1))
+    (out / "bench.json").write_text(json.dumps(dict(meta=meta, rows=rows, real_states=real),
+                                               indent=1))
     table = markdown(rows, bw["GBps"])
+    if real:
+        table += "\n" + real_states.markdown(real, 200, 2000)
     (out / "bench.md").write_text(table)
     print(table)
     return 0
