@@ -8,27 +8,51 @@
     rdgpu models
     rdgpu backends
 
-Bad input gives one line on stderr and exit status 2; a simulation that diverges writes
-its outputs from the last good state and exits with status 1.
+Every option is checked before the run starts.  Bad input gives one line
+``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1.
+A simulation that diverges writes its outputs from the last good state and exits with
+status 1; one interrupted by Ctrl-C writes them from the state where it stopped (and a
+checkpoint there, with ``--checkpoint``) and exits with status 130.  ``RDGPU_DEBUG=1``
+shows tracebacks instead.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
+import re
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
 DEFAULT_SIZE = (256, 256)
+#: steps of a model that has no default run length of its own
 DEFAULT_STEPS = 10_000
+DEFAULT_SCALE = 2
 EXIT_BAD_INPUT = 2
 EXIT_DIVERGED = 1
+EXIT_FAILED = 1
+EXIT_INTERRUPTED = 130
+#: the largest picture (pixels) and side (pixels) that --scale may ask for
+MAX_PICTURE_PIXELS = 2**28
+MAX_PICTURE_SIDE = 65_000
+#: a displayed field whose range is below this fraction of its scale is "uniform"
+UNIFORM_FRACTION = 0.05
 
 
 class UsageError(ValueError):
     """Bad command-line input (exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with errors on one line: ``rdgpu: error: ...`` (exit status 2)."""
+
+    def error(self, message: str):  # noqa: D102 - argparse's hook
+        command = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        hint = f"'rdgpu {command} --help'" if command else "'rdgpu --help'"
+        self.exit(EXIT_BAD_INPUT, f"rdgpu: error: {message} (see {hint})\n")
 
 
 # ------------------------------------------------------------------------ argument types
@@ -68,6 +92,38 @@ def _positive_int(text: str) -> int:
     if n < 0:
         raise argparse.ArgumentTypeError(f"expected a number >= 0, got {n}")
     return n
+
+
+def _at_least_1(text: str) -> int:
+    n = _positive_int(text)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {n}")
+    return n
+
+
+def _seed(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") \
+            from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {n}")
+    return n
+
+
+def _colour_range(text: str) -> tuple[float, ...]:
+    if text.strip().lower() == "auto":
+        return ()
+    parts = text.split(":")
+    try:
+        lo, hi = (float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected LO:HI (e.g. --range=-1:1) or auto, got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise argparse.ArgumentTypeError(f"expected finite LO < HI, got {text!r}")
+    return lo, hi
 
 
 def _positive_float(text: str) -> float:
@@ -139,8 +195,9 @@ def _display_field(model: Any, preset: Any, requested: str | None) -> str:
 
 def _domain_spec(args: argparse.Namespace, preset: Any, model: Any) -> Any:
     base = dict(preset.domain) if preset is not None else dict(
-        getattr(model, "default_domain", None) or {"grid": DEFAULT_SIZE, "dx": 1.0,
-                                                   "bc": "periodic"})
+        getattr(model, "default_domain", None) or {
+            "grid": DEFAULT_SIZE, "dx": float(getattr(model, "spacing", 1.0)),
+            "bc": "periodic"})
     if args.size is not None:
         keep = {k: base[k] for k in ("dx", "dy", "bc") if "grid" in base and k in base}
         return {"grid": args.size, **keep}
@@ -210,29 +267,192 @@ def _cmd_presets(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------ checking input
+def _check_output(option: str, path: str) -> None:
+    """An output path whose folder exists and can be written, and is not a folder itself."""
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.exists():
+        raise UsageError(f"{option} {path}: the folder {str(folder)!r} does not exist")
+    if not folder.is_dir():
+        raise UsageError(f"{option} {path}: {str(folder)!r} is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path}: the folder {str(folder)!r} is not writable")
+    if p.is_dir():
+        raise UsageError(f"{option} {path} is a folder; give a file name")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise UsageError(f"{option} {path} exists and is not writable")
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Everything that can be checked before a model or a domain is built."""
+    from .output import MESH_FORMATS, MOVIE_FORMATS
+
+    if args.movie and Path(args.movie).suffix.lower() not in MOVIE_FORMATS:
+        raise UsageError(f"--movie must end in {' or '.join(MOVIE_FORMATS)}, got {args.movie!r}")
+    for d in args.data or []:
+        if Path(d).suffix.lower() not in (".npz", *MESH_FORMATS):
+            raise UsageError(f"--data must end in .npz or a mesh format "
+                             f"({', '.join(MESH_FORMATS)}), got {d!r}")
+    if args.out and Path(args.out).suffix.lower() != ".png":
+        raise UsageError(f"--out must end in .png, got {args.out!r}")
+    outputs = [("--out", args.out), ("--movie", args.movie)]
+    outputs += [("--data", d) for d in args.data or []]
+    outputs += [("--checkpoint", args.checkpoint)]
+    for option, path in outputs:
+        if path:
+            _check_output(option, path)
+    ckpt = args.checkpoint or args.resume
+    if ckpt:
+        for option, path in outputs[:-1]:
+            if path and Path(path).resolve() == Path(ckpt).resolve():
+                which = "--checkpoint" if args.checkpoint else "--resume"
+                raise UsageError(f"{option} {path} is also the {which} file: the output "
+                                 "would overwrite the checkpoint")
+    if args.checkpoint_every is not None and not ckpt:
+        raise UsageError("--checkpoint-every needs --checkpoint PATH (or --resume)")
+    if args.movie and args.snapshot_every == 0:
+        raise UsageError("--movie needs snapshots: --snapshot-every must be > 0")
+    if args.cmap is not None:
+        from matplotlib import colormaps
+
+        if args.cmap not in colormaps:
+            close = [c for c in sorted(colormaps) if c.lower().startswith(args.cmap[:3].lower())
+                     and not c.endswith("_r")][:4]
+            raise UsageError(f"--cmap {args.cmap!r} is not a Matplotlib colour map; e.g. "
+                             f"{', '.join(close or ['viridis', 'magma', 'gray', 'RdBu'])}")
+
+
+def _memory_limit() -> int | None:
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _bytes(n: float) -> str:
+    for unit in ("bytes", "KB", "MB", "GB", "TB", "PB"):
+        if n < 1000 or unit == "PB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"  # pragma: no cover
+
+
+def _check_memory(what: str, cells: int, n_species: int, itemsize: int, snapshots: int = 0,
+                  frame_pixels: int = 0) -> None:
+    """Refuse a run whose fields cannot fit in this machine's memory: ``n_species`` fields
+    of ``cells`` points, about 4 copies each (the stepper's buffers, the checked state,
+    the downloaded result) plus the float64 initial fields and ``snapshots`` snapshots,
+    and the movie's frames."""
+    need = cells * n_species * (itemsize * (4 + snapshots) + 16) + frame_pixels * 3 * snapshots
+    have = _memory_limit()
+    if have is not None and need > have:
+        parts = f"{n_species} field(s) of {cells:,} points in {itemsize * 8}-bit floats"
+        if snapshots:
+            parts += f", {snapshots} snapshots"
+        raise UsageError(f"{what} needs about {_bytes(need)} of memory ({parts}); this "
+                         f"machine has {_bytes(have)}")
+
+
+def _picture_scale(args: argparse.Namespace, shape: tuple[int, ...] | None) -> int:
+    """--scale, or the default (2, or 1 for a grid too large for that); refuse a picture
+    past MAX_PICTURE_PIXELS or MAX_PICTURE_SIDE."""
+    if shape is None:  # a mesh: rendered at a fixed window size
+        return args.scale or DEFAULT_SCALE
+    ny, nx = (1, shape[0]) if len(shape) == 1 else shape[-2:]
+
+    def fits(k: int) -> bool:
+        return ny * k * nx * k <= MAX_PICTURE_PIXELS and max(ny, nx) * k <= MAX_PICTURE_SIDE
+
+    if args.scale is None:
+        return DEFAULT_SCALE if fits(DEFAULT_SCALE) else 1
+    if not fits(args.scale):
+        most = max([k for k in range(1, args.scale) if fits(k)], default=None)
+        raise UsageError(f"--scale {args.scale} makes a {ny * args.scale}x{nx * args.scale}-"
+                         f"pixel picture of this {ny}x{nx} grid; the most is "
+                         f"{MAX_PICTURE_SIDE} pixels a side and {MAX_PICTURE_PIXELS:,} in all"
+                         + (f" (--scale {most} or less)" if most else ""))
+    return args.scale
+
+
+def _cli_words(text: str) -> str:
+    """A library message in the command line's words."""
+    text = re.sub(r"pass check_stability=False", "use --no-stability-check", text)
+    return text.replace("check_stability=False", "--no-stability-check")
+
+
+# ---------------------------------------------------------------------------- run
+def _grid_text(shape: Any) -> str:
+    return "x".join(str(int(n)) for n in shape)
+
+
+def _resume_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str]:
+    """The options given with --resume whose values differ from the checkpoint's."""
+    out = []
+    dom = meta["domain"]
+    theirs_domain = (f"a {_grid_text(dom['shape'])} grid" if dom.get("kind") == "grid" else
+                     f"mesh {(dom.get('source') or {}).get('mesh', '(from a file)')}")
+    if args.preset is not None and args.preset != meta.get("preset"):
+        out.append(f"--preset cannot change a resumed run (the checkpoint {path} is of "
+                   f"preset {meta.get('preset')!r}, --preset says {args.preset!r})")
+    if args.size is not None and (dom.get("kind") != "grid"
+                                  or list(dom["shape"]) != list(args.size)):
+        out.append(f"--size cannot change a resumed run (the checkpoint {path} is of "
+                   f"{theirs_domain}, --size says {_grid_text(args.size)})")
+    if args.mesh is not None:
+        source = (dom.get("source") or {}).get("mesh")
+        if dom.get("kind") != "mesh" or source is None or str(source) != args.mesh:
+            out.append(f"--mesh cannot change a resumed run (the checkpoint {path} is of "
+                       f"{theirs_domain}, --mesh says {args.mesh})")
+    if args.dt is not None and not math.isclose(args.dt, meta["dt"], rel_tol=1e-12):
+        out.append(f"--dt cannot change a resumed run (the checkpoint {path} has "
+                   f"dt={meta['dt']:g}, --dt says {args.dt:g})")
+    if args.dtype is not None and args.dtype != meta["dtype"]:
+        out.append(f"--dtype cannot change a resumed run (the checkpoint {path} is "
+                   f"{meta['dtype']}, --dtype says {args.dtype})")
+    if args.seed is not None and args.seed != meta["seed"]:
+        out.append(f"--seed cannot change a resumed run (the checkpoint {path} has seed "
+                   f"{meta['seed']}, --seed says {args.seed})")
+    for name, value in args.param or []:
+        theirs = meta["params"].get(name)
+        if name in meta.get("param_fields", []):
+            out.append(f"--param {name} cannot change a resumed run (in the checkpoint "
+                       f"{path} it is a field)")
+        elif not isinstance(theirs, (int, float)) or not math.isclose(value, theirs,
+                                                                       rel_tol=1e-12):
+            known = theirs if theirs is not None else "not a parameter of the model"
+            out.append(f"--param {name} cannot change a resumed run (the checkpoint {path} "
+                       f"has {name}={known}, --param says {value:g})")
+    return out
+
+
 def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     """The Simulation, its preset (or None) and the run() keyword arguments."""
+    from .errors import StabilityError
     from .simulation import Simulation
 
     if args.resume is not None:
-        conflicting = [opt for opt, val in (
-            ("--preset", args.preset), ("--size", args.size), ("--mesh", args.mesh),
-            ("--dt", args.dt), ("--dtype", args.dtype), ("--seed", args.seed),
-            ("--param", args.param)) if val]
-        if conflicting:
-            raise UsageError(f"{', '.join(conflicting)} cannot change a resumed run "
-                             "(they come from the checkpoint)")
         meta, _ = Simulation.read_checkpoint(args.resume)
         if args.model not in (meta["model"], meta.get("preset")):
             raise UsageError(f"checkpoint {args.resume} is a run of {meta['model']!r}, "
                              f"not {args.model!r}")
-        sim = Simulation.resume(args.resume, backend=args.backend)
+        conflicts = _resume_conflicts(args, meta, args.resume)
+        if conflicts:
+            raise UsageError("; ".join(conflicts) + ": leave them out (a resumed run takes "
+                             "them from its checkpoint)")
+        sim = Simulation.resume(args.resume, backend=args.backend,
+                                check_stability=False if args.no_stability_check else None)
         preset = _presets().get(meta.get("preset") or "")
         kwargs = {"steps": args.steps, "checkpoint": args.checkpoint}
         for key in ("snapshot_every", "check_every", "checkpoint_every"):
             if getattr(args, key) is not None:
                 kwargs[key] = getattr(args, key)
-        return sim, preset, kwargs
+        run = sim._resume_run or {}
+        steps = (run.get("target", sim.step) - run.get("start", sim.step) if args.steps is None
+                 else args.steps)
+        every = kwargs.get("snapshot_every", run.get("snapshot_every")) or 0
+        return sim, preset, {**kwargs, "_total": steps, "_snapshot_every": every,
+                             "_target": run.get("start", sim.step) + steps}
 
     models, presets = _models(), _presets()
     preset = None
@@ -261,16 +481,29 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
                              f"{', '.join(model.defaults)}")
         params[name] = value
     domain = _domain_spec(args, preset, model)
+    dtype = args.dtype or "float32"
+    itemsize = 4 if dtype == "float32" else 8
+    if "grid" in domain:
+        g = domain["grid"]
+        cells = int(g) ** 2 if isinstance(g, int) else math.prod(int(n) for n in g)
+        _check_memory(f"a {_grid_text(g if not isinstance(g, int) else (g, g))} grid", cells,
+                      len(model.species), itemsize)
+        _picture_scale(args, (g, g) if isinstance(g, int) else tuple(g))
     seed = args.seed if args.seed is not None else getattr(preset, "seed", 0)
-    sim = Simulation(
-        model, domain, params,
-        dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
-        backend=args.backend, dtype=args.dtype or "float32", seed=seed,
-        init=getattr(preset, "init", None), check_stability=not args.no_stability_check,
-        options=getattr(preset, "options", None),
-    )
+    try:
+        sim = Simulation(
+            model, domain, params,
+            dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
+            backend=args.backend, dtype=dtype, seed=seed,
+            init=getattr(preset, "init", None), check_stability=not args.no_stability_check,
+            options=getattr(preset, "options", None),
+        )
+    except StabilityError as exc:
+        raise UsageError(_cli_words(str(exc))) from None
     sim.preset = preset
-    steps = args.steps if args.steps is not None else getattr(preset, "steps", DEFAULT_STEPS)
+    steps = args.steps if args.steps is not None else sim.default_steps
+    if steps is None:
+        steps = DEFAULT_STEPS
     snapshot_every = args.snapshot_every
     if snapshot_every is None:
         snapshot_every = getattr(preset, "snapshot_every", 0) or 0
@@ -279,56 +512,105 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     kwargs = {"steps": steps, "snapshot_every": snapshot_every,
               "check_every": args.check_every, "checkpoint": args.checkpoint,
               "checkpoint_every": args.checkpoint_every}
-    return sim, preset, kwargs
+    return sim, preset, {**kwargs, "_total": steps, "_snapshot_every": snapshot_every,
+                         "_target": sim.step + steps}
+
+
+def _colour_limits(args: argparse.Namespace, model: Any, field: str) -> tuple[float, float] | None:
+    """--range, else the model's known range of ``field`` (a fixed colour scale), else None
+    (the field's own range)."""
+    if args.range is not None:
+        return args.range or None  # "auto" parses to ()
+    known = (getattr(model, "value_range", None) or {}).get(field)
+    return None if known is None else (float(known[0]), float(known[1]))
+
+
+def _uniform_warning(result: Any, model: Any, field: str) -> str | None:
+    """A warning when the pictured field has (nearly) no structure left."""
+    import numpy as np
+
+    f = np.asarray(result.fields[field], dtype=np.float64)
+    if f.size == 0 or not np.isfinite(f).all():
+        return None
+    lo, hi = float(f.min()), float(f.max())
+    known = (getattr(model, "value_range", None) or {}).get(field)
+    scale = float(known[1] - known[0]) if known else max(abs(lo), abs(hi))
+    if scale > 0 and hi - lo > UNIFORM_FRACTION * scale:
+        return None
+    return (f"the field is uniform ({field} ∈ [{lo:.4g}, {hi:.4g}]) at step {result.step}: "
+            "no pattern formed; try other parameters, more steps, or a preset "
+            f"('rdgpu presets {model.name}')")
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .errors import SimulationDiverged
-    from .output import MESH_FORMATS, MOVIE_FORMATS, write_outputs
+    from .errors import SimulationDiverged, SimulationInterrupted
+    from .output import MESH_FORMATS, write_outputs
 
-    if args.movie and Path(args.movie).suffix.lower() not in MOVIE_FORMATS:
-        raise UsageError(f"--movie must end in {' or '.join(MOVIE_FORMATS)}, got {args.movie!r}")
-    for d in args.data or []:
-        if Path(d).suffix.lower() not in (".npz", *MESH_FORMATS):
-            raise UsageError(f"--data must end in .npz or a mesh format "
-                             f"({', '.join(MESH_FORMATS)}), got {d!r}")
-    if args.out and Path(args.out).suffix.lower() != ".png":
-        raise UsageError(f"--out must end in .png, got {args.out!r}")
-
+    _check_options(args)
     sim, preset, kwargs = _build_simulation(args)
+    total, every = kwargs.pop("_total"), kwargs.pop("_snapshot_every")
+    target = kwargs.pop("_target")
     field = _display_field(sim.model, preset, args.field)
     from .mesh import SurfaceMesh
 
-    if not isinstance(sim.domain, SurfaceMesh) and any(
-            Path(d).suffix.lower() in MESH_FORMATS for d in args.data or []):
+    is_mesh = isinstance(sim.domain, SurfaceMesh)
+    if not is_mesh and any(Path(d).suffix.lower() in MESH_FORMATS for d in args.data or []):
         raise UsageError("VTK/PLY data files need a mesh (--mesh); use .npz for a grid")
+    if args.movie and not every:
+        raise UsageError("--movie needs snapshots, and this run takes none: give "
+                         "--snapshot-every N")
+    scale = _picture_scale(args, None if is_mesh else sim.shape)
+    snapshots = (total // every + 2) if every else 0
+    pixels = 0 if is_mesh or not args.movie else int(math.prod(sim.shape)) * scale * scale
+    _check_memory(f"this run ({total} steps)", int(math.prod(sim.shape)), len(sim.species),
+                  sim.dtype.itemsize, snapshots, pixels)
+    limits = _colour_limits(args, sim.model, field)
     out = args.out
     if out is None and not args.movie and not args.data:
         out = f"{(preset.name if preset is not None else sim.model.name).replace('-', '_')}.png"
+        _check_output("--out", out)
     steps_note = "" if kwargs.get("steps") is None else f"{kwargs['steps']} steps, "
+    params = ", ".join(f"{k}={v:.4g}" for k, v in sim.params.items()
+                       if isinstance(v, (int, float)))
     _say(args, f"{sim.model.name} on a {_describe_domain(sim.domain)}, {steps_note}"
                f"dt={sim.dt:g}, {sim.dtype.name}, {sim.backend.name} ({sim.backend.device})"
-               + (f", from step {sim.step} of {args.resume}" if args.resume else ""))
+               + (f", from step {sim.step} of {args.resume}" if args.resume else "")
+               + (f"; {params}" if params else ""))
     start, first_step = time.perf_counter(), sim.step
-    status = 0
+    status, stopped = 0, None
     try:
         result = sim.run(progress=not args.quiet, **kwargs)
     except SimulationDiverged as exc:
         result = exc.result
-        print(f"rdgpu: error: {exc}", file=sys.stderr)
+        print(f"rdgpu: error: {_cli_words(str(exc))}", file=sys.stderr)
         status = EXIT_DIVERGED
-    except KeyboardInterrupt:
-        hint = f"; resume with --resume {kwargs.get('checkpoint') or args.resume}" \
-            if kwargs.get("checkpoint") or args.resume else ""
-        print(f"rdgpu: interrupted{hint}", file=sys.stderr)
-        return 130
+    except SimulationInterrupted as exc:
+        result, stopped = exc.result, exc
+        status = EXIT_INTERRUPTED
     seconds = time.perf_counter() - start
-    written = write_outputs(result, png=out, movie=args.movie, data=args.data, field=field,
-                            cmap=args.cmap, scale=args.scale, fps=args.fps)
-    n_points = int(result.fields[field].size)
-    rate = n_points * max(result.step - first_step, 0) / seconds / 1e6 if seconds > 0 else 0.0
+    written = []
+    if result is not None:
+        written = write_outputs(result, png=out, movie=args.movie, data=args.data, field=field,
+                                cmap=args.cmap or "viridis", scale=scale, fps=args.fps,
+                                vmin=None if limits is None else limits[0],
+                                vmax=None if limits is None else limits[1])
     for path in written:
         _say(args, f"wrote {path}")
+    if stopped is not None:
+        ckpt = stopped.checkpoint or kwargs.get("checkpoint") or args.resume
+        what = ", ".join(str(p) for p in written) if written else "nothing"
+        where = (f"step {result.step} of {target} (t={result.time:g})" if result is not None
+                 else f"an unknown step of {target} (no checked state: --check-every 0)")
+        print(f"rdgpu: interrupted at {where}; wrote {what}"
+              + (f"; resume with --resume {ckpt}" if ckpt else ""), file=sys.stderr)
+        return status
+    if result is None:
+        return status
+    warning = _uniform_warning(result, sim.model, field) if status == 0 else None
+    if warning:
+        print(f"rdgpu: warning: {warning}", file=sys.stderr)
+    n_points = int(result.fields[field].size)
+    rate = n_points * max(result.step - first_step, 0) / seconds / 1e6 if seconds > 0 else 0.0
     _say(args, f"step {result.step}, t={result.time:g} ({seconds:.2f} s, "
                f"{rate:.3g} M point-steps/s)")
     return status
@@ -336,7 +618,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="rdgpu",
         description="Reaction-diffusion pattern simulations on NumPy, Warp or OpenCL.",
         epilog="Run 'rdgpu COMMAND --help' for the options of a command.",
@@ -347,7 +629,13 @@ def build_parser() -> argparse.ArgumentParser:
         "run", help="run a model (or a preset) and write a PNG, a movie, data files",
         description="Run a reaction-diffusion model on a grid or a mesh. Without --preset\n"
         "the model runs with its default parameters and initial condition on a\n"
-        f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]} periodic grid.",
+        f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]} periodic grid, long enough for its pattern to "
+        "form: dt from the\nstability limit on the domain and the model's reaction time "
+        "scale, steps from the\nmodel's default run length. Allen-Cahn's eps defaults to "
+        "0.3 times the grid or mesh\nspacing; on a mesh the diffusion coefficients are "
+        "scaled to its spacing. Models\nwith a known range of values (Gray-Scott, "
+        "Allen-Cahn, Barkley) are pictured on a\nfixed colour scale, and a field left "
+        "uniform is reported.",
         epilog="examples:\n"
         "  rdgpu run gray-scott --size 256 --steps 10000 --out gray_scott.png\n"
         "  rdgpu run gray-scott --param F=0.03 --param k=0.055 --movie spots.gif\n"
@@ -366,14 +654,14 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--mesh", metavar="FILE|sphere|torus",
                        help="run on a triangle mesh: a generator or a mesh file")
     what.add_argument("--steps", type=_positive_int, metavar="N",
-                      help=f"time steps (default: the preset's, else {DEFAULT_STEPS}; with "
-                      "--resume: the total of the interrupted run)")
-    what.add_argument("--dt", type=_positive_float, help="time step (default: the preset's or "
-                      "the model's)")
+                      help="time steps (default: the preset's, else the model's default "
+                      "run length over dt; with --resume: the total of the interrupted run)")
+    what.add_argument("--dt", type=_positive_float, help="time step (default: the preset's, "
+                      "else the smaller of 0.9 times the stability limit and the model's own)")
     what.add_argument("--param", type=_param, action="append", metavar="NAME=VALUE",
                       help="set a model parameter (repeatable)")
-    what.add_argument("--seed", type=int, help="random seed of the initial condition "
-                      "(default 0)")
+    what.add_argument("--seed", type=_seed, help="random seed of the initial condition "
+                      "(a whole number >= 0; default 0)")
     what.add_argument("--backend", help="numpy, warp, opencl or auto, optionally NAME:DEVICE "
                       "(default: RDGPU_BACKEND or auto)")
     what.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
@@ -387,8 +675,12 @@ def build_parser() -> argparse.ArgumentParser:
                       help="data file: .npz (snapshots, times, parameters, versions) or, on "
                       "a mesh, .vtk/.vtp/.vtu/.ply with the fields (repeatable)")
     outs.add_argument("--field", help="the field to picture (default: the model's)")
-    outs.add_argument("--cmap", default="viridis", help="Matplotlib colour map")
-    outs.add_argument("--scale", type=int, default=2, help="pixels per grid cell (default 2)")
+    outs.add_argument("--cmap", help="Matplotlib colour map (default viridis)")
+    outs.add_argument("--range", type=_colour_range, metavar="LO:HI|auto",
+                      help="colour scale of the pictures, e.g. --range=-1:1 (default: the "
+                      "model's known range of the field, else auto: the field's own range)")
+    outs.add_argument("--scale", type=_at_least_1, help="pixels per grid cell (default 2; 1 "
+                      "for very large grids)")
     outs.add_argument("--fps", type=_positive_float, default=10.0, help="movie frame rate")
     outs.add_argument("--snapshot-every", type=_positive_int, metavar="N",
                       help="keep a snapshot every N steps (default: the preset's; with "
@@ -435,25 +727,49 @@ def _one_line(exc: BaseException) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status (2: bad input, 1: failed run).
-    ``RDGPU_DEBUG=1`` shows tracebacks instead of one-line errors."""
-    import os
-
+    """Run the command line; returns the exit status (2: bad input, 1: failed run, 130:
+    interrupted).  ``RDGPU_DEBUG=1`` shows tracebacks instead of one-line errors."""
     from .errors import BackendUnavailableError
 
-    args = build_parser().parse_args(argv)
+    debug = bool(os.environ.get("RDGPU_DEBUG"))
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a usage error (2, already printed)
+        return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
     try:
         return args.func(args)
-    except (ValueError, BackendUnavailableError, OSError) as exc:
-        if os.environ.get("RDGPU_DEBUG"):
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        print("rdgpu: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (ValueError, TypeError, BackendUnavailableError) as exc:
+        if debug:
+            raise
+        print(f"rdgpu: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (RuntimeError, NotImplementedError) as exc:
+        if debug:
+            raise
+        print(f"rdgpu: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
+        return EXIT_FAILED
+    except OSError as exc:
+        if debug:
             raise
         print(f"rdgpu: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (RuntimeError, NotImplementedError) as exc:
-        if os.environ.get("RDGPU_DEBUG"):
+    except MemoryError:
+        if debug:
             raise
-        print(f"rdgpu: error: {_one_line(exc)}", file=sys.stderr)
-        return 1
+        print("rdgpu: error: out of memory (try a smaller --size, fewer snapshots or "
+              "--dtype float32)", file=sys.stderr)
+        return EXIT_FAILED
+    except Exception as exc:  # noqa: BLE001 - one line, never a traceback
+        if debug:
+            raise
+        print(f"rdgpu: error: {_cli_words(_one_line(exc))} ({type(exc).__name__}; "
+              "RDGPU_DEBUG=1 shows where)", file=sys.stderr)
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

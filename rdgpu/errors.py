@@ -27,3 +27,21 @@ class SimulationDiverged(RuntimeError):
         self.field = field
         self.cause = cause
         self.result = result
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (SIGINT) or another ``KeyboardInterrupt``.
+
+    A ``KeyboardInterrupt`` (so ``except Exception`` does not swallow it) that carries what
+    the run had done: ``result`` (a ``rdgpu.simulation.Result``, or ``None`` when no checked
+    state was at hand) holds the last good state -- on Ctrl-C in the main thread, the state
+    at the end of the chunk of steps that was running (at most 100 steps later), checked for
+    NaN/blow-up; otherwise the last state that the run had checked -- and the snapshots
+    taken up to it; ``step`` is its step; ``checkpoint`` is the path of a checkpoint written
+    at that step, or ``None``.  The simulation is left at that step."""
+
+    def __init__(self, message: str, *, step: int | None, result=None, checkpoint=None):
+        super().__init__(message)
+        self.step = step
+        self.result = result
+        self.checkpoint = checkpoint

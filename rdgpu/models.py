@@ -374,7 +374,19 @@ class ReactionDiffusion2:
     and its default value; ``steady_guess(params) -> [x_s]``: a starting point for
     :func:`rdgpu.analysis.steady_state` (the homogeneous state of interest); ``bounds``:
     clamps ``{species: (low, high)}`` applied after each update (see
-    :class:`~rdgpu.reaction.ReactionKernel`)."""
+    :class:`~rdgpu.reaction.ReactionKernel`).
+
+    What a run that names nothing else uses (see :mod:`rdgpu.stepping`): ``spacing``, the
+    grid spacing the default parameters are made for (the command line's grids use it as
+    ``dx``; on a mesh the default diffusion coefficients are scaled by
+    ``(mean edge length / spacing)²``, so the pattern has as many points across as on
+    that grid); ``default_dt``, the step the reaction terms want (a number or a function
+    of the parameters; the run takes the smaller of it and 0.9 times the diffusion limit);
+    ``default_time``, how long (model time units, a number or a function of the
+    parameters) the pattern takes to form; ``value_range``, ``{species: (lo, hi)}`` for
+    pictures on a fixed colour scale; ``default_init``, the initial condition;
+    ``default_fields``, parameters whose default in a run is a field spec
+    (:func:`param_field`) rather than the number in ``defaults``."""
 
     def __init__(
         self,
@@ -387,7 +399,20 @@ class ReactionDiffusion2:
         species: Sequence[str] = ("u", "v"),
         steady_guess: Callable[[Mapping[str, float]], Sequence[float]] | None = None,
         bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
+        *,
+        spacing: float = 1.0,
+        default_dt: float | Callable[[Mapping[str, float]], float] | None = None,
+        default_time: float | Callable[[Mapping[str, float]], float] | None = None,
+        value_range: Mapping[str, tuple[float, float]] | None = None,
+        default_init: Mapping[str, Any] | None = None,
+        default_fields: Mapping[str, Mapping[str, Any]] | None = None,
     ):
+        self.spacing = float(spacing)
+        self.default_fields = {k: dict(v) for k, v in (default_fields or {}).items()}
+        self.default_dt = default_dt
+        self.default_time = default_time
+        self.value_range = dict(value_range or {})
+        self.default_init = dict(default_init) if default_init else None
         self.name = name
         self.species = tuple(species)
         self.defaults = dict(defaults or {})
@@ -431,6 +456,19 @@ class ReactionDiffusion2:
         merged = {**self.defaults, **dict(params)}
         merged = {k: float(np.mean(v)) for k, v in merged.items()}
         return [float(x) for x in self._steady_guess(merged)]
+
+    def domain_defaults(self, domain: Any) -> dict[str, float]:
+        """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
+        the diffusion coefficients scaled by ``(h / spacing)²`` (``h`` its mean edge
+        length); on a grid the coefficients stay (its ``dx`` is the defaults' length
+        unit)."""
+        out: dict[str, Any] = {k: dict(v) for k, v in self.default_fields.items()}
+        if isinstance(domain, Grid) or not _is_mesh(domain):
+            return out
+        ratio = (float(domain.mean_edge_length) / self.spacing) ** 2
+        out.update({d: float(self.defaults[d]) * ratio for d in self.diffusion
+                    if isinstance(d, str)})
+        return out
 
     # -- protocol
     def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None) -> float:
@@ -535,6 +573,13 @@ class AllenCahn:
     )
     source = "seed 000 (Dascal, Pai, Kimmel), SPEC §2"
     methods = ("explicit", "implicit", "crank-nicolson")
+    #: the default ε is this times the spacing (grid: min(dx, dy); mesh: mean edge length):
+    #: interfaces pinned by the discretisation, the regime of seed 000 where b ≠ 0 gives
+    #: spots (b < 0) or inverted spots (b > 0) that do not shrink away; the presets use
+    #: 0.15 (global) and 0.3 (localized)
+    eps_per_spacing = 0.3
+    value_range = {"u": (-1.0, 1.0)}
+    spacing = 1.0
 
     def __init__(self) -> None:
         # the reaction as a kernel, for rates() / analysis; the diffusion substep's kernel
@@ -552,6 +597,24 @@ class AllenCahn:
 
     def steady_guess(self, params: Mapping[str, Any]) -> list[float]:
         return [1.0]
+
+    def domain_defaults(self, domain: Any) -> dict[str, float]:
+        """``eps`` = :attr:`eps_per_spacing` times the spacing of ``domain``."""
+        if isinstance(domain, Grid):
+            h = min(domain.dx, domain.dy)
+        else:
+            domain_shape(domain)
+            h = float(domain.mean_edge_length)
+        return {"eps": self.eps_per_spacing * h}
+
+    def default_dt(self, params: Mapping[str, Any]) -> float:
+        """ε²/2: the step of the presets, where the splitting is accurate."""
+        return 0.5 * float(np.max(params.get("eps", self.defaults["eps"]))) ** 2
+
+    def default_time(self, params: Mapping[str, Any]) -> float:
+        """1500 ε² (the presets' 3000 steps of ε²/2): the phases have separated and the
+        pinned pattern has settled."""
+        return 1500.0 * float(np.max(params.get("eps", self.defaults["eps"]))) ** 2
 
     def dt_limit(
         self, domain: Any, params: Mapping[str, Any] | None = None, method: str = "explicit"
@@ -695,6 +758,7 @@ GRAY_SCOTT = GrayScott(
     description="Gray-Scott u_t = Du Δu − uv² + F(1 − u), v_t = Dv Δv + uv² − (F + k)v",
     source="seed 001 (Camphuijsen, Kasim); Pearson 1993; SPEC §3",
     steady_guess=lambda p: (1.0, 0.0),
+    default_dt=1.0, default_time=10000.0, value_range={"u": (0.0, 1.0), "v": (0.0, 1.0)},
 )
 
 BRUSSELATOR = ReactionDiffusion2(
@@ -706,6 +770,7 @@ BRUSSELATOR = ReactionDiffusion2(
     "(seed 004's α, β are a, b); Turing unstable for b > (1 + a√(Du/Dv))²",
     source="seed 004 (Quillen) §1.1, Fig. 1; SPEC §3",
     steady_guess=lambda p: (p["a"], p["b"] / p["a"]),
+    default_dt=0.005, default_time=100.0,
 )
 
 FITZHUGH_NAGUMO = ReactionDiffusion2(
@@ -716,6 +781,7 @@ FITZHUGH_NAGUMO = ReactionDiffusion2(
     description="FitzHugh-Nagumo u_t = Du Δu + u − u³ − v + α, v_t = Dv Δv + β(u − v)",
     source="seed 004 (Quillen) §1.8, Fig. 8; SPEC §3",
     steady_guess=lambda p: (_cbrt(p["alpha"]), _cbrt(p["alpha"])),
+    default_dt=0.01, default_time=200.0,
 )
 
 SCHNAKENBERG = ReactionDiffusion2(
@@ -727,6 +793,7 @@ SCHNAKENBERG = ReactionDiffusion2(
     "state u = a + b, v = b/(a + b)²",
     source="Schnakenberg 1979; SPEC §3",
     steady_guess=lambda p: (p["a"] + p["b"], p["b"] / (p["a"] + p["b"]) ** 2),
+    default_time=100.0,
 )
 
 BARKLEY = ReactionDiffusion2(
@@ -738,6 +805,12 @@ BARKLEY = ReactionDiffusion2(
     "diffuse): excitable medium, spirals. Stiff: explicit Euler also needs dt ≲ ε",
     source="seed 004 (Quillen) §1.9, eq. 51; Barkley 1991; SPEC §3",
     steady_guess=lambda p: (0.0, 0.0),
+    spacing=0.5, default_dt=lambda p: 0.5 * float(np.max(p["eps"])), default_time=200.0,
+    value_range={"u": (0.0, 1.0), "v": (0.0, 1.0)},
+    # an excited half meeting a refractory half: a broken wave that curls into spirals
+    # (random excitations, as in the preset, die out on small domains)
+    default_init={"kind": "halves", "values": {"u": 0.0, "v": 0.0}, "x_low": {"u": 1.0},
+                  "y_low": {"v": 0.5}},
 )
 
 TURING = ReactionDiffusion2(
@@ -752,6 +825,9 @@ TURING = ReactionDiffusion2(
     source="seed 003 (Chattopadhyay) eq. 2.15, after Turing 1952 / Turk 1991; SPEC §3",
     steady_guess=lambda p: (16.0 / (16.0 - p["beta"]), 16.0 - p["beta"]),
     bounds={"v": (0.0, None)},
+    default_dt=0.5, default_time=4000.0,
+    # u = v = 4 is (just) linearly stable at β = 12: the spots grow from β's randomness
+    default_fields={"beta": {"kind": "random", "low": 11.9, "high": 12.1}},
 )
 
 ALLEN_CAHN = AllenCahn()

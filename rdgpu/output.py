@@ -450,11 +450,14 @@ def write_outputs(
     scale: int = 1,
     fps: float = 10.0,
     camera: Any = None,
+    vmin: float | None = None,
+    vmax: float | None = None,
 ) -> list[Path]:
     """Write the outputs of a run, by extension: ``png`` (the final ``field``), ``movie``
     (``.gif``/``.mp4`` of that field's snapshots), ``data`` (``.npz`` data files and
     ``.vtk``/``.vtp``/``.vtu``/``.ply`` meshes with every final field).  ``field`` defaults
-    to the first species."""
+    to the first species; ``vmin``/``vmax`` fix the colour scale (default: the field's
+    range)."""
     species = list(result.fields)
     name = species[0] if field is None else field
     if name not in result.fields:
@@ -462,10 +465,10 @@ def write_outputs(
     written: list[Path] = []
     if png is not None:
         written.append(save_png(png, result.fields[name], result.domain, cmap=cmap, scale=scale,
-                                camera=camera))
+                                camera=camera, vmin=vmin, vmax=vmax))
     if movie is not None:
         written.append(save_movie(movie, result.snapshots[name], result.domain, cmap=cmap,
-                                  fps=fps, scale=scale, camera=camera))
+                                  fps=fps, scale=scale, camera=camera, vmin=vmin, vmax=vmax))
     if data is not None:
         for p in [data] if isinstance(data, (str, os.PathLike)) else data:
             ext = Path(p).suffix.lower()

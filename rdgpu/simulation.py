@@ -30,8 +30,12 @@ from __future__ import annotations
 import inspect
 import json
 import math
+import numbers
 import os
+import signal
+import socket
 import tempfile
+import threading
 import time as _time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -41,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from .domains import Grid
-from .errors import SimulationDiverged
+from .errors import SimulationDiverged, SimulationInterrupted
 
 __all__ = [
     "DEFAULT_BOUND",
@@ -50,12 +54,16 @@ __all__ = [
     "Result",
     "Simulation",
     "SimulationDiverged",
+    "SimulationInterrupted",
     "build_domain",
     "default_dt",
     "default_init",
+    "default_steps",
+    "domain_defaults",
     "describe_domain",
     "initial_state",
     "package_versions",
+    "remove_stale_temporaries",
 ]
 
 #: default blow-up bound: ``|x| > DEFAULT_BOUND`` counts as diverged
@@ -70,12 +78,13 @@ _CHUNK = 100
 _SNAPSHOT_BUDGET = 256 * 2**20
 _CHECKPOINT_FORMAT = 1
 
-INIT_KINDS = ("uniform", "square", "spots", "patch")
+INIT_KINDS = ("uniform", "square", "spots", "patch", "halves")
 _INIT_KEYS = {
     "uniform": {"values", "noise"},
     "square": {"values", "inside", "size", "center", "noise"},
     "spots": {"values", "inside", "count", "radius", "noise"},
     "patch": {"values", "patch", "radius", "noise"},
+    "halves": {"values", "x_low", "y_low", "center", "noise"},
 }
 
 
@@ -153,7 +162,15 @@ def build_domain(spec: Any) -> Any:
                 f"mesh {str(name)!r} is neither a generator ({', '.join(sorted(_MESH_GENERATORS))})"
                 " nor an existing file"
             )
-        return SurfaceMesh.load(path, repair=bool(spec.pop("repair", False)))
+        if not path.is_file():
+            raise ValueError(f"mesh file {str(name)!r} is not a file")
+        try:
+            return SurfaceMesh.load(path, repair=bool(spec.pop("repair", False)))
+        except Exception as exc:  # noqa: BLE001 - readers fail in many ways on bad files
+            why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise ValueError(f"mesh file {str(name)!r} is not a usable triangle mesh: {why} "
+                             "(OBJ, PLY, STL, OFF or VTK with triangle faces; "
+                             "repair=True mends duplicate or unused vertices)") from None
     raise ValueError(f"a domain dict needs a 'grid' or a 'mesh' key, got {sorted(spec)}")
 
 
@@ -190,6 +207,46 @@ def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) ->
     return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"])
 
 
+def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain: Any) -> list[str]:
+    """What differs between a checkpoint's domain (``desc``, ``arrays``) and ``domain``:
+    one ``"WHAT X in the checkpoint, Y here"`` per difference (empty when equal)."""
+    mine = describe_domain(domain)
+    if desc.get("kind") != mine["kind"]:
+        return [f"a {desc.get('kind')} in the checkpoint, a {mine['kind']} here"]
+    out = []
+    if mine["kind"] == "grid":
+        for key in ("shape", "dx", "dy", "bc"):
+            theirs = desc.get(key)
+            ours = mine[key]
+            if key == "shape":
+                theirs = "x".join(str(n) for n in theirs or [])
+                ours = "x".join(str(n) for n in ours)
+            elif key == "bc":
+                theirs = _bc_text(theirs)
+                ours = _bc_text(ours)
+            if theirs != ours:
+                out.append(f"{key} {theirs} in the checkpoint, {ours} here")
+        return out
+    V, F = arrays["mesh_vertices"], arrays["mesh_faces"]
+    if len(V) != domain.n_vertices or len(F) != domain.n_faces:
+        out.append(f"mesh of {len(V)} vertices and {len(F)} faces in the checkpoint, "
+                   f"{domain.n_vertices} vertices and {domain.n_faces} faces here")
+    elif not np.array_equal(F, np.asarray(domain.faces)):
+        out.append("mesh faces (connectivity) differ from this simulation's")
+    elif not np.array_equal(V, np.asarray(domain.vertices)):
+        shift = float(np.abs(V - np.asarray(domain.vertices)).max())
+        out.append(f"mesh vertex positions differ from this simulation's (by up to {shift:.3g})")
+    return out
+
+
+def _bc_text(bc: Any) -> str:
+    """``['periodic', 'periodic']`` as ``periodic``, else ``y/x`` with Dirichlet values."""
+    if not isinstance(bc, (list, tuple)) or len(bc) != 2:
+        return str(bc)
+    parts = [f"dirichlet({b[1]:g})" if isinstance(b, (list, tuple)) else str(b) for b in bc]
+    return parts[0] if parts[0] == parts[1] else f"{parts[0]} (y)/{parts[1]} (x)"
+
+
 # ------------------------------------------------------------------------ initial state
 def _per_species(value: Any, species: tuple[str, ...], what: str, default: float) -> dict:
     if value is None:
@@ -211,6 +268,26 @@ def _number(x: Any, what: str) -> float:
     if not math.isfinite(v):
         raise ValueError(f"init {what} must be finite, got {x!r}")
     return v
+
+
+def _whole(value: Any, name: str, minimum: int = 0) -> int:
+    """``value`` as an int >= ``minimum``: an int (not a bool) or a float with a whole value
+    (``1e4``); anything else is a TypeError/ValueError naming ``name``."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a whole number >= {minimum}, got {value!r} (a bool)")
+    if isinstance(value, numbers.Integral):
+        n = int(value)
+    elif isinstance(value, numbers.Real):
+        x = float(value)
+        if not (math.isfinite(x) and x.is_integer()):
+            raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+        n = int(x)
+    else:
+        raise TypeError(f"{name} must be a whole number >= {minimum}, got "
+                        f"{type(value).__name__} {value!r}")
+    if n < minimum:
+        raise ValueError(f"{name} must be a whole number >= {minimum}, got {n}")
+    return n
 
 
 def _extent(domain: Any) -> float:
@@ -258,6 +335,20 @@ def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
     c = V[int(np.argmin(((V - target) ** 2).sum(axis=1)))]
     half = size / 2 * (hi - lo)
     return (np.abs(V - c) <= half + 1e-12 * (hi - lo).max()).all(axis=1)
+
+
+def _half_masks(domain: Any, cy: float, cx: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points with y below the fraction ``cy`` and with x below ``cx`` of the domain
+    (grid rows and columns; a mesh's bounding box)."""
+    if not (0 <= cy <= 1 and 0 <= cx <= 1):
+        raise ValueError(f"init halves center is (y, x) fractions in [0, 1], got {(cy, cx)}")
+    if isinstance(domain, Grid):
+        ny, nx = domain.shape
+        rows, cols = np.indices((ny, nx))
+        return rows < cy * ny, cols < cx * nx
+    V = np.asarray(domain.vertices, dtype=np.float64)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    return (V[:, 1] < lo[1] + cy * (hi[1] - lo[1]), V[:, 0] < lo[0] + cx * (hi[0] - lo[0]))
 
 
 def _ball_mask(domain: Any, rng: np.random.Generator, count: int, radius: float,
@@ -308,6 +399,11 @@ def initial_state(
       domain extent (largest side of the grid or of the mesh's bounding box, Euclidean
       distance) of a random cell/vertex take the patch values: a number, ``"random"``
       (uniform in [-1, 1] at each point) or ``[lo, hi]`` (uniform in [lo, hi]).
+    * ``{"kind": "halves", "values": 0.0, "x_low": {"u": 1.0}, "y_low": {"v": 0.5},
+      "center": (0.5, 0.5)}`` -- the species of ``x_low`` take its values where x is below
+      the centre (grid columns; on a mesh the vertices' x coordinate, ``center`` in
+      fractions of the bounding box, ``(y, x)``), those of ``y_low`` where y is below it:
+      an excited half meeting a refractory half breaks a wave, the seed of spirals.
 
     ``values`` (everywhere; missing species are 0) and ``inside`` are per-species dicts or
     one number for all.  ``noise`` (a number or per-species dict) adds uniform noise in
@@ -369,6 +465,18 @@ def initial_state(
                 fields[s][mask] = rng.uniform(lo, hi, n_in)
             else:
                 fields[s][mask] = _number(x, f"patch value of {s!r}")
+
+    elif kind == "halves":
+        center = init.get("center", (0.5, 0.5))
+        try:
+            cy, cx = (_number(c, "center") for c in center)
+        except TypeError:
+            raise ValueError(f"init halves center is (y, x) fractions, got {center!r}") from None
+        masks = _half_masks(domain, cy, cx)
+        for key, mask in zip(("y_low", "x_low"), masks, strict=True):
+            for s, x in _per_species(init.get(key), species, key, None).items():
+                if x is not None:
+                    fields[s][mask] = _number(x, f"{key} value of {s!r}")
 
     noise = _per_species(init.get("noise", 0.0), species, "noise", 0.0)
     for s in species:
@@ -453,12 +561,88 @@ def _bad(a: np.ndarray, bound: float) -> tuple[bool, str]:
     return False, ""
 
 
+def _host_tag() -> str:
+    """This machine's name as it goes into temporary file names (no dots or separators)."""
+    name = socket.gethostname() or "host"
+    return "".join(c if c.isalnum() or c in "-_" else "-" for c in name)[:64] or "host"
+
+
+def _temp_prefix(path: Path) -> str:
+    """Temporary files of ``path`` are ``.NAME.HOST.PID.RANDOM.tmp`` beside it: the writer's
+    machine and process id say whether the writer is still alive (see
+    :func:`remove_stale_temporaries`)."""
+    return f".{path.name}.{_host_tag()}.{os.getpid()}."
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # e.g. EPERM: a process of another user holds that id
+        return True
+    return True
+
+
+#: temporary files without a writer's id (written by rdgpu before 0.1.1) count as stale
+#: when untouched for this long
+_LEGACY_TEMP_AGE = 3600.0
+
+
+def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Delete the temporary files that killed writers of ``path`` left beside it; returns
+    them.
+
+    Only temporaries of this very file are considered (``.NAME.*.tmp`` in its folder), and
+    of those only the ones whose writer -- named by machine and process id in the file
+    name -- is a process of this machine that no longer runs; a live writer's file, or
+    another machine's, is left alone.  Temporaries without a writer's id (the naming of
+    earlier versions) are removed when untouched for an hour."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    head = f".{path.name}."
+    host = _host_tag()
+    removed: list[Path] = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        if not (name.startswith(head) and name.endswith(".tmp")):
+            continue
+        middle = name[len(head):-len(".tmp")]
+        parts = middle.rsplit(".", 2)
+        tmp = folder / name
+        if len(parts) == 3 and parts[1].isdigit():
+            if parts[0] != host or _pid_alive(int(parts[1])):
+                continue
+        elif "." in middle:  # another file's temporary (NAME.something) or not ours
+            continue
+        else:
+            try:
+                if _time.time() - tmp.stat().st_mtime < _LEGACY_TEMP_AGE:
+                    continue
+            except OSError:
+                continue
+        try:
+            if tmp.is_file() and not tmp.is_symlink():
+                tmp.unlink()
+                removed.append(tmp)
+        except OSError:
+            pass
+    return removed
+
+
 def _atomic_savez(path: Path, arrays: dict[str, np.ndarray], compressed: bool = False) -> None:
     """Write an NPZ atomically: temporary file in the same folder, fsync, os.replace."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=_temp_prefix(path), suffix=".tmp")
     try:
         os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
         with os.fdopen(fd, "wb") as fh:
@@ -523,6 +707,71 @@ def _backend_spec(be: Any) -> str:
     if be.name == "warp":
         return "warp:" + str(be.device).split(" ")[0]
     return be.name
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text.splitlines()[0]}" if text else type(exc).__name__
+
+
+_META_KEYS = {"model": str, "species": list, "step": int, "dt": (int, float),
+              "dtype": str, "seed": int, "params": dict, "param_fields": list,
+              "domain": dict, "run": dict}
+_RUN_KEYS = ("start", "target", "snapshot_every", "check_every", "checkpoint_every")
+
+
+def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -> None:
+    """A ValueError naming the first thing missing or inconsistent in a checkpoint."""
+    if "run" not in meta and "wall_seconds" in meta:
+        raise ValueError(f"{name} is an rdgpu data file (--data), not a checkpoint "
+                         "(--checkpoint)")
+    for key, kind in _META_KEYS.items():
+        if not isinstance(meta.get(key), kind) or isinstance(meta.get(key), bool):
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its metadata has no "
+                             f"valid {key!r}")
+    missing = [k for k in _RUN_KEYS if k not in meta["run"]]
+    if missing:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its run settings lack "
+                         f"{missing}")
+    species = meta["species"]
+    needed = [f"field__{s}" for s in species] + [f"snap__{s}" for s in species]
+    needed += ["snap_steps"] + [f"param__{k}" for k in meta["param_fields"]]
+    kind = meta["domain"].get("kind")
+    if kind == "mesh":
+        needed += ["mesh_vertices", "mesh_faces"]
+    elif kind == "grid":
+        if not all(k in meta["domain"] for k in ("shape", "dx", "dy", "bc")):
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its grid "
+                             "description is incomplete")
+    else:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: unknown domain kind "
+                         f"{kind!r}")
+    absent = [k for k in needed if k not in arrays]
+    if absent:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: arrays {absent} are "
+                         "missing")
+    shapes = {np.shape(arrays[f"field__{s}"]) for s in species}
+    if len(shapes) != 1:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its fields have "
+                         f"different shapes {sorted(shapes)}")
+    shape = shapes.pop()
+    if kind == "grid" and list(shape) != list(meta["domain"]["shape"]):
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
+                         f"{shape} on a grid of {meta['domain']['shape']}")
+    if kind == "mesh" and shape != (len(arrays["mesh_vertices"]),):
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
+                         f"{shape} on a mesh of {len(arrays['mesh_vertices'])} vertices")
+    for s in species:
+        f = arrays[f"field__{s}"]
+        if f.dtype.kind != "f":
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: field {s!r} has "
+                             f"dtype {f.dtype}")
+        if not np.isfinite(f).all():
+            raise ValueError(f"{name} holds a field {s!r} with NaN or Inf values; rdgpu "
+                             "writes checkpoints only from checked states")
+        if len(arrays[f"snap__{s}"]) != len(arrays["snap_steps"]):
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: {len(arrays['snap_steps'])}"
+                             f" snapshot steps but {len(arrays[f'snap__{s}'])} snapshots of {s!r}")
 
 
 # -------------------------------------------------------------------------- the driver
@@ -609,17 +858,49 @@ def _dt_limit(model: Any, domain: Any, params: Mapping[str, Any],
     return float(model.dt_limit(domain, dict(params), **kwargs))
 
 
+def _model_value(model: Any, name: str, params: Mapping[str, Any]) -> float | None:
+    """The model's optional ``name`` hook: a number, or a callable of the parameters."""
+    value = getattr(model, name, None)
+    if callable(value):
+        value = value(dict(params))
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) and value > 0 else None
+
+
+def domain_defaults(model: Any, domain: Any) -> dict[str, Any]:
+    """Parameter defaults that depend on the domain (the model's optional
+    ``domain_defaults(domain)``; e.g. Allen-Cahn's ε relative to the spacing): they replace
+    ``model.defaults`` where the caller gives no value."""
+    hook = getattr(model, "domain_defaults", None)
+    if not callable(hook):
+        return {}
+    return {k: v for k, v in dict(hook(domain)).items() if k in model.defaults}
+
+
 def default_dt(model: Any, domain: Any, params: Mapping[str, Any],
                options: Mapping[str, Any] | None = None) -> float:
-    """The model's ``default_dt``, else its first preset's ``dt`` -- either only if within
-    the stability limit on ``domain`` -- else the smaller of 1 and 0.9 times the limit."""
+    """The time step of a run that names none: the smaller of 0.9 times the stability limit
+    on ``domain`` and the model's own ``default_dt`` (a number or a function of the
+    parameters: the step its reaction terms need, e.g. ``ε²/2`` for Allen-Cahn); 1 if
+    neither bounds it.  Presets' steps are not used: they belong to their own domains."""
     limit = _dt_limit(model, domain, params, options)
-    candidates = [getattr(model, "default_dt", None)]
-    candidates += [getattr(p, "dt", None) for p in _presets_of(model)[:1]]
-    for dt in candidates:
-        if dt is not None and 0 < float(dt) <= limit:
-            return float(dt)
-    return min(1.0, 0.9 * limit) if math.isfinite(limit) else 1.0
+    own = _model_value(model, "default_dt", params)
+    candidates = [0.9 * limit if math.isfinite(limit) and limit > 0 else math.inf,
+                  math.inf if own is None else own]
+    dt = min(candidates)
+    return dt if math.isfinite(dt) else 1.0
+
+
+def default_steps(model: Any, dt: float, params: Mapping[str, Any]) -> int | None:
+    """Steps of a run that names none: the model's ``default_time`` (model time units, a
+    number or a function of the parameters: long enough for its pattern to form) over
+    ``dt``; ``None`` for a model without one."""
+    t = _model_value(model, "default_time", params)
+    if t is None:
+        return None
+    return max(1, math.ceil(t / dt - 1e-9))
 
 
 def _model_name(model: Any) -> str:
@@ -680,14 +961,24 @@ class Simulation:
         self.domain = build_domain(domain)
         self.shape = _field_shape(self.domain)
         self.species = tuple(self.model.species)
-        self.dtype = np.dtype(dtype)
+        try:
+            self.dtype = np.dtype(dtype)
+        except TypeError:
+            raise ValueError(f"dtype must be float32 or float64, got {dtype!r}") from None
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
-        self.seed = int(seed)
+        self.seed = _whole(seed, "seed")
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"options must be a dict, got {type(options).__name__}")
         self.options = dict(options or {})
+        if params is not None and not isinstance(params, Mapping):
+            raise TypeError(f"params must be a dict of parameter values, got "
+                            f"{type(params).__name__} {params!r}")
         self.params = self._merge_params(params or {})
         if dt is None:
             dt = default_dt(self.model, self.domain, self.params, self.options)
+        if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, numbers.Real):
+            raise TypeError(f"dt must be a positive number, got {type(dt).__name__} {dt!r}")
         self.dt = float(dt)
         if not (math.isfinite(self.dt) and self.dt > 0):
             raise ValueError(f"dt must be a positive number, got {dt}")
@@ -723,18 +1014,32 @@ class Simulation:
         if unknown:
             raise ValueError(f"unknown parameter(s) {sorted(unknown)} for model "
                              f"{self.model.name}; known: {', '.join(defaults)}")
-        if any(isinstance(v, Mapping) for v in params.values()):
+        defaults.update(domain_defaults(self.model, self.domain))
+        for k, v in params.items():
+            if isinstance(v, (complex, np.complexfloating)) or (
+                    isinstance(v, np.ndarray) and v.dtype.kind == "c"):
+                raise TypeError(f"parameter {k!r} is complex ({v!r:.60}); parameters are real "
+                                "numbers or real fields")
+        if any(isinstance(v, Mapping) for v in {**defaults, **params}.values()):
             try:
                 from .models import resolve_params
             except ImportError as exc:
                 raise ValueError(f"parameter field specs need rdgpu.models ({exc})") from None
-            return dict(resolve_params(self.model, self.domain, params, seed=self.seed))
+            given = {**domain_defaults(self.model, self.domain), **params}
+            return dict(resolve_params(self.model, self.domain, given, seed=self.seed))
         out: dict[str, Any] = {}
         for k, v in {**defaults, **params}.items():
+            if isinstance(v, (list, tuple)):
+                v = np.asarray(v)
             if isinstance(v, np.ndarray) and v.ndim > 0:
+                if v.dtype.kind not in "fiub":
+                    raise TypeError(f"parameter {k!r} as a field must hold real numbers, "
+                                    f"got dtype {v.dtype}")
                 if v.shape != self.shape:
                     raise ValueError(f"parameter {k!r} as a field must have shape {self.shape}, "
                                      f"got {v.shape}")
+                if not np.isfinite(v).all():
+                    raise ValueError(f"parameter field {k!r} contains NaN or Inf")
                 out[k] = np.ascontiguousarray(v, dtype=np.float64)
             else:
                 try:
@@ -747,15 +1052,33 @@ class Simulation:
         return out
 
     def _check_fields(self, fields: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        if not isinstance(fields, Mapping):
+            raise TypeError(f"fields must be a dict of arrays, one per species "
+                            f"{list(self.species)}; got {type(fields).__name__}")
         missing = set(self.species) - set(fields)
         if missing:
             raise ValueError(f"fields missing for species {sorted(missing)}")
+        extra = set(fields) - set(self.species)
+        if extra:
+            raise ValueError(f"fields given for unknown species {sorted(extra)}; the model "
+                             f"has {list(self.species)}")
         out = {}
         for s in self.species:
             a = np.asarray(fields[s])
+            if a.dtype.kind == "c":
+                raise TypeError(f"field {s!r} is complex ({a.dtype}); fields must be real "
+                                "(float32 or float64): pass the real part if that is meant")
+            if a.dtype.kind not in "fiu":
+                raise TypeError(f"field {s!r} must hold real numbers, got dtype {a.dtype}")
             if a.shape != self.shape:
                 raise ValueError(f"field {s!r} must have shape {self.shape}, got {a.shape}")
-            out[s] = np.ascontiguousarray(a, dtype=self.dtype)
+            with np.errstate(over="ignore"):
+                out[s] = np.ascontiguousarray(a, dtype=self.dtype)
+            finite = np.isfinite(out[s])
+            if not finite.all():
+                past = "" if np.isfinite(a).all() else " in the given array"
+                raise ValueError(f"field {s!r} has {int(a.size - finite.sum())} NaN or Inf "
+                                 f"value(s){past or ' as ' + self.dtype.name}")
         return out
 
     @classmethod
@@ -845,19 +1168,46 @@ class Simulation:
 
     @staticmethod
     def read_checkpoint(path: str | os.PathLike) -> tuple[dict, dict[str, np.ndarray]]:
-        """``(meta, arrays)`` of a checkpoint file."""
+        """``(meta, arrays)`` of a checkpoint file; a ``ValueError`` saying what is wrong
+        with a file that is missing, empty, truncated, corrupt or not a checkpoint."""
         path = Path(path)
+        name = repr(str(path))
         if not path.exists():
-            raise ValueError(f"checkpoint {str(path)!r} does not exist")
+            raise ValueError(f"checkpoint {name} does not exist")
+        if not path.is_file():
+            raise ValueError(f"checkpoint {name} is not a file")
+        size = path.stat().st_size
+        if size == 0:
+            raise ValueError(f"checkpoint {name} is empty (0 bytes): not a readable rdgpu "
+                             "checkpoint")
         try:
-            with np.load(path, allow_pickle=False) as z:
+            z = np.load(path, allow_pickle=False)
+        except Exception as exc:  # noqa: BLE001 - zipfile, zlib, numpy: many ways to fail
+            raise ValueError(f"{name} is not a readable rdgpu checkpoint ({size} bytes; "
+                             f"truncated or corrupt? {_why(exc)})") from None
+        if not hasattr(z, "files"):
+            raise ValueError(f"{name} is not a readable rdgpu checkpoint (a single array, "
+                             "not an NPZ archive)")
+        try:
+            with z:
                 arrays = {k: z[k] for k in z.files}
+        except Exception as exc:  # noqa: BLE001
+            raise ValueError(f"{name} is not a readable rdgpu checkpoint ({size} bytes; "
+                             f"truncated or corrupt? {_why(exc)})") from None
+        if "meta" not in arrays:
+            raise ValueError(f"{name} is not a readable rdgpu checkpoint (an NPZ file without "
+                             "rdgpu's metadata)")
+        try:
             meta = json.loads(str(arrays.pop("meta")))
-        except (OSError, ValueError, KeyError) as exc:
-            raise ValueError(f"{str(path)!r} is not a readable rdgpu checkpoint ({exc})") from None
+        except ValueError:
+            meta = None
+        if not isinstance(meta, dict):
+            raise ValueError(f"{name} is not a readable rdgpu checkpoint (its metadata is "
+                             "not valid JSON)")
         if meta.get("format") != _CHECKPOINT_FORMAT:
-            raise ValueError(f"{str(path)!r} has checkpoint format {meta.get('format')}, "
+            raise ValueError(f"{name} has checkpoint format {meta.get('format')}, "
                              f"expected {_CHECKPOINT_FORMAT}")
+        _check_checkpoint(name, meta, arrays)
         return meta, arrays
 
     @classmethod
@@ -865,7 +1215,10 @@ class Simulation:
                check_stability: bool | None = None) -> Simulation:
         """A simulation rebuilt from a checkpoint, at its step.  ``run()`` (no ``steps``)
         then finishes the interrupted run with its settings.  ``model`` is needed only for
-        a model not in ``rdgpu.models.MODELS``; ``backend`` defaults to the checkpoint's."""
+        a model not in ``rdgpu.models.MODELS``; ``backend`` defaults to the checkpoint's.
+        Temporary files of killed writers of the checkpoint are removed
+        (:func:`remove_stale_temporaries`)."""
+        remove_stale_temporaries(path)
         meta, arrays = cls.read_checkpoint(path)
         model = _lookup_model(meta["model"] if model is None else model)
         if model.name != meta["model"]:
@@ -902,25 +1255,44 @@ class Simulation:
         self._resume_snaps = (snaps, [int(k) for k in arrays["snap_steps"]])
 
     def _load_checkpoint_into(self, path: str | os.PathLike) -> None:
+        remove_stale_temporaries(path)
         meta, arrays = self.read_checkpoint(path)
+        name = repr(str(path))
         if meta["model"] != self.model.name:
-            raise ValueError(f"checkpoint {str(path)!r} is of model {meta['model']!r}, "
+            raise ValueError(f"checkpoint {name} is of model {meta['model']!r}, "
                              f"not {self.model.name!r}")
+        differences = _domain_differences(meta["domain"], arrays, self.domain)
+        if differences:
+            raise ValueError(f"checkpoint {name} was written on another domain: "
+                             + "; ".join(differences))
         if abs(meta["dt"] - self.dt) > 0:
-            raise ValueError(f"checkpoint {str(path)!r} has dt={meta['dt']}, this simulation "
+            raise ValueError(f"checkpoint {name} has dt={meta['dt']}, this simulation "
                              f"dt={self.dt}")
-        if describe_domain(self.domain)["kind"] != meta["domain"]["kind"] or \
-                _field_shape(self.domain) != tuple(np.shape(arrays[f"field__{self.species[0]}"])):
-            raise ValueError(f"checkpoint {str(path)!r} is of another domain "
-                             f"({meta['domain']})")
         scalars = _split_params(self.params)[0]
         if meta["params"] != json.loads(json.dumps(scalars, default=_json_default)) or \
                 sorted(meta["param_fields"]) != sorted(_split_params(self.params)[1]):
-            raise ValueError(f"checkpoint {str(path)!r} has other parameters "
+            raise ValueError(f"checkpoint {name} has other parameters "
                              f"({meta['params']}) than this simulation ({scalars})")
+        for k in meta["param_fields"]:
+            if not np.array_equal(arrays[f"param__{k}"], self.params[k]):
+                raise ValueError(f"checkpoint {name} has another field for parameter {k!r}")
+        theirs = json.loads(json.dumps(meta.get("options") or {}, default=_json_default))
+        mine = json.loads(json.dumps(self.options, default=_json_default))
+        if theirs != mine:
+            raise ValueError(f"checkpoint {name} was run with options {theirs}, this "
+                             f"simulation with {mine}")
         self._load_run(meta, arrays, path)
 
     # ------------------------------------------------------------------ the time loop
+    @property
+    def default_steps(self) -> int | None:
+        """What ``run()`` does without ``steps``: the preset's steps, else the model's
+        ``default_time`` over ``dt`` (see :func:`default_steps`), else ``None``."""
+        steps = getattr(self.preset, "steps", None)
+        if steps is not None:
+            return int(steps)
+        return default_steps(self.model, self.dt, self.params)
+
     def run(
         self,
         steps: int | None = None,
@@ -934,22 +1306,48 @@ class Simulation:
     ) -> Result:
         """Advance ``steps`` steps and return a :class:`Result`.
 
+        ``steps`` (a whole number >= 0) defaults to :attr:`default_steps`: the preset's,
+        else the model's default run length in its time units over ``dt``.
         ``snapshot_every``: keep a snapshot at every step that is a multiple of it (the
         first at the start of the run if its step is a multiple, and always the last).
         ``check_every`` (default 200, 0 disables): check for NaN/Inf/blow-up at multiples
         of it and at the end; a bad state raises :class:`SimulationDiverged` with the last
         good state in ``exc.result`` and the simulation left at that state.
         ``checkpoint``: path of a checkpoint written atomically at multiples of
-        ``checkpoint_every`` (default 1000) and at the end.  ``progress``: a tqdm bar on
-        stderr for runs lasting more than a second.
+        ``checkpoint_every`` (default 1000) and at the end; every state written is checked
+        first, so a checkpoint never holds a diverged state.  Temporary files that killed
+        writers of that checkpoint left behind are removed (see
+        :func:`remove_stale_temporaries`).  ``progress``: a tqdm bar on stderr for runs
+        lasting more than a second.
+
+        Ctrl-C: in the main thread, SIGINT is taken at the end of the chunk of steps that
+        is running (at most 100 steps; a second Ctrl-C interrupts at once); that state is
+        checked, written as a checkpoint if ``checkpoint`` is given, and
+        :class:`SimulationInterrupted` (a ``KeyboardInterrupt``) is raised with it in
+        ``exc.result``.  Any other ``KeyboardInterrupt`` during the run also becomes
+        :class:`SimulationInterrupted`, with the last checked state (the simulation goes
+        back to it).
 
         ``resume=PATH`` repeats an interrupted ``run`` call from its last checkpoint: the
         state, the snapshots so far and (where not given here) the run settings come from
         the checkpoint, ``steps`` counts from the start of the interrupted call (default:
         what that call asked for), and checkpoints go on to PATH unless ``checkpoint`` is
-        given.  After :meth:`resume`, ``run()`` does the same.
+        given.  The simulation must be the checkpoint's: same model, parameters, dt,
+        options and domain (grid shape, dx, dy, boundary conditions; mesh vertices and
+        faces).  After :meth:`resume`, ``run()`` does the same.
         """
+        if steps is not None:
+            steps = _whole(steps, "steps")
+        snapshot_every = None if snapshot_every is None else _whole(snapshot_every,
+                                                                    "snapshot_every")
+        check_every = None if check_every is None else _whole(check_every, "check_every")
+        checkpoint_every = None if checkpoint_every is None else _whole(checkpoint_every,
+                                                                        "checkpoint_every")
+        if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
+            raise TypeError(f"checkpoint must be a path, got {type(checkpoint).__name__}")
         if resume is not None:
+            if not isinstance(resume, (str, os.PathLike)):
+                raise TypeError(f"resume must be a path, got {type(resume).__name__}")
             self._load_checkpoint_into(resume)
         run0 = self._resume_run
         self._resume_run = None
@@ -957,7 +1355,7 @@ class Simulation:
         self._resume_snaps = None
         if run0 is not None:
             start = int(run0["start"])
-            target = int(run0["target"]) if steps is None else start + int(steps)
+            target = int(run0["target"]) if steps is None else start + steps
             snapshot_every = run0["snapshot_every"] if snapshot_every is None else snapshot_every
             check_every = run0["check_every"] if check_every is None else check_every
             checkpoint_every = (run0["checkpoint_every"] if checkpoint_every is None
@@ -969,26 +1367,50 @@ class Simulation:
                                  f"run of {target - start} steps")
         else:
             if steps is None:
-                steps = getattr(self.preset, "steps", None)
+                steps = self.default_steps
                 if steps is None:
-                    raise ValueError("run() needs the number of steps")
+                    raise ValueError("run() needs the number of steps (the model has no "
+                                     "default_time)")
             if snapshot_every is None and self.preset is not None:
                 snapshot_every = getattr(self.preset, "snapshot_every", None)
             start, target = self.step, self.step + int(steps)
-        if target < start or (steps is not None and int(steps) < 0):
-            raise ValueError(f"steps must be >= 0, got {steps}")
         check_every = DEFAULT_CHECK_EVERY if check_every is None else int(check_every)
         snapshot_every = int(snapshot_every) if snapshot_every else 0
         if checkpoint is not None and not checkpoint_every:
             checkpoint_every = DEFAULT_CHECKPOINT_EVERY
         checkpoint_every = int(checkpoint_every or 0) if checkpoint is not None else 0
-        for name, val in (("snapshot_every", snapshot_every), ("check_every", check_every),
-                          ("checkpoint_every", checkpoint_every)):
-            if val < 0:
-                raise ValueError(f"{name} must be >= 0, got {val}")
+        if checkpoint is not None:
+            remove_stale_temporaries(checkpoint)
         run_info = {"start": start, "target": target, "snapshot_every": snapshot_every,
                     "check_every": check_every, "checkpoint_every": checkpoint_every}
         return _Runner(self, run_info, snaps, snap_steps, checkpoint, progress).go()
+
+
+class _DeferSigint:
+    """While active in the main thread (and SIGINT has Python's default handler), Ctrl-C
+    only sets ``requested``; a second Ctrl-C raises ``KeyboardInterrupt`` at once."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        self.installed = False
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.requested = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    def __enter__(self) -> _DeferSigint:
+        if threading.current_thread() is threading.main_thread() and \
+                signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            try:
+                signal.signal(signal.SIGINT, self._handler)
+                self.installed = True
+            except (ValueError, OSError):  # not the main interpreter, or no signals here
+                pass
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.installed and signal.getsignal(signal.SIGINT) == self._handler:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 class _Runner:
@@ -1046,6 +1468,12 @@ class _Runner:
         """Find the first bad step by replaying from the last good state, leave the
         simulation there, and raise."""
         sim = self.sim
+        if self.last_good is None:  # checks were off: nothing good to go back to
+            message = (f"{sim.model.name} diverged by step {step} (t={step * sim.dt:g}): "
+                       f"field {species!r} has {what}; no checked state to keep "
+                       "(check_every=0)")
+            raise SimulationDiverged(message, step=step, field=species, cause="unknown",
+                                     result=None)
         good_step, good = self.last_good
         first_bad, bad_field, bad_what = step, species, what
         if step - good_step > 1:
@@ -1111,6 +1539,18 @@ class _Runner:
                 stop = min(stop, (step // every + 1) * every)
         return stop
 
+    def check(self, step: int) -> dict[str, np.ndarray]:
+        """Download the state at ``step`` and check it; raise SimulationDiverged if bad,
+        else it becomes the last good state."""
+        if self.last_good is not None and self.last_good[0] == step:
+            return self.last_good[1]
+        state = self.sim.stepper.get_state()
+        found = self.find_bad(state)
+        if found:
+            self.diverged(step, state, *found)
+        self.last_good = (step, state)
+        return state
+
     def chunk(self, step: int, bar: Any) -> int:
         """Advance to the next stop; snapshot, check and checkpoint there."""
         sim, run = self.sim, self.run
@@ -1123,16 +1563,48 @@ class _Runner:
         end = step == run["target"]
         if se and (step % se == 0 or end):
             self.take_snapshot(step)
-        state = None
-        if ce and (step % ce == 0 or end):
-            state = sim.stepper.get_state()
-            found = self.find_bad(state)
-            if found:
-                self.diverged(step, state, *found)
-            self.last_good = (step, state)
-        if self.checkpoint is not None and ((ke and step % ke == 0) or end):
-            self.write_checkpoint(sim.stepper.get_state() if state is None else state)
+        checkpoint_now = self.checkpoint is not None and ((ke and step % ke == 0) or end)
+        if (ce and (step % ce == 0 or end)) or checkpoint_now:
+            state = self.check(step)  # a checkpoint is written only from a checked state
+            if checkpoint_now:
+                self.write_checkpoint(state)
         return step
+
+    def interrupted(self, step: int, *, exact: bool) -> SimulationInterrupted:
+        """The exception for a run stopped at ``step`` (``exact``: by the deferred SIGINT,
+        at a chunk boundary; otherwise by a KeyboardInterrupt at an unknown point)."""
+        sim = self.sim
+        written = None
+        if exact:
+            state = self.check(step)  # raises SimulationDiverged on a bad state
+            if self.checkpoint is not None:
+                if not (self.run["checkpoint_every"] and step % self.run["checkpoint_every"]
+                        == 0) and step != self.run["target"]:
+                    self.write_checkpoint(state)
+                written = self.checkpoint
+            self.flush()
+            result = self.result(state)
+            where = f"step {step}"
+        elif self.last_good is not None:
+            good_step, good = self.last_good
+            sim.stepper.set_state(good)
+            sim.step = good_step
+            self.pending = [(k, b) for k, b in self.pending if k <= good_step]
+            self.flush()
+            keep = [i for i, k in enumerate(self.snap_steps) if k <= good_step]
+            for s in sim.species:
+                self.snaps[s] = [self.snaps[s][i] for i in keep]
+            self.snap_steps = [self.snap_steps[i] for i in keep]
+            result = self.result(good)
+            where = f"step {good_step} (the last checked state)"
+        else:
+            result = None
+            where = "an unknown step (no state had been checked: check_every=0)"
+        message = f"{sim.model.name} interrupted at {where} of a run to step " \
+                  f"{self.run['target']}" + (f"; checkpoint {str(written)!r} is at that step"
+                                             if written is not None else "")
+        return SimulationInterrupted(message, step=None if result is None else result.step,
+                                     result=result, checkpoint=written)
 
     def go(self) -> Result:
         sim, run = self.sim, self.run
@@ -1140,8 +1612,8 @@ class _Runner:
         se, ce = run["snapshot_every"], run["check_every"]
         target = run["target"]
         step = sim.step
-        first = sim.stepper.get_state() if ce else None
-        if first is not None:
+        if ce or self.checkpoint is not None:
+            first = sim.stepper.get_state()
             found = self.find_bad(first)
             if found:
                 raise ValueError(f"the initial field {found[0]!r} has {found[1]}")
@@ -1155,9 +1627,18 @@ class _Runner:
             bar = tqdm(total=target - run["start"], initial=step - run["start"],
                        desc=sim.model.name, unit="step", delay=1.0, leave=False)
         try:
-            with np.errstate(over="ignore", invalid="ignore"):  # the checks report NaN/Inf
-                while step < target:
-                    step = self.chunk(step, bar)
+            with _DeferSigint() as sigint, np.errstate(over="ignore", invalid="ignore"):
+                try:
+                    while step < target:
+                        step = self.chunk(step, bar)
+                        if sigint.requested:
+                            raise self.interrupted(step, exact=True)
+                except SimulationInterrupted:
+                    raise
+                except KeyboardInterrupt as exc:
+                    raise self.interrupted(step, exact=False) from exc
+                if sigint.requested:  # Ctrl-C during the last chunk: the run is complete
+                    raise self.interrupted(step, exact=True)
         finally:
             if bar is not None:
                 bar.close()
@@ -1167,5 +1648,5 @@ class _Runner:
         self.flush()
         final = sim.stepper.get_state()
         if self.checkpoint is not None and target == run["start"]:
-            self.write_checkpoint(final)
+            self.write_checkpoint(self.check(step))
         return self.result(final)

@@ -41,7 +41,15 @@ class Stepper(Protocol):
 
 
 class Model(Protocol):
-    """A reaction-diffusion model: what it is, its parameters, how to step it."""
+    """A reaction-diffusion model: what it is, its parameters, how to step it.
+
+    Optional attributes the driver uses for a run that names no preset (each may be
+    missing): ``domain_defaults(domain) -> dict`` (parameter defaults that depend on the
+    domain, e.g. Allen-Cahn's ε relative to the spacing), ``default_dt`` and
+    ``default_time`` (numbers or functions of the parameters: the step the reaction wants
+    and how long the pattern takes to form, in model time units), ``default_init`` (an
+    initial condition), ``spacing`` (the grid spacing its defaults are made for) and
+    ``value_range`` (``{species: (lo, hi)}``, for pictures on a fixed colour scale)."""
 
     name: str
     species: tuple[str, ...]

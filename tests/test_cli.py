@@ -310,3 +310,195 @@ def test_presets_lists_a_preset(capsys, tiny_preset):
     assert "rdgpu run gray-scott --preset tiny-spots" in out
     code, out, _ = cli(capsys, "presets", "barkley")
     assert code == 0 and "tiny-spots" not in out
+
+
+# ---------------------------------------------------------- resume with the same values
+def test_resume_accepts_the_checkpoints_own_values(capsys, tmp_path):
+    """The README's line: `rdgpu run gray-scott --size N --steps S --resume CK` repeats the
+    options of the interrupted run; values equal to the checkpoint's are accepted, only
+    real changes refused."""
+    settings = ["--snapshot-every", "40", "--check-every", "50", "--backend", "numpy",
+                "--quiet"]
+    code, _, err = cli(capsys, "run", "gray-scott", "--size", "24", "--steps", "330",
+                       *settings, "--data", tmp_path / "full.npz")
+    assert code == 0, err
+    sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
+    real, done = sim.stepper.advance, [0]
+
+    def dying(n):
+        if done[0] + n > 250:
+            raise KeyboardInterrupt
+        done[0] += n
+        real(n)
+
+    sim.stepper.advance = dying
+    ck = tmp_path / "run.ckpt.npz"
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,
+                progress=False)
+    same = ["--size", "24x24", "--steps", "330", "--dt", str(sim.dt), "--seed", "0",
+            "--dtype", "float32", "--param", "F=0.035", "--param", "k=0.06"]
+    code, _, err = cli(capsys, "run", "gray-scott", *same, "--resume", ck, "--data",
+                       tmp_path / "resumed.npz", "--quiet")
+    assert code == 0, err
+    assert_same_data(tmp_path / "full.npz", tmp_path / "resumed.npz")
+    for option, value, says in (("--size", "25", "--size says 25x25"),
+                                ("--dt", "0.5", "--dt says 0.5"),
+                                ("--seed", "2", "--seed says 2"),
+                                ("--param", "k=0.061", "--param says 0.061")):
+        code, _, err = cli(capsys, "run", "gray-scott", "--resume", ck, option, value)
+        assert code == 2 and f"{option.split()[0]}" in err and says in err, err
+        assert "cannot change a resumed run" in err
+
+
+# --------------------------------------------------------------------------- Ctrl-C
+@pytest.mark.parametrize("with_checkpoint", [False, True], ids=["no-checkpoint", "checkpoint"])
+def test_ctrl_c_writes_the_outputs_and_exits_130(tmp_path, with_checkpoint):
+    """SIGINT to `rdgpu run` mid-run: the outputs are written from the state where it
+    stopped, the message says the step and the files, and the exit status is 130; with
+    --checkpoint a checkpoint is written there, and resuming it gives the uninterrupted
+    result bit for bit."""
+    args = ["run", "gray-scott", "--size", "48", "--backend", "numpy", "--check-every", "300"]
+    extra = ["--checkpoint", "ck.npz", "--checkpoint-every", "100000000"] \
+        if with_checkpoint else []
+    proc = subprocess.Popen([sys.executable, "-m", "rdgpu.cli", *args, "--steps", "100000000",
+                             "--data", "d.npz", "--out", "o.png", *extra],
+                            env=subprocess_env(), cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        header = proc.stderr.readline()
+        assert header.startswith("gray-scott on a 48x48 grid"), header
+        time.sleep(1.5)  # well inside the run loop
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    last = [ln for ln in err.splitlines() if ln.startswith("rdgpu:")]
+    assert len(last) == 1, err
+    res = load_npz(tmp_path / "d.npz")
+    step = res.step
+    assert 0 < step < 100000000 and step % 100 == 0  # a chunk boundary
+    assert np.isfinite(res.fields["u"]).all() and not res.diverged
+    assert last[0].startswith(f"rdgpu: interrupted at step {step} of 100000000 (t=")
+    assert "wrote o.png, d.npz" in last[0]
+    assert iio.imread(tmp_path / "o.png").shape == (96, 96, 3)
+    if not with_checkpoint:
+        assert "resume" not in last[0]
+        return
+    assert last[0].endswith("; resume with --resume ck.npz")
+    assert Simulation.read_checkpoint(tmp_path / "ck.npz")[0]["step"] == step
+    total = str(step + 150)
+    code = main(["run", "gray-scott", "--resume", str(tmp_path / "ck.npz"), "--steps", total,
+                 "--data", str(tmp_path / "resumed.npz"), "--quiet"])
+    assert code == 0
+    code = main([*args, "--steps", total, "--data", str(tmp_path / "ref.npz"), "--quiet"])
+    assert code == 0
+    assert_same_data(tmp_path / "ref.npz", tmp_path / "resumed.npz")
+
+
+# ------------------------------------------------------------- what a new user meets
+PATTERN_MODELS = sorted(models.MODELS) if hasattr(models, "MODELS") else []
+
+
+@pytest.mark.parametrize("model", PATTERN_MODELS)
+def test_defaults_form_a_pattern_on_a_grid(capsys, tmp_path, model):
+    """`rdgpu run MODEL --size 64`, nothing else: dt from the grid's limit and the model's
+    reaction, the model's default run length -- a pattern, not the initial noise or a
+    uniform field."""
+    from rdgpu.analysis import classify_pattern
+    from rdgpu.cli import _display_field
+
+    code, _, err = cli(capsys, "run", model, "--size", "64", "--data", tmp_path / "d.npz",
+                       "--quiet")
+    assert code == 0, err
+    assert "warning" not in err
+    res = load_npz(tmp_path / "d.npz")
+    m = models.MODELS[model]
+    field = _display_field(m, None, None)
+    f = res.fields[field]
+    assert classify_pattern(f, res.domain, threshold=None) != "uniform"
+    known = getattr(m, "value_range", {}).get(field)
+    spread = (known[1] - known[0]) if known else np.abs(f).max()
+    assert np.ptp(f) > 0.3 * spread  # saturated, not a small ripple
+    if model == "allen-cahn":  # not the noise it starts from (uniform in [-1, 1]: 10 %)
+        assert np.mean(np.abs(np.abs(f) - 1) < 0.1) > 0.5
+        assert res.time > 10 * res.params["eps"] ** 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", PATTERN_MODELS)
+def test_defaults_form_a_pattern_on_a_sphere(capsys, tmp_path, model):
+    pytest.importorskip("trimesh")
+    from rdgpu.analysis import classify_pattern
+    from rdgpu.cli import _display_field
+
+    code, _, err = cli(capsys, "run", model, "--mesh", "sphere", "--data", tmp_path / "d.npz",
+                       "--quiet")
+    assert code == 0, err
+    assert "warning" not in err
+    res = load_npz(tmp_path / "d.npz")
+    m = models.MODELS[model]
+    field = _display_field(m, None, None)
+    f = res.fields[field]
+    assert classify_pattern(f, res.domain, threshold=None) != "uniform"
+    known = getattr(m, "value_range", {}).get(field)
+    assert np.ptp(f) > 0.3 * ((known[1] - known[0]) if known else np.abs(f).max())
+
+
+def test_the_help_example_on_the_sphere_gives_spots(capsys, tmp_path):
+    """`rdgpu run allen-cahn --mesh sphere --param b=-0.1` (from --help): ε is relative to
+    the mesh spacing, dt and the steps follow from it, and the result is spots of u = -1
+    in u = +1 -- not a field decayed to u ∈ [-0.02, 0.05]."""
+    pytest.importorskip("trimesh")
+    from rdgpu.analysis import classify_pattern
+
+    code, _, err = cli(capsys, "run", "allen-cahn", "--mesh", "sphere", "--param", "b=-0.1",
+                       "--data", tmp_path / "s.npz", "--quiet")
+    assert code == 0, err
+    res = load_npz(tmp_path / "s.npz")
+    u = res.fields["u"]
+    assert u.min() < -0.9 and u.max() > 0.9
+    assert classify_pattern(u, res.domain, 0.0) == "spots"
+    h = res.domain.mean_edge_length
+    assert res.params["eps"] == pytest.approx(0.3 * h)
+    assert res.dt == pytest.approx(0.5 * res.params["eps"] ** 2)
+
+
+def test_a_uniform_field_is_reported(capsys, tmp_path):
+    code, _, err = cli(capsys, "run", "allen-cahn", "--size", "32", "--param", "b=-0.35",
+                       "--backend", "numpy", "--out", tmp_path / "a.png", "--quiet")
+    assert code == 0
+    warning = [ln for ln in err.splitlines() if ln.startswith("rdgpu: warning:")]
+    assert len(warning) == 1, err
+    assert warning[0].startswith("rdgpu: warning: the field is uniform (u ∈ [")
+    assert "no pattern formed" in warning[0] and "rdgpu presets allen-cahn" in warning[0]
+    # on the fixed scale [-1, 1] the picture shows u = 1.1 as the top colour, not noise
+    img = iio.imread(tmp_path / "a.png").reshape(-1, 3)
+    assert len(np.unique(img, axis=0)) == 1
+
+    code, _, err = cli(capsys, "run", "allen-cahn", "--size", "32", "--backend", "numpy",
+                       "--out", tmp_path / "b.png", "--quiet")
+    assert code == 0 and "warning" not in err
+
+
+def test_pictures_use_the_models_fixed_colour_range(capsys, tmp_path):
+    """Gray-Scott u ∈ [0, 1]: the initial square u = 0.5 ± 0.05 is mid-scale, not the
+    bottom of an automatic scale; --range auto gives the automatic scale back."""
+    from matplotlib import colormaps
+
+    def centre(png):
+        img = iio.imread(png).astype(float)
+        return img[18:22, 18:22].reshape(-1, 3).mean(axis=0)
+
+    viridis = colormaps["viridis"]
+    base = ["run", "gray-scott", "--size", "20", "--steps", "0", "--field", "u", "--backend",
+            "numpy", "--quiet"]
+    assert cli(capsys, *base, "--out", tmp_path / "fixed.png")[0] == 0
+    assert cli(capsys, *base, "--range", "auto", "--out", tmp_path / "auto.png")[0] == 0
+    assert cli(capsys, *base, "--range=-1:3", "--out", tmp_path / "wide.png")[0] == 0
+    for png, value in (("fixed.png", 0.5), ("auto.png", 0.08), ("wide.png", 0.375)):
+        expect = np.array(viridis(value)[:3]) * 255
+        assert np.abs(centre(tmp_path / png) - expect).max() < 25, png

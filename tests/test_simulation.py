@@ -473,3 +473,228 @@ def test_from_preset(tmp_path):
     other = Simulation.from_preset(preset, backend="numpy", params={"k": 0.06}, seed=1,
                                    domain={"grid": (8, 12)})
     assert other.params == {**sim.params, "k": 0.06} and other.shape == (8, 12)
+
+
+# ------------------------------------------------ checkpoints hold only checked states
+def test_a_diverging_run_never_checkpoints_a_bad_state(tmp_path):
+    """The issue's case: checkpoints every 50 steps, checks every 200, divergence at step 4:
+    the checkpoint at step 50 used to hold NaN.  Now every state written is checked first;
+    an earlier good checkpoint at that path is kept as it was."""
+    models = pytest.importorskip("rdgpu.models")
+    ck = tmp_path / "p.npz"
+    with pytest.raises(SimulationDiverged) as info:
+        Simulation("gray-scott", {"grid": 32}, dt=10.0, check_stability=False,
+                   backend="numpy").run(1000, checkpoint=ck, checkpoint_every=50,
+                                        progress=False)
+    assert info.value.step == 4 and models.MODELS["gray-scott"].name in str(info.value)
+    assert not ck.exists()
+
+    toy_sim(seed=1).run(100, checkpoint=ck, checkpoint_every=50, progress=False)
+    before = ck.read_bytes()
+    for check_every in (200, 0):
+        with pytest.raises(SimulationDiverged):
+            toy_sim(dt=5.0, check_stability=False).run(
+                400, checkpoint=ck, checkpoint_every=25, check_every=check_every,
+                progress=False)
+        assert ck.read_bytes() == before
+        meta, arrays = Simulation.read_checkpoint(ck)
+        assert meta["step"] == 100 and np.isfinite(arrays["field__u"]).all()
+
+
+def test_checkpoints_between_checks_are_checked(tmp_path, monkeypatch):
+    """Checkpoints at steps that are no multiple of check_every: each one is checked, on
+    exactly the state that is written."""
+    checked, written = [], []
+    real_bad, real_write = simmod._Runner.find_bad, simmod._Runner.write_checkpoint
+
+    def find_bad(self, state):
+        checked.append({s: a.copy() for s, a in state.items()})
+        return real_bad(self, state)
+
+    def write(self, state):
+        written.append(state)
+        assert any(all(np.array_equal(c[s], state[s]) for s in state) for c in checked)
+        return real_write(self, state)
+
+    monkeypatch.setattr(simmod._Runner, "find_bad", find_bad)
+    monkeypatch.setattr(simmod._Runner, "write_checkpoint", write)
+    toy_sim().run(90, check_every=40, checkpoint=tmp_path / "c.npz", checkpoint_every=30,
+                  progress=False)
+    assert len(written) == 3  # steps 30, 60, 90
+
+
+# ---------------------------------------------------- resume refuses another domain
+@pytest.mark.parametrize("domain, fragments", [
+    (Grid((16, 16), bc="neumann", dx=2.0),
+     ["dx 1.0 in the checkpoint, 2.0 here", "dy 1.0 in the checkpoint, 2.0 here",
+      "bc periodic in the checkpoint, neumann here"]),
+    (Grid((16, 16), dy=0.5), ["dy 1.0 in the checkpoint, 0.5 here"]),
+    (Grid((16, 16), bc=("periodic", ("dirichlet", 0.0))),
+     ["bc periodic in the checkpoint, periodic (y)/dirichlet(0) (x) here"]),
+    (Grid((16, 20)), ["shape 16x16 in the checkpoint, 16x20 here"]),
+])
+def test_resume_refuses_another_domain(tmp_path, domain, fragments):
+    ck = tmp_path / "c.npz"
+    toy_sim(shape=(16, 16)).run(20, checkpoint=ck, progress=False)
+    other = Simulation(TOY, domain, dt=0.1, backend="numpy")
+    other.dt = 1.0  # the same dt as the checkpoint's: only the domain differs
+    with pytest.raises(ValueError, match="was written on another domain") as info:
+        other.run(40, resume=ck)
+    for text in fragments:
+        assert text in str(info.value)
+    assert other.step == 0
+
+
+def test_resume_refuses_another_mesh(tmp_path):
+    models = pytest.importorskip("rdgpu.models")
+    pytest.importorskip("trimesh")
+    ac = models.MODELS["allen-cahn"]
+    ck = tmp_path / "m.npz"
+    params = {"eps": 0.3}
+    Simulation(ac, SurfaceMesh.icosphere(2), params, dt=1e-3, backend="numpy").run(
+        5, checkpoint=ck, progress=False)
+    for mesh, text in ((SurfaceMesh.icosphere(2, radius=1.5), "vertex positions differ"),
+                       (SurfaceMesh.icosphere(1), "162 vertices and 320 faces in the "
+                                                  "checkpoint, 42 vertices and 80 faces here")):
+        with pytest.raises(ValueError, match=text):
+            Simulation(ac, mesh, params, dt=1e-3, backend="numpy").run(10, resume=ck)
+    ok = Simulation(ac, SurfaceMesh.icosphere(2), params, dt=1e-3, backend="numpy")
+    assert ok.run(10, resume=ck, progress=False).step == 10
+
+
+# ----------------------------------------------------------- stale temporary files
+def _dead_pid():
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_killed_writers_temporaries_are_removed(tmp_path):
+    ck = tmp_path / "run.npz"
+    host = simmod._host_tag()
+    dead = _dead_pid()
+    old = time.time() - 2 * 3600
+    names = {
+        "stale": f".run.npz.{host}.{dead}.k2j4h1xx.tmp",  # a killed writer's: removed
+        "live": f".run.npz.{host}.{os.getpid()}.abcdefgh.tmp",  # a live writer's: kept
+        "remote": f".run.npz.otherhost.{dead}.abcdefgh.tmp",  # another machine's: kept
+        "other file": f".run.npz.bak.{host}.{dead}.abcdefgh.tmp",  # run.npz.bak's: kept
+        "legacy old": ".run.npz.q1w2e3r4.tmp",  # no writer id, 2 h old: removed
+        "legacy new": ".run.npz.z9x8c7v6.tmp",  # no writer id, fresh: kept
+        "unrelated": "notes.tmp",
+    }
+    for key, name in names.items():
+        (tmp_path / name).write_bytes(b"x" * 1000)
+        if key == "legacy old":
+            os.utime(tmp_path / name, (old, old))
+    toy_sim().run(20, checkpoint=ck, checkpoint_every=10, progress=False)
+    left = {p.name for p in tmp_path.iterdir()}
+    assert names["stale"] not in left and names["legacy old"] not in left
+    assert {names[k] for k in ("live", "remote", "other file", "legacy new", "unrelated")} \
+        <= left
+    assert ck.name in left
+
+    # on resume too
+    (tmp_path / names["stale"]).write_bytes(b"x")
+    Simulation.resume(ck, model=TOY)
+    assert not (tmp_path / names["stale"]).exists()
+    (tmp_path / names["stale"]).write_bytes(b"x")
+    toy_sim().run(30, resume=ck, progress=False)
+    assert not (tmp_path / names["stale"]).exists()
+
+
+def test_temporary_names_carry_the_writer(tmp_path, monkeypatch):
+    seen = []
+    real = os.replace
+    monkeypatch.setattr(simmod.os, "replace", lambda a, b: seen.append(Path(a).name) or real(a, b))
+    toy_sim().run(10, checkpoint=tmp_path / "c.npz", progress=False)
+    assert seen and all(n.startswith(f".c.npz.{simmod._host_tag()}.{os.getpid()}.")
+                        and n.endswith(".tmp") for n in seen)
+
+
+_CHILD_WRITER = """
+import sys, numpy as np
+sys.path.insert(0, {root!r})
+from rdgpu import simulation as simmod
+def slow(fh, **arrays):  # a writer that is killed while it writes
+    fh.write(b"partial")
+    fh.flush()
+    print("writing", flush=True)
+    import time; time.sleep(60)
+simmod.np.savez = slow
+simmod._atomic_savez(simmod.Path({ck!r}), {{"x": np.zeros(3)}})
+"""
+
+
+def test_a_killed_writer_leaves_a_temporary_that_the_next_run_removes(tmp_path):
+    ck = tmp_path / "run.npz"
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD_WRITER.format(root=str(ROOT),
+                                                                        ck=str(ck))],
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "writing"
+        temps = [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+        assert len(temps) == 1 and f".{proc.pid}." in temps[0].name
+        simmod.remove_stale_temporaries(ck)  # the writer is alive: its file stays
+        assert temps[0].exists()
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait(30)
+    assert temps[0].exists()  # SIGKILL: no cleanup of its own
+    toy_sim().run(10, checkpoint=ck, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [ck.name]
+
+
+# ------------------------------------------------------------------------- Ctrl-C
+def test_ctrl_c_stops_at_a_chunk_boundary_with_the_state_there(tmp_path):
+    """SIGINT during run(): the run finishes the chunk of steps it is in, checks that
+    state, checkpoints it, and raises SimulationInterrupted (a KeyboardInterrupt) with it;
+    resuming from that checkpoint gives the uninterrupted result bit for bit."""
+    settings = {"snapshot_every": 30, "check_every": 40, "progress": False}
+    ref = toy_sim(seed=3).run(400, **settings)
+    sim = toy_sim(seed=3)
+    real, done = sim.stepper.advance, [0]
+
+    def advance(n):
+        if done[0] <= 130 < done[0] + n:
+            signal.raise_signal(signal.SIGINT)  # Ctrl-C in the middle of a chunk
+        done[0] += n
+        real(n)
+
+    sim.stepper.advance = advance
+    ck = tmp_path / "c.npz"
+    with pytest.raises(simmod.SimulationInterrupted) as info:
+        sim.run(400, checkpoint=ck, checkpoint_every=1000, **settings)
+    exc = info.value
+    assert isinstance(exc, KeyboardInterrupt)
+    assert exc.step == sim.step == done[0] == 150  # the chunk boundary after step 130
+    assert exc.checkpoint == ck and Simulation.read_checkpoint(ck)[0]["step"] == 150
+    res = exc.result
+    assert res.step == 150 and list(res.snapshot_steps) == [0, 30, 60, 90, 120, 150]
+    np.testing.assert_array_equal(res.fields["u"], sim.state()["u"])
+    assert "interrupted at step 150" in str(exc)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert_same_result(ref, toy_sim(seed=3).run(400, resume=ck, **settings))
+
+
+def test_other_keyboard_interrupts_keep_the_last_checked_state():
+    """A KeyboardInterrupt at an unknown point of a chunk: the simulation goes back to the
+    last checked state, which the exception carries."""
+    sim = toy_sim(seed=4)
+    real, done = sim.stepper.advance, [0]
+
+    def advance(n):
+        if done[0] + n > 170:
+            raise KeyboardInterrupt
+        done[0] += n
+        real(n)
+
+    sim.stepper.advance = advance
+    with pytest.raises(simmod.SimulationInterrupted) as info:
+        sim.run(400, snapshot_every=25, check_every=40, progress=False)
+    res = info.value.result
+    assert res.step == sim.step == info.value.step == 160
+    assert list(res.snapshot_steps) == [0, 25, 50, 75, 100, 125, 150]
+    ref = toy_sim(seed=4).run(160, check_every=0, progress=False)
+    np.testing.assert_array_equal(res.fields["v"], ref.fields["v"])
+    np.testing.assert_array_equal(sim.state()["v"], ref.fields["v"])
