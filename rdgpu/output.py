@@ -260,8 +260,10 @@ def save_png(
     window_size: tuple[int, int] = (800, 800),
 ) -> Path:
     """A colour-mapped PNG of ``field``: on a mesh ``domain`` a pyvista rendering
-    (:func:`render_mesh_png`), otherwise the grid field with each cell ``scale``×``scale``
-    pixels (row 0 at the top)."""
+    (:func:`render_mesh_png`), on a 1-D grid a plot of the field against x, otherwise the
+    grid field with each cell ``scale``×``scale`` pixels (row 0 at the top)."""
+    if isinstance(domain, Grid) and domain.ndim == 1:
+        return _save_line_plot(_prepare(path), np.asarray(field).ravel(), domain, vmin, vmax)
     if _is_mesh(domain):
         return render_mesh_png(domain, field, path, cmap=cmap, camera=camera, vmin=vmin,
                                vmax=vmax, window_size=window_size)
@@ -269,6 +271,28 @@ def save_png(
 
     return _save(_prepare(path), _grid_field(field, domain), cmap=cmap, vmin=vmin, vmax=vmax,
                  scale=scale)
+
+
+def _save_line_plot(path: Path, field: np.ndarray, grid: Grid, vmin: float | None,
+                    vmax: float | None) -> Path:
+    """A 1-D field as a curve over the cell centres ``x = (j + ½) dx``."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    x = (np.arange(field.size) + 0.5) * grid.dx
+    fig, ax = plt.subplots(figsize=(8, 3), dpi=100)
+    ax.plot(x, field, lw=1.2)
+    ax.set_xlim(0, field.size * grid.dx)
+    if vmin is not None or vmax is not None:
+        ax.set_ylim(vmin, vmax)
+    ax.set_xlabel("x")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
 
 
 # ---------------------------------------------------------------------------- movies

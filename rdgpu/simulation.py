@@ -94,8 +94,10 @@ def _is_mesh(domain: Any) -> bool:
 
 
 def _field_shape(domain: Any) -> tuple[int, ...]:
+    """The shape of a field as users see it: ``(nx,)`` on a 1-D grid, ``(ny, nx)`` on a 2-D
+    one (the kernels hold a 1-D field as one row), ``(n_vertices,)`` on a mesh."""
     if isinstance(domain, Grid):
-        return domain.shape
+        return domain.field_shape
     if _is_mesh(domain):
         return (domain.n_vertices,)
     raise TypeError(f"domain must be a Grid or a SurfaceMesh, got {type(domain).__name__}")
@@ -419,7 +421,8 @@ def initial_state(
     if unknown:
         raise ValueError(f"unknown option(s) {sorted(unknown)} for init kind {kind!r}; "
                          f"allowed: {sorted(_INIT_KEYS[kind])}")
-    shape = _field_shape(domain)
+    # built on the kernels' shape (a 1-D grid is one row), returned in the users' shape
+    shape = domain.shape if isinstance(domain, Grid) else _field_shape(domain)
     rng = np.random.default_rng(seed)
     values = _per_species(init.get("values"), species, "values", 0.0)
     fields = {s: np.full(shape, _number(values[s], f"value of {s!r}"), dtype=np.float64)
@@ -1115,7 +1118,11 @@ class Simulation:
 
     def state(self) -> dict[str, np.ndarray]:
         """Download the current fields."""
-        return self.stepper.get_state()
+        return self.host_state()
+
+    def host_state(self) -> dict[str, np.ndarray]:
+        """The current fields, downloaded, each of :attr:`shape`."""
+        return {k: a.reshape(self.shape) for k, a in self.stepper.get_state().items()}
 
     # ------------------------------------------------------------------ checkpoints
     def _meta(self) -> dict:
@@ -1480,7 +1487,7 @@ class _Runner:
             sim.stepper.set_state(good)
             for k in range(good_step + 1, step + 1):
                 sim.stepper.advance(1)
-                cur = sim.stepper.get_state()
+                cur = sim.host_state()
                 found = self.find_bad(cur)
                 if found:
                     first_bad, (bad_field, bad_what) = k, found
@@ -1544,7 +1551,7 @@ class _Runner:
         else it becomes the last good state."""
         if self.last_good is not None and self.last_good[0] == step:
             return self.last_good[1]
-        state = self.sim.stepper.get_state()
+        state = self.sim.host_state()
         found = self.find_bad(state)
         if found:
             self.diverged(step, state, *found)
@@ -1613,7 +1620,7 @@ class _Runner:
         target = run["target"]
         step = sim.step
         if ce or self.checkpoint is not None:
-            first = sim.stepper.get_state()
+            first = sim.host_state()
             found = self.find_bad(first)
             if found:
                 raise ValueError(f"the initial field {found[0]!r} has {found[1]}")
@@ -1646,7 +1653,7 @@ class _Runner:
                 not (self.pending and self.pending[-1][0] == step):
             self.take_snapshot(step)
         self.flush()
-        final = sim.stepper.get_state()
+        final = sim.host_state()
         if self.checkpoint is not None and target == run["start"]:
             self.write_checkpoint(self.check(step))
         return self.result(final)
