@@ -48,9 +48,10 @@ MAX_BYTES = 60_000
 
 #: (preset, caption, extra command-line options)
 ENTRIES: list[tuple[str, str, list[str]]] = [
-    ("gs-seed001-stripes", "Gray-Scott stripes: the labyrinth of seed 001 (F = 0.035, "
+    ("gs-seed001-stripes", "Gray-Scott stripes: the labyrinth of Camphuijsen & Kasim 2016 "
+                           "(F = 0.035, "
      "k = 0.060, 300², dt = dx = 1)", []),
-    ("gs-seed001-spots", "Gray-Scott spots: seed 001's second parameter set (F = 0.030, "
+    ("gs-seed001-spots", "Gray-Scott spots: Camphuijsen & Kasim's second parameter set (F = 0.030, "
      "k = 0.055)", []),
     ("gs-pearson-alpha", "Pearson α (F = 0.010, k = 0.047): spatio-temporal chaos", []),
     ("gs-pearson-delta", "Pearson δ (F = 0.030, k = 0.055): hexagonal lattice of spots", []),
@@ -73,11 +74,11 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
      []),
     ("brusselator-stripes", "Brusselator further past onset (b = 8): stripes", []),
     ("brusselator-seed004-fig1", "Brusselator with a and b varying across the domain "
-     "(seed 004, Fig. 1): stripes and spots side by side", []),
+     "(Quillen 2025, Fig. 1): stripes and spots side by side", []),
     ("fitzhugh-nagumo-stripes", "FitzHugh-Nagumo (α = 0.01): a labyrinth of worms", []),
     ("fitzhugh-nagumo-spots", "FitzHugh-Nagumo (α = 0.05): spots", []),
     ("barkley-spirals", "Barkley's excitable medium: rotating spirals (field u)", []),
-    ("turing-seed003-spots", "Turing's 1952 spot model, seed 003 eq. 2.15 on 64² "
+    ("turing-seed003-spots", "Turing's 1952 spot model, Chattopadhyay eq. 2.15 on 64² "
      "(field b; D_a = 0.25)", ["--scale", "4"]),
 ]
 

@@ -5,7 +5,7 @@
   round-off by the complex-step derivative (the reaction expressions are rational, so
   evaluating them with complex numbers is legitimate);
 * :func:`dispersion` — the growth rate ``Re γ(k)`` of a Fourier mode of wavenumber ``k``:
-  the largest real part of the eigenvalues of ``J − k² diag(D)`` (seed 004, eq. 18).  On a
+  the largest real part of the eigenvalues of ``J − k² diag(D)`` (Quillen 2025, eq. 18).  On a
   grid the 5-point stencil's mode ``m`` of ``n`` cells has
   ``k = (2/dx) sin(π m / n)`` (:func:`grid_wavenumber`), not ``2π m/(n dx)``;
 * :func:`classify_pattern` — ``"spots"``, ``"inverted-spots"``, ``"stripes"`` or

@@ -470,7 +470,7 @@ def allen_cahn(
     check_stability: bool = True,
     backend: BackendSpec = None,
 ) -> np.ndarray:
-    """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (seed 000,
+    """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
     SPEC §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
     source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (the stepper of
     :class:`rdgpu.models.AllenCahn`).

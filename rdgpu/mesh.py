@@ -921,7 +921,8 @@ class SurfaceMesh:
         """Open rough surface ``z = h(x, y)`` over an ``nx × ny`` grid of ``[0, size]²``.
 
         With ``func`` given, ``h = func(x, y)`` (vectorised). Otherwise ``h`` is the
-        sum-of-random-waves roughness of seed 002 (Realistic pattern formations on surfaces
+        sum-of-random-waves roughness of the rough-surfaces paper (2023)
+        (Realistic pattern formations on surfaces
         by adding arbitrary roughness, §2)::
 
             h̃(x, y) = Σ_{(m, n)} a_mn cos(2π(m x + n y)/size + φ_mn),

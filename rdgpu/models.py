@@ -552,7 +552,7 @@ def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
 
 
 class AllenCahn:
-    """Modified Allen-Cahn ``u_t = Δu − (u³ − u + b)/ε²`` (seed 000, SPEC §2) by Strang
+    """Modified Allen-Cahn ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al., SPEC §2) by Strang
     splitting: the exact Bernoulli substep for ``dt/2`` → diffusion ``ū_t = Δū − b/ε²`` for
     ``dt`` → Bernoulli ``dt/2``.
 
@@ -571,10 +571,10 @@ class AllenCahn:
         "modified Allen-Cahn u_t = Δu − (u³ − u + b)/ε²: b < 0 spots, b > 0 inverted spots, "
         "b = 0 stripes (Strang splitting with the exact Bernoulli substep)"
     )
-    source = "seed 000 (Dascal, Pai, Kimmel), SPEC §2"
+    source = "Dascal et al. (Dascal, Pai, Kimmel), SPEC §2"
     methods = ("explicit", "implicit", "crank-nicolson")
     #: the default ε is this times the spacing (grid: min(dx, dy); mesh: mean edge length):
-    #: interfaces pinned by the discretisation, the regime of seed 000 where b ≠ 0 gives
+    #: interfaces pinned by the discretisation, the regime of Dascal et al. where b ≠ 0 gives
     #: spots (b < 0) or inverted spots (b > 0) that do not shrink away; the presets use
     #: 0.15 (global) and 0.3 (localized)
     eps_per_spacing = 0.3
@@ -756,7 +756,7 @@ GRAY_SCOTT = GrayScott(
     diffusion=("Du", "Dv"),
     defaults={"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060},
     description="Gray-Scott u_t = Du Δu − uv² + F(1 − u), v_t = Dv Δv + uv² − (F + k)v",
-    source="seed 001 (Camphuijsen, Kasim); Pearson 1993; SPEC §3",
+    source="Camphuijsen & Kasim 2016 (Camphuijsen, Kasim); Pearson 1993; SPEC §3",
     steady_guess=lambda p: (1.0, 0.0),
     default_dt=1.0, default_time=10000.0, value_range={"u": (0.0, 1.0), "v": (0.0, 1.0)},
 )
@@ -767,8 +767,8 @@ BRUSSELATOR = ReactionDiffusion2(
     diffusion=("Du", "Dv"),
     defaults={"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 9.0},
     description="Brusselator u_t = Du Δu + a − (b+1)u + u²v, v_t = Dv Δv + bu − u²v "
-    "(seed 004's α, β are a, b); Turing unstable for b > (1 + a√(Du/Dv))²",
-    source="seed 004 (Quillen) §1.1, Fig. 1; SPEC §3",
+    "(Quillen's α, β are a, b); Turing unstable for b > (1 + a√(Du/Dv))²",
+    source="Quillen 2025 (Quillen) §1.1, Fig. 1; SPEC §3",
     steady_guess=lambda p: (p["a"], p["b"] / p["a"]),
     default_dt=0.005, default_time=100.0,
 )
@@ -779,7 +779,7 @@ FITZHUGH_NAGUMO = ReactionDiffusion2(
     diffusion=("Du", "Dv"),
     defaults={"Du": 1.0, "Dv": 10.0, "alpha": 0.01, "beta": 1.0},
     description="FitzHugh-Nagumo u_t = Du Δu + u − u³ − v + α, v_t = Dv Δv + β(u − v)",
-    source="seed 004 (Quillen) §1.8, Fig. 8; SPEC §3",
+    source="Quillen 2025 (Quillen) §1.8, Fig. 8; SPEC §3",
     steady_guess=lambda p: (_cbrt(p["alpha"]), _cbrt(p["alpha"])),
     default_dt=0.01, default_time=200.0,
 )
@@ -803,7 +803,7 @@ BARKLEY = ReactionDiffusion2(
     defaults={"Du": 1.0, "a": 0.75, "b": 0.02, "eps": 0.02},
     description="Barkley u_t = Du Δu + u(1 − u)(u − (v + b)/a)/ε, v_t = u − v (v does not "
     "diffuse): excitable medium, spirals. Stiff: explicit Euler also needs dt ≲ ε",
-    source="seed 004 (Quillen) §1.9, eq. 51; Barkley 1991; SPEC §3",
+    source="Quillen 2025 (Quillen) §1.9, eq. 51; Barkley 1991; SPEC §3",
     steady_guess=lambda p: (0.0, 0.0),
     spacing=0.5, default_dt=lambda p: 0.5 * float(np.max(p["eps"])), default_time=200.0,
     value_range={"u": (0.0, 1.0), "v": (0.0, 1.0)},
@@ -818,11 +818,11 @@ TURING = ReactionDiffusion2(
     reactions=("s*(16 - u*v)", "s*(u*v - v - beta)"),
     diffusion=("Du", "Dv"),
     defaults={"Du": 0.25, "Dv": 0.0625, "s": 0.05, "beta": 12.0},
-    description="Turing's 1952 spot model as in seed 003 eq. 2.15 (u = a, v = b): "
+    description="Turing's 1952 spot model as in Chattopadhyay eq. 2.15 (u = a, v = b): "
     "u_t = Du Δu + s(16 − uv), v_t = Dv Δv + s(uv − v − β); β is usually a random field "
     "12 ± 0.1; steady state u = 16/(16 − β), v = 16 − β; v is clamped at 0 after each "
     "step (as in Turk 1991; without it v goes negative and the run blows up)",
-    source="seed 003 (Chattopadhyay) eq. 2.15, after Turing 1952 / Turk 1991; SPEC §3",
+    source="Chattopadhyay (Chattopadhyay) eq. 2.15, after Turing 1952 / Turk 1991; SPEC §3",
     steady_guess=lambda p: (16.0 / (16.0 - p["beta"]), 16.0 - p["beta"]),
     bounds={"v": (0.0, None)},
     default_dt=0.5, default_time=4000.0,
@@ -894,14 +894,15 @@ def _add(p: Preset) -> None:
     PRESETS[p.name] = p
 
 
-# --- seed 001: Gray-Scott on 300², dt = dx = 1 (u = 0.5 everywhere, v = 0.25 in a square)
+# --- Camphuijsen & Kasim 2016: Gray-Scott on 300², dt = dx = 1
+# (u = 0.5 everywhere, v = 0.25 in a square)
 _SEED001_INIT = {"kind": "square", "values": {"u": 0.5, "v": 0.0},
                  "inside": {"u": 0.5, "v": 0.25}, "size": 0.1, "noise": 0.05}
 _add(Preset(
     "gs-seed001-stripes", "gray-scott",
     {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060}, dt=1.0, steps=30000,
     domain={"grid": (300, 300), "dx": 1.0, "bc": "periodic"}, init=_SEED001_INIT,
-    source="seed 001 §3, Fig. 3 (Camphuijsen, Kasim)", expect="stripes",
+    source="Camphuijsen & Kasim 2016 §3, Fig. 3 (Camphuijsen, Kasim)", expect="stripes",
     snapshot_every=500, classify={"field": "v", "threshold": None},
     description="the four star-shaped fronts of the seed's t = 1300 figure grow into a "
     "labyrinth that fills the 300² torus (class stable from ~25 000 steps)",
@@ -910,7 +911,7 @@ _add(Preset(
     "gs-seed001-spots", "gray-scott",
     {"Du": 0.16, "Dv": 0.08, "F": 0.030, "k": 0.055}, dt=1.0, steps=20000,
     domain={"grid": (300, 300), "dx": 1.0, "bc": "periodic"}, init=_SEED001_INIT,
-    source="seed 001 §3, Fig. 5", expect="spots",
+    source="Camphuijsen & Kasim 2016 §3, Fig. 5", expect="spots",
     snapshot_every=500, classify={"field": "v", "threshold": None},
     description="the square grows into a waffle and then a lattice of ~470 isolated spots "
     "(islands of low v, high u) in a connected sea (class stable from ~5 000 steps)",
@@ -952,7 +953,7 @@ for _letter, (_F, _k, _cls, _desc) in _PEARSON.items():
         description=f"Pearson class {_letter}: {_desc}",
     ))
 
-# --- seed 000: modified Allen-Cahn on the unit sphere (icosphere, 5 subdivisions: 10 242
+# --- Dascal et al.: modified Allen-Cahn on the unit sphere (icosphere, 5 subdivisions: 10 242
 # vertices, mean edge h = 0.0378).  The pattern class depends on ε/h: with ε ≪ h the
 # interfaces are pinned by the mesh (the seed's regime: dt = 0.9 explicit means its edges
 # were long compared with ε), which is what keeps spots from shrinking away.
@@ -969,14 +970,14 @@ for _name, _b, _cls in (("spots", -0.25, "spots"), ("inverted-spots", 0.25, "inv
         f"ac-sphere-{_name}", "allen-cahn", {"b": _b, "eps": _AC_EPS_GLOBAL},
         dt=0.5 * _AC_EPS_GLOBAL**2, steps=3000, domain=dict(_AC_MESH),
         init={"kind": "uniform", "values": {"u": 0.0}, "noise": 1.0},
-        source="seed 000 §4.1, Figs. 5-9", expect=_cls, snapshot_every=100,
+        source="Dascal et al. §4.1, Figs. 5-9", expect=_cls, snapshot_every=100,
         classify={"field": "u", "threshold": 0.0},
         description=f"modified Allen-Cahn, b = {_b}, ε = {_AC_EPS_GLOBAL} (0.15 mean edge), "
         "random initial data on the unit sphere" + (
             "; |b| past the measured ~0.30 threshold: decays to a constant"
             if _name == "uniform" else ""),
     ))
-# Localized patterns (seed 000 §4.2, Figs. 13-14): random data in a patch (0 elsewhere);
+# Localized patterns (Dascal et al. §4.2, Figs. 13-14): random data in a patch (0 elsewhere);
 # ε = 0.3 h.  b = ±0.08: the favoured phase takes the rest of the sphere, the pattern stays
 # in the patch; b = 0: u = 0 is an unstable equilibrium that the fronts invade everywhere.
 for _name, _b, _cls in (("local-spots", -0.08, "spots"),
@@ -987,7 +988,7 @@ for _name, _b, _cls in (("local-spots", -0.08, "spots"),
         dt=0.5 * _AC_EPS_LOCAL**2, steps=3000, domain=dict(_AC_MESH),
         init={"kind": "patch", "values": {"u": 0.0}, "patch": {"u": "random"},
               "radius": 0.3},
-        source="seed 000 §4.2, Figs. 13-14", expect=_cls, snapshot_every=100,
+        source="Dascal et al. §4.2, Figs. 13-14", expect=_cls, snapshot_every=100,
         classify={"field": "u", "threshold": 0.0},
         description=f"modified Allen-Cahn, b = {_b}, ε = {_AC_EPS_LOCAL} (0.3 mean edge), "
         "random data in a patch of radius 0.6 around a random vertex: " + (
@@ -996,12 +997,12 @@ for _name, _b, _cls in (("local-spots", -0.08, "spots"),
             "the pattern stays in the patch"),
     ))
 
-# --- seed 004: Brusselator, FitzHugh-Nagumo, Barkley (periodic unless said otherwise)
+# --- Quillen 2025: Brusselator, FitzHugh-Nagumo, Barkley (periodic unless said otherwise)
 _add(Preset(
     "brusselator-spots", "brusselator", {"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 6.6},
     dt=0.005, steps=20000, domain={"grid": (200, 200), "dx": 1.0, "bc": "periodic"},
     init={"kind": "uniform", "values": {"u": 5.0, "v": 1.32}, "noise": 0.05},
-    source="seed 004 §1.1-1.2 (onset b_c = (1 + a√(Du/Dv))² ≈ 6.29)", expect="spots",
+    source="Quillen 2025 §1.1-1.2 (onset b_c = (1 + a√(Du/Dv))² ≈ 6.29)", expect="spots",
     snapshot_every=500, classify={"field": "u", "threshold": None},
     description="just past the Turing onset: a hexagonal lattice of spots",
 ))
@@ -1009,7 +1010,7 @@ _add(Preset(
     "brusselator-stripes", "brusselator", {"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 8.0},
     dt=0.005, steps=20000, domain={"grid": (200, 200), "dx": 1.0, "bc": "periodic"},
     init={"kind": "uniform", "values": {"u": 5.0, "v": 1.6}, "noise": 0.05},
-    source="seed 004 §1.1-1.2", expect="stripes",
+    source="Quillen 2025 §1.1-1.2", expect="stripes",
     snapshot_every=500, classify={"field": "u", "threshold": None},
     description="further past onset: a labyrinth of stripes",
 ))
@@ -1019,7 +1020,7 @@ _add(Preset(
      "b": {"kind": "sine", "mean": 9.0, "amplitude": 1.0, "axis": "y"}},
     dt=0.0025, steps=20000, domain={"grid": (400, 400), "dx": 1.0, "bc": "periodic"},
     init={"kind": "uniform", "values": {"u": 0.025, "v": 0.025}, "noise": 0.025},
-    source="seed 004 Fig. 1", expect="stripes",
+    source="Quillen 2025 Fig. 1", expect="stripes",
     snapshot_every=500, classify={"field": "u", "threshold": None},
     description="α varies sinusoidally along x (5 ± 1), β along y (9 ± 1): stripes and spots "
     "side by side; u, v start small and random in [0, 0.05) as the seed advises",
@@ -1029,7 +1030,7 @@ _add(Preset(
     {"Du": 1.0, "Dv": 10.0, "alpha": 0.01, "beta": 1.0}, dt=0.01, steps=20000,
     domain={"grid": (200, 200), "dx": 1.0, "bc": ("neumann", "periodic")},
     init={"kind": "uniform", "values": {"u": 0.0, "v": 0.0}, "noise": 0.05},
-    source="seed 004 §1.8, Fig. 8 (periodic left/right, Neumann top/bottom)",
+    source="Quillen 2025 §1.8, Fig. 8 (periodic left/right, Neumann top/bottom)",
     expect="stripes", snapshot_every=500, classify={"field": "u", "threshold": None},
     description="a labyrinth of worms",
 ))
@@ -1038,7 +1039,7 @@ _add(Preset(
     {"Du": 1.0, "Dv": 10.0, "alpha": 0.05, "beta": 1.0}, dt=0.01, steps=20000,
     domain={"grid": (200, 200), "dx": 1.0, "bc": "periodic"},
     init={"kind": "uniform", "values": {"u": 0.0, "v": 0.0}, "noise": 0.05},
-    source="seed 004 §1.8 (α raised to 0.05 breaks the u ↔ −u symmetry)", expect="spots",
+    source="Quillen 2025 §1.8 (α raised to 0.05 breaks the u ↔ −u symmetry)", expect="spots",
     snapshot_every=500, classify={"field": "u", "threshold": None},
     description="isolated spots of low u",
 ))
@@ -1047,20 +1048,20 @@ _add(Preset(
     dt=0.01, steps=20000, domain={"grid": (200, 200), "dx": 0.5, "bc": "periodic"},
     init={"kind": "patch", "values": {"u": 0.0, "v": 0.0},
           "patch": {"u": [0.0, 1.0], "v": [0.0, 0.6]}, "radius": 0.3},
-    source="seed 004 §1.9, eq. 51; Barkley 1991", expect="spirals",
+    source="Quillen 2025 §1.9, eq. 51; Barkley 1991", expect="spirals",
     snapshot_every=200, classify={"fields": ["u", "v"], "center": [0.5, 0.355]},
     description="random excitations in a patch break into rotating spirals (measured with "
     "rdgpu.analysis.spiral_tips(u, v, center=(0.5, a/2 - b)): 6 tips, steady); dt = 0.01 "
     "respects both the diffusion limit and the reaction stiffness (~ε)",
 ))
 
-# --- seed 003: Turing's spots (eq. 2.15) on 64²
+# --- Chattopadhyay: Turing's spots (eq. 2.15) on 64²
 _add(Preset(
     "turing-seed003-spots", "turing",
     {"Du": 0.25, "Dv": 0.0625, "s": 0.05, "beta": {"kind": "random", "low": 11.9, "high": 12.1}},
     dt=0.5, steps=8000, domain={"grid": (64, 64), "dx": 1.0, "bc": "periodic"},
     init={"kind": "uniform", "values": {"u": 4.0, "v": 4.0}},
-    source="seed 003 eq. 2.15, Fig. 2.4 (after Turing 1952, Turk 1991)", expect="spots",
+    source="Chattopadhyay eq. 2.15, Fig. 2.4 (after Turing 1952, Turk 1991)", expect="spots",
     snapshot_every=100, classify={"field": "v", "threshold": None},
     description="valleys of b (= v) form ~100 isolated spots where a (= u) is high. "
     "D_a = 0.25 (the 1-D example's value) reproduces the seed's description; the 2-D "

@@ -397,7 +397,7 @@ def initial_state(
       ``count`` discs of ``radius`` cells (mesh: mean edge lengths) around random cells or
       vertices; distances wrap across periodic grid sides.
     * ``{"kind": "patch", "values": {"u": 1.0}, "patch": {"u": "random"}, "radius": 0.3}``
-      -- a localized patch (seed 000): the cells/vertices within ``radius`` times the
+      -- a localized patch (Dascal et al.): the cells/vertices within ``radius`` times the
       domain extent (largest side of the grid or of the mesh's bounding box, Euclidean
       distance) of a random cell/vertex take the patch values: a number, ``"random"``
       (uniform in [-1, 1] at each point) or ``[lo, hi]`` (uniform in [lo, hi]).
@@ -819,7 +819,8 @@ def _accepts(func: Any, name: str) -> bool:
 
 #: initial conditions for models without a preset or ``default_init`` of their own
 FALLBACK_INITS: dict[str, dict] = {
-    # seed 001: u = 0.5, v = 0.25 in a central square, noise 0.05 (u = 1, v = 0 around it)
+    # Camphuijsen & Kasim 2016: u = 0.5, v = 0.25 in a central square, noise 0.05
+    # (u = 1, v = 0 around it)
     "gray-scott": {"kind": "square", "values": {"u": 1.0, "v": 0.0},
                    "inside": {"u": 0.5, "v": 0.25}, "size": 0.1, "noise": 0.05},
 }
