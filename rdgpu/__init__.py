@@ -25,7 +25,7 @@ from .api import (
     spmv,
 )
 from .dispatch import available_backends, get_backend, set_backend, use_backend
-from .errors import BackendUnavailableError, StabilityError
+from .errors import BackendUnavailableError, ConvergenceError, StabilityError
 from .implicit import ImplicitDiffusion
 
 __version__ = "0.1.0"
@@ -42,6 +42,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "BackendUnavailableError",
+    "ConvergenceError",
     "ImplicitDiffusion",
     "StabilityError",
     "SurfaceMesh",

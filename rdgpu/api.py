@@ -617,8 +617,17 @@ def sor_solve(
 
     Stops after the first sweep whose max change is below ``tol``; returns
     ``(c, sweeps, residual)`` where ``residual`` is that last max change.  ``omega``
-    defaults to :func:`optimal_omega`; ``max_sweeps`` to ``max(1000, 50 N)``.  Warns
-    (``RuntimeWarning``) if ``max_sweeps`` ends the solve unconverged."""
+    defaults to :func:`optimal_omega`; ``max_sweeps`` to ``max(1000, 50 N)``.
+
+    Round-off floor: the changes cannot fall below a few ``eps·max|c|`` (in float32 at
+    256² they wander around ``13 eps``).  When they stop falling there -- no halving of
+    the max change over ``3/(1 − ρ)`` sweeps, ``ρ`` Young's contraction at this ``omega``
+    for the Jacobi radius ``cos(π/N)``, while it is ``<= 64 eps max|c|`` -- the solve
+    stops with a ``RuntimeWarning`` that names the floor reached (``tol`` is below what the
+    dtype resolves; the result is as accurate as it can be).  If ``max_sweeps`` ends the
+    solve otherwise, :class:`rdgpu.errors.ConvergenceError` is raised."""
+    from .errors import ConvergenceError
+
     grid0 = check.as_grid(c, "c")
     if omega is None:
         omega = optimal_omega(grid0.shape)
@@ -628,21 +637,55 @@ def sor_solve(
         max_sweeps = max(1000, 50 * max(grid.shape))
     max_sweeps = check.steps(max_sweeps, "max_sweeps")
     state = _SOR(get_backend(backend), grid, mask, f)
+    eps = float(np.finfo(grid.dtype).eps)
+    # Young: the model problem's Jacobi radius cos(π/N) and the contraction at this omega
+    rho_j = math.cos(math.pi / max(max(grid.shape), 2))
+    if omega >= 2.0 / (1.0 + math.sin(math.pi / max(max(grid.shape), 2))):
+        rate = omega - 1.0
+    else:
+        disc = max(0.0, (omega * rho_j) ** 2 - 4.0 * (omega - 1.0))
+        rate = ((omega * rho_j + math.sqrt(disc)) / 2.0) ** 2
+    window = max(8, math.ceil(3.0 / max(1.0 - rate, 1e-12)))
     sweeps, residual = 0, math.inf
+    anchor, anchor_at, looked_at, low = math.inf, 0, -window, math.inf
+    floor = None
     while sweeps < max_sweeps:
         state.sweep(omega, dx, dy, bcs)
         sweeps += 1
         residual = state.max_change()
         if residual < tol:
             break
+        if not math.isfinite(residual):
+            raise FloatingPointError(f"sor_solve: the max change is {residual} after "
+                                     f"{sweeps} sweeps (non-finite input or overflow)")
+        low = min(low, residual)
+        if residual <= 0.5 * anchor:
+            anchor, anchor_at = residual, sweeps
+        elif sweeps - anchor_at >= window and sweeps - looked_at >= window:
+            looked_at = sweeps  # stalled: at the round-off floor?
+            scale = float(np.max(np.abs(state.c.numpy())))
+            if low <= 64.0 * eps * scale:
+                floor = (low, scale)
+                break
     else:
         if max_sweeps > 0:
-            warnings.warn(
-                f"sor_solve stopped after max_sweeps={max_sweeps} with max change "
-                f"{residual:.3g} >= tol={tol}",
-                RuntimeWarning,
-                stacklevel=2,
+            raise ConvergenceError(
+                f"sor_solve did not converge: max change {residual:.3g} >= tol={tol:.3g} "
+                f"after max_sweeps={max_sweeps} sweeps (omega={omega:.4f}); raise "
+                "max_sweeps, raise tol, or check omega (default: optimal_omega)",
+                sweeps=sweeps, reached=residual, tol=tol,
             )
+    if floor is not None:
+        low, scale = floor
+        wider = ", or float64" if grid.dtype == np.float32 else ""
+        warnings.warn(
+            f"sor_solve: tol={tol:.3g} is below the {grid.dtype} round-off floor of this "
+            f"problem: the max change stalled at {low:.3g} (= {low / (eps * scale):.0f} "
+            f"eps·max|c|) after {sweeps} sweeps; the result is as accurate as {grid.dtype} "
+            f"allows (use tol >= {2 * low:.2g}{wider})",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     return _restore(state.c.numpy(), c), sweeps, residual
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -26,6 +27,9 @@ BACKEND_NAMES = ("numpy", "warp", "opencl")
 _ALLOWED = "'numpy', 'warp', 'opencl' or 'auto' (optionally 'NAME:DEVICE')"
 
 _instances: dict[tuple[str, str | None], Backend] = {}
+# constructing a backend (Warp's init, an OpenCL context) happens once, under this lock;
+# reentrant because "auto" constructs through get_backend
+_construct_lock = threading.RLock()
 _default: str | None = None
 _context: contextvars.ContextVar[str | Backend | None] = contextvars.ContextVar(
     "rdgpu_backend", default=None
@@ -115,15 +119,15 @@ def get_backend(backend: str | Backend | None = None) -> Backend:
     if not isinstance(backend, str):
         raise TypeError(f"backend must be a string or a Backend, got {type(backend).__name__}")
     name, device = _split(backend)
-    if name == "auto":
-        key = ("auto", None)
-        if key not in _instances:
-            _instances[key] = _auto()
-        return _instances[key]
-    key = (name, device)
-    if key not in _instances:
-        _instances[key] = _construct(name, device)
-    return _instances[key]
+    key = ("auto", None) if name == "auto" else (name, device)
+    instance = _instances.get(key)
+    if instance is None:
+        with _construct_lock:  # one construction per key, even from several threads
+            instance = _instances.get(key)
+            if instance is None:
+                instance = _auto() if name == "auto" else _construct(name, device)
+                _instances[key] = instance
+    return instance
 
 
 def set_backend(backend: str | Backend | None) -> None:

@@ -45,3 +45,17 @@ class SimulationInterrupted(KeyboardInterrupt):
         self.step = step
         self.result = result
         self.checkpoint = checkpoint
+
+
+class ConvergenceError(RuntimeError):
+    """An iterative solver did not reach its tolerance within its sweep limit.
+
+    ``sweeps`` is the number of sweeps run, ``reached`` the accuracy reached (the solver's
+    error estimate, or its last max change), ``tol`` the tolerance asked for.  No result is
+    returned: the message says what to change (``max_sweeps``, ``tol``, ``dt``, the dtype)."""
+
+    def __init__(self, message: str, *, sweeps: int, reached: float, tol: float):
+        super().__init__(message)
+        self.sweeps = sweeps
+        self.reached = reached
+        self.tol = tol

@@ -40,7 +40,7 @@ def _register_package() -> None:
         package = ModuleType("rdgpu._kernels")
         package.__path__ = [str(kernel_dir())]
         package.__package__ = "rdgpu._kernels"
-        sys.modules["rdgpu._kernels"] = package
+        sys.modules.setdefault("rdgpu._kernels", package)  # a racing thread's stays
 
 
 def load_module(family: str, filename: str) -> ModuleType:

@@ -401,9 +401,12 @@ def test_implicit_solver_options_and_errors():
                           backend="numpy")
     be = s.backend
     u = be.upload(np.random.default_rng(14).random(m.n_vertices))
-    with pytest.warns(RuntimeWarning, match="max_sweeps=3"):
-        s.step(u, be.empty((m.n_vertices,), np.float64))
+    out = be.upload(np.full(m.n_vertices, 7.0))
+    with pytest.raises(rdgpu.ConvergenceError, match="max_sweeps=3") as info:
+        s.step(u, out)
+    assert info.value.sweeps == 3 and info.value.reached > s.tol == info.value.tol
     assert not s.last_converged and s.last_sweeps == 3
+    np.testing.assert_array_equal(out.numpy(), 7.0)  # no result from an unconverged solve
     with pytest.raises(ValueError, match="elements"):
         s.step(be.upload(np.zeros(5)), be.empty((5,), np.float64))
     # in place (out is u) works

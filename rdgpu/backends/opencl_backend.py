@@ -18,14 +18,19 @@ The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment v
 Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the values it
 writes (``FLUSH`` in ``common.cl``): subnormals are flushed (SPEC, :mod:`rdgpu.fpenv`).
 
-Contexts, queues and kernel objects are shared by every backend instance on one device;
-a launch is ``set_args`` then enqueue, so one backend must not be driven from two threads.
+Threads: contexts, queues and built programs are shared by every backend instance on
+one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
+per thread: a launch is ``set_args`` then enqueue, and ``clSetKernelArg`` on one kernel
+object from two threads is a race (OpenCL spec), so each thread gets its own from the
+shared program.  One backend may therefore be driven from several threads at once;
+commands from all threads share the device's one in-order queue.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import threading
 from typing import Any
 
 import numpy as np
@@ -81,9 +86,10 @@ _CSR_ITEMS_PER_CU = 32
 _MAX_CELLS = 2**31 - 1  # the grid kernels index with 32-bit ints
 
 # (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
-# kernels: shared by every backend instance on the same device.
+# built program: shared by every backend instance on the same device, filled under _LOCK
 _CONTEXTS: dict[int, tuple[Any, Any]] = {}
-_KERNELS: dict[tuple, dict[str, Any]] = {}
+_PROGRAMS: dict[tuple, Any] = {}
+_LOCK = threading.RLock()
 
 
 def _import_pyopencl():
@@ -137,6 +143,13 @@ def probe_compiler(device) -> str | None:
     reason (for instance PoCL 3.0, built on LLVM 14, cannot target CPUs newer than its
     LLVM -- "unknown target CPU 'generic'" on AMD Zen 5)."""
     key = device.int_ptr
+    if key in _PROBED:
+        return _PROBED[key]
+    with _LOCK:
+        return _probe_locked(device, key)
+
+
+def _probe_locked(device, key: int) -> str | None:
     if key not in _PROBED:
         cl = _import_pyopencl()
         try:
@@ -237,10 +250,11 @@ class OpenCLBackend(Backend):
         self.cl_device = dev
         self.device = _describe(platform, dev)
         key = dev.int_ptr
-        if key not in _CONTEXTS:
-            ctx = cl.Context([dev])
-            _CONTEXTS[key] = (ctx, cl.CommandQueue(ctx, dev))
-        self.context, self.queue = _CONTEXTS[key]
+        with _LOCK:
+            if key not in _CONTEXTS:
+                ctx = cl.Context([dev])
+                _CONTEXTS[key] = (ctx, cl.CommandQueue(ctx, dev))
+            self.context, self.queue = _CONTEXTS[key]
         self.fp64 = _has_fp64(dev)
 
         is_cpu = bool(dev.type & cl.device_type.CPU)
@@ -277,7 +291,8 @@ class OpenCLBackend(Backend):
             self._options += ["-D RDGPU_NO_RESTRICT", "-cl-opt-disable"]
         if dev.single_fp_config & cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT:
             self._options.append("-cl-fp32-correctly-rounded-divide-sqrt")
-        self._kernels: dict[np.dtype, dict[str, Any]] = {}
+        self._kernels: dict[np.dtype, Any] = {}  # dtype -> the shared program
+        self._local = threading.local()  # .kernels: dtype -> (program, this thread's kernels)
         # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
         self._sor_weights = load_module("sor", "reference.py").weights
 
@@ -292,26 +307,41 @@ class OpenCLBackend(Backend):
         return "\n".join(parts)
 
     def kernels(self, dtype: np.dtype) -> dict[str, Any]:
-        """The kernel objects for ``dtype`` (built on first use, then cached)."""
+        """This thread's kernel objects for ``dtype``, made from the program shared by all
+        threads (built on first use, then cached; see the module doc on threads)."""
         dtype = np.dtype(dtype)
-        cached = self._kernels.get(dtype)
-        if cached is not None:
-            return cached
-        self._check_real(dtype)
-        key = (self.context.int_ptr, dtype.char, self.layout, self.col_stride)
-        if key not in _KERNELS:
+        program = self._kernels.get(dtype)
+        if program is None:
+            program = self._program(dtype)
+        try:
+            mine = self._local.kernels
+        except AttributeError:
+            mine = self._local.kernels = {}
+        entry = mine.get(dtype)
+        if entry is None or entry[0] is not program:
             cl = self._cl
-            options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
-            program = cl.Program(self.context, self._program_source()).build(options=options)
             codes = {"B": None, "i": np.int32, "l": np.int64, "r": dtype}
             kernels = {}
             for name, spec in _KERNEL_ARGS.items():
                 kernel = cl.Kernel(program, name)
                 kernel.set_scalar_arg_dtypes([codes[c] for c in spec])
                 kernels[name] = kernel
-            _KERNELS[key] = kernels
-        self._kernels[dtype] = _KERNELS[key]
-        return self._kernels[dtype]
+            entry = mine[dtype] = (program, kernels)
+        return entry[1]
+
+    def _program(self, dtype: np.dtype) -> Any:
+        """The program for ``dtype``, built once per (context, dtype, layout, stride)."""
+        self._check_real(dtype)
+        key = (self.context.int_ptr, dtype.char, self.layout, self.col_stride)
+        with _LOCK:
+            program = _PROGRAMS.get(key)
+            if program is None:
+                options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
+                program = self._cl.Program(self.context, self._program_source()).build(
+                    options=options)
+                _PROGRAMS[key] = program
+        self._kernels[dtype] = program
+        return program
 
     def _check_real(self, dtype: np.dtype) -> None:
         if dtype not in _REALS:

@@ -16,11 +16,18 @@ are zeroed, so ``warp.config.verify_fp`` runs clean.
 Each kernel family is one Warp module holding the float32 and float64 versions of its
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
 backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
+
+Threads: one backend may be driven from several threads at once.  Warp's process-wide
+state -- ``wp.init``, module compilation and loading, the first (recording) launch of a
+kernel, the log settings and file descriptor 2 that the quiet helpers flip -- is touched
+under one lock (:data:`_WARP_LOCK`); recorded launches (whose parameters each launch
+rewrites) are kept per thread, so a replay never sees another thread's arguments.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -42,6 +49,10 @@ BLOCK = 4096
 ROW_BLOCK = 256
 
 _REAL = (np.dtype(np.float32), np.dtype(np.float64))
+
+#: guards Warp's global state: wp.init, module loading, recording a launch, wp.config
+#: (flipped by _quiet) and file descriptor 2 (swapped by _native_stderr_silenced)
+_WARP_LOCK = threading.RLock()
 
 
 @contextmanager
@@ -106,8 +117,8 @@ def _import_warp():
 class WarpBackend(Backend):
     """rdgpu kernels on one Warp device (``"cpu"``, ``"cuda"``, ``"cuda:0"``, …).
 
-    One instance is meant to be driven from one Python thread at a time (it replays
-    recorded launches and owns a small thread pool of its own)."""
+    Safe to drive from several Python threads at once (module doc); it owns a small
+    thread pool of its own for row chunks."""
 
     name = "warp"
 
@@ -118,17 +129,19 @@ class WarpBackend(Backend):
         if launch not in ("auto", "rows", "cells"):
             raise ValueError(f"launch must be 'auto', 'rows' or 'cells', got {launch!r}")
         wp = _import_warp()
-        try:
-            with _quiet(wp), _native_stderr_silenced():
-                wp.init()
-        except Exception as exc:  # a broken install, a driver failure
-            raise BackendUnavailableError(f"NVIDIA Warp failed to initialise: {exc}") from exc
-        dev = None
-        if not (str(device).startswith("cuda") and not wp.is_cuda_available()):
-            try:  # (asking for "cuda" without a driver would print native errors)
-                dev = wp.get_device(device)
-            except Exception:
-                pass
+        with _WARP_LOCK:
+            try:
+                with _quiet(wp), _native_stderr_silenced():
+                    wp.init()
+            except Exception as exc:  # a broken install, a driver failure
+                raise BackendUnavailableError(
+                    f"NVIDIA Warp failed to initialise: {exc}") from exc
+            dev = None
+            if not (str(device).startswith("cuda") and not wp.is_cuda_available()):
+                try:  # (asking for "cuda" without a driver would print native errors)
+                    dev = wp.get_device(device)
+                except Exception:
+                    pass
         if dev is None:
             names = ", ".join(repr(d.alias) for d in wp.get_devices())
             raise BackendUnavailableError(
@@ -149,8 +162,8 @@ class WarpBackend(Backend):
         self._families: dict[str, ModuleType] = {}
         # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
         self._sor_weights = load_module("sor", "reference.py").weights
-        # recorded launches, one per (kernel, dim, chunk offset): see _launch
-        self._cmds: dict[tuple, list] = {}
+        # recorded launches, one per (kernel, dim, chunk offset) and thread: see _launch
+        self._local = threading.local()
 
     def __repr__(self) -> str:
         return f"WarpBackend(device={self.device!r})"
@@ -158,13 +171,16 @@ class WarpBackend(Backend):
     # ------------------------------------------------------------------ plumbing
     def _family(self, family: str) -> ModuleType:
         """The family's kernel module, compiled and loaded for this device on first use
-        (before any launch from the thread pool, so two threads never compile at once)."""
+        (under the lock: two threads never compile or load at once)."""
         mod = self._families.get(family)
         if mod is None:
-            mod = load_module(family, "warp_kernels.py")
-            with _quiet(self._wp):
-                self._wp.load_module(mod, device=self._dev)
-            self._families[family] = mod
+            with _WARP_LOCK:
+                mod = self._families.get(family)
+                if mod is None:
+                    mod = load_module(family, "warp_kernels.py")
+                    with _quiet(self._wp):
+                        self._wp.load_module(mod, device=self._dev)
+                    self._families[family] = mod
         return mod
 
     def _launch(self, kernel, dim, args: list, key) -> None:
@@ -173,17 +189,25 @@ class WarpBackend(Backend):
         a launch several times cheaper in Python than ``wp.launch`` (that packs all).
         Arrays compare by identity, scalars by value.  The record keeps no reference to
         the arrays (``fwd_args`` is dropped), so it never holds device memory alive; a
-        new array object is always re-packed, even at a recycled address."""
+        new array object is always re-packed, even at a recycled address.  The records
+        are per thread: a record's parameters are rewritten in place, so two threads
+        sharing one would launch with each other's arguments."""
         ck = (kernel, dim, key)
-        cmd = self._cmds.get(ck)
+        try:
+            cmds = self._local.cmds
+        except AttributeError:
+            cmds = self._local.cmds = {}
+        cmd = cmds.get(ck)
         if cmd is None:
             wp = self._wp
-            if len(self._cmds) >= 1024:
-                self._cmds.clear()
-            rec = wp.launch(kernel, dim=dim, inputs=args, device=self._dev, record_cmd=True)
+            if len(cmds) >= 1024:
+                cmds.clear()
+            with _WARP_LOCK:  # the first launch of a kernel may load or hash its module
+                rec = wp.launch(kernel, dim=dim, inputs=args, device=self._dev,
+                                record_cmd=True)
             rec.fwd_args = None
             last = [a if not isinstance(a, wp.array) else weakref.ref(a) for a in args]
-            self._cmds[ck] = [rec, last]
+            cmds[ck] = [rec, last]
             rec.launch()
             return
         rec, last = cmd
@@ -549,6 +573,7 @@ def cuda_device_count() -> int:
     if ctypes.util.find_library("cuda") is None and not os.path.exists("/dev/nvidiactl"):
         return 0
     wp = _import_warp()
-    with _quiet(wp), _native_stderr_silenced():
-        wp.init()
-    return wp.get_cuda_device_count() if wp.is_cuda_available() else 0
+    with _WARP_LOCK:
+        with _quiet(wp), _native_stderr_silenced():
+            wp.init()
+        return wp.get_cuda_device_count() if wp.is_cuda_available() else 0
