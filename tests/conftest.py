@@ -75,3 +75,17 @@ def tolerance(dtype, scale: float = 1.0) -> dict:
     the largest term (``scale``), so it fails on any real disagreement."""
     eps = np.finfo(dtype).eps
     return {"rtol": 16 * eps, "atol": 16 * eps * scale}
+
+
+def interrupt_after(sim, steps: int, exc: type[BaseException] = KeyboardInterrupt) -> None:
+    """Make ``sim``'s stepper raise ``exc`` rather than advance past ``steps`` steps in all
+    (a kill at a known point of a run, for the checkpoint and Ctrl-C tests)."""
+    real, done = sim.stepper.advance, [0]
+
+    def advance(n: int) -> None:
+        if done[0] + n > steps:
+            raise exc
+        done[0] += n
+        real(n)
+
+    sim.stepper.advance = advance

@@ -12,7 +12,7 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from conftest import backend_or_skip
+from conftest import backend_or_skip, interrupt_after
 
 import rdgpu
 from rdgpu.cli import main
@@ -197,15 +197,7 @@ def test_resume_from_an_interrupted_run(capsys, tmp_path):
 
     # the same run, interrupted between its checkpoints at 200 and 300
     sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
-    real, done = sim.stepper.advance, [0]
-
-    def dying(n):
-        if done[0] + n > 250:
-            raise KeyboardInterrupt
-        done[0] += n
-        real(n)
-
-    sim.stepper.advance = dying
+    interrupt_after(sim, 250)
     ck = tmp_path / "part.ckpt.npz"
     with pytest.raises(KeyboardInterrupt):
         sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,
@@ -323,15 +315,7 @@ def test_resume_accepts_the_checkpoints_own_values(capsys, tmp_path):
                        *settings, "--data", tmp_path / "full.npz")
     assert code == 0, err
     sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
-    real, done = sim.stepper.advance, [0]
-
-    def dying(n):
-        if done[0] + n > 250:
-            raise KeyboardInterrupt
-        done[0] += n
-        real(n)
-
-    sim.stepper.advance = dying
+    interrupt_after(sim, 250)
     ck = tmp_path / "run.ckpt.npz"
     with pytest.raises(KeyboardInterrupt):
         sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,

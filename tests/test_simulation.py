@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip
+from conftest import backend_or_skip, interrupt_after
 
 import rdgpu
 from rdgpu import simulation as simmod
@@ -442,15 +442,7 @@ def test_mesh_run_with_a_field_parameter_resumes_bitwise(tmp_path):
                 "progress": False}
     ref = make().run(130, **settings)
     sim = make()
-    real, done = sim.stepper.advance, [0]
-
-    def dying(n):
-        if done[0] + n > 90:
-            raise Interrupt
-        done[0] += n
-        real(n)
-
-    sim.stepper.advance = dying
+    interrupt_after(sim, 90, Interrupt)
     with pytest.raises(Interrupt):
         sim.run(130, checkpoint=tmp_path / "m.npz", **settings)
     resumed = Simulation.resume(tmp_path / "m.npz")  # model looked up by name
@@ -681,15 +673,7 @@ def test_other_keyboard_interrupts_keep_the_last_checked_state():
     """A KeyboardInterrupt at an unknown point of a chunk: the simulation goes back to the
     last checked state, which the exception carries."""
     sim = toy_sim(seed=4)
-    real, done = sim.stepper.advance, [0]
-
-    def advance(n):
-        if done[0] + n > 170:
-            raise KeyboardInterrupt
-        done[0] += n
-        real(n)
-
-    sim.stepper.advance = advance
+    interrupt_after(sim, 170)
     with pytest.raises(simmod.SimulationInterrupted) as info:
         sim.run(400, snapshot_every=25, check_every=40, progress=False)
     res = info.value.result
