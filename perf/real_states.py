@@ -7,7 +7,7 @@ A random field never produces subnormal floats; a real run does: a Gray-Scott ba
 decays geometrically and, without flushing, is mostly subnormal after ~1000 steps, where
 x86 arithmetic can be ~100x slower.  Each row here runs a preset from its default initial
 condition and times the steps ``[0, early)`` and ``[late, late + early)`` of the same run
-(the steps in between run untimed; each window is the best of 3 runs from the same saved
+(the steps in between run untimed; each window is the best of 5 runs from the same saved
 state, so a busy moment of the machine does not count), side by side on every backend,
 and reports the rate of each window, their ratio (the target is >= 0.9) and the fraction
 of the state that is subnormal at the end (0 when flushing works).
@@ -71,7 +71,7 @@ def timed(sim: Simulation, start: dict[str, np.ndarray], steps: int, repeats: in
 
 
 def measure(preset: str, domain, backend: str, dtype: str, early: int, late: int,
-            repeats: int = 3) -> dict:
+            repeats: int = 5) -> dict:
     sim = Simulation.from_preset(preset, domain=domain, backend=backend, dtype=dtype)
     cells = int(np.prod(sim.shape))
     start = sim.stepper.get_state()
