@@ -27,7 +27,7 @@
  * contraction into FMAs), so float64 results agree bit for bit and float32 results too
  * wherever the device rounds sqrt/division correctly.
  *
- * Subnormals (SPEC): every value a kernel writes goes through FLUSH, which turns a value
+ * Subnormals (docs/equations.md): every value a kernel writes goes through FLUSH, which turns a value
  * whose magnitude is below the smallest normal number of `real` into 0.  The host also
  * builds with -cl-denorms-are-zero: devices that honour it (PoCL sets the x86 FTZ/DAZ
  * bits while a kernel runs) then flush intermediate results too, so that no kernel slows

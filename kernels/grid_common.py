@@ -10,7 +10,7 @@ PERIODIC, NEUMANN, DIRICHLET = 0, 1, 2
 
 
 def flush(x):
-    """Subnormals flushed (SPEC): 0 where ``|x|`` is below the smallest normal number of
+    """Subnormals flushed (docs/equations.md): 0 where ``|x|`` is below the smallest normal of
     x's dtype, else ``x`` (NaN and infinities pass).  Same dtype; 0-d input gives 0-d."""
     x = np.asarray(x)
     return np.where(np.abs(x) < np.finfo(x.dtype).tiny, x.dtype.type(0), x)

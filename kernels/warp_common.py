@@ -6,7 +6,7 @@ The ghost rule is the one of ``rdgpu.boundary`` / ``grid_common.pad``: a neighbo
 just outside the grid is resolved along y first (Dirichlet ``g_y`` wins, else wrap or
 clamp the row), then along x.  Kernels pass each axis as ``(kind, value)``.
 
-Subnormals (SPEC): a value whose magnitude is below the dtype's smallest normal number
+Subnormals (docs/equations.md): a value whose magnitude is below the dtype's smallest normal number
 becomes 0.  Every kernel passes each value it writes through :func:`flush` (a select, on
 every device and launch shape).  The CPU-shaped kernels (``rows``/``blocks``) also switch
 the x86 FTZ/DAZ bits on for their body -- ``saved = ftz_begin()`` first, ``ftz_end(saved)``

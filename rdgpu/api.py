@@ -5,7 +5,7 @@ downloads once.  Inputs are never modified; results keep the input dtype (float3
 float64).  Grid arrays are ``u[ny, nx]`` (row index is y); a 1-D array ``u[nx]`` is a 1-D
 problem: ``bc`` is its one condition, ``dy`` does not apply, and the stability limits are
 the 1-D ones (the kernels run it as one row with no y axis, see :class:`rdgpu.domains.Grid`).
-See SPEC.md for every scheme.
+See docs/equations.md for every scheme.
 """
 
 from __future__ import annotations
@@ -170,8 +170,8 @@ def laplacian(
     mesh: Any = None,
     backend: BackendSpec = None,
 ) -> np.ndarray:
-    """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (SPEC §1),
-    or on a triangle mesh (SPEC §6).
+    """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (equations §1),
+    or on a triangle mesh (equations §6).
 
     ``bc`` is one condition or a pair ``(y_bc, x_bc)``: ``"periodic"``, ``"neumann"`` or
     ``("dirichlet", g)``.  The 9-point stencil needs ``dx == dy``.  Units: ``[u]/length²``.
@@ -216,7 +216,7 @@ def bernoulli_decay(tau: float, eps: float, dtype: Any) -> float:
 def bernoulli_substep(
     u: np.ndarray, *, tau: float, eps: float, backend: BackendSpec = None
 ) -> np.ndarray:
-    """Exact solution of ``u_t = (u − u³)/ε²`` after a time ``tau`` (SPEC §2), pointwise.
+    """Exact solution of ``u_t = (u − u³)/ε²`` after a time ``tau`` (equations §2), pointwise.
 
     Works on arrays of any shape (grid cells or mesh vertices)."""
     field = check.as_field(u, "u", ndim=tuple(range(1, 8)))
@@ -249,7 +249,7 @@ def gray_scott(
     progress: bool = False,
     backend: BackendSpec = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Advance Gray-Scott ``steps`` forward-Euler steps of ``dt`` (SPEC §3).
+    """Advance Gray-Scott ``steps`` forward-Euler steps of ``dt`` (equations §3).
 
     ``u_t = Du Δu − u v² + F (1 − u)``, ``v_t = Dv Δv + u v² − (F + k) v``.  ``F`` and ``k``
     are scalars or per-cell arrays.  Raises :class:`StabilityError` when
@@ -258,7 +258,7 @@ def gray_scott(
 
     ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``: ``u``, ``v``
     (and field ``F``, ``k``) hold one value per vertex and ``Δ`` is the cotangent operator
-    (SPEC §6), one fused kernel per step; the limit is then
+    (equations §6), one fused kernel per step; the limit is then
     ``mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L))``.
     """
     if mesh is not None:
@@ -471,7 +471,7 @@ def allen_cahn(
     backend: BackendSpec = None,
 ) -> np.ndarray:
     """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
-    SPEC §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
+    equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
     source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (the stepper of
     :class:`rdgpu.models.AllenCahn`).
 
@@ -591,7 +591,7 @@ def sor_sweep(
     bc: Any = "neumann",
     backend: BackendSpec = None,
 ) -> np.ndarray:
-    """One red-black SOR sweep for ``Δc = rhs`` (red ``(i + j)`` even, then black; SPEC §4).
+    """One red-black SOR sweep for ``Δc = rhs`` (red ``(i + j)`` even, then black; equations §4).
 
     ``fixed`` is a boolean mask of Dirichlet cells that keep their value."""
     grid, mask, omega, f, dx, dy, bcs = _sor_inputs(c, fixed, omega, rhs, dx, dy, bc)
@@ -613,7 +613,7 @@ def sor_solve(
     bc: Any = "neumann",
     backend: BackendSpec = None,
 ) -> tuple[np.ndarray, int, float]:
-    """Solve ``Δc = rhs`` by red-black SOR from the initial guess ``c`` (SPEC §4).
+    """Solve ``Δc = rhs`` by red-black SOR from the initial guess ``c`` (equations §4).
 
     Stops after the first sweep whose max change is below ``tol``; returns
     ``(c, sweeps, residual)`` where ``residual`` is that last max change.  ``omega``
@@ -702,7 +702,7 @@ def levelset_advance(
     check_stability: bool = True,
     backend: BackendSpec = None,
 ) -> np.ndarray:
-    """Advance ``φ_t + F|∇φ| = 0`` by first-order upwinding (SPEC §5).
+    """Advance ``φ_t + F|∇φ| = 0`` by first-order upwinding (equations §5).
 
     ``φ < 0`` is inside; ``F > 0`` moves the front outward.  ``speed`` is a scalar or a
     per-cell field.  Raises :class:`StabilityError` if ``dt · max|F| · (1/dx + 1/dy) > 1``."""
@@ -740,7 +740,7 @@ def reinitialize(
     subcell_fix: bool = True,
     backend: BackendSpec = None,
 ) -> np.ndarray:
-    """Make ``φ`` a signed distance function without moving its zero level set (SPEC §5).
+    """Make ``φ`` a signed distance function without moving its zero level set (equations §5).
 
     Iterates ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with ``S = φ₀/sqrt(φ₀² + dx²)`` and pseudo-time
     step ``dtau`` (default and maximum ``1/(1/dx + 1/dy)``, i.e. ``dx/2`` on a square

@@ -1,4 +1,4 @@
-"""The floating-point rule on subnormal numbers (SPEC).
+"""The floating-point rule on subnormal numbers (docs/equations.md).
 
 Subnormal numbers are flushed: any value whose magnitude is below the dtype's smallest
 normal number (``np.finfo(dtype).tiny``: about 1.18e-38 in float32, 2.23e-308 in float64)

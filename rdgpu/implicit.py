@@ -1,5 +1,5 @@
 """Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
-device (SPEC §2, §4, §6).
+device (equations §2, §4, §6).
 
 One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
 Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest

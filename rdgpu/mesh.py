@@ -1,4 +1,4 @@
-"""Triangle surface meshes and their cotangent Laplace-Beltrami operator (SPEC §6).
+"""Triangle surface meshes and their cotangent Laplace-Beltrami operator (equations §6).
 
 Conventions
 -----------

@@ -552,7 +552,7 @@ def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
 
 
 class AllenCahn:
-    """Modified Allen-Cahn ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al., SPEC §2) by Strang
+    """Modified Allen-Cahn ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al., equations §2) by Strang
     splitting: the exact Bernoulli substep for ``dt/2`` → diffusion ``ū_t = Δū − b/ε²`` for
     ``dt`` → Bernoulli ``dt/2``.
 
@@ -571,7 +571,7 @@ class AllenCahn:
         "modified Allen-Cahn u_t = Δu − (u³ − u + b)/ε²: b < 0 spots, b > 0 inverted spots, "
         "b = 0 stripes (Strang splitting with the exact Bernoulli substep)"
     )
-    source = "Dascal et al. (Dascal, Pai, Kimmel), SPEC §2"
+    source = "Dascal, Pai & Kimmel, equations §2"
     methods = ("explicit", "implicit", "crank-nicolson")
     #: the default ε is this times the spacing (grid: min(dx, dy); mesh: mean edge length):
     #: interfaces pinned by the discretisation, the regime of Dascal et al. where b ≠ 0 gives
@@ -756,9 +756,12 @@ GRAY_SCOTT = GrayScott(
     diffusion=("Du", "Dv"),
     defaults={"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060},
     description="Gray-Scott u_t = Du Δu − uv² + F(1 − u), v_t = Dv Δv + uv² − (F + k)v",
-    source="Camphuijsen & Kasim 2016 (Camphuijsen, Kasim); Pearson 1993; SPEC §3",
+    source="Camphuijsen & Kasim 2016; Pearson 1993; equations §3",
     steady_guess=lambda p: (1.0, 0.0),
-    default_dt=1.0, default_time=10000.0, value_range={"u": (0.0, 1.0), "v": (0.0, 1.0)},
+    default_dt=1.0, default_time=10000.0,
+    # v stays below ~0.5 in every pattern-forming regime: [0, 0.5] keeps the contrast while a
+    # field that decayed to uniform (u = 1, v = 0) still shows as uniform
+    value_range={"u": (0.0, 1.0), "v": (0.0, 0.5)},
 )
 
 BRUSSELATOR = ReactionDiffusion2(
@@ -768,7 +771,7 @@ BRUSSELATOR = ReactionDiffusion2(
     defaults={"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 9.0},
     description="Brusselator u_t = Du Δu + a − (b+1)u + u²v, v_t = Dv Δv + bu − u²v "
     "(Quillen's α, β are a, b); Turing unstable for b > (1 + a√(Du/Dv))²",
-    source="Quillen 2025 (Quillen) §1.1, Fig. 1; SPEC §3",
+    source="Quillen 2025 §1.1, Fig. 1; equations §3",
     steady_guess=lambda p: (p["a"], p["b"] / p["a"]),
     default_dt=0.005, default_time=100.0,
 )
@@ -779,7 +782,7 @@ FITZHUGH_NAGUMO = ReactionDiffusion2(
     diffusion=("Du", "Dv"),
     defaults={"Du": 1.0, "Dv": 10.0, "alpha": 0.01, "beta": 1.0},
     description="FitzHugh-Nagumo u_t = Du Δu + u − u³ − v + α, v_t = Dv Δv + β(u − v)",
-    source="Quillen 2025 (Quillen) §1.8, Fig. 8; SPEC §3",
+    source="Quillen 2025 §1.8, Fig. 8; equations §3",
     steady_guess=lambda p: (_cbrt(p["alpha"]), _cbrt(p["alpha"])),
     default_dt=0.01, default_time=200.0,
 )
@@ -791,7 +794,7 @@ SCHNAKENBERG = ReactionDiffusion2(
     defaults={"Du": 1.0, "Dv": 40.0, "a": 0.1, "b": 0.9},
     description="Schnakenberg u_t = Du Δu + a − u + u²v, v_t = Dv Δv + b − u²v; steady "
     "state u = a + b, v = b/(a + b)²",
-    source="Schnakenberg 1979; SPEC §3",
+    source="Schnakenberg 1979; equations §3",
     steady_guess=lambda p: (p["a"] + p["b"], p["b"] / (p["a"] + p["b"]) ** 2),
     default_time=100.0,
 )
@@ -803,7 +806,7 @@ BARKLEY = ReactionDiffusion2(
     defaults={"Du": 1.0, "a": 0.75, "b": 0.02, "eps": 0.02},
     description="Barkley u_t = Du Δu + u(1 − u)(u − (v + b)/a)/ε, v_t = u − v (v does not "
     "diffuse): excitable medium, spirals. Stiff: explicit Euler also needs dt ≲ ε",
-    source="Quillen 2025 (Quillen) §1.9, eq. 51; Barkley 1991; SPEC §3",
+    source="Quillen 2025 §1.9, eq. 51; Barkley 1991; equations §3",
     steady_guess=lambda p: (0.0, 0.0),
     spacing=0.5, default_dt=lambda p: 0.5 * float(np.max(p["eps"])), default_time=200.0,
     value_range={"u": (0.0, 1.0), "v": (0.0, 1.0)},
@@ -822,7 +825,7 @@ TURING = ReactionDiffusion2(
     "u_t = Du Δu + s(16 − uv), v_t = Dv Δv + s(uv − v − β); β is usually a random field "
     "12 ± 0.1; steady state u = 16/(16 − β), v = 16 − β; v is clamped at 0 after each "
     "step (as in Turk 1991; without it v goes negative and the run blows up)",
-    source="Chattopadhyay (Chattopadhyay) eq. 2.15, after Turing 1952 / Turk 1991; SPEC §3",
+    source="Chattopadhyay (Chattopadhyay) eq. 2.15, after Turing 1952 / Turk 1991; equations §3",
     steady_guess=lambda p: (16.0 / (16.0 - p["beta"]), 16.0 - p["beta"]),
     bounds={"v": (0.0, None)},
     default_dt=0.5, default_time=4000.0,

@@ -23,8 +23,9 @@ gives it (left to right for ``a*b*c``), into NumPy, Warp and OpenCL C alike; Ope
 compiles with ``FP_CONTRACT OFF`` and the literals are exact in the dtype (hex floats), so
 the three backends agree to round-off (bit for bit in practice).
 
-Subnormals (SPEC, :mod:`rdgpu.fpenv`): every new value is flushed (after its clamp) in all
-three implementations, and a literal that would be subnormal in the fields' dtype is 0.
+Subnormals (docs/equations.md, :mod:`rdgpu.fpenv`): every new value is flushed (after its
+clamp) in all three implementations, and a literal that would be subnormal in the fields'
+dtype is 0.
 
 Warp needs a real source file for a kernel: the module text is written to
 ``$RDGPU_CACHE_DIR/warp/<hash>.py`` (default ``~/.cache/rdgpu``) and imported.

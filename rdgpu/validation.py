@@ -32,7 +32,7 @@ def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2)) -> np.ndarray
     if not np.isfinite(a).all():
         bad = int(np.count_nonzero(~np.isfinite(a)))
         raise ValueError(f"{name} contains {bad} NaN or Inf value(s); all values must be finite")
-    return np.ascontiguousarray(flush_subnormals(a))  # the SPEC rule, applied to inputs too
+    return np.ascontiguousarray(flush_subnormals(a))  # the subnormal rule, for inputs too
 
 
 def as_grid(a: Any, name: str) -> np.ndarray:

@@ -1,4 +1,4 @@
-/* Analytic Bernoulli substep (SPEC §2).  Needs common.cl.
+/* Analytic Bernoulli substep (equations §2).  Needs common.cl.
  *
  * out = u / SQRT(d + u² (1 - d)),  d = exp(-2τ/ε²),  omd = 1 - d (rounded in `real`);
  * subnormal results flushed to 0 (see common.cl).

@@ -1,4 +1,4 @@
-"""NumPy reference of the analytic Bernoulli substep (SPEC §2)."""
+"""NumPy reference of the analytic Bernoulli substep (equations §2)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Warp kernels of the analytic Bernoulli substep (SPEC §2); the maths of ``reference.py``.
+"""Warp kernels of the analytic Bernoulli substep (equations §2); the maths of ``reference.py``.
 
 Pointwise on flat 1-D views (any shape: grids or mesh vertices).  Two launch shapes share
 one ``@wp.func``: ``blocks`` (thread ``b`` does the elements ``[(b + b0)·block, … + block)``

@@ -1,4 +1,4 @@
-/* One fused forward-Euler Gray-Scott step (SPEC §3).  Needs common.cl.
+/* One fused forward-Euler Gray-Scott step (equations §3).  Needs common.cl.
  *
  *   u' = u + h (Du Δu - u v² + F (1 - u))
  *   v' = v + h (Dv Δv + u v² - (F + k) v)

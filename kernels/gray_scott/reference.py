@@ -1,4 +1,4 @@
-"""NumPy reference of one fused forward-Euler Gray-Scott step (SPEC §3)."""
+"""NumPy reference of one fused forward-Euler Gray-Scott step (equations §3)."""
 
 from __future__ import annotations
 

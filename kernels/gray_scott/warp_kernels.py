@@ -1,4 +1,4 @@
-"""Warp kernels of the fused forward-Euler Gray-Scott step (SPEC §3); the maths of
+"""Warp kernels of the fused forward-Euler Gray-Scott step (equations §3); the maths of
 ``reference.py``.
 
 Two launch shapes share one ``@wp.func`` cell update: ``rows`` (one thread per row,

@@ -1,4 +1,4 @@
-/* Grid Laplacian (SPEC §1).  Needs common.cl.
+/* Grid Laplacian (equations §1).  Needs common.cl.
  *
  * laplacian5: out = (E + W - 2u) cx + (N + S - 2u) cy      with cx = 1/dx², cy = 1/dy²
  * laplacian9: out = (4 (W + E + S + N) + SW + SE + NW + NE - 20u) c9   with c9 = 1/(6h²)

@@ -1,4 +1,4 @@
-"""NumPy reference of the grid Laplacian (SPEC §1)."""
+"""NumPy reference of the grid Laplacian (equations §1)."""
 
 from __future__ import annotations
 

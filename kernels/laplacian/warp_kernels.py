@@ -1,4 +1,4 @@
-"""Warp kernels of the grid Laplacian (SPEC §1); the maths of ``reference.py``.
+"""Warp kernels of the grid Laplacian (equations §1); the maths of ``reference.py``.
 
 Every kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
 

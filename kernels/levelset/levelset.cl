@@ -1,4 +1,4 @@
-/* First-order upwind level-set step and reinitialisation (SPEC §5).  Needs common.cl.
+/* First-order upwind level-set step and reinitialisation (equations §5).  Needs common.cl.
  *
  * One-sided differences D-x = (φ - W)/dx, D+x = (E - φ)/dx (likewise y), and
  *   ∇+ = SQRT(max(D-x,0)² + min(D+x,0)² + max(D-y,0)² + min(D+y,0)²)

@@ -1,4 +1,4 @@
-"""NumPy reference of the upwind level-set step and reinitialisation (SPEC §5)."""
+"""NumPy reference of the upwind level-set step and reinitialisation (equations §5)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Warp kernels of the first-order upwind level-set step and its reinitialisation
-(SPEC §5); the maths of ``reference.py``.
+(equations §5); the maths of ``reference.py``.
 
 Two launch shapes share the ``@wp.func`` cell formulas: ``rows`` (one thread per row,
 ``i = tid + row0``, branch-free interior columns, edge columns peeled; the CPU shape) and

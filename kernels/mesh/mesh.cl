@@ -1,4 +1,4 @@
-/* CSR kernels on triangle meshes (SPEC §6) and multicolour SOR.  Needs common.cl.
+/* CSR kernels on triangle meshes (equations §6) and multicolour SOR.  Needs common.cl.
  *
  * A CSR matrix is (indptr[n_rows + 1], indices[nnz], data[nnz]), int32 indices sorted per
  * row.  Every row is summed in index order, acc = 0; acc += a_ij x_j, without FMA

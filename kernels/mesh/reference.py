@@ -1,10 +1,10 @@
-"""NumPy reference of the CSR kernels on triangle meshes (SPEC §6), and of multicolour SOR.
+"""NumPy reference of the CSR kernels on triangle meshes (equations §6), and of multicolour SOR.
 
 A CSR matrix is passed as its arrays ``(indptr, indices, data)`` (int32 ``indptr`` and
 ``indices``, indices sorted per row; ``data`` real) plus its shape.  Every row is summed in
 index order, ``acc = 0; acc += a_ij x_j``, in the dtype of ``x`` — the order the Warp and
 OpenCL kernels use, so the backends agree with these functions to round-off.  Every
-value a function returns has its subnormals flushed to 0 (SPEC; ``grid_common.flush``),
+value a function returns has its subnormals flushed to 0 (docs/equations.md; ``grid_common.flush``),
 as the kernels do with every value they write.
 
 * :func:`spmv` ``y = A x`` (any CSR matrix, square or not, empty rows allowed);

@@ -1,4 +1,4 @@
-"""Warp kernels of the CSR mesh kernels (SPEC §6); the maths of ``reference.py``.
+"""Warp kernels of the CSR mesh kernels (equations §6); the maths of ``reference.py``.
 
 Every row is one ``@wp.func`` (``acc = 0; acc += a_ij x_j`` in index order), shared by two
 launch shapes:

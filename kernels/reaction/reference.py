@@ -6,7 +6,7 @@ model's reaction expressions, evaluated by ``rdgpu.reaction.ReactionKernel.rates
 every literal and scalar parameter rounded to the fields' dtype first, so float32 stays
 float32 throughout.  The Warp and OpenCL kernels evaluate the same fully parenthesised
 expressions in the same order.  The new values are clamped (where the model has bounds),
-then their subnormals are flushed to 0 (SPEC), in that order in every implementation.
+then their subnormals are flushed to 0 (docs/equations.md), in that order in every implementation.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""NumPy reference of one red-black SOR half-sweep for ``Δc = f`` (SPEC §4)."""
+"""NumPy reference of one red-black SOR half-sweep for ``Δc = f`` (equations §4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-/* One red-black SOR half-sweep for Δc = f (SPEC §4).  Needs common.cl.
+/* One red-black SOR half-sweep for Δc = f (equations §4).  Needs common.cl.
  *
  * Cells with (i + j) % 2 == color and fixed == 0 get, in place,
  *   c <- (1 - ω) c + ω (wx (E + W) + wy (N + S) - wf f),

@@ -1,4 +1,4 @@
-"""Warp kernels of one red-black SOR half-sweep for ``Δc = f`` (SPEC §4); the maths of
+"""Warp kernels of one red-black SOR half-sweep for ``Δc = f`` (equations §4); the maths of
 ``reference.py``.
 
 In place on ``c``: a cell of the swept colour reads only cells of the other colour (and,

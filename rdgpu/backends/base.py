@@ -10,7 +10,7 @@ passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is 
 without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann y
 condition: every grid kernel then computes its 1-D formula.
 
-Every value a kernel writes has its subnormals flushed to 0 (SPEC, :mod:`rdgpu.fpenv`).
+Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`).
 """
 
 from __future__ import annotations
@@ -156,11 +156,11 @@ class Backend(ABC):
     def laplacian(
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
-        """``out = Lu`` with the 5- or 9-point stencil (SPEC §1)."""
+        """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
 
     @abstractmethod
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
-        """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (SPEC §2).
+        """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
         Works on arrays of any shape (grid or mesh vertices)."""
 
@@ -181,7 +181,7 @@ class Backend(ABC):
         dy: float,
         bc: GridBC,
     ) -> None:
-        """One fused forward-Euler Gray-Scott step with the 5-point stencil (SPEC §3)."""
+        """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3)."""
 
     @abstractmethod
     def sor_half_sweep(
@@ -198,7 +198,7 @@ class Backend(ABC):
         bc: GridBC,
     ) -> None:
         """Update in place the cells of one colour (``(i + j) % 2 == color``) that are not
-        ``fixed`` (uint8 mask, 1 = held) by SOR (SPEC §4).  ``rhs`` is ``f`` or None (0).
+        ``fixed`` (uint8 mask, 1 = held) by SOR (equations §4).  ``rhs`` is ``f`` or None (0).
         The update is ``(1 − ω) c + ω (wx (E + W) + wy (N + S) − wf f)`` with the weights of
         ``kernels/sor/reference.py`` (``weights``; ``dy = inf`` gives ``wy = 0``).
 
@@ -217,7 +217,7 @@ class Backend(ABC):
         dy: float,
         bc: GridBC,
     ) -> None:
-        """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (SPEC §5)."""
+        """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5)."""
 
     @abstractmethod
     def reinit_step(
@@ -234,7 +234,7 @@ class Backend(ABC):
         subcell: bool = True,
     ) -> None:
         """One pseudo-time step of ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with
-        ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (SPEC §5); with ``subcell``,
+        ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (equations §5); with ``subcell``,
         cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py)."""
 
     # ------------------------------------------------------------------ CSR / mesh kernels
@@ -261,7 +261,7 @@ class Backend(ABC):
         k: FieldOrScalar,
         dt: float,
     ) -> None:
-        """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (SPEC §3, §6):
+        """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (equations §3, §6):
         ``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``.
         ``F``, ``k``: numbers or DeviceArrays of u's shape."""
 

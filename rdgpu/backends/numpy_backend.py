@@ -1,5 +1,5 @@
 """The NumPy backend: runs the references in ``kernels/*/reference.py`` on host arrays
-(which flush subnormal results to 0 like every kernel: SPEC, :mod:`rdgpu.fpenv`)."""
+(which flush subnormal results to 0 like every kernel: docs/equations.md, :mod:`rdgpu.fpenv`)."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment v
 ``RDGPU_OPENCL_DEVICE``.
 
 Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the values it
-writes (``FLUSH`` in ``common.cl``): subnormals are flushed (SPEC, :mod:`rdgpu.fpenv`).
+writes (``FLUSH`` in ``common.cl``): subnormals are flushed (docs/equations.md, :mod:`rdgpu.fpenv`).
 
 Threads: contexts, queues and built programs are shared by every backend instance on
 one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
@@ -274,7 +274,7 @@ class OpenCLBackend(Backend):
         self._options = [
             f"-D COL_STRIDE={self.col_stride}",
             f"-D ROW_LAYOUT={int(layout == 'row')}",
-            # subnormals are flushed (SPEC): the kernels flush every value they write
+            # subnormals are flushed (docs/equations.md): the kernels flush every value they write
             # (FLUSH in common.cl); this lets a device flush intermediate results too (PoCL
             # sets the x86 FTZ/DAZ bits in its worker threads, for float and double)
             "-cl-denorms-are-zero",

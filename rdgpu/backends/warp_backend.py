@@ -8,7 +8,7 @@ Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell form
   the same time from a thread pool (one chunk in the calling thread);
 * on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
 
-Subnormals are flushed (SPEC, :mod:`rdgpu.fpenv`): every kernel flushes what it writes,
+Subnormals are flushed (docs/equations.md, :mod:`rdgpu.fpenv`): every kernel flushes what it writes,
 and the CPU shapes run their bodies with the x86 FTZ/DAZ bits on, restoring each thread's
 MXCSR at the end (see ``kernels/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
 are zeroed, so ``warp.config.verify_fp`` runs clean.
