@@ -143,7 +143,7 @@ def shrink(path: Path, mesh: bool) -> str:
 
 def write_table(rows: list[tuple[str, str, str, str, str]]) -> Path:
     intro = (
-        "The seed papers' patterns as rdgpu reproduces them. Each image is the PNG that "
+        "The source papers' patterns as rdgpu reproduces them. Each image is the PNG that "
         "the command beside it writes (run from the repository root, OpenCL backend); "
         "[`examples/gallery.py`](../../examples/gallery.py) regenerates them all through "
         "that command-line code path, then makes the PNGs small: grid pictures keep every "

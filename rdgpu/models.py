@@ -1,5 +1,6 @@
 """Reaction-diffusion models on a grid or a triangle mesh (the ``Model`` / ``Stepper``
-protocols of :mod:`rdgpu.stepping`), and the presets that reproduce the seed papers.
+protocols of :mod:`rdgpu.stepping`), and the presets that reproduce the source papers
+(README, References).
 
 A two-species model is a few declarative lines::
 
@@ -905,7 +906,7 @@ _add(Preset(
     "gs-seed001-stripes", "gray-scott",
     {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060}, dt=1.0, steps=30000,
     domain={"grid": (300, 300), "dx": 1.0, "bc": "periodic"}, init=_SEED001_INIT,
-    source="Camphuijsen & Kasim 2016 §3, Fig. 3 (Camphuijsen, Kasim)", expect="stripes",
+    source="Camphuijsen & Kasim 2016 §3, Fig. 3", expect="stripes",
     snapshot_every=500, classify={"field": "v", "threshold": None},
     description="the four star-shaped fronts of the seed's t = 1300 figure grow into a "
     "labyrinth that fills the 300² torus (class stable from ~25 000 steps)",
