@@ -155,7 +155,8 @@ def _probe_locked(device, key: int) -> str | None:
         try:
             ctx = cl.Context([device])
             program = cl.Program(ctx, _PROBE_SOURCE).build()
-            buf = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, size=4)
+            buf = cl.Buffer(ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
+                            hostbuf=np.ones(1, np.float32))
             queue = cl.CommandQueue(ctx, device)
             cl.Kernel(program, "rdgpu_probe")(queue, (1,), None, buf)
             queue.finish()
