@@ -1,0 +1,60 @@
+"""Run every OpenCL kernel family once on tiny inputs on the Oclgrind simulator (both
+layouts, both dtypes, every boundary kind) and compare with the NumPy reference; used by
+``test_oclgrind.py`` in a subprocess whose stderr carries Oclgrind's reports."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+import rdgpu
+from rdgpu.backends.opencl_backend import OpenCLBackend
+
+warnings.simplefilter("ignore")
+rng = np.random.default_rng(0)
+
+
+def close(a, b, dtype):
+    tol = 1e-4 if dtype == np.float32 else 1e-10
+    np.testing.assert_allclose(a, b, rtol=tol, atol=tol)
+
+
+for layout in ("row", "strided"):
+    be = OpenCLBackend("oclgrind", layout=layout, col_stride=8 if layout == "strided" else None)
+    for dtype in (np.float32, np.float64):
+        for shape in [(5, 7), (1, 9), (9,)]:
+            u = rng.uniform(0, 1, shape).astype(dtype)
+            v = rng.uniform(0, 0.5, shape).astype(dtype)
+            for bc in ["periodic", "neumann", ("dirichlet", 0.3)]:
+                for stencil in (5, 9):
+                    close(rdgpu.laplacian(u, bc=bc, stencil=stencil, backend=be),
+                          rdgpu.laplacian(u, bc=bc, stencil=stencil, backend="numpy"), dtype)
+                gs = {"Du": 0.2, "Dv": 0.1, "F": 0.04, "k": 0.06, "dt": 0.5, "steps": 2, "bc": bc}
+                for a, b in zip(rdgpu.gray_scott(u, v, **gs, backend=be),
+                                rdgpu.gray_scott(u, v, **gs, backend="numpy"), strict=True):
+                    close(a, b, dtype)
+                close(rdgpu.levelset_advance(u - 0.5, 1.0, dt=0.2, bc=bc, backend=be),
+                      rdgpu.levelset_advance(u - 0.5, 1.0, dt=0.2, bc=bc, backend="numpy"), dtype)
+                close(rdgpu.reinitialize(u - 0.5, iterations=3, bc=bc, backend=be),
+                      rdgpu.reinitialize(u - 0.5, iterations=3, bc=bc, backend="numpy"), dtype)
+            c = np.zeros((4, 6) if len(shape) == 2 else (8,), dtype)
+            fixed = np.zeros(c.shape, bool)
+            fixed.flat[0], c.flat[0] = True, 1.0
+            close(rdgpu.sor_sweep(c, fixed, omega=1.5, rhs=c * 0.1, backend=be),
+                  rdgpu.sor_sweep(c, fixed, omega=1.5, rhs=c * 0.1, backend="numpy"), dtype)
+            close(rdgpu.bernoulli_substep(u, tau=0.1, eps=0.5, backend=be),
+                  rdgpu.bernoulli_substep(u, tau=0.1, eps=0.5, backend="numpy"), dtype)
+        mesh = rdgpu.SurfaceMesh.icosphere(1)
+        x = rng.uniform(0, 1, mesh.n_vertices).astype(dtype)
+        close(rdgpu.laplacian(x, mesh=mesh, backend=be),
+              rdgpu.laplacian(x, mesh=mesh, backend="numpy"), dtype)
+        mgs = {"Du": 0.01, "Dv": 0.005, "F": 0.04, "k": 0.06, "dt": 0.1, "mesh": mesh}
+        for a, b in zip(rdgpu.gray_scott(x, x * 0.5, **mgs, backend=be),
+                        rdgpu.gray_scott(x, x * 0.5, **mgs, backend="numpy"), strict=True):
+            close(a, b, dtype)
+        close(rdgpu.diffusion_step(x, D=1.0, dt=10.0, method="crank-nicolson", mesh=mesh,
+                                   backend=be),
+              rdgpu.diffusion_step(x, D=1.0, dt=10.0, method="crank-nicolson", mesh=mesh,
+                                   backend="numpy"), dtype)
+        print(f"{layout} {np.dtype(dtype).name} ok", flush=True)
