@@ -267,7 +267,7 @@ def gray_scott(
     else:
         gu, grid = _grid_problem(u, "u", dx, dy, bc)
         gv, _ = _grid_problem(v, "v", dx, dy, bc)
-        check.same_shape(check.as_field(u, "u"), check.as_field(v, "v"), "u", "v")
+        check.same_shape(u, v, "u", "v")  # as given: a 1-D u and a 1-row v differ
     check.same_dtype(gu, gv, "u", "v")
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dt = check.scalar(dt, "dt")
@@ -628,10 +628,9 @@ def sor_solve(
     solve otherwise, :class:`rdgpu.errors.ConvergenceError` is raised."""
     from .errors import ConvergenceError
 
-    grid0 = check.as_grid(c, "c")
-    if omega is None:
-        omega = optimal_omega(grid0.shape)
-    grid, mask, omega, f, dx, dy, bcs = _sor_inputs(c, fixed, omega, rhs, dx, dy, bc)
+    grid, mask, omega_, f, dx, dy, bcs = _sor_inputs(c, fixed, 1.0 if omega is None else omega,
+                                                     rhs, dx, dy, bc)
+    omega = optimal_omega(grid.shape) if omega is None else omega_
     tol = check.scalar(tol, "tol", strict=True)
     if max_sweeps is None:
         max_sweeps = max(1000, 50 * max(grid.shape))
@@ -640,7 +639,7 @@ def sor_solve(
     eps = float(np.finfo(grid.dtype).eps)
     # Young: the model problem's Jacobi radius cos(π/N) and the contraction at this omega
     rho_j = math.cos(math.pi / max(max(grid.shape), 2))
-    if omega >= 2.0 / (1.0 + math.sin(math.pi / max(max(grid.shape), 2))):
+    if omega >= optimal_omega(grid.shape):
         rate = omega - 1.0
     else:
         disc = max(0.0, (omega * rho_j) ** 2 - 4.0 * (omega - 1.0))

@@ -35,16 +35,12 @@ def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2)) -> np.ndarray
     return np.ascontiguousarray(flush_subnormals(a))  # the subnormal rule, for inputs too
 
 
-def as_grid(a: Any, name: str) -> np.ndarray:
-    """A grid field as ``[ny, nx]`` (a 1-D array is a grid with ``ny = 1``)."""
-    a = as_field(a, name, ndim=(1, 2))
-    return a.reshape(1, -1) if a.ndim == 1 else a
-
-
-def same_shape(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
-    if a.shape != b.shape:
+def same_shape(a: Any, b: Any, name_a: str, name_b: str) -> None:
+    """``a`` and ``b`` (arrays or lists, as the caller gave them) have one shape."""
+    shape_a, shape_b = np.shape(a), np.shape(b)
+    if shape_a != shape_b:
         raise ValueError(
-            f"{name_b} has shape {b.shape} but {name_a} has shape {a.shape}; they must match"
+            f"{name_b} has shape {shape_b} but {name_a} has shape {shape_a}; they must match"
         )
 
 

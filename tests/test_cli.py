@@ -188,6 +188,17 @@ def test_divergence_exits_1_and_keeps_the_last_good_state(capsys, tmp_path):
 
 
 # --------------------------------------------------------------------------- resume
+def interrupted_run(ck):
+    """A 24² Gray-Scott run of 330 steps (snapshots every 40, checks every 50, checkpoints
+    every 100 to ``ck``) killed at step 250: its checkpoint holds step 200."""
+    sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
+    interrupt_after(sim, 250)
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,
+                progress=False)
+    return sim, ck
+
+
 def test_resume_from_an_interrupted_run(capsys, tmp_path):
     settings = ["--size", "24", "--snapshot-every", "40", "--check-every", "50",
                 "--checkpoint-every", "100", "--backend", "numpy", "--quiet"]
@@ -196,12 +207,7 @@ def test_resume_from_an_interrupted_run(capsys, tmp_path):
     assert code == 0, err
 
     # the same run, interrupted between its checkpoints at 200 and 300
-    sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
-    interrupt_after(sim, 250)
-    ck = tmp_path / "part.ckpt.npz"
-    with pytest.raises(KeyboardInterrupt):
-        sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,
-                progress=False)
+    _sim, ck = interrupted_run(tmp_path / "part.ckpt.npz")
     assert Simulation.read_checkpoint(ck)[0]["step"] == 200
 
     code, _, err = cli(capsys, "run", "gray-scott", "--resume", ck, "--data",
@@ -314,12 +320,7 @@ def test_resume_accepts_the_checkpoints_own_values(capsys, tmp_path):
     code, _, err = cli(capsys, "run", "gray-scott", "--size", "24", "--steps", "330",
                        *settings, "--data", tmp_path / "full.npz")
     assert code == 0, err
-    sim = Simulation("gray-scott", {"grid": (24, 24)}, backend="numpy")
-    interrupt_after(sim, 250)
-    ck = tmp_path / "run.ckpt.npz"
-    with pytest.raises(KeyboardInterrupt):
-        sim.run(330, snapshot_every=40, check_every=50, checkpoint=ck, checkpoint_every=100,
-                progress=False)
+    sim, ck = interrupted_run(tmp_path / "run.ckpt.npz")
     same = ["--size", "24x24", "--steps", "330", "--dt", str(sim.dt), "--seed", "0",
             "--dtype", "float32", "--param", "F=0.035", "--param", "k=0.06"]
     code, _, err = cli(capsys, "run", "gray-scott", *same, "--resume", ck, "--data",
