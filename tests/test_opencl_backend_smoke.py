@@ -229,7 +229,7 @@ def test_device_selection():
 def test_float64_without_fp64():
     b = OpenCLBackend()
     b.fp64 = False
-    b._kernels.clear()
+    b._programs.clear()
     with pytest.raises(BackendUnavailableError, match="float64"):
         b.empty((2, 2), np.float64)
     with pytest.raises(BackendUnavailableError, match="float64"):

@@ -149,15 +149,24 @@ def probe_compiler(device) -> str | None:
         return _probe_locked(device, key)
 
 
+def _context(device) -> tuple[Any, Any]:
+    """The ``(context, queue)`` of ``device``, shared by every backend on it (and the probe)."""
+    with _LOCK:
+        if device.int_ptr not in _CONTEXTS:
+            cl = _import_pyopencl()
+            ctx = cl.Context([device])
+            _CONTEXTS[device.int_ptr] = (ctx, cl.CommandQueue(ctx, device))
+        return _CONTEXTS[device.int_ptr]
+
+
 def _probe_locked(device, key: int) -> str | None:
     if key not in _PROBED:
         cl = _import_pyopencl()
         try:
-            ctx = cl.Context([device])
+            ctx, queue = _context(device)
             program = cl.Program(ctx, _PROBE_SOURCE).build()
             buf = cl.Buffer(ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
                             hostbuf=np.ones(1, np.float32))
-            queue = cl.CommandQueue(ctx, device)
             cl.Kernel(program, "rdgpu_probe")(queue, (1,), None, buf)
             queue.finish()
             _PROBED[key] = None
@@ -250,12 +259,7 @@ class OpenCLBackend(Backend):
         platform, dev = _select_device(device)
         self.cl_device = dev
         self.device = _describe(platform, dev)
-        key = dev.int_ptr
-        with _LOCK:
-            if key not in _CONTEXTS:
-                ctx = cl.Context([dev])
-                _CONTEXTS[key] = (ctx, cl.CommandQueue(ctx, dev))
-            self.context, self.queue = _CONTEXTS[key]
+        self.context, self.queue = _context(dev)
         self.fp64 = _has_fp64(dev)
 
         is_cpu = bool(dev.type & cl.device_type.CPU)
@@ -292,7 +296,7 @@ class OpenCLBackend(Backend):
             self._options += ["-D RDGPU_NO_RESTRICT", "-cl-opt-disable"]
         if dev.single_fp_config & cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT:
             self._options.append("-cl-fp32-correctly-rounded-divide-sqrt")
-        self._kernels: dict[np.dtype, Any] = {}  # dtype -> the shared program
+        self._programs: dict[np.dtype, Any] = {}  # dtype -> the shared program
         self._local = threading.local()  # .kernels: dtype -> (program, this thread's kernels)
         # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
         self._sor_weights = load_module("sor", "reference.py").weights
@@ -311,7 +315,7 @@ class OpenCLBackend(Backend):
         """This thread's kernel objects for ``dtype``, made from the program shared by all
         threads (built on first use, then cached; see the module doc on threads)."""
         dtype = np.dtype(dtype)
-        program = self._kernels.get(dtype)
+        program = self._programs.get(dtype)
         if program is None:
             program = self._program(dtype)
         try:
@@ -341,7 +345,7 @@ class OpenCLBackend(Backend):
                 program = self._cl.Program(self.context, self._program_source()).build(
                     options=options)
                 _PROGRAMS[key] = program
-        self._kernels[dtype] = program
+        self._programs[dtype] = program
         return program
 
     def _check_real(self, dtype: np.dtype) -> None:
