@@ -27,8 +27,8 @@
  * contraction into FMAs), so float64 results agree bit for bit and float32 results too
  * wherever the device rounds sqrt/division correctly.
  *
- * Subnormals (docs/equations.md): every value a kernel writes goes through FLUSH, which turns a value
- * whose magnitude is below the smallest normal number of `real` into 0.  The host also
+ * Subnormals (docs/equations.md): every value a kernel writes goes through FLUSH, which
+ * turns a value whose magnitude is below the smallest normal number of `real` into 0.  The host also
  * builds with -cl-denorms-are-zero: devices that honour it (PoCL sets the x86 FTZ/DAZ
  * bits while a kernel runs) then flush intermediate results too, so that no kernel slows
  * down on subnormal arithmetic; FLUSH makes the outputs follow the rule on every device.
