@@ -6,9 +6,10 @@ Each axis has one condition, implemented with a ghost cell beyond the edge:
 * ``"neumann"`` -- the ghost equals the adjacent edge cell (zero flux);
 * ``("dirichlet", g)`` -- the ghost holds the value ``g``.
 
-A user passes one condition for both axes or a pair ``(y_bc, x_bc)``.  A 1-D problem has
-one axis and takes one condition; the kernels see it as a grid of one row whose y axis is
-absent (``dy = inf``, a Neumann y condition, so nothing flows along y).  Kernels receive
+A user passes one condition for every axis, a pair ``(y_bc, x_bc)`` (2-D) or a triple
+``(z_bc, y_bc, x_bc)`` (3-D).  A 1-D problem has one axis and takes one condition; the
+kernels see it as a grid of one row whose y axis is absent (``dy = inf``, a Neumann y
+condition, so nothing flows along y).  An absent z axis (1-D, 2-D) is Neumann too.  Kernels receive
 each axis as an integer code plus a value (see :class:`AxisBC`).
 
 Corner ghosts (used only by the 9-point stencil) follow one rule on every backend: the
@@ -49,10 +50,12 @@ class AxisBC:
 
 @dataclass(frozen=True)
 class GridBC:
-    """Conditions of a 2-D grid: ``y`` for the rows (axis 0), ``x`` for the columns (axis 1)."""
+    """Conditions of a grid: ``y`` for the rows, ``x`` for the columns and ``z`` for the
+    planes of a 3-D grid (axis 0 of ``(nz, ny, nx)``; Neumann, i.e. absent, otherwise)."""
 
     y: AxisBC
     x: AxisBC
+    z: AxisBC = AxisBC(NEUMANN)
 
     def kernel_args(self) -> tuple[int, float, int, float]:
         """``(y_kind, y_value, x_kind, x_value)`` as the kernels take them."""
@@ -100,7 +103,8 @@ def parse_bc(bc: Any, ndim: int = 2) -> GridBC:
     """Parse ``bc`` into a :class:`GridBC`.
 
     ``ndim = 2``: one condition for both axes, or a pair ``(y_bc, x_bc)``.
-    ``ndim = 1``: one condition for the only axis (x); the absent y axis gets Neumann."""
+    ``ndim = 1``: one condition for the only axis (x); the absent y axis gets Neumann.
+    ``ndim = 3``: one condition for every axis, or a triple ``(z_bc, y_bc, x_bc)``."""
     if isinstance(bc, GridBC):
         return bc
     if ndim == 1:
@@ -110,8 +114,22 @@ def parse_bc(bc: Any, ndim: int = 2) -> GridBC:
                 f"{bc!r}; allowed: {ALLOWED}"
             )
         return GridBC(AxisBC(NEUMANN), _parse_axis(bc))
+    if ndim == 3:
+        if isinstance(bc, (tuple, list)) and len(bc) == 3:
+            z, y, x = (_parse_axis(b) for b in bc)
+            return GridBC(y, x, z)
+        if _is_pair(bc):
+            raise ValueError(
+                f"a 3-D grid takes one boundary condition or a triple (z_bc, y_bc, x_bc), "
+                f"got the pair {bc!r}; allowed per axis: {ALLOWED}"
+            )
+        axis = _parse_axis(bc)
+        return GridBC(axis, axis, axis)
     if ndim != 2:
-        raise ValueError(f"ndim must be 1 or 2, got {ndim!r}")
+        raise ValueError(f"ndim must be 1, 2 or 3, got {ndim!r}")
+    if isinstance(bc, (tuple, list)) and len(bc) == 3:
+        raise ValueError(f"a 2-D grid takes one boundary condition or a pair (y_bc, x_bc), "
+                         f"got {bc!r}; allowed per axis: {ALLOWED}")
     if _is_pair(bc):
         return GridBC(_parse_axis(bc[0]), _parse_axis(bc[1]))
     axis = _parse_axis(bc)

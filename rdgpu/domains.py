@@ -1,4 +1,4 @@
-"""Where a simulation lives: a 2-D :class:`Grid` or a triangle mesh (``rdgpu.mesh.SurfaceMesh``)."""
+"""Where a simulation lives: a 1-D, 2-D or 3-D :class:`Grid` or a triangle mesh (``rdgpu.mesh.SurfaceMesh``)."""
 
 from __future__ import annotations
 
@@ -11,18 +11,23 @@ from .boundary import GridBC, parse_bc
 
 @dataclass(frozen=True)
 class Grid:
-    """A cell-centred grid: ``shape = (nx,)`` (1-D) or ``(ny, nx)`` (2-D), spacings ``dx``
-    (columns) and ``dy`` (rows, defaults to ``dx``; not given for 1-D), boundary conditions
-    ``bc`` (see :mod:`rdgpu.boundary`: one condition, or for 2-D a pair ``(y_bc, x_bc)``).
+    """A cell-centred grid: ``shape = (nx,)`` (1-D), ``(ny, nx)`` (2-D) or ``(nz, ny, nx)``
+    (3-D); spacings ``dx`` (columns), ``dy`` (rows, defaults to ``dx``; not given for 1-D)
+    and ``dz`` (planes, 3-D only, defaults to ``dx``); boundary conditions ``bc`` (see
+    :mod:`rdgpu.boundary`: one condition, a pair ``(y_bc, x_bc)`` in 2-D or a triple
+    ``(z_bc, y_bc, x_bc)`` in 3-D).
 
-    After construction ``shape`` is always the kernels' ``(ny, nx)``: a 1-D grid is one row
-    with ``ndim = 1``, ``dy = inf`` and a Neumann y condition, so no flux crosses the absent
-    y axis and every stability limit is the 1-D one (``1/dy² = 0``)."""
+    After construction ``shape`` is the kernels' shape: ``(ny, nx)`` for 1-D and 2-D (a 1-D
+    grid is one row with ``ndim = 1``, ``dy = inf`` and a Neumann y condition, so no flux
+    crosses the absent y axis and every stability limit is the 1-D one, ``1/dy² = 0``) and
+    ``(nz, ny, nx)`` for 3-D.  ``dz`` is ``inf`` below 3-D.  Coordinates are cell centres
+    ``x = (j + ½) dx`` from the origin (py-pde's ``CartesianGrid`` over ``[0, L]``)."""
 
     shape: tuple[int, ...]
     dx: float = 1.0
     dy: float | None = None
     bc: Any = "periodic"
+    dz: float | None = None
     bcs: GridBC = field(init=False, repr=False, compare=False)
     ndim: int = field(init=False, default=2)
 
@@ -32,44 +37,71 @@ class Grid:
         try:
             shape = tuple(int(n) for n in self.shape)
         except (TypeError, ValueError):
-            raise TypeError(f"grid shape must be (nx,) or (ny, nx) integers, got "
-                            f"{self.shape!r}") from None
-        if len(shape) not in (1, 2) or any(n < 1 for n in shape):
-            raise ValueError(f"grid shape must be (nx,) or (ny, nx) with every size >= 1, "
-                             f"got {self.shape!r}")
+            raise TypeError(f"grid shape must be (nx,), (ny, nx) or (nz, ny, nx) integers, "
+                            f"got {self.shape!r}") from None
+        if len(shape) not in (1, 2, 3) or any(n < 1 for n in shape):
+            raise ValueError(f"grid shape must be (nx,), (ny, nx) or (nz, ny, nx) with every "
+                             f"size >= 1, got {self.shape!r}")
         dx = scalar(self.dx, "dx", strict=True)
+        dz = math.inf
         if len(shape) == 1:
             if self.dy is not None and self.dy != math.inf:
                 raise ValueError(f"dy={self.dy!r} given for a 1-D grid: a 1-D grid has only "
                                  "the x axis (spacing dx)")
             ndim, shape, dy = 1, (1, shape[0]), math.inf
         else:
-            ndim = 2
+            ndim = len(shape)
             dy = dx if self.dy is None else scalar(self.dy, "dy", strict=True)
+        if ndim == 3:
+            dz = dx if self.dz is None else scalar(self.dz, "dz", strict=True)
+        elif self.dz is not None and self.dz != math.inf:
+            raise ValueError(f"dz={self.dz!r} given for a {ndim}-D grid: only a 3-D grid "
+                             "(nz, ny, nx) has a z axis")
         object.__setattr__(self, "shape", shape)
         object.__setattr__(self, "dx", dx)
         object.__setattr__(self, "dy", dy)
+        object.__setattr__(self, "dz", dz)
         object.__setattr__(self, "ndim", ndim)
         object.__setattr__(self, "bcs", parse_bc(self.bc, ndim))
 
     @property
     def field_shape(self) -> tuple[int, ...]:
-        """The shape of a field as users hold it: ``(nx,)`` in 1-D, ``(ny, nx)`` in 2-D."""
+        """The shape of a field as users hold it: ``(nx,)``, ``(ny, nx)`` or ``(nz, ny, nx)``."""
         return self.shape[1:] if self.ndim == 1 else self.shape
 
     @property
     def cell_volume(self) -> float:
-        """``dx`` in 1-D, ``dx dy`` in 2-D."""
-        return self.dx if self.ndim == 1 else self.dx * self.dy
+        """``dx`` in 1-D, ``dx dy`` in 2-D, ``dx dy dz`` in 3-D."""
+        if self.ndim == 1:
+            return self.dx
+        return self.dx * self.dy * (self.dz if self.ndim == 3 else 1.0)
 
     @property
     def n_points(self) -> int:
-        return self.shape[0] * self.shape[1]
+        return math.prod(self.shape)
+
+    @property
+    def shape3(self) -> tuple[int, int, int]:
+        """``(nz, ny, nx)`` with ``nz = 1`` (and ``ny = 1`` in 1-D) below 3-D."""
+        return (1,) * (3 - len(self.shape)) + tuple(self.shape)
+
+    @property
+    def lengths(self) -> tuple[float, ...]:
+        """The domain's extent per axis of ``field_shape``: ``(Lx,)``, ``(Ly, Lx)`` or
+        ``(Lz, Ly, Lx)``."""
+        sp = {1: (self.dx,), 2: (self.dy, self.dx), 3: (self.dz, self.dy, self.dx)}[self.ndim]
+        return tuple(n * h for n, h in zip(self.field_shape, sp, strict=True))
 
     def coordinates(self):
-        """Cell-centre coordinates ``(y, x)`` as two ``[ny, nx]`` arrays (``y = 0`` in 1-D)."""
+        """Cell-centre coordinates ``(y, x)`` as two ``[ny, nx]`` arrays (``y = 0`` in 1-D);
+        in 3-D ``(z, y, x)`` as three ``[nz, ny, nx]`` arrays."""
         import numpy as np
 
+        if self.ndim == 3:
+            nz, ny, nx = self.shape
+            axes = [(np.arange(n) + 0.5) * h for n, h in ((nz, self.dz), (ny, self.dy),
+                                                          (nx, self.dx))]
+            return np.meshgrid(*axes, indexing="ij")
         ny, nx = self.shape
         y = (np.arange(ny) + 0.5) * self.dy if self.ndim == 2 else np.zeros(ny)
         x = (np.arange(nx) + 0.5) * self.dx
