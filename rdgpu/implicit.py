@@ -8,8 +8,9 @@ modes) is solved for the *increment* ``δ = out − u``:
     S δ = g,    S = I − θ dt D M,    g = dt (D L u + s) = dt D M u + dt (s + D b),
 
 where ``L u = M u + b`` is the mesh's ``A⁻¹W`` (:attr:`rdgpu.mesh.SurfaceMesh.laplacian`,
-``b = 0``) or the grid's 5-point operator with its boundary conditions
-(``kernels/laplacian/reference.py::laplacian_matrix``; ``b`` carries the Dirichlet ghosts).
+``b = 0``) or the grid's 5-point operator (7-point on a 3-D grid) with its boundary
+conditions (``kernels/laplacian/reference.py::laplacian_matrix``; ``b`` carries the
+Dirichlet ghosts).
 This is the textbook system ``S out = u + (1 − θ) dt D L u + θ dt D b + dt s`` with ``u``
 and ``(1 − θ) dt D M u`` cancelled analytically: at ``dt D ≫ dx²`` those terms are
 ``dt D/dx²`` times larger than ``out`` itself (Crank-Nicolson at ``dt = 1e6`` lost every
@@ -21,10 +22,10 @@ How it runs:
   in the working dtype; ``g`` is one ``spmv`` with ``K`` plus one ``mesh_diffusion`` launch
   (with an empty matrix: ``x + dt·source``) for the source; ``out = u + δ`` is one more;
 * the rows are coloured so that no two rows of a colour are coupled: red-black on a grid
-  (``(i + j) % 2``; where periodic odd sizes break the two-colouring, a greedy colouring
-  instead), :meth:`SurfaceMesh.colouring` (greedy) on a mesh.  A sweep is one
-  ``backend.csr_sor_colour`` launch per colour, so it equals the sequential SOR sweep in
-  colour order to round-off, on every backend;
+  (``(i + j) % 2``, ``(i + j + k) % 2`` in 3-D; where periodic odd sizes break the
+  two-colouring, a greedy colouring instead), :meth:`SurfaceMesh.colouring` (greedy) on a
+  mesh.  A sweep is one ``backend.csr_sor_colour`` launch per colour, so it equals the
+  sequential SOR sweep in colour order to round-off, on every backend;
 * **closed components** (a mesh, a periodic or Neumann grid: ``M 1 = 0``) make ``S``
   nearly singular at large ``dt``: its constant vector has eigenvalue 1 against
   ``1 + θ dt D λ`` for every other mode, and SOR removes a constant error only by a factor
@@ -105,12 +106,14 @@ def _is_mesh(domain: Any) -> bool:
 
 def operator_matrix(domain: Any) -> tuple[Any, np.ndarray]:
     """``(M, b)`` with ``L u = M u + b`` (float64) on ``domain``, acting on the flat field:
-    the mesh's ``A⁻¹W`` and ``b = 0``, or a grid's 5-point matrix and Dirichlet vector."""
+    the mesh's ``A⁻¹W`` and ``b = 0``, or a grid's 5-point (3-D: 7-point) matrix and
+    Dirichlet vector."""
     import scipy.sparse as sp
 
     if isinstance(domain, Grid):
         ref = load_module("laplacian", "reference.py")
-        M, b = ref.laplacian_matrix(domain.shape, domain.dx, domain.dy, domain.bcs)
+        dz = domain.dz if domain.ndim == 3 else None
+        M, b = ref.laplacian_matrix(domain.shape, domain.dx, domain.dy, domain.bcs, dz=dz)
         M = sp.csr_matrix(M)
         M.sum_duplicates()
         M.sort_indices()
@@ -130,12 +133,12 @@ def _valid_colouring(M: Any, colour: np.ndarray) -> bool:
 
 
 def _colouring(domain: Any, M: Any) -> np.ndarray:
-    """Red-black on a grid where that is a valid colouring of ``M``, else greedy."""
+    """Red-black on a grid (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``) where that is a
+    valid colouring of ``M``, else greedy."""
     from .mesh import greedy_colouring
 
     if isinstance(domain, Grid):
-        i, j = np.indices(domain.shape)
-        colour = ((i + j) % 2).astype(np.int32).ravel()
+        colour = (np.indices(domain.shape).sum(axis=0) % 2).astype(np.int32).ravel()
         if _valid_colouring(M, colour):
             return colour
         return greedy_colouring(M, symmetric=False)
@@ -165,12 +168,14 @@ def _components(M: Any) -> tuple[np.ndarray, int, np.ndarray]:
 def _grid_eigenvalue(grid: Grid) -> float:
     """The smallest eigenvalue of ``−M`` on a grid, leaving out the constant null vector
     where no axis is Dirichlet (``inf`` if there is no other).  ``M`` is a Kronecker sum
-    of the axes' matrices, whose eigenvalues are ``(4/h²) sin²(·)``: periodic
-    ``πk/n``, Neumann ``πk/(2n)`` (``k = 0..n−1``), Dirichlet ``πk/(2(n + 1))`` (``k =
-    1..n``, the ghost holds ``g``)."""
+    of the axes' matrices (y and x; z, y and x in 3-D), whose eigenvalues are ``(4/h²)
+    sin²(·)``: periodic ``πk/n``, Neumann ``πk/(2n)`` (``k = 0..n−1``), Dirichlet
+    ``πk/(2(n + 1))`` (``k = 1..n``, the ghost holds ``g``)."""
+    axes = [(grid.shape[-2], grid.bcs.y, grid.dy), (grid.shape[-1], grid.bcs.x, grid.dx)]
+    if grid.ndim == 3:
+        axes.insert(0, (grid.shape[0], grid.bcs.z, grid.dz))
     lows, nonzero = [], []
-    for n, axis, h in ((grid.shape[0], grid.bcs.y, grid.dy), (grid.shape[1], grid.bcs.x,
-                                                               grid.dx)):
+    for n, axis, h in axes:
         s = 4.0 / (h * h)
         if axis.kind == DIRICHLET:
             low = s * math.sin(math.pi / (2 * (n + 1))) ** 2
