@@ -1,0 +1,71 @@
+/* One pass of a model's generated program (rdgpu/models/compiler.py).  Needs common.cl.
+ *
+ * The compiler fills in this template per program, domain kind and dtype: @ARGS@ becomes
+ * the buffers (inputs in_*, outputs out_*, parameter fields pf_*) and scalars (p_* scalar
+ * parameters, b_* builtins such as the step h, b_t the time, len_* the domain extents), and
+ * the cell body the loads, the Laplacians and the fully parenthesised expressions with
+ * exact hex-float literals.  FP_CONTRACT is OFF (common.cl): the arithmetic is the NumPy
+ * reference's, operation by operation.  This program writes:
+@OUTPUTS@
+ */
+
+/* NaN-propagating min/max (numpy.minimum / numpy.maximum) */
+INLINE real nanmin2(real a, real b) { return (a != a || a < b) ? a : b; }
+INLINE real nanmax2(real a, real b) { return (a != a || a > b) ? a : b; }
+
+/*@GRID@*/
+/* Grids (1-D, 2-D, 3-D as nz × ny rows of nx cells): one work-item per row (CPU) or
+ * COL_STRIDE work-items per row (GPU), see common.cl.  Neighbour rows are resolved once per
+ * row by the boundary rule; every load is unconditional (indices always in range) and a
+ * select picks the Dirichlet ghost, so the interior loop has no branch and vectorises. */
+__kernel void rd_program(@ARGS@,
+        const int nx, const int ny, const int nz,
+        const int x_kind, const real gx, const int y_kind, const real gy,
+        const int z_kind, const real gz,
+        const real cx, const real cy, const real cz,
+        const real dx, const real dy, const real dz)
+{
+    const int row = (int)get_global_id(1);
+    if (row >= ny * nz) return;
+    const int i = row % ny;
+    const int kz = row / ny;
+    const long rc = (long)row * nx;
+    const long rs = ((long)kz * ny + lo_index(i, ny, y_kind)) * nx;
+    const long rn = ((long)kz * ny + hi_index(i, ny, y_kind)) * nx;
+    const bool ds = lo_is_ghost(i, y_kind), dn = hi_is_ghost(i, ny, y_kind);
+    const long rb = ((long)lo_index(kz, nz, z_kind) * ny + i) * nx;
+    const long rt = ((long)hi_index(kz, nz, z_kind) * ny + i) * nx;
+    const bool db = lo_is_ghost(kz, z_kind), dt_ = hi_is_ghost(kz, nz, z_kind);
+    const real yc = ((real)i + (real)0.5) * dy;
+    const real zc = ((real)kz + (real)0.5) * dz;
+    (void)rs; (void)rn; (void)ds; (void)dn; (void)rb; (void)rt; (void)db; (void)dt_;
+    (void)yc; (void)zc; (void)dx;
+#define RD_CELL(j, cc)                                                                    \
+    do {                                                                                  \
+        const ColInfo cc_ = (cc);                                                         \
+        const long k_ = rc + (j);                                                          \
+        (void)cc_;                                                                        \
+@CELL@ \
+    } while (0)
+    FOR_EACH_CELL(RD_CELL);
+#undef RD_CELL
+}
+/*@END GRID@*/
+
+/*@MESH@*/
+/* Meshes: CSR rows of L = A⁻¹W, a block of rows per work-item (CPU) or one (GPU); each
+ * Laplacian is Σ_q data[q] x[indices[q]] in index order, as kernels/mesh. */
+__kernel void rd_program(__global const int *RESTRICT indptr,
+        __global const int *RESTRICT indices, __global const real *RESTRICT data,
+        @ARGS@,
+        const int n_rows, const int block@COORDS@)
+{
+    const long first_ = (long)get_global_id(0) * (long)block;
+    const long stop_ = ((long)n_rows - first_ < (long)block) ? (long)n_rows : first_ + block;
+    for (long k_ = first_; k_ < stop_; ++k_) {
+        const int p0_ = indptr[k_], p1_ = indptr[k_ + 1];
+        (void)p0_; (void)p1_;
+@BODY@
+    }
+}
+/*@END MESH@*/

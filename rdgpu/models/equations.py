@@ -1,0 +1,406 @@
+"""The equation language: a model's right-hand sides as text, parsed into a small tree.
+
+Each species' equation is ``∂s/∂t = <expression>`` written as py-pde's ``PDE`` writes it::
+
+    {"u": "Du*laplace(u) - u*v**2 + F*(1 - u)",
+     "v": "Dv*laplace(v) + u*v**2 - (F + k)*v"}
+
+Allowed (checked with :mod:`ast`; anything else raises :class:`EquationError` naming the
+token and listing what is allowed):
+
+* ``+ - * /``, ``**`` (an integer exponent of at most :data:`MAX_EXPANDED_POWER` in size
+  becomes repeated multiplication, ``u**3 → (u*u)*u``, ``u**-2 → 1/(u*u)``; any other
+  exponent is ``pow``), unary ``-``/``+``, parentheses;
+* numbers (every literal is a real number of the fields' dtype: ``1/2`` is 0.5);
+* names: the species, the parameters, the cell-centre (grid) or vertex (mesh) coordinates
+  ``x``, ``y``, ``z``, the time ``t``, the domain's extents ``Lx``, ``Ly``, ``Lz`` and the
+  constant ``pi``;
+* the functions :data:`FUNCTIONS` (``min``/``max`` of two arguments, NaN-propagating like
+  ``numpy.minimum``);
+* ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion) and the
+  bilaplacian ``laplace(laplace(s))``.
+
+The tree (:class:`Num`, :class:`Ref`, :class:`Lap`, :class:`Bin`, :class:`Neg`,
+:class:`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
+emits it fully parenthesised, so the three implementations evaluate the same operations in
+the same order (:mod:`rdgpu.models.compiler`).
+
+:func:`linear_parts` splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
+laplace(laplace(r)) + rest`` where it can (coefficients made of numbers and scalar
+parameters): the diffusion matrix of stability limits, dispersion relations and implicit
+time steps.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "COORDINATES",
+    "FUNCTIONS",
+    "Bin",
+    "Call",
+    "EquationError",
+    "Lap",
+    "Linear",
+    "Neg",
+    "Node",
+    "Num",
+    "Ref",
+    "evaluate",
+    "linear_parts",
+    "parse",
+    "substitute",
+    "walk",
+]
+
+#: functions of the language and their number of arguments
+FUNCTIONS = {"exp": 1, "log": 1, "sqrt": 1, "sin": 1, "cos": 1, "tan": 1, "tanh": 1,
+             "abs": 1, "min": 2, "max": 2}
+#: names every expression may use besides species and parameters
+COORDINATES = ("x", "y", "z")
+TIME = "t"
+LENGTHS = ("Lx", "Ly", "Lz")
+CONSTANTS = {"pi": math.pi}
+#: integer powers up to this size are expanded into multiplications
+MAX_EXPANDED_POWER = 16
+
+_OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/"}
+
+
+class EquationError(ValueError):
+    """An equation or parameter expression outside the language."""
+
+
+# ---------------------------------------------------------------------------- the tree
+class Node:
+    """An expression node (immutable, hashable)."""
+
+
+@dataclass(frozen=True)
+class Num(Node):
+    value: float
+
+
+@dataclass(frozen=True)
+class Ref(Node):
+    """A name: ``kind`` is ``"species"``, ``"param"``, ``"coord"`` (x, y, z), ``"time"``
+    or ``"length"`` (Lx, Ly, Lz)."""
+
+    kind: str
+    name: str
+
+
+@dataclass(frozen=True)
+class Lap(Node):
+    """``laplace(name)`` (``order = 1``) or ``laplace(laplace(name))`` (``order = 2``) of a
+    field read through the domain's Laplacian."""
+
+    name: str
+    order: int = 1
+
+
+@dataclass(frozen=True)
+class Bin(Node):
+    op: str  # + - * /
+    a: Node
+    b: Node
+
+
+@dataclass(frozen=True)
+class Neg(Node):
+    a: Node
+
+
+@dataclass(frozen=True)
+class Call(Node):
+    fn: str  # a key of FUNCTIONS, or "pow"
+    args: tuple[Node, ...]
+
+
+def walk(node: Node):
+    """Every node of the tree, parents first."""
+    yield node
+    if isinstance(node, Bin):
+        yield from walk(node.a)
+        yield from walk(node.b)
+    elif isinstance(node, Neg):
+        yield from walk(node.a)
+    elif isinstance(node, Call):
+        for a in node.args:
+            yield from walk(a)
+
+
+def names(node: Node, kind: str) -> set[str]:
+    """The names of ``kind`` that ``node`` uses."""
+    return {n.name for n in walk(node) if isinstance(n, Ref) and n.kind == kind}
+
+
+def laplacians(node: Node) -> set[tuple[str, int]]:
+    """``(name, order)`` of every Laplacian in ``node``."""
+    return {(n.name, n.order) for n in walk(node) if isinstance(n, Lap)}
+
+
+def substitute(node: Node, fn: Callable[[Node], Node | None]) -> Node:
+    """A copy of the tree with every node for which ``fn`` returns a node replaced."""
+    new = fn(node)
+    if new is not None:
+        return new
+    if isinstance(node, Bin):
+        return Bin(node.op, substitute(node.a, fn), substitute(node.b, fn))
+    if isinstance(node, Neg):
+        return Neg(substitute(node.a, fn))
+    if isinstance(node, Call):
+        return Call(node.fn, tuple(substitute(a, fn) for a in node.args))
+    return node
+
+
+def to_text(node: Node) -> str:
+    """The tree as (fully parenthesised) text of the language."""
+    if isinstance(node, Num):
+        return repr(node.value)
+    if isinstance(node, Ref):
+        return node.name
+    if isinstance(node, Lap):
+        return "laplace(" * node.order + node.name + ")" * node.order
+    if isinstance(node, Bin):
+        return f"({to_text(node.a)} {node.op} {to_text(node.b)})"
+    if isinstance(node, Neg):
+        return f"(-{to_text(node.a)})"
+    return f"{node.fn}({', '.join(to_text(a) for a in node.args)})"
+
+
+# ---------------------------------------------------------------------------- parsing
+def _allowed_text(species: Iterable[str], params: Iterable[str]) -> str:
+    return (
+        f"species ({', '.join(species) or 'none'}), parameters "
+        f"({', '.join(sorted(params)) or 'none'}), x y z t, Lx Ly Lz, pi, numbers, "
+        f"+ - * / **, laplace(species), laplace(laplace(species)) and the functions "
+        f"{' '.join(FUNCTIONS)}"
+    )
+
+
+def parse(
+    text: str,
+    *,
+    species: Iterable[str] = (),
+    params: Iterable[str] = (),
+    what: str = "expression",
+    laplace: bool = True,
+) -> Node:
+    """Parse one expression of the language (module docstring).  ``species`` and
+    ``params`` are the names it may use; ``laplace=False`` forbids Laplacians (parameter
+    expressions)."""
+    species, params = tuple(species), tuple(params)
+    allowed = _allowed_text(species, params)
+    if not isinstance(text, str):
+        raise EquationError(f"{what} must be a string, got {type(text).__name__}")
+    source = text.strip().replace("^", "**")
+    try:
+        tree = ast.parse(source, mode="eval").body
+    except SyntaxError as exc:
+        raise EquationError(f"{what} {text!r} is not a valid expression ({exc.msg}); "
+                            f"allowed: {allowed}") from None
+
+    def fail(token: str) -> EquationError:
+        return EquationError(f"{what} {text!r} uses {token}; allowed: {allowed}")
+
+    def go(node: ast.AST) -> Node:
+        if isinstance(node, ast.BinOp):
+            if isinstance(node.op, ast.Pow):
+                return _power(go(node.left), go(node.right))
+            op = _OPS.get(type(node.op))
+            if op is None:
+                raise fail(f"the operator {ast.unparse(node.op) or type(node.op).__name__!r}"
+                           if hasattr(ast, "unparse") else "an operator")
+            return Bin(op, go(node.left), go(node.right))
+        if isinstance(node, ast.UnaryOp):
+            if isinstance(node.op, ast.USub):
+                return Neg(go(node.operand))
+            if isinstance(node.op, ast.UAdd):
+                return go(node.operand)
+            raise fail(f"the operator {type(node.op).__name__}")
+        if isinstance(node, ast.Constant):
+            v = node.value
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise fail(f"the constant {v!r} (only real numbers are allowed)")
+            return Num(float(v))
+        if isinstance(node, ast.Name):
+            n = node.id
+            if n in species:
+                return Ref("species", n)
+            if n in params:
+                return Ref("param", n)
+            if n in COORDINATES:
+                return Ref("coord", n)
+            if n == TIME:
+                return Ref("time", n)
+            if n in LENGTHS:
+                return Ref("length", n)
+            if n in CONSTANTS:
+                return Num(CONSTANTS[n])
+            raise fail(f"the unknown name {n!r}")
+        if isinstance(node, ast.Call):
+            if not isinstance(node.func, ast.Name) or node.keywords:
+                raise fail(f"the call {ast.unparse(node)!r}")
+            fn = node.func.id
+            if fn == "laplace":
+                return _laplace(node, species, laplace, fail)
+            if fn not in FUNCTIONS:
+                raise fail(f"the unknown function {fn!r}")
+            if len(node.args) != FUNCTIONS[fn]:
+                raise fail(f"{fn}() with {len(node.args)} argument(s) (it takes "
+                           f"{FUNCTIONS[fn]})")
+            return Call(fn, tuple(go(a) for a in node.args))
+        token = ast.unparse(node) if hasattr(ast, "unparse") else type(node).__name__
+        raise fail(f"{token!r} ({type(node).__name__} syntax)")
+
+    return go(tree)
+
+
+def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> Node:
+    if not allowed:
+        raise fail("laplace() (a parameter expression has no Laplacian)")
+    if len(node.args) != 1 or node.keywords:
+        raise fail("laplace() with other than one argument")
+    arg = node.args[0]
+    if isinstance(arg, ast.Name) and arg.id in species:
+        return Lap(arg.id, 1)
+    if (isinstance(arg, ast.Call) and isinstance(arg.func, ast.Name)
+            and arg.func.id == "laplace" and len(arg.args) == 1
+            and isinstance(arg.args[0], ast.Name) and arg.args[0].id in species):
+        return Lap(arg.args[0].id, 2)
+    raise fail(f"laplace({ast.unparse(arg)}) (laplace takes a species or "
+               f"laplace(species))")
+
+
+def _power(base: Node, exponent: Node) -> Node:
+    """``base ** exponent``: repeated multiplication for small integer exponents."""
+    if isinstance(exponent, Neg) and isinstance(exponent.a, Num):
+        exponent = Num(-exponent.a.value)
+    if isinstance(exponent, Num) and float(exponent.value).is_integer() \
+            and abs(exponent.value) <= MAX_EXPANDED_POWER:
+        n = int(exponent.value)
+        if n == 0:
+            return Num(1.0)
+        out = base
+        for _ in range(abs(n) - 1):
+            out = Bin("*", out, base)
+        return out if n > 0 else Bin("/", Num(1.0), out)
+    return Call("pow", (base, exponent))
+
+
+# ---------------------------------------------------------------------------- evaluation
+def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
+             literal: Callable[[float], Any] | None = None,
+             lap: Callable[[str, int], Any] | None = None) -> Any:
+    """Evaluate with NumPy (``lib``, default :mod:`numpy`): ``env`` maps every name to a
+    value, ``literal`` turns a number into a value of the working dtype, ``lap(name,
+    order)`` returns a Laplacian.  The same operations in the same order as every
+    generated kernel."""
+    import numpy as np
+
+    lib = np if lib is None else lib
+    literal = literal or float
+
+    def go(n: Node):
+        if isinstance(n, Num):
+            return literal(n.value)
+        if isinstance(n, Ref):
+            return env[n.name]
+        if isinstance(n, Lap):
+            if lap is None:
+                raise EquationError(f"laplace({n.name}) needs a domain to evaluate")
+            return lap(n.name, n.order)
+        if isinstance(n, Bin):
+            a, b = go(n.a), go(n.b)
+            if n.op == "+":
+                return a + b
+            if n.op == "-":
+                return a - b
+            if n.op == "*":
+                return a * b
+            return a / b
+        if isinstance(n, Neg):
+            return -go(n.a)
+        args = [go(a) for a in n.args]
+        if n.fn == "min":
+            return lib.minimum(*args)
+        if n.fn == "max":
+            return lib.maximum(*args)
+        if n.fn == "pow":
+            return lib.power(*args)
+        return getattr(lib, "absolute" if n.fn == "abs" else n.fn)(*args)
+
+    return go(node)
+
+
+# ---------------------------------------------------------------------------- linear parts
+@dataclass(frozen=True)
+class Linear:
+    """A right-hand side split as ``Σ_r diffusion[r]·laplace(r) + Σ_r bilaplacian[r]·
+    laplace(laplace(r)) + rest``: each coefficient a tree of numbers and parameters (no
+    species, coordinates or time); ``rest`` holds no Laplacian (None when nothing is
+    left).  ``terms`` are the (sign, term) pairs of the top-level sum."""
+
+    diffusion: dict[str, Node]
+    bilaplacian: dict[str, Node]
+    rest: Node | None
+
+
+def _terms(node: Node, sign: int = 1) -> list[tuple[int, Node]]:
+    if isinstance(node, Bin) and node.op in "+-":
+        return _terms(node.a, sign) + _terms(node.b, sign if node.op == "+" else -sign)
+    if isinstance(node, Neg):
+        return _terms(node.a, -sign)
+    return [(sign, node)]
+
+
+def _coefficient(term: Node) -> tuple[tuple[str, int], Node] | None:
+    """``((name, order), c)`` when ``term`` is ``c·laplace^order(name)`` with a constant
+    ``c`` (products and quotients of numbers and parameters around one Laplacian in the
+    numerator), else None."""
+    if isinstance(term, Lap):
+        return (term.name, term.order), Num(1.0)
+    if isinstance(term, Neg):
+        inner = _coefficient(term.a)
+        return None if inner is None else (inner[0], Neg(inner[1]))
+    if isinstance(term, Bin) and term.op in "*/":
+        la, lb = laplacians(term.a), laplacians(term.b)
+        if la and not lb and _constant(term.b):
+            inner = _coefficient(term.a)
+            return None if inner is None else (inner[0], Bin(term.op, inner[1], term.b))
+        if lb and not la and term.op == "*" and _constant(term.a):
+            inner = _coefficient(term.b)
+            return None if inner is None else (inner[0], Bin("*", term.a, inner[1]))
+    return None
+
+
+def _constant(node: Node) -> bool:
+    return all(not isinstance(n, (Lap,)) and not (isinstance(n, Ref) and n.kind != "param")
+               for n in walk(node))
+
+
+def linear_parts(node: Node) -> Linear | None:
+    """Split ``node`` (see :class:`Linear`); None when a Laplacian appears other than as a
+    constant multiple in the top-level sum (``u*laplace(u)``, ``exp(laplace(u))``)."""
+    diffusion: dict[str, Node] = {}
+    bilaplacian: dict[str, Node] = {}
+    rest: Node | None = None
+    for sign, term in _terms(node):
+        if not laplacians(term):
+            t = term if sign > 0 else Neg(term)
+            rest = t if rest is None else Bin("+" if sign > 0 else "-", rest, term)
+            continue
+        found = _coefficient(term)
+        if found is None:
+            return None
+        (name, order), c = found
+        c = c if sign > 0 else Neg(c)
+        target = diffusion if order == 1 else bilaplacian
+        target[name] = c if name not in target else Bin("+", target[name], c)
+    return Linear(diffusion, bilaplacian, rest)

@@ -1,0 +1,369 @@
+"""Time integrators of the model layer: the equations of a :class:`~rdgpu.models.Model`
+lowered to fused programs (:mod:`rdgpu.models.compiler`) and stepped on the device.
+
+Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand side and
+``h`` the step:
+
+* ``"euler"`` (default): ``x' = x + h f(x, t)`` — one fused pass;
+* ``"heun"`` (2nd order): ``x₁ = x + h f(x, t)``, ``x' = ½x + ½(x₁ + h f(x₁, t + h))``;
+* ``"rk3"`` (3rd order, Shu-Osher SSP-RK3): ``x₁ = x + h f(x, t)``, ``x₂ = ¾x + ¼(x₁ +
+  h f(x₁, t + h))``, ``x' = ⅓x + ⅔(x₂ + h f(x₂, t + h/2))`` — each stage one fused pass of
+  the form ``a·base + b·(y + h f(y))``;
+* ``"imex"`` / ``"imex-cn"``: implicit-explicit.  Each species' own linear spatial terms
+  ``α Δs + β Δ²s`` (constant coefficients, ``β <= 0``) go to an implicit operator
+  ``P = (I − a₁Δ)(I − a₂Δ)``, everything else (reactions, cross-diffusion, any other
+  term) stays explicit:  ``y = x + h (f(x) − α Δx − β Δ²x) + (P − I) x`` in one fused
+  pass, then ``x' = P⁻¹ y`` by one or two backward-Euler diffusion solves on the device
+  (multicolour SOR, :class:`rdgpu.implicit.ImplicitDiffusion`).  Without a bilaplacian,
+  ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1) or Crank-Nicolson
+  (``"imex-cn"``, θ = ½) diffusion with explicit reaction, stable far beyond the explicit
+  limit.  With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
+  α)``: a linearly stabilised scheme (Eyre's convex splitting in spirit) whose
+  amplification factor stays in the unit disk for every decaying mode, so ``h`` is set
+  by accuracy, not by ``1/m_max²``; it keeps steady states exactly (``x' = x`` where
+  ``f(x) = 0``).  First order in time.
+
+``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
+(Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
+fused pass.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..backends.base import Backend, DeviceArray
+from . import equations as eq
+from .compiler import Output, Program, Target, launch
+
+__all__ = ["FieldStepper", "ModelStepper", "stability_limit"]
+
+EXPLICIT = ("euler", "heun", "rk3")
+_THETA = {"imex": 1.0, "imex-cn": 0.5}
+
+
+# ---------------------------------------------------------------------------- stability
+def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
+    """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
+    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`)."""
+    ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
+    if method in EXPLICIT:
+        limit = math.inf
+        for m in ms:
+            lam = np.linalg.eigvals(-m * D + m * m * B)
+            neg = lam[lam.real < -1e-300]
+            if neg.size:
+                limit = min(limit, float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)))
+        return limit
+    theta = _THETA[method]
+
+    def stable(h: float) -> bool:
+        for m in ms:
+            A = -m * D + m * m * B
+            exact = np.max(np.linalg.eigvals(A).real)
+            G = _imex_amplification(D, B, m, h, theta)
+            rho = np.max(np.abs(np.linalg.eigvals(G)))
+            if exact <= 0 and rho > 1.0 + 1e-9:
+                return False
+        return True
+
+    hi = 1.0 / max(m_max * (np.max(np.abs(D)) + m_max * np.max(np.abs(B))), 1e-300)
+    if not stable(hi):
+        lo = 0.0
+    else:
+        lo = hi
+        while stable(hi * 4.0):
+            hi *= 4.0
+            lo = hi
+            if hi > 1e12:
+                return math.inf
+        hi *= 4.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if stable(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def _implicit_factors(alpha: float, beta: float, h: float, theta: float) -> tuple[float, float]:
+    """``(a₁, a₂)`` of ``P = (I − a₁Δ)(I − a₂Δ)`` (module doc)."""
+    if beta == 0.0:
+        return max(theta * h * alpha, 0.0), 0.0
+    prod = -h * beta
+    total = max(2.0 * math.sqrt(prod), theta * h * alpha)
+    disc = math.sqrt(max(total * total - 4.0 * prod, 0.0))
+    return 0.5 * (total + disc), 0.5 * (total - disc)
+
+
+def _imex_amplification(D, B, m, h, theta):
+    n = D.shape[0]
+    G = np.eye(n) + h * (-m * D + m * m * B)
+    for i in range(n):
+        a1, a2 = _implicit_factors(D[i, i], B[i, i], h, theta)
+        p = (1.0 + a1 * m) * (1.0 + a2 * m)
+        # explicit part: (P − I) x − h α Δx − h β Δ²x on the diagonal
+        G[i, i] += (p - 1.0) + h * (m * D[i, i]) - h * m * m * B[i, i]
+        G[i] /= p
+    return G
+
+
+# ---------------------------------------------------------------------------- stepper
+class FieldStepper:
+    """Device fields of every species, ping-pong buffers, step counting: what every
+    stepper shares (``_step`` reads ``_x`` and writes ``_y``)."""
+
+    def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any):
+        from .model import domain_shape
+
+        self.species = tuple(species)
+        self.domain = domain
+        self.dt = float(dt)
+        self.backend = backend
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
+            raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
+        self.shape = domain_shape(domain)
+        zero = np.zeros(self.shape, self.dtype)
+        self._x = [backend.upload(zero) for _ in self.species]
+        self._y = [backend.empty(self.shape, self.dtype) for _ in self.species]
+        #: steps taken since construction (or since the last ``set_state(..., steps=)``)
+        self.steps_done = 0
+
+    # ------------------------------------------------------------------ state
+    @property
+    def time(self) -> float:
+        return self.steps_done * self.dt
+
+    def _host_field(self, name: str, a: Any) -> np.ndarray:
+        if isinstance(a, DeviceArray):
+            a = a.numpy()
+        a = np.asarray(a)
+        if a.shape != self.shape:
+            if a.size == int(np.prod(self.shape)) and self.shape[0] == 1 and a.ndim == 1:
+                a = a.reshape(self.shape)
+            else:
+                raise ValueError(f"field {name!r} has shape {a.shape}, the domain {self.shape}")
+        return np.ascontiguousarray(a, dtype=self.dtype)
+
+    def set_state(self, fields: Mapping[str, Any], *, steps: int | None = None) -> None:
+        missing = [s for s in self.species if s not in fields]
+        if missing:
+            raise KeyError(f"set_state needs every species {self.species}; missing {missing}")
+        for i, s in enumerate(self.species):
+            self.backend.copy(self.backend.upload(self._host_field(s, fields[s])), self._x[i])
+        if steps is not None:
+            self.steps_done = int(steps)
+
+    def state(self) -> dict[str, DeviceArray]:
+        return dict(zip(self.species, self._x, strict=True))
+
+    def get_state(self) -> dict[str, np.ndarray]:
+        return {s: x.numpy() for s, x in zip(self.species, self._x, strict=True)}
+
+    def advance(self, steps: int) -> None:
+        steps = int(steps)
+        if steps < 0:
+            raise ValueError(f"steps must be >= 0, got {steps}")
+        for _ in range(steps):
+            self._step()
+            self._x, self._y = self._y, self._x
+            self.steps_done += 1
+
+    def _step(self) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class ModelStepper(FieldStepper):
+    """A :class:`~rdgpu.models.Model` bound to a domain, parameters, ``dt``, a backend, a
+    dtype and a method (module doc).  Device fields of every species, ping-pong buffers;
+    no host transfer while stepping (the IMEX solves download their convergence data)."""
+
+    def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
+                 backend: Backend, dtype: np.dtype, method: str, tol: float | None = None):
+        super().__init__(model.species, domain, dt, backend, dtype)
+        self.model = model
+        self.method = method
+        self.params = dict(params)
+        self.target = Target.bind(domain, backend, self.dtype)
+        be = backend
+        # parameters on the device: numbers stay numbers, fields are uploaded, expressions
+        # of t are inlined into the programs
+        self._dev: dict[str, Any] = {}
+        inline: dict[str, eq.Node] = {}
+        for p, v in self.params.items():
+            if isinstance(v, eq.Node):
+                inline[p] = v
+            elif isinstance(v, np.ndarray):
+                self._dev[p] = be.upload(np.ascontiguousarray(v, dtype=self.dtype))
+            else:
+                self._dev[p] = float(v)
+        trees = {s: eq.substitute(model.trees[s], lambda n: inline.get(n.name)
+                                  if isinstance(n, eq.Ref) and n.kind == "param" else None)
+                 for s in self.species}
+        self.D = self._diffusion_numbers()
+        if method in EXPLICIT:
+            self._setup_explicit(trees)
+        else:
+            self._setup_imex(trees, tol)
+
+    # ------------------------------------------------------------------ programs
+    def _diffusion_numbers(self) -> list[float]:
+        ops = self.model.linear_operators(self.params)
+        return [] if ops is None else [float(x) for x in np.diag(ops[0])]
+
+    def _lower(self, trees: dict[str, eq.Node]) -> tuple[dict[str, eq.Node], Program | None]:
+        """Replace ``laplace(laplace(s))`` by ``laplace(_lap_s)`` and return the pre-pass
+        program that stores ``_lap_s``."""
+        aux = sorted({n for t in trees.values() for n, o in eq.laplacians(t) if o == 2})
+        if not aux:
+            return trees, None
+        low = {s: eq.substitute(t, lambda n: eq.Lap(f"_lap_{n.name}", 1)
+                                if isinstance(n, eq.Lap) and n.order == 2 else None)
+               for s, t in trees.items()}
+        pre = Program(tuple(aux), tuple(Output(f"_lap_{s}", eq.Lap(s)) for s in aux))
+        return low, pre
+
+    def _bounds(self, s: str) -> tuple[float | None, float | None]:
+        return self.model.bounds.get(s, (None, None))
+
+    def _setup_explicit(self, trees) -> None:
+        low, self._pre = self._lower(trees)
+        self._aux = [] if self._pre is None else [self.backend.empty(self.shape, self.dtype)
+                                                  for _ in self._pre.outputs]
+        aux_names = () if self._pre is None else tuple(o.name for o in self._pre.outputs)
+        zero = frozenset(aux_names)
+        h = eq.Ref("builtin", "_h")
+        euler = tuple(
+            Output(s, eq.Bin("+", eq.Ref("species", s), eq.Bin("*", h, low[s])),
+                   self._bounds(s))
+            for s in self.species)
+        self._euler = Program(self.species + aux_names, euler, zero)
+        if self.method == "euler":
+            return
+        combine = tuple(
+            Output(s, eq.Bin("+", eq.Bin("*", eq.Ref("builtin", "_a"),
+                                         eq.Ref("species", f"_base_{s}")),
+                             eq.Bin("*", eq.Ref("builtin", "_b"), o.expr)), o.bounds)
+            for s, o in zip(self.species, euler, strict=True))
+        self._combine = Program(
+            self.species + aux_names + tuple(f"_base_{s}" for s in self.species), combine,
+            zero)
+        n_stages = 1 if self.method == "heun" else 2
+        self._stages = [[self.backend.empty(self.shape, self.dtype) for _ in self.species]
+                        for _ in range(n_stages)]
+
+    def _setup_imex(self, trees, tol) -> None:
+        from ..implicit import ImplicitDiffusion
+
+        theta = 1.0 if self.method == "imex" else 0.5
+        h = self.dt
+        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, eq.Node) else None)
+                  for k, v in self.params.items()}
+        explicit: dict[str, eq.Node] = {}
+        self._solvers: dict[str, list[Any]] = {}
+        cache: dict[float, Any] = {}
+        for s in self.species:
+            lin = eq.linear_parts(trees[s])
+            if lin is None:
+                raise ValueError(
+                    f"method {self.method!r}: the equation of {s!r} has a Laplacian with a "
+                    "state-dependent coefficient, which cannot be implicit; use an explicit "
+                    "method")
+            alpha = self._constant(lin.diffusion.get(s), merged, s, "laplace")
+            beta = self._constant(lin.bilaplacian.get(s), merged, s, "laplace(laplace)")
+            if beta > 0:
+                raise ValueError(
+                    f"method {self.method!r}: the bilaplacian of {s!r} has the coefficient "
+                    f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
+            a1, a2 = _implicit_factors(alpha, beta, h, theta)
+            # explicit: f without α Δs and β Δ²s, plus (P − I)x/h = −((a₁+a₂)/h) Δs
+            # + (a₁a₂/h) Δ²s = −((a₁+a₂)/h) Δs − β Δ²s: the Δ² terms cancel exactly
+            terms: list[eq.Node] = []
+            if lin.rest is not None:
+                terms.append(lin.rest)
+            for r, c in lin.diffusion.items():
+                if r != s:
+                    terms.append(eq.Bin("*", c, eq.Lap(r)))
+            for r, c in lin.bilaplacian.items():
+                if r != s:
+                    terms.append(eq.Bin("*", c, eq.Lap(r, 2)))
+            coeff = alpha - (a1 + a2) / h
+            if beta == 0.0 and theta == 1.0:
+                coeff = 0.0  # backward Euler: α − θα = 0 exactly
+            if coeff != 0.0:
+                terms.append(eq.Bin("*", eq.Num(coeff), eq.Lap(s)))
+            expr: eq.Node = eq.Num(0.0)
+            for i, term in enumerate(terms):
+                expr = term if i == 0 else eq.Bin("+", expr, term)
+            explicit[s] = expr
+            solvers = []
+            for a in (a1, a2):
+                if a > 0:
+                    if a not in cache:
+                        cache[a] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
+                                                     backend=self.backend, dtype=self.dtype,
+                                                     tol=tol)
+                    solvers.append(cache[a])
+            self._solvers[s] = solvers
+        self._setup_explicit_from(explicit)
+        self._tmp = [self.backend.empty(self.shape, self.dtype) for _ in range(2)]
+
+    def _setup_explicit_from(self, explicit: dict[str, eq.Node]) -> None:
+        method, self.method = self.method, "euler"
+        try:
+            self._setup_explicit(explicit)
+        finally:
+            self.method = method
+
+    def _constant(self, c: eq.Node | None, merged, s: str, what: str) -> float:
+        if c is None:
+            return 0.0
+        names = eq.names(c, "param")
+        bad = [p for p in names if merged.get(p) is None]
+        if bad:
+            raise ValueError(
+                f"method {self.method!r}: the coefficient of {what}({s}) in the equation of "
+                f"{s!r} uses the parameter(s) {bad}, which are fields or time-dependent; "
+                "an implicit term needs a constant coefficient")
+        return float(eq.evaluate(c, {p: merged[p] for p in names}))
+
+    # ------------------------------------------------------------------ stepping
+    def _eval(self, program: Program, ins: list[DeviceArray], outs: list[DeviceArray],
+              time: float, extra: list[DeviceArray] = (), a: float = 0.0,
+              b: float = 1.0) -> None:
+        if self._pre is not None:
+            src = dict(zip(self.species, ins, strict=True))
+            launch(self._pre, self.target, [src[s] for s in self._pre.inputs], self._aux,
+                   self._dev, {}, time)
+        launch(program, self.target, [*ins, *self._aux, *extra], outs, self._dev,
+               {"_h": self.dt, "_a": a, "_b": b}, time)
+
+    def _step(self) -> None:
+        t0, h = self.time, self.dt
+        x, y = self._x, self._y
+        if self.method == "euler":
+            self._eval(self._euler, x, y, t0)
+        elif self.method == "heun":
+            (s1,) = self._stages
+            self._eval(self._euler, x, s1, t0)
+            self._eval(self._combine, s1, y, t0 + h, x, 0.5, 0.5)
+        elif self.method == "rk3":
+            s1, s2 = self._stages
+            self._eval(self._euler, x, s1, t0)
+            self._eval(self._combine, s1, s2, t0 + h, x, 0.75, 0.25)
+            self._eval(self._combine, s2, y, t0 + 0.5 * h, x, 1.0 / 3.0, 2.0 / 3.0)
+        else:
+            self._eval(self._euler, x, y, t0)
+            for i, s in enumerate(self.species):
+                solvers = self._solvers[s]
+                if len(solvers) == 1:
+                    solvers[0].step(y[i], y[i])
+                elif len(solvers) == 2:
+                    solvers[0].step(y[i], self._tmp[0])
+                    solvers[1].step(self._tmp[0], y[i])

@@ -1,0 +1,512 @@
+"""A model is its equations: :func:`define_model` and the :class:`Model` it returns.
+
+    gs = rdgpu.define_model(
+        "my-gray-scott",
+        {"u": "Du*laplace(u) - u*v**2 + F*(1 - u)",
+         "v": "Dv*laplace(v) + u*v**2 - (F + k)*v"},
+        {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.06},
+    )
+
+The language is :mod:`rdgpu.models.equations` (py-pde's ``PDE`` spelling); the kernels
+come from :mod:`rdgpu.models.compiler`; the time integrators from
+:mod:`rdgpu.models.integrators`.  A model is accepted wherever a model name is
+(``Simulation``, presets, ``rdgpu run --equation``).
+
+Parameter values (defaults, or what a run passes): a number; an array of the domain's
+shape (a per-cell / per-vertex field); a field spec (:func:`param_field`); or an
+expression of ``x, y, z, t, Lx, Ly, Lz, pi`` and the other (scalar) parameters, such as
+``"0.03 + 0.01*sin(2*pi*x/Lx)"``.  An expression without ``t`` is evaluated once on the
+host in float64 into a field; one with ``t`` is inlined into the kernel and evaluated per
+cell at each stage's time.
+
+Stability (:meth:`Model.dt_limit`): from the linear spatial part of the equations, the
+matrices ``D`` (coefficients of ``laplace``) and ``B`` (of ``laplace(laplace(·))``): a
+Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m² B``, and the
+limit is the largest ``dt`` for which every such mode that decays in the equations also
+decays in the scheme, for ``m`` up to the domain's largest (``4 Σ 1/h²`` on a grid,
+``λ_max(−L)`` on a mesh).  For forward Euler that is ``min −2 Re λ/|λ|²`` over the
+eigenvalues ``λ`` of ``A(m)`` (``1/(2 D Σ 1/h²)`` for plain diffusion); Heun and SSP-RK3
+use the same bound (their real stability intervals contain Euler's); IMEX methods are
+checked on the amplification matrix of the scheme.  The reaction terms add a limit of their
+own that depends on the state (``dt ≲ 2/|λ|`` of the reaction Jacobian along the
+trajectory): it is not included, as it cannot be bounded from the parameters alone.  A
+Laplacian with a state-dependent coefficient (``u*laplace(u)``) is left out too.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..backends.base import Backend, DeviceArray
+from ..dispatch import get_backend
+from ..domains import Grid
+from ..errors import StabilityError
+from . import equations as eq
+
+__all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
+
+#: time-stepping methods of a model (``options={"method": ...}``, ``--method``)
+METHODS = ("euler", "heun", "rk3", "imex", "imex-cn")
+_ALIASES = {"explicit": "euler", "forward-euler": "euler", "rk2": "heun",
+            "ssprk3": "rk3", "imex-be": "imex"}
+_RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
+             *eq.CONSTANTS}
+
+
+# ---------------------------------------------------------------------------- domains
+def _is_mesh(domain: Any) -> bool:
+    from ..mesh import SurfaceMesh
+
+    return isinstance(domain, SurfaceMesh)
+
+
+def domain_shape(domain: Any) -> tuple[int, ...]:
+    """The kernels' shape: ``(ny, nx)`` / ``(nz, ny, nx)`` of a grid, ``(n_vertices,)`` of a
+    mesh."""
+    if isinstance(domain, Grid):
+        return domain.shape
+    if _is_mesh(domain):
+        return (domain.n_vertices,)
+    raise TypeError(
+        f"a domain is an rdgpu.domains.Grid or an rdgpu.mesh.SurfaceMesh, got "
+        f"{type(domain).__name__}"
+    )
+
+
+def _coordinates(domain: Any, axis: str) -> np.ndarray:
+    """Coordinate ``axis`` of every cell / vertex, scaled to [0, 1] over the domain."""
+    if isinstance(domain, Grid):
+        names = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}[domain.ndim]
+        if axis not in names:
+            raise ValueError(f"a {domain.ndim}-D grid axis is one of {names}, got {axis!r}")
+        k = names.index(axis)
+        n = domain.field_shape[k]
+        c = (np.arange(n) + 0.5) / n
+        shape = [1] * domain.ndim
+        shape[k] = n
+        return np.broadcast_to(c.reshape(shape), domain.field_shape).reshape(
+            domain.shape).copy()
+    k = {"x": 0, "y": 1, "z": 2}.get(axis)
+    if k is None:
+        raise ValueError(f"a mesh axis is 'x', 'y' or 'z', got {axis!r}")
+    c = np.asarray(domain.vertices[:, k], dtype=np.float64)
+    span = c.max() - c.min()
+    return (c - c.min()) / span if span > 0 else np.zeros_like(c)
+
+
+def _physical_coordinates(domain: Any) -> dict[str, Any]:
+    """``x, y, z`` (float64, the kernels' cell centres or vertex coordinates) and ``Lx, Ly,
+    Lz`` for evaluating parameter expressions on the host."""
+    from .compiler import Target
+
+    t = Target(domain, None, np.dtype(np.float64))  # no backend needed for host data
+    env: dict[str, Any] = {c: t.coordinate(c) for c in ("x", "y", "z")}
+    env.update(t.lengths())
+    return env
+
+
+# ---------------------------------------------------------------------------- parameters
+def param_field(spec: Mapping[str, Any], domain: Any, rng: np.random.Generator) -> np.ndarray:
+    """A float64 parameter field over ``domain`` from a spec:
+
+    * ``{"kind": "random", "low": a, "high": b}`` — independent uniform values per cell;
+    * ``{"kind": "sine", "mean": m, "amplitude": A, "axis": "x", "periods": 1}`` —
+      ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
+    * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
+    """
+    kind = spec.get("kind")
+    shape = domain_shape(domain)
+    if kind == "random":
+        return rng.uniform(float(spec["low"]), float(spec["high"]), size=shape)
+    if kind == "sine":
+        s = _coordinates(domain, spec.get("axis", "x"))
+        periods = float(spec.get("periods", 1.0))
+        return float(spec["mean"]) + float(spec["amplitude"]) * np.sin(2 * np.pi * periods * s)
+    if kind == "linear":
+        s = _coordinates(domain, spec.get("axis", "x"))
+        a, b = float(spec["start"]), float(spec["stop"])
+        return a + (b - a) * s
+    raise ValueError(
+        f"unknown parameter field kind {kind!r}; allowed: 'random', 'sine', 'linear'"
+    )
+
+
+def _field(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+    a = np.asarray(value, dtype=np.float64)
+    if a.shape != shape:
+        if a.size == int(np.prod(shape)) and (a.ndim == 1 or a.shape == shape[::-1]) \
+                and shape[0] == 1:
+            a = a.reshape(shape)
+        else:
+            raise ValueError(
+                f"parameter {name!r} has shape {a.shape}; a field must match the "
+                f"domain's shape {shape}"
+            )
+    if not np.isfinite(a).all():
+        raise ValueError(f"parameter field {name!r} contains NaN or Inf")
+    return np.ascontiguousarray(a)
+
+
+def resolve_params(
+    model: Any, domain: Any, params: Mapping[str, Any] | None, *, seed: int = 0
+) -> dict[str, Any]:
+    """The model's defaults updated by ``params``: every value a float, a float64 array of
+    the domain's shape (field specs drawn with ``numpy.random.default_rng(seed)``,
+    expressions without ``t`` evaluated), or an expression tree (:mod:`equations`) of
+    ``t`` and ``x, y, z`` to be inlined in the kernel."""
+    params = dict(params or {})
+    unknown = sorted(set(params) - set(model.defaults))
+    if unknown:
+        raise ValueError(
+            f"model {model.name!r} has no parameter(s) {unknown}; its parameters are "
+            f"{sorted(model.defaults)}"
+        )
+    shape = domain_shape(domain)
+    rng = np.random.default_rng(seed)
+    out: dict[str, Any] = {}
+    exprs: dict[str, str] = {}
+    for name in sorted(model.defaults):
+        value = params.get(name, model.defaults[name])
+        if isinstance(value, str):
+            exprs[name] = value
+            continue
+        if isinstance(value, Mapping):
+            value = param_field(value, domain, rng)
+        if isinstance(value, DeviceArray):
+            value = value.numpy()
+        if np.ndim(value) == 0:
+            if isinstance(value, (bool, np.bool_)) or not isinstance(
+                    value, (int, float, np.integer, np.floating)):
+                raise TypeError(f"parameter {name!r} must be a number, an array, a field "
+                                f"spec or an expression string, got {value!r}")
+            v = float(value)
+            if not math.isfinite(v):
+                raise ValueError(f"parameter {name!r} must be finite, got {v}")
+            out[name] = v
+            continue
+        out[name] = _field(name, value, shape)
+    if exprs:
+        out.update(_expression_params(model, domain, exprs, out))
+    return out
+
+
+def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str, Any]):
+    """Parameters given as expressions: evaluated on the host (no ``t``) or kept as a
+    tree with the scalar parameters they use substituted (``t``)."""
+    scalars = {k: v for k, v in resolved.items() if np.ndim(v) == 0}
+    env = None
+    out: dict[str, Any] = {}
+    for name, text in exprs.items():
+        tree = eq.parse(text, params=scalars, what=f"parameter {name!r}", laplace=False)
+        tree = eq.substitute(tree, lambda n: eq.Num(scalars[n.name])
+                             if isinstance(n, eq.Ref) and n.kind == "param" else None)
+        if eq.names(tree, "time"):
+            out[name] = tree
+            continue
+        if env is None:
+            env = _physical_coordinates(domain)
+        with np.errstate(all="ignore"):
+            value = eq.evaluate(tree, env)
+        if np.ndim(value) == 0:
+            v = float(value)
+            if not math.isfinite(v):
+                raise ValueError(f"parameter {name!r} = {text!r} is {v}")
+            out[name] = v
+        else:
+            out[name] = _field(name, np.broadcast_to(value, domain_shape(domain)),
+                               domain_shape(domain))
+    return out
+
+
+def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
+    v = params[name]
+    if np.ndim(v) != 0 or isinstance(v, eq.Node):
+        raise ValueError(f"{what} {name!r} must be a number, not a field or expression")
+    return float(v)
+
+
+def check_dt(dt: float, limit: float, what: str, check: bool) -> float:
+    dt = float(dt)
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive number, got {dt}")
+    if check and dt > limit:
+        raise StabilityError(
+            f"dt={dt} exceeds the stability limit {limit:.6g} of {what}; reduce dt, choose "
+            "an implicit method (method='imex') or pass check_stability=False"
+        )
+    return dt
+
+
+# ---------------------------------------------------------------------------- the model
+def _identifier(name: Any, what: str) -> str:
+    import keyword
+
+    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+        raise eq.EquationError(f"{what} {name!r} is not a valid identifier")
+    if not name.isascii():
+        raise eq.EquationError(f"{what} {name!r} must be ASCII (it becomes a C identifier)")
+    if name.startswith("_"):
+        raise eq.EquationError(f"{what} {name!r}: names starting with '_' are reserved")
+    if name in _RESERVED:
+        raise eq.EquationError(f"{what} {name!r} is a reserved name of the equation "
+                               f"language ({', '.join(sorted(_RESERVED))})")
+    return name
+
+
+class Model:
+    """A reaction-diffusion system ``∂s/∂t = f_s(...)`` for each species ``s``.
+
+    ``equations``: species → right-hand side (the language of
+    :mod:`rdgpu.models.equations`); ``parameters``: every parameter and its default
+    (module doc for the kinds of value).  Optional: ``bounds`` (clamps ``{species: (low,
+    high)}`` applied after each update, e.g. ``{"v": (0, None)}``), ``steady_guess(params)
+    -> [x_s]`` (the homogeneous state of interest, for :mod:`rdgpu.analysis`), and what a
+    run that names nothing else uses: ``spacing`` (the grid spacing the defaults are made
+    for; on a mesh the default diffusion coefficients are scaled by ``(mean edge /
+    spacing)²``), ``default_dt`` and ``default_time`` (numbers or functions of the
+    parameters), ``value_range`` (``{species: (lo, hi)}`` for pictures),
+    ``default_init``, ``default_fields`` (parameters whose default in a run is a field
+    spec), ``default_method``."""
+
+    methods = METHODS
+
+    def __init__(
+        self,
+        name: str,
+        equations: Mapping[str, str],
+        parameters: Mapping[str, Any] | None = None,
+        *,
+        description: str = "",
+        source: str = "",
+        bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
+        steady_guess: Callable[[Mapping[str, float]], Sequence[float]] | None = None,
+        spacing: float = 1.0,
+        default_dt: float | Callable[[Mapping[str, float]], float] | None = None,
+        default_time: float | Callable[[Mapping[str, float]], float] | None = None,
+        value_range: Mapping[str, tuple[float, float]] | None = None,
+        default_init: Mapping[str, Any] | None = None,
+        default_fields: Mapping[str, Mapping[str, Any]] | None = None,
+        default_method: str = "euler",
+    ):
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"a model name is a non-empty string, got {name!r}")
+        if not isinstance(equations, Mapping) or not equations:
+            raise eq.EquationError(
+                "equations map each species to its right-hand side, e.g. "
+                "{'u': 'Du*laplace(u) - u*v**2 + F*(1 - u)', 'v': '...'}")
+        self.name = name
+        self.species = tuple(_identifier(s, "species name") for s in equations)
+        self.defaults = dict(parameters or {})
+        for p in self.defaults:
+            _identifier(p, "parameter name")
+        clash = set(self.defaults) & set(self.species)
+        if clash:
+            raise eq.EquationError(f"names used both as species and parameter: {sorted(clash)}")
+        self.equations = {s: str(equations[s]).strip() for s in self.species}
+        self.trees = {
+            s: eq.parse(self.equations[s], species=self.species, params=self.defaults,
+                        what=f"equation of {s!r}")
+            for s in self.species
+        }
+        self.linear = {s: eq.linear_parts(t) for s, t in self.trees.items()}
+        self.bounds = {s: tuple(None if b is None else float(b) for b in v)
+                       for s, v in dict(bounds or {}).items()}
+        unknown = set(self.bounds) - set(self.species)
+        if unknown:
+            raise ValueError(f"bounds for unknown species {sorted(unknown)}")
+        self.description = description or "; ".join(
+            f"{s}_t = {self.equations[s]}" for s in self.species)
+        self.source = source
+        self._steady_guess = steady_guess
+        self.spacing = float(spacing)
+        self.default_dt = default_dt
+        self.default_time = default_time
+        self.value_range = dict(value_range or {})
+        self.default_init = dict(default_init) if default_init else None
+        self.default_fields = {k: dict(v) for k, v in (default_fields or {}).items()}
+        self.default_method = _method(default_method, self.methods)
+
+    def __repr__(self) -> str:
+        return f"<model {self.name!r}: {self.description}>"
+
+    # ------------------------------------------------------------------ the equations
+    @property
+    def diffusion(self) -> tuple[Any, ...]:
+        """Per species the coefficient of its own ``laplace`` (a parameter name, a number
+        or the text of an expression; 0 where it has none)."""
+        out = []
+        for s in self.species:
+            lin = self.linear[s]
+            c = None if lin is None else lin.diffusion.get(s)
+            if c is None:
+                out.append(0.0)
+            elif isinstance(c, eq.Ref):
+                out.append(c.name)
+            elif isinstance(c, eq.Num):
+                out.append(c.value)
+            else:
+                out.append(eq.to_text(c))
+        return tuple(out)
+
+    def _merged(self, params: Mapping[str, Any] | None) -> dict[str, Any]:
+        merged = {**self.defaults, **dict(params or {})}
+        out = {}
+        for k, v in merged.items():
+            if isinstance(v, str):
+                tree = eq.parse(v, params=[p for p in merged if p != k], laplace=False)
+                v = eq.evaluate(tree, {**{p: 0.0 for p in ("x", "y", "z", "t")},
+                                       **{L: 1.0 for L in eq.LENGTHS},
+                                       **{p: float(np.mean(merged[p])) for p in
+                                          eq.names(tree, "param")}})
+            elif isinstance(v, Mapping):
+                spec = v
+                v = (float(spec.get("mean", 0.0)) if spec.get("kind") == "sine" else
+                     0.5 * (float(spec.get("low", spec.get("start", 0.0)))
+                            + float(spec.get("high", spec.get("stop", 0.0)))))
+            elif isinstance(v, eq.Node):
+                v = eq.evaluate(v, {"x": 0.0, "y": 0.0, "z": 0.0, "t": 0.0,
+                                    **{L: 1.0 for L in eq.LENGTHS}})
+            out[k] = v
+        return out
+
+    def rates(self, fields: Sequence[Any], params: Mapping[str, Any], dtype: Any = None):
+        """The reaction terms (every Laplacian 0, ``x = y = z = t = 0``) evaluated in NumPy,
+        fields in species order (any real or complex dtype)."""
+        if len(fields) != len(self.species):
+            raise ValueError(f"need {len(self.species)} fields {self.species}, got {len(fields)}")
+        if dtype is None:
+            dtype = getattr(fields[0], "dtype", np.dtype(np.float64))
+        t = np.dtype(dtype).type
+        env = {p: (np.asarray(v).astype(t) if np.ndim(v) else t(v))
+               for p, v in self._merged(params).items()}
+        env.update({s: (np.asarray(x).astype(t) if np.ndim(x) else t(x))
+                    for s, x in zip(self.species, fields, strict=True)})
+        env.update({"x": t(0), "y": t(0), "z": t(0), "t": t(0),
+                    **{L: t(1) for L in eq.LENGTHS}})
+        with np.errstate(all="ignore"):
+            return [eq.evaluate(self.trees[s], env, literal=t, lap=lambda n, o: t(0))
+                    for s in self.species]
+
+    def linear_operators(self, params: Mapping[str, Any] | None = None):
+        """``(D, B)``: ``D[s, r]`` the coefficient of ``laplace(r)`` and ``B[s, r]`` of
+        ``laplace(laplace(r))`` in the equation of ``s`` (float64 matrices; a field
+        parameter enters with its value of largest magnitude), or None when a Laplacian
+        has a state-dependent coefficient."""
+        n = len(self.species)
+        merged = self._merged(params)
+        env = {}
+        for k, v in merged.items():
+            a = np.asarray(v, dtype=np.float64)
+            env[k] = float(a.ravel()[np.argmax(np.abs(a.ravel()))]) if a.ndim else float(a)
+        D, B = np.zeros((n, n)), np.zeros((n, n))
+        for i, s in enumerate(self.species):
+            lin = self.linear[s]
+            if lin is None:
+                return None
+            for target, coeffs in ((D, lin.diffusion), (B, lin.bilaplacian)):
+                for r, c in coeffs.items():
+                    target[i, self.species.index(r)] = float(eq.evaluate(c, env))
+        return D, B
+
+    def diffusion_coefficients(self, params: Mapping[str, Any] | None = None) -> list[float]:
+        """The diagonal of ``D`` (:meth:`linear_operators`): each species' own diffusion."""
+        ops = self.linear_operators(params)
+        if ops is None:
+            raise ValueError(f"model {self.name!r} has a state-dependent diffusion term")
+        d = [float(x) for x in np.diag(ops[0])]
+        for s, value in zip(self.species, d, strict=True):
+            if not math.isfinite(value):
+                raise ValueError(f"the diffusion coefficient of {s!r} is {value}")
+        return d
+
+    def steady_guess(self, params: Mapping[str, Any]) -> list[float] | None:
+        if self._steady_guess is None:
+            return None
+        merged = {k: float(np.mean(v)) for k, v in self._merged(params).items()}
+        return [float(x) for x in self._steady_guess(merged)]
+
+    def domain_defaults(self, domain: Any) -> dict[str, Any]:
+        """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
+        each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
+        edge length)."""
+        out: dict[str, Any] = {k: dict(v) for k, v in self.default_fields.items()}
+        if isinstance(domain, Grid) or not _is_mesh(domain):
+            return out
+        ratio = (float(domain.mean_edge_length) / self.spacing) ** 2
+        for d in self.diffusion:
+            if isinstance(d, str) and d in self.defaults and np.ndim(self.defaults[d]) == 0 \
+                    and not isinstance(self.defaults[d], str):
+                out[d] = float(self.defaults[d]) * ratio
+        return out
+
+    # ------------------------------------------------------------------ stepping
+    def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
+                 method: str = "euler") -> float:
+        """The largest stable ``dt`` of ``method`` on ``domain`` (module doc); ``inf`` when
+        the linear spatial part sets none."""
+        from .integrators import stability_limit
+
+        ops = self.linear_operators(params)
+        if ops is None:
+            return math.inf
+        return stability_limit(ops[0], ops[1], _largest_mode(domain), _method(method,
+                                                                               self.methods))
+
+    def stepper(
+        self,
+        domain: Any,
+        params: Mapping[str, Any] | None = None,
+        *,
+        dt: float,
+        backend: Backend | str | None = None,
+        dtype: Any = np.float64,
+        check_stability: bool = True,
+        seed: int = 0,
+        method: str | None = None,
+        tol: float | None = None,
+    ):
+        """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
+        ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
+        ``tol``: the implicit solves' accuracy (IMEX).  The fields start at zero: call
+        ``set_state``."""
+        from .integrators import ModelStepper
+
+        method = _method(method or self.default_method, self.methods)
+        p = resolve_params(self, domain, params, seed=seed)
+        limit = self.dt_limit(domain, p, method)
+        dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
+                      f"{method!r}", check_stability)
+        return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
+                            method, tol=tol)
+
+
+def _method(method: str, allowed: Sequence[str]) -> str:
+    m = str(method).lower()
+    if m not in allowed:
+        m = _ALIASES.get(m, m)
+    if m not in allowed:
+        raise ValueError(f"unknown method {method!r}; allowed: {', '.join(allowed)}")
+    return m
+
+
+def _largest_mode(domain: Any) -> float:
+    """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes,
+    ``λ_max(−L)`` on a mesh."""
+    if isinstance(domain, Grid):
+        hs = [domain.dx] + ([domain.dy] if domain.ndim > 1 else []) + \
+            ([domain.dz] if domain.ndim > 2 else [])
+        return sum(4.0 / (h * h) for h in hs)
+    domain_shape(domain)
+    return 2.0 / domain.max_stable_dt(1.0)
+
+
+def define_model(name: str, equations: Mapping[str, str],
+                 parameters: Mapping[str, Any] | None = None, **options: Any) -> Model:
+    """A :class:`Model` from its equations (py-pde's ``PDE`` spelling) and its parameters'
+    defaults; ``options`` are :class:`Model`'s keyword arguments (``bounds``,
+    ``description``, ``default_dt``, ...)."""
+    return Model(name, equations, parameters, **options)
