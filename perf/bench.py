@@ -8,6 +8,10 @@ same run, and the fraction of the memory-bandwidth roofline: the machine's bandw
 measured here (a STREAM-style triad, the best of NumPy on one core and OpenCL on all),
 and each kernel's roofline is bandwidth / (bytes it must move per cell).
 
+Model rows (``--model-size N``, 0 to skip; ``--models``): every built-in model's generated
+fused step (``model.stepper``, float32, an N² periodic grid, near its steady state) in
+Mcell/s and as a fraction of the hand-written Gray-Scott kernel timed in the same run.
+
 Real-state rows (``--real-size N``, 0 to skip): presets advanced from their default initial
 conditions, the first 200 steps against steps 2000-2200 of the same run (see
 ``perf/real_states.py``): random fields never show the slowdown of subnormal floats.
@@ -180,6 +184,59 @@ def time_case(be, step, seconds: float) -> float:
         be.synchronize()
         best = min(best, (time.perf_counter() - t0) / batch)
     return best
+
+
+# ---------------------------------------------------------------------------- model rows
+def model_case(model, be, n: int):
+    """A float32 stepper of ``model`` on an n² periodic grid (fields near its steady state
+    with ±10 % noise, dt half the stability limit, capped by the model's own step) and a
+    closure advancing it one step."""
+    from rdgpu.domains import Grid
+
+    grid = Grid((n, n), bc="periodic")
+    rng = np.random.default_rng(1)
+    guess = model.steady_guess({}) or [0.5] * len(model.species)
+    own = model.default_dt({}) if callable(model.default_dt) else model.default_dt
+    dt = min(0.5 * model.dt_limit(grid, {}), own or np.inf)
+    st = model.stepper(grid, {}, dt=dt, backend=be, dtype=np.float32)
+    st.set_state({s: (x + 0.1 * (abs(x) + 0.1) * rng.uniform(-1, 1, grid.shape))
+                  for s, x in zip(model.species, guess, strict=True)})
+    return lambda: st.advance(1)
+
+
+def model_rows(args, backends: dict) -> list[dict]:
+    """Every built-in model's generated fused step against the hand-written Gray-Scott
+    kernel (``backend.gray_scott``), side by side in this run, at ``--model-size``."""
+    from rdgpu.models import MODELS
+
+    n = args.model_size
+    rows = []
+    for name, be in backends.items():
+        hand = n * n / time_case(be, make_case("gray_scott", be, n), args.seconds) / 1e6
+        rows.append(dict(kernel="model", model="gray-scott (hand-written)", size=n,
+                         backend=name, device=be.device, mcells=hand, vs_hand=1.0))
+        print(f"model {'gray-scott (hand)':26s} {n}² {name:7s} {hand:9.1f} Mcell/s", flush=True)
+        for mname in args.models:
+            model = MODELS[mname]
+            mc = n * n / time_case(be, model_case(model, be, n), args.seconds) / 1e6
+            rows.append(dict(kernel="model", model=mname, size=n, backend=name,
+                             device=be.device, mcells=mc, vs_hand=mc / hand,
+                             species=len(model.species)))
+            print(f"model {mname:26s} {n}² {name:7s} {mc:9.1f} Mcell/s "
+                  f"x{mc / hand:5.2f} hand-written GS", flush=True)
+    return rows
+
+
+def model_markdown(rows: list[dict]) -> str:
+    if not rows:
+        return ""
+    lines = ["", f"Models: one fused generated step per model (float32, {rows[0]['size']}², "
+             "periodic), against the hand-written Gray-Scott kernel in the same run.", "",
+             "| model | backend | Mcell/s | × hand-written Gray-Scott |", "|---|---|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['model']} | {r['backend']} | {r['mcells']:.0f} | "
+                     f"{r['vs_hand']:.2f} |")
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------- mesh rows
@@ -368,6 +425,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="vertices of the mesh rows' icosphere (about; 0: no mesh rows)")
     parser.add_argument("--mesh-kernels", nargs="+", default=list(MESH_KERNELS),
                         choices=MESH_KERNELS)
+    parser.add_argument("--model-size", type=int, default=2048,
+                        help="grid size of the model rows (0: none)")
+    parser.add_argument("--models", nargs="*", default=None,
+                        help="models of the model rows (default: every built-in)")
     parser.add_argument("--real-size", type=int, default=1024,
                         help="grid size of the real-state rows (perf/real_states.py; 0: none)")
     args = parser.parse_args(argv)
@@ -394,6 +455,12 @@ def main(argv: list[str] | None = None) -> int:
                       f"{100 * row['roofline_fraction']:5.1f}% roofline", flush=True)
     if args.mesh_vertices > 0 and args.mesh_kernels:
         rows += mesh_rows(args, backends, bw)
+    models = []
+    if args.model_size > 0:
+        from rdgpu.models import MODELS
+
+        args.models = list(MODELS) if args.models is None else args.models
+        models = model_rows(args, {k: b for k, b in backends.items() if k != "numpy"})
     real = []
     if args.real_size > 0:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -408,9 +475,9 @@ def main(argv: list[str] | None = None) -> int:
                 rdgpu=rdgpu.__version__, numpy=np.__version__, bandwidth=bw,
                 devices={n: b.device for n, b in backends.items()},
                 date=time.strftime("%Y-%m-%d %H:%M"))
-    (out / "bench.json").write_text(json.dumps(dict(meta=meta, rows=rows, real_states=real),
-                                               indent=1))
-    table = markdown(rows, bw["GBps"])
+    (out / "bench.json").write_text(json.dumps(dict(meta=meta, rows=rows, real_states=real,
+                                                    models=models), indent=1))
+    table = markdown(rows, bw["GBps"]) + model_markdown(models)
     if real:
         table += "\n" + real_states.markdown(real, 200, 2000)
     (out / "bench.md").write_text(table)

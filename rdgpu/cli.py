@@ -70,18 +70,33 @@ def _size(text: str) -> tuple[int, int]:
     return parts[0], parts[1]
 
 
-def _param(text: str) -> tuple[str, float]:
+def _param(text: str) -> tuple[str, float | str]:
+    """``NAME=VALUE``: a number, or an expression of x, y, z, t, Lx, Ly, Lz, pi and the
+    other parameters (checked when the model is built)."""
     name, sep, value = text.partition("=")
-    if not sep or not name.strip():
+    name, value = name.strip(), value.strip()
+    if not sep or not name:
         raise argparse.ArgumentTypeError(f"--param needs NAME=VALUE, got {text!r}")
+    if not value:
+        raise argparse.ArgumentTypeError(f"--param {name}: no value after '='")
     try:
         v = float(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--param {name.strip()}: value must be a number, got {value!r}") from None
+        return name, value  # an expression
     if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"--param {name.strip()}: value must be finite")
-    return name.strip(), v
+        raise argparse.ArgumentTypeError(f"--param {name}: value must be finite")
+    return name, v
+
+
+def _equation(text: str) -> tuple[str, str]:
+    """``SPECIES=RIGHT-HAND SIDE`` of ``--equation``."""
+    name, sep, rhs = text.partition("=")
+    name, rhs = name.strip(), rhs.strip()
+    if not sep or not name or not rhs:
+        raise argparse.ArgumentTypeError(
+            f"--equation needs SPECIES=EXPRESSION, e.g. 'u=Du*laplace(u) - u*v**2 + "
+            f"F*(1 - u)', got {text!r}")
+    return name, rhs
 
 
 def _positive_int(text: str) -> int:
@@ -418,11 +433,13 @@ def _resume_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[s
         if name in meta.get("param_fields", []):
             out.append(f"--param {name} cannot change a resumed run (in the checkpoint "
                        f"{path} it is a field)")
-        elif not isinstance(theirs, (int, float)) or not math.isclose(value, theirs,
-                                                                       rel_tol=1e-12):
+        elif isinstance(value, str) or not isinstance(theirs, (int, float)) \
+                or not math.isclose(value, theirs, rel_tol=1e-12):
+            if isinstance(value, str) and value == theirs:
+                continue
             known = theirs if theirs is not None else "not a parameter of the model"
             out.append(f"--param {name} cannot change a resumed run (the checkpoint {path} "
-                       f"has {name}={known}, --param says {value:g})")
+                       f"has {name}={known}, --param says {value})")
     return out
 
 
@@ -433,7 +450,7 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
 
     if args.resume is not None:
         meta, _ = Simulation.read_checkpoint(args.resume)
-        if args.model not in (meta["model"], meta.get("preset")):
+        if args.model is not None and args.model not in (meta["model"], meta.get("preset")):
             raise UsageError(f"checkpoint {args.resume} is a run of {meta['model']!r}, "
                              f"not {args.model!r}")
         conflicts = _resume_conflicts(args, meta, args.resume)
@@ -457,6 +474,13 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     models, presets = _models(), _presets()
     preset = None
     model_name = args.model
+    defined = _equation_model(args) if args.equation else None
+    if defined is not None:
+        models = {**models, defined.name: defined}
+        model_name = defined.name
+    if model_name is None:
+        raise UsageError("name a MODEL ('rdgpu models') or a preset, or give the equations "
+                         "with --equation")
     if args.preset is not None:
         if args.preset not in presets:
             raise UsageError(f"unknown preset {args.preset!r}; see 'rdgpu presets'")
@@ -490,15 +514,26 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
                       len(model.species), itemsize)
         _picture_scale(args, (g, g) if isinstance(g, int) else tuple(g))
     seed = args.seed if args.seed is not None else getattr(preset, "seed", 0)
+    options = dict(getattr(preset, "options", None) or {})
+    if args.method is not None:
+        methods = tuple(getattr(model, "methods", ()) or ())
+        if args.method not in methods:
+            raise UsageError(f"--method {args.method!r}: model {model.name} has the methods "
+                             f"{', '.join(methods) or '(none)'}")
+        options["method"] = args.method
     try:
         sim = Simulation(
             model, domain, params,
             dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
             backend=args.backend, dtype=dtype, seed=seed,
             init=getattr(preset, "init", None), check_stability=not args.no_stability_check,
-            options=getattr(preset, "options", None),
+            options=options or None,
         )
     except StabilityError as exc:
+        raise UsageError(_cli_words(str(exc))) from None
+    except (ValueError, TypeError) as exc:
+        if "parameter" not in str(exc) and "equation" not in str(exc):
+            raise
         raise UsageError(_cli_words(str(exc))) from None
     sim.preset = preset
     steps = args.steps if args.steps is not None else sim.default_steps
@@ -514,6 +549,26 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
               "checkpoint_every": args.checkpoint_every}
     return sim, preset, {**kwargs, "_total": steps, "_snapshot_every": snapshot_every,
                          "_target": sim.step + steps}
+
+
+def _equation_model(args: argparse.Namespace) -> Any:
+    """The model of ``rdgpu run [NAME] --equation S=EXPR ... --param P=VALUE ...``: every
+    --param is one of its parameters."""
+    from .models import EquationError, define_model
+
+    if args.preset is not None:
+        raise UsageError("--preset and --equation cannot be combined: a preset names its model")
+    equations: dict[str, str] = {}
+    for species, rhs in args.equation:
+        if species in equations:
+            raise UsageError(f"--equation {species}=... is given twice")
+        equations[species] = rhs
+    params = dict(args.param or [])
+    try:
+        return define_model(args.model or "custom", equations, params,
+                            description="defined on the command line")
+    except (EquationError, ValueError) as exc:
+        raise UsageError(_cli_words(str(exc))) from None
 
 
 def _colour_limits(args: argparse.Namespace, model: Any, field: str) -> tuple[float, float] | None:
@@ -644,8 +699,9 @@ def build_parser() -> argparse.ArgumentParser:
         "  rdgpu run gray-scott --resume run.ckpt.npz --out final.png",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    run.add_argument("model", metavar="MODEL",
-                     help="model name ('rdgpu models'), or a preset name ('rdgpu presets')")
+    run.add_argument("model", metavar="MODEL", nargs="?",
+                     help="model name ('rdgpu models'), or a preset name ('rdgpu presets'); "
+                     "with --equation, the new model's name (default 'custom')")
     what = run.add_argument_group("what to run")
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
     where = what.add_mutually_exclusive_group()
@@ -658,8 +714,17 @@ def build_parser() -> argparse.ArgumentParser:
                       "run length over dt; with --resume: the total of the interrupted run)")
     what.add_argument("--dt", type=_positive_float, help="time step (default: the preset's, "
                       "else the smaller of 0.9 times the stability limit and the model's own)")
+    what.add_argument("--equation", type=_equation, action="append",
+                      metavar="SPECIES=EXPR", help="define the model by its equations, one "
+                      "per species (repeatable), in py-pde's spelling: "
+                      "--equation 'u=Du*laplace(u) - u*v**2 + F*(1 - u)'; every name they "
+                      "use besides species, x y z t Lx Ly Lz pi is a --param")
     what.add_argument("--param", type=_param, action="append", metavar="NAME=VALUE",
-                      help="set a model parameter (repeatable)")
+                      help="set a model parameter (repeatable): a number or an expression "
+                      "of x, y, z, t, Lx, Ly, Lz, pi, e.g. 'F=0.03+0.01*sin(2*pi*x/Lx)'")
+    what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
+                      "heun, rk3, imex, imex-cn (Allen-Cahn: explicit, implicit, "
+                      "crank-nicolson)")
     what.add_argument("--seed", type=_seed, help="random seed of the initial condition "
                       "(a whole number >= 0; default 0)")
     what.add_argument("--backend", help="numpy, warp, opencl or auto, optionally NAME:DEVICE "

@@ -790,6 +790,25 @@ def _lookup_model(model: Any) -> Any:
     return MODELS[model]
 
 
+def _model_definition(model: Any) -> dict:
+    """A checkpoint's record of a model defined by its equations (not a built-in): enough
+    to rebuild it on resume."""
+    equations = getattr(model, "equations", None)
+    defaults = getattr(model, "defaults", None)
+    if not isinstance(equations, dict):
+        return {}
+    try:
+        from .models import MODELS
+    except ImportError:  # pragma: no cover
+        return {}
+    if MODELS.get(model.name) is model:
+        return {}
+    plain = {k: v for k, v in (defaults or {}).items() if isinstance(v, (int, float, str))}
+    if len(plain) != len(defaults or {}):
+        return {}
+    return {"equations": dict(equations), "defaults": plain}
+
+
 def _lookup_preset(preset: Any) -> Any:
     if not isinstance(preset, str):
         return preset
@@ -1024,7 +1043,7 @@ class Simulation:
                     isinstance(v, np.ndarray) and v.dtype.kind == "c"):
                 raise TypeError(f"parameter {k!r} is complex ({v!r:.60}); parameters are real "
                                 "numbers or real fields")
-        if any(isinstance(v, Mapping) for v in {**defaults, **params}.values()):
+        if any(isinstance(v, (Mapping, str)) for v in {**defaults, **params}.values()):
             try:
                 from .models import resolve_params
             except ImportError as exc:
@@ -1146,6 +1165,7 @@ class Simulation:
             "backend": _backend_spec(self.backend),
             "device": self.backend.device,
             "preset": getattr(self.preset, "name", None),
+            **_model_definition(self.model),
         }
 
     def _checkpoint_arrays(self, state: Mapping[str, np.ndarray], run: dict,
@@ -1228,6 +1248,12 @@ class Simulation:
         (:func:`remove_stale_temporaries`)."""
         remove_stale_temporaries(path)
         meta, arrays = cls.read_checkpoint(path)
+        if model is None and "equations" in meta:
+            from .models import MODELS, define_model
+
+            if meta["model"] not in MODELS:  # a model defined by its equations
+                model = define_model(meta["model"], meta["equations"],
+                                     meta.get("defaults") or {})
         model = _lookup_model(meta["model"] if model is None else model)
         if model.name != meta["model"]:
             raise ValueError(f"checkpoint {str(path)!r} is of model {meta['model']!r}, "

@@ -127,7 +127,7 @@ BAD = [
     (["run", "no-such-model"], "unknown model"),
     (["run", "gray-scott", "--preset", "no-such-preset"], "unknown preset"),
     (["run", "gray-scott", "--param", "Q=1"], "--param Q"),
-    (["run", "gray-scott", "--param", "F=abc"], "must be a number"),
+    (["run", "gray-scott", "--param", "F=abc"], "unknown name 'abc'"),
     (["run", "gray-scott", "--param", "F"], "NAME=VALUE"),
     (["run", "gray-scott", "--size", "0x5"], "size must look like"),
     (["run", "gray-scott", "--size", "8", "--mesh", "sphere"], "not allowed with"),

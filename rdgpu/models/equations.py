@@ -373,10 +373,16 @@ def _coefficient(term: Node) -> tuple[tuple[str, int], Node] | None:
         la, lb = laplacians(term.a), laplacians(term.b)
         if la and not lb and _constant(term.b):
             inner = _coefficient(term.a)
-            return None if inner is None else (inner[0], Bin(term.op, inner[1], term.b))
+            if inner is None:
+                return None
+            if term.op == "*" and inner[1] == Num(1.0):
+                return inner[0], term.b
+            return inner[0], Bin(term.op, inner[1], term.b)
         if lb and not la and term.op == "*" and _constant(term.a):
             inner = _coefficient(term.b)
-            return None if inner is None else (inner[0], Bin("*", term.a, inner[1]))
+            if inner is None:
+                return None
+            return inner[0], (term.a if inner[1] == Num(1.0) else Bin("*", term.a, inner[1]))
     return None
 
 

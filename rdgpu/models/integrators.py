@@ -196,9 +196,11 @@ class ModelStepper(FieldStepper):
         # of t are inlined into the programs
         self._dev: dict[str, Any] = {}
         inline: dict[str, eq.Node] = {}
+        from .model import expression_tree
+
         for p, v in self.params.items():
-            if isinstance(v, eq.Node):
-                inline[p] = v
+            if isinstance(v, str):
+                inline[p] = expression_tree(p, v, self.params)
             elif isinstance(v, np.ndarray):
                 self._dev[p] = be.upload(np.ascontiguousarray(v, dtype=self.dtype))
             else:
@@ -263,7 +265,7 @@ class ModelStepper(FieldStepper):
 
         theta = 1.0 if self.method == "imex" else 0.5
         h = self.dt
-        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, eq.Node) else None)
+        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, str) else None)
                   for k, v in self.params.items()}
         explicit: dict[str, eq.Node] = {}
         self._solvers: dict[str, list[Any]] = {}

@@ -156,8 +156,8 @@ def resolve_params(
 ) -> dict[str, Any]:
     """The model's defaults updated by ``params``: every value a float, a float64 array of
     the domain's shape (field specs drawn with ``numpy.random.default_rng(seed)``,
-    expressions without ``t`` evaluated), or an expression tree (:mod:`equations`) of
-    ``t`` and ``x, y, z`` to be inlined in the kernel."""
+    expressions without ``t`` evaluated), or the text of an expression of ``t`` (to be
+    inlined in the kernel)."""
     params = dict(params or {})
     unknown = sorted(set(params) - set(model.defaults))
     if unknown:
@@ -194,18 +194,25 @@ def resolve_params(
     return out
 
 
+def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> eq.Node:
+    """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
+    replaced by their numbers."""
+    scalars = {k: v for k, v in params.items()
+               if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node))}
+    tree = eq.parse(text, params=scalars, what=f"parameter {name!r}", laplace=False)
+    return eq.substitute(tree, lambda n: eq.Num(float(scalars[n.name]))
+                         if isinstance(n, eq.Ref) and n.kind == "param" else None)
+
+
 def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str, Any]):
-    """Parameters given as expressions: evaluated on the host (no ``t``) or kept as a
-    tree with the scalar parameters they use substituted (``t``)."""
-    scalars = {k: v for k, v in resolved.items() if np.ndim(v) == 0}
+    """Parameters given as expressions: evaluated on the host (no ``t``) or kept as their
+    (validated) text, to be inlined in the kernel (``t``)."""
     env = None
     out: dict[str, Any] = {}
     for name, text in exprs.items():
-        tree = eq.parse(text, params=scalars, what=f"parameter {name!r}", laplace=False)
-        tree = eq.substitute(tree, lambda n: eq.Num(scalars[n.name])
-                             if isinstance(n, eq.Ref) and n.kind == "param" else None)
+        tree = expression_tree(name, text, resolved)
         if eq.names(tree, "time"):
-            out[name] = tree
+            out[name] = text
             continue
         if env is None:
             env = _physical_coordinates(domain)
@@ -224,7 +231,7 @@ def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str,
 
 def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
     v = params[name]
-    if np.ndim(v) != 0 or isinstance(v, eq.Node):
+    if np.ndim(v) != 0 or isinstance(v, (str, eq.Node)):
         raise ValueError(f"{what} {name!r} must be a number, not a field or expression")
     return float(v)
 
