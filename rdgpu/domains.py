@@ -1,4 +1,5 @@
-"""Where a simulation lives: a 1-D, 2-D or 3-D :class:`Grid` or a triangle mesh (``rdgpu.mesh.SurfaceMesh``)."""
+"""Where a simulation lives: a 1-D, 2-D or 3-D :class:`Grid` or a triangle mesh
+(``rdgpu.mesh.SurfaceMesh``)."""
 
 from __future__ import annotations
 

@@ -176,7 +176,8 @@ CASES = [
     # ---- domains
     ("grid-dx-nan", lambda: Grid((4, 4), dx=NAN), ValueError, "dx must be finite, got nan"),
     ("grid-shape-zero", lambda: Grid((0, 4)), ValueError, "every size >= 1"),
-    ("grid-shape-4d", lambda: Grid((2, 2, 2, 2)), ValueError, r"\(nx,\), \(ny, nx\) or \(nz, ny, nx\)"),
+    ("grid-shape-4d", lambda: Grid((2, 2, 2, 2)), ValueError,
+     r"\(nx,\), \(ny, nx\) or \(nz, ny, nx\)"),
     ("grid-dz-2d", lambda: Grid((2, 2), dz=1.0), ValueError, "only a 3-D grid"),
     ("grid-dy-1d", lambda: Grid((5,), dy=2.0), ValueError, "dy=2.0 given for a 1-D grid"),
 ]
