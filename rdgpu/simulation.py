@@ -228,8 +228,8 @@ def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain:
     out = []
     if mine["kind"] == "grid":
         for key in ("shape", "dx", "dy", "dz", "bc"):
-            if key == "dz" and "dz" not in desc and "dz" not in mine:
-                continue
+            if key == "dz" and ("dz" not in desc or "dz" not in mine):
+                continue  # 2-D against 3-D: the shapes differ already
             theirs = desc.get(key)
             ours = mine.get(key)
             if key == "shape":
