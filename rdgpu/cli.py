@@ -4,6 +4,7 @@
     rdgpu run allen-cahn --preset NAME --mesh torus --out torus.png --movie torus.mp4
     rdgpu run gray-scott --steps 50000 --checkpoint run.npz     # killed? then:
     rdgpu run gray-scott --resume run.npz --out final.png
+    rdgpu run MODEL --size 32x48x64 --out blob.png   # 3-D: planes x rows x columns
     rdgpu presets
     rdgpu models
     rdgpu backends
@@ -713,7 +714,8 @@ def build_parser() -> argparse.ArgumentParser:
         "  rdgpu run gray-scott --param F=0.03 --param k=0.055 --movie spots.gif\n"
         "  rdgpu run allen-cahn --mesh sphere --param b=-0.1 --out sphere.png\n"
         "  rdgpu run gray-scott --steps 100000 --checkpoint run.ckpt.npz\n"
-        "  rdgpu run gray-scott --resume run.ckpt.npz --out final.png",
+        "  rdgpu run gray-scott --resume run.ckpt.npz --out final.png\n"
+        "  rdgpu run MODEL --size 32x48x64 --view slices --out planes.png   # 3-D grid",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run.add_argument("model", metavar="MODEL",
