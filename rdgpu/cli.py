@@ -4,6 +4,7 @@
     rdgpu run allen-cahn --preset NAME --mesh torus --out torus.png --movie torus.mp4
     rdgpu run gray-scott --steps 50000 --checkpoint run.npz     # killed? then:
     rdgpu run gray-scott --resume run.npz --out final.png
+    rdgpu run MODEL --size 32x48x64 --out blob.png   # 3-D: planes x rows x columns
     rdgpu presets
     rdgpu models
     rdgpu backends
@@ -56,18 +57,25 @@ class _Parser(argparse.ArgumentParser):
 
 
 # ------------------------------------------------------------------------ argument types
-def _size(text: str) -> tuple[int, int]:
+_SIZE_FORMS = ("256 or 256x128 (rows x columns), or 32x48x64 (planes x rows x columns) "
+               "for a 3-D grid")
+
+
+def _size(text: str) -> tuple[int, ...]:
+    """``--size``: ``N`` is an N x N grid, ``NxM`` a 2-D grid of N rows (y) and M columns
+    (x), ``NxMxK`` a 3-D grid of N planes (z), M rows and K columns: the order of
+    :class:`~rdgpu.domains.Grid`'s shape, ``(ny, nx)`` or ``(nz, ny, nx)``."""
     try:
         parts = [int(p) for p in text.lower().split("x")]
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"size must look like 256 or 256x128 (rows x columns), got {text!r}") from None
+            f"size must look like {_SIZE_FORMS}, got {text!r}") from None
     if len(parts) == 1:
         parts *= 2
-    if len(parts) != 2 or min(parts) < 1:
+    if len(parts) not in (2, 3) or min(parts) < 1:
         raise argparse.ArgumentTypeError(
-            f"size must look like 256 or 256x128 (rows x columns), got {text!r}")
-    return parts[0], parts[1]
+            f"size must look like {_SIZE_FORMS}, got {text!r}")
+    return tuple(parts)
 
 
 def _param(text: str) -> tuple[str, float | str]:
@@ -141,6 +149,16 @@ def _colour_range(text: str) -> tuple[float, ...]:
     return lo, hi
 
 
+def _finite_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return x
+
+
 def _positive_float(text: str) -> float:
     try:
         x = float(text)
@@ -176,18 +194,18 @@ def _describe_domain(domain: Any) -> str:
     from .domains import Grid
 
     if isinstance(domain, Grid):
-        ny, nx = domain.shape
         bc = domain.bcs
-        bcs = bc.y.name if bc.y == bc.x else f"{bc.y.name}/{bc.x.name}"
-        return f"{ny}x{nx} grid (dx={domain.dx:g}, {bcs})"
+        axes = (bc.z, bc.y, bc.x) if domain.ndim == 3 else (bc.y, bc.x)
+        names = [a.name for a in axes]
+        bcs = names[0] if len(set(axes)) == 1 else "/".join(names)
+        return f"{_grid_text(domain.shape)} grid (dx={domain.dx:g}, {bcs})"
     return f"mesh of {domain.n_vertices} vertices, {domain.n_faces} faces"
 
 
 def _describe_spec(spec: dict) -> str:
     if "grid" in spec:
         g = spec["grid"]
-        ny, nx = (g, g) if isinstance(g, int) else g
-        return f"{ny}x{nx} grid"
+        return f"{_grid_text((g, g) if isinstance(g, int) else g)} grid"
     opts = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "mesh")
     return f"mesh {spec['mesh']}" + (f" ({opts})" if opts else "")
 
@@ -214,7 +232,11 @@ def _domain_spec(args: argparse.Namespace, preset: Any, model: Any) -> Any:
             "grid": DEFAULT_SIZE, "dx": float(getattr(model, "spacing", 1.0)),
             "bc": "periodic"})
     if args.size is not None:
-        keep = {k: base[k] for k in ("dx", "dy", "bc") if "grid" in base and k in base}
+        keep = {k: base[k] for k in ("dx", "dy", "dz", "bc") if "grid" in base and k in base}
+        if len(args.size) == 3:
+            keep["bc"] = _bc_for_3d(keep.get("bc", "periodic"))
+        elif len(args.size) == 2 and "dz" in keep:
+            del keep["dz"]
         return {"grid": args.size, **keep}
     if args.mesh is not None:
         if "mesh" in base and str(base["mesh"]) == args.mesh:
@@ -225,6 +247,15 @@ def _domain_spec(args: argparse.Namespace, preset: Any, model: Any) -> Any:
             raise UsageError(f"--mesh {args.mesh!r}: no such file (or use sphere or torus)")
         return {"mesh": args.mesh}
     return base
+
+
+def _bc_for_3d(bc: Any) -> Any:
+    """The boundary condition of a 3-D ``--size`` from a 2-D default: a pair
+    ``(y_bc, x_bc)`` becomes ``(y_bc, y_bc, x_bc)`` (z takes the rows' condition); one
+    condition or a triple stays as it is."""
+    from .boundary import _is_pair
+
+    return (bc[0], bc[0], bc[1]) if _is_pair(bc) else bc
 
 
 def _say(args: argparse.Namespace, text: str) -> None:
@@ -369,25 +400,65 @@ def _check_memory(what: str, cells: int, n_species: int, itemsize: int, snapshot
                          f"machine has {_bytes(have)}")
 
 
+def _picture_size(shape: tuple[int, ...], k: int) -> tuple[int, int]:
+    """``(height, width)`` in pixels of the picture of a grid of ``shape`` at ``k`` pixels a
+    cell: the grid itself in 2-D (one row in 1-D), the three mid-plane slices of a 3-D grid
+    (the largest picture a 3-D field can get, see ``rdgpu.output.slices_rgb``)."""
+    if len(shape) == 3:
+        from .output import slices_size
+
+        return slices_size(shape, k)
+    ny, nx = (1, shape[0]) if len(shape) == 1 else shape[-2:]
+    return ny * k, nx * k
+
+
 def _picture_scale(args: argparse.Namespace, shape: tuple[int, ...] | None) -> int:
     """--scale, or the default (2, or 1 for a grid too large for that); refuse a picture
     past MAX_PICTURE_PIXELS or MAX_PICTURE_SIDE."""
     if shape is None:  # a mesh: rendered at a fixed window size
         return args.scale or DEFAULT_SCALE
-    ny, nx = (1, shape[0]) if len(shape) == 1 else shape[-2:]
 
     def fits(k: int) -> bool:
-        return ny * k * nx * k <= MAX_PICTURE_PIXELS and max(ny, nx) * k <= MAX_PICTURE_SIDE
+        h, w = _picture_size(shape, k)
+        return h * w <= MAX_PICTURE_PIXELS and max(h, w) <= MAX_PICTURE_SIDE
 
     if args.scale is None:
         return DEFAULT_SCALE if fits(DEFAULT_SCALE) else 1
     if not fits(args.scale):
         most = max([k for k in range(1, args.scale) if fits(k)], default=None)
-        raise UsageError(f"--scale {args.scale} makes a {ny * args.scale}x{nx * args.scale}-"
-                         f"pixel picture of this {ny}x{nx} grid; the most is "
+        h, w = _picture_size(shape, args.scale)
+        what = "slices of this" if len(shape) == 3 else "this"
+        grid = _grid_text((1, shape[0]) if len(shape) == 1 else shape)
+        raise UsageError(f"--scale {args.scale} makes a {h}x{w}-"
+                         f"pixel picture of {what} {grid} grid; the most is "
                          f"{MAX_PICTURE_SIDE} pixels a side and {MAX_PICTURE_PIXELS:,} in all"
                          + (f" (--scale {most} or less)" if most else ""))
     return args.scale
+
+
+def _frame_size(shape: tuple[int, ...], scale: int) -> tuple[int, int]:
+    """``(height, width)`` of a movie frame of a grid: its picture at ``scale``, at least
+    the 480 x 480 window of a 3-D isosurface frame."""
+    h, w = _picture_size(shape, scale)
+    return (max(h, 480), max(w, 480)) if len(shape) == 3 else (h, w)
+
+
+def _check_view(args: argparse.Namespace, domain: Any) -> None:
+    """--view and --level picture 3-D grids only; --view isosurface needs pyvista."""
+    from .domains import Grid
+
+    if not (isinstance(domain, Grid) and domain.ndim == 3):
+        for option in ("--view", "--level"):
+            if getattr(args, option[2:]) is not None:
+                raise UsageError(f"{option} is for 3-D grids (--size NxMxK); this run is on "
+                                 f"a {_describe_domain(domain)}")
+        return
+    if args.view == "isosurface":
+        import importlib.util
+
+        if importlib.util.find_spec("pyvista") is None:
+            raise UsageError("--view isosurface needs pyvista (pip install pyvista); "
+                             "--view slices needs nothing more")
 
 
 def _cli_words(text: str) -> str:
@@ -611,12 +682,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     is_mesh = isinstance(sim.domain, SurfaceMesh)
     if not is_mesh and any(Path(d).suffix.lower() in MESH_FORMATS for d in args.data or []):
         raise UsageError("VTK/PLY data files need a mesh (--mesh); use .npz for a grid")
+    _check_view(args, sim.domain)
     if args.movie and not every:
         raise UsageError("--movie needs snapshots, and this run takes none: give "
                          "--snapshot-every N")
     scale = _picture_scale(args, None if is_mesh else sim.shape)
     snapshots = (total // every + 2) if every else 0
-    pixels = 0 if is_mesh or not args.movie else int(math.prod(sim.shape)) * scale * scale
+    pixels = 0 if is_mesh or not args.movie else math.prod(_frame_size(sim.shape, scale))
     _check_memory(f"this run ({total} steps)", int(math.prod(sim.shape)), len(sim.species),
                   sim.dtype.itemsize, snapshots, pixels)
     limits = _colour_limits(args, sim.model, field)
@@ -648,7 +720,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         written = write_outputs(result, png=out, movie=args.movie, data=args.data, field=field,
                                 cmap=args.cmap or "viridis", scale=scale, fps=args.fps,
                                 vmin=None if limits is None else limits[0],
-                                vmax=None if limits is None else limits[1])
+                                vmax=None if limits is None else limits[1],
+                                view=args.view or "auto", level=args.level)
     for path in written:
         _say(args, f"wrote {path}")
     if stopped is not None:
@@ -696,7 +769,8 @@ def build_parser() -> argparse.ArgumentParser:
         "  rdgpu run gray-scott --param F=0.03 --param k=0.055 --movie spots.gif\n"
         "  rdgpu run allen-cahn --mesh sphere --param b=-0.1 --out sphere.png\n"
         "  rdgpu run gray-scott --steps 100000 --checkpoint run.ckpt.npz\n"
-        "  rdgpu run gray-scott --resume run.ckpt.npz --out final.png",
+        "  rdgpu run gray-scott --resume run.ckpt.npz --out final.png\n"
+        "  rdgpu run MODEL --size 32x48x64 --view slices --out planes.png   # 3-D grid",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run.add_argument("model", metavar="MODEL", nargs="?",
@@ -705,8 +779,10 @@ def build_parser() -> argparse.ArgumentParser:
     what = run.add_argument_group("what to run")
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
     where = what.add_mutually_exclusive_group()
-    where.add_argument("--size", type=_size, metavar="NxM",
-                       help="grid of N rows x M columns (256 means 256x256)")
+    where.add_argument("--size", type=_size, metavar="NxM[xK]",
+                       help="grid of N rows x M columns (256 means 256x256), or NxMxK: a "
+                       "3-D grid of N planes (z) x M rows (y) x K columns (x); a preset's "
+                       "or model's (y, x) boundary conditions give z the rows' condition")
     where.add_argument("--mesh", metavar="FILE|sphere|torus",
                        help="run on a triangle mesh: a generator or a mesh file")
     what.add_argument("--steps", type=_positive_int, metavar="N",
@@ -746,6 +822,14 @@ def build_parser() -> argparse.ArgumentParser:
                       "model's known range of the field, else auto: the field's own range)")
     outs.add_argument("--scale", type=_at_least_1, help="pixels per grid cell (default 2; 1 "
                       "for very large grids)")
+    outs.add_argument("--view", choices=("auto", "isosurface", "slices"),
+                      help="picture of a 3-D grid: isosurface (pyvista, off-screen), slices "
+                      "(the xy, xz and yz mid-planes side by side) or auto (default: the "
+                      "isosurface, or the slices when it would show nothing or pyvista "
+                      "cannot render)")
+    outs.add_argument("--level", type=_finite_float, metavar="VALUE",
+                      help="the isosurface's value (3-D grids; default: the middle of the "
+                      "colour range)")
     outs.add_argument("--fps", type=_positive_float, default=10.0, help="movie frame rate")
     outs.add_argument("--snapshot-every", type=_positive_int, metavar="N",
                       help="keep a snapshot every N steps (default: the preset's; with "

@@ -2,9 +2,10 @@
 
 * :func:`save_png` -- a colour-mapped PNG of a field: a grid field pixel for pixel
   (:mod:`rdgpu.images`), a mesh field rendered off-screen with pyvista
-  (:func:`render_mesh_png`).
+  (:func:`render_mesh_png`), a 3-D grid field as an isosurface rendered with pyvista
+  (:func:`render_volume`) or as three mid-plane slices (:func:`slices_rgb`).
 * :func:`save_movie` -- a GIF or MP4 of the snapshots (imageio; MP4 needs
-  ``imageio-ffmpeg``), with one colour scale for all frames.
+  ``imageio-ffmpeg``), with one colour scale and one renderer for all frames.
 * :func:`save_mesh` -- VTK/VTP/VTU or PLY files of a mesh with its fields attached.
 * :func:`save_npz` / :func:`load_npz` -- one NPZ per run with the final fields, the
   snapshots, their times and steps, the parameters, the model, the domain, the backend, the
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,18 +31,24 @@ from .images import to_rgb
 __all__ = [
     "MESH_FORMATS",
     "MOVIE_FORMATS",
+    "VIEWS_3D",
     "load_npz",
     "render_mesh",
     "render_mesh_png",
+    "render_volume",
     "save_mesh",
     "save_movie",
     "save_npz",
     "save_png",
+    "slices_rgb",
+    "slices_size",
     "write_outputs",
 ]
 
 MOVIE_FORMATS = (".gif", ".mp4")
 MESH_FORMATS = (".vtk", ".vtp", ".vtu", ".ply")
+#: how a field on a 3-D grid is pictured (see :func:`save_png`)
+VIEWS_3D = ("auto", "isosurface", "slices")
 _NPZ_FORMAT = 1
 
 PathLike = str | os.PathLike
@@ -98,23 +106,34 @@ def _camera(plotter: Any, camera: Any) -> None:
         plotter.camera_position = list(camera)
 
 
+def _pyvista() -> Any:
+    """pyvista, set to render off-screen, with VTK's display warnings silenced."""
+    try:
+        import pyvista as pv
+    except ImportError as exc:  # pragma: no cover - pyvista is a test dependency
+        raise RuntimeError(f"rendering needs pyvista ({exc}): pip install pyvista") from None
+    pv.OFF_SCREEN = True
+    try:  # VTK warns when no X display exists, then renders with EGL/OSMesa anyway
+        from vtkmodules.vtkCommonCore import vtkLogger
+
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    except ImportError:  # pragma: no cover
+        pass
+    return pv
+
+
+def _screenshot(plotter: Any) -> np.ndarray:
+    plotter.render()
+    return np.asarray(plotter.screenshot(return_img=True))[..., :3].copy()
+
+
 class _MeshRenderer:
     """One off-screen pyvista plotter for a mesh; :meth:`image` renders a field."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, cmap: str,
                  clim: tuple[float, float], camera: Any, window_size: tuple[int, int],
                  background: str, show_edges: bool, scalar_bar: bool) -> None:
-        try:
-            import pyvista as pv
-        except ImportError as exc:  # pragma: no cover - pyvista is a test dependency
-            raise RuntimeError(f"rendering a mesh needs pyvista ({exc}): pip install pyvista") \
-                from None
-        try:  # VTK warns when no X display exists, then renders with EGL/OSMesa anyway
-            from vtkmodules.vtkCommonCore import vtkLogger
-
-            vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
-        except ImportError:  # pragma: no cover
-            pass
+        pv = _pyvista()
         cells = np.hstack([np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel()
         self.pd = pv.PolyData(np.asarray(vertices, dtype=np.float64), cells)
         self.n = len(vertices)
@@ -129,27 +148,82 @@ class _MeshRenderer:
     def image(self, field: np.ndarray) -> np.ndarray:
         self.pd.point_data["field"][:] = np.asarray(field, dtype=np.float64).ravel()
         self.pd.point_data["field"].Modified()
-        self.plotter.render()
-        return np.asarray(self.plotter.screenshot(return_img=True))[..., :3].copy()
+        return _screenshot(self.plotter)
 
     def close(self) -> None:
         self.plotter.close()
 
 
+class _VolumeRenderer:
+    """One off-screen pyvista plotter for fields on a 3-D grid: the isosurface
+    ``field = level`` (one colour, the colour map's at ``level`` within ``clim``) inside the
+    grid's grey outline; :meth:`image` renders a ``[nz, ny, nx]`` field.
+
+    The grid is a ``pv.ImageData`` whose points are the cell centres ``((j + ½) dx,
+    (i + ½) dy, (k + ½) dz)``; a C-order ``[nz, ny, nx]`` field is VTK's x-fastest point
+    order.  The camera is set once from the outline, so movie frames share one view."""
+
+    def __init__(self, shape: tuple[int, int, int], spacing: tuple[float, float, float], *,
+                 cmap: str, clim: tuple[float, float], level: float, camera: Any,
+                 window_size: tuple[int, int], background: str) -> None:
+        pv = _pyvista()
+        nz, ny, nx = (int(n) for n in shape)
+        dz, dy, dx = (float(h) for h in spacing)
+        self.grid = pv.ImageData(dimensions=(nx, ny, nz), spacing=(dx, dy, dz),
+                                 origin=(dx / 2, dy / 2, dz / 2))
+        self.level = float(level)
+        self.colour = _level_colour(cmap, clim, self.level)
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background(background)
+        self.plotter.add_mesh(self.grid.outline(), color="gray", line_width=1)
+        _camera(self.plotter, {"zoom": 1.0} if camera is None else camera)
+
+    def image(self, field: np.ndarray) -> np.ndarray:
+        self.grid.point_data["field"] = np.asarray(field, dtype=np.float64).ravel()
+        surface = self.grid.contour([self.level], scalars="field")
+        self.plotter.remove_actor("isosurface", render=False)
+        if surface.n_points:  # a frame that does not reach the level shows the outline only
+            self.plotter.add_mesh(surface, color=self.colour, smooth_shading=True,
+                                  name="isosurface", reset_camera=False)
+        return _screenshot(self.plotter)
+
+    def close(self) -> None:
+        self.plotter.close()
+
+
+def _level_colour(cmap: str, clim: tuple[float, float], level: float) -> tuple:
+    """The RGB colour (floats in [0, 1]) that ``cmap`` gives ``level`` on the scale ``clim``."""
+    from matplotlib import colormaps
+
+    lo, hi = clim
+    t = (level - lo) / (hi - lo) if hi > lo else 0.5
+    return tuple(float(c) for c in colormaps[cmap](min(max(t, 0.0), 1.0))[:3])
+
+
 def _render_frames(mesh: Any, frames: np.ndarray, options: dict) -> np.ndarray:
-    """Render every frame (``[n, n_vertices]``) of a mesh field to ``[n, h, w, 3]`` uint8.
+    """Render every frame (``[n, n_vertices]``) of a mesh field to ``[n, h, w, 3]`` uint8
+    (see :func:`_render`)."""
+    frames = np.asarray(frames, dtype=np.float64)
+    if frames.ndim != 2 or frames.shape[1] != mesh.n_vertices:
+        raise ValueError(f"a mesh field needs one value per vertex ({mesh.n_vertices}), got "
+                         f"shape {frames.shape[1:]}")
+    arrays = {"vertices": np.asarray(mesh.vertices), "faces": np.asarray(mesh.faces),
+              "frames": frames}
+    return _render(arrays, {**options, "kind": "mesh"})
+
+
+def _render(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
+    """Render ``arrays["frames"]`` to ``[n, h, w, 3]`` uint8 images: a mesh
+    (``options["kind"] == "mesh"``, arrays ``vertices`` and ``faces``) or a 3-D grid
+    (``"volume"``, array ``spacing`` = ``(dz, dy, dx)``).
 
     The rendering runs in a child Python process: VTK's off-screen rendering loads Mesa's
     LLVM, and an OpenCL driver that links another LLVM (PoCL, Oclgrind) and initialises
     later in the same process aborts it ("LLVM ERROR: inconsistency in registered
     CommandLine options").  ``RDGPU_RENDER_INPROCESS=1`` renders in this process instead
     (faster; safe when no OpenCL device is opened after the first rendering)."""
-    frames = np.asarray(frames, dtype=np.float64)
-    if frames.ndim != 2 or frames.shape[1] != mesh.n_vertices:
-        raise ValueError(f"a mesh field needs one value per vertex ({mesh.n_vertices}), got "
-                         f"shape {frames.shape[1:]}")
     if os.environ.get("RDGPU_RENDER_INPROCESS"):
-        return _render_here(np.asarray(mesh.vertices), np.asarray(mesh.faces), frames, options)
+        return _render_here(arrays, options)
     import subprocess
     import sys
     import tempfile
@@ -159,22 +233,27 @@ def _render_frames(mesh: Any, frames: np.ndarray, options: dict) -> np.ndarray:
         p for p in (root, os.environ.get("PYTHONPATH")) if p)}
     with tempfile.TemporaryDirectory(prefix="rdgpu-render-") as tmp:
         src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
-        np.savez(src, vertices=np.asarray(mesh.vertices), faces=np.asarray(mesh.faces),
-                 frames=frames, options=np.array(json.dumps(options)))
+        np.savez(src, **arrays, options=np.array(json.dumps(options)))
         code = "import sys; from rdgpu.output import _render_main; _render_main(*sys.argv[1:])"
         proc = subprocess.run([sys.executable, "-c", code, str(src), str(dst)], env=env,
                               capture_output=True, text=True)
         if proc.returncode != 0 or not dst.exists():
             lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
-            raise RuntimeError("rendering the mesh failed: "
+            what = "the 3-D field" if options.get("kind") == "volume" else "the mesh"
+            raise RuntimeError(f"rendering {what} failed: "
                                + (lines[-1] if lines else f"exit status {proc.returncode}"))
         with np.load(dst) as z:
             return z["images"]
 
 
-def _render_here(vertices: np.ndarray, faces: np.ndarray, frames: np.ndarray,
-                 options: dict) -> np.ndarray:
-    r = _MeshRenderer(vertices, faces, **options)
+def _render_here(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
+    options = dict(options)
+    kind = options.pop("kind", "mesh")
+    frames = arrays["frames"]
+    if kind == "volume":
+        r: Any = _VolumeRenderer(frames.shape[1:], tuple(arrays["spacing"]), **options)
+    else:
+        r = _MeshRenderer(arrays["vertices"], arrays["faces"], **options)
     try:
         return np.stack([r.image(f) for f in frames])
     finally:
@@ -182,14 +261,13 @@ def _render_here(vertices: np.ndarray, faces: np.ndarray, frames: np.ndarray,
 
 
 def _render_main(src: str, dst: str) -> None:
-    """Entry point of the rendering child process (see :func:`_render_frames`)."""
+    """Entry point of the rendering child process (see :func:`_render`)."""
     with np.load(src, allow_pickle=False) as z:
-        vertices, faces, frames = z["vertices"], z["faces"], z["frames"]
+        arrays = {k: z[k] for k in z.files if k != "options"}
         options = json.loads(str(z["options"]))
     options["clim"] = tuple(options["clim"])
     options["window_size"] = tuple(options["window_size"])
-    images = _render_here(vertices, faces, frames, options)
-    np.savez(dst, images=images)
+    np.savez(dst, images=_render_here(arrays, options))
 
 
 def _render_options(frames: np.ndarray, *, cmap: str, camera: Any, vmin: float | None,
@@ -246,6 +324,149 @@ def _prepare(path: PathLike) -> Path:
     return path
 
 
+# ---------------------------------------------------------------------- 3-D grid fields
+def _is_volume(field: np.ndarray, domain: Any) -> bool:
+    """Whether ``field`` is pictured as a 3-D grid field: on a 3-D :class:`Grid`, or an
+    array of three dimensions without a domain."""
+    if isinstance(domain, Grid):
+        return domain.ndim == 3
+    return domain is None and np.ndim(field) == 3
+
+
+def _volume_frames(frames: Any, domain: Any) -> np.ndarray:
+    """``frames`` as a float64 ``[n, nz, ny, nx]`` array (flat frames reshaped to the grid)."""
+    data = np.asarray(frames, dtype=np.float64)
+    if isinstance(domain, Grid) and data.ndim == 2 and data.shape[1] == domain.n_points:
+        data = data.reshape(len(data), *domain.shape)
+    if data.ndim != 4 or (isinstance(domain, Grid) and data.shape[1:] != domain.shape):
+        want = domain.shape if isinstance(domain, Grid) else "(nz, ny, nx)"
+        raise ValueError(f"a 3-D picture needs fields of shape {want}, got {data.shape[1:]}")
+    return data
+
+
+def _spacing(domain: Any) -> tuple[float, float, float]:
+    """``(dz, dy, dx)`` of a 3-D grid; 1 for a bare array."""
+    return (domain.dz, domain.dy, domain.dx) if isinstance(domain, Grid) else (1.0, 1.0, 1.0)
+
+
+def slices_size(shape: Sequence[int], scale: int = 1) -> tuple[int, int]:
+    """``(height, width)`` in pixels of :func:`slices_rgb` of a field of ``shape``
+    ``(nz, ny, nx)``."""
+    nz, ny, nx = (int(n) for n in shape)
+    gap = 2 * scale
+    return max(ny, nz) * scale, (nx + nx + ny) * scale + 2 * gap
+
+
+def slices_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
+               vmax: float | None = None, scale: int = 1) -> np.ndarray:
+    """Three orthogonal mid-plane slices of a ``[nz, ny, nx]`` field side by side, as an
+    ``(h, w, 3)`` uint8 image (sizes: :func:`slices_size`), on one colour scale
+    (``vmin``/``vmax``, default the field's range).
+
+    Left to right: the xy plane at ``z = nz // 2`` (rows y, columns x: a 2-D picture of
+    that plane), the xz plane at ``y = ny // 2`` (rows z, columns x) and the yz plane at
+    ``x = nx // 2`` (rows z, columns y); row 0 at the top, each cell ``scale``×``scale``
+    pixels, panels top-aligned with white gaps of ``2 scale`` pixels and white below the
+    shorter ones."""
+    a = np.asarray(field, dtype=np.float64)
+    if a.ndim != 3:
+        raise ValueError(f"slices need a 3-D field [nz, ny, nx], got shape {a.shape}")
+    lo, hi = _limits(a, vmin, vmax)
+    nz, ny, nx = a.shape
+    panels = [a[nz // 2], a[:, ny // 2, :], a[:, :, nx // 2]]
+    height, width = slices_size(a.shape, scale)
+    out = np.full((height, width, 3), 255, dtype=np.uint8)
+    left = 0
+    for p in panels:
+        rgb = to_rgb(p, cmap, lo, hi)
+        rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
+        out[:rgb.shape[0], left:left + rgb.shape[1]] = rgb
+        left += rgb.shape[1] + 2 * scale
+    return out
+
+
+def _iso_level(level: float | None, lo: float, hi: float) -> float:
+    """The isosurface level: ``level``, else the middle of the colour range ``[lo, hi]``."""
+    return 0.5 * (lo + hi) if level is None else float(level)
+
+
+def render_volume(
+    field: np.ndarray,
+    grid: Grid | None = None,
+    *,
+    level: float | None = None,
+    cmap: str = "viridis",
+    camera: Any = None,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    window_size: tuple[int, int] = (800, 800),
+    background: str = "white",
+) -> np.ndarray:
+    """Render the isosurface ``field = level`` of a ``[nz, ny, nx]`` field off-screen with
+    pyvista (``pv.ImageData`` of the cell centres, spaced by the grid's ``dx``, ``dy``,
+    ``dz``; 1 without a grid); an ``(h, w, 3)`` uint8 image.
+
+    ``level`` defaults to the middle of the colour range (``vmin``/``vmax``, default the
+    field's range); the surface takes the colour map's colour at ``level``, inside the
+    grid's grey outline.  ``camera`` as in :func:`render_mesh` (default: the isometric
+    view).  Rendered in a child process (see :func:`_render`)."""
+    frames = _volume_frames(np.asarray(field)[None], grid)
+    lo, hi = _limits(frames, vmin, vmax)
+    return _render_volume(frames, grid, _iso_level(level, lo, hi), cmap=cmap, clim=(lo, hi),
+                          camera=camera, window_size=window_size, background=background)[0]
+
+
+def _render_volume(frames: np.ndarray, grid: Any, level: float, *, cmap: str,
+                   clim: tuple[float, float], camera: Any, window_size: tuple[int, int],
+                   background: str = "white") -> np.ndarray:
+    """Isosurface images ``[n, h, w, 3]`` of ``[n, nz, ny, nx]`` frames (one camera)."""
+    if min(frames.shape[1:]) < 2:
+        raise ValueError(f"an isosurface needs at least 2 cells along every axis, got "
+                         f"{frames.shape[1:]}; picture it as slices")
+    if isinstance(camera, (tuple, list)):
+        camera = [list(map(float, p)) for p in camera]
+    options = {"kind": "volume", "cmap": cmap, "clim": [float(c) for c in clim],
+               "level": float(level), "camera": camera,
+               "window_size": [int(w) for w in window_size], "background": background}
+    arrays = {"frames": frames, "spacing": np.asarray(_spacing(grid), dtype=np.float64)}
+    return _render(arrays, options)
+
+
+def _volume_view(view: str, frames: np.ndarray, level: float) -> str:
+    """The renderer of 3-D frames: ``view`` itself, or for ``"auto"`` the isosurface when
+    pyvista is installed, every side has 2 cells or more and some frame reaches ``level``
+    (else there is nothing to draw), and the slices otherwise."""
+    import importlib.util
+
+    if view not in VIEWS_3D:
+        raise ValueError(f"view must be one of {', '.join(VIEWS_3D)}, got {view!r}")
+    if view != "auto":
+        return view
+    finite = frames[np.isfinite(frames)]
+    crosses = finite.size > 0 and finite.min() < level < finite.max()
+    if importlib.util.find_spec("pyvista") is None or min(frames.shape[1:]) < 2 or not crosses:
+        return "slices"
+    return "isosurface"
+
+
+def _volume_images(frames: np.ndarray, domain: Any, *, view: str, level: float | None,
+                   cmap: str, lo: float, hi: float, scale: int, camera: Any,
+                   window_size: tuple[int, int]) -> list[np.ndarray]:
+    """One picture per ``[nz, ny, nx]`` frame, all by one renderer (see :func:`save_png`);
+    with ``view="auto"`` a failed isosurface rendering warns and falls back to slices."""
+    level = _iso_level(level, lo, hi)
+    if _volume_view(view, frames, level) == "isosurface":
+        try:
+            return list(_render_volume(frames, domain, level, cmap=cmap, clim=(lo, hi),
+                                       camera=camera, window_size=window_size))
+        except RuntimeError as exc:
+            if view != "auto":
+                raise
+            warnings.warn(f"{exc}; drawing mid-plane slices instead", RuntimeWarning,
+                          stacklevel=3)
+    return [slices_rgb(f, cmap, lo, hi, scale) for f in frames]
+
+
 # ------------------------------------------------------------------------------- PNG
 def save_png(
     path: PathLike,
@@ -258,10 +479,31 @@ def save_png(
     scale: int = 1,
     camera: Any = None,
     window_size: tuple[int, int] = (800, 800),
+    view: str = "auto",
+    level: float | None = None,
 ) -> Path:
     """A colour-mapped PNG of ``field``: on a mesh ``domain`` a pyvista rendering
-    (:func:`render_mesh_png`), on a 1-D grid a plot of the field against x, otherwise the
-    grid field with each cell ``scale``×``scale`` pixels (row 0 at the top)."""
+    (:func:`render_mesh_png`), on a 1-D grid a plot of the field against x, on a 3-D grid
+    (or a 3-D array without a domain) a picture chosen by ``view``, otherwise the grid
+    field with each cell ``scale``×``scale`` pixels (row 0 at the top).
+
+    3-D ``view``: ``"isosurface"`` -- the surface ``field = level`` rendered off-screen
+    with pyvista at ``window_size`` (:func:`render_volume`; ``level`` defaults to the
+    middle of the colour range ``vmin``..``vmax``); ``"slices"`` -- the xy, xz and yz
+    mid-planes side by side, ``scale`` pixels a cell (:func:`slices_rgb`); ``"auto"``
+    (default) -- the isosurface, except the slices where it would show nothing or cannot be
+    drawn: pyvista missing, a side of fewer than 2 cells, a field that does not reach the
+    level (e.g. uniform), or a failed rendering (with a ``RuntimeWarning``)."""
+    if _is_volume(field, domain):
+        frames = _volume_frames(np.asarray(field)[None], domain)
+        lo, hi = _limits(frames, vmin, vmax)
+        img = _volume_images(frames, domain, view=view, level=level, cmap=cmap, lo=lo, hi=hi,
+                             scale=scale, camera=camera, window_size=window_size)[0]
+        import imageio.v3 as iio
+
+        path = _prepare(path)
+        iio.imwrite(path, img)
+        return path
     if isinstance(domain, Grid) and domain.ndim == 1:
         return _save_line_plot(_prepare(path), np.asarray(field).ravel(), domain, vmin, vmax)
     if _is_mesh(domain):
@@ -314,11 +556,15 @@ def save_movie(
     scale: int = 1,
     camera: Any = None,
     window_size: tuple[int, int] = (480, 480),
+    view: str = "auto",
+    level: float | None = None,
 ) -> Path:
-    """A GIF or MP4 (by extension) of ``frames`` (``[n, ny, nx]`` grid fields, or
-    ``[n, n_vertices]`` on a mesh ``domain``, rendered with pyvista) with one colour scale
-    (``vmin``/``vmax``, default the range over all frames).  MP4 needs ``imageio-ffmpeg``
-    (H.264, frames padded to even sizes)."""
+    """A GIF or MP4 (by extension) of ``frames`` (``[n, ny, nx]`` grid fields,
+    ``[n, n_vertices]`` on a mesh ``domain``, rendered with pyvista, or ``[n, nz, ny, nx]``
+    on a 3-D grid, pictured as :func:`save_png` does by ``view`` and ``level``, one
+    renderer and one camera for all frames; ``"auto"`` takes the isosurface when some frame
+    reaches the level) with one colour scale (``vmin``/``vmax``, default the range over
+    all frames).  MP4 needs ``imageio-ffmpeg`` (H.264, frames padded to even sizes)."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in MOVIE_FORMATS:
@@ -333,6 +579,10 @@ def save_movie(
         options = _render_options(data, cmap=cmap, camera=camera, vmin=lo, vmax=hi,
                                   window_size=window_size)
         images = list(_render_frames(domain, data.reshape(len(data), -1), options))
+    elif _is_volume(data[0], domain):
+        images = _volume_images(_volume_frames(data, domain), domain, view=view, level=level,
+                                cmap=cmap, lo=lo, hi=hi, scale=scale, camera=camera,
+                                window_size=window_size)
     else:
         images = []
         for f in data:
@@ -476,12 +726,15 @@ def write_outputs(
     camera: Any = None,
     vmin: float | None = None,
     vmax: float | None = None,
+    view: str = "auto",
+    level: float | None = None,
 ) -> list[Path]:
     """Write the outputs of a run, by extension: ``png`` (the final ``field``), ``movie``
     (``.gif``/``.mp4`` of that field's snapshots), ``data`` (``.npz`` data files and
     ``.vtk``/``.vtp``/``.vtu``/``.ply`` meshes with every final field).  ``field`` defaults
     to the first species; ``vmin``/``vmax`` fix the colour scale (default: the field's
-    range)."""
+    range); ``view`` and ``level`` say how a 3-D grid field is pictured (see
+    :func:`save_png`)."""
     species = list(result.fields)
     name = species[0] if field is None else field
     if name not in result.fields:
@@ -489,10 +742,11 @@ def write_outputs(
     written: list[Path] = []
     if png is not None:
         written.append(save_png(png, result.fields[name], result.domain, cmap=cmap, scale=scale,
-                                camera=camera, vmin=vmin, vmax=vmax))
+                                camera=camera, vmin=vmin, vmax=vmax, view=view, level=level))
     if movie is not None:
         written.append(save_movie(movie, result.snapshots[name], result.domain, cmap=cmap,
-                                  fps=fps, scale=scale, camera=camera, vmin=vmin, vmax=vmax))
+                                  fps=fps, scale=scale, camera=camera, vmin=vmin, vmax=vmax,
+                                  view=view, level=level))
     if data is not None:
         for p in [data] if isinstance(data, (str, os.PathLike)) else data:
             ext = Path(p).suffix.lower()

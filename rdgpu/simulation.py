@@ -84,7 +84,7 @@ _INIT_KEYS = {
     "square": {"values", "inside", "size", "center", "noise"},
     "spots": {"values", "inside", "count", "radius", "noise"},
     "patch": {"values", "patch", "radius", "noise"},
-    "halves": {"values", "x_low", "y_low", "center", "noise"},
+    "halves": {"values", "x_low", "y_low", "z_low", "center", "noise"},
 }
 
 
@@ -95,7 +95,8 @@ def _is_mesh(domain: Any) -> bool:
 
 def _field_shape(domain: Any) -> tuple[int, ...]:
     """The shape of a field as users see it: ``(nx,)`` on a 1-D grid, ``(ny, nx)`` on a 2-D
-    one (the kernels hold a 1-D field as one row), ``(n_vertices,)`` on a mesh."""
+    one (the kernels hold a 1-D field as one row), ``(nz, ny, nx)`` on a 3-D one,
+    ``(n_vertices,)`` on a mesh."""
     if isinstance(domain, Grid):
         return domain.field_shape
     if _is_mesh(domain):
@@ -122,7 +123,8 @@ _MESH_DEFAULTS = {"icosphere": {"subdivisions": 4}, "torus": {"n_major": 96, "n_
 def build_domain(spec: Any) -> Any:
     """A :class:`Grid` or :class:`SurfaceMesh` from a preset's domain description.
 
-    ``{"grid": (ny, nx), "dx": 1.0, "dy": None, "bc": "periodic"}`` gives a grid;
+    ``{"grid": (ny, nx), "dx": 1.0, "dy": None, "bc": "periodic"}`` gives a grid (a 3-D
+    one from ``(nz, ny, nx)``, with the option ``dz``; an int ``n`` means ``(n, n)``);
     ``{"mesh": NAME, **options}`` a mesh, where NAME is ``"sphere"`` (icosphere, options
     ``subdivisions`` = 4, ``radius``), ``"uv-sphere"``, ``"torus"`` (``R``, ``r``,
     ``n_major`` = 96, ``n_minor`` = 48), ``"plane"`` (jittered plane), ``"height-field"``,
@@ -137,14 +139,14 @@ def build_domain(spec: Any) -> Any:
         shape = spec.pop("grid")
         if isinstance(shape, (int, np.integer)):
             shape = (int(shape), int(shape))
-        allowed = {"dx", "dy", "bc"}
+        allowed = {"dx", "dy", "dz", "bc"}
         unknown = set(spec) - allowed
         if unknown:
             raise ValueError(
                 f"unknown grid option(s) {sorted(unknown)}; allowed: {sorted(allowed)}"
             )
         return Grid(tuple(int(n) for n in shape), dx=float(spec.get("dx", 1.0)),
-                    dy=spec.get("dy"), bc=spec.get("bc", "periodic"))
+                    dy=spec.get("dy"), dz=spec.get("dz"), bc=spec.get("bc", "periodic"))
     if "mesh" in spec:
         from .mesh import SurfaceMesh
 
@@ -177,18 +179,25 @@ def build_domain(spec: Any) -> Any:
 
 
 def _bc_json(grid: Grid) -> list:
-    """The grid's conditions as JSON: ``[y_bc, x_bc]`` (2-D) or ``[x_bc]`` (1-D)."""
-    out = []
-    for axis in (grid.bcs.x,) if grid.ndim == 1 else (grid.bcs.y, grid.bcs.x):
-        out.append(["dirichlet", axis.value] if axis.name == "dirichlet" else axis.name)
-    return out
+    """The grid's conditions as JSON, one per axis of ``field_shape``: ``[x_bc]`` (1-D),
+    ``[y_bc, x_bc]`` (2-D) or ``[z_bc, y_bc, x_bc]`` (3-D)."""
+    axes = {1: (grid.bcs.x,), 2: (grid.bcs.y, grid.bcs.x),
+            3: (grid.bcs.z, grid.bcs.y, grid.bcs.x)}[grid.ndim]
+    return [["dirichlet", a.value] if a.name == "dirichlet" else a.name for a in axes]
 
 
 def describe_domain(domain: Any, source: Any = None) -> dict:
-    """A JSON-able description of a domain (meshes: the generator/path if known, sizes)."""
+    """A JSON-able description of a domain (meshes: the generator/path if known, sizes).
+
+    A grid: ``kind``, ``shape`` (``field_shape``), ``dx``, ``dy`` (``None`` in 1-D) and
+    ``bc`` (see :func:`_bc_json`); a 3-D grid also ``dz`` (1-D and 2-D descriptions have no
+    ``dz`` key, as before 3-D grids existed)."""
     if isinstance(domain, Grid):
-        return {"kind": "grid", "shape": list(domain.field_shape), "dx": float(domain.dx),
-                "dy": float(domain.dy) if domain.ndim == 2 else None, "bc": _bc_json(domain)}
+        out = {"kind": "grid", "shape": list(domain.field_shape), "dx": float(domain.dx),
+               "dy": float(domain.dy) if domain.ndim >= 2 else None, "bc": _bc_json(domain)}
+        if domain.ndim == 3:
+            out["dz"] = float(domain.dz)
+        return out
     if _is_mesh(domain):
         out: dict[str, Any] = {"kind": "mesh", "n_vertices": int(domain.n_vertices),
                                "n_faces": int(domain.n_faces)}
@@ -203,7 +212,8 @@ def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) ->
     if desc["kind"] == "grid":
         conds = [tuple(b) if isinstance(b, list) else b for b in desc["bc"]]
         bc = conds[0] if len(set(conds)) == 1 else tuple(conds)
-        return Grid(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"], bc=bc)
+        return Grid(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"], dz=desc.get("dz"),
+                    bc=bc)
     from .mesh import SurfaceMesh
 
     return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"])
@@ -217,9 +227,11 @@ def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain:
         return [f"a {desc.get('kind')} in the checkpoint, a {mine['kind']} here"]
     out = []
     if mine["kind"] == "grid":
-        for key in ("shape", "dx", "dy", "bc"):
+        for key in ("shape", "dx", "dy", "dz", "bc"):
+            if key == "dz" and ("dz" not in desc or "dz" not in mine):
+                continue  # 2-D against 3-D: the shapes differ already
             theirs = desc.get(key)
-            ours = mine[key]
+            ours = mine.get(key)
             if key == "shape":
                 theirs = "x".join(str(n) for n in theirs or [])
                 ours = "x".join(str(n) for n in ours)
@@ -242,11 +254,15 @@ def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain:
 
 
 def _bc_text(bc: Any) -> str:
-    """``['periodic', 'periodic']`` as ``periodic``, else ``y/x`` with Dirichlet values."""
-    if not isinstance(bc, (list, tuple)) or len(bc) != 2:
+    """``['periodic', 'periodic']`` as ``periodic``, else ``y/x`` (``z/y/x`` in 3-D) with
+    Dirichlet values."""
+    if not isinstance(bc, (list, tuple)) or len(bc) not in (2, 3):
         return str(bc)
     parts = [f"dirichlet({b[1]:g})" if isinstance(b, (list, tuple)) else str(b) for b in bc]
-    return parts[0] if parts[0] == parts[1] else f"{parts[0]} (y)/{parts[1]} (x)"
+    if len(set(parts)) == 1:
+        return parts[0]
+    names = ("z", "y", "x")[-len(parts):]
+    return "/".join(f"{p} ({n})" for p, n in zip(parts, names, strict=True))
 
 
 # ------------------------------------------------------------------------ initial state
@@ -293,43 +309,74 @@ def _whole(value: Any, name: str, minimum: int = 0) -> int:
 
 
 def _extent(domain: Any) -> float:
+    """The largest side of a grid (physical units) or of a mesh's bounding box."""
     if isinstance(domain, Grid):
-        if domain.ndim == 1:
-            return domain.shape[1] * domain.dx
-        return max(domain.shape[0] * domain.dy, domain.shape[1] * domain.dx)
+        return max(domain.lengths)
     V = np.asarray(domain.vertices)
     return float((V.max(axis=0) - V.min(axis=0)).max())
 
 
-def _grid_distance(grid: Grid, centre: tuple[float, float], *, cells: bool) -> np.ndarray:
-    """Distance from ``centre`` (cell indices i, j) to every cell, wrapping periodic axes;
-    in cells (``cells=True``) or in physical units."""
+def _grid_axes(grid: Grid) -> list[tuple[int, float, Any]]:
+    """``(cells, spacing, AxisBC)`` per axis of the kernels' shape: ``(y, x)`` or
+    ``(z, y, x)``; the absent y axis of a 1-D grid has spacing 0 (it adds no distance)."""
+    b = grid.bcs
+    axes = [(grid.shape[-2], 0.0 if grid.ndim == 1 else grid.dy, b.y),
+            (grid.shape[-1], grid.dx, b.x)]
+    if grid.ndim == 3:
+        axes.insert(0, (grid.shape[0], grid.dz, b.z))
+    return axes
+
+
+def _grid_distance(grid: Grid, centre: tuple[float, ...], *, cells: bool) -> np.ndarray:
+    """Distance from ``centre`` (cell indices, one per axis of ``grid.shape``: ``(i, j)`` or
+    ``(k, i, j)``) to every cell, wrapping periodic axes; in cells (``cells=True``) or in
+    physical units."""
     from .boundary import PERIODIC
 
-    ny, nx = grid.shape
-    sy, sx = (1.0, 1.0) if cells else (grid.dy, grid.dx)
-    if grid.ndim == 1:
-        sy = 0.0  # one row, no y axis
-    d = []
-    axes = ((ny, centre[0], sy, grid.bcs.y, 0), (nx, centre[1], sx, grid.bcs.x, 1))
-    for n, c, s, axis, along in axes:
+    d2: Any = 0.0
+    for along, ((n, h, axis), c) in enumerate(zip(_grid_axes(grid), centre, strict=True)):
         k = np.abs(np.arange(n) - c)
         if axis.kind == PERIODIC:
             k = np.minimum(k, n - k)
-        d.append((k * s).reshape((-1, 1) if along == 0 else (1, -1)))
-    return np.sqrt(d[0] ** 2 + d[1] ** 2)
+        s = (1.0 if h else 0.0) if cells else h
+        shape = [1] * len(grid.shape)
+        shape[along] = -1
+        d2 = d2 + ((k * s) ** 2).reshape(shape)
+    return np.sqrt(d2)
+
+
+def _centre(center: Any, n: int, what: str) -> tuple[float, ...]:
+    """``center`` as ``n`` fractions of the sides: ``(y, x)`` (``n = 2``), or ``(z, y, x)``
+    (``n = 3``, a 3-D grid), where a pair ``(y, x)`` puts z in the middle (so 2-D initial
+    conditions carry over to 3-D grids); ``None`` is the middle of every side."""
+    form = "(z, y, x) or (y, x)" if n == 3 else "(y, x)"
+    if center is None:
+        return (0.5,) * n
+    try:
+        values = [_number(c, "center") for c in center]
+    except TypeError:
+        raise ValueError(f"init {what} center is {form} fractions, got {center!r}") from None
+    if n == 3 and len(values) == 2:
+        values.insert(0, 0.5)
+    if len(values) != n:
+        raise ValueError(f"init {what} center is {form} fractions, got {center!r}")
+    return tuple(values)
 
 
 def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
+    """A box of ``size`` times each side (a square in 2-D, a cube on a cubic 3-D grid)
+    around ``center`` (fractions of the sides; mesh: a point, default the bounding-box
+    centre)."""
     if not 0 < size <= 1:
         raise ValueError(f"init square size is a fraction of each side in (0, 1], got {size}")
     if isinstance(domain, Grid):
-        ny, nx = domain.shape
-        cy, cx = (0.5, 0.5) if center is None else (float(center[0]), float(center[1]))
-        mask = np.zeros((ny, nx), dtype=bool)
-        hy, hx = max(1, round(size * ny / 2)), max(1, round(size * nx / 2))
-        iy, ix = int(cy * ny), int(cx * nx)
-        mask[max(iy - hy, 0):iy + hy, max(ix - hx, 0):ix + hx] = True
+        mask = np.zeros(domain.shape, dtype=bool)
+        box = []
+        fractions = _centre(center, len(domain.shape), "square")
+        for n, c in zip(domain.shape, fractions, strict=True):
+            half, mid = max(1, round(size * n / 2)), int(c * n)
+            box.append(slice(max(mid - half, 0), mid + half))
+        mask[tuple(box)] = True
         return mask
     V = np.asarray(domain.vertices)
     lo, hi = V.min(axis=0), V.max(axis=0)
@@ -339,32 +386,37 @@ def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
     return (np.abs(V - c) <= half + 1e-12 * (hi - lo).max()).all(axis=1)
 
 
-def _half_masks(domain: Any, cy: float, cx: float) -> tuple[np.ndarray, np.ndarray]:
-    """Points with y below the fraction ``cy`` and with x below ``cx`` of the domain
-    (grid rows and columns; a mesh's bounding box)."""
-    if not (0 <= cy <= 1 and 0 <= cx <= 1):
-        raise ValueError(f"init halves center is (y, x) fractions in [0, 1], got {(cy, cx)}")
+def _half_masks(domain: Any, center: Any) -> dict[str, np.ndarray]:
+    """``{"y_low": ..., "x_low": ...}`` (and ``"z_low"`` on a 3-D grid): the points with
+    that coordinate below the fraction ``center`` of the domain -- grid rows, columns and
+    planes; a mesh's bounding box, ``center = (y, x)``, default the middle."""
+    n = len(domain.shape) if isinstance(domain, Grid) else 2
+    fractions = _centre(center, n, "halves")
+    if not all(0 <= c <= 1 for c in fractions):
+        raise ValueError(f"init halves center is fractions in [0, 1], got {tuple(fractions)}")
     if isinstance(domain, Grid):
-        ny, nx = domain.shape
-        rows, cols = np.indices((ny, nx))
-        return rows < cy * ny, cols < cx * nx
+        names = ("z_low", "y_low", "x_low")[-n:]
+        index = np.indices(domain.shape, sparse=True)
+        return {name: np.broadcast_to(i < c * cells, domain.shape) for name, i, c, cells
+                in zip(names, index, fractions, domain.shape, strict=True)}
     V = np.asarray(domain.vertices, dtype=np.float64)
     lo, hi = V.min(axis=0), V.max(axis=0)
-    return (V[:, 1] < lo[1] + cy * (hi[1] - lo[1]), V[:, 0] < lo[0] + cx * (hi[0] - lo[0]))
+    cy, cx = fractions
+    return {"y_low": V[:, 1] < lo[1] + cy * (hi[1] - lo[1]),
+            "x_low": V[:, 0] < lo[0] + cx * (hi[0] - lo[0])}
 
 
 def _ball_mask(domain: Any, rng: np.random.Generator, count: int, radius: float,
                *, cells: bool) -> np.ndarray:
-    """Union of ``count`` balls around random cells/vertices; ``radius`` in cells (mesh:
-    mean edge lengths) when ``cells``, else as a fraction of the domain extent."""
+    """Union of ``count`` balls (discs in 2-D) around random cells/vertices; ``radius`` in
+    cells (mesh: mean edge lengths) when ``cells``, else as a fraction of the domain
+    extent.  Grid centres are drawn axis by axis, ``(y, x)`` or ``(z, y, x)``."""
     if isinstance(domain, Grid):
-        ny, nx = domain.shape
-        iy = rng.integers(0, ny, count)
-        ix = rng.integers(0, nx, count)
+        centres = [rng.integers(0, n, count) for n in domain.shape]
         r = radius if cells else radius * _extent(domain)
-        mask = np.zeros((ny, nx), dtype=bool)
-        for a, b in zip(iy, ix, strict=True):  # loop over spots, not cells
-            mask |= _grid_distance(domain, (float(a), float(b)), cells=cells) <= r
+        mask = np.zeros(domain.shape, dtype=bool)
+        for c in zip(*centres, strict=True):  # loop over spots, not cells
+            mask |= _grid_distance(domain, tuple(float(i) for i in c), cells=cells) <= r
         return mask
     V = np.asarray(domain.vertices)
     centres = rng.integers(0, V.shape[0], count)
@@ -375,6 +427,22 @@ def _ball_mask(domain: Any, rng: np.random.Generator, count: int, radius: float,
     return mask
 
 
+def _set_halves(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Any,
+                species: tuple[str, ...]) -> None:
+    """Apply the ``y_low``, ``x_low`` (and on a 3-D grid ``z_low``) values of a
+    ``"halves"`` init to ``fields`` (see :func:`initial_state`)."""
+    masks = _half_masks(domain, init.get("center"))
+    if init.get("z_low") is not None and "z_low" not in masks:
+        raise ValueError("init halves z_low needs a 3-D grid (nz, ny, nx); this domain has "
+                         "no z axis")
+    for key in ("z_low", "y_low", "x_low"):
+        if key not in masks:
+            continue
+        for s, x in _per_species(init.get(key), species, key, None).items():
+            if x is not None:
+                fields[s][masks[key]] = _number(x, f"{key} value of {s!r}")
+
+
 def initial_state(
     init: Mapping[str, Any] | None,
     domain: Any,
@@ -382,7 +450,8 @@ def initial_state(
     seed: int = 0,
     dtype: Any = np.float64,
 ) -> dict[str, np.ndarray]:
-    """Initial fields for ``species`` on ``domain`` (grid ``[ny, nx]``, mesh ``[n]``).
+    """Initial fields for ``species`` on ``domain`` (grid ``[ny, nx]`` -- ``[1, nx]`` in 1-D
+    -- or ``[nz, ny, nx]``, mesh ``[n]``).
 
     Generated on the host in float64 with ``numpy.random.default_rng(seed)``, then cast to
     ``dtype``: the same seed gives the same fields whatever the backend.  ``init`` kinds:
@@ -407,6 +476,15 @@ def initial_state(
       fractions of the bounding box, ``(y, x)``), those of ``y_low`` where y is below it:
       an excited half meeting a refractory half breaks a wave, the seed of spirals.
 
+    On a 3-D grid ``(nz, ny, nx)`` every kind keeps its meaning with one more axis:
+    ``square`` is a box of ``size`` times each side (a cube on a cubic grid), ``spots``
+    are balls of ``radius`` cells, ``patch`` a ball of ``radius`` times the largest side
+    (physical units, periodic axes wrapped), and ``halves`` cut along planes: ``x_low`` and
+    ``y_low`` as in 2-D (so a 2-D spiral seed becomes a scroll-wave seed), plus ``z_low``
+    (3-D only) below the z fraction, applied in the order ``z_low``, ``y_low``, ``x_low``
+    (the later wins where they overlap).  ``center`` is ``(z, y, x)``, or ``(y, x)`` with
+    z in the middle.  Random centres are drawn axis by axis, z first.
+
     ``values`` (everywhere; missing species are 0) and ``inside`` are per-species dicts or
     one number for all.  ``noise`` (a number or per-species dict) adds uniform noise in
     ``[-noise, noise]`` to every point of that species.  Random numbers are drawn in this
@@ -421,7 +499,7 @@ def initial_state(
     if unknown:
         raise ValueError(f"unknown option(s) {sorted(unknown)} for init kind {kind!r}; "
                          f"allowed: {sorted(_INIT_KEYS[kind])}")
-    # built on the kernels' shape (a 1-D grid is one row), returned in the users' shape
+    # built on the kernels' shape (a 1-D grid is one row; 3-D is (nz, ny, nx))
     shape = domain.shape if isinstance(domain, Grid) else _field_shape(domain)
     rng = np.random.default_rng(seed)
     values = _per_species(init.get("values"), species, "values", 0.0)
@@ -470,16 +548,7 @@ def initial_state(
                 fields[s][mask] = _number(x, f"patch value of {s!r}")
 
     elif kind == "halves":
-        center = init.get("center", (0.5, 0.5))
-        try:
-            cy, cx = (_number(c, "center") for c in center)
-        except TypeError:
-            raise ValueError(f"init halves center is (y, x) fractions, got {center!r}") from None
-        masks = _half_masks(domain, cy, cx)
-        for key, mask in zip(("y_low", "x_low"), masks, strict=True):
-            for s, x in _per_species(init.get(key), species, key, None).items():
-                if x is not None:
-                    fields[s][mask] = _number(x, f"{key} value of {s!r}")
+        _set_halves(fields, init, domain, species)
 
     noise = _per_species(init.get("noise", 0.0), species, "noise", 0.0)
     for s in species:
@@ -743,7 +812,10 @@ def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -
     if kind == "mesh":
         needed += ["mesh_vertices", "mesh_faces"]
     elif kind == "grid":
-        if not all(k in meta["domain"] for k in ("shape", "dx", "dy", "bc")):
+        keys = ("shape", "dx", "dy", "bc")
+        if isinstance(meta["domain"].get("shape"), list) and len(meta["domain"]["shape"]) == 3:
+            keys += ("dz",)
+        if not all(k in meta["domain"] for k in keys):
             raise ValueError(f"{name} is not a usable rdgpu checkpoint: its grid "
                              "description is incomplete")
     else:
