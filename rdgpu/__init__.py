@@ -37,6 +37,14 @@ def __getattr__(name: str):
         from .mesh import SurfaceMesh
 
         return SurfaceMesh
+    if name in ("define_model", "Simulation"):  # the model layer, imported on first use
+        if name == "Simulation":
+            from .simulation import Simulation
+
+            return Simulation
+        from .models import define_model
+
+        return define_model
     raise AttributeError(f"module 'rdgpu' has no attribute {name!r}")
 
 
@@ -45,10 +53,12 @@ __all__ = [
     "ConvergenceError",
     "ImplicitDiffusion",
     "StabilityError",
+    "Simulation",
     "SurfaceMesh",
     "allen_cahn",
     "available_backends",
     "bernoulli_substep",
+    "define_model",
     "diffusion_step",
     "get_backend",
     "gray_scott",
