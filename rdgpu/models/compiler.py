@@ -45,7 +45,7 @@ from ..backends.base import Backend, DeviceArray
 from ..domains import Grid
 from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
-from .equations import Bin, Call, Lap, Neg, Node, Num, Ref, evaluate, walk
+from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
 
 __all__ = ["Output", "Program", "Target", "launch"]
 

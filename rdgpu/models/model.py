@@ -430,6 +430,29 @@ class Model:
                 raise ValueError(f"the diffusion coefficient of {s!r} is {value}")
         return d
 
+    def _check_diffusion(self, params: Mapping[str, Any]) -> None:
+        """Each species' own diffusion coefficient must be finite and >= 0 (< 0 only where
+        a bilaplacian with a negative coefficient makes the equation well-posed, as in
+        Swift-Hohenberg)."""
+        ops = self.linear_operators(params)
+        if ops is None:
+            return
+        D, B = ops
+        for i, s in enumerate(self.species):
+            d, b = D[i, i], B[i, i]
+            if not (math.isfinite(d) and math.isfinite(b)):
+                raise ValueError(f"diffusion coefficients must be finite and >= 0: the "
+                                 f"coefficients of the Laplacians of {s!r} are {d}, {b}")
+            if d < 0 and not b < 0:
+                raise ValueError(
+                    f"diffusion coefficients must be finite and >= 0: laplace({s}) has the "
+                    f"coefficient {d:g} in the equation of {s!r} (anti-diffusion is "
+                    "ill-posed unless a bilaplacian with a negative coefficient stabilises it)")
+            if b > 0:
+                raise ValueError(
+                    f"laplace(laplace({s})) has the coefficient {b:g} > 0 in the equation of "
+                    f"{s!r}: ill-posed (it must be negative, as in Swift-Hohenberg)")
+
     def steady_guess(self, params: Mapping[str, Any]) -> list[float] | None:
         if self._steady_guess is None:
             return None
@@ -484,6 +507,7 @@ class Model:
 
         method = _method(method or self.default_method, self.methods)
         p = resolve_params(self, domain, params, seed=seed)
+        self._check_diffusion(p)
         limit = self.dt_limit(domain, p, method)
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
