@@ -76,6 +76,10 @@ class Program:
     inputs: tuple[str, ...]
     outputs: tuple[Output, ...]
     zero_ghost: frozenset[str] = frozenset()
+    #: pointwise fields ``(name, expression of the inputs and scalar parameters)``, readable
+    #: at the cell and through ``Lap(name)``: a neighbour's value is the expression of the
+    #: inputs there (Dirichlet ghost: the grid's value)
+    derived: tuple[tuple[str, Node], ...] = ()
     #: per-program caches (names, sources); programs compare by identity
     cache: dict = field(default_factory=dict, repr=False)
 
@@ -91,14 +95,19 @@ class Program:
 
     @property
     def stencil_inputs(self) -> tuple[str, ...]:
-        """Inputs whose Laplacian is taken, in input order."""
+        """Inputs and derived fields whose Laplacian is taken, in that order."""
         used = {n.name for o in self.outputs for n in walk(o.expr) if isinstance(n, Lap)}
-        return tuple(s for s in self.inputs if s in used)
+        names = (*self.inputs, *(d for d, _ in self.derived))
+        return tuple(s for s in names if s in used)
+
+    def derived_expr(self, name: str) -> Node | None:
+        return dict(self.derived).get(name)
 
     def check(self) -> None:
         for o in self.outputs:
             for n in walk(o.expr):
-                if isinstance(n, Lap) and (n.order != 1 or n.name not in self.inputs):
+                known = (*self.inputs, *(d for d, _ in self.derived))
+                if isinstance(n, Lap) and (n.order != 1 or n.name not in known):
                     raise ValueError(f"program reads laplace^{n.order}({n.name}): only "
                                      "first-order Laplacians of inputs")
                 if isinstance(n, Ref) and n.kind == "species" and n.name not in self.inputs:
@@ -235,6 +244,11 @@ def run_numpy(program: Program, target: Target, inputs: Mapping[str, np.ndarray]
     for c in program.refs("coord"):
         env[c] = target.coordinate(c)
     env.update({k: t(v) for k, v in target.lengths().items()})
+    for name, expr in program.derived:
+        with np.errstate(all="ignore"):
+            env[name] = np.broadcast_to(np.asarray(
+                evaluate(expr, env, literal=lambda v: literal(v, dtype)), dtype=dtype),
+                target.shape)
     laps: dict[str, np.ndarray] = {}
 
     def lap(name: str, order: int) -> np.ndarray:
@@ -343,34 +357,50 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
     elif "x" in coords:
         body.append("const real xc = ((real)(j) + (real)0.5) * dx;")
     body += [f"const real c_{s} = in_{s}[k_];" for s in program.inputs]
+    for d, expr in program.derived:
+        body.append(f"const real c_{d} = {_emit(expr, lambda n: _var(n, fields), lit, fn)};")
     stencil = program.stencil_inputs
+
+    def at(s: str, load) -> str:
+        """Field ``s`` at a neighbour whose input ``i`` is ``load(i)``."""
+        expr = program.derived_expr(s)
+        if expr is None:
+            return load(s)
+        return _emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind ==
+                     "species" else _var(n, fields), lit, fn)
+
     if kind == "mesh":
         if stencil:
             body += [f"real L_{s} = R0;" for s in stencil]
             body.append("for (int q_ = p0_; q_ < p1_; ++q_) {")
             body.append("    const real a_ = data[q_];")
             body.append("    const int j_ = indices[q_];")
-            body += [f"    L_{s} += a_ * in_{s}[j_];" for s in stencil]
+            body += [f"    L_{s} += a_ * {at(s, lambda i: f'in_{i}[j_]')};" for s in stencil]
             body.append("}")
     else:
         nd = int(kind[-1])
+        positions = [("w", "rc + cc_.w", "cc_.w_dir", "gx"), ("e", "rc + cc_.e", "cc_.e_dir", "gx")]
+        if nd > 1:
+            positions += [("s", "rs + j", "ds", "gy"), ("n", "rn + j", "dn", "gy")]
+        if nd > 2:
+            positions += [("b", "rb + j", "db", "gz"), ("t", "rt + j", "dt_", "gz")]
+        loaded: set[tuple[str, str]] = set()
+        for pos, index, flag, ghost in positions:
+            def load(i, pos=pos, index=index):  # unconditional: indices are in range
+                if (pos, i) not in loaded:
+                    loaded.add((pos, i))
+                    body.append(f"const real {pos}0_{i} = in_{i}[{index}];")
+                return f"{pos}0_{i}"
+
+            for s in stencil:
+                g = "R0" if s in program.zero_ghost else ghost
+                value = at(s, load)
+                body.append(f"const real {pos}_{s} = {flag} ? {g} : {value};")
         for s in stencil:
-            gxs = "R0" if s in program.zero_ghost else "gx"
-            gys = "R0" if s in program.zero_ghost else "gy"
-            gzs = "R0" if s in program.zero_ghost else "gz"
-            body.append(f"const real w0_{s} = in_{s}[rc + cc_.w], e0_{s} = in_{s}[rc + cc_.e];")
-            body.append(f"const real w_{s} = cc_.w_dir ? {gxs} : w0_{s};")
-            body.append(f"const real e_{s} = cc_.e_dir ? {gxs} : e0_{s};")
             lap = f"((e_{s} + w_{s}) - R2 * c_{s}) * cx"
             if nd > 1:
-                body.append(f"const real s0_{s} = in_{s}[rs + j], n0_{s} = in_{s}[rn + j];")
-                body.append(f"const real s_{s} = ds ? {gys} : s0_{s};")
-                body.append(f"const real n_{s} = dn ? {gys} : n0_{s};")
                 lap = f"({lap} + ((n_{s} + s_{s}) - R2 * c_{s}) * cy)"
             if nd > 2:
-                body.append(f"const real b0_{s} = in_{s}[rb + j], t0_{s} = in_{s}[rt + j];")
-                body.append(f"const real b_{s} = db ? {gzs} : b0_{s};")
-                body.append(f"const real t_{s} = dt_ ? {gzs} : t0_{s};")
                 lap = f"({lap} + ((t_{s} + b_{s}) - R2 * c_{s}) * cz)"
             body.append(f"const real L_{s} = {lap};")
     for i, o in enumerate(program.outputs):
@@ -504,6 +534,16 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
         elif "x" in coords:
             body.append("xc = (real(j) + real(0.5)) * dx")
         body += [f"c_{s} = in_{s}[{at}]" for s in program.inputs]
+        for d, expr in program.derived:
+            body.append(f"c_{d} = {_emit(expr, lambda n: _var(n, fields), lit, fn)}")
+
+        def value(s: str, load) -> str:
+            expr = program.derived_expr(s)
+            if expr is None:
+                return load(s)
+            return _emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind ==
+                         "species" else _var(n, fields), lit, fn)
+
         if kind == "mesh":
             if stencil:
                 body += [f"L_{s} = real(0.0)" for s in stencil]
@@ -511,28 +551,28 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
                 body.append("while q_ < p1_:")
                 body.append("    a_ = data[q_]")
                 body.append("    j_ = indices[q_] & NONNEG")
-                body += [f"    L_{s} += a_ * in_{s}[j_]" for s in stencil]
+                body += [f"    L_{s} += a_ * {value(s, lambda i: f'in_{i}[j_]')}"
+                         for s in stencil]
                 body.append("    q_ += 1")
         else:
             nd = int(kind[-1])
+            positions = [("w", "r, j - 1" if interior else "r, w", "wd", "gx"),
+                         ("e", "r, j + 1" if interior else "r, e", "ed", "gx")]
+            if nd > 1:
+                positions += [("s", "rs, j", "ds", "gy"), ("n", "rn, j", "dn", "gy")]
+            if nd > 2:
+                positions += [("b", "rb, j", "db", "gz"), ("t", "rt, j", "dt_", "gz")]
+            for pos, index, flag, ghost in positions:
+                for s in stencil:
+                    g = "real(0.0)" if s in program.zero_ghost else ghost
+                    v = value(s, lambda i, index=index: f"in_{i}[{index}]")
+                    body.append(f"{pos}_{s} = {v}" if interior else
+                                f"{pos}_{s} = wp.where({flag}, {g}, {v})")
             for s in stencil:
-                zero = s in program.zero_ghost
-                gxs, gys, gzs = ("real(0.0)",) * 3 if zero else ("gx", "gy", "gz")
-
-                def load(flag, ghost, index):
-                    return f"in_{s}[{index}]" if interior else \
-                        f"wp.where({flag}, {ghost}, in_{s}[{index}])"
-
-                body.append(f"w_{s} = {load('wd', gxs, 'r, j - 1' if interior else 'r, w')}")
-                body.append(f"e_{s} = {load('ed', gxs, 'r, j + 1' if interior else 'r, e')}")
                 lap = f"((e_{s} + w_{s}) - two * c_{s}) * cx"
                 if nd > 1:
-                    body.append(f"s_{s} = {load('ds', gys, 'rs, j')}")
-                    body.append(f"n_{s} = {load('dn', gys, 'rn, j')}")
                     lap = f"({lap} + ((n_{s} + s_{s}) - two * c_{s}) * cy)"
                 if nd > 2:
-                    body.append(f"b_{s} = {load('db', gzs, 'rb, j')}")
-                    body.append(f"t_{s} = {load('dt_', gzs, 'rt, j')}")
                     lap = f"({lap} + ((t_{s} + b_{s}) - two * c_{s}) * cz)"
                 body.append(f"L_{s} = {lap}")
         for i, o in enumerate(program.outputs):
