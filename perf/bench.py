@@ -196,7 +196,8 @@ def model_case(model, be, n: int):
     grid = Grid((n, n), bc="periodic")
     rng = np.random.default_rng(1)
     guess = model.steady_guess({}) or [0.5] * len(model.species)
-    own = model.default_dt({}) if callable(model.default_dt) else model.default_dt
+    own = (model.default_dt(dict(model.defaults)) if callable(model.default_dt)
+           else model.default_dt)
     dt = min(0.5 * model.dt_limit(grid, {}), own or np.inf)
     st = model.stepper(grid, {}, dt=dt, backend=be, dtype=np.float32)
     st.set_state({s: (x + 0.1 * (abs(x) + 0.1) * rng.uniform(-1, 1, grid.shape))

@@ -40,30 +40,18 @@ def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
 
 
 def _strang_program() -> Program:
-    """A whole explicit Strang step in one fused pass: ``B(ū + h (1·Δū + (−b)/ε²))`` with
-    ``ū = B(u)`` and ``B(u) = u/√(d + u²(1 − d))`` the exact Bernoulli substep for ``h/2``
-    (``d = e^{−h/ε²}``, kernels/bernoulli).  ``ū`` is a derived field: its Laplacian
-    applies ``B`` at each neighbour (ghost: the grid's Dirichlet value), so the step reads
-    ``u`` once and writes it once, where the former form took three passes."""
-    def bernoulli(x: str) -> str:
-        return f"{x}/sqrt(d + {x}*{x}*omd)"
-
+    """The rest of an explicit Strang step after the first Bernoulli substep ``ū = B(u)``
+    (``backend.bernoulli``), in one fused pass: ``B(ū + h (1·Δū + (−b)/ε²))`` with
+    ``B(x) = x/√(d + x²(1 − d))`` the exact substep for ``h/2`` (``d = e^{−h/ε²}``; the
+    operations of kernels/bernoulli).  Two passes per step where the former form took three
+    (applying ``B`` at every neighbour instead, one pass, computes it five times per cell:
+    slower, measured)."""
     names = ("h", "b", "eps2", "d", "omd")
-    inner = eq.parse(bernoulli("u"), species=("u",), params=names)
-    diffused = "(ubar + h*(1.0*laplace(ubar) + (-b)/eps2))"
-    outer = eq.parse(bernoulli(diffused), species=("u", "ubar"), params=names)
-
-    def builtin(n):
-        if isinstance(n, eq.Ref) and n.name in ("h", "d", "omd"):
-            return eq.Ref("builtin", "_" + n.name)
-        if isinstance(n, eq.Ref) and n.name == "ubar":
-            return eq.Ref("species", "_ubar")
-        if isinstance(n, eq.Lap):
-            return eq.Lap("_ubar")
-        return None
-
-    return Program(("u",), (Output("u", eq.substitute(outer, builtin)),),
-                   derived=(("_ubar", eq.substitute(inner, builtin)),))
+    y = "(u + h*(1.0*laplace(u) + (-b)/eps2))"
+    tree = eq.parse(f"{y}/sqrt(d + {y}*{y}*omd)", species=("u",), params=names)
+    tree = eq.substitute(tree, lambda n: eq.Ref("builtin", "_" + n.name)
+                         if isinstance(n, eq.Ref) and n.name in ("h", "d", "omd") else None)
+    return Program(("u",), (Output("u", tree),))
 
 
 _STRANG = _strang_program()
@@ -226,12 +214,12 @@ class AllenCahnStepper(FieldStepper):
     def _step(self) -> None:
         be = self.backend
         (x,), (y,) = self._x, self._y
+        be.bernoulli(x, self._tmp, decay=self.decay)
         if self.method == "explicit":
             t = self.dtype.type
-            launch(_STRANG, self._target, [x], [y], self._kparams,
+            launch(_STRANG, self._target, [self._tmp], [y], self._kparams,
                    {"_h": self.dt, "_d": self.decay, "_omd": float(t(1) - t(self.decay))})
             return
-        be.bernoulli(x, self._tmp, decay=self.decay)
         self._implicit.step(self._tmp, self._rhs, source=self._source)
         be.bernoulli(self._rhs, y, decay=self.decay)
 
