@@ -592,6 +592,12 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
             raise UsageError(f"--method {args.method!r}: model {model.name} has the methods "
                              f"{', '.join(methods) or '(none)'}")
         options["method"] = args.method
+    if args.stencil is not None:
+        import inspect
+
+        if "stencil" not in inspect.signature(model.stepper).parameters:
+            raise UsageError(f"--stencil: model {model.name} has no choice of stencil")
+        options["stencil"] = args.stencil
     try:
         sim = Simulation(
             model, domain, params,
@@ -798,6 +804,9 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--param", type=_param, action="append", metavar="NAME=VALUE",
                       help="set a model parameter (repeatable): a number or an expression "
                       "of x, y, z, t, Lx, Ly, Lz, pi, e.g. 'F=0.03+0.01*sin(2*pi*x/Lx)'")
+    what.add_argument("--stencil", choices=["compact", "isotropic"],
+                      help="grid Laplacian: compact (3/5/7 points, default) or isotropic "
+                      "(9 points in 2-D, 19 in 3-D; equal spacings)")
     what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
                       "heun, rk3, imex, imex-cn (Allen-Cahn: explicit, implicit, "
                       "crank-nicolson)")

@@ -36,10 +36,15 @@ __kernel void rd_program(@ARGS@,
     const long rb = ((long)lo_index(kz, nz, z_kind) * ny + i) * nx;
     const long rt = ((long)hi_index(kz, nz, z_kind) * ny + i) * nx;
     const bool db = lo_is_ghost(kz, z_kind), dt_ = hi_is_ghost(kz, nz, z_kind);
+    /* the four rows diagonal in (z, y), for the isotropic 3-D stencil */
+    const long rbs = ((long)lo_index(kz, nz, z_kind) * ny + lo_index(i, ny, y_kind)) * nx;
+    const long rbn = ((long)lo_index(kz, nz, z_kind) * ny + hi_index(i, ny, y_kind)) * nx;
+    const long rts = ((long)hi_index(kz, nz, z_kind) * ny + lo_index(i, ny, y_kind)) * nx;
+    const long rtn = ((long)hi_index(kz, nz, z_kind) * ny + hi_index(i, ny, y_kind)) * nx;
     const real yc = ((real)i + (real)0.5) * dy;
     const real zc = ((real)kz + (real)0.5) * dz;
     (void)rs; (void)rn; (void)ds; (void)dn; (void)rb; (void)rt; (void)db; (void)dt_;
-    (void)yc; (void)zc; (void)dx;
+    (void)yc; (void)zc; (void)dx; (void)rbs; (void)rbn; (void)rts; (void)rtn;
 #define RD_CELL(j, cc)                                                                    \
     do {                                                                                  \
         const ColInfo cc_ = (cc);                                                         \

@@ -122,15 +122,19 @@ class Target:
     backend: Backend
     dtype: np.dtype
     csr: Any = None  # DeviceCSR of the mesh Laplacian
+    #: grids: "compact" (3/5/7 points) or "isotropic" (9 points in 2-D, 19 in 3-D)
+    stencil: str = "compact"
     coords: dict[str, Any] = field(default_factory=dict)  # mesh: "x" -> DeviceArray
     host: dict[str, Any] = field(default_factory=dict)  # cached host data (NumPy)
 
     @classmethod
-    def bind(cls, domain: Any, backend: Backend, dtype: Any) -> Target:
+    def bind(cls, domain: Any, backend: Backend, dtype: Any,
+             stencil: str = "compact") -> Target:
         dtype = np.dtype(dtype)
         if dtype not in _REALS:
             raise TypeError(f"dtype must be float32 or float64, got {dtype}")
-        t = cls(domain, backend, dtype)
+        check_stencil(domain, stencil)
+        t = cls(domain, backend, dtype, stencil=stencil)
         if not isinstance(domain, Grid):
             t.csr = backend.upload_csr(domain.laplacian, dtype)
         return t
@@ -141,7 +145,11 @@ class Target:
 
     @property
     def kind(self) -> str:
-        return f"grid{self.domain.ndim}" if self.is_grid else "mesh"
+        """``grid1``..``grid3`` (``+ "iso"`` for the isotropic stencil) or ``mesh``."""
+        if not self.is_grid:
+            return "mesh"
+        iso = self.stencil == "isotropic" and self.domain.ndim > 1
+        return f"grid{self.domain.ndim}" + ("iso" if iso else "")
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -196,6 +204,20 @@ class Target:
         return self.coords[name]
 
 
+STENCILS = ("compact", "isotropic")
+
+
+def check_stencil(domain: Any, stencil: str) -> None:
+    """``stencil`` is known, and an isotropic one has a uniform grid spacing."""
+    if stencil not in STENCILS:
+        raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
+    if stencil == "isotropic" and isinstance(domain, Grid) and domain.ndim > 1:
+        hs = [domain.dx, domain.dy] + ([domain.dz] if domain.ndim > 2 else [])
+        if max(hs) != min(hs):
+            raise ValueError(f"the isotropic stencil needs equal spacings, got "
+                             f"{', '.join(f'{h:g}' for h in hs)}")
+
+
 def literal(v: float, dtype: np.dtype):
     """A literal rounded to the dtype, subnormals flushed to 0."""
     t = np.dtype(dtype).type
@@ -215,6 +237,8 @@ def _grid_laplacian(a: np.ndarray, target: Target, zero: bool) -> np.ndarray:
         axes.append((1, d.bcs.y, d.dy))
     if d.ndim > 2:
         axes.append((0, d.bcs.z, d.dz))
+    if target.stencil == "isotropic" and d.ndim > 1:
+        return _isotropic_laplacian(u, axes, zero, t).reshape(a.shape)
     out = None
     for axis, bc, h in axes:
         value = 0.0 if zero else bc.value
@@ -224,6 +248,38 @@ def _grid_laplacian(a: np.ndarray, target: Target, zero: bool) -> np.ndarray:
         term = ((hi + lo) - t(2) * u) * t(1.0 / (h * h))
         out = term if out is None else out + term
     return out.reshape(a.shape)
+
+
+def _isotropic_laplacian(u, axes, zero: bool, t) -> np.ndarray:
+    """9-point (2-D) ``(4 Σ faces + Σ corners − 20 u)/(6h²)`` or 19-point (3-D) ``(2 Σ
+    faces + Σ edges − 24 u)/(6h²)``; ghosts padded x, then y, then z, so a diagonal ghost
+    follows the outer axis's rule (z before y before x), as the kernels resolve them."""
+    gc = load_module("", "grid_common.py")
+    p = u
+    for axis, bc, _ in axes:
+        p = gc.pad_axis(p, axis, bc.kind, 0.0 if zero else bc.value)
+    nd = len(axes)
+    lo = 1 if nd > 2 else 0  # the z padding exists only in 3-D
+
+    def at(dz, dy, dx):
+        zs = slice(lo + dz, p.shape[0] - lo + dz if p.shape[0] - lo + dz else None) \
+            if nd > 2 else slice(None)
+        ys = slice(1 + dy, p.shape[1] - 1 + dy if p.shape[1] - 1 + dy else None)
+        xs = slice(1 + dx, p.shape[2] - 1 + dx if p.shape[2] - 1 + dx else None)
+        return p[zs, ys, xs]
+
+    h = axes[0][2]
+    c6 = t(1.0 / (6.0 * h * h))
+    faces = ((at(0, 0, -1) + at(0, 0, 1)) + at(0, -1, 0)) + at(0, 1, 0)
+    corners = ((at(0, -1, -1) + at(0, -1, 1)) + at(0, 1, -1)) + at(0, 1, 1)
+    if nd == 2:
+        return ((t(4) * faces + corners) - t(20) * u) * c6
+    faces = (faces + at(-1, 0, 0)) + at(1, 0, 0)
+    edges = corners
+    for pos in ((-1, 0, -1), (-1, 0, 1), (1, 0, -1), (1, 0, 1), (-1, -1, 0), (-1, 1, 0),
+                (1, -1, 0), (1, 1, 0)):
+        edges = edges + at(*pos)
+    return ((t(2) * faces + edges) - t(24) * u) * c6
 
 
 def run_numpy(program: Program, target: Target, inputs: Mapping[str, np.ndarray],
@@ -320,6 +376,72 @@ def _signature(program: Program, fields: frozenset[str]) -> list[tuple[str, str]
     return args
 
 
+# ---------------------------------------------------------------------------- stencils
+#: neighbour positions: name -> ((dz, dy, dx), [(flag, ghost axis)] outer axis first)
+_POSITIONS = {
+    "w": ((0, 0, -1), [("w", "x")]), "e": ((0, 0, 1), [("e", "x")]),
+    "s": ((0, -1, 0), [("s", "y")]), "n": ((0, 1, 0), [("n", "y")]),
+    "b": ((-1, 0, 0), [("b", "z")]), "t": ((1, 0, 0), [("t", "z")]),
+    "sw": ((0, -1, -1), [("s", "y"), ("w", "x")]), "se": ((0, -1, 1), [("s", "y"), ("e", "x")]),
+    "nw": ((0, 1, -1), [("n", "y"), ("w", "x")]), "ne": ((0, 1, 1), [("n", "y"), ("e", "x")]),
+    "bw": ((-1, 0, -1), [("b", "z"), ("w", "x")]), "be": ((-1, 0, 1), [("b", "z"), ("e", "x")]),
+    "tw": ((1, 0, -1), [("t", "z"), ("w", "x")]), "te": ((1, 0, 1), [("t", "z"), ("e", "x")]),
+    "bs": ((-1, -1, 0), [("b", "z"), ("s", "y")]), "bn": ((-1, 1, 0), [("b", "z"), ("n", "y")]),
+    "ts": ((1, -1, 0), [("t", "z"), ("s", "y")]), "tn": ((1, 1, 0), [("t", "z"), ("n", "y")]),
+}
+_ROWS = {(0, 0): "r", (0, -1): "s", (0, 1): "n", (-1, 0): "b", (1, 0): "t",
+         (-1, -1): "bs", (-1, 1): "bn", (1, -1): "ts", (1, 1): "tn"}
+
+
+def _stencil_positions(kind: str) -> list[str]:
+    nd = int(kind[4])
+    names = ["w", "e"] + (["s", "n"] if nd > 1 else []) + (["b", "t"] if nd > 2 else [])
+    if kind.endswith("iso"):
+        names += ["sw", "se", "nw", "ne"]
+        if nd > 2:
+            names += ["bw", "be", "tw", "te", "bs", "bn", "ts", "tn"]
+    return names
+
+
+def _laplacian_text(kind: str, s: str, num) -> str:
+    """The Laplacian of field ``s`` from the position values ``{pos}_{s}`` and ``c_{s}``,
+    in the reference's operation order; ``num(v)`` writes a literal."""
+    nd = int(kind[4])
+    v = {p: f"{p}_{s}" for p in _stencil_positions(kind)}
+    c = f"c_{s}"
+    if not kind.endswith("iso"):
+        lap = f"(({v['e']} + {v['w']}) - {num(2)} * {c}) * cx"
+        if nd > 1:
+            lap = f"({lap} + (({v['n']} + {v['s']}) - {num(2)} * {c}) * cy)"
+        if nd > 2:
+            lap = f"({lap} + (({v['t']} + {v['b']}) - {num(2)} * {c}) * cz)"
+        return lap
+
+    def total(names):
+        out = v[names[0]]
+        for n in names[1:]:
+            out = f"({out} + {v[n]})"
+        return out
+
+    corners = ["sw", "se", "nw", "ne"]
+    if nd == 2:
+        faces = total(["w", "e", "s", "n"])
+        return f"((({num(4)} * {faces}) + {total(corners)}) - ({num(20)} * {c})) * cx"
+    faces = total(["w", "e", "s", "n", "b", "t"])
+    edges = total(corners + ["bw", "be", "tw", "te", "bs", "bn", "ts", "tn"])
+    return f"((({num(2)} * {faces}) + {edges}) - ({num(24)} * {c})) * cx"
+
+
+def _grid_coefficients(target: Target) -> tuple[float, float, float]:
+    """``(cx, cy, cz)`` of the kernels: ``1/h²`` per axis (0 along absent axes), or
+    ``1/(6h²)`` in ``cx`` for the isotropic stencils."""
+    d = target.domain
+    if target.kind.endswith("iso"):
+        return 1.0 / (6.0 * d.dx * d.dx), 0.0, 0.0
+    return (1.0 / d.dx**2, 1.0 / d.dy**2 if d.ndim > 1 else 0.0,
+            1.0 / d.dz**2 if d.ndim > 2 else 0.0)
+
+
 # ---------------------------------------------------------------------------- OpenCL
 _CL_FUNCS = {"exp": "exp", "log": "log", "sqrt": "SQRT", "sin": "sin", "cos": "cos",
              "tan": "tan", "tanh": "tanh", "abs": "FABS", "pow": "pow", "min": "nanmin2",
@@ -378,14 +500,15 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
             body += [f"    L_{s} += a_ * {at(s, lambda i: f'in_{i}[j_]')};" for s in stencil]
             body.append("}")
     else:
-        nd = int(kind[-1])
-        positions = [("w", "rc + cc_.w", "cc_.w_dir", "gx"), ("e", "rc + cc_.e", "cc_.e_dir", "gx")]
-        if nd > 1:
-            positions += [("s", "rs + j", "ds", "gy"), ("n", "rn + j", "dn", "gy")]
-        if nd > 2:
-            positions += [("b", "rb + j", "db", "gz"), ("t", "rt + j", "dt_", "gz")]
+        col = {-1: "cc_.w", 0: "j", 1: "cc_.e"}
+        flags = {"w": "cc_.w_dir", "e": "cc_.e_dir", "s": "ds", "n": "dn", "b": "db",
+                 "t": "dt_"}
         loaded: set[tuple[str, str]] = set()
-        for pos, index, flag, ghost in positions:
+        for pos in _stencil_positions(kind):
+            (dz, dy, dx), rule = _POSITIONS[pos]
+            index = f"r{_ROWS[(dz, dy)].replace('r', '')}" if (dz, dy) != (0, 0) else "rc"
+            index = f"{index} + {col[dx]}"
+
             def load(i, pos=pos, index=index):  # unconditional: indices are in range
                 if (pos, i) not in loaded:
                     loaded.add((pos, i))
@@ -393,16 +516,14 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
                 return f"{pos}0_{i}"
 
             for s in stencil:
-                g = "R0" if s in program.zero_ghost else ghost
                 value = at(s, load)
-                body.append(f"const real {pos}_{s} = {flag} ? {g} : {value};")
+                for flag, axis in reversed(rule):
+                    g = "R0" if s in program.zero_ghost else f"g{axis}"
+                    value = f"({flags[flag]} ? {g} : {value})"
+                body.append(f"const real {pos}_{s} = {value};")
         for s in stencil:
-            lap = f"((e_{s} + w_{s}) - R2 * c_{s}) * cx"
-            if nd > 1:
-                lap = f"({lap} + ((n_{s} + s_{s}) - R2 * c_{s}) * cy)"
-            if nd > 2:
-                lap = f"({lap} + ((t_{s} + b_{s}) - R2 * c_{s}) * cz)"
-            body.append(f"const real L_{s} = {lap};")
+            body.append(f"const real L_{s} = "
+                        f"{_laplacian_text(kind, s, lambda v: f'((real){v})')};")
     for i, o in enumerate(program.outputs):
         body.append(f"real o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)};")
         lo, hi = o.bounds
@@ -485,9 +606,7 @@ def _launch_opencl(program, target, bufs, fields, scalars):
         return
     b = d.bcs
     dx, dy, dz = target.spacing()
-    cx = 1.0 / d.dx**2
-    cy = 1.0 / d.dy**2 if d.ndim > 1 else 0.0
-    cz = 1.0 / d.dz**2 if d.ndim > 2 else 0.0
+    cx, cy, cz = _grid_coefficients(target)
     args = [*bufs, nx, ny, nz, b.x.kind, b.x.value, b.y.kind, b.y.value, b.z.kind, b.z.value,
             cx, cy, cz, dx, dy, dz]
     be._launch_grid(k, ny * nz, args)
@@ -555,26 +674,21 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
                          for s in stencil]
                 body.append("    q_ += 1")
         else:
-            nd = int(kind[-1])
-            positions = [("w", "r, j - 1" if interior else "r, w", "wd", "gx"),
-                         ("e", "r, j + 1" if interior else "r, e", "ed", "gx")]
-            if nd > 1:
-                positions += [("s", "rs, j", "ds", "gy"), ("n", "rn, j", "dn", "gy")]
-            if nd > 2:
-                positions += [("b", "rb, j", "db", "gz"), ("t", "rt, j", "dt_", "gz")]
-            for pos, index, flag, ghost in positions:
+            col = {-1: "j - 1" if interior else "w", 0: "j", 1: "j + 1" if interior else "e"}
+            flags = {"w": "wd", "e": "ed", "s": "ds", "n": "dn", "b": "db", "t": "dt_"}
+            for pos in _stencil_positions(kind):
+                (dz, dy, dx), rule = _POSITIONS[pos]
+                row = _ROWS[(dz, dy)]
+                index = f"{'r' if row == 'r' else 'r' + row}, {col[dx]}"
                 for s in stencil:
-                    g = "real(0.0)" if s in program.zero_ghost else ghost
                     v = value(s, lambda i, index=index: f"in_{i}[{index}]")
-                    body.append(f"{pos}_{s} = {v}" if interior else
-                                f"{pos}_{s} = wp.where({flag}, {g}, {v})")
+                    if not interior:
+                        for flag, axis in reversed(rule):
+                            g = "real(0.0)" if s in program.zero_ghost else f"g{axis}"
+                            v = f"wp.where({flags[flag]}, {g}, {v})"
+                    body.append(f"{pos}_{s} = {v}")
             for s in stencil:
-                lap = f"((e_{s} + w_{s}) - two * c_{s}) * cx"
-                if nd > 1:
-                    lap = f"({lap} + ((n_{s} + s_{s}) - two * c_{s}) * cy)"
-                if nd > 2:
-                    lap = f"({lap} + ((t_{s} + b_{s}) - two * c_{s}) * cz)"
-                body.append(f"L_{s} = {lap}")
+                body.append(f"L_{s} = {_laplacian_text(kind, s, lambda v: f'real({v}.0)')}")
         for i, o in enumerate(program.outputs):
             body.append(f"o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)}")
             lo, hi = o.bounds
@@ -670,9 +784,7 @@ def _launch_warp(program, target, bufs, fields, scalars):
     t = target.dtype.type
     b = d.bcs
     dx, dy, dz = target.spacing()
-    cx = 1.0 / d.dx**2
-    cy = 1.0 / d.dy**2 if d.ndim > 1 else 0.0
-    cz = 1.0 / d.dz**2 if d.ndim > 2 else 0.0
+    cx, cy, cz = _grid_coefficients(target)
     args = [*bufs, nx, ny, nz, b.x.kind, t(b.x.value), b.y.kind, t(b.y.value), b.z.kind,
             t(b.z.value), t(cx), t(cy), t(cz), t(dx), t(dy), t(dz)]
     if be._cells:

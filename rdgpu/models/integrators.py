@@ -185,12 +185,16 @@ class ModelStepper(FieldStepper):
     no host transfer while stepping (the IMEX solves download their convergence data)."""
 
     def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
-                 backend: Backend, dtype: np.dtype, method: str, tol: float | None = None):
+                 backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
+                 stencil: str = "compact"):
         super().__init__(model.species, domain, dt, backend, dtype)
         self.model = model
         self.method = method
         self.params = dict(params)
-        self.target = Target.bind(domain, backend, self.dtype)
+        self.target = Target.bind(domain, backend, self.dtype, stencil)
+        if stencil != "compact" and method not in EXPLICIT:
+            raise ValueError(f"method {method!r} solves the compact stencil implicitly; the "
+                             f"{stencil} stencil runs with the explicit methods")
         be = backend
         # parameters on the device: numbers stay numbers, fields are uploaded, expressions
         # of t are inlined into the programs

@@ -475,7 +475,7 @@ class Model:
 
     # ------------------------------------------------------------------ stepping
     def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
-                 method: str = "euler") -> float:
+                 method: str = "euler", stencil: str = "compact") -> float:
         """The largest stable ``dt`` of ``method`` on ``domain`` (module doc); ``inf`` when
         the linear spatial part sets none."""
         from .integrators import stability_limit
@@ -483,8 +483,8 @@ class Model:
         ops = self.linear_operators(params)
         if ops is None:
             return math.inf
-        return stability_limit(ops[0], ops[1], _largest_mode(domain), _method(method,
-                                                                               self.methods))
+        return stability_limit(ops[0], ops[1], _largest_mode(domain, stencil),
+                               _method(method, self.methods))
 
     def stepper(
         self,
@@ -498,21 +498,25 @@ class Model:
         seed: int = 0,
         method: str | None = None,
         tol: float | None = None,
+        stencil: str = "compact",
     ):
         """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
         ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
-        ``tol``: the implicit solves' accuracy (IMEX).  The fields start at zero: call
-        ``set_state``."""
+        ``tol``: the implicit solves' accuracy (IMEX); ``stencil``: ``"compact"`` (3/5/7
+        points) or ``"isotropic"`` (9 points in 2-D, 19 in 3-D; equal spacings) on grids.
+        The fields start at zero: call ``set_state``."""
+        from .compiler import check_stencil
         from .integrators import ModelStepper
 
         method = _method(method or self.default_method, self.methods)
+        check_stencil(domain, stencil)
         p = resolve_params(self, domain, params, seed=seed)
         self._check_diffusion(p)
-        limit = self.dt_limit(domain, p, method)
+        limit = self.dt_limit(domain, p, method, stencil)
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
-                            method, tol=tol)
+                            method, tol=tol, stencil=stencil)
 
 
 def _method(method: str, allowed: Sequence[str]) -> str:
@@ -524,9 +528,19 @@ def _method(method: str, allowed: Sequence[str]) -> str:
     return m
 
 
-def _largest_mode(domain: Any) -> float:
-    """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes,
-    ``λ_max(−L)`` on a mesh."""
+def _largest_mode(domain: Any, stencil: str = "compact") -> float:
+    """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes
+    (the isotropic stencils: the maximum of their symbol, ``16/(3h²)`` in 2-D), ``λ_max(−L)``
+    on a mesh."""
+    if isinstance(domain, Grid) and stencil == "isotropic" and domain.ndim > 1:
+        th = np.linspace(0.0, np.pi, 33)
+        c = np.meshgrid(*([np.cos(th)] * domain.ndim), indexing="ij")
+        if domain.ndim == 2:
+            sym = 4 * (2 * c[0] + 2 * c[1]) + 4 * c[0] * c[1] - 20
+        else:
+            sym = (2 * 2 * (c[0] + c[1] + c[2])
+                   + 4 * (c[0] * c[1] + c[0] * c[2] + c[1] * c[2]) - 24)
+        return float(np.max(-sym)) / (6.0 * domain.dx**2)
     if isinstance(domain, Grid):
         hs = [domain.dx] + ([domain.dy] if domain.ndim > 1 else []) + \
             ([domain.dz] if domain.ndim > 2 else [])
