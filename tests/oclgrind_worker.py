@@ -10,9 +10,20 @@ import numpy as np
 
 import rdgpu
 from rdgpu.backends.opencl_backend import OpenCLBackend
+from rdgpu.domains import Grid
+from rdgpu.models import MODELS, define_model
 
 warnings.simplefilter("ignore")
 rng = np.random.default_rng(0)
+
+
+def _run(model, domain, start, backend, dtype, stencil):
+    opts = {} if stencil is None else {"stencil": stencil}
+    dt = 0.2 * model.dt_limit(domain, {}, **opts)
+    st = model.stepper(domain, {}, dt=dt, backend=backend, dtype=dtype, **opts)
+    st.set_state(start)
+    st.advance(2)
+    return st.get_state()
 
 
 def close(a, b, dtype):
@@ -57,4 +68,26 @@ for layout in ("row", "strided"):
                                    backend=be),
               rdgpu.diffusion_step(x, D=1.0, dt=10.0, method="crank-nicolson", mesh=mesh,
                                    backend="numpy"), dtype)
+        # generated model kernels: 1-D to 3-D grids (compact and isotropic stencils, a
+        # bilaplacian pre-pass, a derived field in Allen-Cahn's step) and a mesh
+        model = define_model("ocl", {
+            "u": "Du*laplace(u) - 0.5*laplace(v) + u - u**3 + 0.1*sin(x + t)",
+            "v": "Dv*laplace(v) - 0.01*laplace(laplace(v)) + F*exp(-u*u) - v"},
+            {"Du": 0.2, "Dv": 0.1, "F": 0.04})
+        for domain in [Grid((9,), bc=("dirichlet", 0.3)), Grid((3, 5), bc="periodic"),
+                       Grid((2, 3, 4), bc=("neumann", ("dirichlet", 0.2), "periodic")),
+                       mesh]:
+            shape = domain.shape if isinstance(domain, Grid) else (mesh.n_vertices,)
+            start = {"u": rng.uniform(0, 1, shape), "v": rng.uniform(0, 1, shape)}
+            stencils = ["compact", "isotropic"] if isinstance(domain, Grid) else ["compact"]
+            for stencil in stencils:
+                got, want = ({s: a for s, a in _run(model, domain, start, b, dtype,
+                                                    stencil).items()}
+                             for b in (be, "numpy"))
+                for s in got:
+                    close(got[s], want[s], dtype)
+            ac = MODELS["allen-cahn"]
+            got, want = (_run(ac, domain, {"u": start["u"] - 0.5}, b, dtype, None)
+                         for b in (be, "numpy"))
+            close(got["u"], want["u"], dtype)
         print(f"{layout} {np.dtype(dtype).name} ok", flush=True)

@@ -369,3 +369,26 @@ def test_allen_cahn_reaches_the_phases_and_keeps_max_norm():
     u = st.get_state()["u"]
     assert np.abs(u).max() <= 1.0 + 1e-12  # Lemma 3.1 (b = 0)
     assert np.mean(np.abs(u) > 0.9) > 0.5  # phase separation into u = ±1
+
+
+@pytest.mark.parametrize("backend_name", ["warp", "opencl"])
+def test_literals_are_real_and_exact(backend_name, dtype):
+    """Every literal is a real number rounded once to the dtype (``1/2`` is 0.5, never C's
+    integer 0; ``0.1`` and ``1e-3`` as NumPy rounds them), in every backend: bit for bit."""
+    be = backend_or_skip(backend_name)
+    model = rdgpu.define_model(
+        "literals", {"u": "u*(1/2) + 0.1 - 1e-3*u**2 + 3/7", "v": "-(2/3)*v + 1/3"})
+    grid = Grid((3, 5), bc="periodic")
+    rng = np.random.default_rng(7)
+    start = {"u": rng.random(grid.shape), "v": rng.random(grid.shape)}
+    got = _run(model, grid, {}, 0.25, be, dtype, start, 3)
+    want = _run(model, grid, {}, 0.25, "numpy", dtype, start, 3)
+    for s in ("u", "v"):
+        np.testing.assert_array_equal(got[s], want[s])
+    t = np.dtype(dtype).type
+    u, v = (start[s].astype(dtype) for s in ("u", "v"))
+    for _ in range(3):  # the same arithmetic written out: the literals are the dtype's
+        u, v = (u + t(0.25) * ((((u * t(0.5)) + t(0.1)) - (t(1e-3) * (u * u))) + t(3 / 7)),
+                v + t(0.25) * ((-t(2 / 3)) * v + t(1 / 3)))
+    np.testing.assert_array_equal(want["u"], u)
+    np.testing.assert_array_equal(want["v"], v)

@@ -32,9 +32,10 @@ from conftest import backend_or_skip, tolerance
 
 import rdgpu
 from rdgpu.boundary import parse_bc
+from rdgpu.domains import Grid
 from rdgpu.fpenv import flush_subnormals, smallest_normal
 from rdgpu.kernel_files import load_module
-from rdgpu.reaction import ReactionKernel
+from rdgpu.models import define_model
 
 
 @pytest.fixture
@@ -272,17 +273,23 @@ def test_csr_sor_colour(be, dtype):
     check(change.numpy(), want_change, np.arange(8) % 4 == 2)
 
 
-def test_reaction(be, dtype):
-    """Generated kernel ``u' = u + dt (−a u + 1e-310·1e10)`` with a = 0.75: 2t − 1.5t = 0.5t.
+def test_generated_model_kernel(be, dtype):
+    """Generated step ``u' = u + dt (−a u + 1e-310·1e10)`` with a = 0.75: 2t − 1.5t = 0.5t.
     A literal that is subnormal in the dtype is 0 in every backend (1e-310 is subnormal in
     float64, 0 in float32), so the last term is 0, not 1e-300."""
     t = smallest_normal(dtype)
-    kernel = ReactionKernel(["u"], ["-a*u + 1e-310*1e10"])
+    model = define_model("flush", {"u": "-a*u + 1e-310*1e10"}, {"a": 0.75})
     u = np.array([[2 * t, 1.0, 2 * t], [0.5, 2 * t, 3.0]], dtype)
-    du, out = be.upload(u), be.empty(u.shape, dtype)
-    kernel.launch(be, [du], [None], [out], D=[0.0], dt=1.0, params={"a": 0.75})
-    (want,) = kernel.step_numpy([u], [None], [0.0], 1.0, {"a": 0.75})
-    check(out.numpy(), want, u == dtype.type(2 * t))
+    grid = Grid(u.shape, bc="neumann")
+    got, want = (_one_step(model, grid, u, b, dtype) for b in (be, "numpy"))
+    check(got, want, u == dtype.type(2 * t))
+
+
+def _one_step(model, domain, u, backend, dtype):
+    st = model.stepper(domain, {}, dt=1.0, backend=backend, dtype=dtype)
+    st.set_state({"u": u})
+    st.advance(1)
+    return st.get_state()["u"]
 
 
 # ---------------------------------------------------------------------------- thread state
@@ -346,8 +353,7 @@ def _run_every_family(be, dtype) -> None:
         flat = be.upload(u.ravel())
         be.spmv(L, flat, be.empty((n,), dtype))
         be.mesh_diffusion(L, flat, be.empty((n,), dtype), D=0.1, dt=0.1)
-        ReactionKernel(["u"], ["-u"]).launch(be, [du], [None], [out], D=[0.0], dt=0.1,
-                                             params={})
+        _one_step(define_model("decay", {"u": "-u"}), Grid(shape), u, be, dtype)
     be.synchronize()
 
 
@@ -481,7 +487,8 @@ def test_warp_verify_fp():
 
 # ---------------------------------------------------------------------------- CUDA code
 def test_warp_cuda_code_compiles():
-    """The CUDA build of every Warp family (and of a generated reaction kernel) compiles --
+    """The CUDA build of every Warp family (and of generated model kernels on a grid and a
+    mesh) compiles --
     the FTZ/DAZ snippets compile to nothing under nvrtc -- and flushes explicitly: its PTX
     compares with the smallest normal float32 (0f00800000) and float64
     (0d0010000000000000).  Needs only NVRTC (shipped with Warp), no GPU.  The PTX goes to
@@ -492,16 +499,18 @@ def test_warp_cuda_code_compiles():
     if not hasattr(wp, "compile_aot_module") or not archs:
         pytest.skip("this Warp cannot compile CUDA code here (no NVRTC)")
     from rdgpu.backends.warp_backend import WarpBackend
-    from rdgpu.reaction import _warp_module, cache_dir
+    from rdgpu.models import MODELS
+    from rdgpu.models.compiler import cache_dir, warp_module, warp_source
 
     arch = 90 if 90 in archs else archs[0]
-    kernel = ReactionKernel(["u", "v"], ["-u*v*v + F*(1 - u)", "u*v*v - (F + k)*v"])
     cpu = WarpBackend("cpu")
     modules = {f: load_module(f, "warp_kernels.py")
                for f in ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh")}
+    program = MODELS["gray-scott"].stepper(Grid((4, 4)), {}, dt=1.0, backend="numpy")._euler
     for dtype in (np.float32, np.float64):
-        spec = ((True, True), (False, False), np.dtype(dtype))
-        modules[f"reaction-{np.dtype(dtype).name}"] = _warp_module(kernel, cpu, spec)
+        for kind in ("grid3", "grid2iso", "mesh"):
+            src = warp_source(program, kind, frozenset({"F"}), dtype)
+            modules[f"model-{kind}-{np.dtype(dtype).name}"] = warp_module(src, cpu)
     for name, module in modules.items():
         paths = wp.compile_aot_module(
             module, arch=arch, module_dir=cache_dir() / "cuda-check" / name, use_ptx=True

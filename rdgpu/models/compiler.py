@@ -32,11 +32,13 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import math
+import os
 import sys
 import threading
 import weakref
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,7 +49,7 @@ from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
 from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
 
-__all__ = ["Output", "Program", "Target", "launch"]
+__all__ = ["Output", "Program", "Target", "cache_dir", "launch"]
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 
@@ -718,16 +720,29 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
     )
 
 
+def cache_dir() -> Path:
+    """``$RDGPU_CACHE_DIR`` or ``~/.cache/rdgpu``: where generated Warp modules go."""
+    root = os.environ.get("RDGPU_CACHE_DIR")
+    return Path(root) if root else Path.home() / ".cache" / "rdgpu"
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_file() and path.read_text() == text:
+        return
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
 _WARP_LOCK = threading.Lock()
 _WARP_MODULES: dict[str, Any] = {}
 _WARP_LOADED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
-    """Import a generated Warp module (written under :func:`rdgpu.reaction.cache_dir`,
-    since Warp needs a source file) and load it on the backend's device, once each."""
-    from ..reaction import _write_atomic, cache_dir
-
+    """Import a generated Warp module (written under :func:`cache_dir`, since Warp needs a
+    source file) and load it on the backend's device, once each."""
     digest = hashlib.sha256(src.encode()).hexdigest()[:24]
     with _WARP_LOCK:
         mod = _WARP_MODULES.get(digest)
