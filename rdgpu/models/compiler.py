@@ -406,10 +406,10 @@ def _stencil_positions(kind: str) -> list[str]:
 
 
 def _laplacian_text(kind: str, s: str, num) -> str:
-    """The Laplacian of field ``s`` from the position values ``{pos}_{s}`` and ``c_{s}``,
+    """The Laplacian of field ``s`` from the position values ``q{pos}_{s}`` and ``c_{s}``,
     in the reference's operation order; ``num(v)`` writes a literal."""
     nd = int(kind[4])
-    v = {p: f"{p}_{s}" for p in _stencil_positions(kind)}
+    v = {p: f"q{p}_{s}" for p in _stencil_positions(kind)}
     c = f"c_{s}"
     if not kind.endswith("iso"):
         lap = f"(({v['e']} + {v['w']}) - {num(2)} * {c}) * cx"
@@ -514,15 +514,15 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
             def load(i, pos=pos, index=index):  # unconditional: indices are in range
                 if (pos, i) not in loaded:
                     loaded.add((pos, i))
-                    body.append(f"const real {pos}0_{i} = in_{i}[{index}];")
-                return f"{pos}0_{i}"
+                    body.append(f"const real q{pos}0_{i} = in_{i}[{index}];")
+                return f"q{pos}0_{i}"
 
             for s in stencil:
                 value = at(s, load)
                 for flag, axis in reversed(rule):
                     g = "R0" if s in program.zero_ghost else f"g{axis}"
                     value = f"({flags[flag]} ? {g} : {value})"
-                body.append(f"const real {pos}_{s} = {value};")
+                body.append(f"const real q{pos}_{s} = {value};")
         for s in stencil:
             body.append(f"const real L_{s} = "
                         f"{_laplacian_text(kind, s, lambda v: f'((real){v})')};")
@@ -688,7 +688,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
                         for flag, axis in reversed(rule):
                             g = "real(0.0)" if s in program.zero_ghost else f"g{axis}"
                             v = f"wp.where({flags[flag]}, {g}, {v})"
-                    body.append(f"{pos}_{s} = {v}")
+                    body.append(f"q{pos}_{s} = {v}")
             for s in stencil:
                 body.append(f"L_{s} = {_laplacian_text(kind, s, lambda v: f'real({v}.0)')}")
         for i, o in enumerate(program.outputs):
