@@ -190,7 +190,8 @@ def test_declarative_model_and_registry():
     u = st.get_state()["u"]
     assert np.allclose(u, u[0, 0]) and 0.5 < u[0, 0] < 1
     assert set(MODELS) == {"gray-scott", "allen-cahn", "brusselator", "fitzhugh-nagumo",
-                           "schnakenberg", "barkley", "turing"}
+                           "schnakenberg", "barkley", "turing", "complex-ginzburg-landau",
+                           "swift-hohenberg", "meinhardt-stripes"}
     for p in PRESETS.values():
         assert p.model in MODELS and p.source and p.expect
         assert p.dt > 0 and p.steps > 0
@@ -202,7 +203,8 @@ def test_presets_are_stable_and_valid(name):
     model = MODELS[p.model]
     domain = build_domain(p.domain)
     params = resolve_params(model, domain, p.params, seed=p.seed)
-    assert p.dt <= model.dt_limit(domain, params)
+    # (the limit of the preset's method: Swift-Hohenberg runs implicitly, far past Euler's)
+    assert p.dt <= model.dt_limit(domain, params, p.options.get("method", "euler"))
 
 
 # ---------------------------------------------------------------------------- analysis

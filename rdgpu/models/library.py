@@ -19,6 +19,14 @@ def _cbrt(x: float) -> float:
     return math.copysign(abs(x) ** (1.0 / 3.0), x)
 
 
+def _meinhardt_steady(p) -> tuple[float, ...]:
+    """The homogeneous state of the stripe model: g = (β/2 + ρ0)/α, s = g + ρ1/γ,
+    r = 2c s g²/β."""
+    g = (0.5 * p["beta"] + p["rho0"]) / p["alpha"]
+    s = g + p["rho1"] / p["gamma"]
+    return (g, g, 2.0 * p["c"] * s * g * g / p["beta"], s, s)
+
+
 GRAY_SCOTT = Model(
     "gray-scott",
     # u*v*v, not u*v**2 (= u*(v*v)): the operation order of the hand-written kernel
@@ -104,11 +112,80 @@ TURING = Model(
     default_fields={"beta": {"kind": "random", "low": 11.9, "high": 12.1}},
 )
 
+COMPLEX_GINZBURG_LANDAU = Model(
+    "complex-ginzburg-landau",
+    # A = u + iv in Chaté & Manneville's form A_t = A + (1 + i b1)ΔA − (b3 − i)|A|²A:
+    # the real and imaginary parts, coupled by cross-diffusion through b1
+    {"u": "u + laplace(u) - b1*laplace(v) - (u**2 + v**2)*(b3*u + v)",
+     "v": "v + b1*laplace(u) + laplace(v) - (u**2 + v**2)*(b3*v - u)"},
+    {"b1": 0.0, "b3": 0.56},
+    description="complex Ginzburg-Landau A_t = A + (1 + i b1)ΔA − (b3 − i)|A|²A for "
+    "A = u + iv (Quillen's eq. 62, Chaté & Manneville's form): u_t = u + Δu − b1 Δv − "
+    "|A|²(b3 u + v), v_t = v + b1 Δu + Δv − |A|²(b3 v − u). Rescaling A by √b3 gives "
+    "eq. 61, A_t = A + (1 + iα)ΔA − (1 + iβ)|A|²A, with α = b1, β = −1/b3 (eq. 69); the "
+    "uniform oscillation |A|² = 1/b3 is Benjamin-Feir unstable for b1 > b3",
+    source="Quillen 2025 §4, eqs. 60-69, Fig. 12 (b1 = 0, b3 = 0.56); Chaté & Manneville "
+    "1996; Aranson & Kramer 2002",
+    steady_guess=lambda p: (0.0, 0.0),
+    # explicit Euler on the 5-point grid: dt ≤ dx²/(4(1 + b1²)) from the cross-diffusion
+    default_dt=lambda p: 0.16 / (1.0 + float(np.max(np.abs(p["b1"]))) ** 2),
+    default_time=500.0,
+    value_range={"u": (-1.5, 1.5), "v": (-1.5, 1.5)},
+    default_init={"kind": "uniform", "values": {"u": 0.0, "v": 0.0}, "noise": 0.1},
+)
+
+SWIFT_HOHENBERG = Model(
+    "swift-hohenberg",
+    # (1 + Δ)²u = u + 2Δu + ΔΔu
+    {"u": "(r - 1)*u - 2*laplace(u) - laplace(laplace(u)) + g*u**2 - u**3"},
+    {"r": 0.2, "g": 0.0},
+    description="Swift-Hohenberg u_t = r u − (1 + Δ)²u + g u² − u³, written as "
+    "(r − 1)u − 2Δu − ΔΔu + g u² − u³; the most unstable wavenumber is k_c = 1 "
+    "(σ = r − (1 − k²)², eq. 72); stripes for g = 0, hexagons with a quadratic term "
+    "(g ≈ 1, r small). Stiff: run it with method 'imex' (the bilaplacian implicit)",
+    source="Quillen 2025 §5, eqs. 71-73, Fig. 13 (r = 0.2, γ_u = 0); Swift & Hohenberg "
+    "1977",
+    steady_guess=lambda p: (0.0,),
+    # eight cells per wavelength 2π
+    spacing=math.pi / 4, default_dt=0.5, default_time=500.0, default_method="imex",
+    value_range={"u": (-1.0, 1.0)},
+    default_init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
+)
+
+MEINHARDT_STRIPES = Model(
+    "meinhardt-stripes",
+    # g1, g2: two self-enhancing loops that share the inhibitor r; s1 (made where g1 is)
+    # helps g2 and s2 helps g1 nearby, so that g1 and g2 regions alternate in stripes
+    {"g1": "Dg*laplace(g1) + c*s2*g1**2/r - alpha*g1 + rho0",
+     "g2": "Dg*laplace(g2) + c*s1*g2**2/r - alpha*g2 + rho0",
+     "r": "c*s2*g1**2 + c*s1*g2**2 - beta*r",
+     "s1": "Ds*laplace(s1) + gamma*(g1 - s1) + rho1",
+     "s2": "Ds*laplace(s2) + gamma*(g2 - s2) + rho1"},
+    {"Dg": 0.009, "Ds": 0.2, "c": 0.01, "alpha": 0.04, "beta": 0.06, "gamma": 0.04,
+     "rho0": 0.001, "rho1": 0.001},
+    description="Meinhardt's five-chemical stripe model (Chattopadhyay eq. 2.16): "
+    "g1_t = Dg Δg1 + c s2 g1²/r − α g1 + ρ0, g2_t = Dg Δg2 + c s1 g2²/r − α g2 + ρ0, "
+    "r_t = c s2 g1² + c s1 g2² − β r, s1_t = Ds Δs1 + γ(g1 − s1) + ρ1, "
+    "s2_t = Ds Δs2 + γ(g2 − s2) + ρ1 (the seed prints r_t with a minus sign and its "
+    "parameter list is garbled). Parameters: those of Turk's implementation of the model "
+    "(c = 0.01, α = 0.04, β = 0.06, γ = 0.04, Dg = 0.009, Ds = 0.2, dt = dx = 1) with the "
+    "seed's basal productions ρ0 = ρ1 = 0.001 (without them the stripes never settle); "
+    "homogeneous state g1 = g2 = (β/2 + ρ0)/α = 0.775, s1 = s2 = g + ρ1/γ = 0.8, "
+    "r = 2c s g²/β = 0.16017",
+    source="Meinhardt 1982 (Models of Biological Pattern Formation, ch. 12) via Turk 1991 "
+    "(SIGGRAPH '91) and his stripes code; Chattopadhyay eq. 2.16, Figs. 2.5-2.6",
+    steady_guess=lambda p: _meinhardt_steady(p),
+    default_dt=1.0, default_time=20000.0,
+    default_init={"kind": "uniform", "values": {"g1": 0.775, "g2": 0.775, "r": 0.1601667,
+                                                "s1": 0.8, "s2": 0.8},
+                  "noise": {"g1": 0.01}},
+)
+
 ALLEN_CAHN = AllenCahn()
 
 #: every model by its command-line name
 MODELS: dict[str, Any] = {
     m.name: m
     for m in (GRAY_SCOTT, ALLEN_CAHN, BRUSSELATOR, FITZHUGH_NAGUMO, SCHNAKENBERG, BARKLEY,
-              TURING)
+              TURING, COMPLEX_GINZBURG_LANDAU, SWIFT_HOHENBERG, MEINHARDT_STRIPES)
 }

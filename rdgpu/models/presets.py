@@ -274,3 +274,157 @@ _add(Preset(
     "needs dt ≤ 0.01. The seed's Δ-per-iteration form is dt = 1, which is unstable in 2-D "
     "with the 5-point stencil (the limit for D_a = 0.25 is exactly 1), hence dt = 0.5",
 ))
+
+# --- Chattopadhyay: Turing's 1-D model (eq. 2.14, Fig. 2.3): a ring of 60 cells
+_add(Preset(
+    "turing-seed003-1d", "turing",
+    {"Du": 0.25, "Dv": 0.0625, "s": 0.03125,
+     "beta": {"kind": "random", "low": 11.95, "high": 12.05}},
+    dt=1.0, steps=20000, domain={"grid": (60,), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "uniform", "values": {"u": 4.0, "v": 4.0}},
+    source="Chattopadhyay eq. 2.14, Fig. 2.3 (after Turing 1952, Turk 1991)",
+    expect="stripes", snapshot_every=500, classify={"field": "v", "threshold": None},
+    description="a line of 60 cells closed into a ring (Turing's 1952 set-up), a = b = 4, "
+    "β = 12 ± 0.05, s = 1/32, D_a = 0.25, D_b = 0.0625, one step per iteration (dt = 1) as "
+    "in the seed: b forms 7 peaks by step 4000 (the figure's first frame) that stay put "
+    "through step 20 000 (its last); 7 is the least stable mode of the ring "
+    "(rdgpu.analysis.dispersion: m = 7, wavelength 60/7 ≈ 8.6 cells)",
+))
+
+# --- Chattopadhyay: Meinhardt's five-chemical stripes (eq. 2.16) on 80², periodic
+_MEINHARDT_REST = {"g1": 0.775, "g2": 0.775, "r": 0.1601667, "s1": 0.8, "s2": 0.8}
+_add(Preset(
+    "meinhardt-seed003-rings", "meinhardt-stripes", {}, dt=1.0, steps=20000,
+    domain={"grid": (80, 80), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "square", "values": dict(_MEINHARDT_REST), "inside": {"g1": 0.8},
+          "size": 0.05},
+    source="Chattopadhyay eq. 2.16, Fig. 2.5; Meinhardt 1982; parameters of Turk 1991",
+    expect="stripes", snapshot_every=500, classify={"field": "g1", "threshold": None},
+    description="a small perturbation at the centre (g1 raised by 0.025 in 4 × 4 cells) "
+    "of the homogeneous state: stripes of g1 and g2 alternate in concentric rings that "
+    "fill the 80² grid and then stay put",
+))
+_add(Preset(
+    "meinhardt-seed003-random", "meinhardt-stripes", {}, dt=1.0, steps=30000,
+    domain={"grid": (80, 80), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "uniform", "values": dict(_MEINHARDT_REST), "noise": {"g1": 0.01}},
+    source="Chattopadhyay eq. 2.16, Fig. 2.6; Meinhardt 1982; parameters of Turk 1991",
+    expect="stripes", snapshot_every=500, classify={"field": "g1", "threshold": None},
+    description="random noise (±0.01 in g1) everywhere: a labyrinth of alternating g1 and "
+    "g2 stripes, formed by ~5000 steps, then a few local rearrangements (under 1 % of the "
+    "cells change after 15 000 steps)",
+))
+
+# --- Quillen 2025: complex Ginzburg-Landau (§4, eq. 62), A = u + iv from small noise.
+# Measured with rdgpu.analysis.phase_defects (vortices of the phase of u + iv): at the
+# seed's b1 = 0, b3 = 0.56 (α = 0, β = −1/b3 ≈ −1.79 in eq. 61) spirals form and break up
+# again, a statistically steady spiral-defect turbulence (71-105 defects per 128², under
+# 10 % of them found again 50 time units later); at b3 = 1 the spirals freeze (24-26
+# defects per 128² that stay put from t ~ 200); past the Benjamin-Feir line (b1 > b3) the
+# phase turbulence is full of defects (134-168 per 128²).  At the presets' 200², t = 500:
+# 217, 52 and 332 defects.
+_CGL_INIT = {"kind": "uniform", "values": {"u": 0.0, "v": 0.0}, "noise": 0.1}
+_CGL_CLASSIFY = {"fields": ["u", "v"], "center": [0.0, 0.0]}
+_add(Preset(
+    "cgl-seed004-fig12", "complex-ginzburg-landau", {"b1": 0.0, "b3": 0.56},
+    dt=0.1, steps=5000, domain={"grid": (200, 200), "dx": 1.0, "bc": "neumann"},
+    init=dict(_CGL_INIT), source="Quillen 2025 §4, eq. 62, Fig. 12", expect="spirals",
+    snapshot_every=100, classify=dict(_CGL_CLASSIFY),
+    description="the seed's b1 = 0, b3 = 0.56 with Neumann sides (Fig. 12 is on a mesh "
+    "with a Neumann boundary): amplitude holes at the phase defects, spirals that keep "
+    "breaking up and forming (spiral-defect turbulence; measured: the number of defects "
+    "fluctuates around a steady mean and the defects move)",
+))
+_add(Preset(
+    "cgl-frozen-spirals", "complex-ginzburg-landau", {"b1": 0.0, "b3": 1.0},
+    dt=0.1, steps=5000, domain={"grid": (200, 200), "dx": 1.0, "bc": "periodic"},
+    init=dict(_CGL_INIT), source="Quillen 2025 §4, eq. 62; Chaté & Manneville 1996 "
+    "(frozen states)", expect="spirals", snapshot_every=100, classify=dict(_CGL_CLASSIFY),
+    description="b1 = 0, b3 = 1 (α = 0, β = −1): spirals whose cores stop moving once "
+    "their shock lines meet (a 'vortex glass'); measured: the defects stop moving by t ~ 100",
+))
+_add(Preset(
+    "cgl-defect-turbulence", "complex-ginzburg-landau", {"b1": 2.0, "b3": 0.5},
+    dt=0.04, steps=10000, domain={"grid": (200, 200), "dx": 1.0, "bc": "periodic"},
+    init=dict(_CGL_INIT), source="Quillen 2025 §4, eqs. 62, 69; Aranson & Kramer 2002 "
+    "(defect turbulence)", expect="spirals", snapshot_every=100,
+    classify=dict(_CGL_CLASSIFY),
+    description="b1 = 2, b3 = 0.5 (α = 2, β = −2: 1 + αβ = −3, Benjamin-Feir unstable): "
+    "defect turbulence, ~150 defects per 128² created and annihilated in pairs; dt below "
+    "the explicit limit dx²/(4(1 + b1²)) = 0.05 of the cross-diffusion",
+))
+
+# --- Quillen 2025: Swift-Hohenberg (§5, eqs. 71-73) on a periodic square of 16 wavelengths
+# (128² cells of dx = π/4: eight per wavelength 2π), implicit (IMEX) steps of dt = 0.5, 35×
+# the explicit limit 0.0141 of the bilaplacian
+_SH_DOMAIN = {"grid": (128, 128), "dx": 3.141592653589793 / 4, "bc": "periodic"}
+_add(Preset(
+    "sh-seed004-stripes", "swift-hohenberg", {"r": 0.2, "g": 0.0}, dt=0.5, steps=1000,
+    domain=dict(_SH_DOMAIN), init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
+    source="Quillen 2025 §5, eq. 73, Fig. 13 (r = 0.2, γ_u = 0)", expect="stripes",
+    snapshot_every=20, classify={"field": "u", "threshold": 0.0},
+    options={"method": "imex"},
+    description="random data grow into a labyrinth of stripes of wavenumber k ≈ 1 (the "
+    "peak of σ = r − (1 − k²)²); the seed's figure is a disk with a natural boundary, "
+    "here a periodic square",
+))
+_add(Preset(
+    "sh-hexagons", "swift-hohenberg", {"r": 0.1, "g": 1.0}, dt=0.5, steps=1000,
+    domain=dict(_SH_DOMAIN), init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
+    source="Quillen 2025 §5, eq. 73 (quadratic term γ_u = 1)", expect="inverted-spots",
+    snapshot_every=20, classify={"field": "u", "threshold": 0.0},
+    options={"method": "imex"},
+    description="the quadratic term breaks u ↔ −u: a hexagonal lattice of u > 0 spots "
+    "(compact islands of high u: classify_pattern's 'inverted-spots') of spacing "
+    "4π/√3 ≈ 7.3 (k = 1)",
+))
+
+# --- Quillen 2025 Fig. 7: Gray-Scott with F (α) varying along x and k (β) along y
+_add(Preset(
+    "gs-seed004-fig7", "gray-scott",
+    {"Du": 0.2, "Dv": 0.1, "F": "0.037 + 0.0185*sin(2*pi*x/Lx)",
+     "k": "0.06 + 0.0075*sin(2*pi*y/Ly)"},
+    dt=1.0, steps=20000, domain={"grid": (400, 400), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "spots", "values": {"u": 1.0, "v": 0.0}, "inside": {"u": 0.5, "v": 0.25},
+          "count": 40, "radius": 4},
+    source="Quillen 2025 Fig. 7 (α_m = 0.037 ± α_m/2 horizontally, β_m = 0.06 ± β_m/8 "
+    "vertically, Du = 0.2, Dv = Du/2, n = 400, dx = dt = 1, periodic)",
+    expect="inverted-spots",
+    snapshot_every=500, classify={"field": "v", "threshold": None},
+    description="F and k given as expressions of x and y (F high at the left, k high at "
+    "the top): v fills the quarter where F is high and k low (99 % of it above 0.1), worms "
+    "and spots cover 37 % and 62 % of the two mixed quarters, and sparse spots 13 % of the "
+    "quarter where F is low and k high; the whole field classifies as 'inverted-spots'. "
+    "40 seeds of (u, v) = (0.5, 0.25) (the seed suggests 'a few pixels set to high "
+    "values' of v; v = 1 blows up with dt = 1)",
+))
+
+# --- Gray-Scott in 3-D: 64³ periodic cells of dx = 1, Du = 0.16, Dv = 0.08, dt = 0.5.  The
+# 7-point diffusion limit is 1/(2·0.16·3) ≈ 1.04, but at dt = 1 the checkerboard mode of u
+# is amplified by 1 − 12·0.16 − (v² + F) < −1 where v is high: u grows a grid-scale
+# checkerboard (amplitude 0.08 measured); dt = 0.5 keeps it at round-off
+_add(Preset(
+    "gs-3d-labyrinth", "gray-scott", {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060},
+    dt=0.5, steps=24000, domain={"grid": (64, 64, 64), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "square", "values": {"u": 1.0, "v": 0.0}, "inside": {"u": 0.5, "v": 0.25},
+          "size": 0.2, "noise": 0.05},
+    source="Camphuijsen & Kasim 2016 §3 parameters (their 2-D stripes) on a 3-D grid",
+    expect="stripes", snapshot_every=500, classify={"field": "v", "threshold": None},
+    description="the central cube grows into a labyrinth of sheets: both phases (v above "
+    "and below its midrange) one connected region each, v high in 39 % of the cells, and "
+    "every plane through the box cuts the sheets into stripes",
+))
+_add(Preset(
+    "gs-3d-blobs", "gray-scott", {"Du": 0.16, "Dv": 0.08, "F": 0.030, "k": 0.068},
+    dt=0.5, steps=24000, domain={"grid": (64, 64, 64), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "spots", "values": {"u": 1.0, "v": 0.0}, "inside": {"u": 0.5, "v": 0.25},
+          "count": 10, "radius": 3},
+    source="Gray-Scott near the edge of Pearson 1993's self-replicating spots (F = 0.030, "
+    "k = 0.068, chosen here by measurement) on a 3-D grid", expect="inverted-spots",
+    snapshot_every=500, classify={"field": "v", "threshold": None},
+    description="ten seed balls divide (3-D 'mitosis') until round blobs of high v, about "
+    "8 cells across, fill the box at one blob per ~2100 cells and stop dividing (measured: "
+    "120 blobs at 64³ from ~15 000 steps, v high in 10 % of the cells, the low phase one "
+    "connected sea, a few blobs stretched into short worms); at F = 0.026, k = 0.061 "
+    "(Pearson's λ) the blobs instead keep growing into shells and breaking up",
+))
