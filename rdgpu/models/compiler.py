@@ -45,7 +45,7 @@ from ..backends.base import Backend, DeviceArray
 from ..domains import Grid
 from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
-from .equations import Bin, Call, Lap, Neg, Node, Num, Ref, evaluate, walk
+from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
 
 __all__ = ["Output", "Program", "Target", "launch"]
 
@@ -356,10 +356,11 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
                 body.append(f"const real n_{s} = dn ? {gys} : n0_{s};")
                 lap = f"({lap} + ((n_{s} + s_{s}) - R2 * c_{s}) * cy)"
             if nd > 2:
-                body.append(f"const real b0_{s} = in_{s}[rb + j], t0_{s} = in_{s}[rt + j];")
-                body.append(f"const real b_{s} = db ? {gzs} : b0_{s};")
-                body.append(f"const real t_{s} = dt_ ? {gzs} : t0_{s};")
-                lap = f"({lap} + ((t_{s} + b_{s}) - R2 * c_{s}) * cz)"
+                # zb_/zt_, not b_: b_h, b_a, b_b are the builtins' arguments
+                body.append(f"const real zb0_{s} = in_{s}[rb + j], zt0_{s} = in_{s}[rt + j];")
+                body.append(f"const real zb_{s} = db ? {gzs} : zb0_{s};")
+                body.append(f"const real zt_{s} = dt_ ? {gzs} : zt0_{s};")
+                lap = f"({lap} + ((zt_{s} + zb_{s}) - R2 * c_{s}) * cz)"
             body.append(f"const real L_{s} = {lap};")
     for i, o in enumerate(program.outputs):
         body.append(f"real o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)};")
@@ -508,9 +509,10 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
                 body.append(f"n_{s} = wp.where(dn, {gys}, in_{s}[rn + j])")
                 lap = f"({lap} + ((n_{s} + s_{s}) - two * c_{s}) * cy)"
             if nd > 2:
-                body.append(f"b_{s} = wp.where(db, {gzs}, in_{s}[rb + j])")
-                body.append(f"t_{s} = wp.where(dt_, {gzs}, in_{s}[rt + j])")
-                lap = f"({lap} + ((t_{s} + b_{s}) - two * c_{s}) * cz)"
+                # zb_/zt_, not b_: b_h, b_a, b_b are the builtins' arguments
+                body.append(f"zb_{s} = wp.where(db, {gzs}, in_{s}[rb + j])")
+                body.append(f"zt_{s} = wp.where(dt_, {gzs}, in_{s}[rt + j])")
+                lap = f"({lap} + ((zt_{s} + zb_{s}) - two * c_{s}) * cz)"
             body.append(f"L_{s} = {lap}")
     for i, o in enumerate(program.outputs):
         body.append(f"o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)}")

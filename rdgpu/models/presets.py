@@ -29,7 +29,7 @@ def build_domain(spec: Mapping[str, Any]) -> Any:
         return Grid(shape, dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
                     bc=spec.get("bc", "periodic"), dz=spec.get("dz"))
     if "mesh" in spec:
-        from .mesh import SurfaceMesh
+        from ..mesh import SurfaceMesh
 
         kind = spec["mesh"]
         if kind == "sphere":
