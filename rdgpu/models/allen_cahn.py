@@ -67,7 +67,7 @@ class AllenCahn(Model):
     ``dt`` → Bernoulli ``dt/2``.
 
     ``method="explicit"``: forward-Euler diffusion (one Laplacian + the pointwise kernel),
-    stable for ``dt ≤ dx²/4`` on a square grid (``1/(2(1/dx² + 1/dy²))``) or
+    stable for ``dt ≤ dx²/4`` on a square grid (``1/(2 Σ 1/h²)`` over its axes) or
     ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"`` (backward Euler) or
     ``"crank-nicolson"``: θ-scheme diffusion solved by multicolour SOR on the device
     (:class:`rdgpu.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
@@ -120,7 +120,9 @@ class AllenCahn(Model):
         if method != "explicit":
             return math.inf
         if isinstance(domain, Grid):
-            return 1.0 / (2.0 * (1.0 / domain.dx**2 + 1.0 / domain.dy**2))
+            # dy, dz are inf along absent axes: 1/h² = 0 there (1-D, 2-D)
+            return 1.0 / (2.0 * (1.0 / domain.dx**2 + 1.0 / domain.dy**2
+                                 + 1.0 / domain.dz**2))
         domain_shape(domain)
         return domain.max_stable_dt(1.0)
 
@@ -173,11 +175,14 @@ class AllenCahn(Model):
         if isinstance(domain, Grid):
             u = u.reshape(domain.shape)
             b = b.reshape(domain.shape) if b.size > 1 else b
-            gx = _grid_face_differences(u, 1, domain.bcs.x) / domain.dx
-            gy = _grid_face_differences(u, 0, domain.bcs.y) / domain.dy
+            # faces along x (last axis), y and, on a 3-D grid, z (the 7-point stencil's)
+            axes = [(-1, domain.bcs.x, domain.dx), (-2, domain.bcs.y, domain.dy)]
+            if domain.ndim == 3:
+                axes.append((-3, domain.bcs.z, domain.dz))
+            grad = sum(float(np.sum((_grid_face_differences(u, a, bc) / h) ** 2))
+                       for a, bc, h in axes)
             pot = ((u * u - 1.0) ** 2 / 4.0 + b * u) / eps**2
-            return float(domain.cell_volume * (0.5 * (np.sum(gx * gx) + np.sum(gy * gy))
-                                                  + np.sum(pot)))
+            return float(domain.cell_volume * (0.5 * grad + np.sum(pot)))
         domain_shape(domain)
         u = u.ravel()
         grad = 0.5 * float(u @ (-(domain.weights @ u)))

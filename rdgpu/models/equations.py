@@ -357,6 +357,13 @@ def _terms(node: Node, sign: int = 1) -> list[tuple[int, Node]]:
         return _terms(node.a, sign) + _terms(node.b, sign if node.op == "+" else -sign)
     if isinstance(node, Neg):
         return _terms(node.a, -sign)
+    # a constant factor of a sum that holds a Laplacian, D*(laplace(u) - u): distributed
+    # (a single term is rebuilt as it was, so nothing else changes)
+    if isinstance(node, Bin) and node.op in "*/":
+        if node.op == "*" and _constant(node.a) and laplacians(node.b):
+            return [(s, Bin("*", node.a, t)) for s, t in _terms(node.b, sign)]
+        if _constant(node.b) and laplacians(node.a):
+            return [(s, Bin(node.op, t, node.b)) for s, t in _terms(node.a, sign)]
     return [(sign, node)]
 
 
@@ -393,7 +400,8 @@ def _constant(node: Node) -> bool:
 
 def linear_parts(node: Node) -> Linear | None:
     """Split ``node`` (see :class:`Linear`); None when a Laplacian appears other than as a
-    constant multiple in the top-level sum (``u*laplace(u)``, ``exp(laplace(u))``)."""
+    constant multiple in the top-level sum (``u*laplace(u)``, ``exp(laplace(u))``); a
+    constant factor of a sum, ``D*(laplace(u) - u)``, is distributed first."""
     diffusion: dict[str, Node] = {}
     bilaplacian: dict[str, Node] = {}
     rest: Node | None = None

@@ -216,7 +216,7 @@ class ModelStepper(FieldStepper):
         if method in EXPLICIT:
             self._setup_explicit(trees)
         else:
-            self._setup_imex(trees, tol)
+            self._setup_imex(trees, tol, inline)
 
     # ------------------------------------------------------------------ programs
     def _diffusion_numbers(self) -> list[float]:
@@ -264,7 +264,7 @@ class ModelStepper(FieldStepper):
         self._stages = [[self.backend.empty(self.shape, self.dtype) for _ in self.species]
                         for _ in range(n_stages)]
 
-    def _setup_imex(self, trees, tol) -> None:
+    def _setup_imex(self, trees, tol, inline) -> None:
         from ..implicit import ImplicitDiffusion
 
         theta = 1.0 if self.method == "imex" else 0.5
@@ -276,6 +276,12 @@ class ModelStepper(FieldStepper):
         cache: dict[float, Any] = {}
         for s in self.species:
             lin = eq.linear_parts(trees[s])
+            if lin is None and self.model.linear[s] is not None:
+                # linear as written: a parameter expression of t made a coefficient vary
+                raise ValueError(
+                    f"method {self.method!r}: in the equation of {s!r} a Laplacian's "
+                    f"coefficient uses a time-dependent parameter ({', '.join(sorted(inline))}"
+                    "); an implicit term needs a constant coefficient")
             if lin is None:
                 raise ValueError(
                     f"method {self.method!r}: the equation of {s!r} has a Laplacian with a "

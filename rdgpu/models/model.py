@@ -365,10 +365,14 @@ class Model:
         for k, v in merged.items():
             if isinstance(v, str):
                 tree = eq.parse(v, params=[p for p in merged if p != k], laplace=False)
-                v = eq.evaluate(tree, {**{p: 0.0 for p in ("x", "y", "z", "t")},
-                                       **{L: 1.0 for L in eq.LENGTHS},
-                                       **{p: float(np.mean(merged[p])) for p in
-                                          eq.names(tree, "param")}})
+                # NumPy scalars: an expression such as sin(t)/t is NaN at t = 0, not a
+                # ZeroDivisionError
+                with np.errstate(all="ignore"):
+                    v = float(eq.evaluate(tree, {
+                        **{p: np.float64(0.0) for p in ("x", "y", "z", "t")},
+                        **{L: np.float64(1.0) for L in eq.LENGTHS},
+                        **{p: np.float64(np.mean(merged[p])) for p in
+                           eq.names(tree, "param")}}))
             elif isinstance(v, Mapping):
                 spec = v
                 v = (float(spec.get("mean", 0.0)) if spec.get("kind") == "sine" else
@@ -483,8 +487,14 @@ class Model:
         ops = self.linear_operators(params)
         if ops is None:
             return math.inf
-        return stability_limit(ops[0], ops[1], _largest_mode(domain, stencil),
-                               _method(method, self.methods))
+        method = _method(method, self.methods)
+        if method.startswith("imex"):
+            for s, beta in zip(self.species, np.diag(ops[1]), strict=True):
+                if beta > 0:
+                    raise ValueError(
+                        f"method {method!r}: the bilaplacian of {s!r} has the coefficient "
+                        f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
+        return stability_limit(ops[0], ops[1], _largest_mode(domain, stencil), method)
 
     def stepper(
         self,
