@@ -386,6 +386,10 @@ def test_ctrl_c_writes_the_outputs_and_exits_130(tmp_path, with_checkpoint):
 
 # ------------------------------------------------------------- what a new user meets
 PATTERN_MODELS = sorted(models.MODELS) if hasattr(models, "MODELS") else []
+#: models whose defaults were made for meshes too (`--mesh sphere` with nothing else); the
+#: later models' mesh runs are their presets' business
+MESH_DEFAULT_MODELS = {"gray-scott", "allen-cahn", "brusselator", "fitzhugh-nagumo",
+                       "schnakenberg", "barkley", "turing"}
 
 
 @pytest.mark.parametrize("where", [
@@ -402,6 +406,8 @@ def test_defaults_form_a_pattern(capsys, tmp_path, model, where):
 
     if "--mesh" in where:
         pytest.importorskip("trimesh")
+        if model not in MESH_DEFAULT_MODELS:
+            pytest.skip(f"{model}'s defaults are made for grids")
     code, _, err = cli(capsys, "run", model, *where, "--data", tmp_path / "d.npz", "--quiet")
     assert code == 0, err
     assert "warning" not in err

@@ -479,15 +479,16 @@ class Model:
 
     # ------------------------------------------------------------------ stepping
     def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
-                 method: str = "euler", stencil: str = "compact") -> float:
-        """The largest stable ``dt`` of ``method`` on ``domain`` (module doc); ``inf`` when
-        the linear spatial part sets none."""
+                 method: str | None = None, stencil: str = "compact") -> float:
+        """The largest stable ``dt`` of ``method`` (default: the model's
+        ``default_method``) on ``domain`` (module doc); ``inf`` when the linear spatial part
+        sets none."""
         from .integrators import stability_limit
 
         ops = self.linear_operators(params)
         if ops is None:
             return math.inf
-        method = _method(method, self.methods)
+        method = _method(method or self.default_method, self.methods)
         if method.startswith("imex"):
             for s, beta in zip(self.species, np.diag(ops[1]), strict=True):
                 if beta > 0:
