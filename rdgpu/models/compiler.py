@@ -434,6 +434,16 @@ def _laplacian_text(kind: str, s: str, num) -> str:
     return f"((({num(2)} * {faces}) + {edges}) - ({num(24)} * {c})) * cx"
 
 
+def _neighbour_value(program: Program, s: str, load, fields, lit, fn) -> str:
+    """Source of field ``s`` at a neighbour whose input ``i`` reads as ``load(i)``: the
+    load itself, or a derived field's expression of the inputs there (both generators)."""
+    expr = program.derived_expr(s)
+    if expr is None:
+        return load(s)
+    return _emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind == "species"
+                 else _var(n, fields), lit, fn)
+
+
 def _grid_coefficients(target: Target) -> tuple[float, float, float]:
     """``(cx, cy, cz)`` of the kernels: ``1/h²`` per axis (0 along absent axes), or
     ``1/(6h²)`` in ``cx`` for the isotropic stencils."""
@@ -486,12 +496,7 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
     stencil = program.stencil_inputs
 
     def at(s: str, load) -> str:
-        """Field ``s`` at a neighbour whose input ``i`` is ``load(i)``."""
-        expr = program.derived_expr(s)
-        if expr is None:
-            return load(s)
-        return _emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind ==
-                     "species" else _var(n, fields), lit, fn)
+        return _neighbour_value(program, s, load, fields, lit, fn)
 
     if kind == "mesh":
         if stencil:
@@ -659,11 +664,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
             body.append(f"c_{d} = {_emit(expr, lambda n: _var(n, fields), lit, fn)}")
 
         def value(s: str, load) -> str:
-            expr = program.derived_expr(s)
-            if expr is None:
-                return load(s)
-            return _emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind ==
-                         "species" else _var(n, fields), lit, fn)
+            return _neighbour_value(program, s, load, fields, lit, fn)
 
         if kind == "mesh":
             if stencil:
