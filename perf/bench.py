@@ -1,42 +1,62 @@
-"""Benchmark every grid kernel and the mesh (CSR) kernels on every backend, in one run.
+"""Benchmark every rdgpu kernel on every backend, at sizes chosen from the machine's caches.
 
-    python perf/bench.py [--sizes 256 1024 2048] [--seconds 0.4] [--out perf/results]
-                         [--mesh-vertices 1000000] [--mesh-kernels spmv mesh_gray_scott]
+    python perf/bench.py [--sizes N ...] [--kernels K ...] [--backends B ...] [--seconds 0.4]
+                         [--out perf/results] [--full] [--no-gpu] [--no-pypde]
+                         [--members 1024] [--member-size 64] [--model-size N] [--real-size N]
+                         [--mesh-vertices N]
 
-Prints and saves (JSON and a Markdown table) Mcell/s, the ratio to NumPy measured in the
-same run, and the fraction of the memory-bandwidth roofline: the machine's bandwidth is
-measured here (a STREAM-style triad, the best of NumPy on one core and OpenCL on all),
-and each kernel's roofline is bandwidth / (bytes it must move per cell).
+Writes ``bench.json``, ``bench.md`` and ``bench.png`` (Mcell/s against cells, log-log, one
+line per backend, one panel per grid kernel, the last-level cache marked) to ``--out``.
 
-Model rows (``--model-size N``, 0 to skip; ``--models``): every built-in model's generated
-fused step (``model.stepper``, float32, an N² periodic grid, near its steady state) in
-Mcell/s and as a fraction of the hand-written Gray-Scott kernel timed in the same run.
+Machine (``perf/machine.py``): the CPU caches are read from sysfs (else ``lscpu -B``, else
+``getconf``); the last-level cache (LLC) counts every instance serving this process's CPUs.
+Unless ``--sizes`` is given the square grids (multiples of 64) are: one whose working set
+(bytes a kernel moves per cell x cells) is at most a quarter of the LLC for every kernel,
+one at least 4x the LLC for every kernel, and their geometric mean.  Bandwidth: a triad
+``a = b + s c`` on arrays together at least 4x the LLC (and 32 Mi floats), best of repeats,
+NumPy on one core and OpenCL on all; the roofline uses the better.  The same triad on arrays
+of a quarter of the LLC is saved for contrast.  With an NVIDIA GPU (Warp CUDA) or any OpenCL
+GPU, their rows (``warp-cuda``, ``opencl-gpu``) use that device's own bandwidth (a device
+copy for Warp, the triad for OpenCL) and L2 size.
 
-Real-state rows (``--real-size N``, 0 to skip): presets advanced from their default initial
-conditions, the first 200 steps against steps 2000-2200 of the same run (see
-``perf/real_states.py``): random fields never show the slowdown of subnormal floats.
+% of roofline = Mcell/s / (bandwidth / bytes per cell), printed only where the working set
+exceeds the device's LLC; a cache-resident row says ``cache``: inside the cache there is no
+DRAM roofline (a number there can read well above 100 %).  ``× NumPy`` is computed after all
+backends of a case have run.
 
-Mesh rows (``--mesh-vertices N``, 0 to skip): a geodesic icosphere with about N vertices
-(class-I subdivision of the icosahedron at frequency f, ``10 f² + 2`` vertices, ordered face
-by face), float32 ``L = A⁻¹W``.  ``spmv`` is ``y = L x``; ``mesh_gray_scott`` one fused
-Gray-Scott step.  Rows per backend plus a ``scipy`` baseline (``L @ x``, single-threaded;
-for Gray-Scott two ``L @`` products plus the NumPy update); Mvertex/s, the ratio to SciPy and
-to the NumPy backend (the reference kernels), and the roofline fraction.  Bytes a CSR row
-moves (float32, int32): ``indptr`` 4 + (``indices`` 4 + ``data`` 4) per stored entry + ``x``
-4 + ``y`` 4 — ``x`` counted once per vertex, the *lower* bound (the caches catch the reuse of
-``x[j]`` by the ~7 rows that share it; counting it once per stored entry, the upper bound,
-adds 4 per entry and is saved as ``bytes_per_row_upper``).  Gray-Scott: ``indptr``, indices
-and data once, ``u``, ``v`` read, ``u'``, ``v'`` written.  The roofline fraction uses the
-lower bound, i.e. the most demanding roofline.
+Rows:
+
+* grid kernels (``--kernels``), float32, periodic, every size and backend;
+* py-pde's numba backend on the same Gray-Scott problem (``pde.PDE`` with the same
+  expressions, a periodic N² ``CartesianGrid`` with dx = 1, explicit Euler with dt = 1;
+  compiled first, then timed; py-pde computes in float64), ``--no-pypde`` to skip;
+* mesh (CSR) kernels on a geodesic icosphere of about ``--mesh-vertices`` vertices (0 to
+  skip): ``spmv`` ``y = L x`` and ``mesh_gray_scott``, against SciPy; bytes per row: see
+  :func:`mesh_bytes`;
+* models (``--model-size``, default the largest size; 0 to skip): every built-in model's
+  generated fused step (float32, near its steady state) against the hand-written Gray-Scott
+  kernel in the same run;
+* ensembles (``--members``, 0 to skip): Gray-Scott on ``members`` grids of
+  ``member-size²`` in one batch (``Simulation(..., members=M)``) against one grid of the
+  same cell count, and the sweep rate in members·steps/s; NumPy runs
+  ``--numpy-members`` members;
+* real states (``--real-size``, 0 to skip; ``perf/real_states.py``): presets from their
+  default initial conditions, steps 0-200 against 2000-2200 of the same run.
+
+The slowest rows (NumPy on the real states) run only with ``--full``; a default run takes a
+few minutes on a 2-core machine.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import platform
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +66,11 @@ try:
 except ImportError:  # run from a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import rdgpu
-from rdgpu.boundary import parse_bc
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import machine  # noqa: E402 - perf/machine.py, next to this file
+
+from rdgpu.boundary import parse_bc  # noqa: E402
+from rdgpu.errors import BackendUnavailableError  # noqa: E402
 
 # Bytes a kernel must move per cell in float32 (reads + writes of full arrays).
 BYTES_PER_CELL = {
@@ -57,49 +81,211 @@ BYTES_PER_CELL = {
     "levelset_step": 8,  # read phi, write phi'
     "reinit_step": 12,  # read phi, phi0; write phi'
 }
+PYPDE = "py-pde numba"
+PYPDE_BYTES = 32  # float64 u, v read; u', v' written
+GPU_LABELS = ("warp-cuda", "opencl-gpu")
+CPU_LABELS = ("numpy", "warp", "opencl")
 
 
-def measure_bandwidth(seconds: float) -> dict:
-    """Triad ``a = b + s c`` on 32 Mi floats: NumPy (one core) and OpenCL (all cores)."""
-    n = 1 << 25
-    b = np.random.rand(n).astype(np.float32)
-    c = np.random.rand(n).astype(np.float32)
-    a = np.empty_like(b)
+# ---------------------------------------------------------------------------- backends
+def _opencl_devices(gpu: bool):
+    """``"P:D"`` keys of the OpenCL devices of one kind (GPU or CPU) whose compiler works,
+    Oclgrind left out."""
+    import pyopencl as cl
+
+    from rdgpu.backends.opencl_backend import list_devices, probe_compiler
+
+    kind = cl.device_type.GPU if gpu else cl.device_type.CPU
+    return [key for key, p, d in list_devices()
+            if d.type & kind and "oclgrind" not in p.name.lower() and probe_compiler(d) is None]
+
+
+def resolve_backends(names: list[str], gpu: bool) -> dict:
+    """``label -> Backend``: ``numpy``; ``warp`` (Warp's CPU device); ``opencl`` (the first
+    OpenCL CPU device); with ``gpu``, also ``warp-cuda`` (Warp's ``cuda:0``) and
+    ``opencl-gpu`` (the first OpenCL GPU) where they exist.  A backend that is unavailable
+    is left out with a message."""
+    from rdgpu.backends.warp_backend import cuda_device_count
+
+    wanted = list(names)
+    if gpu:
+        wanted += [g for g in GPU_LABELS if g not in wanted]
+    out = {}
+    for label in wanted:
+        try:
+            if label == "numpy":
+                out[label] = rdgpu.get_backend("numpy")
+            elif label == "warp":
+                out[label] = rdgpu.get_backend("warp:cpu")
+            elif label == "warp-cuda":
+                if cuda_device_count() > 0:
+                    out[label] = rdgpu.get_backend("warp:cuda:0")
+            elif label in ("opencl", "opencl-gpu"):
+                keys = _opencl_devices(gpu=label == "opencl-gpu")
+                if keys:
+                    out[label] = rdgpu.get_backend(f"opencl:{keys[0]}")
+                elif label == "opencl":
+                    print("opencl: no OpenCL CPU device can compile kernels; left out")
+            else:
+                raise SystemExit(f"unknown backend {label!r}; allowed: "
+                                 f"{', '.join(CPU_LABELS + GPU_LABELS)}")
+        except (BackendUnavailableError, ImportError) as exc:
+            print(f"{label}: unavailable ({exc}); left out")
+    return out
+
+
+def measure_memory(backends: dict, caches: machine.Caches, seconds: float) -> dict:
+    """``{"cpu": {...}, "<gpu label>": {...}}``: each device's LLC bytes (``llc``) and
+    bandwidth in GB/s (``GBps``, measured outside the cache) with the measurement's
+    details."""
+    memory = {"cpu": dict(llc=caches.llc, **machine.cpu_bandwidth(
+        caches.llc, seconds, backends.get("opencl")))}
+    for label in GPU_LABELS:
+        be = backends.get(label)
+        if be is None:
+            continue
+        l2 = machine.cuda_l2_bytes() if label == "warp-cuda" or "nvidia" in be.device.lower() \
+            else 0
+        if not l2 and label == "opencl-gpu":
+            l2 = int(be.cl_device.global_mem_cache_size)
+        l2 = l2 or 64 * machine.MiB
+        memory[label] = dict(llc=l2, **machine.gpu_bandwidth(be, l2, seconds))
+    return memory
+
+
+def memory_of(label: str, memory: dict) -> dict:
+    """The memory entry (LLC, bandwidth) of the device a backend label runs on."""
+    return memory[label] if label in memory else memory["cpu"]
+
+
+# ---------------------------------------------------------------------------- timing
+def time_case(be, step, seconds: float) -> float:
+    """Best seconds per step: warm up, then time batches until ``seconds`` have passed."""
+    step()
+    be.synchronize()
+    t0 = time.perf_counter()
+    step()
+    be.synchronize()
+    one = max(time.perf_counter() - t0, 1e-7)
+    batch = max(1, int(0.05 / one))
     best = float("inf")
     end = time.perf_counter() + seconds
     while time.perf_counter() < end or best == float("inf"):
         t0 = time.perf_counter()
-        np.multiply(c, np.float32(3.0), out=a)
-        np.add(a, b, out=a)
-        best = min(best, time.perf_counter() - t0)
-    # np.multiply + np.add move 5 arrays' worth (c, a, a, b, a); count the triad's 3.
-    result = {"numpy_triad_GBps": 3 * 4 * n / best / 1e9}
-    try:
-        import pyopencl as cl
+        for _ in range(batch):
+            step()
+        be.synchronize()
+        best = min(best, (time.perf_counter() - t0) / batch)
+    return best
 
-        be = rdgpu.get_backend("opencl")
-        ctx, queue = be.context, be.queue
-        prg = cl.Program(ctx, """
-            __kernel void triad(__global float *a, __global const float *b,
-                                __global const float *c, float s) {
-                size_t i = get_global_id(0); a[i] = b[i] + s * c[i]; }""").build()
-        mf = cl.mem_flags
-        db = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=b)
-        dc = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=c)
-        da = cl.Buffer(ctx, mf.WRITE_ONLY, a.nbytes)
-        kernel = prg.triad
-        best = float("inf")
-        end = time.perf_counter() + seconds
-        while time.perf_counter() < end or best == float("inf"):
-            t0 = time.perf_counter()
-            kernel(queue, (n,), None, da, db, dc, np.float32(3.0))
-            queue.finish()
-            best = min(best, time.perf_counter() - t0)
-        result["opencl_triad_GBps"] = 3 * 4 * n / best / 1e9
-    except Exception as exc:  # noqa: BLE001 - bandwidth from NumPy alone then
-        result["opencl_error"] = str(exc)
-    result["GBps"] = max(v for k, v in result.items() if k.endswith("GBps"))
-    return result
+
+def add_roofline(row: dict, mem: dict, bytes_per_cell: float) -> dict:
+    """Fill in ``row``'s working set (``bytes_per_cell`` x ``row["cells"]``) against the
+    device's LLC and, only outside the cache, its roofline fraction (else ``None``)."""
+    ws = bytes_per_cell * row["cells"]
+    roof = mem["GBps"] * 1e9 / bytes_per_cell / 1e6
+    in_cache = ws <= mem["llc"]
+    row.update(bytes_per_cell=bytes_per_cell, working_set_bytes=ws, llc_bytes=mem["llc"],
+               working_set_over_llc=ws / mem["llc"] if mem["llc"] else None,
+               in_cache=in_cache, roofline_mcells=roof,
+               roofline_fraction=None if in_cache else row["mcells"] / roof)
+    return row
+
+
+def add_ratios(rows: list[dict], keys: tuple[str, ...], base: str = "numpy",
+               field: str = "speedup") -> None:
+    """``row[field]`` = Mcell/s over that of the ``base`` backend's row with the same
+    ``keys`` (``None`` where there is none); run after every backend has been timed."""
+    bases = {tuple(r[k] for k in keys): r["mcells"] for r in rows if r["backend"] == base}
+    for r in rows:
+        b = bases.get(tuple(r[k] for k in keys))
+        r[field] = r["mcells"] / b if b else None
+
+
+def fmt(x, spec: str = ".0f", none: str = "—") -> str:
+    """``x`` formatted with ``spec``, or ``none`` for a missing value."""
+    return none if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def roof_text(r: dict) -> str:
+    """The % roofline cell of a row: a number outside the cache, else ``cache``."""
+    return "cache" if r.get("in_cache") else fmt(None if r.get("roofline_fraction") is None
+                                                  else 100 * r["roofline_fraction"])
+
+
+def progress(prefix: str, r: dict) -> None:
+    print(f"{prefix} {r['backend']:12s} {r['mcells']:9.1f} Mcell/s  "
+          f"ws {r['working_set_bytes'] / machine.MiB:8.1f} MiB  roofline {roof_text(r)}"
+          f"{'' if r.get('in_cache') else ' %'}", flush=True)
+
+
+# ---------------------------------------------------------------------------- grid rows
+def pypde_case(n: int):
+    """A closure advancing py-pde's Gray-Scott (numba backend, explicit Euler, dt = 1) by one
+    step on a periodic n² grid with dx = 1: the problem of ``make_case("gray_scott")``.
+    Compiled (one step run) before it is returned."""
+    import pde
+
+    grid = pde.CartesianGrid([[0, n], [0, n]], [n, n], periodic=True)
+    eq = pde.PDE({"u": "0.16*laplace(u) - u*v**2 + 0.035*(1 - u)",
+                  "v": "0.08*laplace(v) + u*v**2 - (0.035 + 0.06)*v"})
+    u, v = pde.ScalarField(grid, 1.0), pde.ScalarField(grid, 0.0)
+    u.data[n // 3: n // 2, n // 3: n // 2], v.data[n // 3: n // 2, n // 3: n // 2] = 0.5, 0.25
+    state = pde.FieldCollection([u, v])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # ExplicitSolver's deprecation on older versions
+        solver_class = getattr(pde, "EulerSolver", None) or pde.ExplicitSolver
+        solver = solver_class(eq, backend="numba", adaptive=False)
+        stepper = solver.make_stepper(state, dt=1.0)
+    t = [stepper(state, 0.0, 1.0)]
+
+    def step():
+        t[0] = stepper(state, t[0], t[0] + 1.0)
+
+    return step
+
+
+def pypde_device() -> str | None:
+    """What py-pde runs on, or ``None`` when py-pde or numba cannot be imported."""
+    try:
+        import numba
+        import pde
+    except ImportError:
+        return None
+
+    return f"cpu (py-pde {pde.__version__}, numba {numba.__version__}, " \
+           f"{numba.get_num_threads()} threads, float64)"
+
+
+def grid_rows(args, backends: dict, memory: dict) -> list[dict]:
+    """Every grid kernel at every size on every backend, py-pde on Gray-Scott; ratios to
+    NumPy added once all are timed."""
+    rows = []
+    host = rdgpu.get_backend("numpy")
+    for kernel in args.kernels:
+        for n in args.sizes:
+            cases = [(label, be, be.device, lambda be=be, k=kernel, n=n: make_case(k, be, n),
+                      BYTES_PER_CELL[kernel]) for label, be in backends.items()]
+            if kernel == "gray_scott" and args.pypde:
+                device = pypde_device()
+                if device is None:
+                    print("py-pde rows skipped: py-pde (and numba) cannot be imported")
+                else:
+                    cases.append((PYPDE, host, device, lambda n=n: pypde_case(n), PYPDE_BYTES))
+            for label, be, device, build, nbytes in cases:
+                t0 = time.perf_counter()
+                step = build()
+                setup = time.perf_counter() - t0
+                seconds = time_case(be, step, args.seconds)
+                del step
+                row = dict(kernel=kernel, size=n, cells=n * n, backend=label, device=device,
+                           dtype="float64" if label == PYPDE else "float32",
+                           seconds_per_step=seconds, mcells=n * n / seconds / 1e6,
+                           setup_seconds=setup)
+                rows.append(add_roofline(row, memory_of(label, memory), nbytes))
+                progress(f"{kernel:14s} {n:5d}²", row)
+    add_ratios(rows, ("kernel", "size"))
+    return rows
 
 
 def make_case(kernel: str, be, n: int):
@@ -166,26 +352,6 @@ def make_case(kernel: str, be, n: int):
     raise ValueError(kernel)
 
 
-def time_case(be, step, seconds: float) -> float:
-    """Best seconds per step: warm up, then time batches until ``seconds`` have passed."""
-    step()
-    be.synchronize()
-    t0 = time.perf_counter()
-    step()
-    be.synchronize()
-    one = max(time.perf_counter() - t0, 1e-7)
-    batch = max(1, int(0.05 / one))
-    best = float("inf")
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end or best == float("inf"):
-        t0 = time.perf_counter()
-        for _ in range(batch):
-            step()
-        be.synchronize()
-        best = min(best, (time.perf_counter() - t0) / batch)
-    return best
-
-
 # ---------------------------------------------------------------------------- model rows
 def model_case(model, be, n: int):
     """A float32 stepper of ``model`` on an n² periodic grid (fields near its steady state
@@ -212,7 +378,7 @@ def model_bytes(model) -> int:
     return 8 * len(model.species) + extra
 
 
-def model_rows(args, backends: dict, bw: dict) -> list[dict]:
+def model_rows(args, backends: dict, memory: dict) -> list[dict]:
     """Every built-in model's generated fused step against the hand-written Gray-Scott
     kernel (``backend.gray_scott``), side by side in this run, at ``--model-size``; the
     roofline counts :func:`model_bytes` per cell."""
@@ -221,21 +387,19 @@ def model_rows(args, backends: dict, bw: dict) -> list[dict]:
     n = args.model_size
     rows = []
     for name, be in backends.items():
-        hand = n * n / time_case(be, make_case("gray_scott", be, n), args.seconds) / 1e6
-        roof = bw["GBps"] * 1e9 / 16 / 1e6
-        rows.append(dict(kernel="model", model="gray-scott (hand-written)", size=n,
-                         backend=name, device=be.device, mcells=hand, vs_hand=1.0,
-                         roofline_fraction=hand / roof))
-        print(f"model {'gray-scott (hand)':26s} {n}² {name:7s} {hand:9.1f} Mcell/s", flush=True)
-        for mname in args.models:
-            model = MODELS[mname]
-            mc = n * n / time_case(be, model_case(model, be, n), args.seconds) / 1e6
-            roof = bw["GBps"] * 1e9 / model_bytes(model) / 1e6
-            rows.append(dict(kernel="model", model=mname, size=n, backend=name,
-                             device=be.device, mcells=mc, vs_hand=mc / hand,
-                             species=len(model.species), roofline_fraction=mc / roof))
-            print(f"model {mname:26s} {n}² {name:7s} {mc:9.1f} Mcell/s "
-                  f"x{mc / hand:5.2f} hand-written GS", flush=True)
+        mem = memory_of(name, memory)
+        cases = [("gray-scott (hand-written)", lambda be=be: make_case("gray_scott", be, n),
+                  16)]
+        cases += [(m, lambda be=be, m=m: model_case(MODELS[m], be, n), model_bytes(MODELS[m]))
+                  for m in args.models]
+        hand = None
+        for mname, build, nbytes in cases:
+            mc = n * n / time_case(be, build(), args.seconds) / 1e6
+            hand = hand or mc
+            row = dict(kernel="model", model=mname, size=n, cells=n * n, backend=name,
+                       device=be.device, mcells=mc, vs_hand=mc / hand)
+            rows.append(add_roofline(row, mem, nbytes))
+            progress(f"model {mname:26s} {n}²", row)
     return rows
 
 
@@ -244,11 +408,83 @@ def model_markdown(rows: list[dict]) -> str:
         return ""
     lines = ["", f"Models: one fused generated step per model (float32, {rows[0]['size']}², "
              "periodic), against the hand-written Gray-Scott kernel in the same run.", "",
-             "| model | backend | Mcell/s | × hand-written Gray-Scott | % roofline |",
-             "|---|---|---:|---:|---:|"]
+             "| model | backend | Mcell/s | × hand-written Gray-Scott | working set / LLC "
+             "| % roofline |",
+             "|---|---|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r['model']} | {r['backend']} | {r['mcells']:.0f} | "
-                     f"{r['vs_hand']:.2f} | {100 * r['roofline_fraction']:.0f} |")
+                     f"{r['vs_hand']:.2f} | {fmt(r['working_set_over_llc'], '.1f')} | "
+                     f"{roof_text(r)} |")
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------- ensembles
+def sweep_rate(members: int, seconds_per_step: float) -> tuple[float, str]:
+    """Members·steps per second of an ensemble batch and where it comes from (the
+    ensemble's own timing: ``rdgpu.sweep`` adds no kernel of its own)."""
+    return members / seconds_per_step, "ensemble step"
+
+
+def ensemble_rows(args, backends: dict, memory: dict) -> list[dict]:
+    """Gray-Scott on ``--members`` grids of ``--member-size²`` in one batch against one grid
+    of the same cell count, per backend (NumPy: ``--numpy-members``); empty, with a
+    message, when this rdgpu's ``Simulation`` takes no ``members=``."""
+    from rdgpu.simulation import Simulation
+
+    m = args.member_size
+    rows = []
+    for label, be in backends.items():
+        members = args.numpy_members if label == "numpy" else args.members
+        if members <= 0:
+            continue
+        side = math.isqrt(members * m * m)
+        common = dict(dt=1.0, backend=be, dtype="float32", seed=0)
+        try:
+            ens = Simulation("gray-scott", {"grid": (m, m), "dx": 1.0, "bc": "periodic"},
+                             members=members, **common)
+        except TypeError as exc:
+            if "members" not in str(exc):
+                raise
+            print(f"ensemble rows skipped: this rdgpu's Simulation takes no members= ({exc})")
+            return []
+        one = Simulation("gray-scott", {"grid": (side, side), "dx": 1.0, "bc": "periodic"},
+                         **common)
+        mem = memory_of(label, memory)
+        t_ens = time_case(be, lambda s=ens: s.stepper.advance(1), args.seconds)
+        t_one = time_case(be, lambda s=one: s.stepper.advance(1), args.seconds)
+        rate, source = sweep_rate(members, t_ens)
+        ens_row = add_roofline(dict(
+            kernel="ensemble", case=f"{members} × {m}²", members=members, size=m,
+            cells=members * m * m, backend=label, device=be.device, seconds_per_step=t_ens,
+            mcells=members * m * m / t_ens / 1e6, member_steps_per_s=rate,
+            sweep_rate_source=source), mem, 16)
+        one_row = add_roofline(dict(
+            kernel="ensemble-single", case=f"1 × {side}²", members=1, size=side,
+            cells=side * side, backend=label, device=be.device, seconds_per_step=t_one,
+            mcells=side * side / t_one / 1e6, member_steps_per_s=1 / t_one), mem, 16)
+        ens_row["vs_single"] = ens_row["mcells"] / one_row["mcells"]
+        rows += [ens_row, one_row]
+        progress(f"ensemble {ens_row['case']:14s}", ens_row)
+        progress(f"single   {one_row['case']:14s}", one_row)
+        print(f"   ensemble / single grid: {ens_row['vs_single']:.2f} (target >= 0.8); "
+              f"sweep rate {rate:,.0f} members·steps/s", flush=True)
+    return rows
+
+
+def ensemble_markdown(rows: list[dict]) -> str:
+    if not rows:
+        return ""
+    lines = ["", "Ensembles: Gray-Scott (generated step, float32, periodic, dt = 1), many "
+             "small grids in one batch against one grid of the same cell count on the same "
+             "backend (target: ensemble ≥ 0.8 × single). Sweep rate: members·steps per "
+             f"second ({rows[0]['sweep_rate_source']}).", "",
+             "| backend | ensemble | Mcell/s | single grid | Mcell/s | ensemble / single "
+             "| sweep rate (members·steps/s) | % roofline (ensemble) |",
+             "|---|---|---:|---|---:|---:|---:|---:|"]
+    for ens, one in zip(rows[::2], rows[1::2], strict=True):
+        lines.append(f"| {ens['backend']} | {ens['case']} | {ens['mcells']:.0f} | "
+                     f"{one['case']} | {one['mcells']:.0f} | {ens['vs_single']:.2f} | "
+                     f"{ens['member_steps_per_s']:,.0f} | {roof_text(ens)} |")
     return "\n".join(lines) + "\n"
 
 
@@ -346,7 +582,7 @@ def make_mesh_case(kernel: str, name: str, be, L, n: int):
     return step
 
 
-def mesh_rows(args, backends: dict, bw: dict) -> list[dict]:
+def mesh_rows(args, backends: dict, memory: dict) -> list[dict]:
     f = max(1, round(((args.mesh_vertices - 2) / 10) ** 0.5))
     t0 = time.perf_counter()
     mesh = geodesic_sphere(f)
@@ -360,27 +596,21 @@ def mesh_rows(args, backends: dict, bw: dict) -> list[dict]:
     host = rdgpu.get_backend("numpy")
     for kernel in args.mesh_kernels:
         per_row = lower if kernel == "spmv" else gs_bytes
-        roof = bw["GBps"] * 1e9 / per_row / 1e6
-        timed = {}
+        found = []
         for name in ("scipy", *backends):
             be = host if name == "scipy" else backends[name]
-            timed[name] = time_case(be, make_mesh_case(kernel, name, be, L, n), args.seconds)
-        for name, seconds in timed.items():
-            mv = n / seconds / 1e6
-            row = dict(kernel=kernel, size=n, backend=name,
-                       device="cpu (SciPy, 1 thread)" if name == "scipy"
-                       else backends[name].device,
-                       seconds_per_step=seconds, mvertices=mv, mcells=mv,
-                       vs_scipy=timed["scipy"] / seconds,
-                       speedup=timed["numpy"] / seconds if "numpy" in timed else float("nan"),
-                       bytes_per_row=per_row,
-                       bytes_per_row_upper=upper if kernel == "spmv" else gs_bytes
-                       + 8 * L.nnz / n,
-                       roofline_mcells=roof, roofline_fraction=mv / roof, nnz=L.nnz)
-            rows.append(row)
-            print(f"{kernel:16s} {n:8d}v {name:7s} {mv:9.1f} Mvertex/s  x{row['vs_scipy']:5.2f} "
-                  f"scipy  x{row['speedup']:6.1f} numpy  "
-                  f"{100 * row['roofline_fraction']:5.1f}% roofline", flush=True)
+            seconds = time_case(be, make_mesh_case(kernel, name, be, L, n), args.seconds)
+            row = dict(kernel=kernel, size=n, cells=n, backend=name,
+                       device="cpu (SciPy, 1 thread)" if name == "scipy" else be.device,
+                       seconds_per_step=seconds, mvertices=n / seconds / 1e6,
+                       mcells=n / seconds / 1e6, bytes_per_row=per_row,
+                       bytes_per_row_upper=upper if kernel == "spmv" else gs_bytes + 8 * L.nnz / n,
+                       nnz=L.nnz)
+            found.append(add_roofline(row, memory_of(name, memory), per_row))
+            progress(f"{kernel:16s} {n:8d}v", row)
+        add_ratios(found, ("kernel",), "scipy", "vs_scipy")
+        add_ratios(found, ("kernel",))
+        rows += found
     return rows
 
 
@@ -394,107 +624,205 @@ def mesh_markdown(rows: list[dict]) -> str:
         "bound; once per entry would be "
         f"{rows[0]['bytes_per_row_upper']:.1f}).",
         "",
-        "| kernel | vertices | backend | Mvertex/s | × SciPy | × NumPy | roofline Mvertex/s "
+        "| kernel | vertices | backend | Mvertex/s | × SciPy | × NumPy | working set / LLC "
         "| % roofline |",
         "|---|---:|---|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         lines.append(
             f"| {r['kernel']} | {r['size']} | {r['backend']} | {r['mvertices']:.0f} | "
-            f"{r['vs_scipy']:.2f} | {r['speedup']:.1f} | {r['roofline_mcells']:.0f} | "
-            f"{100 * r['roofline_fraction']:.0f} |"
+            f"{fmt(r['vs_scipy'], '.2f')} | {fmt(r['speedup'], '.1f')} | "
+            f"{fmt(r['working_set_over_llc'], '.1f')} | {roof_text(r)} |"
         )
     return "\n".join(lines) + "\n"
 
 
-def markdown(rows: list[dict], bandwidth: float) -> str:
+# ---------------------------------------------------------------------------- output
+def header_markdown(meta: dict) -> str:
+    """The machine, its caches, the measured bandwidths and the sizes, as Markdown."""
+    cpu = meta["memory"]["cpu"]
     lines = [
-        f"Measured bandwidth (triad): {bandwidth:.1f} GB/s. float32, periodic, best of repeats.",
+        f"Machine: {meta['machine']}, {meta['cpus']} CPUs; {meta['caches_text']}.",
         "",
-        "| kernel | size | backend | Mcell/s | × NumPy | roofline Mcell/s | % roofline |",
-        "|---|---|---|---:|---:|---:|---:|",
+        f"Bandwidth (triad, arrays {cpu['triad_bytes'] / machine.MiB:.0f} MiB in all = "
+        f"{cpu['triad_bytes'] / max(cpu['llc'], 1):.0f}× LLC, best of repeats): NumPy one core "
+        f"{cpu['numpy_GBps']:.1f} GB/s, OpenCL all cores {fmt(cpu.get('opencl_GBps'), '.1f')} "
+        f"GB/s; the roofline uses **{cpu['GBps']:.1f} GB/s** ({cpu['GBps_from']}; bytes "
+        "counted the STREAM way, what the code reads and writes, as the kernels' bytes per "
+        "cell are). The same triad inside the cache "
+        f"(a quarter of the LLC): NumPy {cpu['cached_numpy_GBps']:.0f}, OpenCL "
+        f"{fmt(cpu.get('cached_opencl_GBps'))} GB/s.",
+    ]
+    for label, mem in meta["memory"].items():
+        if label != "cpu":
+            lines.append(f"{label}: {meta['devices'][label]}, L2 {mem['llc'] / machine.MiB:.0f}"
+                         f" MiB, device {mem['kind']} {mem['GBps']:.0f} GB/s.")
+    lines += [
+        "",
+        "Sizes " + ", ".join(f"{n}²" for n in meta["sizes"])
+        + (" (from the caches: cache-resident, mid, working set ≥ 4× LLC)"
+           if meta["sizes_auto"] else " (given)")
+        + ". float32, periodic, best of repeats. % roofline = Mcell/s ÷ (bandwidth ÷ bytes "
+        "per cell), shown only where the working set (bytes per cell × cells) exceeds the "
+        "device's LLC; `cache` where it fits (no DRAM roofline applies there). "
+        f"{PYPDE}: py-pde's numba backend, same Gray-Scott problem, float64 "
+        f"({PYPDE_BYTES} bytes per cell).",
+        "",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def grid_markdown(rows: list[dict]) -> str:
+    lines = [
+        "| kernel | size | backend | Mcell/s | × NumPy | working set / LLC | roofline Mcell/s "
+        "| % roofline |",
+        "|---|---|---|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
-        if r["kernel"] in MESH_KERNELS:
-            continue
         lines.append(
             f"| {r['kernel']} | {r['size']}² | {r['backend']} | {r['mcells']:.0f} | "
-            f"{r['speedup']:.1f} | {r['roofline_mcells']:.0f} | "
-            f"{100 * r['roofline_fraction']:.0f} |"
+            f"{fmt(r['speedup'], '.1f')} | {fmt(r['working_set_over_llc'], '.2f')} | "
+            f"{r['roofline_mcells']:.0f} | {roof_text(r)} |"
         )
-    return "\n".join(lines) + "\n" + mesh_markdown(
-        [r for r in rows if r["kernel"] in MESH_KERNELS])
+    return "\n".join(lines) + "\n"
+
+
+def plot(rows: list[dict], ensembles: list[dict], memory: dict, path: Path) -> None:
+    """Mcell/s against cells, log-log, one panel per grid kernel, one line per backend; the
+    CPU LLC (and any GPU's L2) as a vertical line at the cell count whose working set fills
+    it; ensembles as stars on the Gray-Scott panel."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kernels = list(dict.fromkeys(r["kernel"] for r in rows))
+    if not kernels:
+        return
+    labels = list(dict.fromkeys(r["backend"] for r in rows + ensembles))
+    colors = {b: plt.get_cmap("tab10")(i % 10) for i, b in enumerate(labels)}
+    ncol = min(3, len(kernels))
+    nrow = math.ceil(len(kernels) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 4.2 * nrow), squeeze=False)
+    for ax, kernel in zip(axes.flat, kernels, strict=False):
+        mine = [r for r in rows if r["kernel"] == kernel]
+        for b in dict.fromkeys(r["backend"] for r in mine):
+            pts = sorted((r["cells"], r["mcells"]) for r in mine if r["backend"] == b)
+            ax.plot(*zip(*pts, strict=True), marker="o", color=colors[b], label=b)
+        for i, (label, mem) in enumerate(memory.items()):
+            if mem.get("llc"):
+                name = "CPU LLC" if label == "cpu" else f"{label} L2"
+                ax.axvline(mem["llc"] / BYTES_PER_CELL[kernel], color="0.4",
+                           ls=("--", ":", "-.")[i % 3], lw=1, label=f"{name} filled")
+        if kernel == "gray_scott":
+            for r in (e for e in ensembles if e["kernel"] == "ensemble"):
+                ax.plot(r["cells"], r["mcells"], marker="*", ms=13, ls="none",
+                        color=colors[r["backend"]], label=f"{r['backend']} {r['case']}")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(kernel)
+        ax.set_xlabel("cells")
+        ax.set_ylabel("Mcell/s")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    for ax in list(axes.flat)[len(kernels):]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
-    parser.add_argument("--sizes", type=int, nargs="+", default=[256, 1024, 2048])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=None,
+                        help="square grid sizes (default: from the caches, see above)")
     parser.add_argument("--kernels", nargs="*", default=list(BYTES_PER_CELL),
-                        help="grid kernels (none: only the mesh rows)")
-    parser.add_argument("--backends", nargs="+", default=["numpy", "warp", "opencl"])
+                        choices=list(BYTES_PER_CELL), help="grid kernels (none: no grid rows)")
+    parser.add_argument("--backends", nargs="+", default=list(CPU_LABELS),
+                        help=f"of {', '.join(CPU_LABELS + GPU_LABELS)}; GPUs found are added "
+                        "unless --no-gpu")
+    parser.add_argument("--no-gpu", dest="gpu", action="store_false",
+                        help="no warp-cuda / opencl-gpu rows even where there is a GPU")
+    parser.add_argument("--no-pypde", dest="pypde", action="store_false",
+                        help="no py-pde rows")
+    parser.add_argument("--full", action="store_true",
+                        help="also the slowest rows: NumPy on the real states")
     parser.add_argument("--seconds", type=float, default=0.4, help="timing per case")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     parser.add_argument("--mesh-vertices", type=int, default=1_000_000,
                         help="vertices of the mesh rows' icosphere (about; 0: no mesh rows)")
     parser.add_argument("--mesh-kernels", nargs="+", default=list(MESH_KERNELS),
                         choices=MESH_KERNELS)
-    parser.add_argument("--model-size", type=int, default=2048,
-                        help="grid size of the model rows (0: none)")
+    parser.add_argument("--model-size", type=int, default=None,
+                        help="grid size of the model rows (default: the largest size; 0: none)")
     parser.add_argument("--models", nargs="*", default=None,
                         help="models of the model rows (default: every built-in)")
+    parser.add_argument("--members", type=int, default=1024,
+                        help="members of the ensemble rows (0: none)")
+    parser.add_argument("--member-size", type=int, default=64, help="each member's grid side")
+    parser.add_argument("--numpy-members", type=int, default=64,
+                        help="members of NumPy's ensemble row (0: none)")
     parser.add_argument("--real-size", type=int, default=1024,
                         help="grid size of the real-state rows (perf/real_states.py; 0: none)")
     args = parser.parse_args(argv)
 
-    bw = measure_bandwidth(min(args.seconds, 0.5))
-    print(f"bandwidth: {bw}")
-    backends = {name: rdgpu.get_backend(name) for name in args.backends}
-    rows = []
-    for kernel in args.kernels:
-        for n in args.sizes:
-            base = None
-            for name, be in backends.items():
-                seconds = time_case(be, make_case(kernel, be, n), args.seconds)
-                mcells = n * n / seconds / 1e6
-                base = mcells if name == "numpy" else base
-                roof = bw["GBps"] * 1e9 / BYTES_PER_CELL[kernel] / 1e6
-                row = dict(kernel=kernel, size=n, backend=name, device=be.device,
-                           seconds_per_step=seconds, mcells=mcells,
-                           speedup=mcells / base if base else float("nan"),
-                           roofline_mcells=roof, roofline_fraction=mcells / roof)
-                rows.append(row)
-                print(f"{kernel:14s} {n:5d}² {name:7s} {mcells:9.1f} Mcell/s "
-                      f"x{row['speedup']:5.1f} numpy  "
-                      f"{100 * row['roofline_fraction']:5.1f}% roofline", flush=True)
+    caches = machine.cpu_caches()
+    print(f"machine: {machine.cpu_name()}, {os.cpu_count()} CPUs; {caches.describe()}",
+          flush=True)
+    backends = resolve_backends(args.backends, args.gpu)
+    print("backends: " + "; ".join(f"{k} = {b.device}" for k, b in backends.items()))
+    memory = measure_memory(backends, caches, min(args.seconds, 0.5))
+    for label, mem in memory.items():
+        print(f"memory {label}: LLC {mem['llc'] / machine.MiB:g} MiB, "
+              f"bandwidth {mem['GBps']:.1f} GB/s  {mem}", flush=True)
+    sizes_auto = args.sizes is None
+    if sizes_auto:
+        per_cell = [BYTES_PER_CELL[k] for k in args.kernels] or [16]
+        args.sizes = machine.default_sizes(max(m["llc"] for m in memory.values()),
+                                           min(per_cell), max(per_cell))
+    print(f"sizes: {args.sizes}{' (from the caches)' if sizes_auto else ''}", flush=True)
+    t_start = time.perf_counter()
+    rows = grid_rows(args, backends, memory)
     if args.mesh_vertices > 0 and args.mesh_kernels:
-        rows += mesh_rows(args, backends, bw)
+        rows += mesh_rows(args, backends, memory)
     models = []
+    args.model_size = max(args.sizes) if args.model_size is None else args.model_size
     if args.model_size > 0:
         from rdgpu.models import MODELS
 
         args.models = list(MODELS) if args.models is None else args.models
-        models = model_rows(args, {k: b for k, b in backends.items() if k != "numpy"}, bw)
+        models = model_rows(args, {k: b for k, b in backends.items() if k != "numpy"}, memory)
+    ensembles = ensemble_rows(args, backends, memory) if args.members > 0 else []
     real = []
     if args.real_size > 0:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
         import real_states
 
-        real = real_states.run(args.real_size, list(backends), ["float32", "float64"],
+        real_backends = {k: b for k, b in backends.items() if args.full or k != "numpy"}
+        real = real_states.run(args.real_size, real_backends, ["float32", "float64"],
                                early=200, late=2000)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    meta = dict(machine=platform.processor() or platform.machine(),
-                python=platform.python_version(),
-                rdgpu=rdgpu.__version__, numpy=np.__version__, bandwidth=bw,
-                devices={n: b.device for n, b in backends.items()},
+    meta = dict(machine=machine.cpu_name(), cpus=os.cpu_count(), caches=caches.as_dict(),
+                caches_text=caches.describe(), python=platform.python_version(),
+                rdgpu=rdgpu.__version__, numpy=np.__version__, memory=memory,
+                devices={n: b.device for n, b in backends.items()}, sizes=args.sizes,
+                sizes_auto=sizes_auto, seconds=args.seconds, full=args.full,
+                wall_seconds=time.perf_counter() - t_start,
                 date=time.strftime("%Y-%m-%d %H:%M"))
-    (out / "bench.json").write_text(json.dumps(dict(meta=meta, rows=rows, real_states=real,
-                                                    models=models), indent=1))
-    table = markdown(rows, bw["GBps"]) + model_markdown(models)
+    (out / "bench.json").write_text(json.dumps(dict(
+        meta=meta, rows=rows, models=models, ensembles=ensembles, real_states=real),
+        indent=1))
+    grid = [r for r in rows if r["kernel"] not in MESH_KERNELS]
+    table = header_markdown(meta) + grid_markdown(grid) + mesh_markdown(
+        [r for r in rows if r["kernel"] in MESH_KERNELS]) + model_markdown(models) \
+        + ensemble_markdown(ensembles)
     if real:
         table += "\n" + real_states.markdown(real, 200, 2000)
     (out / "bench.md").write_text(table)
+    plot(grid, ensembles, memory, out / "bench.png")
     print(table)
+    print(f"wrote {out / 'bench.json'}, {out / 'bench.md'}, {out / 'bench.png'} "
+          f"({time.perf_counter() - t_start:.0f} s)")
     return 0
 
 

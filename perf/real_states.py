@@ -108,14 +108,17 @@ def markdown(rows: list[dict], early: int, late: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run(size: int, backends: list[str], dtypes: list[str], early: int, late: int,
+def run(size: int, backends: list[str] | dict, dtypes: list[str], early: int, late: int,
         verbose: bool = True) -> list[dict]:
+    """Every case, dtype and backend; ``backends`` names (``"warp"``) or ``{label: backend}``
+    (a name or a ``Backend``), the label going into the rows."""
+    named = backends if isinstance(backends, dict) else {b: b for b in backends}
     rows = []
     for label, preset, domain in cases(size):
         for dtype in dtypes:
-            for backend in backends:
+            for backend, spec in named.items():
                 r = {"case": label, "preset": preset, "dtype": dtype, "backend": backend,
-                     **measure(preset, domain, backend, dtype, early, late)}
+                     **measure(preset, domain, spec, dtype, early, late)}
                 rows.append(r)
                 if verbose:
                     print(f"{label:38s} {dtype:8s} {backend:7s} {r['early_Mcells']:8.0f} "
