@@ -33,7 +33,7 @@ Rows:
 * mesh (CSR) kernels on a geodesic icosphere of about ``--mesh-vertices`` vertices (0 to
   skip): ``spmv`` ``y = L x`` and ``mesh_gray_scott``, against SciPy; bytes per row: see
   :func:`mesh_bytes`;
-* models (``--model-size``, default the largest size; 0 to skip): every built-in model's
+* models (``--model-size``, default the middle size; 0 to skip): every built-in model's
   generated fused step (float32, near its steady state) against the hand-written Gray-Scott
   kernel in the same run;
 * ensembles (``--members``, 0 to skip): Gray-Scott on ``members`` grids of
@@ -638,11 +638,27 @@ def mesh_markdown(rows: list[dict]) -> str:
 
 
 # ---------------------------------------------------------------------------- output
+def _first(values: list[float] | None) -> float | None:
+    return values[0] if values else None
+
+
+def _busy(meta: dict) -> bool:
+    """Whether the 1-minute load at start or end exceeded half the CPUs (this run's own
+    threads count too, so only well above that means other work)."""
+    loads = [x for x in (_first(meta["load_average"]["start"]),
+                         _first(meta["load_average"]["end"])) if x is not None]
+    return bool(loads) and max(loads) > 1.5 * (meta["cpus"] or 1)
+
+
 def header_markdown(meta: dict) -> str:
     """The machine, its caches, the measured bandwidths and the sizes, as Markdown."""
     cpu = meta["memory"]["cpu"]
     lines = [
-        f"Machine: {meta['machine']}, {meta['cpus']} CPUs; {meta['caches_text']}.",
+        f"Machine: {meta['machine']}, {meta['cpus']} CPUs; {meta['caches_text']}. "
+        f"Load average (1 min) at start {fmt(_first(meta['load_average']['start']), '.1f')}, "
+        f"at end {fmt(_first(meta['load_average']['end']), '.1f')}"
+        + (" — other work shared the CPUs: rates are lower and noisier than on an idle machine."
+           if _busy(meta) else "."),
         "",
         f"Bandwidth (triad, arrays {cpu['triad_bytes'] / machine.MiB:.0f} MiB in all = "
         f"{cpu['triad_bytes'] / max(cpu['llc'], 1):.0f}× LLC, best of repeats): NumPy one core "
@@ -732,6 +748,14 @@ def plot(rows: list[dict], ensembles: list[dict], memory: dict, path: Path) -> N
     plt.close(fig)
 
 
+def _load() -> list[float] | None:
+    """The 1, 5 and 15 minute load averages (None where the OS has none)."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=None,
@@ -754,7 +778,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mesh-kernels", nargs="+", default=list(MESH_KERNELS),
                         choices=MESH_KERNELS)
     parser.add_argument("--model-size", type=int, default=None,
-                        help="grid size of the model rows (default: the largest size; 0: none)")
+                        help="grid size of the model rows (default: the middle size; 0: none)")
     parser.add_argument("--models", nargs="*", default=None,
                         help="models of the model rows (default: every built-in)")
     parser.add_argument("--members", type=int, default=1024,
@@ -782,24 +806,36 @@ def main(argv: list[str] | None = None) -> int:
                                            min(per_cell), max(per_cell))
     print(f"sizes: {args.sizes}{' (from the caches)' if sizes_auto else ''}", flush=True)
     t_start = time.perf_counter()
-    rows = grid_rows(args, backends, memory)
+    load_start = _load()
+    sections: dict[str, float] = {}
+
+    def section(name: str, fn):
+        t0 = time.perf_counter()
+        result = fn()
+        sections[name] = round(time.perf_counter() - t0, 1)
+        return result
+
+    rows = section("grid", lambda: grid_rows(args, backends, memory))
     if args.mesh_vertices > 0 and args.mesh_kernels:
-        rows += mesh_rows(args, backends, memory)
+        rows += section("mesh", lambda: mesh_rows(args, backends, memory))
     models = []
-    args.model_size = max(args.sizes) if args.model_size is None else args.model_size
+    if args.model_size is None:
+        args.model_size = sorted(args.sizes)[len(args.sizes) // 2]
     if args.model_size > 0:
         from rdgpu.models import MODELS
 
         args.models = list(MODELS) if args.models is None else args.models
-        models = model_rows(args, {k: b for k, b in backends.items() if k != "numpy"}, memory)
-    ensembles = ensemble_rows(args, backends, memory) if args.members > 0 else []
+        models = section("models", lambda: model_rows(
+            args, {k: b for k, b in backends.items() if k != "numpy"}, memory))
+    ensembles = section("ensembles", lambda: ensemble_rows(args, backends, memory)) \
+        if args.members > 0 else []
     real = []
     if args.real_size > 0:
         import real_states
 
         real_backends = {k: b for k, b in backends.items() if args.full or k != "numpy"}
-        real = real_states.run(args.real_size, real_backends, ["float32", "float64"],
-                               early=200, late=2000)
+        real = section("real_states", lambda: real_states.run(
+            args.real_size, real_backends, ["float32", "float64"], early=200, late=2000))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     meta = dict(machine=machine.cpu_name(), cpus=os.cpu_count(), caches=caches.as_dict(),
@@ -807,7 +843,8 @@ def main(argv: list[str] | None = None) -> int:
                 rdgpu=rdgpu.__version__, numpy=np.__version__, memory=memory,
                 devices={n: b.device for n, b in backends.items()}, sizes=args.sizes,
                 sizes_auto=sizes_auto, seconds=args.seconds, full=args.full,
-                wall_seconds=time.perf_counter() - t_start,
+                wall_seconds=time.perf_counter() - t_start, section_seconds=sections,
+                load_average=dict(start=load_start, end=_load()),
                 date=time.strftime("%Y-%m-%d %H:%M"))
     (out / "bench.json").write_text(json.dumps(dict(
         meta=meta, rows=rows, models=models, ensembles=ensembles, real_states=real),
