@@ -38,8 +38,9 @@ Rows:
   kernel in the same run;
 * ensembles (``--members``, 0 to skip): Gray-Scott on ``members`` grids of
   ``member-size²`` in one batch (``Simulation(..., members=M)``) against one grid of the
-  same cell count, and the sweep rate in members·steps/s; NumPy runs
-  ``--numpy-members`` members;
+  same cell count, and the sweep rate in members·steps/s (in the step, and end to end
+  through ``rdgpu.sweep`` where it exists: ``--sweep-members``, ``--sweep-steps``); NumPy
+  runs ``--numpy-members`` members;
 * real states (``--real-size``, 0 to skip; ``perf/real_states.py``): presets from their
   default initial conditions, steps 0-200 against 2000-2200 of the same run.
 
@@ -100,6 +101,9 @@ def _opencl_devices(gpu: bool):
             if d.type & kind and "oclgrind" not in p.name.lower() and probe_compiler(d) is None]
 
 
+SPECS: dict[str, str] = {}  # backend label -> the spec rdgpu.get_backend was given
+
+
 def resolve_backends(names: list[str], gpu: bool) -> dict:
     """``label -> Backend``: ``numpy``; ``warp`` (Warp's CPU device); ``opencl`` (the first
     OpenCL CPU device); with ``gpu``, also ``warp-cuda`` (Warp's ``cuda:0``) and
@@ -114,22 +118,25 @@ def resolve_backends(names: list[str], gpu: bool) -> dict:
     for label in wanted:
         try:
             if label == "numpy":
-                out[label] = rdgpu.get_backend("numpy")
+                SPECS[label] = "numpy"
             elif label == "warp":
-                out[label] = rdgpu.get_backend("warp:cpu")
+                SPECS[label] = "warp:cpu"
             elif label == "warp-cuda":
                 if cuda_device_count() > 0:
-                    out[label] = rdgpu.get_backend("warp:cuda:0")
+                    SPECS[label] = "warp:cuda:0"
             elif label in ("opencl", "opencl-gpu"):
                 keys = _opencl_devices(gpu=label == "opencl-gpu")
                 if keys:
-                    out[label] = rdgpu.get_backend(f"opencl:{keys[0]}")
+                    SPECS[label] = f"opencl:{keys[0]}"
                 elif label == "opencl":
                     print("opencl: no OpenCL CPU device can compile kernels; left out")
             else:
                 raise SystemExit(f"unknown backend {label!r}; allowed: "
                                  f"{', '.join(CPU_LABELS + GPU_LABELS)}")
+            if label in SPECS:
+                out[label] = rdgpu.get_backend(SPECS[label])
         except (BackendUnavailableError, ImportError) as exc:
+            SPECS.pop(label, None)
             print(f"{label}: unavailable ({exc}); left out")
     return out
 
@@ -419,10 +426,34 @@ def model_markdown(rows: list[dict]) -> str:
 
 
 # ---------------------------------------------------------------------------- ensembles
-def sweep_rate(members: int, seconds_per_step: float) -> tuple[float, str]:
-    """Members·steps per second of an ensemble batch and where it comes from (the
-    ensemble's own timing: ``rdgpu.sweep`` adds no kernel of its own)."""
-    return members / seconds_per_step, "ensemble step"
+def sweep_params(members: int) -> dict[str, np.ndarray]:
+    """One (F, k) per member: the F x k grid of a sweep, ``a x b = members`` points (a the
+    largest divisor of ``members`` up to its square root) over Gray-Scott's spots-to-stripes
+    range."""
+    a = next(d for d in range(math.isqrt(members), 0, -1) if members % d == 0)
+    F, k = np.meshgrid(np.linspace(0.02, 0.06, a), np.linspace(0.055, 0.065, members // a),
+                       indexing="ij")
+    return {"F": F.ravel(), "k": k.ravel()}
+
+
+def sweep_rate(label: str, members: int, m: int, steps: int) -> tuple[float | None, str]:
+    """Members·steps per second, end to end, of ``rdgpu.sweep`` over Gray-Scott's F x k
+    (``members`` points in one batch of ``m²`` grids, ``steps`` steps, serial scheduler:
+    setup, stepping, copies and classification included), and a note of what ran;
+    ``None`` where ``rdgpu.sweep`` is missing or fails."""
+    run_sweep = getattr(rdgpu, "sweep", None)
+    if not callable(run_sweep):
+        return None, "no rdgpu.sweep in this rdgpu"
+    a = math.isqrt(members)
+    b = members // a
+    params = {"F": np.linspace(0.02, 0.06, a), "k": np.linspace(0.055, 0.065, b)}
+    t0 = time.perf_counter()
+    try:
+        run_sweep("gray-scott", params, steps=steps, size=m, dt=1.0, backend=SPECS[label],
+                  scheduler="serial", batch=a * b, progress=False)
+    except Exception as exc:  # noqa: BLE001 - a sweep that cannot run here: say why
+        return None, f"rdgpu.sweep failed: {type(exc).__name__}: {exc}"
+    return a * b * steps / (time.perf_counter() - t0), f"rdgpu.sweep {a}×{b}, {steps} steps"
 
 
 def ensemble_rows(args, backends: dict, memory: dict) -> list[dict]:
@@ -439,25 +470,29 @@ def ensemble_rows(args, backends: dict, memory: dict) -> list[dict]:
             continue
         side = math.isqrt(members * m * m)
         common = dict(dt=1.0, backend=be, dtype="float32", seed=0)
+        t0 = time.perf_counter()
         try:
             ens = Simulation("gray-scott", {"grid": (m, m), "dx": 1.0, "bc": "periodic"},
-                             members=members, **common)
+                             sweep_params(members), members=members, **common)
         except TypeError as exc:
             if "members" not in str(exc):
                 raise
             print(f"ensemble rows skipped: this rdgpu's Simulation takes no members= ({exc})")
             return []
+        setup = time.perf_counter() - t0
         one = Simulation("gray-scott", {"grid": (side, side), "dx": 1.0, "bc": "periodic"},
                          **common)
         mem = memory_of(label, memory)
         t_ens = time_case(be, lambda s=ens: s.stepper.advance(1), args.seconds)
         t_one = time_case(be, lambda s=one: s.stepper.advance(1), args.seconds)
-        rate, source = sweep_rate(members, t_ens)
+        rate, source = (sweep_rate(label, min(members, args.sweep_members), m,
+                                   args.sweep_steps) if args.sweep_steps > 0
+                        else (None, "not run"))
         ens_row = add_roofline(dict(
             kernel="ensemble", case=f"{members} × {m}²", members=members, size=m,
             cells=members * m * m, backend=label, device=be.device, seconds_per_step=t_ens,
-            mcells=members * m * m / t_ens / 1e6, member_steps_per_s=rate,
-            sweep_rate_source=source), mem, 16)
+            mcells=members * m * m / t_ens / 1e6, member_steps_per_s=members / t_ens,
+            setup_seconds=setup, sweep_member_steps_per_s=rate, sweep_source=source), mem, 16)
         one_row = add_roofline(dict(
             kernel="ensemble-single", case=f"1 × {side}²", members=1, size=side,
             cells=side * side, backend=label, device=be.device, seconds_per_step=t_one,
@@ -467,7 +502,9 @@ def ensemble_rows(args, backends: dict, memory: dict) -> list[dict]:
         progress(f"ensemble {ens_row['case']:14s}", ens_row)
         progress(f"single   {one_row['case']:14s}", one_row)
         print(f"   ensemble / single grid: {ens_row['vs_single']:.2f} (target >= 0.8); "
-              f"sweep rate {rate:,.0f} members·steps/s", flush=True)
+              f"{members / t_ens:,.0f} members·steps/s in the step; Simulation(members="
+              f"{members}) set up in {setup:.1f} s; sweep: {fmt(rate, ',.0f')} members·steps/s"
+              f" ({source})", flush=True)
     return rows
 
 
@@ -475,16 +512,23 @@ def ensemble_markdown(rows: list[dict]) -> str:
     if not rows:
         return ""
     lines = ["", "Ensembles: Gray-Scott (generated step, float32, periodic, dt = 1), many "
-             "small grids in one batch against one grid of the same cell count on the same "
-             "backend (target: ensemble ≥ 0.8 × single). Sweep rate: members·steps per "
-             f"second ({rows[0]['sweep_rate_source']}).", "",
+             "small grids in one batch, each member its own (F, k) as in a sweep, against "
+             "one grid of the same cell count on the same backend (target: ensemble ≥ 0.8 "
+             "× single). Members·steps/s: in the timed "
+             "step (members ÷ seconds per step), and end to end through `rdgpu.sweep` "
+             "(Gray-Scott over F × k in one batch, serial scheduler: setup, stepping, "
+             "copies and pattern classification included). Setup: seconds to construct "
+             "`Simulation(..., members=M)` with per-member F and k.", "",
              "| backend | ensemble | Mcell/s | single grid | Mcell/s | ensemble / single "
-             "| sweep rate (members·steps/s) | % roofline (ensemble) |",
-             "|---|---|---:|---|---:|---:|---:|---:|"]
+             "| members·steps/s (step) | members·steps/s (sweep) | setup s "
+             "| % roofline (ensemble) |",
+             "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"]
     for ens, one in zip(rows[::2], rows[1::2], strict=True):
+        sweep = fmt(ens["sweep_member_steps_per_s"], ",.0f", "—")
         lines.append(f"| {ens['backend']} | {ens['case']} | {ens['mcells']:.0f} | "
                      f"{one['case']} | {one['mcells']:.0f} | {ens['vs_single']:.2f} | "
-                     f"{ens['member_steps_per_s']:,.0f} | {roof_text(ens)} |")
+                     f"{ens['member_steps_per_s']:,.0f} | {sweep} ({ens['sweep_source']}) | "
+                     f"{ens['setup_seconds']:.1f} | {roof_text(ens)} |")
     return "\n".join(lines) + "\n"
 
 
@@ -643,7 +687,7 @@ def _first(values: list[float] | None) -> float | None:
 
 
 def _busy(meta: dict) -> bool:
-    """Whether the 1-minute load at start or end exceeded half the CPUs (this run's own
+    """Whether the 1-minute load at start or end exceeded 1.5x the CPUs (this run's own
     threads count too, so only well above that means other work)."""
     loads = [x for x in (_first(meta["load_average"]["start"]),
                          _first(meta["load_average"]["end"])) if x is not None]
@@ -689,6 +733,8 @@ def header_markdown(meta: dict) -> str:
 
 
 def grid_markdown(rows: list[dict]) -> str:
+    if not rows:
+        return ""
     lines = [
         "| kernel | size | backend | Mcell/s | × NumPy | working set / LLC | roofline Mcell/s "
         "| % roofline |",
@@ -725,11 +771,15 @@ def plot(rows: list[dict], ensembles: list[dict], memory: dict, path: Path) -> N
         for b in dict.fromkeys(r["backend"] for r in mine):
             pts = sorted((r["cells"], r["mcells"]) for r in mine if r["backend"] == b)
             ax.plot(*zip(*pts, strict=True), marker="o", color=colors[b], label=b)
+        right = max(r["cells"] for r in mine) * 1.5
         for i, (label, mem) in enumerate(memory.items()):
             if mem.get("llc"):
-                name = "CPU LLC" if label == "cpu" else f"{label} L2"
-                ax.axvline(mem["llc"] / BYTES_PER_CELL[kernel], color="0.4",
-                           ls=("--", ":", "-.")[i % 3], lw=1, label=f"{name} filled")
+                name = "CPU" if label == "cpu" else label
+                edge = mem["llc"] / BYTES_PER_CELL[kernel]
+                style = ("--", ":", "-.")[i % 3]
+                ax.axvline(edge, color="0.4", ls=style, lw=1, label=f"{name} LLC filled")
+                ax.hlines(mem["GBps"] * 1e3 / BYTES_PER_CELL[kernel], edge, right,
+                          color="k", ls=style, lw=1.5, label=f"{name} DRAM roofline")
         if kernel == "gray_scott":
             for r in (e for e in ensembles if e["kernel"] == "ensemble"):
                 ax.plot(r["cells"], r["mcells"], marker="*", ms=13, ls="none",
@@ -786,6 +836,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--member-size", type=int, default=64, help="each member's grid side")
     parser.add_argument("--numpy-members", type=int, default=64,
                         help="members of NumPy's ensemble row (0: none)")
+    parser.add_argument("--sweep-steps", type=int, default=500,
+                        help="steps of the timed rdgpu.sweep (0: no sweep)")
+    parser.add_argument("--sweep-members", type=int, default=256,
+                        help="members of the timed rdgpu.sweep (at most those of the ensemble)")
     parser.add_argument("--real-size", type=int, default=1024,
                         help="grid size of the real-state rows (perf/real_states.py; 0: none)")
     args = parser.parse_args(argv)
