@@ -30,6 +30,7 @@ fused pass.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -49,16 +50,22 @@ _THETA = {"imex": 1.0, "imex-cn": 0.5}
 # ---------------------------------------------------------------------------- stability
 def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
     """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
-    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`)."""
+    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`).  Remembered per
+    ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per member."""
+    D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)
+    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method)
+
+
+@functools.lru_cache(maxsize=4096)
+def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
+                     method: str) -> float:
+    D = np.frombuffer(d, dtype=np.float64).reshape(shape)
+    B = np.frombuffer(b, dtype=np.float64).reshape(shape)
     ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
     if method in EXPLICIT:
-        limit = math.inf
-        for m in ms:
-            lam = np.linalg.eigvals(-m * D + m * m * B)
-            neg = lam[lam.real < -1e-300]
-            if neg.size:
-                limit = min(limit, float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)))
-        return limit
+        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
+        neg = lam[lam.real < -1e-300]
+        return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
     theta = _THETA[method]
 
     def stable(h: float) -> bool:
