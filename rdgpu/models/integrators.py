@@ -207,12 +207,6 @@ class ModelStepper(FieldStepper):
         if stencil != "compact" and method not in EXPLICIT:
             raise ValueError(f"method {method!r} solves the compact stencil implicitly; the "
                              f"{stencil} stencil runs with the explicit methods")
-        if members is not None and method not in EXPLICIT:
-            raise ValueError(f"an ensemble runs the explicit methods ({', '.join(EXPLICIT)}); "
-                             f"method {method!r} solves each member implicitly, which an "
-                             "ensemble launch does not do yet: pass options={'method': "
-                             "'rk3'} (with a dt within the explicit limit) or run the members "
-                             "one by one")
         be = backend
         # parameters on the device: numbers stay numbers, fields are uploaded, expressions
         # of t are inlined into the programs
@@ -292,8 +286,8 @@ class ModelStepper(FieldStepper):
 
         theta = 1.0 if self.method == "imex" else 0.5
         h = self.dt
-        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, str) else None)
-                  for k, v in self.params.items()}
+        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
+                      else None) for k, v in self.params.items()}
         explicit: dict[str, eq.Node] = {}
         self._solvers: dict[str, list[Any]] = {}
         cache: dict[float, Any] = {}
@@ -347,7 +341,10 @@ class ModelStepper(FieldStepper):
                     solvers.append(cache[a])
             self._solvers[s] = solvers
         self._setup_explicit_from(explicit)
-        self._tmp = [self.backend.empty(self.shape, self.dtype) for _ in range(2)]
+        # an ensemble solves member by member: the same solves, sweeps and convergence
+        # tests as each member alone (one member's field at a time in these buffers)
+        one = self.shape if self.members is None else self.shape[1:]
+        self._tmp = [self.backend.empty(one, self.dtype) for _ in range(2)]
 
     def _setup_explicit_from(self, explicit: dict[str, eq.Node]) -> None:
         method, self.method = self.method, "euler"
@@ -364,8 +361,9 @@ class ModelStepper(FieldStepper):
         if bad:
             raise ValueError(
                 f"method {self.method!r}: the coefficient of {what}({s}) in the equation of "
-                f"{s!r} uses the parameter(s) {bad}, which are fields or time-dependent; "
-                "an implicit term needs a constant coefficient")
+                f"{s!r} uses the parameter(s) {bad}, which are fields, time-dependent or "
+                "differ between ensemble members; an implicit term needs one constant "
+                "coefficient")
         return float(eq.evaluate(c, {p: merged[p] for p in names}))
 
     # ------------------------------------------------------------------ stepping
@@ -396,9 +394,19 @@ class ModelStepper(FieldStepper):
         else:
             self._eval(self._euler, x, y, t0)
             for i, s in enumerate(self.species):
-                solvers = self._solvers[s]
-                if len(solvers) == 1:
-                    solvers[0].step(y[i], y[i])
-                elif len(solvers) == 2:
-                    solvers[0].step(y[i], self._tmp[0])
-                    solvers[1].step(self._tmp[0], y[i])
+                if self.members is None:
+                    self._solve(self._solvers[s], y[i])
+                    continue
+                n = self._tmp[1].size
+                for m in range(self.members):
+                    self.backend.copy_range(y[i], m * n, self._tmp[1], 0, n)
+                    self._solve(self._solvers[s], self._tmp[1])
+                    self.backend.copy_range(self._tmp[1], 0, y[i], m * n, n)
+
+    def _solve(self, solvers: list[Any], y: DeviceArray) -> None:
+        """``y`` ← the implicit solves of one species' IMEX step, in place."""
+        if len(solvers) == 1:
+            solvers[0].step(y, y)
+        elif len(solvers) == 2:
+            solvers[0].step(y, self._tmp[0])
+            solvers[1].step(self._tmp[0], y)
