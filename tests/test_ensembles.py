@@ -301,3 +301,20 @@ def test_errors_say_what_is_allowed():
                                                        "v": np.ones((12, 10))})
     with pytest.raises(ValueError, match="same time-dependent expression"):
         GS.stepper(g, {"F": ["0.03+0.01*sin(t)", "0.03+0.02*sin(t)"]}, dt=0.1, members=2)
+
+
+def test_cli_members_run_an_ensemble_over_seeds(tmp_path, capsys):
+    from rdgpu.cli import main
+
+    code = main(["run", "gray-scott", "--size", "16x12", "--steps", "40", "--members", "3",
+                 "--seed", "5", "--backend", "opencl", "--out", str(tmp_path / "e.png"),
+                 "--data", str(tmp_path / "e.npz"), "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    res = load_npz(tmp_path / "e.npz")
+    assert res.members == 3 and res.seed == [5, 6, 7]
+    one = Simulation("gray-scott", {"grid": (16, 12)}, seed=6, backend="opencl",
+                     dt=res.dt).run(40, progress=False)
+    np.testing.assert_array_equal(res.fields["v"][1], one.fields["v"])
+    import imageio.v3 as iio
+
+    assert iio.imread(tmp_path / "e.png").shape[:2] == (2 * (2 * 16) + 2, 2 * (2 * 12) + 2)
