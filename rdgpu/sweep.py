@@ -265,11 +265,15 @@ def _open_or_create(path: Path, template: Any, settings: dict) -> Any:
                              f"settings ({diff}); remove it or choose another path")
         return group
     template.to_zarr(str(path), mode="w-", compute=False, consolidated=False)
-    return zarr.open_group(str(path), mode="r+")
+    group = zarr.open_group(str(path), mode="r+")
+    group["pattern"][...] = -1  # (its fill value is 0: "uniform")
+    return group
 
 
 def _decode(ds: Any) -> Any:
     """``pattern`` codes → class names (``""``: not run yet); ``done`` dropped."""
+    if ds["pattern"].dtype.kind in "UO":  # decoded already
+        return ds.drop_vars(["done"], errors="ignore")
     codes = ds["pattern"].values.astype(int)
     names = np.array([*PATTERN_CLASSES, ""], dtype=object)[codes]
     ds = ds.drop_vars(["done"], errors="ignore")
@@ -466,10 +470,10 @@ def sweep(
         close()
     if kind == "zarr":
         return open_sweep(store)
-    ds = _decode(result.dataset())
+    ds = result.dataset()
     if kind == "netcdf":
-        ds.to_netcdf(str(store))
-    return ds
+        ds.to_netcdf(str(store))  # pattern as codes, as in a zarr store
+    return _decode(ds)
 
 
 class _Collector:
@@ -540,7 +544,7 @@ def _run(client: Any, job: dict, result: _Collector, todo: list[int], n_batches:
             return
         from distributed import as_completed
 
-        token = _token(job, result)
+        token = _token(result)
         futures = {client.submit(run_batch, job, result.batch_values(b),
                                  key=f"rdgpu-sweep-{token}-{b}"): b for b in todo}
         try:
@@ -558,7 +562,7 @@ def _run(client: Any, job: dict, result: _Collector, todo: list[int], n_batches:
         bar.close()
 
 
-def _token(job: dict, result: _Collector) -> str:
+def _token(result: _Collector) -> str:
     """A key prefix for this sweep's tasks (same settings → same keys)."""
     import hashlib
 
@@ -609,8 +613,7 @@ def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
     fig_w = max(4.0, mosaic.shape[1] * scale / 100 + 1.6)
     fig_h = max(2.5, mosaic.shape[0] * scale / 100 + 1.2)
     fig, ax = plt.subplots(figsize=(fig_w, fig_h), dpi=100)
-    colours = matplotlib.colormaps[cmap].copy()
-    colours.set_bad("white")
+    colours = matplotlib.colormaps[cmap].with_extremes(bad="white")  # NaN: diverged
     ax.imshow(np.ma.masked_invalid(mosaic), cmap=colours, vmin=lo, vmax=hi if hi > lo
               else lo + 1, interpolation="nearest", origin="upper")
     xs = _ticks(nx_)
