@@ -38,7 +38,7 @@ import numpy as np
 
 from ..backends.base import Backend, DeviceArray
 from . import equations as eq
-from .compiler import Output, Program, Target, launch
+from .compiler import Output, PerMember, Program, Target, launch
 
 __all__ = ["FieldStepper", "ModelStepper", "stability_limit"]
 
@@ -118,7 +118,8 @@ class FieldStepper:
     """Device fields of every species, ping-pong buffers, step counting: what every
     stepper shares (``_step`` reads ``_x`` and writes ``_y``)."""
 
-    def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any):
+    def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any,
+                 members: int | None = None):
         from .model import domain_shape
 
         self.species = tuple(species)
@@ -128,7 +129,11 @@ class FieldStepper:
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
+        #: None, or the number of ensemble members: fields ``[members, *domain shape]``
+        self.members = members
         self.shape = domain_shape(domain)
+        if members is not None:
+            self.shape = (int(members), *self.shape)
         zero = np.zeros(self.shape, self.dtype)
         self._x = [backend.upload(zero) for _ in self.species]
         self._y = [backend.empty(self.shape, self.dtype) for _ in self.species]
@@ -186,15 +191,21 @@ class ModelStepper(FieldStepper):
 
     def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
-                 stencil: str = "compact"):
-        super().__init__(model.species, domain, dt, backend, dtype)
+                 stencil: str = "compact", members: int | None = None):
+        super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         self.method = method
         self.params = dict(params)
-        self.target = Target.bind(domain, backend, self.dtype, stencil)
+        self.target = Target.bind(domain, backend, self.dtype, stencil, members or 1)
         if stencil != "compact" and method not in EXPLICIT:
             raise ValueError(f"method {method!r} solves the compact stencil implicitly; the "
                              f"{stencil} stencil runs with the explicit methods")
+        if members is not None and method not in EXPLICIT:
+            raise ValueError(f"an ensemble runs the explicit methods ({', '.join(EXPLICIT)}); "
+                             f"method {method!r} solves each member implicitly, which an "
+                             "ensemble launch does not do yet: pass options={'method': "
+                             "'rk3'} (with a dt within the explicit limit) or run the members "
+                             "one by one")
         be = backend
         # parameters on the device: numbers stay numbers, fields are uploaded, expressions
         # of t are inlined into the programs
@@ -205,8 +216,12 @@ class ModelStepper(FieldStepper):
         for p, v in self.params.items():
             if isinstance(v, str):
                 inline[p] = expression_tree(p, v, self.params)
-            elif isinstance(v, np.ndarray):
-                self._dev[p] = be.upload(np.ascontiguousarray(v, dtype=self.dtype))
+            elif isinstance(v, PerMember):  # one number per member
+                self._dev[p] = PerMember(be.upload(np.ascontiguousarray(v.values,
+                                                                        dtype=self.dtype)))
+            elif isinstance(v, np.ndarray):  # a field: per member, or shared by all
+                a = np.broadcast_to(np.asarray(v, dtype=self.dtype), self.shape)
+                self._dev[p] = be.upload(np.ascontiguousarray(a))
             else:
                 self._dev[p] = float(v)
         trees = {s: eq.substitute(model.trees[s], lambda n: inline.get(n.name)
@@ -220,7 +235,8 @@ class ModelStepper(FieldStepper):
 
     # ------------------------------------------------------------------ programs
     def _diffusion_numbers(self) -> list[float]:
-        ops = self.model.linear_operators(self.params)
+        ops = self.model.linear_operators({k: (v.values if isinstance(v, PerMember) else v)
+                                           for k, v in self.params.items()})
         return [] if ops is None else [float(x) for x in np.diag(ops[0])]
 
     def _lower(self, trees: dict[str, eq.Node]) -> tuple[dict[str, eq.Node], Program | None]:
