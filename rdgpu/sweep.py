@@ -17,7 +17,6 @@ Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarr
 from __future__ import annotations
 
 import importlib
-import inspect
 import itertools
 import json
 import math
@@ -137,37 +136,32 @@ def _default_domain(model: Any, size: Any) -> dict:
     return {"grid": shape, **spec}
 
 
-def _members_supported() -> bool:
-    from .simulation import Simulation
-
-    return "members" in inspect.signature(Simulation.__init__).parameters
-
-
 def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> dict:
     """One batch of a sweep (a pure function: the same arguments give the same bits, so a
     re-run of a lost task changes nothing).  ``job``: the sweep's settings (see
     :func:`sweep`); ``values``: each swept parameter's value for every member.  Returns
     ``{"fields": {species: [B, *shape] array}, "pattern": [B] int8 codes}``."""
     from .analysis import classify_pattern
-    from .simulation import Simulation
+    from .simulation import Simulation, _accepts, _lookup_model
 
     names = list(values)
     count = len(values[names[0]]) if names else 1
     kwargs = {"dt": job["dt"], "backend": job["backend"], "dtype": job["dtype"],
               "seed": job["seed"], "init": job["init"], "options": job["options"] or None}
     model = job["model"]
-    if isinstance(model, Mapping):
+    if isinstance(model, Mapping):  # a model defined by its equations
         from .models import define_model
 
         model = define_model(job["name"], dict(model["equations"]), dict(model["defaults"]))
-    if _members_supported():
+    model = _lookup_model(model)
+    if _accepts(model.stepper, "members"):  # one ensemble: all members in one launch a step
         params = {**job["fixed"], **{k: np.asarray(v, dtype=np.float64)
                                      for k, v in values.items()}}
         sim = Simulation(model, job["domain"], params, members=count, **kwargs)
         res = sim.run(job["steps"], progress=False, check_every=0)
         fields = {s: np.asarray(a) for s, a in res.fields.items()}
         domain = sim.domain
-    else:  # fallback, while Simulation has no members=: the members one by one
+    else:  # a model that cannot run as an ensemble (e.g. allen-cahn): one by one
         runs = []
         for i in range(count):
             params = {**job["fixed"], **{k: float(v[i]) for k, v in values.items()}}

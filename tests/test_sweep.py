@@ -156,6 +156,17 @@ def test_sweep_dataset(serial):
 
 
 @needs_dask
+def test_sweep_of_a_model_without_ensembles():
+    """Allen-Cahn's stepper takes no members: its batches run the members one by one."""
+    ds = rdgpu.sweep("allen-cahn", {"b": [-0.1, 0.0, 0.1]}, size=16, steps=50,
+                     backend="numpy", scheduler="serial", progress=False)
+    assert ds["u"].shape == (3, 16, 16)
+    sim = Simulation("allen-cahn", {"grid": (16, 16), "bc": "periodic", "dx": 1.0},
+                     {"b": 0.1}, dt=ds.attrs["dt"], backend="numpy")
+    alone = sim.run(50, progress=False, check_every=0).fields["u"]
+    assert np.array_equal(ds["u"].values[2], alone)
+
+
 def test_serial_sweep_equals_members_run_alone(serial):
     init = KW["init"]
     for F, k in ((0.03, 0.055), (0.05, 0.06), (0.04, 0.06)):
@@ -281,13 +292,21 @@ def test_killed_worker_batch_is_rerun(cluster, serial, tmp_path):
         killed.append(pids[busy[0]])
 
     params = {"F": "0.03:0.05:3", "k": [0.055, 0.06, 0.065], "Du": 0.16}
-    kw = {**KW, "steps": 3000, "batch": 1}
+    kw = {**KW, "steps": 1500, "batch": 1}  # batches of about 0.5 s
     reference = rdgpu.sweep("gray-scott", params, scheduler="serial", **kw)
     ds = rdgpu.sweep("gray-scott", params, scheduler=cluster, store=tmp_path / "k.zarr",
                      on_batch=kill_a_busy_worker, **kw)
     assert killed
     assert killed[0] not in cluster.run(os.getpid).values()
+    assert max(cluster.run_on_scheduler(_times_started).values()) >= 2  # a batch ran again
     assert ds.identical(reference)
+
+
+def _times_started(dask_scheduler) -> dict[str, int]:
+    """How many times each task of a sweep went to a worker (from the scheduler's log)."""
+    keys = {str(t[0]) for t in dask_scheduler.transition_log}
+    return {k: sum(1 for t in dask_scheduler.story(k) if t[2] == "processing")
+            for k in keys if k.startswith("rdgpu-sweep-")}
 
 
 # ------------------------------------------------------------------------ the CLI
