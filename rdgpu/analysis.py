@@ -339,6 +339,7 @@ def classify_pattern(
     mixed: float | None = None,
     nonfinite: str = "raise",
     members: bool | None = None,
+    lone: float = 0.25,
 ) -> Any:
     """``"spots"``, ``"inverted-spots"``, ``"stripes"`` or ``"uniform"`` (and, when asked
     for, ``"mixed"`` and ``"diverged"``).
@@ -362,8 +363,10 @@ def classify_pattern(
     * ``mixed`` (only with ``mixed=q``, e.g. 0.25): islands in a connected sea of which
       compact ones and elongated ones (worms) each hold more than ``q`` of the islands'
       area;
+    * a phase that is connected but covers less than ``lone`` (0.25) of the domain is
+      taken as islands (one spot, or a few with one much larger than the rest, in a sea);
     * ``stripes``: everything else with both phases present — both connected (a labyrinth;
-      also a single island of each), neither connected (several bands of each phase, e.g.
+      also a single band of each), neither connected (several bands of each phase, e.g.
       parallel stripes on a periodic grid), or islands that are mostly elongated (worms in
       a connected background);
     * ``diverged``: the field holds NaN or Inf and ``nonfinite="diverged"``; with the
@@ -383,7 +386,7 @@ def classify_pattern(
             shape = (int(domain.n_vertices),)
         members = shape is not None and f.ndim == len(shape) + 1 and f.shape[1:] == shape
     opts = {"connected": connected, "elongated": elongated, "min_size": min_size,
-            "rtol": rtol, "atol": atol, "mixed": mixed, "nonfinite": nonfinite}
+            "rtol": rtol, "atol": atol, "mixed": mixed, "nonfinite": nonfinite, "lone": lone}
     if members:
         if f.ndim < 2:
             raise ValueError(f"members=True needs a stack [M, *shape], got shape {f.shape}")
@@ -393,7 +396,7 @@ def classify_pattern(
 
 def _classify_one(f: np.ndarray, domain: Any, threshold: float | None, *, connected: float,
                   elongated: float, min_size: int, rtol: float, atol: float,
-                  mixed: float | None, nonfinite: str) -> str:
+                  mixed: float | None, nonfinite: str, lone: float) -> str:
     """:func:`classify_pattern` of one field."""
     if not np.isfinite(f).all():
         if nonfinite == "diverged":
@@ -416,6 +419,12 @@ def _classify_one(f: np.ndarray, domain: Any, threshold: float | None, *, connec
             return "mixed"
         return name if share > 0.5 else "stripes"
 
+    if conn_hi and conn_lo:  # one island in a sea (spots) or a band/labyrinth of each
+        frac_hi = float(hi.sum()) / float(hi.sum() + lo.sum())
+        if frac_hi < lone:
+            conn_hi = False
+        elif 1.0 - frac_hi < lone:
+            conn_lo = False
     if conn_hi and not conn_lo:
         return islands(lo, comps["elongation_low"][keep_lo], "spots")
     if conn_lo and not conn_hi:

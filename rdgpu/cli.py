@@ -871,8 +871,8 @@ def _add_sweep_parser(sub: Any) -> None:
                     "MODEL_sweep.png if no --data)")
     sw.add_argument("--data", metavar="PATH.zarr|PATH.nc", help="the Dataset: zarr "
                     "(streamed, resumable) or netCDF (written at the end)")
-    sw.add_argument("--species", help="the field pictured (default v for Gray-Scott, else "
-                    "the last species)")
+    sw.add_argument("--species", help="the field pictured (default: the one classified, "
+                    "as the model's presets do: v for Gray-Scott)")
     sw.add_argument("--scheduler", metavar="local|serial|tcp://HOST:PORT",
                     help="where the batches run: local (a Dask LocalCluster, default), "
                     "serial (this process, no Dask) or a Dask scheduler's address")

@@ -136,6 +136,18 @@ def _default_domain(model: Any, size: Any) -> dict:
     return {"grid": shape, **spec}
 
 
+def pattern_species(model: Any) -> str:
+    """The species whose pattern a sweep classifies and pictures by default: the one the
+    model's presets classify (Gray-Scott ``v``, Brusselator ``u``, ...), else the first."""
+    from .models import PRESETS
+
+    for p in PRESETS.values():
+        field = (p.classify or {}).get("field")
+        if p.model == model.name and field in model.species:
+            return field
+    return model.species[0]
+
+
 def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> dict:
     """One batch of a sweep (a pure function: the same arguments give the same bits, so a
     re-run of a lost task changes nothing).  ``job``: the sweep's settings (see
@@ -375,12 +387,12 @@ def sweep(
 
     The Dataset: dims the swept parameters, then the space dims (``y, x``; cell centres);
     a variable per species (the final fields, NaN where a member diverged), ``pattern``
-    (:func:`rdgpu.analysis.classify_pattern` of the species ``classify``, default the
-    first one, with ``threshold=None``, ``mixed=0.25``: one of :data:`PATTERN_CLASSES`);
-    attrs ``model, steps, dt, dtype, backend, seed, rdgpu_version``, ``param_NAME`` for
-    each fixed parameter and the settings as JSON.  With Gray-Scott's ``u`` classified,
-    Pearson's spots (islands of high ``v``, low ``u``) are ``"spots"`` and his holes are
-    ``"inverted-spots"``.
+    (:func:`rdgpu.analysis.classify_pattern` of the species ``classify``, default
+    :func:`pattern_species`, with ``threshold=None``, ``mixed=0.25``: one of
+    :data:`PATTERN_CLASSES`); attrs ``model, steps, dt, dtype, backend, seed, classify,
+    rdgpu_version``, ``param_NAME`` for each fixed parameter and the settings as JSON.
+    Gray-Scott is classified on ``v`` as its presets are: islands of low ``v`` (Pearson's
+    δ) are ``"spots"``, islands of high ``v`` (Pearson's λ) ``"inverted-spots"``.
     """
     xr, da = _need("xarray", "dask.array")
     from .dispatch import get_backend
@@ -419,7 +431,7 @@ def sweep(
         raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "
                          "dimension or variable of the Dataset)")
     species = tuple(mdl.species)
-    classify = classify or species[0]
+    classify = classify or pattern_species(mdl)
     if classify not in species:
         raise ValueError(f"classify={classify!r}: model {mdl.name} has {', '.join(species)}")
     options = dict(options or {})
@@ -566,12 +578,14 @@ def _token(result: _Collector) -> str:
 
 # ------------------------------------------------------------------------ the map image
 def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
-              cmap: str = "viridis", tile: int | None = None) -> Path:
+              cmap: str = "viridis", scale: int | None = None) -> Path:
     """A PNG of the members laid out on the swept axes: the first swept parameter along x,
     the second along y (increasing upwards; one row with one swept parameter), each
-    member's final ``species`` (default ``v`` for Gray-Scott, else the last species) as a
-    tile with thin gaps, on one colour scale; the axes labelled with the parameter
-    values.  More than two swept parameters: the first value of the others is shown."""
+    member's final ``species`` (default: the classified one, see :func:`pattern_species`)
+    as a tile with thin gaps, on one colour scale; the axes labelled with the parameter
+    values.  More than two swept parameters: the first value of the others is shown.
+    ``scale``: pixels per grid cell (default: a mosaic at least 1200 pixels across); NaN
+    (a diverged member) is white."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -580,7 +594,7 @@ def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
     axes = [d for d in ds["pattern"].dims]
     names = [v for v in ds.data_vars if v not in ("pattern", "done")]
     if species is None:
-        species = "v" if ds.attrs.get("model") == "gray-scott" and "v" in names else names[-1]
+        species = ds.attrs.get("classify") if ds.attrs.get("classify") in names else names[0]
     if species not in names:
         raise ValueError(f"species {species!r}: the sweep has {', '.join(names)}")
     field = ds[species].isel({d: 0 for d in axes[2:]})
@@ -603,27 +617,28 @@ def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
             mosaic[r: r + h, i * (w + gap): i * (w + gap) + w] = data[i, j]
     finite = mosaic[np.isfinite(mosaic)]
     lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
-    scale = tile or max(1, math.ceil(1200 / max(mosaic.shape)))
-    fig_w = max(4.0, mosaic.shape[1] * scale / 100 + 1.6)
-    fig_h = max(2.5, mosaic.shape[0] * scale / 100 + 1.2)
-    fig, ax = plt.subplots(figsize=(fig_w, fig_h), dpi=100)
+    scale = scale or max(1, math.ceil(1200 / max(mosaic.shape)))  # pixels per cell
+    width, height = mosaic.shape[1] * scale, mosaic.shape[0] * scale  # of the tiles, pixels
+    font = min(14.0, max(7.0, 7.0 * max(width, height) / 1100))
+    fig, ax = plt.subplots(figsize=(width / 100 + 0.2 * font, height / 100 + 0.14 * font),
+                           dpi=100)
     colours = matplotlib.colormaps[cmap].with_extremes(bad="white")  # NaN: diverged
     ax.imshow(np.ma.masked_invalid(mosaic), cmap=colours, vmin=lo, vmax=hi if hi > lo
               else lo + 1, interpolation="nearest", origin="upper")
     xs = _ticks(nx_)
     ax.set_xticks([i * (w + gap) + (w - 1) / 2 for i in xs],
                   [f"{float(ds[px].values[i]):.4g}" for i in xs])
-    ax.set_xlabel(px)
+    ax.set_xlabel(px, fontsize=font * 1.2)
     if py is not None:
         ys = _ticks(ny_)
         ax.set_yticks([(ny_ - 1 - j) * (h + gap) + (h - 1) / 2 for j in ys],
                       [f"{float(ds[py].values[j]):.4g}" for j in ys])
-        ax.set_ylabel(py)
+        ax.set_ylabel(py, fontsize=font * 1.2)
     else:
         ax.set_yticks([])
     ax.set_title(f"{ds.attrs.get('model', '')}: final {species} after "
-                 f"{ds.attrs.get('steps', '?')} steps", fontsize=10)
-    ax.tick_params(labelsize=8)
+                 f"{ds.attrs.get('steps', '?')} steps", fontsize=font * 1.2)
+    ax.tick_params(labelsize=font)
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out)

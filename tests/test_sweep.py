@@ -53,6 +53,10 @@ def test_classes_of_synthetic_fields():
     assert classify_pattern(-bumps, grid, threshold=None) == "spots"
     assert classify_pattern(stripes, grid, threshold=None) == "stripes"
     assert classify_pattern(np.full(SHAPE, 0.3), grid, threshold=None) == "uniform"
+    lone = np.exp(-0.5 * (_periodic_distance(SHAPE, (20, 30)) / 3.0) ** 2)  # one spot
+    assert classify_pattern(lone, grid, threshold=None) == "inverted-spots"
+    assert classify_pattern(-lone, grid, threshold=None) == "spots"
+    assert classify_pattern(-lone, grid, threshold=None, lone=0.0) == "stripes"
     diverged = np.where(x > 30, np.nan, stripes)
     assert classify_pattern(diverged, grid, threshold=None, nonfinite="diverged") == "diverged"
     with pytest.raises(ValueError, match="NaN"):
@@ -83,7 +87,7 @@ def test_mixed_spots_and_worms():
 
 @pytest.fixture(scope="module")
 def pearson_states():
-    """Final u of three of Pearson's Gray-Scott classes (the presets' parameters and
+    """Final v of three of Pearson's Gray-Scott classes (the presets' parameters and
     spacing) on a 64² torus, seeded by a larger square so they fill it in 4000 steps."""
     init = {"kind": "square", "values": {"u": 1.0, "v": 0.0},
             "inside": {"u": 0.5, "v": 0.25}, "size": 0.3, "noise": 0.05}
@@ -93,16 +97,16 @@ def pearson_states():
                                      domain={"grid": (64, 64), "dx": 2.5 / 256,
                                              "bc": "periodic"})
         res = sim.run(4000, progress=False)
-        out[letter] = (res.fields["u"], res.domain)
+        out[letter] = (res.fields["v"], res.domain)
     return out
 
 
 def test_classes_of_gray_scott_states(pearson_states):
-    """Pearson's spots (λ: islands of high v, i.e. low u), holes (δ: islands of low v) and
-    stripes (θ), classified on u."""
-    expect = {"lambda": "spots", "delta": "inverted-spots", "theta": "stripes"}
-    for letter, (u, grid) in pearson_states.items():
-        assert classify_pattern(u, grid, threshold=None) == expect[letter], letter
+    """Pearson's λ (islands of high v: inverted spots), δ (islands of low v: spots) and θ
+    (stripes), classified on v as the presets are."""
+    expect = {"lambda": "inverted-spots", "delta": "spots", "theta": "stripes"}
+    for letter, (v, grid) in pearson_states.items():
+        assert classify_pattern(v, grid, threshold=None) == expect[letter], letter
     stack = np.stack([pearson_states[k][0] for k in expect])
     assert classify_pattern(stack, grid, threshold=None) == list(expect.values())
 
@@ -146,12 +150,13 @@ def test_sweep_dataset(serial):
     assert ds.attrs["dtype"] == "float32" and ds.attrs["backend"] == "numpy"
     assert ds.attrs["dt"] == 1.0 and ds.attrs["param_Du"] == 0.16
     assert ds.attrs["rdgpu_version"] == rdgpu.__version__
-    # the classes are those of each member's final u
+    # the classes are those of each member's final v (Gray-Scott's presets classify v)
+    assert ds.attrs["classify"] == "v"
     grid = Grid((24, 24), bc="periodic")
     for i in range(3):
         for j in range(2):
-            u = ds["u"].values[i, j]
-            assert ds["pattern"].values[i, j] == classify_pattern(u, grid, None, mixed=0.25)
+            v = ds["v"].values[i, j]
+            assert ds["pattern"].values[i, j] == classify_pattern(v, grid, None, mixed=0.25)
     assert len(set(ds["pattern"].values.ravel())) > 1  # not all one class
 
 
