@@ -816,11 +816,18 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     _say(args, f"{args.model}: {n} members ({axes}) on a {_grid_text(shape)} grid, "
                f"{args.steps} steps, scheduler {args.scheduler or 'local'}")
     start = time.perf_counter()
-    ds = sweep_module.sweep(
-        args.model, params, size=shape, steps=args.steps, dt=args.dt,
-        dtype=args.dtype or "float32", backend=args.backend, seed=args.seed or 0,
-        batch=args.batch, store=args.data, scheduler=args.scheduler or "local",
-        workers=args.workers, progress=not args.quiet)
+    try:
+        ds = sweep_module.sweep(
+            args.model, params, size=shape, steps=args.steps, dt=args.dt,
+            dtype=args.dtype or "float32", backend=args.backend, seed=args.seed or 0,
+            batch=args.batch, store=args.data, scheduler=args.scheduler or "local",
+            workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        kept = (f"the finished batches are in {args.data}: run the same command again to go "
+                "on from there" if args.data and args.data.lower().endswith(".zarr")
+                else "nothing written (give --data PATH.zarr to keep finished batches)")
+        print(f"rdgpu: interrupted; {kept}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     seconds = time.perf_counter() - start
     if args.data:
         _say(args, f"wrote {args.data}")
