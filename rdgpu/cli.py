@@ -840,6 +840,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_engine_options(group: Any, seed_note: str) -> None:
+    """--seed, --backend and --dtype (of `rdgpu run` and `rdgpu sweep`)."""
+    group.add_argument("--seed", type=_seed, help="random seed of the initial condition"
+                       f"{seed_note} (a whole number >= 0; default 0)")
+    group.add_argument("--backend", help="numpy, warp, opencl or auto, optionally "
+                       "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
+    group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+
+
 def _add_sweep_parser(sub: Any) -> None:
     sw = sub.add_parser(
         "sweep", help="run a model over a grid of parameter values: a map and a Dataset",
@@ -869,11 +878,7 @@ def _add_sweep_parser(sub: Any) -> None:
                     help=f"time steps of every member (default {DEFAULT_STEPS})")
     sw.add_argument("--dt", type=_positive_float, help="time step (default: the smallest "
                     "default of all the members)")
-    sw.add_argument("--seed", type=_seed, help="seed of the initial condition, the same "
-                    "for every member (default 0)")
-    sw.add_argument("--backend", help="numpy, warp, opencl or auto (default: RDGPU_BACKEND "
-                    "or auto)")
-    sw.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+    _add_engine_options(sw, ", the same for every member")
     sw.add_argument("--out", metavar="PATH.png", help="the parameter map (default "
                     "MODEL_sweep.png if no --data)")
     sw.add_argument("--data", metavar="PATH.zarr|PATH.nc", help="the Dataset: zarr "
@@ -951,11 +956,7 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
                       "heun, rk3, imex, imex-cn (Allen-Cahn: explicit, implicit, "
                       "crank-nicolson)")
-    what.add_argument("--seed", type=_seed, help="random seed of the initial condition "
-                      "(a whole number >= 0; default 0)")
-    what.add_argument("--backend", help="numpy, warp, opencl or auto, optionally NAME:DEVICE "
-                      "(default: RDGPU_BACKEND or auto)")
-    what.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+    _add_engine_options(what, "")
     what.add_argument("--no-stability-check", action="store_true",
                       help="run even if dt is past the stability limit")
     outs = run.add_argument_group("outputs")
