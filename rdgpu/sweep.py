@@ -276,6 +276,18 @@ def _open_or_create(path: Path, template: Any, settings: dict) -> Any:
     return group
 
 
+def _stored_batch(path: Path) -> int | None:
+    """The batch size of the sweep stored at ``path`` (None: no readable sweep there)."""
+    if not path.is_dir():
+        return None
+    try:
+        zarr, = _need("zarr")
+        return int(json.loads(zarr.open_group(str(path), mode="r").attrs[SETTINGS_ATTR])
+                   ["batch"])
+    except Exception:  # noqa: BLE001 - not a sweep store: _open_or_create says why
+        return None
+
+
 def _decode(ds: Any) -> Any:
     """``pattern`` codes → class names (``""``: not run yet); ``done`` dropped."""
     if ds["pattern"].dtype.kind in "UO":  # decoded already
@@ -379,8 +391,9 @@ def sweep(
 
     ``store``: a ``.zarr`` path is created up front (every array, one member per chunk,
     and ``done`` per batch) and each batch is written as it finishes, from this process
-    only; running the same sweep again skips the batches marked done, and a store made
-    with other settings is refused.  A ``.nc`` path (netCDF) is written once at the end:
+    only; running the same sweep again (on any scheduler; ``batch`` defaults to the
+    store's) skips the batches marked done, and a store made with other settings is
+    refused.  A ``.nc`` path (netCDF) is written once at the end:
     no streaming, no resume.  ``progress``: a tqdm bar counting batches.
     ``on_batch(b)``: called after batch ``b`` is stored (an exception from it stops the
     sweep; the batches stored so far stay).
@@ -446,6 +459,8 @@ def sweep(
     client, close = _client(scheduler, workers, n_members)
     try:
         n_workers = 1 if client is None else max(1, len(client.scheduler_info()["workers"]))
+        if batch is None and kind == "zarr":  # resuming: the store's batches
+            batch = _stored_batch(Path(store))
         if batch is None:
             batch = _default_batch(n_members, math.prod(space), len(species),
                                    np.dtype(dtype).itemsize, n_workers)

@@ -218,6 +218,11 @@ def test_zarr_store_streams_and_resumes(tmp_path, serial):
     with pytest.raises(ValueError, match="other settings.*axes"):
         rdgpu.sweep("gray-scott", {**PARAMS, "F": "0.03:0.05:4"}, scheduler="serial",
                     store=store, **KW)
+    # resumed elsewhere, without naming the batch size: the store's
+    again = []
+    assert rdgpu.sweep("gray-scott", PARAMS, scheduler="serial", store=store,
+                       on_batch=again.append, **{**KW, "batch": None}).identical(serial)
+    assert again == []
     other = tmp_path / "other.zarr"
     other.mkdir()
     with pytest.raises(ValueError, match="not"):
