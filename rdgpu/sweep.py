@@ -386,8 +386,9 @@ def sweep(
     worker, within :data:`BATCH_MEMORY`); each batch is one ensemble run and one task.
     ``scheduler``: ``"local"`` (default: a ``distributed.LocalCluster`` of ``workers``
     single-threaded processes, default one per core), an address ``"tcp://host:port"``, a
-    ``distributed.Client``, or ``"serial"`` (in this process, no Dask).  A worker that dies
-    has its batch re-run by Dask; batches are pure, so the bits do not change.
+    ``distributed.Client``, or ``"serial"`` (in this process, no Dask); the workers of a
+    cluster elsewhere need rdgpu installed.  A worker that dies has its batch re-run by
+    Dask; batches are pure, so the bits do not change.
 
     ``store``: a ``.zarr`` path is created up front (every array, one member per chunk,
     and ``done`` per batch) and each batch is written as it finishes, from this process

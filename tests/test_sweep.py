@@ -283,6 +283,10 @@ def cluster():
 def test_local_cluster_equals_serial(cluster, serial, tmp_path):
     ds = rdgpu.sweep("gray-scott", PARAMS, scheduler=cluster, store=tmp_path / "c.zarr", **KW)
     assert ds.identical(serial)
+    # by the scheduler's address, as `--scheduler tcp://host:port` does
+    address = cluster.scheduler_info()["address"]
+    assert address.startswith("tcp://")
+    assert rdgpu.sweep("gray-scott", PARAMS, scheduler=address, **KW).identical(serial)
 
 
 @needs_dask
