@@ -436,6 +436,9 @@ def sweep(
     steps = int(steps)
     if steps < 0:
         raise ValueError(f"steps must be >= 0, got {steps}")
+    for what, n in (("batch", batch), ("workers", workers)):
+        if n is not None and (isinstance(n, bool) or int(n) != n or n < 1):
+            raise ValueError(f"{what} must be a whole number >= 1, got {n!r}")
     grid = build_domain(domain if domain is not None else _default_domain(mdl, size))
     if not isinstance(grid, Grid):
         raise ValueError("a sweep runs on a grid (size= or a grid domain), not a mesh")
@@ -466,8 +469,6 @@ def sweep(
             batch = _default_batch(n_members, math.prod(space), len(species),
                                    np.dtype(dtype).itemsize, n_workers)
         batch = int(batch)
-        if batch < 1:
-            raise ValueError(f"batch must be >= 1 members, got {batch}")
         n_batches = math.ceil(n_members / batch)
         settings = {
             "name": mdl.name, "model": definition or mdl.name, "axes":
@@ -477,7 +478,13 @@ def sweep(
             "options": json.loads(json.dumps(options)), "batch": batch,
             "backend_name": be.name, "classify": classify, "species": list(species),
         }
-        job = {"name": mdl.name, "model": definition or mdl.name, "domain": grid,
+        from .models import MODELS
+
+        builtin = MODELS.get(mdl.name) is mdl
+        # the task names its model, or carries its equations, or (a model of Python code)
+        # the model itself, which must then pickle for a cluster
+        job = {"name": mdl.name, "model": definition or (mdl.name if builtin else mdl),
+               "domain": grid,
                "fixed": fixed, "steps": steps, "dt": float(dt), "dtype": dtype,
                "seed": int(seed), "init": init, "options": options,
                "backend": backend if isinstance(backend, str) or backend is None else be.name,

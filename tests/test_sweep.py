@@ -370,3 +370,19 @@ def test_cli_missing_dask(capsys, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)
     assert main(["sweep", "gray-scott", "--param", "F=0.03,0.04", "--steps", "1"]) == 1
     assert 'pip install "rdgpu[dask]"' in capsys.readouterr().err
+
+
+@needs_dask
+@pytest.mark.slow
+def test_model_from_equations_on_a_cluster(cluster):
+    """A model defined by its equations travels to the workers as its equations."""
+    from rdgpu.models import define_model
+
+    model = define_model("gs-own", {"u": "Du*laplace(u) - u*v**2 + F*(1 - u)",
+                                    "v": "Dv*laplace(v) + u*v**2 - (F + k)*v"},
+                         {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.06})
+    kw = {**KW, "size": 16, "steps": 100, "dt": 1.0}
+    ds = rdgpu.sweep(model, {"F": [0.03, 0.04, 0.05]}, scheduler=cluster, **kw)
+    assert ds.attrs["model"] == "gs-own" and ds["v"].shape == (3, 16, 16)
+    assert ds.identical(rdgpu.sweep(model, {"F": [0.03, 0.04, 0.05]}, scheduler="serial",
+                                    **kw))
