@@ -68,6 +68,15 @@ def test_classes_of_synthetic_fields():
     assert classify_pattern(stack, None, None, nonfinite="diverged", members=True) == expected
 
 
+def test_classes_of_a_stack_on_a_mesh():
+    from rdgpu.mesh import SurfaceMesh
+
+    mesh = SurfaceMesh.icosphere(3)
+    z = mesh.vertices[:, 2]
+    stack = np.stack([np.cos(3 * np.pi * z), np.ones(mesh.n_vertices)])
+    assert classify_pattern(stack, mesh) == ["stripes", "uniform"]
+
+
 def test_mixed_spots_and_worms():
     """Islands in a sea, half of the area in round spots and half in worms: 'mixed' when
     asked for, else the majority (here the worms: stripes)."""
