@@ -593,13 +593,17 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     domain = _domain_spec(args, preset, model)
     dtype = args.dtype or "float32"
     itemsize = 4 if dtype == "float32" else 8
+    members = getattr(args, "members", None)
     if "grid" in domain:
         g = domain["grid"]
         cells = int(g) ** 2 if isinstance(g, int) else math.prod(int(n) for n in g)
-        _check_memory(f"a {_grid_text(g if not isinstance(g, int) else (g, g))} grid", cells,
+        _check_memory(f"a {_grid_text(g if not isinstance(g, int) else (g, g))} grid"
+                      + (f" × {members} members" if members else ""), cells * (members or 1),
                       len(model.species), itemsize)
         _picture_scale(args, (g, g) if isinstance(g, int) else tuple(g))
     seed = args.seed if args.seed is not None else getattr(preset, "seed", 0)
+    if members:
+        seed = [seed + m for m in range(members)]
     options = dict(getattr(preset, "options", None) or {})
     if args.method is not None:
         methods = tuple(getattr(model, "methods", ()) or ())
@@ -619,7 +623,7 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
             dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
             backend=args.backend, dtype=dtype, seed=seed,
             init=getattr(preset, "init", None), check_stability=not args.no_stability_check,
-            options=options or None,
+            options=options or None, members=members,
         )
     except StabilityError as exc:
         raise UsageError(_cli_words(str(exc))) from None
@@ -710,8 +714,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scale = _picture_scale(args, None if is_mesh else sim.shape)
     snapshots = (total // every + 2) if every else 0
     pixels = 0 if is_mesh or not args.movie else math.prod(_frame_size(sim.shape, scale))
-    _check_memory(f"this run ({total} steps)", int(math.prod(sim.shape)), len(sim.species),
-                  sim.dtype.itemsize, snapshots, pixels)
+    _check_memory(f"this run ({total} steps)", int(math.prod(sim.field_shape)),
+                  len(sim.species), sim.dtype.itemsize, snapshots, pixels)
     limits = _colour_limits(args, sim.model, field)
     out = args.out
     if out is None and not args.movie and not args.data:
@@ -720,7 +724,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     steps_note = "" if kwargs.get("steps") is None else f"{kwargs['steps']} steps, "
     params = ", ".join(f"{k}={v:.4g}" for k, v in sim.params.items()
                        if isinstance(v, (int, float)))
-    _say(args, f"{sim.model.name} on a {_describe_domain(sim.domain)}, {steps_note}"
+    _say(args, f"{sim.model.name} on a {_describe_domain(sim.domain)}"
+               + (f" × {sim.members} members" if sim.members else "") + f", {steps_note}"
                f"dt={sim.dt:g}, {sim.dtype.name}, {sim.backend.name} ({sim.backend.device})"
                + (f", from step {sim.step} of {args.resume}" if args.resume else "")
                + (f"; {params}" if params else ""))
@@ -755,6 +760,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return status
     if result is None:
         return status
+    for _, what in sorted(result.diverged_members.items()):
+        print(f"rdgpu: warning: {_cli_words(what)}", file=sys.stderr)
     warning = _uniform_warning(result, sim.model, field) if status == 0 else None
     if warning:
         print(f"rdgpu: warning: {warning}", file=sys.stderr)
@@ -957,6 +964,9 @@ def build_parser() -> argparse.ArgumentParser:
                       "heun, rk3, imex, imex-cn (Allen-Cahn: explicit, implicit, "
                       "crank-nicolson)")
     _add_engine_options(what, "")
+    what.add_argument("--members", type=_positive_int, metavar="M",
+                      help="an ensemble: M runs in one launch per step, seeds SEED, SEED+1, "
+                      "...; the picture and movie become mosaics of the members")
     what.add_argument("--no-stability-check", action="store_true",
                       help="run even if dt is past the stability limit")
     outs = run.add_argument_group("outputs")

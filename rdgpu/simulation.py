@@ -1265,9 +1265,11 @@ class Simulation:
         seed: int | None = None,
         init: Mapping[str, Any] | None = None,
         check_stability: bool = True,
+        members: int | None = None,
     ) -> Simulation:
         """A simulation of a preset (a ``rdgpu.models.Preset`` or its name); ``domain``,
-        ``params`` (merged over the preset's), ``dt``, ``seed`` and ``init`` override it.
+        ``params`` (merged over the preset's), ``dt``, ``seed`` and ``init`` override it;
+        ``members`` makes it an ensemble (see :class:`Simulation`).
         ``run()`` then defaults to the preset's ``steps`` and ``snapshot_every``."""
         p = _lookup_preset(preset)
         sim = cls(
@@ -1275,7 +1277,7 @@ class Simulation:
             dt=p.dt if dt is None else dt, backend=backend, dtype=dtype,
             seed=getattr(p, "seed", 0) if seed is None else seed,
             init=p.init if init is None else init, check_stability=check_stability,
-            options=getattr(p, "options", None),
+            options=getattr(p, "options", None), members=members,
         )
         sim.preset = p
         return sim

@@ -30,6 +30,7 @@ fused pass.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -49,16 +50,22 @@ _THETA = {"imex": 1.0, "imex-cn": 0.5}
 # ---------------------------------------------------------------------------- stability
 def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
     """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
-    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`)."""
+    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`).  Remembered per
+    ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per member."""
+    D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)
+    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method)
+
+
+@functools.lru_cache(maxsize=4096)
+def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
+                     method: str) -> float:
+    D = np.frombuffer(d, dtype=np.float64).reshape(shape)
+    B = np.frombuffer(b, dtype=np.float64).reshape(shape)
     ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
     if method in EXPLICIT:
-        limit = math.inf
-        for m in ms:
-            lam = np.linalg.eigvals(-m * D + m * m * B)
-            neg = lam[lam.real < -1e-300]
-            if neg.size:
-                limit = min(limit, float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)))
-        return limit
+        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
+        neg = lam[lam.real < -1e-300]
+        return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
     theta = _THETA[method]
 
     def stable(h: float) -> bool:
@@ -200,12 +207,6 @@ class ModelStepper(FieldStepper):
         if stencil != "compact" and method not in EXPLICIT:
             raise ValueError(f"method {method!r} solves the compact stencil implicitly; the "
                              f"{stencil} stencil runs with the explicit methods")
-        if members is not None and method not in EXPLICIT:
-            raise ValueError(f"an ensemble runs the explicit methods ({', '.join(EXPLICIT)}); "
-                             f"method {method!r} solves each member implicitly, which an "
-                             "ensemble launch does not do yet: pass options={'method': "
-                             "'rk3'} (with a dt within the explicit limit) or run the members "
-                             "one by one")
         be = backend
         # parameters on the device: numbers stay numbers, fields are uploaded, expressions
         # of t are inlined into the programs
@@ -285,8 +286,8 @@ class ModelStepper(FieldStepper):
 
         theta = 1.0 if self.method == "imex" else 0.5
         h = self.dt
-        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, str) else None)
-                  for k, v in self.params.items()}
+        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
+                      else None) for k, v in self.params.items()}
         explicit: dict[str, eq.Node] = {}
         self._solvers: dict[str, list[Any]] = {}
         cache: dict[float, Any] = {}
@@ -340,7 +341,10 @@ class ModelStepper(FieldStepper):
                     solvers.append(cache[a])
             self._solvers[s] = solvers
         self._setup_explicit_from(explicit)
-        self._tmp = [self.backend.empty(self.shape, self.dtype) for _ in range(2)]
+        # an ensemble solves member by member: the same solves, sweeps and convergence
+        # tests as each member alone (one member's field at a time in these buffers)
+        one = self.shape if self.members is None else self.shape[1:]
+        self._tmp = [self.backend.empty(one, self.dtype) for _ in range(2)]
 
     def _setup_explicit_from(self, explicit: dict[str, eq.Node]) -> None:
         method, self.method = self.method, "euler"
@@ -357,8 +361,9 @@ class ModelStepper(FieldStepper):
         if bad:
             raise ValueError(
                 f"method {self.method!r}: the coefficient of {what}({s}) in the equation of "
-                f"{s!r} uses the parameter(s) {bad}, which are fields or time-dependent; "
-                "an implicit term needs a constant coefficient")
+                f"{s!r} uses the parameter(s) {bad}, which are fields, time-dependent or "
+                "differ between ensemble members; an implicit term needs one constant "
+                "coefficient")
         return float(eq.evaluate(c, {p: merged[p] for p in names}))
 
     # ------------------------------------------------------------------ stepping
@@ -389,9 +394,19 @@ class ModelStepper(FieldStepper):
         else:
             self._eval(self._euler, x, y, t0)
             for i, s in enumerate(self.species):
-                solvers = self._solvers[s]
-                if len(solvers) == 1:
-                    solvers[0].step(y[i], y[i])
-                elif len(solvers) == 2:
-                    solvers[0].step(y[i], self._tmp[0])
-                    solvers[1].step(self._tmp[0], y[i])
+                if self.members is None:
+                    self._solve(self._solvers[s], y[i])
+                    continue
+                n = self._tmp[1].size
+                for m in range(self.members):
+                    self.backend.copy_range(y[i], m * n, self._tmp[1], 0, n)
+                    self._solve(self._solvers[s], self._tmp[1])
+                    self.backend.copy_range(self._tmp[1], 0, y[i], m * n, n)
+
+    def _solve(self, solvers: list[Any], y: DeviceArray) -> None:
+        """``y`` ← the implicit solves of one species' IMEX step, in place."""
+        if len(solvers) == 1:
+            solvers[0].step(y, y)
+        elif len(solvers) == 2:
+            solvers[0].step(y, self._tmp[0])
+            solvers[1].step(self._tmp[0], y)
