@@ -314,13 +314,17 @@ def open_sweep(path: str | os.PathLike) -> Any:
 
 
 # ------------------------------------------------------------------------ schedulers
+def _nothing() -> None:
+    """Nothing to close."""
+
+
 def _client(scheduler: Any, workers: int | None, n_batches: int) -> tuple[Any, Callable]:
     """``(client, close)``: ``client`` None for an in-process run."""
     if scheduler in (None, "serial"):
-        return None, lambda: None
+        return None, _nothing
     distributed, = _need("distributed")
     if isinstance(scheduler, distributed.Client):
-        return scheduler, lambda: None
+        return scheduler, _nothing
     if scheduler == "local":
         n = workers or max(1, min(os.cpu_count() or 1, n_batches))
         cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
@@ -332,9 +336,17 @@ def _client(scheduler: Any, workers: int | None, n_batches: int) -> tuple[Any, C
             cluster.close()
 
         return client, close
-    if isinstance(scheduler, str) and "://" in scheduler:
-        client = distributed.Client(scheduler)
-        return client, client.close
+    _check_scheduler(scheduler)
+    client = distributed.Client(scheduler)  # an address
+    return client, client.close
+
+
+def _check_scheduler(scheduler: Any) -> None:
+    """Refuse what :func:`_client` cannot take (a Client passes by its class's name, so
+    that no Dask import is needed here)."""
+    if scheduler in (None, "serial", "local") or type(scheduler).__name__ == "Client" or (
+            isinstance(scheduler, str) and "://" in scheduler):
+        return
     raise ValueError(f"scheduler must be 'local' (a LocalCluster here), 'serial' (in this "
                      f"process), an address such as 'tcp://host:8786' or a "
                      f"distributed.Client; got {scheduler!r}")
@@ -414,6 +426,7 @@ def sweep(
     from .simulation import _lookup_model, _model_definition, build_domain, describe_domain
 
     kind = _store_kind(store)
+    _check_scheduler(scheduler)
     mdl = _lookup_model(model)
     if not isinstance(params, Mapping):
         raise TypeError(f"params must be a dict of parameter → values, got "
@@ -460,12 +473,13 @@ def sweep(
     desc = describe_domain(grid)
     n_members = math.prod(a.size for a in axes.values())
     space = tuple(grid.field_shape)
-    client, close = _client(scheduler, workers, n_members)
+    if batch is None and kind == "zarr":  # resuming: the store's batches
+        batch = _stored_batch(Path(store))
+    client, close = None, _nothing
     try:
-        n_workers = 1 if client is None else max(1, len(client.scheduler_info()["workers"]))
-        if batch is None and kind == "zarr":  # resuming: the store's batches
-            batch = _stored_batch(Path(store))
-        if batch is None:
+        if batch is None:  # about 4 batches a worker: ask the cluster how many it has
+            client, close = _client(scheduler, workers, n_members)
+            n_workers = 1 if client is None else len(client.scheduler_info()["workers"])
             batch = _default_batch(n_members, math.prod(space), len(species),
                                    np.dtype(dtype).itemsize, n_workers)
         batch = int(batch)
@@ -494,6 +508,8 @@ def sweep(
         group = _open_or_create(Path(store), template, settings) if kind == "zarr" else None
         result = _Collector(template, group, axes, species, batch)
         todo = [b for b in range(n_batches) if not result.done(b)]
+        if todo and client is None:  # no cluster is started for a finished sweep
+            client, close = _client(scheduler, workers, len(todo))
         _run(client, job, result, todo, n_batches, progress, on_batch)
     finally:
         close()

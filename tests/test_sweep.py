@@ -229,8 +229,11 @@ def test_zarr_store_streams_and_resumes(tmp_path, serial):
                     store=store, **KW)
     # resumed elsewhere, without naming the batch size: the store's
     again = []
-    assert rdgpu.sweep("gray-scott", PARAMS, scheduler="serial", store=store,
-                       on_batch=again.append, **{**KW, "batch": None}).identical(serial)
+    sweep_module = sys.modules["rdgpu.sweep"]
+    with pytest.MonkeyPatch.context() as mp:  # nothing left to run: no cluster is started
+        mp.setattr(sweep_module, "_client", lambda *a: pytest.fail("a cluster was started"))
+        assert rdgpu.sweep("gray-scott", PARAMS, scheduler="local", store=store,
+                           on_batch=again.append, **{**KW, "batch": None}).identical(serial)
     assert again == []
     other = tmp_path / "other.zarr"
     other.mkdir()
