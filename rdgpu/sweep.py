@@ -675,8 +675,9 @@ def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
         ax.set_ylabel(py, fontsize=font * 1.2)
     else:
         ax.set_yticks([])
+    shown = "".join(f", {d} = {float(ds[d].values[0]):.4g}" for d in axes[2:])
     ax.set_title(f"{ds.attrs.get('model', '')}: final {species} after "
-                 f"{ds.attrs.get('steps', '?')} steps", fontsize=font * 1.2)
+                 f"{ds.attrs.get('steps', '?')} steps{shown}", fontsize=font * 1.2)
     ax.tick_params(labelsize=font)
     fig.tight_layout()
     out = Path(path)
