@@ -318,3 +318,14 @@ def test_cli_members_run_an_ensemble_over_seeds(tmp_path, capsys):
     import imageio.v3 as iio
 
     assert iio.imread(tmp_path / "e.png").shape[:2] == (2 * (2 * 16) + 2, 2 * (2 * 12) + 2)
+
+
+def test_simulation_on_a_1d_grid():
+    """A 1-D grid's fields are [nx] to the driver ([members, nx] for an ensemble)."""
+    sim = Simulation("gray-scott", {"grid": (40,), "bc": "periodic"}, {"F": [0.03, 0.04]},
+                     members=2, backend="opencl")
+    r = sim.run(100, progress=False)
+    assert r.fields["u"].shape == (2, 40)
+    alone = Simulation("gray-scott", {"grid": (40,), "bc": "periodic"}, {"F": 0.04},
+                       backend="opencl", dt=sim.dt).run(100, progress=False)
+    np.testing.assert_array_equal(r.fields["u"][1], alone.fields["u"])

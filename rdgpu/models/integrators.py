@@ -157,10 +157,13 @@ class FieldStepper:
             a = a.numpy()
         a = np.asarray(a)
         if a.shape != self.shape:
-            if a.size == int(np.prod(self.shape)) and self.shape[0] == 1 and a.ndim == 1:
-                a = a.reshape(self.shape)
-            else:
+            # a 1-D grid's fields may come as [nx] (or an ensemble's as [members, nx]) for
+            # the stepper's [1, nx] ([members, 1, nx])
+            squeezed = a.ndim == len(self.shape) - 1 and self.shape[-2] == 1 and \
+                a.shape == self.shape[:-2] + self.shape[-1:]
+            if not squeezed:
                 raise ValueError(f"field {name!r} has shape {a.shape}, the domain {self.shape}")
+            a = a.reshape(self.shape)
         return np.ascontiguousarray(a, dtype=self.dtype)
 
     def set_state(self, fields: Mapping[str, Any], *, steps: int | None = None) -> None:
