@@ -462,6 +462,35 @@ _CL_FUNCS = {"exp": "exp", "log": "log", "sqrt": "SQRT", "sin": "sin", "cos": "c
 
 def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) -> str:
     """The OpenCL C kernel ``rd_program`` (needs ``common.cl`` first)."""
+    decl, body = opencl_cell(program, kind, fields, dtype)
+    template = read_source("model", "model.cl")
+    part = "MESH" if kind == "mesh" else "GRID"
+    text = template[template.index(f"/*@{part}@*/"): template.index(f"/*@END {part}@*/")]
+    coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}"
+                         for c in program.refs("coord"))
+    return opencl_head(program) + (
+        text.replace("@ARGS@", ",\n        ".join(decl))
+        .replace("@COORDS@", coord_decl if kind == "mesh" else "")
+        .replace("@CELL@", " \\\n".join("        " + b for b in body))
+        .replace("@BODY@", "\n".join("        " + b for b in body))
+    )
+
+
+def opencl_head(program: Program) -> str:
+    """The part of ``model.cl`` every generated OpenCL program starts with (its comment
+    naming the outputs, the helper functions)."""
+    template = read_source("model", "model.cl")
+    comment = "\n".join(f" *   {o.name} = {_to_text(o.expr)}" for o in program.outputs)
+    return template[: template.index("/*@GRID@*/")].replace("@OUTPUTS@", comment)
+
+
+def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
+                field_index: str = "k_", out_index: str = "k_") -> tuple[list[str], list[str]]:
+    """``(arguments, statements)`` of one cell of ``program`` in OpenCL C: the kernel's
+    argument declarations (:func:`_signature`'s order) and the cell body.  The body reads
+    input ``s`` as ``in_s[k_]`` and its neighbours at the row offsets ``rc, rs, rn...``
+    plus ``j``/``cc_.w``/``cc_.e``, parameter fields at ``[field_index]``, and stores
+    output ``o`` to ``out_o[out_index]`` (the step kernel: all ``k_``)."""
     dtype = np.dtype(dtype)
     if dtype == np.float64:
         def lit(v):
@@ -485,7 +514,7 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
     body = []
     for p in program.refs("param"):
         if p in fields:
-            body.append(f"const real f_{p} = pf_{p}[k_];")
+            body.append(f"const real f_{p} = pf_{p}[{field_index}];")
     if kind == "mesh":
         body += [f"const real {c}c = coord_{c}[k_];" for c in coords]
     elif "x" in coords:
@@ -538,19 +567,8 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) ->
             body.append(f"o{i}_ = (o{i}_ < {lit(lo)}) ? {lit(lo)} : o{i}_;")
         if hi is not None:
             body.append(f"o{i}_ = (o{i}_ > {lit(hi)}) ? {lit(hi)} : o{i}_;")
-        body.append(f"out_{o.name}[k_] = FLUSH(o{i}_);")
-    template = read_source("model", "model.cl")
-    part = "MESH" if kind == "mesh" else "GRID"
-    head = template[: template.index("/*@GRID@*/")]
-    text = template[template.index(f"/*@{part}@*/"): template.index(f"/*@END {part}@*/")]
-    comment = "\n".join(f" *   {o.name} = {_to_text(o.expr)}" for o in program.outputs)
-    coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}" for c in coords)
-    return head.replace("@OUTPUTS@", comment) + (
-        text.replace("@ARGS@", ",\n        ".join(decl))
-        .replace("@COORDS@", coord_decl if kind == "mesh" else "")
-        .replace("@CELL@", " \\\n".join("        " + b for b in body))
-        .replace("@BODY@", "\n".join("        " + b for b in body))
-    )
+        body.append(f"out_{o.name}[{out_index}] = FLUSH(o{i}_);")
+    return decl, body
 
 
 def _to_text(node: Node) -> str:
@@ -575,19 +593,8 @@ def _opencl_kernel(program: Program, target: Target, fields: frozenset[str]):
     src = program.cache.get(skey)
     if src is None:
         src = program.cache[skey] = opencl_source(program, target.kind, fields, target.dtype)
-    pkey = (be.context.int_ptr, tuple(be._options), target.dtype.char, src)
-    with _CL_LOCK:
-        prog = _CL_PROGRAMS.get(pkey)
-        if prog is None:
-            cl = be._cl
-            options = [f"-D REAL_IS_DOUBLE={int(target.dtype == np.float64)}", *be._options]
-            full = '#line 1 "common.cl"\n' + read_source("", "common.cl") + "\n"
-            full += '#line 1 "model/model.cl (generated)"\n' + src
-            prog = cl.Program(be.context, full).build(options=options)
-            _CL_PROGRAMS[pkey] = prog
-    k = be._cl.Kernel(prog, "rd_program")
-    codes = [None if kk in ("in", "out", "field") else target.dtype
-             for kk, _ in _signature(program, fields)]
+    k = be._cl.Kernel(opencl_program(target, src, "model/model.cl"), "rd_program")
+    codes = opencl_arg_dtypes(program, fields, target.dtype)
     if target.kind == "mesh":
         codes = [None, None, None, *codes, np.int32, np.int32,
                  *[None] * len(program.refs("coord"))]
@@ -596,6 +603,28 @@ def _opencl_kernel(program: Program, target: Target, fields: frozenset[str]):
     k.set_scalar_arg_dtypes(codes)
     program.cache[key] = k
     return k
+
+
+def opencl_program(target: Target, src: str, name: str):
+    """``common.cl`` + ``src`` built for the target's backend and dtype (cached per
+    context, build options and source; ``name`` labels the source in compiler messages)."""
+    be = target.backend
+    pkey = (be.context.int_ptr, tuple(be._options), target.dtype.char, src)
+    with _CL_LOCK:
+        prog = _CL_PROGRAMS.get(pkey)
+        if prog is None:
+            options = [f"-D REAL_IS_DOUBLE={int(target.dtype == np.float64)}", *be._options]
+            full = '#line 1 "common.cl"\n' + read_source("", "common.cl") + "\n"
+            full += f'#line 1 "{name} (generated)"\n' + src
+            prog = be._cl.Program(be.context, full).build(options=options)
+            _CL_PROGRAMS[pkey] = prog
+    return prog
+
+
+def opencl_arg_dtypes(program: Program, fields: frozenset[str], dtype) -> list:
+    """pyopencl's scalar argument dtypes of :func:`_signature` (None for buffers)."""
+    return [None if kk in ("in", "out", "field") else np.dtype(dtype)
+            for kk, _ in _signature(program, fields)]
 
 
 def _launch_opencl(program, target, bufs, fields, scalars):
@@ -827,6 +856,24 @@ def _warp_rows(a: DeviceArray) -> Any:
     return view
 
 
+def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
+              outputs: Sequence[DeviceArray], params: Mapping[str, Any],
+              fields: frozenset[str], scalars: Mapping[str, float], time: float,
+              flat=_handle) -> list[Any]:
+    """The kernel arguments of :func:`_signature`: buffers through ``flat``, scalars in
+    the target's dtype."""
+    t = target.dtype.type
+    bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]
+    ps = program.refs("param")
+    bufs += [flat(params[p]) for p in ps if p in fields]
+    bufs += [t(params[p]) for p in ps if p not in fields]
+    bufs += [t(scalars[b]) for b in program.refs("builtin")]
+    bufs.append(t(time))
+    lengths = target.lengths()
+    bufs += [t(lengths[n]) for n in program.refs("length")]
+    return bufs
+
+
 def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
            outputs: Sequence[DeviceArray], params: Mapping[str, Any],
            scalars: Mapping[str, float], time: float = 0.0) -> None:
@@ -837,7 +884,6 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
     if len(inputs) != len(program.inputs) or len(outputs) != len(program.outputs):
         raise ValueError("inputs/outputs do not match the program")
     fields = frozenset(p for p in program.refs("param") if isinstance(params[p], DeviceArray))
-    t = target.dtype.type
     if be.name == "numpy":
         host = {n: a.handle for n, a in zip(program.inputs, inputs, strict=True)}
         pv = {p: (v.handle if isinstance(v, DeviceArray) else v) for p, v in params.items()
@@ -850,14 +896,7 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
         flat = be._flat if target.kind == "mesh" else _warp_rows
     else:
         flat = _handle
-    bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]
-    ps = program.refs("param")
-    bufs += [flat(params[p]) for p in ps if p in fields]
-    bufs += [t(params[p]) for p in ps if p not in fields]
-    bufs += [t(scalars[b]) for b in program.refs("builtin")]
-    bufs.append(t(time))
-    lengths = target.lengths()
-    bufs += [t(lengths[n]) for n in program.refs("length")]
+    bufs = arguments(program, target, inputs, outputs, params, fields, scalars, time, flat)
     if be.name == "warp":
         _launch_warp(program, target, bufs, fields, scalars)
     elif be.name == "opencl":

@@ -510,12 +510,14 @@ class Model:
         method: str | None = None,
         tol: float | None = None,
         stencil: str = "compact",
+        block_steps: int | None = None,
     ):
         """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
         ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
         ``tol``: the implicit solves' accuracy (IMEX); ``stencil``: ``"compact"`` (3/5/7
-        points) or ``"isotropic"`` (9 points in 2-D, 19 in 3-D; equal spacings) on grids.
-        The fields start at zero: call ``set_state``."""
+        points) or ``"isotropic"`` (9 points in 2-D, 19 in 3-D; equal spacings) on grids;
+        ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
+        None: automatic, 1: off).  The fields start at zero: call ``set_state``."""
         from .compiler import check_stencil
         from .integrators import ModelStepper
 
@@ -527,7 +529,7 @@ class Model:
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
-                            method, tol=tol, stencil=stencil)
+                            method, tol=tol, stencil=stencil, block_steps=block_steps)
 
 
 def _method(method: str, allowed: Sequence[str]) -> str:
