@@ -48,10 +48,13 @@ from .compiler import (
 
 __all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "last_level_cache", "why_not"]
 
-#: the steps of a pass when blocking is on automatically (perf/blocking.py)
-AUTO_STEPS = 8
+#: the most steps of a pass when blocking is on automatically (perf/blocking.py)
+AUTO_STEPS = 16
 #: grid kinds a pass can run on (the bands are rows of a 2-D grid)
 KINDS = ("grid2", "grid2iso")
+#: the default band height (perf/blocking.py: 512 rows ran ~10% faster than 256, ~25%
+#: faster than 64 at K = 16; a band recomputes 2·(K − 1) halo rows per level)
+ROWS = 512
 #: work-items per compute unit: each has its own scratch and takes every items-th band
 ITEMS_PER_UNIT = 2
 
@@ -81,29 +84,38 @@ def why_not(stepper: Any) -> str | None:
 
 
 @functools.cache
-def last_level_cache() -> int | None:
-    """Bytes of the CPU's last-level cache (``/sys/devices/system/cpu/cpu0/cache``, else
-    ``lscpu``), or None where neither says."""
-    best: tuple[int, int] | None = None
+def cache_sizes() -> dict[int, int]:
+    """``{level: bytes}`` of the data caches of CPU 0 (``/sys/devices/system/cpu/cpu0/
+    cache``, else ``lscpu``'s L1d/L2/L3 lines); empty where neither says."""
+    sizes: dict[int, int] = {}
     for d in Path("/sys/devices/system/cpu/cpu0/cache").glob("index*"):
         try:
-            level = int((d / "level").read_text())
+            if (d / "type").read_text().strip() == "Instruction":
+                continue
             size = _bytes((d / "size").read_text())
+            if size:
+                sizes[int((d / "level").read_text())] = size
         except (OSError, ValueError):
             continue
-        if size and (best is None or level > best[0]):
-            best = (level, size)
-    if best is not None:
-        return best[1]
+    if sizes:
+        return sizes
     try:
         text = subprocess.run(["lscpu"], capture_output=True, text=True, timeout=10).stdout
     except (OSError, subprocess.SubprocessError):
-        return None
-    for name in ("L3 cache", "L2 cache"):
-        m = re.search(rf"^{name}:\s*(.+)$", text, re.MULTILINE)
-        if m:
-            return _bytes(m.group(1))
-    return None
+        return sizes
+    for level, name in ((1, "L1d"), (2, "L2"), (3, "L3")):
+        m = re.search(rf"^{name} cache:\s*(.+)$", text, re.MULTILINE)
+        size = _bytes(m.group(1)) if m else None
+        if size:  # lscpu sums the instances ("2 MiB (2 instances)"): one instance's size
+            n = re.search(r"\((\d+) instances?\)", m.group(1))
+            sizes[level] = size // (int(n.group(1)) if n else 1)
+    return sizes
+
+
+def last_level_cache() -> int | None:
+    """Bytes of the CPU's last-level cache (:func:`cache_sizes`), or None if unknown."""
+    sizes = cache_sizes()
+    return sizes[max(sizes)] if sizes else None
 
 
 def _bytes(text: str) -> int | None:
@@ -116,9 +128,9 @@ def _bytes(text: str) -> int | None:
 
 
 def auto_steps(stepper: Any) -> int:
-    """The steps of a pass when ``block_steps`` is None: :data:`AUTO_STEPS` for an eligible
-    stepper on a CPU OpenCL device whose fields (the state read and written, the parameter
-    fields) exceed the last-level cache, else 1 (off)."""
+    """The steps of a pass when ``block_steps`` is None: 1 (off) unless the stepper is
+    eligible, on a CPU OpenCL device, and its fields (the state read and written, the
+    parameter fields) exceed the last-level cache; then :func:`fitting_steps`."""
     if why_not(stepper) is not None:
         return 1
     be = stepper.backend
@@ -128,7 +140,18 @@ def auto_steps(stepper: Any) -> int:
     fields = sum(isinstance(v, DeviceArray) for v in stepper._dev.values())
     cells = math.prod(stepper.shape)
     working = (2 * len(stepper.species) + fields) * cells * stepper.dtype.itemsize
-    return AUTO_STEPS if llc is not None and working > llc else 1
+    return fitting_steps(stepper) if llc is not None and working > llc else 1
+
+
+def fitting_steps(stepper: Any) -> int:
+    """The most steps, up to :data:`AUTO_STEPS`, whose scratch rings (``steps − 1`` levels of
+    3 rows per species) fit in one core's L2 cache (1 MiB where unknown); 1 where not even
+    one level fits.  perf/blocking.py: past that size the rate falls (Gray-Scott float32,
+    rows of 4096: K = 11 fits, K = 16 runs ~20% slower, K = 22 ~40%)."""
+    l2 = cache_sizes().get(2, 1 << 20)
+    level = len(stepper.species) * 3 * stepper.shape[-1] * stepper.dtype.itemsize
+    k = 1 + l2 // max(level, 1)
+    return min(AUTO_STEPS, k) if k >= 2 else 1
 
 
 def check_steps(block_steps: Any) -> int | None:
@@ -209,9 +232,10 @@ class BlockedEuler:
         self._last_t0: int | None = None
 
     def default_rows(self) -> int:
-        """Band height: 64 rows, fewer where that leaves a compute unit without a band."""
+        """Band height: :data:`ROWS` rows, fewer where that leaves a work-item without a
+        band."""
         units = max(1, int(self.stepper.backend.cl_device.max_compute_units))
-        return max(1, min(64, -(-self.ny * self.planes // (2 * units))))
+        return max(1, min(ROWS, -(-self.ny * self.planes // (ITEMS_PER_UNIT * units))))
 
     def _kernel(self, fields: frozenset[str]):
         program, target = self.stepper._euler, self.target
