@@ -11,8 +11,8 @@ decayed background, where the kernels flush subnormals).  In one run it times:
 * the single-step OpenCL rate (Mcell·steps/s) and the blocked rates (``rdgpu.models.blocking``)
   for every K in ``--steps`` and band height B in ``--rows``;
 * the single-step memory roofline: the bandwidth of an OpenCL triad ``a = b + s·c`` over
-  three arrays each the size of the state (3 arrays counted, as STREAM does) ÷ the bytes
-  per cell;
+  three arrays each the size of the state (3 arrays counted, as STREAM does; as many
+  bytes per timing as the single steps move) ÷ the bytes per cell;
 * the compute ceiling: the single-step rate on ``small_rows`` × nx rows of the same state,
   a grid that fits in the last-level cache;
 * the Warp single-step rate at the same size.
@@ -68,9 +68,11 @@ class Triad:
         self.kernel.set_args(*self.bufs, np.float32(0.5), np.int64(n))
         self.seconds()  # compile, touch the pages
 
-    def seconds(self) -> float:
+    def seconds(self, reps: int = 1) -> float:
+        """Seconds of ``reps`` triads in a row."""
         t0 = time.perf_counter()
-        self.cl.enqueue_nd_range_kernel(self.queue, self.kernel, (self.items,), (1,))
+        for _ in range(reps):
+            self.cl.enqueue_nd_range_kernel(self.queue, self.kernel, (self.items,), (1,))
         self.queue.finish()
         return time.perf_counter() - t0
 
@@ -111,6 +113,9 @@ def measure(args) -> dict:
                        options={"block_steps": 1})
     small_steps = n_steps * (ny // c)
     triad = Triad(be, 3 * ny * args.nx)
+    # as many bytes per timing as the single steps move (16 bytes/cell): equal durations,
+    # so that a busy moment of the machine weighs alike on both
+    triad_reps = max(1, round(n_steps * bytes_per_cell / (12 * 3)))
     best: dict[str, float] = {}
 
     def keep(name: str, seconds: float) -> None:
@@ -127,9 +132,9 @@ def measure(args) -> dict:
             keep(label, timed(sim, start, n_steps, 1))
         keep("warp", timed(warp, start, args.warp_steps, 1))
         keep("small", timed(small, crop, small_steps, 1))
-        keep("triad", triad.seconds())
+        keep("triad", triad.seconds(triad_reps))
         print(f"round {r + 1}/{args.repeats} done", flush=True)
-    bw = 12.0 * triad.n / best["triad"]
+    bw = 12.0 * triad.n * triad_reps / best["triad"]
     rates = {label: ny * args.nx * n_steps / best[label] / 1e6 for label in configs}
     return {
         "llc": llc, "shape": (ny, args.nx), "dtype": args.dtype, "warmup": args.warmup,

@@ -6,25 +6,21 @@ time-dependent parameter; the errors; the automatic policy; one run on Oclgrind.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import backend_or_skip
+from test_oclgrind import check_clean_under_oclgrind, oclgrind_available
 
 import rdgpu
 from rdgpu.domains import Grid
-from rdgpu.models import MODELS, define_model
-from rdgpu.models import blocking
+from rdgpu.models import MODELS, blocking, define_model
 from rdgpu.models.blocking import BlockedEuler
 
-pytest.importorskip("pyopencl")
-try:
-    rdgpu.get_backend("opencl")
-except Exception as exc:  # noqa: BLE001 - no device: nothing to test
-    pytest.skip(f"no OpenCL device: {exc}", allow_module_level=True)
+
+@pytest.fixture(autouse=True)
+def _opencl():
+    backend_or_skip("opencl")
+
 
 GS = MODELS["gray-scott"]
 #: parameter fields (k: an array, B: an expression of x, y evaluated on the host), a
@@ -233,24 +229,8 @@ for dtype in (np.float32, np.float64):
 """
 
 
-def _oclgrind() -> bool:
-    import pyopencl as cl
-
-    return any("oclgrind" in p.name.lower() for p in cl.get_platforms())
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(not _oclgrind(), reason="Oclgrind is not installed")
+@pytest.mark.skipif(not oclgrind_available(), reason="Oclgrind is not installed")
 def test_blocked_kernel_under_oclgrind():
     """No out-of-bounds scratch or grid access, no data race, bit for bit."""
-    root = str(Path(rdgpu.__file__).resolve().parents[1])
-    env = {**os.environ, "OCLGRIND_DATA_RACES": "1",
-           "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
-    proc = subprocess.run([sys.executable, "-c", WORKER], capture_output=True, text=True,
-                          env=env, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    assert proc.stdout.count(" ok") == 8, proc.stdout
-    reports = [line for line in proc.stderr.splitlines()
-               if any(k in line for k in ("Invalid read", "Invalid write", "data race",
-                                          "out of bounds", "Invalid access"))]
-    assert not reports, "\n".join(reports[:20]) + "\n" + proc.stderr[-2000:]
+    check_clean_under_oclgrind(["-c", WORKER], 8)

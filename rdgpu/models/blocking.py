@@ -26,7 +26,6 @@ import functools
 import math
 import re
 import subprocess
-import threading
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +42,7 @@ from .compiler import (
     opencl_arg_dtypes,
     opencl_cell,
     opencl_head,
+    opencl_kernel,
     opencl_program,
 )
 
@@ -239,21 +239,18 @@ class BlockedEuler:
 
     def _kernel(self, fields: frozenset[str]):
         program, target = self.stepper._euler, self.target
-        be = target.backend
-        key = ("opencl blocked", be.context.int_ptr, tuple(be._options), threading.get_ident(),
-               target.kind, fields, target.dtype.char)
-        k = program.cache.get(key)
-        if k is not None:
+
+        def make():
+            src = blocked_source(program, target.kind, fields, target.dtype)
+            k = target.backend._cl.Kernel(opencl_program(target, src, "model/blocked.cl"),
+                                          "rd_blocked")
+            dt = target.dtype
+            k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt), None, None,
+                                     np.int32, np.int32, np.int32, np.int32, dt, np.int32, dt,
+                                     dt, dt, dt, dt, np.int32, np.int32, np.int32])
             return k
-        be._check_real(target.dtype)
-        src = blocked_source(program, target.kind, fields, target.dtype)
-        k = be._cl.Kernel(opencl_program(target, src, "model/blocked.cl"), "rd_blocked")
-        dt = target.dtype
-        k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt), None, None,
-                                 np.int32, np.int32, np.int32, np.int32, dt, np.int32, dt,
-                                 dt, dt, dt, dt, np.int32, np.int32, np.int32])
-        program.cache[key] = k
-        return k
+
+        return opencl_kernel(program, target, fields, "rd_blocked", make)
 
     def run(self, x: list[DeviceArray], y: list[DeviceArray], steps_done: int) -> None:
         """One pass: ``y`` = the state ``steps`` Euler steps after ``x``, which is at step

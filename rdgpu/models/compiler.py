@@ -581,28 +581,40 @@ _CL_LOCK = threading.Lock()
 _CL_PROGRAMS: dict[tuple, Any] = {}
 
 
-def _opencl_kernel(program: Program, target: Target, fields: frozenset[str]):
+def opencl_kernel(program: Program, target: Target, fields: frozenset[str], name: str,
+                  make) -> Any:
+    """Kernel ``name`` of ``program`` for the target, cached in the program per context,
+    build options, thread (a kernel's arguments are per object), domain kind, parameter
+    fields and dtype; ``make()`` builds it on a miss."""
     be = target.backend
-    key = ("opencl", be.context.int_ptr, tuple(be._options), threading.get_ident(),
+    key = (name, be.context.int_ptr, tuple(be._options), threading.get_ident(),
            target.kind, fields, target.dtype.char)
     k = program.cache.get(key)
-    if k is not None:
-        return k
-    be._check_real(target.dtype)
-    skey = ("opencl source", target.kind, fields, target.dtype.char)
-    src = program.cache.get(skey)
-    if src is None:
-        src = program.cache[skey] = opencl_source(program, target.kind, fields, target.dtype)
-    k = be._cl.Kernel(opencl_program(target, src, "model/model.cl"), "rd_program")
-    codes = opencl_arg_dtypes(program, fields, target.dtype)
-    if target.kind == "mesh":
-        codes = [None, None, None, *codes, np.int32, np.int32,
-                 *[None] * len(program.refs("coord"))]
-    else:
-        codes += [np.int32] * 3 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
-    k.set_scalar_arg_dtypes(codes)
-    program.cache[key] = k
+    if k is None:
+        be._check_real(target.dtype)
+        k = program.cache[key] = make()
     return k
+
+
+def _opencl_kernel(program: Program, target: Target, fields: frozenset[str]):
+    def make():
+        skey = ("opencl source", target.kind, fields, target.dtype.char)
+        src = program.cache.get(skey)
+        if src is None:
+            src = program.cache[skey] = opencl_source(program, target.kind, fields,
+                                                      target.dtype)
+        k = target.backend._cl.Kernel(opencl_program(target, src, "model/model.cl"),
+                                      "rd_program")
+        codes = opencl_arg_dtypes(program, fields, target.dtype)
+        if target.kind == "mesh":
+            codes = [None, None, None, *codes, np.int32, np.int32,
+                     *[None] * len(program.refs("coord"))]
+        else:
+            codes += [np.int32] * 3 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
+        k.set_scalar_arg_dtypes(codes)
+        return k
+
+    return opencl_kernel(program, target, fields, "rd_program", make)
 
 
 def opencl_program(target: Target, src: str, name: str):
