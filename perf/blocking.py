@@ -19,7 +19,8 @@ decayed background, where the kernels flush subnormals).  In one run it times:
 
 Every timing is the best of ``repeats`` rounds (one round times every configuration once,
 each from the same saved state), so a moment when the machine is busy does not count.
-Prints a Markdown table and writes it to ``perf/results/blocking.md``.
+Prints a Markdown table and writes it to ``perf/results/blocking.md`` (float32) or
+``perf/results/blocking-float64.md``.
 """
 
 from __future__ import annotations
@@ -197,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     md = markdown(measure(args))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "blocking.md").write_text(md)
+    name = "blocking.md" if args.dtype == "float32" else f"blocking-{args.dtype}.md"
+    (out / name).write_text(md)
     print(md)
     return 0
 
