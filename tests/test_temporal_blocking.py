@@ -129,6 +129,27 @@ def test_simulation_option():
         assert np.array_equal(a[s], b[s])
 
 
+def test_cli_option(capsys, tmp_path):
+    from rdgpu.cli import main
+    from rdgpu.output import load_npz
+
+    fields = []
+    for k in (1, 4):
+        path = tmp_path / f"k{k}.npz"
+        code = main(["run", "gray-scott", "--size", "20x24", "--steps", "30", "--backend",
+                     "opencl", "--block-steps", str(k), "--data", str(path), "--quiet"])
+        assert code == 0, capsys.readouterr().err
+        fields.append(load_npz(path).fields)
+    for s in fields[0]:
+        assert np.array_equal(fields[0][s], fields[1][s])
+    for argv, match in [(["gray-scott", "--block-steps", "4", "--backend", "numpy"],
+                         "numpy backend has no blocked kernel"),
+                        (["allen-cahn", "--block-steps", "4"], "allen-cahn has no blocked"),
+                        (["gray-scott", "--block-steps", "0"], "block_steps must be None")]:
+        assert main(["run", *argv, "--size", "8x8", "--steps", "2", "--quiet"]) == 2
+        assert match in capsys.readouterr().err
+
+
 # ---------------------------------------------------------------------------- errors
 @pytest.mark.parametrize("bad", [0, -2, 2.5, True, "4"])
 def test_bad_block_steps(bad):
