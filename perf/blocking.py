@@ -14,7 +14,7 @@ decayed background, where the kernels flush subnormals).  In one run it times:
   three arrays each the size of the state (3 arrays counted, as STREAM does; as many
   bytes per timing as the single steps move) ÷ the bytes per cell;
 * the compute ceiling: the single-step rate on ``small_rows`` × nx rows of the same state,
-  a grid that fits in the last-level cache;
+  a grid whose state (read and written) fills half the last-level cache;
 * the Warp single-step rate at the same size.
 
 Every timing is the best of ``repeats`` rounds (one round times every configuration once,
@@ -107,7 +107,8 @@ def measure(args) -> dict:
     # the central rows, a grid that fits in the last-level cache (periodic: the seam
     # does not matter for the timing)
     warp = Simulation("gray-scott", grid, backend="warp", dtype=args.dtype, fields=start)
-    c = args.small_rows
+    # the state read and written in half the LLC
+    c = args.small_rows or max(1, int(llc // 2 // (args.nx * bytes_per_cell)))
     crop = {s: a[(ny - c) // 2: (ny + c) // 2] for s, a in start.items()}
     small = Simulation("gray-scott", {"grid": (c, args.nx), "dx": 1.0, "bc": "periodic"},
                        backend="opencl", dtype=args.dtype, fields=crop,
@@ -190,8 +191,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--passes", type=int, default=2,
                         help="timed steps: this many × the lcm of --steps")
     parser.add_argument("--warp-steps", type=int, default=10)
-    parser.add_argument("--small-rows", type=int, default=256,
-                        help="rows of the compute ceiling's grid (nx columns)")
+    parser.add_argument("--small-rows", type=int, default=None,
+                        help="rows of the compute ceiling's grid (nx columns; default: the "
+                        "state read and written fills half the LLC)")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = parser.parse_args(argv)
