@@ -203,6 +203,12 @@ def test_automatic_policy(monkeypatch):
     monkeypatch.setattr(blocking, "cache_sizes", lambda: {2: 3 * 2 * 100 * 4 * 5, 3: 100_000})
     st = GS.stepper(domain, dt=0.5, backend="opencl", dtype=np.float32)
     assert st.blocked is not None and st.blocked.steps == 6  # 5 levels of rings fit in L2
+    ref = GS.stepper(domain, dt=0.5, backend="opencl", dtype=np.float32, block_steps=1)
+    for s_ in (st, ref):
+        s_.set_state(start_state(domain.shape))
+        s_.advance(15)
+    for name, a in st.get_state().items():
+        assert np.array_equal(a, ref.get_state()[name])
     monkeypatch.setattr(blocking, "cache_sizes", lambda: {2: 10_000_000, 3: 200_000})
     assert GS.stepper(domain, dt=0.5, backend="opencl", dtype=np.float32).blocked is None
     monkeypatch.setattr(blocking, "cache_sizes", lambda: {2: 10_000_000, 3: 100_000})

@@ -46,7 +46,8 @@ from .compiler import (
     opencl_program,
 )
 
-__all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "last_level_cache", "why_not"]
+__all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "cache_sizes", "fitting_steps",
+           "last_level_cache", "why_not"]
 
 #: the most steps of a pass when blocking is on automatically (perf/blocking.py)
 AUTO_STEPS = 16
