@@ -37,6 +37,12 @@ def __getattr__(name: str):
         from .mesh import SurfaceMesh
 
         return SurfaceMesh
+    if name in ("sweep", "sweep_map"):  # needs the dask extra: imported on first use
+        import importlib
+
+        module = importlib.import_module(".sweep", __name__)
+
+        return module.sweep if name == "sweep" else module.sweep_map
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -72,5 +78,7 @@ __all__ = [
     "sor_solve",
     "sor_sweep",
     "spmv",
+    "sweep",
+    "sweep_map",
     "use_backend",
 ]

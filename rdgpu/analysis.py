@@ -16,7 +16,8 @@
   the generated bilaplacian is that stencil applied twice, so its symbol is exactly the
   square; ``dispersion(..., dx=h)`` maps continuous wavenumbers to the grid's;
 * :func:`classify_pattern` — ``"spots"``, ``"inverted-spots"``, ``"stripes"`` or
-  ``"uniform"`` from the connected regions of the two phases of a field;
+  ``"uniform"`` (optionally ``"mixed"``, ``"diverged"``) from the connected regions of the
+  two phases of a field, or of each member of a stack;
 * :func:`spiral_tips` — how many phase singularities a pair of fields has,
   :func:`phase_defects` — where the vortices of ``u + iv`` are and their charges ±1.
 
@@ -335,8 +336,13 @@ def classify_pattern(
     min_size: int = 1,
     rtol: float = 1e-3,
     atol: float = 1e-12,
-) -> str:
-    """``"spots"``, ``"inverted-spots"``, ``"stripes"`` or ``"uniform"``.
+    mixed: float | None = None,
+    nonfinite: str = "raise",
+    members: bool | None = None,
+    lone: float = 0.25,
+) -> Any:
+    """``"spots"``, ``"inverted-spots"``, ``"stripes"`` or ``"uniform"`` (and, when asked
+    for, ``"mixed"`` and ``"diverged"``).
 
     The field splits into a high phase (``> threshold``; ``threshold=None``: the midrange)
     and a low phase; their connected regions are found on the domain's graph
@@ -352,14 +358,49 @@ def classify_pattern(
     * ``spots``: the high phase is connected and the low phase is not, and most of the low
       phase (by area) lies in compact islands — isolated islands of low values in a sea of
       high ones;
-    * ``inverted-spots``: the reverse (compact islands of high values);
+    * ``inverted-spots``: the reverse (compact islands of high values: "holes" of the low
+      phase seen the other way round);
+    * ``mixed`` (only with ``mixed=q``, e.g. 0.25): islands in a connected sea of which
+      compact ones and elongated ones (worms) each hold more than ``q`` of the islands'
+      area;
+    * a phase that is connected but covers less than ``lone`` (0.25) of the domain is
+      taken as islands (one spot, or a few with one much larger than the rest, in a sea);
     * ``stripes``: everything else with both phases present — both connected (a labyrinth;
-      also a single island of each), neither connected (several bands of each phase, e.g.
+      also a single band of each), neither connected (several bands of each phase, e.g.
       parallel stripes on a periodic grid), or islands that are mostly elongated (worms in
-      a connected background).
+      a connected background);
+    * ``diverged``: the field holds NaN or Inf and ``nonfinite="diverged"``; with the
+      default ``nonfinite="raise"`` that is a ``ValueError``.
+
+    A stack of fields ``[M, *shape]`` (``members=True``, or ``members=None`` with a domain
+    whose shape is ``shape``) gives a list of ``M`` classes, one per member.
     """
+    if nonfinite not in ("raise", "diverged"):
+        raise ValueError(f"nonfinite must be 'raise' or 'diverged', got {nonfinite!r}")
+    if mixed is not None and not 0.0 < float(mixed) < 0.5:
+        raise ValueError(f"mixed must be None or a fraction in (0, 0.5), got {mixed!r}")
     f = np.asarray(field.numpy() if hasattr(field, "numpy") else field, dtype=np.float64)
+    if members is None:
+        shape = tuple(domain.shape) if isinstance(domain, Grid) else None
+        if shape is None and domain is not None and hasattr(domain, "n_vertices"):
+            shape = (int(domain.n_vertices),)
+        members = shape is not None and f.ndim == len(shape) + 1 and f.shape[1:] == shape
+    opts = {"connected": connected, "elongated": elongated, "min_size": min_size,
+            "rtol": rtol, "atol": atol, "mixed": mixed, "nonfinite": nonfinite, "lone": lone}
+    if members:
+        if f.ndim < 2:
+            raise ValueError(f"members=True needs a stack [M, *shape], got shape {f.shape}")
+        return [_classify_one(f[i], domain, threshold, **opts) for i in range(f.shape[0])]
+    return _classify_one(f, domain, threshold, **opts)
+
+
+def _classify_one(f: np.ndarray, domain: Any, threshold: float | None, *, connected: float,
+                  elongated: float, min_size: int, rtol: float, atol: float,
+                  mixed: float | None, nonfinite: str, lone: float) -> str:
+    """:func:`classify_pattern` of one field."""
     if not np.isfinite(f).all():
+        if nonfinite == "diverged":
+            return "diverged"
         raise ValueError("classify_pattern: the field contains NaN or Inf")
     if threshold is None and float(np.ptp(f)) <= max(rtol * float(np.abs(f).max()), atol):
         return "uniform"
@@ -372,14 +413,22 @@ def classify_pattern(
     conn_hi = hi[0] >= connected * hi.sum()
     conn_lo = lo[0] >= connected * lo.sum()
 
-    def compact(sizes, elong) -> bool:
-        return float(sizes[elong <= elongated].sum()) > 0.5 * float(sizes.sum())
+    def islands(sizes, elong, name: str) -> str:
+        share = float(sizes[elong <= elongated].sum()) / float(sizes.sum())
+        if mixed is not None and mixed < share < 1.0 - mixed:
+            return "mixed"
+        return name if share > 0.5 else "stripes"
 
+    if conn_hi and conn_lo:  # one island in a sea (spots) or a band/labyrinth of each
+        frac_hi = float(hi.sum()) / float(hi.sum() + lo.sum())
+        if frac_hi < lone:
+            conn_hi = False
+        elif 1.0 - frac_hi < lone:
+            conn_lo = False
     if conn_hi and not conn_lo:
-        return "spots" if compact(lo, comps["elongation_low"][keep_lo]) else "stripes"
+        return islands(lo, comps["elongation_low"][keep_lo], "spots")
     if conn_lo and not conn_hi:
-        return "inverted-spots" if compact(hi, comps["elongation_high"][keep_hi]) \
-            else "stripes"
+        return islands(hi, comps["elongation_high"][keep_hi], "inverted-spots")
     return "stripes"
 
 

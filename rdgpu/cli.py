@@ -5,6 +5,8 @@
     rdgpu run gray-scott --steps 50000 --checkpoint run.npz     # killed? then:
     rdgpu run gray-scott --resume run.npz --out final.png
     rdgpu run MODEL --size 32x48x64 --out blob.png   # 3-D: planes x rows x columns
+    rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 --size 128 \
+        --steps 10000 --out map.png --data map.zarr      # a parameter map, on Dask
     rdgpu presets
     rdgpu models
     rdgpu backends
@@ -94,6 +96,19 @@ def _param(text: str) -> tuple[str, float | str]:
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"--param {name}: value must be finite")
     return name, v
+
+
+def _sweep_param(text: str) -> tuple[str, Any]:
+    """``--param`` of ``rdgpu sweep``: ``NAME=START:STOP:N``, ``NAME=A,B,C`` or
+    ``NAME=VALUE`` (see :func:`rdgpu.sweep.parse_axis`)."""
+    import importlib
+
+    # the parser lives in rdgpu.sweep, which needs no optional package to import
+    parse_axis = importlib.import_module("rdgpu.sweep").parse_axis
+    try:
+        return parse_axis(text)
+    except (TypeError, ValueError) as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _equation(text: str) -> tuple[str, str]:
@@ -578,13 +593,17 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     domain = _domain_spec(args, preset, model)
     dtype = args.dtype or "float32"
     itemsize = 4 if dtype == "float32" else 8
+    members = getattr(args, "members", None)
     if "grid" in domain:
         g = domain["grid"]
         cells = int(g) ** 2 if isinstance(g, int) else math.prod(int(n) for n in g)
-        _check_memory(f"a {_grid_text(g if not isinstance(g, int) else (g, g))} grid", cells,
+        _check_memory(f"a {_grid_text(g if not isinstance(g, int) else (g, g))} grid"
+                      + (f" × {members} members" if members else ""), cells * (members or 1),
                       len(model.species), itemsize)
         _picture_scale(args, (g, g) if isinstance(g, int) else tuple(g))
     seed = args.seed if args.seed is not None else getattr(preset, "seed", 0)
+    if members:
+        seed = [seed + m for m in range(members)]
     options = dict(getattr(preset, "options", None) or {})
     if args.method is not None:
         methods = tuple(getattr(model, "methods", ()) or ())
@@ -611,7 +630,7 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
             dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
             backend=args.backend, dtype=dtype, seed=seed,
             init=getattr(preset, "init", None), check_stability=not args.no_stability_check,
-            options=options or None,
+            options=options or None, members=members,
         )
     except StabilityError as exc:
         raise UsageError(_cli_words(str(exc))) from None
@@ -702,8 +721,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scale = _picture_scale(args, None if is_mesh else sim.shape)
     snapshots = (total // every + 2) if every else 0
     pixels = 0 if is_mesh or not args.movie else math.prod(_frame_size(sim.shape, scale))
-    _check_memory(f"this run ({total} steps)", int(math.prod(sim.shape)), len(sim.species),
-                  sim.dtype.itemsize, snapshots, pixels)
+    _check_memory(f"this run ({total} steps)", int(math.prod(sim.field_shape)),
+                  len(sim.species), sim.dtype.itemsize, snapshots, pixels)
     limits = _colour_limits(args, sim.model, field)
     out = args.out
     if out is None and not args.movie and not args.data:
@@ -712,7 +731,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     steps_note = "" if kwargs.get("steps") is None else f"{kwargs['steps']} steps, "
     params = ", ".join(f"{k}={v:.4g}" for k, v in sim.params.items()
                        if isinstance(v, (int, float)))
-    _say(args, f"{sim.model.name} on a {_describe_domain(sim.domain)}, {steps_note}"
+    _say(args, f"{sim.model.name} on a {_describe_domain(sim.domain)}"
+               + (f" × {sim.members} members" if sim.members else "") + f", {steps_note}"
                f"dt={sim.dt:g}, {sim.dtype.name}, {sim.backend.name} ({sim.backend.device})"
                + (f", from step {sim.step} of {args.resume}" if args.resume else "")
                + (f"; {params}" if params else ""))
@@ -747,6 +767,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return status
     if result is None:
         return status
+    for _, what in sorted(result.diverged_members.items()):
+        print(f"rdgpu: warning: {_cli_words(what)}", file=sys.stderr)
     warning = _uniform_warning(result, sim.model, field) if status == 0 else None
     if warning:
         print(f"rdgpu: warning: {warning}", file=sys.stderr)
@@ -755,6 +777,137 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _say(args, f"step {result.step}, t={result.time:g} ({seconds:.2f} s, "
                f"{rate:.3g} M point-steps/s)")
     return status
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    """``rdgpu sweep``: the Cartesian product of the --param axes, as ensembles in Dask
+    tasks; a mosaic PNG and/or a zarr/netCDF Dataset."""
+    models = _models()
+    if args.model not in models:
+        raise UsageError(f"unknown model {args.model!r}; models: {', '.join(models)}")
+    model = models[args.model]
+    params: dict[str, Any] = {}
+    for name, values in args.param or []:
+        if name not in model.defaults:
+            raise UsageError(f"--param {name}: model {args.model} has parameters "
+                             f"{', '.join(model.defaults)}")
+        if name in params:
+            raise UsageError(f"--param {name} is given twice")
+        params[name] = values
+    if not any(not isinstance(v, float) for v in params.values()):
+        raise UsageError("nothing to sweep: give a --param several values, e.g. "
+                         "--param F=0.01:0.08:16 (START:STOP:N) or --param F=0.02,0.03")
+    if args.out and Path(args.out).suffix.lower() != ".png":
+        raise UsageError(f"--out must end in .png, got {args.out!r}")
+    if args.data and Path(args.data).suffix.lower() not in (".zarr", ".nc"):
+        raise UsageError(f"--data must end in .zarr (streamed, resumable) or .nc (netCDF, "
+                         f"written at the end), got {args.data!r}")
+    out = args.out
+    if out is None and not args.data:
+        out = f"{args.model.replace('-', '_')}_sweep.png"
+    for option, path in (("--out", out), ("--data", args.data)):
+        if path and not (option == "--data" and Path(path).is_dir()):
+            _check_output(option, path)  # an existing .zarr folder is a sweep to resume
+    if args.species is not None and args.species not in model.species:
+        raise UsageError(f"--species {args.species!r}: model {args.model} has fields "
+                         f"{', '.join(model.species)}")
+    if args.workers is not None and args.scheduler not in (None, "local"):
+        raise UsageError("--workers sets the size of the local cluster: it needs "
+                         "--scheduler local (the default)")
+    try:
+        import importlib
+
+        sweep_module = importlib.import_module("rdgpu.sweep")
+        sweep_module._need("xarray", "dask", "distributed")
+    except ImportError as exc:
+        print(f"rdgpu: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    size = args.size or (128, 128)
+    shape = (size, size) if isinstance(size, int) else size
+    swept = {k: v for k, v in params.items() if not isinstance(v, float)}
+    n = math.prod(len(v) for v in swept.values())
+    axes = " x ".join(f"{k}: {len(v)}" for k, v in swept.items())
+    _say(args, f"{args.model}: {n} members ({axes}) on a {_grid_text(shape)} grid, "
+               f"{args.steps} steps, scheduler {args.scheduler or 'local'}")
+    start = time.perf_counter()
+    try:
+        ds = sweep_module.sweep(
+            args.model, params, size=shape, steps=args.steps, dt=args.dt,
+            dtype=args.dtype or "float32", backend=args.backend, seed=args.seed or 0,
+            batch=args.batch, store=args.data, scheduler=args.scheduler or "local",
+            workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        kept = (f"the finished batches are in {args.data}: run the same command again to go "
+                "on from there" if args.data and args.data.lower().endswith(".zarr")
+                else "nothing written (give --data PATH.zarr to keep finished batches)")
+        print(f"rdgpu: interrupted; {kept}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    seconds = time.perf_counter() - start
+    if args.data:
+        _say(args, f"wrote {args.data}")
+    if out:
+        sweep_module.sweep_map(ds, out, species=args.species)
+        _say(args, f"wrote {out}")
+    counts = {c: int((ds["pattern"].values == c).sum()) for c in sweep_module.PATTERN_CLASSES}
+    _say(args, "patterns: " + ", ".join(f"{c} {k}" for c, k in counts.items() if k)
+         + f" ({seconds:.1f} s)")
+    return 0
+
+
+def _add_engine_options(group: Any, seed_note: str) -> None:
+    """--seed, --backend and --dtype (of `rdgpu run` and `rdgpu sweep`)."""
+    group.add_argument("--seed", type=_seed, help="random seed of the initial condition"
+                       f"{seed_note} (a whole number >= 0; default 0)")
+    group.add_argument("--backend", help="numpy, warp, opencl or auto, optionally "
+                       "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
+    group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+
+
+def _add_sweep_parser(sub: Any) -> None:
+    sw = sub.add_parser(
+        "sweep", help="run a model over a grid of parameter values: a map and a Dataset",
+        description="Run MODEL at every point of the Cartesian product of the swept\n"
+        "parameters, in batches of ensemble members that run as Dask tasks (a local\n"
+        "cluster by default). Writes a mosaic of the final fields laid out on the\n"
+        "parameter axes (the first swept parameter along x, the second along y) and an\n"
+        "xarray Dataset (dims: the swept parameters, then y, x; the final fields and each\n"
+        "member's pattern class). A .zarr --data store fills as batches finish; run the\n"
+        "same command again to resume a stopped sweep. Needs the dask extra:\n"
+        '  pip install "rdgpu[dask]"',
+        epilog="examples:\n"
+        "  rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 \\\n"
+        "      --size 128 --steps 10000 --out map.png --data map.zarr\n"
+        "  rdgpu sweep gray-scott --param F=0.02,0.03,0.04 --param k=0.06 --out row.png\n"
+        "  rdgpu sweep gray-scott --param F=0.01:0.08:16 --param k=0.03:0.07:16 \\\n"
+        "      --scheduler tcp://host:8786 --data map.zarr",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sw.add_argument("model", metavar="MODEL", help="model name ('rdgpu models')")
+    sw.add_argument("--param", type=_sweep_param, action="append", metavar="NAME=VALUES",
+                    help="START:STOP:N (N values, inclusive), A,B,C (a list) or VALUE "
+                    "(fixed); repeatable, at least one swept")
+    sw.add_argument("--size", type=_size, metavar="NxM", help="grid of each member "
+                    "(default 128x128, periodic)")
+    sw.add_argument("--steps", type=_positive_int, default=DEFAULT_STEPS, metavar="N",
+                    help=f"time steps of every member (default {DEFAULT_STEPS})")
+    sw.add_argument("--dt", type=_positive_float, help="time step (default: the smallest "
+                    "default of all the members)")
+    _add_engine_options(sw, ", the same for every member")
+    sw.add_argument("--out", metavar="PATH.png", help="the parameter map (default "
+                    "MODEL_sweep.png if no --data)")
+    sw.add_argument("--data", metavar="PATH.zarr|PATH.nc", help="the Dataset: zarr "
+                    "(streamed, resumable) or netCDF (written at the end)")
+    sw.add_argument("--species", help="the field pictured (default: the one classified, "
+                    "as the model's presets do: v for Gray-Scott)")
+    sw.add_argument("--scheduler", metavar="local|serial|tcp://HOST:PORT",
+                    help="where the batches run: local (a Dask LocalCluster, default), "
+                    "serial (this process, no Dask) or a Dask scheduler's address")
+    sw.add_argument("--workers", type=_at_least_1, metavar="N", help="processes of the "
+                    "local cluster (default: one per core)")
+    sw.add_argument("--batch", type=_at_least_1, metavar="N", help="members per batch "
+                    "(default: about 4 batches per worker, within 256 MiB)")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar or messages")
+    sw.set_defaults(func=_cmd_sweep)
 
 
 # ---------------------------------------------------------------------------- parser
@@ -821,11 +974,10 @@ def build_parser() -> argparse.ArgumentParser:
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "
                       "K single steps (default: automatic, on for 2-D grids larger than the "
                       "last-level cache; 1: off)")
-    what.add_argument("--seed", type=_seed, help="random seed of the initial condition "
-                      "(a whole number >= 0; default 0)")
-    what.add_argument("--backend", help="numpy, warp, opencl or auto, optionally NAME:DEVICE "
-                      "(default: RDGPU_BACKEND or auto)")
-    what.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+    _add_engine_options(what, "")
+    what.add_argument("--members", type=_positive_int, metavar="M",
+                      help="an ensemble: M runs in one launch per step, seeds SEED, SEED+1, "
+                      "...; the picture and movie become mosaics of the members")
     what.add_argument("--no-stability-check", action="store_true",
                       help="run even if dt is past the stability limit")
     outs = run.add_argument_group("outputs")
@@ -867,6 +1019,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "an uninterrupted run); keeps checkpointing to it")
     run.add_argument("--quiet", action="store_true", help="no progress bar or messages")
     run.set_defaults(func=_cmd_run)
+
+    _add_sweep_parser(sub)
 
     presets = sub.add_parser("presets", help="list the presets: source and expected pattern",
                              description="List every preset with its model, domain, source "

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import warnings
 from collections.abc import Mapping, Sequence
@@ -648,6 +649,9 @@ def save_npz(result: Any, path: PathLike) -> Path:
         "param_fields": sorted(fields),
         "wall_seconds": float(result.wall_seconds),
         "diverged": result.diverged,
+        "members": getattr(result, "members", None),
+        "diverged_members": {str(m): w for m, w in
+                             sorted(getattr(result, "diverged_members", {}).items())},
     }
     arrays: dict[str, np.ndarray] = {
         "meta": _json_str(meta),
@@ -709,7 +713,59 @@ def load_npz(path: PathLike) -> Any:
         versions=json.loads(str(arrays["versions"])),
         wall_seconds=meta["wall_seconds"],
         diverged=meta["diverged"],
+        members=meta.get("members"),
+        diverged_members={int(m): w for m, w in (meta.get("diverged_members") or {}).items()},
     )
+
+
+# ----------------------------------------------------------------------- ensembles
+def ensemble_mosaic(fields: np.ndarray, columns: int | None = None, gap: int = 1) -> np.ndarray:
+    """One 2-D picture of an ensemble's fields ``[M, ny, nx]`` (2-D grids) or ``[M, 1, nx]``
+    / ``[M, nx]`` (1-D grids: one row per member, top to bottom).  2-D members are tiled
+    row by row, member 0 at the top left, ``columns`` a row (default: about √M), separated
+    by ``gap`` cells of NaN (drawn black)."""
+    a = np.asarray(fields, dtype=np.float64)
+    if a.ndim == 3 and a.shape[1] == 1:
+        a = a[:, 0, :]
+    if a.ndim == 2:
+        return a
+    if a.ndim != 3:
+        raise ValueError(f"a mosaic needs members of a 1-D or 2-D grid, got shape {a.shape}")
+    m, ny, nx = a.shape
+    cols = max(1, int(columns) if columns else math.ceil(math.sqrt(m)))
+    rows = -(-m // cols)
+    out = np.full((rows * (ny + gap) - gap, cols * (nx + gap) - gap), np.nan)
+    for k in range(m):
+        r, c = divmod(k, cols)
+        out[r * (ny + gap): r * (ny + gap) + ny, c * (nx + gap): c * (nx + gap) + nx] = a[k]
+    return out
+
+
+def _member_path(path: PathLike, m: int) -> Path:
+    p = Path(path)
+    return p.with_name(f"{p.stem}-m{m:04d}{p.suffix}")
+
+
+def _ensemble_pictures(result: Any, name: str, png: Any, movie: Any, kw: dict,
+                       fps: float) -> list[Path]:
+    """Pictures of an ensemble: one mosaic on 1-D and 2-D grids; one file per member
+    (``NAME-m0000.png``...) on meshes and 3-D grids, which have no mosaic."""
+    domain, written = result.domain, []
+    flat = isinstance(domain, Grid) and domain.ndim <= 2
+    if png is not None:
+        if flat:
+            written.append(save_png(png, ensemble_mosaic(result.fields[name]), None, **kw))
+        else:
+            for m, f in enumerate(result.fields[name]):
+                written.append(save_png(_member_path(png, m), f, domain, **kw))
+    if movie is not None:
+        if not flat:
+            raise ValueError("a movie of an ensemble needs a 1-D or 2-D grid (a mosaic of the "
+                             "members); on meshes and 3-D grids write --data and pictures")
+        frames = np.stack([ensemble_mosaic(f) for f in result.snapshots[name]]) \
+            if len(result.snapshots[name]) else result.snapshots[name]
+        written.append(save_movie(movie, frames, None, fps=fps, **kw))
+    return written
 
 
 # ----------------------------------------------------------------------- everything
@@ -740,6 +796,11 @@ def write_outputs(
     if name not in result.fields:
         raise ValueError(f"no field {name!r}; the model has {species}")
     written: list[Path] = []
+    if getattr(result, "members", None) is not None:
+        kw = {"cmap": cmap, "scale": scale, "camera": camera, "vmin": vmin, "vmax": vmax,
+              "view": view, "level": level}
+        written += _ensemble_pictures(result, name, png, movie, kw, fps)
+        png = movie = None
     if png is not None:
         written.append(save_png(png, result.fields[name], result.domain, cmap=cmap, scale=scale,
                                 camera=camera, vmin=vmin, vmax=vmax, view=view, level=level))

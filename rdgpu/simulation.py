@@ -37,6 +37,7 @@ import socket
 import tempfile
 import threading
 import time as _time
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -607,6 +608,10 @@ class Result:
     versions: dict[str, str] = field(default_factory=package_versions)
     wall_seconds: float = 0.0
     diverged: str | None = None
+    #: ensembles: the number of members (fields ``[members, *shape]``), and the members
+    #: that diverged and were frozen at their last good state, with what happened
+    members: int | None = None
+    diverged_members: dict[int, str] = field(default_factory=dict)
 
     @property
     def species(self) -> tuple[str, ...]:
@@ -787,7 +792,7 @@ def _why(exc: BaseException) -> str:
 
 
 _META_KEYS = {"model": str, "species": list, "step": int, "dt": (int, float),
-              "dtype": str, "seed": int, "params": dict, "param_fields": list,
+              "dtype": str, "seed": (int, list), "params": dict, "param_fields": list,
               "domain": dict, "run": dict}
 _RUN_KEYS = ("start", "target", "snapshot_every", "check_every", "checkpoint_every")
 
@@ -830,6 +835,12 @@ def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -
         raise ValueError(f"{name} is not a usable rdgpu checkpoint: its fields have "
                          f"different shapes {sorted(shapes)}")
     shape = shapes.pop()
+    members = meta.get("members")
+    if members is not None:  # an ensemble: [members, *domain shape]
+        if not shape or shape[0] != members:
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
+                             f"{shape} for an ensemble of {members} members")
+        shape = shape[1:]
     if kind == "grid" and list(shape) != list(meta["domain"]["shape"]):
         raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
                          f"{shape} on a grid of {meta['domain']['shape']}")
@@ -1032,6 +1043,15 @@ class Simulation:
     options : dict
         Extra keyword arguments of ``model.stepper`` (and of ``model.dt_limit`` where it
         takes them), e.g. ``{"method": "implicit"}``.
+    members : int
+        Run an ensemble of that many members in one launch per step: every field is
+        ``[members, *shape]``; a parameter is a number (all members), an array of shape
+        ``(members,)`` (one number each), of the domain's shape (one field for all) or
+        ``(members, *shape)`` (one field each); ``seed`` an int (all members) or one per
+        member.  Each member is bit for bit the run it would be alone with the same ``dt``
+        (default: the smallest of the members' defaults).  A member that diverges is
+        reported (``Result.diverged_members``) and frozen at its last good state; the
+        others go on.
     """
 
     def __init__(
@@ -1048,13 +1068,22 @@ class Simulation:
         fields: Mapping[str, np.ndarray] | None = None,
         check_stability: bool = True,
         options: Mapping[str, Any] | None = None,
+        members: int | None = None,
     ) -> None:
         from .dispatch import get_backend
 
         self.model = _lookup_model(model)
         self.domain_source = domain if isinstance(domain, Mapping) else None
         self.domain = build_domain(domain)
+        #: the domain's shape (one member's)
         self.shape = _field_shape(self.domain)
+        #: None, or the number of ensemble members
+        self.members = None if members is None else _whole(members, "members", 1)
+        if self.members is not None and not _accepts(self.model.stepper, "members"):
+            raise ValueError(f"model {self.model.name!r} cannot run as an ensemble (its "
+                             "stepper takes no members); run the members one by one")
+        #: every field's shape: ``(members, *shape)`` for an ensemble, else :attr:`shape`
+        self.field_shape = self.shape if self.members is None else (self.members, *self.shape)
         self.species = tuple(self.model.species)
         try:
             self.dtype = np.dtype(dtype)
@@ -1062,26 +1091,49 @@ class Simulation:
             raise ValueError(f"dtype must be float32 or float64, got {dtype!r}") from None
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
-        self.seed = _whole(seed, "seed")
+        if self.members is not None and isinstance(seed, (list, tuple, np.ndarray)):
+            from .models.ensemble import member_seeds
+
+            self.seed: int | list[int] = [
+                _whole(k, "seed") for k in member_seeds(seed, self.members)]
+        else:
+            self.seed = _whole(seed, "seed")
         if options is not None and not isinstance(options, Mapping):
             raise TypeError(f"options must be a dict, got {type(options).__name__}")
         self.options = dict(options or {})
         if params is not None and not isinstance(params, Mapping):
             raise TypeError(f"params must be a dict of parameter values, got "
                             f"{type(params).__name__} {params!r}")
-        self.params = self._merge_params(params or {})
+        if self.members is None:
+            self.params = self._merge_params(params or {}, self.seed)
+            each = [self.params]
+        else:
+            from .models.compiler import PerMember
+            from .models.ensemble import resolve_members, stack_members
+
+            each = resolve_members(self._merge_params, params or {}, self.members,
+                                   self.shape, self.seed)
+            self.params = {k: (np.asarray(v.values) if isinstance(v, PerMember) else v)
+                           for k, v in stack_members(each, self.shape).items()}
+        distinct = list({id(p): p for p in each}.values())
         if dt is None:
-            dt = default_dt(self.model, self.domain, self.params, self.options)
+            dt = min(default_dt(self.model, self.domain, p, self.options) for p in distinct)
         if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, numbers.Real):
             raise TypeError(f"dt must be a positive number, got {type(dt).__name__} {dt!r}")
         self.dt = float(dt)
         if not (math.isfinite(self.dt) and self.dt > 0):
             raise ValueError(f"dt must be a positive number, got {dt}")
         self.check_stability = bool(check_stability)
-        self.dt_limit = _dt_limit(self.model, self.domain, self.params, self.options)
+        self.dt_limit = min(_dt_limit(self.model, self.domain, p, self.options)
+                            for p in distinct)
         self.backend = get_backend(backend)
-        self.init = None if fields is not None else dict(init or default_init(self.model,
-                                                                                self.params))
+        if fields is not None:
+            self.init = None
+        elif init is not None:
+            self.init = dict(init)
+        else:  # one initial condition, or one per member where the defaults differ
+            inits = [default_init(self.model, p) for p in each]
+            self.init = inits[0] if all(i == inits[0] for i in inits) else inits
         self.preset: Any = None
         kwargs = dict(self.options)
         if not self.check_stability:
@@ -1089,19 +1141,41 @@ class Simulation:
                 raise ValueError(f"model {self.model.name} cannot run with "
                                  "check_stability=False")
             kwargs["check_stability"] = False
+        if self.members is not None:
+            kwargs["members"] = self.members
         self.stepper = self.model.stepper(self.domain, dict(self.params), dt=self.dt,
                                           backend=self.backend, dtype=self.dtype, **kwargs)
         if fields is not None:
             start = self._check_fields(fields)
-        else:
+        elif self.members is None:
             start = initial_state(self.init, self.domain, self.species, self.seed, self.dtype)
+        else:
+            start = self._member_states()
         self.stepper.set_state(start)
+        #: ensemble members frozen after diverging: member -> what happened
+        self.frozen: dict[int, str] = {}
         self.step = 0
         self._resume_run: dict | None = None
         self._resume_snaps: tuple[dict, list] | None = None
 
     # ------------------------------------------------------------------ construction
-    def _merge_params(self, params: Mapping[str, Any]) -> dict[str, Any]:
+    def _member_states(self) -> dict[str, np.ndarray]:
+        """Each member's initial fields (its own init and seed), stacked."""
+        from .models.ensemble import member_seeds
+
+        seeds = member_seeds(self.seed, self.members)
+        inits = self.init if isinstance(self.init, list) else [self.init] * self.members
+        out = {s: np.empty(self.field_shape, self.dtype) for s in self.species}
+        done: dict[tuple, dict[str, np.ndarray]] = {}
+        for m, (init, seed) in enumerate(zip(inits, seeds, strict=True)):
+            key = (json.dumps(init, sort_keys=True, default=_json_default), seed)
+            if key not in done:
+                done[key] = initial_state(init, self.domain, self.species, seed, self.dtype)
+            for s in self.species:
+                out[s][m] = done[key][s]
+        return out
+
+    def _merge_params(self, params: Mapping[str, Any], seed: int = 0) -> dict[str, Any]:
         """Defaults updated by ``params``; every value a float or a float64 array of the
         domain's shape (field specs drawn as ``rdgpu.models.resolve_params`` does)."""
         defaults = dict(self.model.defaults)
@@ -1121,7 +1195,7 @@ class Simulation:
             except ImportError as exc:
                 raise ValueError(f"parameter field specs need rdgpu.models ({exc})") from None
             given = {**domain_defaults(self.model, self.domain), **params}
-            return dict(resolve_params(self.model, self.domain, given, seed=self.seed))
+            return dict(resolve_params(self.model, self.domain, given, seed=seed))
         out: dict[str, Any] = {}
         for k, v in {**defaults, **params}.items():
             if isinstance(v, (list, tuple)):
@@ -1165,8 +1239,10 @@ class Simulation:
                                 "(float32 or float64): pass the real part if that is meant")
             if a.dtype.kind not in "fiu":
                 raise TypeError(f"field {s!r} must hold real numbers, got dtype {a.dtype}")
-            if a.shape != self.shape:
-                raise ValueError(f"field {s!r} must have shape {self.shape}, got {a.shape}")
+            if a.shape != self.field_shape:
+                raise ValueError(f"field {s!r} must have shape {self.field_shape}, got "
+                                 f"{a.shape}" + (f" ({self.members} members)" if self.members
+                                                 else ""))
             with np.errstate(over="ignore"):
                 out[s] = np.ascontiguousarray(a, dtype=self.dtype)
             finite = np.isfinite(out[s])
@@ -1189,9 +1265,11 @@ class Simulation:
         seed: int | None = None,
         init: Mapping[str, Any] | None = None,
         check_stability: bool = True,
+        members: int | None = None,
     ) -> Simulation:
         """A simulation of a preset (a ``rdgpu.models.Preset`` or its name); ``domain``,
-        ``params`` (merged over the preset's), ``dt``, ``seed`` and ``init`` override it.
+        ``params`` (merged over the preset's), ``dt``, ``seed`` and ``init`` override it;
+        ``members`` makes it an ensemble (see :class:`Simulation`).
         ``run()`` then defaults to the preset's ``steps`` and ``snapshot_every``."""
         p = _lookup_preset(preset)
         sim = cls(
@@ -1199,7 +1277,7 @@ class Simulation:
             dt=p.dt if dt is None else dt, backend=backend, dtype=dtype,
             seed=getattr(p, "seed", 0) if seed is None else seed,
             init=p.init if init is None else init, check_stability=check_stability,
-            options=getattr(p, "options", None),
+            options=getattr(p, "options", None), members=members,
         )
         sim.preset = p
         return sim
@@ -1214,7 +1292,7 @@ class Simulation:
 
     def host_state(self) -> dict[str, np.ndarray]:
         """The current fields, downloaded, each of :attr:`shape`."""
-        return {k: a.reshape(self.shape) for k, a in self.stepper.get_state().items()}
+        return {k: a.reshape(self.field_shape) for k, a in self.stepper.get_state().items()}
 
     # ------------------------------------------------------------------ checkpoints
     def _meta(self) -> dict:
@@ -1237,6 +1315,8 @@ class Simulation:
             "backend": _backend_spec(self.backend),
             "device": self.backend.device,
             "preset": getattr(self.preset, "name", None),
+            "members": self.members,
+            "frozen": {str(m): what for m, what in sorted(self.frozen.items())},
             **_model_definition(self.model),
         }
 
@@ -1249,7 +1329,7 @@ class Simulation:
         for s in self.species:
             arrays[f"field__{s}"] = state[s]
             arrays[f"snap__{s}"] = (np.stack(snaps[s]) if snaps[s]
-                                    else np.zeros((0, *self.shape), self.dtype))
+                                    else np.zeros((0, *self.field_shape), self.dtype))
         arrays["snap_steps"] = np.asarray(snap_steps, dtype=np.int64)
         for k, v in _split_params(self.params)[1].items():
             arrays[f"param__{k}"] = v
@@ -1339,7 +1419,8 @@ class Simulation:
                   backend=meta["backend"] if backend is None else backend,
                   dtype=meta["dtype"], seed=meta["seed"], fields=fields,
                   check_stability=(meta["check_stability"] if check_stability is None
-                                   else check_stability), options=meta.get("options"))
+                                   else check_stability), options=meta.get("options"),
+                  members=meta.get("members"))
         sim.init = meta["init"]
         if meta["domain"].get("source"):
             sim.domain_source = meta["domain"]["source"]
@@ -1355,6 +1436,7 @@ class Simulation:
             raise ValueError(f"checkpoint dtype {meta['dtype']} differs from the "
                              f"simulation's {self.dtype}")
         self.stepper.set_state(fields)
+        self.frozen = {int(m): what for m, what in (meta.get("frozen") or {}).items()}
         self.step = int(meta["step"])
         self._resume_run = {**meta["run"], "path": str(path)}
         snaps = {s: list(arrays[f"snap__{s}"]) for s in self.species}
@@ -1367,6 +1449,9 @@ class Simulation:
         if meta["model"] != self.model.name:
             raise ValueError(f"checkpoint {name} is of model {meta['model']!r}, "
                              f"not {self.model.name!r}")
+        if meta.get("members") != self.members:
+            raise ValueError(f"checkpoint {name} has members={meta.get('members')}, this "
+                             f"simulation members={self.members}")
         differences = _domain_differences(meta["domain"], arrays, self.domain)
         if differences:
             raise ValueError(f"checkpoint {name} was written on another domain: "
@@ -1534,7 +1619,8 @@ class _Runner:
         self.pending: list[tuple[int, dict]] = []  # (step, device buffers) not yet downloaded
         self.free: list[dict] = []
         se = run["snapshot_every"]
-        per_snap = max(1, len(sim.species) * int(np.prod(sim.shape)) * sim.dtype.itemsize)
+        per_snap = max(1, len(sim.species) * int(np.prod(sim.field_shape))
+                       * sim.dtype.itemsize)
         expected = (run["target"] - run["start"]) // se + 2 if se else 1
         self.batch = max(1, min(expected, _SNAPSHOT_BUDGET // per_snap))
         self.last_good: tuple[int, dict[str, np.ndarray]] | None = None
@@ -1557,7 +1643,7 @@ class _Runner:
     def flush(self) -> None:
         for step, bufs in self.pending:
             for s in self.sim.species:
-                self.snaps[s].append(bufs[s].numpy().reshape(self.sim.shape))
+                self.snaps[s].append(bufs[s].numpy().reshape(self.sim.field_shape))
             self.snap_steps.append(step)
             self.free.append(bufs)
         self.pending.clear()
@@ -1569,6 +1655,54 @@ class _Runner:
             if bad:
                 return s, what
         return None
+
+    def bad_members(self, state: Mapping[str, np.ndarray]) -> dict[int, tuple[str, str]]:
+        """Ensembles: ``{member: (field, what)}`` for the members not yet frozen whose
+        state is bad."""
+        sim = self.sim
+        out: dict[int, tuple[str, str]] = {}
+        for s in sim.species:
+            a = state[s].reshape(sim.members, -1)
+            with np.errstate(invalid="ignore"):
+                suspect = ~(np.abs(a) <= _model_bound(sim.model, s)).all(axis=1)
+            for m in np.flatnonzero(suspect):
+                m = int(m)
+                if m not in sim.frozen and m not in out:
+                    out[m] = (s, _bad(a[m], _model_bound(sim.model, s))[1])
+        return out
+
+    def freeze(self, step: int, state: dict[str, np.ndarray],
+               bad: dict[int, tuple[str, str]]) -> None:
+        """Put the diverged members back to their last good state and freeze them there;
+        raise :class:`SimulationDiverged` when no member is left running."""
+        sim = self.sim
+        good_step, good = self.last_good
+        for m, (s, what) in sorted(bad.items()):
+            for sp in sim.species:
+                state[sp][m] = good[sp][m]
+            sim.frozen[m] = (f"member {m} diverged between steps {good_step} and {step}: "
+                             f"field {s!r} has {what}; frozen at step {good_step}")
+            warnings.warn(f"{sim.model.name}: {sim.frozen[m]}", RuntimeWarning, stacklevel=4)
+        sim.stepper.set_state(state)
+        if len(sim.frozen) == sim.members:
+            message = (f"{sim.model.name}: every member of the ensemble diverged by step "
+                       f"{step}; each is kept at its last good state (see "
+                       "Result.diverged_members)")
+            raise SimulationDiverged(message, step=step, field=next(iter(bad.values()))[0],
+                                     cause="every member diverged",
+                                     result=self.result(state, diverged=message))
+
+    def hold_frozen(self) -> None:
+        """Ensembles: write the frozen members' kept state back over what the steps did."""
+        sim = self.sim
+        if not sim.frozen or self.last_good is None:
+            return
+        state = sim.host_state()
+        kept = self.last_good[1]
+        for m in sim.frozen:
+            for s in sim.species:
+                state[s][m] = kept[s][m]
+        sim.stepper.set_state(state)
 
     def diverged(self, step: int, state: dict[str, np.ndarray], species: str, what: str):
         """Find the first bad step by replaying from the last good state, leave the
@@ -1624,8 +1758,10 @@ class _Runner:
     def result(self, fields: dict[str, np.ndarray], diverged: str | None = None) -> Result:
         sim = self.sim
         snaps = {s: (np.stack(self.snaps[s]) if self.snaps[s]
-                     else np.zeros((0, *sim.shape), sim.dtype)) for s in sim.species}
+                     else np.zeros((0, *sim.field_shape), sim.dtype)) for s in sim.species}
         steps = np.asarray(self.snap_steps, dtype=np.int64)
+        diverged = diverged or (f"{len(sim.frozen)} of {sim.members} members diverged and "
+                                f"were frozen" if sim.frozen else None)
         return Result(
             model=sim.model.name, fields={s: fields[s] for s in sim.species}, snapshots=snaps,
             times=steps * sim.dt, snapshot_steps=steps, step=sim.step, time=sim.time, dt=sim.dt,
@@ -1633,7 +1769,7 @@ class _Runner:
             domain_info=describe_domain(sim.domain, sim.domain_source),
             backend=sim.backend.name, device=sim.backend.device, dtype=sim.dtype.name,
             seed=sim.seed, init=sim.init, wall_seconds=_time.perf_counter() - self.t0,
-            diverged=diverged,
+            diverged=diverged, members=sim.members, diverged_members=dict(sim.frozen),
         )
 
     # -- the loop
@@ -1651,9 +1787,14 @@ class _Runner:
         if self.last_good is not None and self.last_good[0] == step:
             return self.last_good[1]
         state = self.sim.host_state()
-        found = self.find_bad(state)
-        if found:
-            self.diverged(step, state, *found)
+        if self.sim.members is not None:
+            bad = self.bad_members(state)
+            if bad:
+                self.freeze(step, state, bad)
+        else:
+            found = self.find_bad(state)
+            if found:
+                self.diverged(step, state, *found)
         self.last_good = (step, state)
         return state
 
@@ -1663,6 +1804,7 @@ class _Runner:
         se, ce, ke = run["snapshot_every"], run["check_every"], run["checkpoint_every"]
         stop = self.next_stop(step)
         sim.stepper.advance(stop - step)
+        self.hold_frozen()
         step = sim.step = stop
         if bar is not None:
             bar.update(stop - bar.n - run["start"])
@@ -1721,7 +1863,12 @@ class _Runner:
         if ce or self.checkpoint is not None:
             first = sim.host_state()
             found = self.find_bad(first)
-            if found:
+            if found and sim.members is not None:
+                bad = self.bad_members(first)
+                if bad:
+                    m, (s, what) = min(bad.items())
+                    raise ValueError(f"the initial field {s!r} of member {m} has {what}")
+            elif found:
                 raise ValueError(f"the initial field {found[0]!r} has {found[1]}")
             self.last_good = (step, first)
         if se and step % se == 0 or (se and step == target):

@@ -165,6 +165,7 @@ def test_bad_block_steps(bad):
     ({"domain": Grid((3, 4, 5))}, "blocked passes run on 2-D grids"),
     ({"domain": rdgpu.SurfaceMesh.icosphere(1), "dt": 1e-4}, "blocked passes run on 2-D"),
     ({"model": MODELS["swift-hohenberg"], "method": "euler", "dt": 1e-3}, "bilaplacian"),
+    ({"members": 3}, r"an ensemble \(members > 1\)"),
 ])
 def test_ineligible(case, match):
     """Asked explicitly: an error naming the reason; automatic: single steps."""

@@ -102,6 +102,16 @@ class Backend(ABC):
     def empty_like(self, d: DeviceArray) -> DeviceArray:
         return self.empty(d.shape, d.dtype)
 
+    def copy_range(self, src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
+                   count: int) -> None:
+        """Copy ``count`` elements of ``src`` from flat index ``src_start`` to ``dst`` from
+        ``dst_start`` (same dtype; e.g. one ensemble member in or out of its stack).
+        This default goes through the host; the backends copy on the device."""
+        _check_range(src, src_start, dst, dst_start, count)
+        out = dst.numpy().reshape(-1)
+        out[dst_start:dst_start + count] = src.numpy().reshape(-1)[src_start:src_start + count]
+        self.copy(self.upload(out.reshape(dst.shape)), dst)
+
     def upload_csr(self, matrix: Any, dtype: np.dtype) -> DeviceCSR:
         """Upload a ``scipy.sparse`` matrix (any format) as a :class:`DeviceCSR` of ``dtype``."""
         import scipy.sparse as sp
@@ -304,3 +314,14 @@ class Backend(ABC):
         if rows.dtype != np.int32 or len(rows.shape) != 1:
             raise TypeError(f"csr_sor_colour rows must be a 1-D int32 array, got {rows.dtype} "
                             f"{rows.shape}")
+
+
+def _check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
+                 count: int) -> None:
+    """``copy_range``'s arguments are in range and of one dtype."""
+    if src.dtype != dst.dtype:
+        raise ValueError(f"copy_range needs one dtype, got {src.dtype} -> {dst.dtype}")
+    if count < 0 or src_start < 0 or dst_start < 0 or src_start + count > src.size \
+            or dst_start + count > dst.size:
+        raise ValueError(f"copy_range of {count} elements from {src_start} (of {src.size}) "
+                         f"to {dst_start} (of {dst.size}) is out of range")

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..boundary import GridBC
 from ..kernel_files import load_module
-from .base import Backend, DeviceArray
+from .base import Backend, DeviceArray, _check_range
 
 
 def _value(x):
@@ -52,6 +52,11 @@ class NumpyBackend(Backend):
 
     def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
         np.copyto(dst.handle, src.handle)
+
+    def copy_range(self, src, src_start, dst, dst_start, count) -> None:
+        _check_range(src, src_start, dst, dst_start, count)
+        dst.handle.reshape(-1)[dst_start:dst_start + count] = \
+            src.handle.reshape(-1)[src_start:src_start + count]
 
     # kernels
     def laplacian(self, u, out, *, dx, dy, bc: GridBC, stencil):

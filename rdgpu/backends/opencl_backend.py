@@ -38,7 +38,7 @@ import numpy as np
 from ..boundary import GridBC
 from ..errors import BackendUnavailableError
 from ..kernel_files import load_module, read_source
-from .base import Backend, DeviceArray, FieldOrScalar
+from .base import Backend, DeviceArray, FieldOrScalar, _check_range
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
 _FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh")
@@ -399,6 +399,13 @@ class OpenCLBackend(Backend):
             )
         if src.nbytes and src.handle is not dst.handle:
             self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=src.nbytes)
+
+    def copy_range(self, src, src_start, dst, dst_start, count) -> None:
+        _check_range(src, src_start, dst, dst_start, count)
+        if count:
+            size = src.dtype.itemsize
+            self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=count * size,
+                                  src_offset=src_start * size, dst_offset=dst_start * size)
 
     def synchronize(self) -> None:
         self.queue.finish()

@@ -38,7 +38,7 @@ import numpy as np
 from ..boundary import GridBC
 from ..errors import BackendUnavailableError
 from ..kernel_files import load_module
-from .base import Backend, DeviceArray, DeviceCSR, FieldOrScalar
+from .base import Backend, DeviceArray, DeviceCSR, FieldOrScalar, _check_range
 
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
 #: thread costs tens of microseconds), larger ones in up to one chunk per core
@@ -303,6 +303,12 @@ class WarpBackend(Backend):
     def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
         self._same(src, dst, "copy destination")
         self._wp.copy(dst.handle, src.handle)
+
+    def copy_range(self, src, src_start, dst, dst_start, count) -> None:
+        _check_range(src, src_start, dst, dst_start, count)
+        if count:
+            self._wp.copy(dst.handle, src.handle, dest_offset=dst_start, src_offset=src_start,
+                          count=count)
 
     def synchronize(self) -> None:
         self._wp.synchronize_device(self._dev)

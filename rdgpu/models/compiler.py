@@ -49,7 +49,7 @@ from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
 from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
 
-__all__ = ["Output", "Program", "Target", "cache_dir", "launch"]
+__all__ = ["Output", "PerMember", "Program", "Target", "cache_dir", "launch"]
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 
@@ -116,9 +116,21 @@ class Program:
                     raise ValueError(f"program reads {n.name!r}, which is not an input")
 
 
+@dataclass(frozen=True)
+class PerMember:
+    """A parameter with one number per ensemble member: ``values`` is a DeviceArray (or,
+    for the NumPy reference, an array) of shape ``(members,)``."""
+
+    values: Any
+
+
 @dataclass
 class Target:
-    """A domain bound to a backend and dtype: what a launch needs besides the buffers."""
+    """A domain bound to a backend and dtype: what a launch needs besides the buffers.
+
+    ``members`` > 1: an ensemble of that many copies of the domain, each buffer
+    ``[members, *shape]`` (member-major), advanced side by side in one launch; no cell
+    reads another member's cells."""
 
     domain: Any
     backend: Backend
@@ -128,15 +140,18 @@ class Target:
     stencil: str = "compact"
     coords: dict[str, Any] = field(default_factory=dict)  # mesh: "x" -> DeviceArray
     host: dict[str, Any] = field(default_factory=dict)  # cached host data (NumPy)
+    members: int = 1
 
     @classmethod
     def bind(cls, domain: Any, backend: Backend, dtype: Any,
-             stencil: str = "compact") -> Target:
+             stencil: str = "compact", members: int = 1) -> Target:
         dtype = np.dtype(dtype)
         if dtype not in _REALS:
             raise TypeError(f"dtype must be float32 or float64, got {dtype}")
         check_stencil(domain, stencil)
-        t = cls(domain, backend, dtype, stencil=stencil)
+        if int(members) < 1:
+            raise ValueError(f"members must be >= 1, got {members}")
+        t = cls(domain, backend, dtype, stencil=stencil, members=int(members))
         if not isinstance(domain, Grid):
             t.csr = backend.upload_csr(domain.laplacian, dtype)
         return t
@@ -155,7 +170,13 @@ class Target:
 
     @property
     def shape(self) -> tuple[int, ...]:
+        """The domain's shape (one member's)."""
         return self.domain.shape if self.is_grid else (self.domain.n_vertices,)
+
+    @property
+    def field_shape(self) -> tuple[int, ...]:
+        """A buffer's shape: ``(members, *shape)`` for an ensemble, else :attr:`shape`."""
+        return (self.members, *self.shape) if self.members > 1 else self.shape
 
     def lengths(self) -> dict[str, float]:
         """``Lx, Ly, Lz``: the grid's extents (0 along absent axes), or the mesh's
@@ -228,19 +249,24 @@ def literal(v: float, dtype: np.dtype):
 
 # ---------------------------------------------------------------------------- NumPy
 def _grid_laplacian(a: np.ndarray, target: Target, zero: bool) -> np.ndarray:
-    """The kernels' Laplacian of a grid field (ghosts by the bc; Dirichlet 0 if ``zero``)."""
+    """The kernels' Laplacian of a grid field (ghosts by the bc; Dirichlet 0 if ``zero``);
+    ``a`` is one member's field or an ensemble's ``[members, *shape]``."""
     gc = load_module("", "grid_common.py")
     d = target.domain
     t = a.dtype.type
     nz, ny, nx = d.shape3
-    u = a.reshape(nz, ny, nx)
-    axes = [(2, d.bcs.x, d.dx)]
-    if d.ndim > 1:
-        axes.append((1, d.bcs.y, d.dy))
-    if d.ndim > 2:
-        axes.append((0, d.bcs.z, d.dz))
     if target.stencil == "isotropic" and d.ndim > 1:
-        return _isotropic_laplacian(u, axes, zero, t).reshape(a.shape)
+        axes = [(2, d.bcs.x, d.dx), (1, d.bcs.y, d.dy)] + (
+            [(0, d.bcs.z, d.dz)] if d.ndim > 2 else [])
+        members = a.reshape(-1, nz, ny, nx)
+        return np.stack([_isotropic_laplacian(u, axes, zero, t) for u in members]
+                        ).reshape(a.shape)
+    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
+    axes = [(3, d.bcs.x, d.dx)]
+    if d.ndim > 1:
+        axes.append((2, d.bcs.y, d.dy))
+    if d.ndim > 2:
+        axes.append((1, d.bcs.z, d.dz))
     out = None
     for axis, bc, h in axes:
         value = 0.0 if zero else bc.value
@@ -292,10 +318,16 @@ def run_numpy(program: Program, target: Target, inputs: Mapping[str, np.ndarray]
     t = dtype.type
     mesh_ref = None if target.is_grid else load_module("mesh", "reference.py")
     gc = load_module("", "grid_common.py")
-    env: dict[str, Any] = {n: np.asarray(a, dtype=dtype) for n, a in inputs.items()}
+    shape = target.field_shape
+    env: dict[str, Any] = {n: np.asarray(a, dtype=dtype).reshape(shape)
+                           for n, a in inputs.items()}
     for p in program.refs("param"):
         v = params[p]
-        env[p] = np.asarray(v, dtype=dtype) if isinstance(v, np.ndarray) else t(v)
+        if isinstance(v, PerMember):  # one number per member, broadcast over its cells
+            env[p] = np.asarray(v.values, dtype=dtype).reshape(
+                (target.members,) + (1,) * len(target.shape))
+        else:
+            env[p] = np.asarray(v, dtype=dtype) if isinstance(v, np.ndarray) else t(v)
     for b in program.refs("builtin"):
         env[b] = t(scalars[b])
     env["t"] = t(time)
@@ -306,7 +338,7 @@ def run_numpy(program: Program, target: Target, inputs: Mapping[str, np.ndarray]
         with np.errstate(all="ignore"):
             env[name] = np.broadcast_to(np.asarray(
                 evaluate(expr, env, literal=lambda v: literal(v, dtype)), dtype=dtype),
-                target.shape)
+                shape)
     laps: dict[str, np.ndarray] = {}
 
     def lap(name: str, order: int) -> np.ndarray:
@@ -316,14 +348,17 @@ def run_numpy(program: Program, target: Target, inputs: Mapping[str, np.ndarray]
                 laps[name] = _grid_laplacian(a, target, name in program.zero_ghost)
             else:
                 L = target.domain.laplacian
-                laps[name] = mesh_ref._product(L.indptr, L.indices, L.data, a, a.shape[0])
+                n = target.shape[0]
+                laps[name] = np.stack([
+                    mesh_ref._product(L.indptr, L.indices, L.data, m, n)
+                    for m in a.reshape(-1, n)]).reshape(a.shape)
         return laps[name]
 
     out = {}
     for o in program.outputs:
         with np.errstate(all="ignore"):
             val = evaluate(o.expr, env, literal=lambda v: literal(v, dtype), lap=lap)
-        val = np.broadcast_to(np.asarray(val, dtype=dtype), target.shape)
+        val = np.broadcast_to(np.asarray(val, dtype=dtype), shape)
         lo, hi = o.bounds
         if lo is not None:
             val = np.where(val < t(lo), t(lo), val)
@@ -364,14 +399,16 @@ def _var(node: Node, fields: frozenset[str]) -> str:
     return f"len_{node.name[1]}"  # Lx -> len_x
 
 
-def _signature(program: Program, fields: frozenset[str]) -> list[tuple[str, str]]:
-    """Buffer/scalar arguments in order: (kind, name) with kind in in/out/field/coord/
-    scalar."""
+def _signature(program: Program, fields: frozenset[str],
+               member: frozenset[str] = frozenset()) -> list[tuple[str, str]]:
+    """Buffer/scalar arguments in order: (kind, name) with kind in in/out/field/member/
+    scalar (``member``: one number per ensemble member, read as ``p_{name}``)."""
     args = [("in", f"in_{s}") for s in program.inputs]
     args += [("out", f"out_{o.name}") for o in program.outputs]
     params = program.refs("param")
     args += [("field", f"pf_{p}") for p in params if p in fields]
-    args += [("scalar", f"p_{p}") for p in params if p not in fields]
+    args += [("member", f"pm_{p}") for p in params if p in member]
+    args += [("scalar", f"p_{p}") for p in params if p not in fields and p not in member]
     args += [("scalar", f"b{b}") for b in program.refs("builtin")]
     args.append(("scalar", "b_t"))
     args += [("scalar", f"len_{n[1]}") for n in program.refs("length")]
@@ -460,20 +497,29 @@ _CL_FUNCS = {"exp": "exp", "log": "log", "sqrt": "SQRT", "sin": "sin", "cos": "c
              "max": "nanmax2"}
 
 
-def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype) -> str:
-    """The OpenCL C kernel ``rd_program`` (needs ``common.cl`` first)."""
-    decl, body = opencl_cell(program, kind, fields, dtype)
+def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
+                  member: frozenset[str] = frozenset()) -> str:
+    """The OpenCL C kernel ``rd_program`` (needs ``common.cl`` first); ``member``: the
+    parameters given per ensemble member."""
+    decl, body = opencl_cell(program, kind, fields, dtype, member)
     template = read_source("model", "model.cl")
     part = "MESH" if kind == "mesh" else "GRID"
     text = template[template.index(f"/*@{part}@*/"): template.index(f"/*@END {part}@*/")]
     coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}"
                          for c in program.refs("coord"))
+    row = _member_lines(member) if kind != "mesh" else []
     return opencl_head(program) + (
         text.replace("@ARGS@", ",\n        ".join(decl))
         .replace("@COORDS@", coord_decl if kind == "mesh" else "")
+        .replace("@ROW@", "\n".join("    " + r for r in row))
         .replace("@CELL@", " \\\n".join("        " + b for b in body))
         .replace("@BODY@", "\n".join("        " + b for b in body))
     )
+
+
+def _member_lines(member: frozenset[str]) -> list[str]:
+    """The statements reading the per-member parameters (grids: once per row)."""
+    return [f"const real p_{p} = pm_{p}[m_];" for p in sorted(member)]
 
 
 def opencl_head(program: Program) -> str:
@@ -485,7 +531,8 @@ def opencl_head(program: Program) -> str:
 
 
 def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
-                field_index: str = "k_", out_index: str = "k_") -> tuple[list[str], list[str]]:
+                member: frozenset[str] = frozenset(), field_index: str = "k_",
+                out_index: str = "k_") -> tuple[list[str], list[str]]:
     """``(arguments, statements)`` of one cell of ``program`` in OpenCL C: the kernel's
     argument declarations (:func:`_signature`'s order) and the cell body.  The body reads
     input ``s`` as ``in_s[k_]`` and its neighbours at the row offsets ``rc, rs, rn...``
@@ -503,20 +550,20 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
         return f"{_CL_FUNCS[name]}({', '.join(args)})"
 
     decl = []
-    for k, nm in _signature(program, fields):
-        if k in ("in", "field"):
+    for k, nm in _signature(program, fields, member):
+        if k in ("in", "field", "member"):
             decl.append(f"__global const real *RESTRICT {nm}")
         elif k == "out":
             decl.append(f"__global real *RESTRICT {nm}")
         else:
             decl.append(f"const real {nm}")
     coords = program.refs("coord")
-    body = []
+    body = _member_lines(member) if kind == "mesh" else []
     for p in program.refs("param"):
         if p in fields:
             body.append(f"const real f_{p} = pf_{p}[{field_index}];")
     if kind == "mesh":
-        body += [f"const real {c}c = coord_{c}[k_];" for c in coords]
+        body += [f"const real {c}c = coord_{c}[v_];" for c in coords]
     elif "x" in coords:
         body.append("const real xc = ((real)(j) + (real)0.5) * dx;")
     body += [f"const real c_{s} = in_{s}[k_];" for s in program.inputs]
@@ -533,7 +580,8 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
             body.append("for (int q_ = p0_; q_ < p1_; ++q_) {")
             body.append("    const real a_ = data[q_];")
             body.append("    const int j_ = indices[q_];")
-            body += [f"    L_{s} += a_ * {at(s, lambda i: f'in_{i}[j_]')};" for s in stencil]
+            body += [f"    L_{s} += a_ * {at(s, lambda i: f'in_{i}[moff_ + j_]')};"
+                     for s in stencil]
             body.append("}")
     else:
         col = {-1: "cc_.w", 0: "j", 1: "cc_.e"}
@@ -582,13 +630,13 @@ _CL_PROGRAMS: dict[tuple, Any] = {}
 
 
 def opencl_kernel(program: Program, target: Target, fields: frozenset[str], name: str,
-                  make) -> Any:
+                  make, member: frozenset[str] = frozenset()) -> Any:
     """Kernel ``name`` of ``program`` for the target, cached in the program per context,
     build options, thread (a kernel's arguments are per object), domain kind, parameter
-    fields and dtype; ``make()`` builds it on a miss."""
+    fields (and per-member parameters) and dtype; ``make()`` builds it on a miss."""
     be = target.backend
     key = (name, be.context.int_ptr, tuple(be._options), threading.get_ident(),
-           target.kind, fields, target.dtype.char)
+           target.kind, fields, member, target.dtype.char)
     k = program.cache.get(key)
     if k is None:
         be._check_real(target.dtype)
@@ -596,25 +644,26 @@ def opencl_kernel(program: Program, target: Target, fields: frozenset[str], name
     return k
 
 
-def _opencl_kernel(program: Program, target: Target, fields: frozenset[str]):
+def _opencl_kernel(program: Program, target: Target, fields: frozenset[str],
+                   member: frozenset[str]):
     def make():
-        skey = ("opencl source", target.kind, fields, target.dtype.char)
+        skey = ("opencl source", target.kind, fields, member, target.dtype.char)
         src = program.cache.get(skey)
         if src is None:
             src = program.cache[skey] = opencl_source(program, target.kind, fields,
-                                                      target.dtype)
+                                                      target.dtype, member)
         k = target.backend._cl.Kernel(opencl_program(target, src, "model/model.cl"),
                                       "rd_program")
-        codes = opencl_arg_dtypes(program, fields, target.dtype)
+        codes = opencl_arg_dtypes(program, fields, target.dtype, member)
         if target.kind == "mesh":
-            codes = [None, None, None, *codes, np.int32, np.int32,
+            codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
                      *[None] * len(program.refs("coord"))]
         else:
-            codes += [np.int32] * 3 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
+            codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
         k.set_scalar_arg_dtypes(codes)
         return k
 
-    return opencl_kernel(program, target, fields, "rd_program", make)
+    return opencl_kernel(program, target, fields, "rd_program", make, member)
 
 
 def opencl_program(target: Target, src: str, name: str):
@@ -633,20 +682,25 @@ def opencl_program(target: Target, src: str, name: str):
     return prog
 
 
-def opencl_arg_dtypes(program: Program, fields: frozenset[str], dtype) -> list:
+def opencl_arg_dtypes(program: Program, fields: frozenset[str], dtype,
+                      member: frozenset[str] = frozenset()) -> list:
     """pyopencl's scalar argument dtypes of :func:`_signature` (None for buffers)."""
-    return [None if kk in ("in", "out", "field") else np.dtype(dtype)
-            for kk, _ in _signature(program, fields)]
+    return [None if kk in ("in", "out", "field", "member") else np.dtype(dtype)
+            for kk, _ in _signature(program, fields, member)]
 
 
-def _launch_opencl(program, target, bufs, fields, scalars):
+def _launch_opencl(program, target, bufs, fields, member):
     be = target.backend
-    k = _opencl_kernel(program, target, fields)
+    k = _opencl_kernel(program, target, fields, member)
     if target.kind == "mesh":
         A = target.csr
+        n = A.shape[0]
+        if n == 0:
+            return
         head = (A.indptr.handle, A.indices.handle, A.data.handle, *bufs)
-        tail = tuple(target.device_coordinate(c).handle for c in program.refs("coord"))
-        be._launch_rows(k, A.shape[0], head, tail)
+        tail = (np.int32(n),
+                *(target.device_coordinate(c).handle for c in program.refs("coord")))
+        be._launch_rows(k, n * target.members, head, tail)
         return
     d = target.domain
     nz, ny, nx = d.shape3
@@ -655,9 +709,10 @@ def _launch_opencl(program, target, bufs, fields, scalars):
     b = d.bcs
     dx, dy, dz = target.spacing()
     cx, cy, cz = _grid_coefficients(target)
-    args = [*bufs, nx, ny, nz, b.x.kind, b.x.value, b.y.kind, b.y.value, b.z.kind, b.z.value,
-            cx, cy, cz, dx, dy, dz]
-    be._launch_grid(k, ny * nz, args)
+    nm = target.members
+    args = [*bufs, nx, ny, nz, nm, b.x.kind, b.x.value, b.y.kind, b.y.value, b.z.kind,
+            b.z.value, cx, cy, cz, dx, dy, dz]
+    be._launch_grid(k, ny * nz * nm, args)
 
 
 # ---------------------------------------------------------------------------- Warp
@@ -666,9 +721,11 @@ _WP_FUNCS = {"exp": "wp.exp", "log": "wp.log", "sqrt": "wp.sqrt", "sin": "wp.sin
              "pow": "wp.pow", "min": "nanmin2", "max": "nanmax2"}
 
 
-def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> str:
+def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
+                member: frozenset[str] = frozenset()) -> str:
     """The text of a Warp module with the kernels of ``program`` (see
-    ``kernels/model/warp_model.py.in``)."""
+    ``kernels/model/warp_model.py.in``); ``member``: the parameters given per ensemble
+    member (grids read them once per row, meshes once per vertex)."""
     dtype = np.dtype(dtype)
     lits: list[str] = []
 
@@ -680,11 +737,18 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
     def fn(name, args):
         return f"{_WP_FUNCS[name]}({', '.join(args)})"
 
-    sig = _signature(program, fields)
+    sig = _signature(program, fields, member)
     array = "A" if kind == "mesh" else "A2"
-    decl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else f"{nm}: real"
-                     for k, nm in sig)
-    names = ", ".join(nm for _, nm in sig)
+    kdecl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else
+                      f"{nm}: A" if k == "member" else f"{nm}: real" for k, nm in sig)
+    member_loads = [f"p_{nm[3:]} = {nm}[m_]" for k, nm in sig if k == "member"]
+    if kind == "mesh":  # the vertex function reads the member's numbers itself
+        decl, names = kdecl, ", ".join(nm for _, nm in sig)
+    else:  # the row's numbers are read by the kernel and passed to the cell functions
+        decl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else
+                         f"p_{nm[3:]}: real" if k == "member" else f"{nm}: real"
+                         for k, nm in sig)
+        names = ", ".join(f"p_{nm[3:]}" if k == "member" else nm for k, nm in sig)
     coords = program.refs("coord")
     stencil = program.stencil_inputs
 
@@ -692,12 +756,12 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
         """The cell's statements; ``interior``: no ghost can occur (no selects).  Grid
         buffers are 2-D views ``[row, column]`` (rows: nz·ny), mesh buffers 1-D."""
         at = "k_" if kind == "mesh" else "r, j"
-        body = []
+        body = list(member_loads) if kind == "mesh" else []
         for p in program.refs("param"):
             if p in fields:
                 body.append(f"f_{p} = pf_{p}[{at}]")
         if kind == "mesh":
-            body += [f"{c}c = coord_{c}[k_]" for c in coords]
+            body += [f"{c}c = coord_{c}[v_]" for c in coords]
         elif "x" in coords:
             body.append("xc = (real(j) + real(0.5)) * dx")
         body += [f"c_{s} = in_{s}[{at}]" for s in program.inputs]
@@ -714,7 +778,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
                 body.append("while q_ < p1_:")
                 body.append("    a_ = data[q_]")
                 body.append("    j_ = indices[q_] & NONNEG")
-                body += [f"    L_{s} += a_ * {value(s, lambda i: f'in_{i}[j_]')}"
+                body += [f"    L_{s} += a_ * {value(s, lambda i: f'in_{i}[moff_ + j_]')}"
                          for s in stencil]
                 body.append("    q_ += 1")
         else:
@@ -757,6 +821,9 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype) -> s
         .replace("@OUTPUTS@", "\n".join(f"    {o.name} = {_to_text(o.expr)}"
                                           for o in program.outputs))
         + text.replace("@DECL@", decl + coord_decl).replace("@NAMES@", names + coord_names)
+        .replace("@KDECL@", kdecl + coord_decl)
+        .replace("@ROW@", "\n".join("    " + r for r in member_loads)
+                 if kind != "mesh" else "")
         .replace("@BODY@", "\n".join("    " + b for b in body))
         .replace("@INTERIOR@", "\n".join("    " + b for b in inner))
     )
@@ -813,26 +880,29 @@ def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
     return mod
 
 
-def _launch_warp(program, target, bufs, fields, scalars):
+def _launch_warp(program, target, bufs, fields, member):
     from ..backends.warp_backend import ROW_BLOCK
 
     be = target.backend
-    key = ("warp", str(be._dev), target.kind, fields, target.dtype.char)
+    key = ("warp", str(be._dev), target.kind, fields, member, target.dtype.char)
     mod = program.cache.get(key)
     if mod is None:
-        src = warp_source(program, target.kind, fields, target.dtype)
+        src = warp_source(program, target.kind, fields, target.dtype, member)
         mod = program.cache[key] = warp_module(src, be)
+    nm = target.members
     if target.kind == "mesh":
         A = target.csr
         n = A.shape[0]
         if n == 0:
             return
         coords = [be._flat(target.device_coordinate(c)) for c in program.refs("coord")]
-        args = [A.indptr.handle, A.indices.handle, A.data.handle, *bufs, *coords]
+        args = [A.indptr.handle, A.indices.handle, A.data.handle, *bufs, *coords, n]
+        rows = n * nm
         if be._cells:
-            be._launch(mod.rows, n, args, 0)
+            be._launch(mod.rows, rows, args, 0)
         else:
-            be._run_split(mod.blocks, -(-n // ROW_BLOCK), A.nnz + n, [*args, n, ROW_BLOCK])
+            be._run_split(mod.blocks, -(-rows // ROW_BLOCK), (A.nnz + n) * nm,
+                          [*args, rows, ROW_BLOCK])
         return
     d = target.domain
     nz, ny, nx = d.shape3
@@ -842,12 +912,13 @@ def _launch_warp(program, target, bufs, fields, scalars):
     b = d.bcs
     dx, dy, dz = target.spacing()
     cx, cy, cz = _grid_coefficients(target)
-    args = [*bufs, nx, ny, nz, b.x.kind, t(b.x.value), b.y.kind, t(b.y.value), b.z.kind,
+    args = [*bufs, nx, ny, nz, nm, b.x.kind, t(b.x.value), b.y.kind, t(b.y.value), b.z.kind,
             t(b.z.value), t(cx), t(cy), t(cz), t(dx), t(dy), t(dz)]
+    rows = ny * nz * nm
     if be._cells:
-        be._launch(mod.cells, (ny * nz, nx), args, 0)
+        be._launch(mod.cells, (rows, nx), args, 0)
     else:
-        be._run_split(mod.rows, ny * nz, ny * nz * nx, args)
+        be._run_split(mod.rows, rows, rows * nx, args)
 
 
 # ---------------------------------------------------------------------------- launch
@@ -871,14 +942,15 @@ def _warp_rows(a: DeviceArray) -> Any:
 def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
               outputs: Sequence[DeviceArray], params: Mapping[str, Any],
               fields: frozenset[str], scalars: Mapping[str, float], time: float,
-              flat=_handle) -> list[Any]:
+              flat=_handle, member: frozenset[str] = frozenset()) -> list[Any]:
     """The kernel arguments of :func:`_signature`: buffers through ``flat``, scalars in
     the target's dtype."""
     t = target.dtype.type
     bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]
     ps = program.refs("param")
     bufs += [flat(params[p]) for p in ps if p in fields]
-    bufs += [t(params[p]) for p in ps if p not in fields]
+    bufs += [params[p].values.handle for p in ps if p in member]
+    bufs += [t(params[p]) for p in ps if p not in fields and p not in member]
     bufs += [t(scalars[b]) for b in program.refs("builtin")]
     bufs.append(t(time))
     lengths = target.lengths()
@@ -890,15 +962,23 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
            outputs: Sequence[DeviceArray], params: Mapping[str, Any],
            scalars: Mapping[str, float], time: float = 0.0) -> None:
     """One pass of ``program`` on ``target``: ``inputs``/``outputs`` in the program's
-    order; ``params`` maps each parameter to a number or a DeviceArray of the domain's
-    shape (a field); ``scalars`` the builtins (``_h``...)."""
+    order, each of ``target.field_shape``; ``params`` maps each parameter to a number, a
+    DeviceArray of ``target.field_shape`` (a field) or a :class:`PerMember`; ``scalars``
+    the builtins (``_h``...)."""
     be = target.backend
     if len(inputs) != len(program.inputs) or len(outputs) != len(program.outputs):
         raise ValueError("inputs/outputs do not match the program")
     fields = frozenset(p for p in program.refs("param") if isinstance(params[p], DeviceArray))
+    member = frozenset(p for p in program.refs("param") if isinstance(params[p], PerMember))
+
+    def host_value(v: Any, get) -> Any:
+        if isinstance(v, PerMember):
+            return PerMember(get(v.values))
+        return get(v) if isinstance(v, DeviceArray) else v
+
     if be.name == "numpy":
         host = {n: a.handle for n, a in zip(program.inputs, inputs, strict=True)}
-        pv = {p: (v.handle if isinstance(v, DeviceArray) else v) for p, v in params.items()
+        pv = {p: host_value(v, lambda a: a.handle) for p, v in params.items()
               if p in program.refs("param")}
         res = run_numpy(program, target, host, pv, scalars, time)
         for o, buf in zip(program.outputs, outputs, strict=True):
@@ -908,14 +988,15 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
         flat = be._flat if target.kind == "mesh" else _warp_rows
     else:
         flat = _handle
-    bufs = arguments(program, target, inputs, outputs, params, fields, scalars, time, flat)
+    bufs = arguments(program, target, inputs, outputs, params, fields, scalars, time, flat,
+                     member)
     if be.name == "warp":
-        _launch_warp(program, target, bufs, fields, scalars)
+        _launch_warp(program, target, bufs, fields, member)
     elif be.name == "opencl":
-        _launch_opencl(program, target, bufs, fields, scalars)
+        _launch_opencl(program, target, bufs, fields, member)
     else:  # any other backend: through the host
         host = {n: a.numpy() for n, a in zip(program.inputs, inputs, strict=True)}
-        pv = {p: (v.numpy() if isinstance(v, DeviceArray) else v) for p, v in params.items()}
+        pv = {p: host_value(v, lambda a: a.numpy()) for p, v in params.items()}
         res = run_numpy(program, target, host, pv, scalars, time)
         for o, buf in zip(program.outputs, outputs, strict=True):
             be.copy(be.upload(np.ascontiguousarray(res[o.name].reshape(buf.shape))), buf)

@@ -30,6 +30,7 @@ fused pass.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -38,7 +39,7 @@ import numpy as np
 
 from ..backends.base import Backend, DeviceArray
 from . import equations as eq
-from .compiler import Output, Program, Target, launch
+from .compiler import Output, PerMember, Program, Target, launch
 
 __all__ = ["FieldStepper", "ModelStepper", "stability_limit"]
 
@@ -49,16 +50,22 @@ _THETA = {"imex": 1.0, "imex-cn": 0.5}
 # ---------------------------------------------------------------------------- stability
 def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
     """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
-    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`)."""
+    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`).  Remembered per
+    ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per member."""
+    D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)
+    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method)
+
+
+@functools.lru_cache(maxsize=4096)
+def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
+                     method: str) -> float:
+    D = np.frombuffer(d, dtype=np.float64).reshape(shape)
+    B = np.frombuffer(b, dtype=np.float64).reshape(shape)
     ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
     if method in EXPLICIT:
-        limit = math.inf
-        for m in ms:
-            lam = np.linalg.eigvals(-m * D + m * m * B)
-            neg = lam[lam.real < -1e-300]
-            if neg.size:
-                limit = min(limit, float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)))
-        return limit
+        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
+        neg = lam[lam.real < -1e-300]
+        return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
     theta = _THETA[method]
 
     def stable(h: float) -> bool:
@@ -118,7 +125,8 @@ class FieldStepper:
     """Device fields of every species, ping-pong buffers, step counting: what every
     stepper shares (``_step`` reads ``_x`` and writes ``_y``)."""
 
-    def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any):
+    def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any,
+                 members: int | None = None):
         from .model import domain_shape
 
         self.species = tuple(species)
@@ -128,7 +136,11 @@ class FieldStepper:
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
+        #: None, or the number of ensemble members: fields ``[members, *domain shape]``
+        self.members = members
         self.shape = domain_shape(domain)
+        if members is not None:
+            self.shape = (int(members), *self.shape)
         zero = np.zeros(self.shape, self.dtype)
         self._x = [backend.upload(zero) for _ in self.species]
         self._y = [backend.empty(self.shape, self.dtype) for _ in self.species]
@@ -145,10 +157,13 @@ class FieldStepper:
             a = a.numpy()
         a = np.asarray(a)
         if a.shape != self.shape:
-            if a.size == int(np.prod(self.shape)) and self.shape[0] == 1 and a.ndim == 1:
-                a = a.reshape(self.shape)
-            else:
+            # a 1-D grid's fields may come as [nx] (or an ensemble's as [members, nx]) for
+            # the stepper's [1, nx] ([members, 1, nx])
+            squeezed = a.ndim == len(self.shape) - 1 and self.shape[-2] == 1 and \
+                a.shape == self.shape[:-2] + self.shape[-1:]
+            if not squeezed:
                 raise ValueError(f"field {name!r} has shape {a.shape}, the domain {self.shape}")
+            a = a.reshape(self.shape)
         return np.ascontiguousarray(a, dtype=self.dtype)
 
     def set_state(self, fields: Mapping[str, Any], *, steps: int | None = None) -> None:
@@ -186,12 +201,13 @@ class ModelStepper(FieldStepper):
 
     def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
-                 stencil: str = "compact", block_steps: int | None = None):
-        super().__init__(model.species, domain, dt, backend, dtype)
+                 stencil: str = "compact", members: int | None = None,
+                 block_steps: int | None = None):
+        super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         self.method = method
         self.params = dict(params)
-        self.target = Target.bind(domain, backend, self.dtype, stencil)
+        self.target = Target.bind(domain, backend, self.dtype, stencil, members or 1)
         if stencil != "compact" and method not in EXPLICIT:
             raise ValueError(f"method {method!r} solves the compact stencil implicitly; the "
                              f"{stencil} stencil runs with the explicit methods")
@@ -205,8 +221,12 @@ class ModelStepper(FieldStepper):
         for p, v in self.params.items():
             if isinstance(v, str):
                 inline[p] = expression_tree(p, v, self.params)
-            elif isinstance(v, np.ndarray):
-                self._dev[p] = be.upload(np.ascontiguousarray(v, dtype=self.dtype))
+            elif isinstance(v, PerMember):  # one number per member
+                self._dev[p] = PerMember(be.upload(np.ascontiguousarray(v.values,
+                                                                        dtype=self.dtype)))
+            elif isinstance(v, np.ndarray):  # a field: per member, or shared by all
+                a = np.broadcast_to(np.asarray(v, dtype=self.dtype), self.shape)
+                self._dev[p] = be.upload(np.ascontiguousarray(a))
             else:
                 self._dev[p] = float(v)
         trees = {s: eq.substitute(model.trees[s], lambda n: inline.get(n.name)
@@ -224,7 +244,8 @@ class ModelStepper(FieldStepper):
 
     # ------------------------------------------------------------------ programs
     def _diffusion_numbers(self) -> list[float]:
-        ops = self.model.linear_operators(self.params)
+        ops = self.model.linear_operators({k: (v.values if isinstance(v, PerMember) else v)
+                                           for k, v in self.params.items()})
         return [] if ops is None else [float(x) for x in np.diag(ops[0])]
 
     def _lower(self, trees: dict[str, eq.Node]) -> tuple[dict[str, eq.Node], Program | None]:
@@ -273,8 +294,8 @@ class ModelStepper(FieldStepper):
 
         theta = 1.0 if self.method == "imex" else 0.5
         h = self.dt
-        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, str) else None)
-                  for k, v in self.params.items()}
+        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
+                      else None) for k, v in self.params.items()}
         explicit: dict[str, eq.Node] = {}
         self._solvers: dict[str, list[Any]] = {}
         cache: dict[float, Any] = {}
@@ -328,7 +349,10 @@ class ModelStepper(FieldStepper):
                     solvers.append(cache[a])
             self._solvers[s] = solvers
         self._setup_explicit_from(explicit)
-        self._tmp = [self.backend.empty(self.shape, self.dtype) for _ in range(2)]
+        # an ensemble solves member by member: the same solves, sweeps and convergence
+        # tests as each member alone (one member's field at a time in these buffers)
+        one = self.shape if self.members is None else self.shape[1:]
+        self._tmp = [self.backend.empty(one, self.dtype) for _ in range(2)]
 
     def _setup_explicit_from(self, explicit: dict[str, eq.Node]) -> None:
         method, self.method = self.method, "euler"
@@ -345,8 +369,9 @@ class ModelStepper(FieldStepper):
         if bad:
             raise ValueError(
                 f"method {self.method!r}: the coefficient of {what}({s}) in the equation of "
-                f"{s!r} uses the parameter(s) {bad}, which are fields or time-dependent; "
-                "an implicit term needs a constant coefficient")
+                f"{s!r} uses the parameter(s) {bad}, which are fields, time-dependent or "
+                "differ between ensemble members; an implicit term needs one constant "
+                "coefficient")
         return float(eq.evaluate(c, {p: merged[p] for p in names}))
 
     # ------------------------------------------------------------------ stepping
@@ -390,9 +415,19 @@ class ModelStepper(FieldStepper):
         else:
             self._eval(self._euler, x, y, t0)
             for i, s in enumerate(self.species):
-                solvers = self._solvers[s]
-                if len(solvers) == 1:
-                    solvers[0].step(y[i], y[i])
-                elif len(solvers) == 2:
-                    solvers[0].step(y[i], self._tmp[0])
-                    solvers[1].step(self._tmp[0], y[i])
+                if self.members is None:
+                    self._solve(self._solvers[s], y[i])
+                    continue
+                n = self._tmp[1].size
+                for m in range(self.members):
+                    self.backend.copy_range(y[i], m * n, self._tmp[1], 0, n)
+                    self._solve(self._solvers[s], self._tmp[1])
+                    self.backend.copy_range(self._tmp[1], 0, y[i], m * n, n)
+
+    def _solve(self, solvers: list[Any], y: DeviceArray) -> None:
+        """``y`` ← the implicit solves of one species' IMEX step, in place."""
+        if len(solvers) == 1:
+            solvers[0].step(y, y)
+        elif len(solvers) == 2:
+            solvers[0].step(y, self._tmp[0])
+            solvers[1].step(self._tmp[0], y)

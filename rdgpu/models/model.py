@@ -197,11 +197,17 @@ def resolve_params(
 def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> eq.Node:
     """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
     replaced by their numbers."""
+    from .compiler import PerMember
+
     scalars = {k: v for k, v in params.items()
-               if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node))}
-    tree = eq.parse(text, params=scalars, what=f"parameter {name!r}", laplace=False)
+               if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node, PerMember))}
+    # an ensemble's per-member numbers stay parameters (read per member by the kernel)
+    members = [k for k, v in params.items() if isinstance(v, PerMember)]
+    tree = eq.parse(text, params=[*scalars, *members], what=f"parameter {name!r}",
+                    laplace=False)
     return eq.substitute(tree, lambda n: eq.Num(float(scalars[n.name]))
-                         if isinstance(n, eq.Ref) and n.kind == "param" else None)
+                         if isinstance(n, eq.Ref) and n.kind == "param"
+                         and n.name in scalars else None)
 
 
 def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str, Any]):
@@ -510,12 +516,16 @@ class Model:
         method: str | None = None,
         tol: float | None = None,
         stencil: str = "compact",
+        members: int | None = None,
         block_steps: int | None = None,
     ):
         """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
         ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
         ``tol``: the implicit solves' accuracy (IMEX); ``stencil``: ``"compact"`` (3/5/7
-        points) or ``"isotropic"`` (9 points in 2-D, 19 in 3-D; equal spacings) on grids;
+        points) or ``"isotropic"`` (9 points in 2-D, 19 in 3-D; equal spacings) on grids.
+        ``members``: an ensemble of that many members, fields ``[members, *shape]``, each
+        parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
+        member; ``dt`` must be stable for every member.
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
         None: automatic, 1: off).  The fields start at zero: call ``set_state``."""
         from .compiler import check_stencil
@@ -523,13 +533,34 @@ class Model:
 
         method = _method(method or self.default_method, self.methods)
         check_stencil(domain, stencil)
-        p = resolve_params(self, domain, params, seed=seed)
-        self._check_diffusion(p)
-        limit = self.dt_limit(domain, p, method, stencil)
+        if members is None:
+            p = resolve_params(self, domain, params, seed=seed)
+            self._check_diffusion(p)
+            limit = self.dt_limit(domain, p, method, stencil)
+        else:
+            from .ensemble import resolve_members, stack_members
+
+            members = _members(members)
+            shape = domain_shape(domain)
+            each = resolve_members(lambda q, s: resolve_params(self, domain, q, seed=s),
+                                   params or {}, members, shape, seed)
+            limit = math.inf
+            for q in {id(q): q for q in each}.values():
+                self._check_diffusion(q)
+                limit = min(limit, self.dt_limit(domain, q, method, stencil))
+            p = stack_members(each, shape)
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
-                            method, tol=tol, stencil=stencil, block_steps=block_steps)
+                            method, tol=tol, stencil=stencil, members=members,
+                            block_steps=block_steps)
+
+
+def _members(members: Any) -> int:
+    if isinstance(members, (bool, np.bool_)) or not isinstance(members, (int, np.integer)) \
+            or members < 1:
+        raise ValueError(f"members must be a whole number >= 1, got {members!r}")
+    return int(members)
 
 
 def _method(method: str, allowed: Sequence[str]) -> str:
