@@ -617,6 +617,13 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
         if "stencil" not in inspect.signature(model.stepper).parameters:
             raise UsageError(f"--stencil: model {model.name} has no choice of stencil")
         options["stencil"] = args.stencil
+    if args.block_steps is not None:
+        import inspect
+
+        if "block_steps" not in inspect.signature(model.stepper).parameters:
+            raise UsageError(f"--block-steps: model {model.name} has no blocked kernel; "
+                             "only the models defined by equations have")
+        options["block_steps"] = args.block_steps
     try:
         sim = Simulation(
             model, domain, params,
@@ -963,6 +970,10 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
                       "heun, rk3, imex, imex-cn (Allen-Cahn: explicit, implicit, "
                       "crank-nicolson)")
+    what.add_argument("--block-steps", type=int, metavar="K", help="temporal blocking: "
+                      "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "
+                      "K single steps (default: automatic, on for 2-D grids larger than the "
+                      "last-level cache; 1: off)")
     _add_engine_options(what, "")
     what.add_argument("--members", type=_positive_int, metavar="M",
                       help="an ensemble: M runs in one launch per step, seeds SEED, SEED+1, "

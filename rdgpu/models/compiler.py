@@ -501,6 +501,43 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
                   member: frozenset[str] = frozenset()) -> str:
     """The OpenCL C kernel ``rd_program`` (needs ``common.cl`` first); ``member``: the
     parameters given per ensemble member."""
+    decl, body = opencl_cell(program, kind, fields, dtype, member)
+    template = read_source("model", "model.cl")
+    part = "MESH" if kind == "mesh" else "GRID"
+    text = template[template.index(f"/*@{part}@*/"): template.index(f"/*@END {part}@*/")]
+    coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}"
+                         for c in program.refs("coord"))
+    row = _member_lines(member) if kind != "mesh" else []
+    return opencl_head(program) + (
+        text.replace("@ARGS@", ",\n        ".join(decl))
+        .replace("@COORDS@", coord_decl if kind == "mesh" else "")
+        .replace("@ROW@", "\n".join("    " + r for r in row))
+        .replace("@CELL@", " \\\n".join("        " + b for b in body))
+        .replace("@BODY@", "\n".join("        " + b for b in body))
+    )
+
+
+def _member_lines(member: frozenset[str]) -> list[str]:
+    """The statements reading the per-member parameters (grids: once per row)."""
+    return [f"const real p_{p} = pm_{p}[m_];" for p in sorted(member)]
+
+
+def opencl_head(program: Program) -> str:
+    """The part of ``model.cl`` every generated OpenCL program starts with (its comment
+    naming the outputs, the helper functions)."""
+    template = read_source("model", "model.cl")
+    comment = "\n".join(f" *   {o.name} = {_to_text(o.expr)}" for o in program.outputs)
+    return template[: template.index("/*@GRID@*/")].replace("@OUTPUTS@", comment)
+
+
+def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
+                member: frozenset[str] = frozenset(), field_index: str = "k_",
+                out_index: str = "k_") -> tuple[list[str], list[str]]:
+    """``(arguments, statements)`` of one cell of ``program`` in OpenCL C: the kernel's
+    argument declarations (:func:`_signature`'s order) and the cell body.  The body reads
+    input ``s`` as ``in_s[k_]`` and its neighbours at the row offsets ``rc, rs, rn...``
+    plus ``j``/``cc_.w``/``cc_.e``, parameter fields at ``[field_index]``, and stores
+    output ``o`` to ``out_o[out_index]`` (the step kernel: all ``k_``)."""
     dtype = np.dtype(dtype)
     if dtype == np.float64:
         def lit(v):
@@ -521,13 +558,10 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
         else:
             decl.append(f"const real {nm}")
     coords = program.refs("coord")
-    body = []
-    row = [f"const real p_{p} = pm_{p}[m_];" for p in sorted(member)]
-    if kind == "mesh":
-        body += row
+    body = _member_lines(member) if kind == "mesh" else []
     for p in program.refs("param"):
         if p in fields:
-            body.append(f"const real f_{p} = pf_{p}[k_];")
+            body.append(f"const real f_{p} = pf_{p}[{field_index}];")
     if kind == "mesh":
         body += [f"const real {c}c = coord_{c}[v_];" for c in coords]
     elif "x" in coords:
@@ -581,20 +615,8 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
             body.append(f"o{i}_ = (o{i}_ < {lit(lo)}) ? {lit(lo)} : o{i}_;")
         if hi is not None:
             body.append(f"o{i}_ = (o{i}_ > {lit(hi)}) ? {lit(hi)} : o{i}_;")
-        body.append(f"out_{o.name}[k_] = FLUSH(o{i}_);")
-    template = read_source("model", "model.cl")
-    part = "MESH" if kind == "mesh" else "GRID"
-    head = template[: template.index("/*@GRID@*/")]
-    text = template[template.index(f"/*@{part}@*/"): template.index(f"/*@END {part}@*/")]
-    comment = "\n".join(f" *   {o.name} = {_to_text(o.expr)}" for o in program.outputs)
-    coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}" for c in coords)
-    return head.replace("@OUTPUTS@", comment) + (
-        text.replace("@ARGS@", ",\n        ".join(decl))
-        .replace("@COORDS@", coord_decl if kind == "mesh" else "")
-        .replace("@ROW@", "\n".join("    " + r for r in row) if kind != "mesh" else "")
-        .replace("@CELL@", " \\\n".join("        " + b for b in body))
-        .replace("@BODY@", "\n".join("        " + b for b in body))
-    )
+        body.append(f"out_{o.name}[{out_index}] = FLUSH(o{i}_);")
+    return decl, body
 
 
 def _to_text(node: Node) -> str:
@@ -607,41 +629,64 @@ _CL_LOCK = threading.Lock()
 _CL_PROGRAMS: dict[tuple, Any] = {}
 
 
-def _opencl_kernel(program: Program, target: Target, fields: frozenset[str],
-                   member: frozenset[str]):
+def opencl_kernel(program: Program, target: Target, fields: frozenset[str], name: str,
+                  make, member: frozenset[str] = frozenset()) -> Any:
+    """Kernel ``name`` of ``program`` for the target, cached in the program per context,
+    build options, thread (a kernel's arguments are per object), domain kind, parameter
+    fields (and per-member parameters) and dtype; ``make()`` builds it on a miss."""
     be = target.backend
-    key = ("opencl", be.context.int_ptr, tuple(be._options), threading.get_ident(),
+    key = (name, be.context.int_ptr, tuple(be._options), threading.get_ident(),
            target.kind, fields, member, target.dtype.char)
     k = program.cache.get(key)
-    if k is not None:
+    if k is None:
+        be._check_real(target.dtype)
+        k = program.cache[key] = make()
+    return k
+
+
+def _opencl_kernel(program: Program, target: Target, fields: frozenset[str],
+                   member: frozenset[str]):
+    def make():
+        skey = ("opencl source", target.kind, fields, member, target.dtype.char)
+        src = program.cache.get(skey)
+        if src is None:
+            src = program.cache[skey] = opencl_source(program, target.kind, fields,
+                                                      target.dtype, member)
+        k = target.backend._cl.Kernel(opencl_program(target, src, "model/model.cl"),
+                                      "rd_program")
+        codes = opencl_arg_dtypes(program, fields, target.dtype, member)
+        if target.kind == "mesh":
+            codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
+                     *[None] * len(program.refs("coord"))]
+        else:
+            codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
+        k.set_scalar_arg_dtypes(codes)
         return k
-    be._check_real(target.dtype)
-    skey = ("opencl source", target.kind, fields, member, target.dtype.char)
-    src = program.cache.get(skey)
-    if src is None:
-        src = program.cache[skey] = opencl_source(program, target.kind, fields, target.dtype,
-                                                  member)
+
+    return opencl_kernel(program, target, fields, "rd_program", make, member)
+
+
+def opencl_program(target: Target, src: str, name: str):
+    """``common.cl`` + ``src`` built for the target's backend and dtype (cached per
+    context, build options and source; ``name`` labels the source in compiler messages)."""
+    be = target.backend
     pkey = (be.context.int_ptr, tuple(be._options), target.dtype.char, src)
     with _CL_LOCK:
         prog = _CL_PROGRAMS.get(pkey)
         if prog is None:
-            cl = be._cl
             options = [f"-D REAL_IS_DOUBLE={int(target.dtype == np.float64)}", *be._options]
             full = '#line 1 "common.cl"\n' + read_source("", "common.cl") + "\n"
-            full += '#line 1 "model/model.cl (generated)"\n' + src
-            prog = cl.Program(be.context, full).build(options=options)
+            full += f'#line 1 "{name} (generated)"\n' + src
+            prog = be._cl.Program(be.context, full).build(options=options)
             _CL_PROGRAMS[pkey] = prog
-    k = be._cl.Kernel(prog, "rd_program")
-    codes = [None if kk in ("in", "out", "field", "member") else target.dtype
-             for kk, _ in _signature(program, fields, member)]
-    if target.kind == "mesh":
-        codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
-                 *[None] * len(program.refs("coord"))]
-    else:
-        codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
-    k.set_scalar_arg_dtypes(codes)
-    program.cache[key] = k
-    return k
+    return prog
+
+
+def opencl_arg_dtypes(program: Program, fields: frozenset[str], dtype,
+                      member: frozenset[str] = frozenset()) -> list:
+    """pyopencl's scalar argument dtypes of :func:`_signature` (None for buffers)."""
+    return [None if kk in ("in", "out", "field", "member") else np.dtype(dtype)
+            for kk, _ in _signature(program, fields, member)]
 
 
 def _launch_opencl(program, target, bufs, fields, member):
@@ -894,6 +939,25 @@ def _warp_rows(a: DeviceArray) -> Any:
     return view
 
 
+def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
+              outputs: Sequence[DeviceArray], params: Mapping[str, Any],
+              fields: frozenset[str], scalars: Mapping[str, float], time: float,
+              flat=_handle, member: frozenset[str] = frozenset()) -> list[Any]:
+    """The kernel arguments of :func:`_signature`: buffers through ``flat``, scalars in
+    the target's dtype."""
+    t = target.dtype.type
+    bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]
+    ps = program.refs("param")
+    bufs += [flat(params[p]) for p in ps if p in fields]
+    bufs += [params[p].values.handle for p in ps if p in member]
+    bufs += [t(params[p]) for p in ps if p not in fields and p not in member]
+    bufs += [t(scalars[b]) for b in program.refs("builtin")]
+    bufs.append(t(time))
+    lengths = target.lengths()
+    bufs += [t(lengths[n]) for n in program.refs("length")]
+    return bufs
+
+
 def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
            outputs: Sequence[DeviceArray], params: Mapping[str, Any],
            scalars: Mapping[str, float], time: float = 0.0) -> None:
@@ -906,7 +970,6 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
         raise ValueError("inputs/outputs do not match the program")
     fields = frozenset(p for p in program.refs("param") if isinstance(params[p], DeviceArray))
     member = frozenset(p for p in program.refs("param") if isinstance(params[p], PerMember))
-    t = target.dtype.type
 
     def host_value(v: Any, get) -> Any:
         if isinstance(v, PerMember):
@@ -925,15 +988,8 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
         flat = be._flat if target.kind == "mesh" else _warp_rows
     else:
         flat = _handle
-    bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]
-    ps = program.refs("param")
-    bufs += [flat(params[p]) for p in ps if p in fields]
-    bufs += [params[p].values.handle for p in ps if p in member]
-    bufs += [t(params[p]) for p in ps if p not in fields and p not in member]
-    bufs += [t(scalars[b]) for b in program.refs("builtin")]
-    bufs.append(t(time))
-    lengths = target.lengths()
-    bufs += [t(lengths[n]) for n in program.refs("length")]
+    bufs = arguments(program, target, inputs, outputs, params, fields, scalars, time, flat,
+                     member)
     if be.name == "warp":
         _launch_warp(program, target, bufs, fields, member)
     elif be.name == "opencl":

@@ -201,7 +201,8 @@ class ModelStepper(FieldStepper):
 
     def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
-                 stencil: str = "compact", members: int | None = None):
+                 stencil: str = "compact", members: int | None = None,
+                 block_steps: int | None = None):
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         self.method = method
@@ -236,6 +237,10 @@ class ModelStepper(FieldStepper):
             self._setup_explicit(trees)
         else:
             self._setup_imex(trees, tol, inline)
+        from .blocking import setup
+
+        #: temporal blocking (:mod:`rdgpu.models.blocking`): None, or the passes' kernel
+        self.blocked = setup(self, block_steps)
 
     # ------------------------------------------------------------------ programs
     def _diffusion_numbers(self) -> list[float]:
@@ -370,6 +375,19 @@ class ModelStepper(FieldStepper):
         return float(eq.evaluate(c, {p: merged[p] for p in names}))
 
     # ------------------------------------------------------------------ stepping
+    def advance(self, steps: int) -> None:
+        """``steps`` steps: blocked passes of ``blocked.steps`` steps while they fit, then
+        single steps (bit for bit the same as single steps only)."""
+        steps = int(steps)
+        if self.blocked is None or steps < 0:
+            return super().advance(steps)
+        k = self.blocked.steps
+        for _ in range(steps // k):
+            self.blocked.run(self._x, self._y, self.steps_done)
+            self._x, self._y = self._y, self._x
+            self.steps_done += k
+        super().advance(steps % k)
+
     def _eval(self, program: Program, ins: list[DeviceArray], outs: list[DeviceArray],
               time: float, extra: list[DeviceArray] = (), a: float = 0.0,
               b: float = 1.0) -> None:

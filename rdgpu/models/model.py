@@ -517,6 +517,7 @@ class Model:
         tol: float | None = None,
         stencil: str = "compact",
         members: int | None = None,
+        block_steps: int | None = None,
     ):
         """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
         ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
@@ -525,7 +526,8 @@ class Model:
         ``members``: an ensemble of that many members, fields ``[members, *shape]``, each
         parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
         member; ``dt`` must be stable for every member.
-        The fields start at zero: call ``set_state``."""
+        ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
+        None: automatic, 1: off).  The fields start at zero: call ``set_state``."""
         from .compiler import check_stencil
         from .integrators import ModelStepper
 
@@ -550,7 +552,8 @@ class Model:
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
-                            method, tol=tol, stencil=stencil, members=members)
+                            method, tol=tol, stencil=stencil, members=members,
+                            block_steps=block_steps)
 
 
 def _members(members: Any) -> int:
