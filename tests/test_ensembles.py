@@ -154,6 +154,25 @@ def test_copy_range(be_name):
         be.copy_range(a, 20, b, 0, 5)
 
 
+@pytest.mark.parametrize("block_steps", [2, 3, 8])
+def test_temporally_blocked_ensembles(block_steps, dtype):
+    """OpenCL's blocked passes (one plane per member, per-member numbers read once per
+    row) equal each member's single steps alone."""
+    be = backend_or_skip("opencl")
+    F = np.linspace(0.02, 0.05, M)
+    rng = np.random.default_rng(5)
+    for bc in ("periodic", ("neumann", ("dirichlet", 0.3))):
+        grid = Grid((9, 7), dx=1.0, bc=bc)
+        k_each = rng.uniform(0.05, 0.065, (M, 9, 7))
+        _alone_vs_together(GS, grid, be, dtype, {"F": F, "k": k_each},
+                           lambda m, k_each=k_each: {"F": F[m], "k": k_each[m]}, steps=11,
+                           dt=0.2, block_steps=block_steps)
+    st = GS.stepper(Grid((9, 7)), {"F": F}, dt=0.2, backend=be, members=M,
+                    block_steps=block_steps)
+    assert st.blocked is not None and st.blocked.steps == block_steps
+    assert st.blocked.planes == M
+
+
 @pytest.mark.parametrize("be_name", ["warp", "opencl"])
 def test_ensemble_equals_the_numpy_reference(be_name, dtype):
     """The ensemble kernels against the NumPy reference's ensemble: Gray-Scott uses only

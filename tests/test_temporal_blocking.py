@@ -165,7 +165,6 @@ def test_bad_block_steps(bad):
     ({"domain": Grid((3, 4, 5))}, "blocked passes run on 2-D grids"),
     ({"domain": rdgpu.SurfaceMesh.icosphere(1), "dt": 1e-4}, "blocked passes run on 2-D"),
     ({"model": MODELS["swift-hohenberg"], "method": "euler", "dt": 1e-3}, "bilaplacian"),
-    ({"members": 3}, r"an ensemble \(members > 1\)"),
 ])
 def test_ineligible(case, match):
     """Asked explicitly: an error naming the reason; automatic: single steps."""
@@ -213,7 +212,11 @@ def test_automatic_policy(monkeypatch):
     monkeypatch.setattr(blocking, "cache_sizes", lambda: {2: 10_000_000, 3: 200_000})
     assert GS.stepper(domain, dt=0.5, backend="opencl", dtype=np.float32).blocked is None
     monkeypatch.setattr(blocking, "cache_sizes", lambda: {2: 10_000_000, 3: 100_000})
-    assert GS.stepper(domain, dt=0.5, backend="opencl").blocked.steps == blocking.AUTO_STEPS
+    # the halo of K − 1 rows stays under 1/8 of the 64 rows: K = 8, not AUTO_STEPS
+    assert GS.stepper(domain, dt=0.5, backend="opencl").blocked.steps == 8
+    tall = Grid((256, 100))
+    assert GS.stepper(tall, dt=0.5, backend="opencl").blocked.steps == blocking.AUTO_STEPS
+    assert GS.stepper(Grid((15, 2000)), dt=0.5, backend="opencl").blocked is None
     monkeypatch.setattr(blocking, "cache_sizes", lambda: {2: 1000, 3: 100_000})
     assert GS.stepper(domain, dt=0.5, backend="opencl").blocked is None  # no level fits
     monkeypatch.setattr(blocking, "cache_sizes", dict)

@@ -3,8 +3,8 @@
  * (model.cl).  Needs common.cl, the head of model.cl and the row layout (one work-item walks
  * whole rows).
  *
- * A work-item takes a band of `band` rows [r0, e0) of one plane (a plane: one ny × nx grid)
- * and advances it K steps.  Level k (k = 1..K) is the state after k steps; computing level k
+ * A work-item takes a band of `band` rows [r0, e0) of one plane (a plane: one ny × nx grid;
+ * an ensemble has one plane per member) and advances it K steps.  Level k (k = 1..K) is the state after k steps; computing level k
  * at rows [r0 − K + k, e0 + K − k) needs level k − 1 one row further on each side, so level
  * 0 (the input) is read K rows beyond the band: the halo, recomputed by both neighbouring
  * bands.  Periodic y: these rows wrap (a "virtual" row v is grid row v mod ny, its neighbours
@@ -26,13 +26,16 @@
 
 /* One row of one step: the cell body over the row's columns, the inputs' row at offset rc
  * (its neighbour rows at rs, rn; ds, dn: Dirichlet ghost rows), the parameter fields' at rf,
- * the outputs' at ro; i is the grid row (for the y coordinate). */
+ * the outputs' at ro; i is the grid row (for the y coordinate), m_ the ensemble member (its
+ * per-member parameters are read here, once per row, as the step kernel reads them). */
 INLINE void rd_row(@ARGS@,
         const int nx, const int x_kind, const real gx, const real gy,
         const real cx, const real cy, const real dx, const real dy,
         const long rc, const long rs, const long rn, const bool ds, const bool dn,
-        const long rf, const long ro, const int i)
+        const long rf, const long ro, const int i, const int m_)
 {
+    (void)m_;
+@ROW@
     const real yc = ((real)i + (real)0.5) * dy;
     (void)rs; (void)rn; (void)ds; (void)dn; (void)yc; (void)dx; (void)cy; (void)gy;
 #define RD_CELL(j, cc)                                                                    \
@@ -93,7 +96,8 @@ __kernel void rd_blocked(@ARGS@,
 @SELECT@
                 rd_row(@CALL@,
                        nx, x_kind, gx, gy, cx, cy, dx, dy, rc, rs, rn,
-                       lo_is_ghost(i, y_kind), hi_is_ghost(i, ny, y_kind), rf, ro, i);
+                       lo_is_ghost(i, y_kind), hi_is_ghost(i, ny, y_kind), rf, ro, i,
+                       w / bands);
             }
         }
     }

@@ -34,9 +34,11 @@ import numpy as np
 from ..backends.base import DeviceArray
 from ..kernel_files import read_source
 from .compiler import (
+    PerMember,
     Program,
     Target,
     _grid_coefficients,
+    _member_lines,
     _signature,
     arguments,
     opencl_arg_dtypes,
@@ -76,8 +78,6 @@ def why_not(stepper: Any) -> str | None:
     kind = stepper.target.kind
     if kind not in KINDS:
         return f"the domain is a {kind}; blocked passes run on 2-D grids"
-    if getattr(stepper.target, "members", 1) != 1:
-        return "an ensemble (members > 1) has no blocked kernel"
     program: Program = stepper._euler
     if tuple(o.name for o in program.outputs) != program.inputs:
         return "the step's outputs are not its inputs"
@@ -152,6 +152,9 @@ def fitting_steps(stepper: Any) -> int:
     l2 = cache_sizes().get(2, 1 << 20)
     level = len(stepper.species) * 3 * stepper.shape[-1] * stepper.dtype.itemsize
     k = 1 + l2 // max(level, 1)
+    # a band recomputes K − 1 halo rows per side and level: keep that under ~1/8 of a
+    # plane's rows (an ensemble of 64² members: K = 8 ran ~10% faster than K = 16)
+    k = min(k, stepper.target.domain.shape3[1] // 8)
     return min(AUTO_STEPS, k) if k >= 2 else 1
 
 
@@ -181,9 +184,11 @@ def setup(stepper: Any, block_steps: Any, rows: int | None = None) -> BlockedEul
 
 
 # ---------------------------------------------------------------------------- kernel
-def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype) -> str:
-    """The OpenCL C kernel ``rd_blocked`` of ``program`` (needs ``common.cl`` first)."""
-    decl, body = opencl_cell(program, kind, fields, dtype, field_index="kf_",
+def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
+                   member: frozenset[str] = frozenset()) -> str:
+    """The OpenCL C kernel ``rd_blocked`` of ``program`` (needs ``common.cl`` first);
+    ``member``: the parameters given per ensemble member."""
+    decl, body = opencl_cell(program, kind, fields, dtype, member, field_index="kf_",
                              out_index="ko_")
     select = []
     for q, s in enumerate(program.inputs):
@@ -192,13 +197,14 @@ def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype) -
     rename = {f"in_{s}": f"lin_{s}" for s in program.inputs}
     rename.update({f"out_{s}": f"lout_{s}" for s in program.inputs})
     rename["b_t"] = "times_[k - 1]"
-    call = [rename.get(nm, nm) for _, nm in _signature(program, fields)]
+    call = [rename.get(nm, nm) for _, nm in _signature(program, fields, member)]
     text = read_source("model", "blocked.cl")
     return opencl_head(program) + (
         text.replace("@ARGS@", ",\n        ".join(decl))
         .replace("@NS@", str(len(program.inputs)))
         .replace("@SELECT@", "\n".join(" " * 16 + line for line in select))
         .replace("@CALL@", ", ".join(call))
+        .replace("@ROW@", "\n".join("    " + line for line in _member_lines(member)))
         .replace("@CELL@", " \\\n".join("        " + b for b in body))
     )
 
@@ -217,7 +223,8 @@ class BlockedEuler:
         self.steps = int(steps)
         self.target: Target = stepper.target
         nz, ny, nx = self.target.domain.shape3
-        self.planes, self.ny, self.nx = nz, ny, nx
+        # one plane per ensemble member (a 2-D grid has nz = 1)
+        self.planes, self.ny, self.nx = nz * self.target.members, ny, nx
         self.rows = self.default_rows() if rows is None else int(rows)
         if self.rows < 1:
             raise ValueError(f"rows must be >= 1, got {rows}")
@@ -238,20 +245,20 @@ class BlockedEuler:
         units = max(1, int(self.stepper.backend.cl_device.max_compute_units))
         return max(1, min(ROWS, -(-self.ny * self.planes // (ITEMS_PER_UNIT * units))))
 
-    def _kernel(self, fields: frozenset[str]):
+    def _kernel(self, fields: frozenset[str], member: frozenset[str]):
         program, target = self.stepper._euler, self.target
 
         def make():
-            src = blocked_source(program, target.kind, fields, target.dtype)
+            src = blocked_source(program, target.kind, fields, target.dtype, member)
             k = target.backend._cl.Kernel(opencl_program(target, src, "model/blocked.cl"),
                                           "rd_blocked")
             dt = target.dtype
-            k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt), None, None,
+            k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt, member), None, None,
                                      np.int32, np.int32, np.int32, np.int32, dt, np.int32, dt,
                                      dt, dt, dt, dt, np.int32, np.int32, np.int32])
             return k
 
-        return opencl_kernel(program, target, fields, "rd_blocked", make)
+        return opencl_kernel(program, target, fields, "rd_blocked", make, member)
 
     def run(self, x: list[DeviceArray], y: list[DeviceArray], steps_done: int) -> None:
         """One pass: ``y`` = the state ``steps`` Euler steps after ``x``, which is at step
@@ -271,14 +278,17 @@ class BlockedEuler:
             self._last_t0 = steps_done
         fields = frozenset(p for p in program.refs("param")
                            if isinstance(st._dev[p], DeviceArray))
+        member = frozenset(p for p in program.refs("param")
+                           if isinstance(st._dev[p], PerMember))
         args = arguments(program, target, x, y, st._dev, fields,
-                         {"_h": st.dt, "_a": 0.0, "_b": 1.0}, steps_done * st.dt)
+                         {"_h": st.dt, "_a": 0.0, "_b": 1.0}, steps_done * st.dt,
+                         member=member)
         b = target.domain.bcs
         dx, dy, _ = target.spacing()
         cx, cy, _ = _grid_coefficients(target)
         args += [self._times.handle, self._scratch.handle, self.nx, self.ny, self.planes,
                  b.x.kind, b.x.value, b.y.kind, b.y.value, cx, cy, dx, dy, self.steps,
                  self.rows, self.items]
-        k = self._kernel(fields)
+        k = self._kernel(fields, member)
         k.set_args(*args)
         be._cl.enqueue_nd_range_kernel(be.queue, k, (self.items,), (1,))
