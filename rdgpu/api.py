@@ -151,12 +151,15 @@ def gray_scott_dt_limit(Du: float, Dv: float, dx: float, dy: float) -> float:
     return math.inf if d == 0 else 1.0 / (2.0 * d * (1.0 / dx**2 + 1.0 / dy**2))
 
 
-def levelset_dt_limit(max_speed: float, dx: float, dy: float) -> float:
-    """Upwind CFL limit: ``Δt · max|F| · (1/dx + 1/dy) ≤ 1``."""
+def levelset_dt_limit(max_speed: float, dx: float, dy: float, dz: float = math.inf) -> float:
+    """Upwind CFL limit: ``Δt · max|F| · (1/dx + 1/dy (+ 1/dz)) ≤ 1`` (``dz`` for a 3-D
+    grid; ``dy = inf`` for a 1-D one)."""
     max_speed = check.scalar(max_speed, "max_speed")
     dx = check.scalar(dx, "dx", strict=True)
     dy = math.inf if dy == math.inf else check.scalar(dy, "dy", strict=True)
-    return math.inf if max_speed == 0 else 1.0 / (max_speed * (1.0 / dx + 1.0 / dy))
+    dz = math.inf if dz == math.inf else check.scalar(dz, "dz", strict=True)
+    rate = 1.0 / dx + 1.0 / dy + 1.0 / dz
+    return math.inf if max_speed == 0 else 1.0 / (max_speed * rate)
 
 
 # ---------------------------------------------------------------------------- Laplacian
@@ -689,6 +692,31 @@ def sor_solve(
 
 
 # ---------------------------------------------------------------------------- level sets
+def _levelset_problem(phi: Any, dx: Any, dy: Any, dz: Any, bc: Any) -> tuple[np.ndarray, Grid]:
+    """``(field, Grid)`` of a 1-D, 2-D or (with ``dz``, default ``dx``) 3-D level-set field."""
+    field = check.as_field(phi, "phi", ndim=(1, 2, 3))
+    if field.ndim < 3:
+        if dz is not None:
+            raise ValueError(f"dz={dz!r} given for a {field.ndim}-D phi of shape {field.shape}: "
+                             "only a 3-D phi [nz, ny, nx] has a z axis; leave dz out")
+        return _grid_problem(field, "phi", dx, dy, bc)
+    dx, dy = check.spacing(dx, dy)
+    grid = Grid(field.shape, dx=dx, dy=dy, dz=dz, bc=bc)
+    check.spacing_fits(grid.dx, grid.dy, field.dtype)
+    check.spacing_fits(grid.dz, grid.dz, field.dtype)
+    return field, grid
+
+
+def _grid_formula(domain: Grid) -> tuple[str, float]:
+    """``(text, value)`` of ``1/(1/dx + 1/dy (+ 1/dz))`` for ``domain``."""
+    if domain.ndim == 1:
+        return "dx (1-D)", domain.dx
+    if domain.ndim == 3:
+        return ("1/(1/dx + 1/dy + 1/dz)",
+                1.0 / (1.0 / domain.dx + 1.0 / domain.dy + 1.0 / domain.dz))
+    return "1/(1/dx + 1/dy)", 1.0 / (1.0 / domain.dx + 1.0 / domain.dy)
+
+
 def levelset_advance(
     phi: np.ndarray,
     speed: float | np.ndarray,
@@ -697,6 +725,7 @@ def levelset_advance(
     steps: int = 1,
     dx: float = 1.0,
     dy: float | None = None,
+    dz: float | None = None,
     bc: Any = "neumann",
     check_stability: bool = True,
     backend: BackendSpec = None,
@@ -704,25 +733,30 @@ def levelset_advance(
     """Advance ``φ_t + F|∇φ| = 0`` by first-order upwinding (equations §5).
 
     ``φ < 0`` is inside; ``F > 0`` moves the front outward.  ``speed`` is a scalar or a
-    per-cell field.  Raises :class:`StabilityError` if ``dt · max|F| · (1/dx + 1/dy) > 1``."""
-    grid, domain = _grid_problem(phi, "phi", dx, dy, bc)
+    per-cell field.  ``phi`` is ``[nx]``, ``[ny, nx]`` or ``[nz, ny, nx]`` (3-D, seed 003
+    eq. 3.11: plane spacing ``dz``, default ``dx``; ``bc`` one condition or a triple
+    ``(z_bc, y_bc, x_bc)``).  Raises :class:`StabilityError` if
+    ``dt · max|F| · (1/dx + 1/dy (+ 1/dz)) > 1``."""
+    grid, domain = _levelset_problem(phi, dx, dy, dz, bc)
     F = check.scalar_or_field(speed, "speed", grid)
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
-    limit = levelset_dt_limit(float(np.max(np.abs(F))), dx, dy)
+    limit = levelset_dt_limit(float(np.max(np.abs(F))), dx, dy, domain.dz)
     if check_stability and dt > limit:
-        formula = "dx/max|F| (1-D)" if domain.ndim == 1 else "1/(max|F| (1/dx + 1/dy))"
+        formula = {1: "dx/max|F| (1-D)", 2: "1/(max|F| (1/dx + 1/dy))",
+                   3: "1/(max|F| (1/dx + 1/dy + 1/dz))"}[domain.ndim]
         raise StabilityError(
             f"dt={dt} exceeds the upwind CFL limit {limit:.6g} = {formula}; "
             "reduce dt or pass check_stability=False"
         )
+    kw = {"dz": domain.dz} if domain.ndim == 3 else {}
     be = get_backend(backend)
     cur = be.upload(grid)
     nxt = be.empty_like(cur)
     d_F = _upload_optional(be, F)
     for _ in range(n):
-        be.levelset_step(cur, d_F, nxt, dt=dt, dx=dx, dy=dy, bc=bcs)
+        be.levelset_step(cur, d_F, nxt, dt=dt, dx=dx, dy=dy, bc=bcs, **kw)
         cur, nxt = nxt, cur
     out = _finite(cur.numpy(), "levelset_advance", stepping=True, check_stability=check_stability)
     return _restore(out, phi)
@@ -733,6 +767,7 @@ def reinitialize(
     *,
     dx: float = 1.0,
     dy: float | None = None,
+    dz: float | None = None,
     iterations: int | None = None,
     dtau: float | None = None,
     bc: Any = "neumann",
@@ -743,26 +778,29 @@ def reinitialize(
 
     Iterates ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with ``S = φ₀/sqrt(φ₀² + dx²)`` and pseudo-time
     step ``dtau`` (default and maximum ``1/(1/dx + 1/dy)``, i.e. ``dx/2`` on a square
-    grid).  Distance information travels about half a cell per iteration: the default
-    ``iterations = max(ny, nx)`` makes ``φ`` a distance out to about ``N/2`` cells.
-    ``subcell_fix`` (Russo & Smereka 2000) anchors the cells next to the front to φ₀'s own
-    distance estimate, so the front does not drift however many iterations run; without
-    it the plain Godunov scheme moves the front by a fraction of a cell per ~100 steps."""
-    grid, domain = _grid_problem(phi, "phi", dx, dy, bc)
+    grid; ``1/(1/dx + 1/dy + 1/dz)`` on a 3-D ``[nz, ny, nx]`` grid, ``dx/3`` on a cubic
+    one).  Distance information travels about half (3-D: a third of) a cell per
+    iteration: the default ``iterations = max(shape)`` makes ``φ`` a distance out to about
+    ``N/2`` (``N/3``) cells.  ``subcell_fix`` (Russo & Smereka 2000) anchors the cells next
+    to the front to φ₀'s own distance estimate, so the front does not drift however many
+    iterations run; without it the plain Godunov scheme moves the front by a fraction of
+    a cell per ~100 steps."""
+    grid, domain = _levelset_problem(phi, dx, dy, dz, bc)
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
-    limit = 1.0 / (1.0 / dx + 1.0 / dy)
+    formula, limit = _grid_formula(domain)
     dtau = limit if dtau is None else check.scalar(dtau, "dtau", strict=True)
     if dtau > limit:
-        formula = "dx (1-D)" if domain.ndim == 1 else "1/(1/dx + 1/dy)"
         raise StabilityError(f"dtau={dtau} exceeds the CFL limit {limit:.6g} = {formula}")
     n = max(grid.shape) if iterations is None else check.steps(iterations, "iterations")
+    kw = {"dz": domain.dz} if domain.ndim == 3 else {}
     be = get_backend(backend)
     phi0 = be.upload(grid)
     cur = be.upload(grid)
     nxt = be.empty_like(cur)
     for _ in range(n):
         be.reinit_step(
-            cur, phi0, nxt, dtau=dtau, width=dx, dx=dx, dy=dy, bc=bcs, subcell=subcell_fix
+            cur, phi0, nxt, dtau=dtau, width=dx, dx=dx, dy=dy, bc=bcs, subcell=subcell_fix,
+            **kw,
         )
         cur, nxt = nxt, cur
     return _restore(cur.numpy(), phi)

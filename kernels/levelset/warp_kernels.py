@@ -6,13 +6,26 @@ Two launch shapes share the ``@wp.func`` cell formulas: ``rows`` (one thread per
 ``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).
 
 ``STEP[(np.dtype, speed_is_field)]`` and ``REINIT[(np.dtype, subcell)]`` are
-``(rows, cells)``.  Every output is flushed of subnormals; ``rows`` runs with FTZ/DAZ on
-(see ``warp_common``).
+``(rows, cells)``; ``STEP3`` and ``REINIT3`` the same on a 3-D grid ``[nz, ny, nx]``
+(``rows``: one thread per row of the ``nz·ny`` rows; ``cells``: ``dim = (nz, ny, nx)``),
+with the z terms joining the sums after the x and y ones (seed 003, eq. 3.11).  Every
+output is flushed of subnormals; ``rows`` runs with FTZ/DAZ on (see ``warp_common``).
 """
+
+from typing import Any
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import field_at, flush, ftz_begin, ftz_end, ghost, scalar_at
+from rdgpu._kernels.warp_common import (
+    DIRICHLET,
+    PERIODIC,
+    field_at,
+    flush,
+    ftz_begin,
+    ftz_end,
+    ghost,
+    scalar_at,
+)
 
 wp.set_module_options({"enable_backward": False})
 
@@ -40,6 +53,34 @@ def _gradients(dtype):
         return grad_plus, grad_minus
 
     return upwind
+
+
+def _subcell(dtype):
+    """``(xy_max, relax)`` of the Russo-Smereka fix: the max of the running ``|∇φ₀|``
+    estimate with the x and y one-sided differences, and the relaxation
+    ``φ − crel (sgn(φ₀)|φ| − φ₀/max(g, tiny))`` of a front cell."""
+    zero = dtype(0.0)
+    one = dtype(1.0)
+    tiny = dtype(1e-30)
+
+    @wp.func
+    def xy_max(g: dtype, p0: dtype, w0: dtype, e0: dtype, s0: dtype, n0: dtype, ix: dtype,
+               iy: dtype) -> dtype:
+        r = wp.max(g, wp.abs((e0 - p0) * ix))
+        r = wp.max(r, wp.abs((p0 - w0) * ix))
+        r = wp.max(r, wp.abs((n0 - p0) * iy))
+        return wp.max(r, wp.abs((p0 - s0) * iy))
+
+    @wp.func
+    def relax(c: dtype, p0: dtype, g: dtype, crel: dtype) -> dtype:
+        sg = zero  # numpy.sign: 0 at 0 (wp.sign gives 1)
+        if p0 > zero:
+            sg = one
+        elif p0 < zero:
+            sg = -one
+        return c - crel * (sg * wp.abs(c) - p0 / wp.max(g, tiny))
+
+    return xy_max, relax
 
 
 def _build_step(dtype, speed_field):
@@ -118,9 +159,8 @@ def _build_step(dtype, speed_field):
 def _build_reinit(dtype, subcell):
     A2 = wp.array2d(dtype=dtype)
     zero = dtype(0.0)
-    one = dtype(1.0)
-    tiny = dtype(1e-30)
     upwind = _gradients(dtype)
+    xy_max, relax = _subcell(dtype)
 
     @wp.func
     def advance(
@@ -138,18 +178,8 @@ def _build_reinit(dtype, subcell):
             if front or p0 == zero:
                 gx = (e0 - w0) * hx
                 gy = (n0 - s0) * hy
-                g = wp.sqrt(gx * gx + gy * gy)
-                g = wp.max(g, wp.abs((e0 - p0) * ix))
-                g = wp.max(g, wp.abs((p0 - w0) * ix))
-                g = wp.max(g, wp.abs((n0 - p0) * iy))
-                g = wp.max(g, wp.abs((p0 - s0) * iy))
-                g = wp.max(g, tiny)
-                sg = zero  # numpy.sign: 0 at 0 (wp.sign gives 1)
-                if p0 > zero:
-                    sg = one
-                elif p0 < zero:
-                    sg = -one
-                res = c - crel * (sg * wp.abs(c) - p0 / g)
+                g = xy_max(wp.sqrt(gx * gx + gy * gy), p0, w0, e0, s0, n0, ix, iy)
+                res = relax(c, p0, g, crel)
         return flush(res)
 
     @wp.func
@@ -222,6 +252,234 @@ def _build_reinit(dtype, subcell):
     return rows, cells
 
 
+# ------------------------------------------------------------------ 3-D grids
+@wp.func
+def ghost3(
+    u: wp.array3d(dtype=Any), k: int, i: int, j: int, zk: int, zv: Any, yk: int, yv: Any,
+    xk: int, xv: Any,
+):  # -> u.dtype
+    """``u[k, i, j]`` for a face neighbour of a cell (at most one index one step outside
+    the grid): periodic wraps, Neumann clamps, Dirichlet gives the axis' value."""
+    nz = u.shape[0]
+    ny = u.shape[1]
+    nx = u.shape[2]
+    kk = wp.clamp(k, 0, nz - 1)
+    ii = wp.clamp(i, 0, ny - 1)
+    jj = wp.clamp(j, 0, nx - 1)
+    if zk == PERIODIC:
+        kk = (k + nz) % nz
+    if yk == PERIODIC:
+        ii = (i + ny) % ny
+    if xk == PERIODIC:
+        jj = (j + nx) % nx
+    val = u[kk, ii, jj]
+    if (k < 0 or k >= nz) and zk == DIRICHLET:
+        val = zv
+    if (i < 0 or i >= ny) and yk == DIRICHLET:
+        val = yv
+    if (j < 0 or j >= nx) and xk == DIRICHLET:
+        val = xv
+    return val
+
+
+@wp.func
+def field_at3(f: wp.array3d(dtype=Any), k: int, i: int, j: int):
+    """Per-cell parameter of a 3-D grid."""
+    return f[k, i, j]
+
+
+@wp.func
+def scalar_at3(f: Any, k: int, i: int, j: int):
+    """Uniform parameter (same signature as :func:`field_at3`)."""
+    return f
+
+
+@wp.func
+def nb3(u: wp.array3d(dtype=Any), k: int, i: int, j: int, dk: int, di: int, dj: int,
+        inner: bool, zk: int, zv: Any, yk: int, yv: Any, xk: int, xv: Any):  # -> u.dtype
+    """The face neighbour ``u[k + dk, i + di, j + dj]``: a plain load for an ``inner``
+    cell (no ghost possible), else by the ghost rule."""
+    if inner:
+        return u[k + dk, i + di, j + dj]
+    return ghost3(u, k + dk, i + di, j + dj, zk, zv, yk, yv, xk, xv)
+
+
+@wp.func
+def row3(u: wp.array3d(dtype=Any), row: int):
+    """``(k, i, interior)`` of row ``row`` of the ``nz·ny`` rows: its plane, its row in
+    the plane, and whether no face neighbour of its cells is off the grid in z or y."""
+    ny = u.shape[1]
+    k = row // ny
+    i = row % ny
+    return k, i, k > 0 and k < u.shape[0] - 1 and i > 0 and i < ny - 1
+
+
+@wp.func
+def inner3(u: wp.array3d(dtype=Any), k: int, i: int, j: int) -> bool:
+    """Whether every face neighbour of cell ``(k, i, j)`` is on the grid."""
+    return (k > 0 and k < u.shape[0] - 1 and i > 0 and i < u.shape[1] - 1 and j > 0
+            and j < u.shape[2] - 1)
+
+
+def _gradients3(dtype):
+    zero = dtype(0.0)
+
+    @wp.func
+    def sums(c: dtype, lo: dtype, hi: dtype, inv: dtype, plus: dtype, minus: dtype):
+        """Add one axis' squares to the running sums of ``∇⁺²`` and ``∇⁻²``."""
+        dm = (c - lo) * inv
+        dp = (hi - c) * inv
+        a = wp.max(dm, zero)
+        b = wp.min(dp, zero)
+        p = plus + a * a + b * b
+        a = wp.max(dp, zero)
+        b = wp.min(dm, zero)
+        return p, minus + a * a + b * b
+
+    @wp.func
+    def upwind3(c: dtype, w: dtype, e: dtype, s: dtype, n: dtype, b: dtype, t: dtype,
+                ix: dtype, iy: dtype, iz: dtype):
+        """Godunov ``(∇⁺, ∇⁻)`` in 3-D, the squares summed x, y, then z."""
+        dm = (c - w) * ix
+        dp = (e - c) * ix
+        a = wp.max(dm, zero)
+        q = wp.min(dp, zero)
+        plus = a * a + q * q
+        a = wp.max(dp, zero)
+        q = wp.min(dm, zero)
+        minus = a * a + q * q
+        plus, minus = sums(c, s, n, iy, plus, minus)
+        plus, minus = sums(c, b, t, iz, plus, minus)
+        return wp.sqrt(plus), wp.sqrt(minus)
+
+    return upwind3
+
+
+def _build_step3(dtype, speed_field):
+    A3 = wp.array3d(dtype=dtype)
+    ST = A3 if speed_field else dtype
+    s_at = field_at3 if speed_field else scalar_at3
+    zero = dtype(0.0)
+    upwind3 = _gradients3(dtype)
+
+    @wp.func
+    def at(
+        phi: A3, speed: ST, out: A3, k: int, i: int, j: int, dt: dtype, ix: dtype, iy: dtype,
+        iz: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype, inner: bool,
+    ):
+        c = phi[k, i, j]
+        gp, gm = upwind3(
+            c,
+            nb3(phi, k, i, j, 0, 0, -1, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 0, 0, 1, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 0, -1, 0, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 0, 1, 0, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, -1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
+            ix, iy, iz,
+        )
+        f = s_at(speed, k, i, j)
+        out[k, i, j] = flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
+
+    # ix, iy, iz: 1/dx, 1/dy, 1/dz
+    @wp.kernel
+    def rows(
+        phi: A3, speed: ST, out: A3, dt: dtype, ix: dtype, iy: dtype, iz: dtype,
+        zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
+    ):
+        saved = ftz_begin()
+        k, i, inner = row3(phi, wp.tid() + row0)
+        nx = phi.shape[2]
+        for j in range(nx):
+            at(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv,
+               inner and j > 0 and j < nx - 1)
+        ftz_end(saved)
+
+    @wp.kernel
+    def cells(
+        phi: A3, speed: ST, out: A3, dt: dtype, ix: dtype, iy: dtype, iz: dtype,
+        zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
+    ):
+        k, i, j = wp.tid()
+        inner = inner3(phi, k, i, j)
+        at(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv, inner)
+
+    return rows, cells
+
+
+def _build_reinit3(dtype, subcell):
+    A3 = wp.array3d(dtype=dtype)
+    zero = dtype(0.0)
+    upwind3 = _gradients3(dtype)
+    xy_max, relax = _subcell(dtype)
+
+    @wp.func
+    def at(
+        phi: A3, phi0: A3, out: A3, k: int, i: int, j: int, dtau: dtype, w2: dtype,
+        ix: dtype, iy: dtype, iz: dtype, hx: dtype, hy: dtype, hz: dtype, crel: dtype,
+        zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype, inner: bool,
+    ):
+        c = phi[k, i, j]
+        p0 = phi0[k, i, j]
+        gp, gm = upwind3(
+            c,
+            nb3(phi, k, i, j, 0, 0, -1, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 0, 0, 1, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 0, -1, 0, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 0, 1, 0, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, -1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
+            nb3(phi, k, i, j, 1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
+            ix, iy, iz,
+        )
+        sign = p0 / wp.sqrt(p0 * p0 + w2)
+        res = c - dtau * (wp.max(sign, zero) * gp + wp.min(sign, zero) * gm - sign)
+        if wp.static(subcell):
+            w0 = nb3(phi0, k, i, j, 0, 0, -1, inner, zk, zv, yk, yv, xk, xv)
+            e0 = nb3(phi0, k, i, j, 0, 0, 1, inner, zk, zv, yk, yv, xk, xv)
+            s0 = nb3(phi0, k, i, j, 0, -1, 0, inner, zk, zv, yk, yv, xk, xv)
+            n0 = nb3(phi0, k, i, j, 0, 1, 0, inner, zk, zv, yk, yv, xk, xv)
+            b0 = nb3(phi0, k, i, j, -1, 0, 0, inner, zk, zv, yk, yv, xk, xv)
+            t0 = nb3(phi0, k, i, j, 1, 0, 0, inner, zk, zv, yk, yv, xk, xv)
+            front = p0 * w0 < zero or p0 * e0 < zero or p0 * s0 < zero or p0 * n0 < zero
+            if front or p0 * b0 < zero or p0 * t0 < zero or p0 == zero:
+                gx = (e0 - w0) * hx
+                gy = (n0 - s0) * hy
+                gz = (t0 - b0) * hz
+                g = xy_max(wp.sqrt(gx * gx + gy * gy + gz * gz), p0, w0, e0, s0, n0, ix, iy)
+                g = wp.max(g, wp.abs((t0 - p0) * iz))
+                g = wp.max(g, wp.abs((p0 - b0) * iz))
+                res = relax(c, p0, g, crel)
+        out[k, i, j] = flush(res)
+
+    # w2 = width², ix.. = 1/dx.., hx.. = 0.5/dx.., crel = dtau/min(dx, dy, dz)
+    @wp.kernel
+    def rows(
+        phi: A3, phi0: A3, out: A3, dtau: dtype, w2: dtype, ix: dtype, iy: dtype, iz: dtype,
+        hx: dtype, hy: dtype, hz: dtype, crel: dtype,
+        zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype, row0: int,
+    ):
+        saved = ftz_begin()
+        k, i, inner = row3(phi, wp.tid() + row0)
+        nx = phi.shape[2]
+        for j in range(nx):
+            at(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+               zk, zv, yk, yv, xk, xv, inner and j > 0 and j < nx - 1)
+        ftz_end(saved)
+
+    @wp.kernel
+    def cells(
+        phi: A3, phi0: A3, out: A3, dtau: dtype, w2: dtype, ix: dtype, iy: dtype, iz: dtype,
+        hx: dtype, hy: dtype, hz: dtype, crel: dtype,
+        zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
+    ):
+        k, i, j = wp.tid()
+        inner = inner3(phi, k, i, j)
+        at(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+           zk, zv, yk, yv, xk, xv, inner)
+
+    return rows, cells
+
+
 _TYPES = ((np.float32, wp.float32), (np.float64, wp.float64))
 
 STEP = {
@@ -232,6 +490,18 @@ STEP = {
 
 REINIT = {
     (np.dtype(npt), subcell): _build_reinit(wt, subcell)
+    for npt, wt in _TYPES
+    for subcell in (False, True)
+}
+
+STEP3 = {
+    (np.dtype(npt), speed_field): _build_step3(wt, speed_field)
+    for npt, wt in _TYPES
+    for speed_field in (False, True)
+}
+
+REINIT3 = {
+    (np.dtype(npt), subcell): _build_reinit3(wt, subcell)
     for npt, wt in _TYPES
     for subcell in (False, True)
 }

@@ -226,8 +226,10 @@ class Backend(ABC):
         dx: float,
         dy: float,
         bc: GridBC,
+        dz: float | None = None,
     ) -> None:
-        """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5)."""
+        """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5) on
+        a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid."""
 
     @abstractmethod
     def reinit_step(
@@ -242,10 +244,12 @@ class Backend(ABC):
         dy: float,
         bc: GridBC,
         subcell: bool = True,
+        dz: float | None = None,
     ) -> None:
         """One pseudo-time step of ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with
         ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (equations §5); with ``subcell``,
-        cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py)."""
+        cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py).
+        A 3-D ``[nz, ny, nx]`` grid needs ``dz``."""
 
     # ------------------------------------------------------------------ CSR / mesh kernels
     # A CSR kernel's vector operands may have any shape: they are read as flat C-order

@@ -82,12 +82,12 @@ class NumpyBackend(Backend):
         else:
             np.maximum(row_change.handle, change, out=row_change.handle)
 
-    def levelset_step(self, phi, speed, out, *, dt, dx, dy, bc):
-        out.handle[...] = self._ls.levelset_step(phi.handle, _value(speed), dt, dx, dy, bc)
+    def levelset_step(self, phi, speed, out, *, dt, dx, dy, bc, dz=None):
+        out.handle[...] = self._ls.levelset_step(phi.handle, _value(speed), dt, dx, dy, bc, dz)
 
-    def reinit_step(self, phi, phi0, out, *, dtau, width, dx, dy, bc, subcell=True):
+    def reinit_step(self, phi, phi0, out, *, dtau, width, dx, dy, bc, subcell=True, dz=None):
         out.handle[...] = self._ls.reinit_step(
-            phi.handle, phi0.handle, dtau, width, dx, dy, bc, subcell
+            phi.handle, phi0.handle, dtau, width, dx, dy, bc, subcell, dz
         )
 
     # CSR / mesh kernels (vectors are flat views of the handles)

@@ -46,6 +46,7 @@ _FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh")
 # l = int64, r = the real type.  Declaring them lets PyOpenCL pack scalars fast (untyped
 # scalar arguments cost ~15 us each on PoCL).
 _GRID = "iiirir"  # nx, ny, y_kind, g_y, x_kind, g_x
+_GRID3 = "iiiiririr"  # nx, ny, nz, y_kind, g_y, x_kind, g_x, z_kind, g_z
 _KERNEL_ARGS = {
     "laplacian5": "BB" + _GRID + "rr",
     "laplacian9": "BB" + _GRID + "r",
@@ -60,6 +61,10 @@ _KERNEL_ARGS = {
     "levelset_step_f": "BBB" + _GRID + "rrrr",
     "reinit_step": "BBB" + _GRID + "rrrrrrrr",
     "reinit_step_subcell": "BBB" + _GRID + "rrrrrrrr",
+    "levelset_step3_s": "BBB" + _GRID3 + "rrrrr",
+    "levelset_step3_f": "BBB" + _GRID3 + "rrrrr",
+    "reinit_step3": "BBB" + _GRID3 + "rrrrrrrrrr",
+    "reinit_step3_subcell": "BBB" + _GRID3 + "rrrrrrrrrr",
     "csr_spmv": "BBBBBii",
     "mesh_gray_scott_ss": "BBBBBBBBBiirrrrr",
     "mesh_gray_scott_fs": "BBBBBBBBBiirrrrr",
@@ -554,6 +559,24 @@ class OpenCLBackend(Backend):
         )  # fmt: skip
         self._launch_grid(kernel, ny, args)
 
+    def _grid3(self, bc: GridBC, u: DeviceArray, *others: DeviceArray):
+        """Check a 3-D grid kernel's arrays; return ``(rows, (nx, ny, nz, y_kind, g_y,
+        x_kind, g_x, z_kind, g_z))`` with ``rows = nz·ny`` (0 when there are no cells)."""
+        if not isinstance(u.backend, OpenCLBackend):
+            raise TypeError(f"array belongs to the {u.backend.name} backend, not opencl")
+        for o in others:
+            if o.shape != u.shape or o.dtype != u.dtype:
+                raise ValueError(
+                    f"array shape/dtype mismatch: {o.shape} {o.dtype} vs {u.shape} {u.dtype}"
+                )
+        nz, ny, nx = u.shape
+        if nz * ny * nx > _MAX_CELLS:
+            raise ValueError(f"a grid of {nz}x{ny}x{nx} cells is too large for the OpenCL "
+                             "kernels")
+        rows = nz * ny if nx else 0
+        return rows, (nx, ny, nz, bc.y.kind, bc.y.value, bc.x.kind, bc.x.value, bc.z.kind,
+                      bc.z.value)
+
     def levelset_step(
         self,
         phi: DeviceArray,
@@ -564,10 +587,19 @@ class OpenCLBackend(Backend):
         dx: float,
         dy: float,
         bc: GridBC,
+        dz: float | None = None,
     ) -> None:
-        ny, grid = self._grid(bc, phi, out)
         is_field, f_buf, f_val = self._field_or_scalar(speed, phi, "speed")
-        kernel = self.kernels(phi.dtype)["levelset_step_f" if is_field else "levelset_step_s"]
+        ks = self.kernels(phi.dtype)
+        if len(phi.shape) == 3:
+            rows, grid = self._grid3(bc, phi, out)
+            kernel = ks["levelset_step3_f" if is_field else "levelset_step3_s"]
+            args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, 1.0 / dz,
+                    dt)
+            self._launch_grid(kernel, rows, args)
+            return
+        ny, grid = self._grid(bc, phi, out)
+        kernel = ks["levelset_step_f" if is_field else "levelset_step_s"]
         args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, dt)
         self._launch_grid(kernel, ny, args)
 
@@ -583,9 +615,20 @@ class OpenCLBackend(Backend):
         dy: float,
         bc: GridBC,
         subcell: bool = True,
+        dz: float | None = None,
     ) -> None:
+        ks = self.kernels(phi.dtype)
+        if len(phi.shape) == 3:
+            rows, grid = self._grid3(bc, phi, phi0, out)
+            kernel = ks["reinit_step3_subcell" if subcell else "reinit_step3"]
+            args = (
+                phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
+                1.0 / dz, dtau, 0.5 / dx, 0.5 / dy, 0.5 / dz, dtau / min(dx, dy, dz), 1e-30,
+            )  # fmt: skip
+            self._launch_grid(kernel, rows, args)
+            return
         ny, grid = self._grid(bc, phi, phi0, out)
-        kernel = self.kernels(phi.dtype)["reinit_step_subcell" if subcell else "reinit_step"]
+        kernel = ks["reinit_step_subcell" if subcell else "reinit_step"]
         args = (
             phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
             dtau, 0.5 / dx, 0.5 / dy, dtau / min(dx, dy), 1e-30,

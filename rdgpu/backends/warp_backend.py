@@ -427,6 +427,20 @@ class WarpBackend(Backend):
             return
         self._run_split(rows, ny, ny * nx, args)
 
+    def _run_grid3(self, kernels, shape: tuple[int, ...], args: list) -> None:
+        """Launch a 3-D ``(rows, cells)`` kernel pair over a ``[nz, ny, nx]`` grid."""
+        nz, ny, nx = shape
+        if nz * ny * nx == 0:
+            return
+        rows, cells = kernels
+        if self._cells:
+            self._launch(cells, (nz, ny, nx), args, 0)
+            return
+        self._run_split(rows, nz * ny, nz * ny * nx, args)
+
+    def _bc3_args(self, bc: GridBC, t: type) -> list:
+        return [bc.z.kind, t(bc.z.value), *self._bc_args(bc, t)]
+
     def levelset_step(
         self,
         phi: DeviceArray,
@@ -437,16 +451,22 @@ class WarpBackend(Backend):
         dx: float,
         dy: float,
         bc: GridBC,
+        dz: float | None = None,
     ) -> None:
         t = self._real(phi, "levelset phi")
         self._same(phi, out, "levelset output")
         s_val, s_field = self._param(speed, phi, "levelset speed")
-        kernels = self._family("levelset").STEP[(phi.dtype, s_field)]
+        family = self._family("levelset")
+        if len(phi.shape) == 3:
+            args = [phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
+                    t(1.0 / dz), *self._bc3_args(bc, t)]
+            self._run_grid3(family.STEP3[(phi.dtype, s_field)], phi.shape, args)
+            return
         args = [
             phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
             *self._bc_args(bc, t),
         ]
-        self._run_grid(kernels, phi.shape, args)
+        self._run_grid(family.STEP[(phi.dtype, s_field)], phi.shape, args)
 
     def reinit_step(
         self,
@@ -460,17 +480,26 @@ class WarpBackend(Backend):
         dy: float,
         bc: GridBC,
         subcell: bool = True,
+        dz: float | None = None,
     ) -> None:
         t = self._real(phi, "reinit phi")
         self._same(phi, phi0, "reinit phi0")
         self._same(phi, out, "reinit output")
-        kernels = self._family("levelset").REINIT[(phi.dtype, bool(subcell))]
+        family = self._family("levelset")
+        if len(phi.shape) == 3:
+            args = [
+                phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
+                t(1.0 / dx), t(1.0 / dy), t(1.0 / dz), t(0.5 / dx), t(0.5 / dy), t(0.5 / dz),
+                t(dtau / min(dx, dy, dz)), *self._bc3_args(bc, t),
+            ]  # fmt: skip
+            self._run_grid3(family.REINIT3[(phi.dtype, bool(subcell))], phi.shape, args)
+            return
         args = [
             phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
             t(1.0 / dx), t(1.0 / dy), t(0.5 / dx), t(0.5 / dy), t(dtau / min(dx, dy)),
             *self._bc_args(bc, t),
         ]
-        self._run_grid(kernels, phi.shape, args)
+        self._run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
 
     # ------------------------------------------------------------------ CSR / mesh kernels
     def _run_rows(self, kernels, n_rows: int, nnz: int, args: list) -> None:
