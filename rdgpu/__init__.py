@@ -43,6 +43,10 @@ def __getattr__(name: str):
         module = importlib.import_module(".sweep", __name__)
 
         return module.sweep if name == "sweep" else module.sweep_map
+    if name in ("front_growth", "RDFront"):  # level sets driven by reaction-diffusion
+        from . import fronts
+
+        return getattr(fronts, name)
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -58,6 +62,7 @@ __all__ = [
     "BackendUnavailableError",
     "ConvergenceError",
     "ImplicitDiffusion",
+    "RDFront",
     "StabilityError",
     "Simulation",
     "SurfaceMesh",
@@ -66,6 +71,7 @@ __all__ = [
     "bernoulli_substep",
     "define_model",
     "diffusion_step",
+    "front_growth",
     "get_backend",
     "gray_scott",
     "gray_scott_dt_limit",
