@@ -295,12 +295,16 @@ def scalar_at3(f: Any, k: int, i: int, j: int):
 
 
 @wp.func
-def nb3(u: wp.array3d(dtype=Any), k: int, i: int, j: int, dk: int, di: int, dj: int,
-        inner: bool, zk: int, zv: Any, yk: int, yv: Any, xk: int, xv: Any):  # -> u.dtype
-    """The face neighbour ``u[k + dk, i + di, j + dj]``: a plain load for an ``inner``
-    cell (no ghost possible), else by the ghost rule."""
-    if inner:
-        return u[k + dk, i + di, j + dj]
+def nb_in(u: wp.array3d(dtype=Any), k: int, i: int, j: int, dk: int, di: int, dj: int,
+          zk: int, zv: Any, yk: int, yv: Any, xk: int, xv: Any):  # -> u.dtype
+    """The face neighbour ``u[k + dk, i + di, j + dj]`` of an interior cell: a plain load."""
+    return u[k + dk, i + di, j + dj]
+
+
+@wp.func
+def nb_edge(u: wp.array3d(dtype=Any), k: int, i: int, j: int, dk: int, di: int, dj: int,
+            zk: int, zv: Any, yk: int, yv: Any, xk: int, xv: Any):  # -> u.dtype
+    """The face neighbour ``u[k + dk, i + di, j + dj]`` by the ghost rule."""
     return ghost3(u, k + dk, i + di, j + dj, zk, zv, yk, yv, xk, xv)
 
 
@@ -355,31 +359,51 @@ def _gradients3(dtype):
     return upwind3
 
 
+def _grad3(dtype, nb):
+    """``(∇⁺, ∇⁻)`` at cell ``(k, i, j)`` (value ``c``) of ``phi``, the neighbours loaded
+    by ``nb``."""
+    upwind3 = _gradients3(dtype)
+
+    @wp.func
+    def grad(phi: wp.array3d(dtype=dtype), c: dtype, k: int, i: int, j: int, ix: dtype,
+             iy: dtype, iz: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype):
+        return upwind3(
+            c,
+            nb(phi, k, i, j, 0, 0, -1, zk, zv, yk, yv, xk, xv),
+            nb(phi, k, i, j, 0, 0, 1, zk, zv, yk, yv, xk, xv),
+            nb(phi, k, i, j, 0, -1, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, k, i, j, 0, 1, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, k, i, j, -1, 0, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, k, i, j, 1, 0, 0, zk, zv, yk, yv, xk, xv),
+            ix, iy, iz,
+        )
+
+    return grad
+
+
 def _build_step3(dtype, speed_field):
     A3 = wp.array3d(dtype=dtype)
     ST = A3 if speed_field else dtype
     s_at = field_at3 if speed_field else scalar_at3
     zero = dtype(0.0)
-    upwind3 = _gradients3(dtype)
 
-    @wp.func
-    def at(
-        phi: A3, speed: ST, out: A3, k: int, i: int, j: int, dt: dtype, ix: dtype, iy: dtype,
-        iz: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype, inner: bool,
-    ):
-        c = phi[k, i, j]
-        gp, gm = upwind3(
-            c,
-            nb3(phi, k, i, j, 0, 0, -1, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 0, 0, 1, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 0, -1, 0, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 0, 1, 0, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, -1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
-            ix, iy, iz,
-        )
-        f = s_at(speed, k, i, j)
-        out[k, i, j] = flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
+    def make(nb):
+        """The cell formula with the neighbour loads ``nb`` (:func:`nb_in`/:func:`nb_edge`)."""
+        grad = _grad3(dtype, nb)
+
+        @wp.func
+        def at(
+            phi: A3, speed: ST, out: A3, k: int, i: int, j: int, dt: dtype, ix: dtype,
+            iy: dtype, iz: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
+        ):
+            c = phi[k, i, j]
+            gp, gm = grad(phi, c, k, i, j, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            f = s_at(speed, k, i, j)
+            out[k, i, j] = flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
+
+        return at
+
+    at_in, at_edge = make(nb_in), make(nb_edge)
 
     # ix, iy, iz: 1/dx, 1/dy, 1/dz
     @wp.kernel
@@ -390,9 +414,16 @@ def _build_step3(dtype, speed_field):
         saved = ftz_begin()
         k, i, inner = row3(phi, wp.tid() + row0)
         nx = phi.shape[2]
-        for j in range(nx):
-            at(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv,
-               inner and j > 0 and j < nx - 1)
+        if inner and nx > 2:
+            at_edge(phi, speed, out, k, i, 0, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
+            while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
+                at_in(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+                j += 1
+            at_edge(phi, speed, out, k, i, nx - 1, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+        else:
+            for j in range(nx):
+                at_edge(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
         ftz_end(saved)
 
     @wp.kernel
@@ -401,8 +432,10 @@ def _build_step3(dtype, speed_field):
         zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         k, i, j = wp.tid()
-        inner = inner3(phi, k, i, j)
-        at(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv, inner)
+        if inner3(phi, k, i, j):
+            at_in(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+        else:
+            at_edge(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
 
     return rows, cells
 
@@ -410,46 +443,44 @@ def _build_step3(dtype, speed_field):
 def _build_reinit3(dtype, subcell):
     A3 = wp.array3d(dtype=dtype)
     zero = dtype(0.0)
-    upwind3 = _gradients3(dtype)
     xy_max, relax = _subcell(dtype)
 
-    @wp.func
-    def at(
-        phi: A3, phi0: A3, out: A3, k: int, i: int, j: int, dtau: dtype, w2: dtype,
-        ix: dtype, iy: dtype, iz: dtype, hx: dtype, hy: dtype, hz: dtype, crel: dtype,
-        zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype, inner: bool,
-    ):
-        c = phi[k, i, j]
-        p0 = phi0[k, i, j]
-        gp, gm = upwind3(
-            c,
-            nb3(phi, k, i, j, 0, 0, -1, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 0, 0, 1, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 0, -1, 0, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 0, 1, 0, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, -1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
-            nb3(phi, k, i, j, 1, 0, 0, inner, zk, zv, yk, yv, xk, xv),
-            ix, iy, iz,
-        )
-        sign = p0 / wp.sqrt(p0 * p0 + w2)
-        res = c - dtau * (wp.max(sign, zero) * gp + wp.min(sign, zero) * gm - sign)
-        if wp.static(subcell):
-            w0 = nb3(phi0, k, i, j, 0, 0, -1, inner, zk, zv, yk, yv, xk, xv)
-            e0 = nb3(phi0, k, i, j, 0, 0, 1, inner, zk, zv, yk, yv, xk, xv)
-            s0 = nb3(phi0, k, i, j, 0, -1, 0, inner, zk, zv, yk, yv, xk, xv)
-            n0 = nb3(phi0, k, i, j, 0, 1, 0, inner, zk, zv, yk, yv, xk, xv)
-            b0 = nb3(phi0, k, i, j, -1, 0, 0, inner, zk, zv, yk, yv, xk, xv)
-            t0 = nb3(phi0, k, i, j, 1, 0, 0, inner, zk, zv, yk, yv, xk, xv)
-            front = p0 * w0 < zero or p0 * e0 < zero or p0 * s0 < zero or p0 * n0 < zero
-            if front or p0 * b0 < zero or p0 * t0 < zero or p0 == zero:
-                gx = (e0 - w0) * hx
-                gy = (n0 - s0) * hy
-                gz = (t0 - b0) * hz
-                g = xy_max(wp.sqrt(gx * gx + gy * gy + gz * gz), p0, w0, e0, s0, n0, ix, iy)
-                g = wp.max(g, wp.abs((t0 - p0) * iz))
-                g = wp.max(g, wp.abs((p0 - b0) * iz))
-                res = relax(c, p0, g, crel)
-        out[k, i, j] = flush(res)
+    def make(nb):
+        """The cell formula with the neighbour loads ``nb`` (:func:`nb_in`/:func:`nb_edge`)."""
+        grad = _grad3(dtype, nb)
+
+        @wp.func
+        def at(
+            phi: A3, phi0: A3, out: A3, k: int, i: int, j: int, dtau: dtype, w2: dtype,
+            ix: dtype, iy: dtype, iz: dtype, hx: dtype, hy: dtype, hz: dtype, crel: dtype,
+            zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
+        ):
+            c = phi[k, i, j]
+            p0 = phi0[k, i, j]
+            gp, gm = grad(phi, c, k, i, j, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            sign = p0 / wp.sqrt(p0 * p0 + w2)
+            res = c - dtau * (wp.max(sign, zero) * gp + wp.min(sign, zero) * gm - sign)
+            if wp.static(subcell):
+                w0 = nb(phi0, k, i, j, 0, 0, -1, zk, zv, yk, yv, xk, xv)
+                e0 = nb(phi0, k, i, j, 0, 0, 1, zk, zv, yk, yv, xk, xv)
+                s0 = nb(phi0, k, i, j, 0, -1, 0, zk, zv, yk, yv, xk, xv)
+                n0 = nb(phi0, k, i, j, 0, 1, 0, zk, zv, yk, yv, xk, xv)
+                b0 = nb(phi0, k, i, j, -1, 0, 0, zk, zv, yk, yv, xk, xv)
+                t0 = nb(phi0, k, i, j, 1, 0, 0, zk, zv, yk, yv, xk, xv)
+                front = p0 * w0 < zero or p0 * e0 < zero or p0 * s0 < zero or p0 * n0 < zero
+                if front or p0 * b0 < zero or p0 * t0 < zero or p0 == zero:
+                    gx = (e0 - w0) * hx
+                    gy = (n0 - s0) * hy
+                    gz = (t0 - b0) * hz
+                    g = xy_max(wp.sqrt(gx * gx + gy * gy + gz * gz), p0, w0, e0, s0, n0, ix, iy)
+                    g = wp.max(g, wp.abs((t0 - p0) * iz))
+                    g = wp.max(g, wp.abs((p0 - b0) * iz))
+                    res = relax(c, p0, g, crel)
+            out[k, i, j] = flush(res)
+
+        return at
+
+    at_in, at_edge = make(nb_in), make(nb_edge)
 
     # w2 = width², ix.. = 1/dx.., hx.. = 0.5/dx.., crel = dtau/min(dx, dy, dz)
     @wp.kernel
@@ -461,9 +492,20 @@ def _build_reinit3(dtype, subcell):
         saved = ftz_begin()
         k, i, inner = row3(phi, wp.tid() + row0)
         nx = phi.shape[2]
-        for j in range(nx):
-            at(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
-               zk, zv, yk, yv, xk, xv, inner and j > 0 and j < nx - 1)
+        if inner and nx > 2:
+            at_edge(phi, phi0, out, k, i, 0, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                    zk, zv, yk, yv, xk, xv)
+            j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
+            while j < nx - 1:
+                at_in(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                      zk, zv, yk, yv, xk, xv)
+                j += 1
+            at_edge(phi, phi0, out, k, i, nx - 1, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                    zk, zv, yk, yv, xk, xv)
+        else:
+            for j in range(nx):
+                at_edge(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                        zk, zv, yk, yv, xk, xv)
         ftz_end(saved)
 
     @wp.kernel
@@ -473,9 +515,12 @@ def _build_reinit3(dtype, subcell):
         zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         k, i, j = wp.tid()
-        inner = inner3(phi, k, i, j)
-        at(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
-           zk, zv, yk, yv, xk, xv, inner)
+        if inner3(phi, k, i, j):
+            at_in(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                  zk, zv, yk, yv, xk, xv)
+        else:
+            at_edge(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                    zk, zv, yk, yv, xk, xv)
 
     return rows, cells
 
