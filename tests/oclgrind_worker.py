@@ -56,6 +56,13 @@ for layout in ("row", "strided"):
                   rdgpu.sor_sweep(c, fixed, omega=1.5, rhs=c * 0.1, backend="numpy"), dtype)
             close(rdgpu.bernoulli_substep(u, tau=0.1, eps=0.5, backend=be),
                   rdgpu.bernoulli_substep(u, tau=0.1, eps=0.5, backend="numpy"), dtype)
+        # 3-D level sets: an odd box, mixed per-axis conditions
+        p3 = rng.uniform(-1, 1, (3, 4, 5)).astype(dtype)
+        for bc in ["periodic", (("dirichlet", -0.2), "neumann", "periodic")]:
+            close(rdgpu.levelset_advance(p3, p3, dt=0.1, bc=bc, backend=be),
+                  rdgpu.levelset_advance(p3, p3, dt=0.1, bc=bc, backend="numpy"), dtype)
+            close(rdgpu.reinitialize(p3, iterations=2, bc=bc, backend=be),
+                  rdgpu.reinitialize(p3, iterations=2, bc=bc, backend="numpy"), dtype)
         mesh = rdgpu.SurfaceMesh.icosphere(1)
         x = rng.uniform(0, 1, mesh.n_vertices).astype(dtype)
         close(rdgpu.laplacian(x, mesh=mesh, backend=be),
