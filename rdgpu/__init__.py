@@ -43,6 +43,13 @@ def __getattr__(name: str):
         module = importlib.import_module(".sweep", __name__)
 
         return module.sweep if name == "sweep" else module.sweep_map
+    if name in ("dla", "dla_image", "DLAResult"):  # DLA growth, imported on first use
+        import importlib
+
+        module = importlib.import_module(".dla", __name__)  # binds rdgpu.dla to the module:
+        globals()["dla"] = module.dla  # the public name is the function
+
+        return getattr(module, name)
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -57,6 +64,7 @@ def __getattr__(name: str):
 __all__ = [
     "BackendUnavailableError",
     "ConvergenceError",
+    "DLAResult",
     "ImplicitDiffusion",
     "StabilityError",
     "Simulation",
@@ -66,6 +74,8 @@ __all__ = [
     "bernoulli_substep",
     "define_model",
     "diffusion_step",
+    "dla",
+    "dla_image",
     "get_backend",
     "gray_scott",
     "gray_scott_dt_limit",
