@@ -60,7 +60,7 @@ def test_cluster_is_connected_and_grows_from_the_seed():
     r = rdgpu.dla((48, 48), eta=1.0, steps=150, geometry="radial", seed=3, backend="numpy")
     # every cell that joined at step n > 0 touches a cell that joined earlier
     ii, jj = np.nonzero(r.arrival > 0)
-    for i, j in zip(ii, jj):
+    for i, j in zip(ii, jj, strict=True):
         t = r.arrival[i, j]
         near = [r.arrival[a, b] for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1))]
         assert any(0 <= x < t for x in near)
@@ -248,3 +248,30 @@ def test_dimension_errors():
         fractal_dimension(np.ones((8, 8)), method="sandbox")
     with pytest.raises(ValueError, match="at least 2"):
         fractal_dimension(np.ones((64, 64)), fit=(5, 5.5))
+
+
+# ---------------------------------------------------------------- the dimension table
+def _fastest():
+    for name in ("warp", "opencl", "numpy"):
+        try:
+            return rdgpu.get_backend(name)
+        except rdgpu.BackendUnavailableError:  # pragma: no cover - depends on the machine
+            continue
+    raise AssertionError("no backend")  # pragma: no cover
+
+
+def test_dimension_table_radial():
+    """Seed 001's claims, radial growth on 96² (c = 1 on the circle of radius 43): η = 0 is
+    a compact (Eden-like) bulk, η = 1 ordinary DLA (D ≈ 1.7), η = 2 sparser.  Mass-radius
+    dimensions (fit 2 .. R/3) over seeds 0-4 were 1.96-2.03, 1.58-1.77 and 1.30-1.54; the
+    bands below hold all of them and exclude the neighbouring η's typical values."""
+    be = _fastest()
+    dims = {}
+    for eta, steps in ((0.0, 1500), (1.0, 3000), (2.0, 3000)):
+        r = rdgpu.dla((96, 96), eta=eta, steps=steps, geometry="radial", seed=0, backend=be)
+        assert r.stopped == ("steps" if eta == 0 else "boundary")
+        dims[eta] = fractal_dimension(r.mask, center=r.center).dimension
+    assert 1.9 < dims[0.0] < 2.1
+    assert 1.55 < dims[1.0] < 1.85
+    assert dims[2.0] < 1.6
+    assert dims[2.0] < dims[1.0] - 0.1 < dims[0.0] - 0.2
