@@ -275,3 +275,16 @@ def test_dimension_table_radial():
     assert 1.55 < dims[1.0] < 1.85
     assert dims[2.0] < 1.6
     assert dims[2.0] < dims[1.0] - 0.1 < dims[0.0] - 0.2
+
+
+def test_same_cluster_with_the_cuda_launch_shape():
+    """Warp's one-thread-per-cell SOR (the CUDA shape, run here on the CPU) grows the
+    same cluster as the NumPy reference."""
+    pytest.importorskip("warp")
+    from rdgpu.backends.warp_backend import WarpBackend
+
+    cells = WarpBackend("cpu", launch="cells")
+    kw = {"eta": 1.0, "steps": 30, "geometry": "radial", "seed": 4}
+    a = rdgpu.dla((40, 40), backend=cells, **kw)
+    b = rdgpu.dla((40, 40), backend="numpy", **kw)
+    assert np.array_equal(a.arrival, b.arrival) and np.array_equal(a.c, b.c)
