@@ -36,6 +36,8 @@ GEOMETRIES = ("seed001", "radial")
 #: the radial geometry's outer circle (c = 1 on and outside it), as a fraction of min(shape)
 RADIUS_FRACTION = 0.45
 _EMPTY, _OBJECT, _HELD = 0, 1, 2
+#: weights are at most 2^40 each and their int64 sum must not overflow
+MAX_CELLS = 2**22
 
 
 @dataclass
@@ -82,6 +84,9 @@ def _check_shape(shape: Any, geometry: str) -> tuple[int, int]:
         ok = False
     if not ok or ny < 8 or nx < 8:
         raise ValueError(f"shape must be two integers (ny, nx), each >= 8, got {shape!r}")
+    if ny * nx > MAX_CELLS:
+        raise ValueError(f"shape {ny}x{nx} has {ny * nx} cells; the exact int64 weight sums "
+                         f"(multiples of 2^-40) allow at most {MAX_CELLS} (2^22)")
     if geometry == "seed001" and nx % 2:
         raise ValueError(f"geometry 'seed001' wraps the x axis, and red-black SOR needs an even "
                          f"size along a periodic axis: nx={nx}; use an even nx")

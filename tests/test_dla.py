@@ -189,6 +189,7 @@ def _bcs():
     ({"shape": (4, 64)}, "shape"),
     ({"shape": (32,)}, "shape"),
     ({"shape": (32, 33)}, "even nx"),
+    ({"shape": (4096, 2048)}, "at most"),
     ({"eta": -1.0}, "eta"),
     ({"eta": float("nan")}, "eta"),
     ({"steps": 10**6}, "exceeds"),
