@@ -47,6 +47,13 @@ def __getattr__(name: str):
         from . import fronts
 
         return getattr(fronts, name)
+    if name in ("dla", "dla_image", "DLAResult"):  # DLA growth, imported on first use
+        import importlib
+
+        module = importlib.import_module(".dla", __name__)  # binds rdgpu.dla to the module:
+        globals()["dla"] = module.dla  # the public name is the function
+
+        return getattr(module, name)
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -61,6 +68,7 @@ def __getattr__(name: str):
 __all__ = [
     "BackendUnavailableError",
     "ConvergenceError",
+    "DLAResult",
     "ImplicitDiffusion",
     "RDFront",
     "StabilityError",
@@ -71,6 +79,8 @@ __all__ = [
     "bernoulli_substep",
     "define_model",
     "diffusion_step",
+    "dla",
+    "dla_image",
     "front_growth",
     "get_backend",
     "gray_scott",

@@ -310,6 +310,24 @@ class Backend(ABC):
         ``A.diagonal``) and ``change[i] = |Δx_i|``; other entries of ``change`` are left as
         they are.  A is square; x, rhs and change have n elements."""
 
+    # ------------------------------------------------------------------ DLA growth
+    # (kernels/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)
+    def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
+                    row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
+        """``weights`` (int64 ``[ny, nx]``) = the quantised candidate weights
+        ``trunc(min(max(c, 0), 1)^η · 2^40)`` of the empty cells (``state`` uint8 0) with a
+        4-neighbour in the object (state 1; x wraps if ``wrap_x``), 0 elsewhere;
+        ``row_sums`` (int64 ``[ny]``) their exact row sums (kernels/dla/reference.py)."""
+        raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
+
+    def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
+                 arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
+                 step: int) -> None:
+        """The first cell ``j`` of ``row`` whose inclusive running weight exceeds ``target``
+        joins the object (state 1, ``c = 0``, ``arrival = step``, weight 0);
+        ``out`` (int64 ``[2]``) = ``[j, its weight]``, or ``[-1, 0]``."""
+        raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
+
     def _check_sor(self, A, x, rhs, rows, change) -> None:
         if A.shape[0] != A.shape[1]:
             raise ValueError(f"csr_sor_colour needs a square matrix, got shape {A.shape}")

@@ -119,6 +119,24 @@ class NumpyBackend(Backend):
         x.handle.reshape(-1)[r] = new[r]
         change.handle.reshape(-1)[r] = delta[r]
 
+    # DLA growth (kernels/dla)
+    def dla_weights(self, c, state, weights, row_sums, *, eta, wrap_x):
+        q, sums = load_module("dla", "reference.py").dla_weights(
+            c.handle, state.handle, eta, wrap_x)
+        weights.handle[...] = q
+        row_sums.handle[...] = sums
+
+    def dla_pick(self, c, state, weights, arrival, out, *, row, target, step):
+        j = load_module("dla", "reference.py").dla_pick(weights.handle, row, target)
+        if j < 0:
+            out.handle[:] = (-1, 0)
+            return
+        out.handle[:] = (j, weights.handle[row, j])
+        weights.handle[row, j] = 0
+        state.handle[row, j] = 1
+        c.handle[row, j] = 0
+        arrival.handle[row, j] = step
+
 
 def _param(p, like, what):
     """A scalar, or the flat NumPy view of a DeviceArray with like's size and dtype."""

@@ -748,3 +748,53 @@ class OpenCLBackend(Backend):
              change.handle),
             (om, t(1) - om),
         )
+
+    # ------------------------------------------------------------------ DLA growth
+    def _dla_kernels(self, dtype: np.dtype) -> dict[str, Any]:
+        """This thread's ``dla_weights`` / ``dla_pick`` kernels: a program of its own
+        (``common.cl`` + ``dla/dla.cl``), built once per context and dtype; it needs fp64."""
+        dtype = np.dtype(dtype)
+        self._check_real(dtype)
+        if not self.fp64:
+            raise BackendUnavailableError(
+                f"OpenCL device {self.device} has no float64 support (cl_khr_fp64), which the "
+                "DLA weights need; use backend='warp' or 'numpy'")
+        mine = getattr(self._local, "dla", None)
+        if mine is None:
+            mine = self._local.dla = {}
+        if dtype not in mine:
+            key = ("dla", self.context.int_ptr, dtype.char, self.layout, self.col_stride)
+            with _LOCK:
+                program = _PROGRAMS.get(key)
+                if program is None:
+                    source = ('#line 1 "common.cl"\n' + read_source("", "common.cl")
+                              + '\n#line 1 "dla/dla.cl"\n' + read_source("dla", "dla.cl"))
+                    options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}",
+                               *self._options]
+                    program = self._cl.Program(self.context, source).build(options=options)
+                    _PROGRAMS[key] = program
+            weights = self._cl.Kernel(program, "dla_weights")
+            weights.set_scalar_arg_dtypes([None, None, None, None, np.int32, np.int32,
+                                           np.int32, np.float64, np.int32])
+            pick = self._cl.Kernel(program, "dla_pick")
+            pick.set_scalar_arg_dtypes([None, None, None, None, None, np.int32, np.int32,
+                                        np.int64, np.int32])
+            mine[dtype] = {"weights": weights, "pick": pick}
+        return mine[dtype]
+
+    def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
+                    row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
+        ny, nx = c.shape
+        mode = load_module("dla", "reference.py").power_mode(eta)
+        kernel = self._dla_kernels(c.dtype)["weights"]
+        kernel.set_args(c.handle, state.handle, weights.handle, row_sums.handle, nx, ny, mode,
+                        float(eta), int(bool(wrap_x)))
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1, ny), (1, 1))
+
+    def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
+                 arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
+                 step: int) -> None:
+        kernel = self._dla_kernels(c.dtype)["pick"]
+        kernel.set_args(c.handle, state.handle, weights.handle, arrival.handle, out.handle,
+                        c.shape[1], int(row), int(target), int(step))
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,))

@@ -598,6 +598,25 @@ class WarpBackend(Backend):
         # work: about nnz · n / n_rows matrix entries
         self._run_rows(kernels, n, A.nnz * n // max(A.shape[0], 1), args)
 
+    # ------------------------------------------------------------------ DLA growth
+    def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
+                    row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
+        self._real(c, "dla c")
+        mode = load_module("dla", "reference.py").power_mode(eta)
+        kernel = self._family("dla").KERNELS[c.dtype][0]
+        ny, nx = c.shape
+        args = [c.handle, state.handle, weights.handle, row_sums.handle, mode,
+                np.float64(eta), int(bool(wrap_x))]
+        self._run_split(kernel, ny, ny * nx, args)
+
+    def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
+                 arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
+                 step: int) -> None:
+        kernel = self._family("dla").KERNELS[c.dtype][1]
+        args = [c.handle, state.handle, weights.handle, arrival.handle, out.handle,
+                int(row), np.int64(target), int(step)]
+        self._launch(kernel, 1, args, 0)
+
 
 def cuda_device_count() -> int:
     """How many CUDA devices Warp can use here (0 without a driver); used by ``"auto"``.
