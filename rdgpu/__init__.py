@@ -43,6 +43,10 @@ def __getattr__(name: str):
         module = importlib.import_module(".sweep", __name__)
 
         return module.sweep if name == "sweep" else module.sweep_map
+    if name == "random_walk_dla":  # random-walker DLA, imported on first use
+        from .walkers import random_walk_dla
+
+        return random_walk_dla
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -73,6 +77,7 @@ __all__ = [
     "levelset_advance",
     "levelset_dt_limit",
     "optimal_omega",
+    "random_walk_dla",
     "reinitialize",
     "set_backend",
     "sor_solve",
