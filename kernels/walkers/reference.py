@@ -148,7 +148,7 @@ def walk_step(grid, pos, want, state, ring_start, ring_ij, *, t, key, geometry, 
     ri, rj = release(r2, launch, geometry, grid.shape, ring_start, ring_ij)
     ni, nj = np.where(kill, ri, ni), np.where(kill, rj, nj)
     adjacent = np.zeros(n, bool)
-    for a, b in zip(_DI, _DJ):
+    for a, b in zip(_DI, _DJ, strict=True):
         adjacent |= _occupied(grid, ni + a, nj + b, geometry)
     stick = r1.astype(np.int64) < thresh
     want[:] = (~kill & adjacent & stick).astype(want.dtype)

@@ -133,6 +133,12 @@ class NumpyBackend(Backend):
                         *tables, t=t, key=key, geometry=geometry, margin=margin,
                         particles=particles, limit=limit)
 
+    def philox(self, out, *, first, t, purpose, seed):
+        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``."""
+        ref = self._walk
+        w = np.arange(first, first + out.shape[0], dtype=np.uint64)
+        out.handle[...] = np.stack(ref.draw(w, t, purpose, ref.key_of(seed)), axis=1)
+
 
 def _param(p, like, what):
     """A scalar, or the flat NumPy view of a DeviceArray with like's size and dtype."""
