@@ -66,8 +66,8 @@ def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, bat
                                 or not 1 <= walkers < 2**31):
         raise ValueError(f"walkers must be a positive integer (or None), got {walkers!r}")
     for name, v in (("max_steps", max_steps), ("batch", batch)):
-        if not isinstance(v, (int, np.integer)) or v < 1:
-            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        if not isinstance(v, (int, np.integer)) or not 1 <= v < 2**31:
+            raise ValueError(f"{name} must be an integer from 1 to 2**31 - 1, got {v!r}")
     return ny, nx, limit
 
 
