@@ -182,3 +182,17 @@ def test_bad_input(kwargs, match):
     shape = args.pop("shape")
     with pytest.raises(ValueError, match=match):
         rdgpu.random_walk_dla(shape, **args)
+
+
+def test_radial_cluster_is_dla_like():
+    """Sticking 1, few walkers in flight: the mass-radius dimension (slope of log M(r) on
+    log r, r from 3 cells to half the largest radius) is near DLA's 1.7, far from a compact
+    disc's 2 and a line's 1."""
+    be = backend_or_skip("warp")
+    r = rdgpu.random_walk_dla((160, 160), particles=1500, walkers=32, backend=be, seed=0)
+    assert r.stopped == "particles"
+    i, j = np.nonzero(r.mask)
+    d = np.hypot(i - 80, j - 80)
+    radii = np.geomspace(3.0, 0.5 * d.max(), 12)
+    slope = np.polyfit(np.log(radii), np.log([(d <= x).sum() for x in radii]), 1)[0]
+    assert 1.55 < slope < 1.85
