@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import backend_or_skip
 
 import rdgpu
 from rdgpu.kernel_files import load_module
-from tests.conftest import backend_or_skip
 
 ref = load_module("walkers", "reference.py")
 
