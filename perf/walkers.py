@@ -40,6 +40,18 @@ def mass_radius_dimension(mask: np.ndarray, centre: tuple[int, int]) -> tuple[fl
     return float(slope), r_lo, float(r_hi)
 
 
+def gyration_dimension(arrival: np.ndarray, first: int = 100) -> float:
+    """Slope of log N on log R_g(N) over the growth: ``R_g(N)`` is the radius of gyration
+    of the first N particles (arrival 1 … N), at 12 log-spaced N from ``first`` to all."""
+    k = arrival[arrival > 0]
+    i, j = np.nonzero(arrival > 0)
+    order = np.argsort(k)
+    i, j = i[order].astype(float), j[order].astype(float)
+    ns = np.unique(np.geomspace(first, len(k), 12).astype(int))
+    rg = [np.sqrt(i[:n].var() + j[:n].var()) for n in ns]
+    return float(np.polyfit(np.log(rg), np.log(ns), 1)[0])
+
+
 def plain_numpy_steps(shape, particles, walkers, sticking=1.0, margin=5, seed=0,
                       max_steps=None):
     """Radial walker DLA the obvious way; returns ``(mask, walker steps, seconds)``."""
@@ -119,9 +131,10 @@ def main() -> None:
             print(f"| plain numpy | {w} | - | {ws // w} | {s:.2f} | {ws / s:.3g} |", flush=True)
     if args.dimension:
         print("\n| sticking | particles | seeds | D (mass-radius), mean ± sd | each | "
-              "fit range (cells) |\n|---|---|---|---|---|---|")
+              "fit range (cells) | D (N vs R_g), mean ± sd | largest radius |"
+              "\n|---|---|---|---|---|---|---|---|")
         for p in args.sticking:
-            ds, his = [], []
+            ds, his, gs = [], [], []
             for seed in range(args.dim_seeds):
                 r = rdgpu.random_walk_dla(shape, particles=args.dim_particles, sticking=p,
                                           walkers=args.dim_walkers, backend=args.dim_backend,
@@ -129,9 +142,11 @@ def main() -> None:
                 d, lo, hi = mass_radius_dimension(r.mask, (args.size // 2, args.size // 2))
                 ds.append(d)
                 his.append(hi)
+                gs.append(gyration_dimension(r.arrival))
             each = " ".join(f"{d:.3f}" for d in ds)
             print(f"| {p} | {r.particles_added} | {len(ds)} | {np.mean(ds):.3f} ± "
-                  f"{np.std(ds):.3f} | {each} | {lo:.0f}–{min(his):.0f}…{max(his):.0f} |",
+                  f"{np.std(ds):.3f} | {each} | {lo:.0f}–{min(his):.0f}…{max(his):.0f} | "
+                  f"{np.mean(gs):.3f} ± {np.std(gs):.3f} | {2 * np.mean(his):.0f} |",
                   flush=True)
 
 
