@@ -4,9 +4,10 @@ for several sticking probabilities.
 
     PYTHONPATH=. python perf/walkers.py [--size 256] [--particles 2000]
         [--walkers 1024 4096] [--backends numpy warp opencl] [--plain-steps 2000]
+        [--speed-sticking 1] [--speed-max-steps N]
         [--dimension] [--dim-particles 3000] [--dim-walkers 64] [--sticking 1 0.5 0.2]
 
-Speed rows: ``rdgpu.random_walk_dla`` (radial, sticking 1, seed 0), after one small run
+Speed rows: ``rdgpu.random_walk_dla`` (radial, ``--speed-sticking``, seed 0), after one small run
 that compiles; walker steps = swarm steps x walkers in flight.  The plain NumPy version
 (``plain_numpy_steps``) moves every walker one step with ``numpy.random`` draws, checks
 the four neighbours, and adds the stickers' cells in a Python loop: the same rules as
@@ -106,6 +107,8 @@ def main() -> None:
     ap.add_argument("--particles", type=int, default=2000)
     ap.add_argument("--walkers", type=int, nargs="*", default=[1024, 4096])
     ap.add_argument("--backends", nargs="+", default=["numpy", "warp", "opencl"])
+    ap.add_argument("--speed-sticking", type=float, default=1.0)
+    ap.add_argument("--speed-max-steps", type=int, default=10**8)
     ap.add_argument("--plain-steps", type=int, default=2000,
                     help="swarm steps the plain NumPy version runs (0 to skip)")
     ap.add_argument("--dimension", action="store_true")
@@ -122,12 +125,15 @@ def main() -> None:
         for b in args.backends:
             rdgpu.random_walk_dla((32, 32), particles=5, walkers=8, backend=b)  # compile
             t = time.perf_counter()
-            r = rdgpu.random_walk_dla(shape, particles=args.particles, walkers=w, backend=b)
+            r = rdgpu.random_walk_dla(shape, particles=args.particles, walkers=w, backend=b,
+                                      sticking=args.speed_sticking,
+                                      max_steps=args.speed_max_steps)
             s = time.perf_counter() - t
             print(f"| {b} | {w} | {r.particles_added} | {r.steps} | {s:.2f} | "
                   f"{r.walker_steps / s:.3g} |", flush=True)
         if args.plain_steps:
-            _, ws, s = plain_numpy_steps(shape, args.particles, w, max_steps=args.plain_steps)
+            _, ws, s = plain_numpy_steps(shape, args.particles, w, args.speed_sticking,
+                                         max_steps=min(args.plain_steps, args.speed_max_steps))
             print(f"| plain numpy | {w} | - | {ws // w} | {s:.2f} | {ws / s:.3g} |", flush=True)
     if args.dimension:
         print("\n| sticking | particles | seeds | D (mass-radius), mean ± sd | each | "
