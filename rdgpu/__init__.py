@@ -54,6 +54,10 @@ def __getattr__(name: str):
         globals()["dla"] = module.dla  # the public name is the function
 
         return getattr(module, name)
+    if name == "random_walk_dla":  # random-walker DLA, imported on first use
+        from .walkers import random_walk_dla
+
+        return random_walk_dla
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -89,6 +93,7 @@ __all__ = [
     "levelset_advance",
     "levelset_dt_limit",
     "optimal_omega",
+    "random_walk_dla",
     "reinitialize",
     "set_backend",
     "sor_solve",

@@ -328,6 +328,16 @@ class Backend(ABC):
         ``out`` (int64 ``[2]``) = ``[j, its weight]``, or ``[-1, 0]``."""
         raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
 
+    # ------------------------------------------------------------------ random walkers
+    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *,
+                     t0: int, n_steps: int, seed: int, geometry: int, thresh: int,
+                     margin: int, particles: int, limit: int) -> None:
+        """Steps ``t0 … t0 + n_steps − 1`` of random-walker DLA, in place on the grid
+        (uint8), ``arrival`` and the walkers (``pos`` int32 ``[W, 2]``, ``want`` int32
+        ``[W]``, ``state`` int32 ``[4]``): each step moves every walker once, then adds
+        the cells of those that stick in walker id order (kernels/walkers/reference.py)."""
+        raise NotImplementedError(f"the {self.name} backend has no random-walker kernels")
+
     def _check_sor(self, A, x, rhs, rows, change) -> None:
         if A.shape[0] != A.shape[1]:
             raise ValueError(f"csr_sor_colour needs a square matrix, got shape {A.shape}")

@@ -37,6 +37,7 @@ class NumpyBackend(Backend):
         self._sor = load_module("sor", "reference.py")
         self._ls = load_module("levelset", "reference.py")
         self._mesh = load_module("mesh", "reference.py")
+        self._walk = load_module("walkers", "reference.py")
 
     # memory
     def upload(self, a: np.ndarray) -> DeviceArray:
@@ -136,6 +137,25 @@ class NumpyBackend(Backend):
         state.handle[row, j] = 1
         c.handle[row, j] = 0
         arrival.handle[row, j] = step
+
+    # random-walker DLA (kernels/walkers)
+    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
+                     n_steps, seed, geometry, thresh, margin, particles, limit):
+        ref = self._walk
+        key = ref.key_of(seed)
+        tables = (ring_start.handle, ring_ij.handle)
+        for t in range(t0, t0 + n_steps):
+            ref.walk_step(grid.handle, pos.handle, want.handle, state.handle, *tables, t=t,
+                          key=key, geometry=geometry, thresh=thresh, margin=margin)
+            ref.resolve(grid.handle, arrival.handle, pos.handle, want.handle, state.handle,
+                        *tables, t=t, key=key, geometry=geometry, margin=margin,
+                        particles=particles, limit=limit)
+
+    def philox(self, out, *, first, t, purpose, seed):
+        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``."""
+        ref = self._walk
+        w = np.arange(first, first + out.shape[0], dtype=np.uint64)
+        out.handle[...] = np.stack(ref.draw(w, t, purpose, ref.key_of(seed)), axis=1)
 
 
 def _param(p, like, what):

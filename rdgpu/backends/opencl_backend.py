@@ -798,3 +798,56 @@ class OpenCLBackend(Backend):
         kernel.set_args(c.handle, state.handle, weights.handle, arrival.handle, out.handle,
                         c.shape[1], int(row), int(target), int(step))
         self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,))
+
+    # ------------------------------------------------------------------ random walkers
+    _WALK_ARGS = {
+        "walk_step": [None] * 6 + [np.int32] * 3 + [np.uint32] * 4 + [np.int32, np.int64,
+                                                                      np.int32],
+        "resolve": [None] * 7 + [np.int32] * 3 + [np.uint32] * 4 + [np.int32] * 4,
+        "philox_fill": [None, np.int32] + [np.uint32] * 6,
+    }
+
+    def _walk_kernels(self) -> dict[str, Any]:
+        """This thread's kernels of ``walkers/walkers.cl`` (integer only: its own program,
+        built once per context)."""
+        mine = getattr(self._local, "walk", None)
+        if mine is None:
+            key = (self.context.int_ptr, "walkers")
+            with _LOCK:
+                program = _PROGRAMS.get(key)
+                if program is None:
+                    source = '#line 1 "walkers/walkers.cl"\n' + read_source("walkers",
+                                                                             "walkers.cl")
+                    program = self._cl.Program(self.context, source).build()
+                    _PROGRAMS[key] = program
+            mine = {}
+            for name, types in self._WALK_ARGS.items():
+                mine[name] = self._cl.Kernel(program, name)
+                mine[name].set_scalar_arg_dtypes(types)
+            self._local.walk = mine
+        return mine
+
+    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
+                     n_steps, seed, geometry, thresh, margin, particles, limit) -> None:
+        ks = self._walk_kernels()
+        ny, nx = grid.shape
+        n = pos.shape[0]
+        k0, k1 = seed & 0xFFFFFFFF, (seed >> 32) & 0xFFFFFFFF
+        tables = (state.handle, ring_start.handle, ring_ij.handle, ny, nx, n)
+        step, res = ks["walk_step"], ks["resolve"]
+        enqueue = self._cl.enqueue_nd_range_kernel
+        for t in range(t0, t0 + n_steps):
+            tt = (t & 0xFFFFFFFF, t >> 32, k0, k1, geometry)
+            step.set_args(grid.handle, pos.handle, want.handle, *tables, *tt, thresh, margin)
+            enqueue(self.queue, step, (n,), None)
+            res.set_args(grid.handle, arrival.handle, pos.handle, want.handle, *tables, *tt,
+                         margin, particles, limit)
+            enqueue(self.queue, res, (1,), (1,))
+
+    def philox(self, out, *, first: int, t: int, purpose: int, seed: int) -> None:
+        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``
+        (``out`` uint32 ``[N, 4]``; for tests)."""
+        kernel = self._walk_kernels()["philox_fill"]
+        kernel.set_args(out.handle, out.shape[0], first, t & 0xFFFFFFFF, t >> 32, purpose,
+                        seed & 0xFFFFFFFF, seed >> 32)
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (out.shape[0],), None)

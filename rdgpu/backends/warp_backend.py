@@ -617,6 +617,31 @@ class WarpBackend(Backend):
                 int(row), np.int64(target), int(step)]
         self._launch(kernel, 1, args, 0)
 
+    # ------------------------------------------------------------------ random walkers
+    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
+                     n_steps, seed, geometry, thresh, margin, particles, limit) -> None:
+        wp = self._wp
+        fam = self._family("walkers")
+        k0, k1 = wp.uint32(seed & 0xFFFFFFFF), wp.uint32((seed >> 32) & 0xFFFFFFFF)
+        tables = [state.handle, ring_start.handle, ring_ij.handle]
+        n = pos.shape[0]
+        for t in range(t0, t0 + n_steps):
+            tt = [wp.uint32(t & 0xFFFFFFFF), wp.uint32(t >> 32), k0, k1, int(geometry)]
+            self._launch(fam.walk_step, n, [grid.handle, pos.handle, want.handle, *tables, *tt,
+                                            wp.int64(thresh), int(margin)], 0)
+            self._launch(fam.resolve, 1, [grid.handle, arrival.handle, pos.handle, want.handle,
+                                          *tables, *tt, int(margin), int(particles),
+                                          int(limit)], 0)
+
+    def philox(self, out, *, first: int, t: int, purpose: int, seed: int) -> None:
+        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``
+        (``out`` uint32 ``[N, 4]``; for tests)."""
+        wp = self._wp
+        u = wp.uint32
+        self._launch(self._family("walkers").PHILOX, out.shape[0],
+                     [out.handle, u(first), u(t & 0xFFFFFFFF), u(t >> 32), u(purpose),
+                      u(seed & 0xFFFFFFFF), u(seed >> 32)], 0)
+
 
 def cuda_device_count() -> int:
     """How many CUDA devices Warp can use here (0 without a driver); used by ``"auto"``.

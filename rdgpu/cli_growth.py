@@ -1,0 +1,140 @@
+"""``rdgpu run dla`` and ``rdgpu run random-walk-dla``: the growth models (seed 001) on
+the command line, beside the reaction-diffusion models of ``rdgpu run``.
+
+``--size NxM`` is the grid, ``--steps`` the growth steps (DLA by the nutrient field: cells
+joining, ``k`` a step) or the particles (random walkers), ``--param`` their parameters
+(``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=seed001|radial`` for
+both), ``--seed``, ``--backend``; ``--out`` a PNG coloured by arrival (empty cells white),
+``--data`` an NPZ with the mask, the arrival steps and the settings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: growth model -> (default steps, {parameter: (kind, default)}), kinds "float" / "int" /
+#: "geometry"
+GROWTH: dict[str, tuple[int, dict[str, tuple[str, Any]]]] = {
+    "dla": (1000, {"eta": ("float", 1.0), "k": ("int", 1), "tol": ("float", 1e-5),
+                   "geometry": ("geometry", "seed001")}),
+    "random-walk-dla": (1000, {"sticking": ("float", 1.0), "walkers": ("int", None),
+                               "geometry": ("geometry", "radial")}),
+}
+GEOMETRIES = ("seed001", "radial")
+
+
+def is_growth(args: argparse.Namespace) -> bool:
+    return getattr(args, "model", None) in GROWTH and not getattr(args, "equation", None)
+
+
+def _params(args: argparse.Namespace, usage: type[Exception]) -> dict[str, Any]:
+    _, known = GROWTH[args.model]
+    out = {k: default for k, (_, default) in known.items()}
+    for name, value in args.param or []:
+        if name not in known:
+            raise usage(f"--param {name}: {args.model} has the parameters "
+                        f"{', '.join(known)}")
+        kind = known[name][0]
+        if kind == "geometry":
+            if value not in GEOMETRIES:
+                raise usage(f"--param geometry={value}: allowed: {', '.join(GEOMETRIES)}")
+            out[name] = value
+            continue
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise usage(f"--param {name}={value}: {args.model} takes a number") from None
+        if kind == "int":
+            if number != int(number) or number < 1:
+                raise usage(f"--param {name}={value}: a whole number >= 1")
+            number = int(number)
+        out[name] = number
+    return out
+
+
+def _unsupported(args: argparse.Namespace, usage: type[Exception]) -> None:
+    """The run options that make no sense for a growth model: an error naming them."""
+    given = [flag for flag, value in (
+        ("--preset", args.preset), ("--mesh", args.mesh), ("--movie", args.movie),
+        ("--dt", args.dt), ("--method", args.method), ("--stencil", args.stencil),
+        ("--members", getattr(args, "members", None)), ("--checkpoint", args.checkpoint),
+        ("--resume", args.resume), ("--block-steps", getattr(args, "block_steps", None)))
+        if value]
+    if given:
+        raise usage(f"{args.model} is a growth model: {', '.join(given)} do(es) not apply; "
+                    "it takes --size, --steps, --param, --seed, --backend, --dtype, --out, "
+                    "--data, --cmap, --scale")
+    for d in args.data or []:
+        if Path(d).suffix.lower() != ".npz":
+            raise usage(f"--data for {args.model} must end in .npz, got {d!r}")
+
+
+def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
+    """Run ``args.model`` (a key of :data:`GROWTH`) and write its outputs."""
+    import rdgpu
+
+    _unsupported(args, usage)
+    size = args.size if args.size is not None else (256, 256)
+    if len(size) != 2:
+        raise usage(f"{args.model} grows on a 2-D grid; --size NxM, got {size}")
+    params = _params(args, usage)
+    steps = args.steps if args.steps is not None else GROWTH[args.model][0]
+    seed = args.seed if args.seed is not None else 0
+    t0 = time.perf_counter()
+    try:
+        if args.model == "dla":
+            result = rdgpu.dla(tuple(size), eta=params["eta"], steps=steps,
+                               geometry=params["geometry"], seed=seed, backend=args.backend,
+                               tol=params["tol"], k=params["k"],
+                               dtype=args.dtype or "float64")
+            grown, stopped = int(result.mask.sum()), result.stopped
+        else:
+            result = rdgpu.random_walk_dla(tuple(size), particles=steps,
+                                           sticking=params["sticking"],
+                                           geometry=params["geometry"], seed=seed,
+                                           backend=args.backend, walkers=params["walkers"])
+            grown, stopped = int(result.mask.sum()), result.stopped
+    except ValueError as exc:
+        raise usage(str(exc)) from None
+    seconds = time.perf_counter() - t0
+    settings = {"model": args.model, "size": list(size), "steps": steps, "seed": seed,
+                **params}
+    say(args, f"{args.model} on a {size[0]}x{size[1]} grid, {steps} "
+              f"{'growth steps' if args.model == 'dla' else 'particles'}, "
+              + ", ".join(f"{k}={v}" for k, v in params.items()))
+    out = args.out
+    if out is None and not args.data:
+        out = f"{args.model.replace('-', '_')}.png"
+    written = []
+    if out is not None:  # coloured by arrival, empty cells white (any cluster's arrival)
+        from .dla import dla_image
+
+        written.append(dla_image(result, out, args.cmap or "viridis", args.scale or 2))
+    for d in args.data or []:
+        arrays = {"mask": result.mask, "arrival": result.arrival,
+                  "settings": np.array(json.dumps(settings))}
+        if getattr(result, "c", None) is not None:
+            arrays["c"] = result.c
+        np.savez_compressed(d, **arrays)
+        written.append(d)
+    for path in written:
+        say(args, f"wrote {path}")
+    dim = ""
+    if grown >= 50:
+        from .analysis import fractal_dimension
+
+        center = getattr(result, "center", None)
+        try:
+            d = fractal_dimension(result.mask, center=center).dimension
+            dim = f", mass-radius dimension {d:.2f}" if math.isfinite(d) else ""
+        except ValueError:
+            dim = ""
+    say(args, f"{grown} cells ({stopped}){dim} ({seconds:.2f} s)")
+    return 0
