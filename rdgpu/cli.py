@@ -701,9 +701,12 @@ def _uniform_warning(result: Any, model: Any, field: str) -> str | None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from .cli_growth import is_growth, run_growth
     from .errors import SimulationDiverged, SimulationInterrupted
     from .output import MESH_FORMATS, write_outputs
 
+    if is_growth(args):  # dla, random-walk-dla: growth models, not reaction-diffusion
+        return run_growth(args, _say, UsageError)
     _check_options(args)
     sim, preset, kwargs = _build_simulation(args)
     total, every = kwargs.pop("_total"), kwargs.pop("_snapshot_every")
@@ -941,7 +944,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("model", metavar="MODEL", nargs="?",
                      help="model name ('rdgpu models'), or a preset name ('rdgpu presets'); "
-                     "with --equation, the new model's name (default 'custom')")
+                     "with --equation, the new model's name (default 'custom'); the growth "
+                     "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
+                     "geometry=seed001|radial; --steps: growth steps / particles)")
     what = run.add_argument_group("what to run")
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
     where = what.add_mutually_exclusive_group()

@@ -68,7 +68,8 @@ def _unsupported(args: argparse.Namespace, usage: type[Exception]) -> None:
         ("--resume", args.resume), ("--block-steps", getattr(args, "block_steps", None)))
         if value]
     if given:
-        raise usage(f"{args.model} is a growth model: {', '.join(given)} do(es) not apply; "
+        raise usage(f"{args.model} is a growth model: {', '.join(given)} "
+                    f"{'does' if len(given) == 1 else 'do'} not apply; "
                     "it takes --size, --steps, --param, --seed, --backend, --dtype, --out, "
                     "--data, --cmap, --scale")
     for d in args.data or []:
@@ -108,7 +109,7 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
                 **params}
     say(args, f"{args.model} on a {size[0]}x{size[1]} grid, {steps} "
               f"{'growth steps' if args.model == 'dla' else 'particles'}, "
-              + ", ".join(f"{k}={v}" for k, v in params.items()))
+              + ", ".join(f"{k}={v}" for k, v in params.items() if v is not None))
     out = args.out
     if out is None and not args.data:
         out = f"{args.model.replace('-', '_')}.png"
@@ -127,13 +128,16 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     for path in written:
         say(args, f"wrote {path}")
     dim = ""
-    if grown >= 50:
+    if grown >= 50:  # radial: mass-radius about the seed cell; seed001: box counting
         from .analysis import fractal_dimension
 
-        center = getattr(result, "center", None)
+        radial = params["geometry"] == "radial"
+        center = getattr(result, "center", None) or (size[0] // 2, size[1] // 2)
         try:
-            d = fractal_dimension(result.mask, center=center).dimension
-            dim = f", mass-radius dimension {d:.2f}" if math.isfinite(d) else ""
+            d = (fractal_dimension(result.mask, center=center) if radial
+                 else fractal_dimension(result.mask, method="box")).dimension
+            what = "mass-radius" if radial else "box-counting"
+            dim = f", {what} dimension {d:.2f}" if math.isfinite(d) else ""
         except ValueError:
             dim = ""
     say(args, f"{grown} cells ({stopped}){dim} ({seconds:.2f} s)")
