@@ -946,7 +946,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="model name ('rdgpu models'), or a preset name ('rdgpu presets'); "
                      "with --equation, the new model's name (default 'custom'); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
-                     "geometry=seed001|radial; --steps: growth steps / particles)")
+                     "geometry=seed001|radial; --steps: growth steps / particles); "
+                     "seed003-front, a level-set front driven by seed 003's Turing spots")
     what = run.add_argument_group("what to run")
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
     where = what.add_mutually_exclusive_group()

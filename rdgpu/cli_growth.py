@@ -1,11 +1,15 @@
-"""``rdgpu run dla`` and ``rdgpu run random-walk-dla``: the growth models (seed 001) on
-the command line, beside the reaction-diffusion models of ``rdgpu run``.
+"""``rdgpu run dla``, ``rdgpu run random-walk-dla`` and ``rdgpu run seed003-front``: the
+growth models (seed 001) and the level-set front driven by a Turing pattern (seed 003
+§4.2, :func:`rdgpu.fronts.seed003_front`) on the command line, beside the
+reaction-diffusion models of ``rdgpu run``.
 
 ``--size NxM`` is the grid, ``--steps`` the growth steps (DLA by the nutrient field: cells
 joining, ``k`` a step) or the particles (random walkers), ``--param`` their parameters
 (``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=seed001|radial`` for
 both), ``--seed``, ``--backend``; ``--out`` a PNG coloured by arrival (empty cells white),
-``--data`` an NPZ with the mask, the arrival steps and the settings.
+``--data`` an NPZ with the mask, the arrival steps and the settings.  ``seed003-front``:
+``--steps`` front steps, ``--param warmup=``, ``reinit_every=``, ``beta_scale=``,
+``speed=laplace|offset``; ``--out`` the region ``φ < 0`` (black), ``--data`` φ and it.
 """
 
 from __future__ import annotations
@@ -19,15 +23,18 @@ from typing import Any
 
 import numpy as np
 
-#: growth model -> (default steps, {parameter: (kind, default)}), kinds "float" / "int" /
-#: "geometry"
-GROWTH: dict[str, tuple[int, dict[str, tuple[str, Any]]]] = {
-    "dla": (1000, {"eta": ("float", 1.0), "k": ("int", 1), "tol": ("float", 1e-5),
-                   "geometry": ("geometry", "seed001")}),
-    "random-walk-dla": (1000, {"sticking": ("float", 1.0), "walkers": ("int", None),
-                               "geometry": ("geometry", "radial")}),
-}
 GEOMETRIES = ("seed001", "radial")
+#: growth model -> (default steps, {parameter: (kind, default)}), kinds "float", "int" or
+#: a tuple of the allowed words
+GROWTH: dict[str, tuple[int, dict[str, tuple[Any, Any]]]] = {
+    "dla": (1000, {"eta": ("float", 1.0), "k": ("int", 1), "tol": ("float", 1e-5),
+                   "geometry": (GEOMETRIES, "seed001")}),
+    "random-walk-dla": (1000, {"sticking": ("float", 1.0), "walkers": ("int", None),
+                               "geometry": (GEOMETRIES, "radial")}),
+    "seed003-front": (1000, {"warmup": ("int", 8000), "reinit_every": ("int", 20),
+                             "beta_scale": ("float", 1.0),
+                             "speed": (("laplace", "offset"), "laplace")}),
+}
 
 
 def is_growth(args: argparse.Namespace) -> bool:
@@ -42,9 +49,9 @@ def _params(args: argparse.Namespace, usage: type[Exception]) -> dict[str, Any]:
             raise usage(f"--param {name}: {args.model} has the parameters "
                         f"{', '.join(known)}")
         kind = known[name][0]
-        if kind == "geometry":
-            if value not in GEOMETRIES:
-                raise usage(f"--param geometry={value}: allowed: {', '.join(GEOMETRIES)}")
+        if isinstance(kind, tuple):
+            if value not in kind:
+                raise usage(f"--param {name}={value}: allowed: {', '.join(kind)}")
             out[name] = value
             continue
         try:
@@ -88,6 +95,8 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     params = _params(args, usage)
     steps = args.steps if args.steps is not None else GROWTH[args.model][0]
     seed = args.seed if args.seed is not None else 0
+    if args.model == "seed003-front":
+        return _front(args, params, steps, say, usage)
     t0 = time.perf_counter()
     try:
         if args.model == "dla":
@@ -141,4 +150,38 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
         except ValueError:
             dim = ""
     say(args, f"{grown} cells ({stopped}){dim} ({seconds:.2f} s)")
+    return 0
+
+
+def _front(args: argparse.Namespace, params: dict, steps: int, say,
+           usage: type[Exception]) -> int:
+    """``rdgpu run seed003-front``: the seed's Turing spots, then a front driven by Δu."""
+    from .fronts import seed003_front
+
+    if args.size is not None or args.seed is not None:
+        raise usage("seed003-front runs the seed's own grid and initial state (preset "
+                    "turing-seed003-spots): --size and --seed do not apply")
+    t0 = time.perf_counter()
+    try:
+        result = seed003_front(backend=args.backend, steps=steps, warmup=params["warmup"],
+                               reinit_every=params["reinit_every"],
+                               beta_scale=params["beta_scale"], speed=params["speed"])
+    except ValueError as exc:
+        raise usage(str(exc)) from None
+    say(args, "seed003-front: " + ", ".join(f"{k}={v}" for k, v in params.items())
+        + f", {steps} front steps")
+    out = args.out
+    if out is None and not args.data:
+        out = "seed003_front.png"
+    written = []
+    if out is not None:
+        written.append(result.save_png(out, scale=args.scale or 4))
+    for d in args.data or []:
+        np.savez_compressed(d, phi=result.phi, mask=result.mask,
+                            settings=np.array(json.dumps({"steps": steps, **params})))
+        written.append(d)
+    for path in written:
+        say(args, f"wrote {path}")
+    say(args, f"inside the front: {result.mask.mean():.1%} of the grid, {result.substeps} "
+              f"front substeps ({time.perf_counter() - t0:.2f} s)")
     return 0
