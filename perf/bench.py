@@ -541,6 +541,73 @@ def ensemble_rows(args, backends: dict, memory: dict) -> list[dict]:
     return rows
 
 
+def growth_rows(args, backends: dict) -> list[dict]:
+    """Issue 10's growth models against the same algorithms written the obvious way in
+    NumPy (``perf/dla.py``, ``perf/walkers.py``): DLA growth steps per second and SOR
+    sweeps per growth step (radial, η = 1, warm and cold start) at ``--dla-sizes``, and
+    walker steps per second at 256² (1024 walkers mostly walking: sticking 0.02)."""
+    import dla as dla_perf
+    import walkers as walkers_perf
+
+    rows = []
+    for n in args.dla_sizes:
+        steps = max(2, args.dla_steps * 256 // n)
+        t = time.perf_counter()
+        _, sweeps = dla_perf.plain_numpy_dla((n, n), steps=steps)
+        plain = steps / (time.perf_counter() - t)
+        rows.append(dict(kernel="dla", size=n, backend="plain NumPy", start="warm",
+                         rate=plain, sweeps=float(np.mean(sweeps[1:])), vs_plain=1.0))
+        for label, be in backends.items():
+            if label == "numpy" and n > 256:
+                continue  # the reference: ~0.15 growth steps/s at 512²
+            for warm in (True, False):
+                kw = dict(eta=1.0, geometry="radial", seed=0, backend=be, warm_start=warm)
+                rdgpu.dla((n, n), steps=2, **kw)  # compile
+                t = time.perf_counter()
+                r = rdgpu.dla((n, n), steps=steps, **kw)
+                rate = steps / (time.perf_counter() - t)
+                rows.append(dict(kernel="dla", size=n, backend=label,
+                                 start="warm" if warm else "cold", rate=rate,
+                                 sweeps=float(r.sweeps[1:].mean()), vs_plain=rate / plain))
+                print(f"dla {n}² {rows[-1]['start']} {label:12s} {rate:8.2f} growth steps/s "
+                      f"{rows[-1]['sweeps']:.0f} sweeps/step", flush=True)
+    shape, w, stick, limit = (256, 256), 1024, 0.02, args.walker_steps
+    _, ws, sec = walkers_perf.plain_numpy_steps(shape, 2000, w, stick, max_steps=limit)
+    plain = ws / sec
+    rows.append(dict(kernel="walkers", size=256, backend="plain NumPy", walkers=w,
+                     rate=plain, vs_plain=1.0))
+    for label, be in backends.items():
+        rdgpu.random_walk_dla((32, 32), particles=5, walkers=8, backend=be)  # compile
+        t = time.perf_counter()
+        r = rdgpu.random_walk_dla(shape, particles=2000, walkers=w, sticking=stick,
+                                  max_steps=limit, backend=be)
+        rate = r.walker_steps / (time.perf_counter() - t)
+        rows.append(dict(kernel="walkers", size=256, backend=label, walkers=w, rate=rate,
+                         vs_plain=rate / plain))
+        print(f"walkers 256² {label:12s} {rate:.3g} walker steps/s", flush=True)
+    return rows
+
+
+def growth_markdown(rows: list[dict]) -> str:
+    if not rows:
+        return ""
+    lines = ["", "DLA by the nutrient field (radial, η = 1, tol 1e-5; warm: each solve "
+             "starts from the previous field, cold: from scratch) and random walkers (256², "
+             "1024 walkers, sticking 0.02 so they mostly walk), against the same algorithms "
+             "written the obvious way in NumPy (`perf/dla.py`, `perf/walkers.py`).", "",
+             "| kind | size | backend | start | rate | SOR sweeps / growth step | × plain "
+             "NumPy |", "|---|---|---|---|---:|---:|---:|"]
+    for r in rows:
+        if r["kernel"] == "dla":
+            lines.append(f"| DLA | {r['size']}² | {r['backend']} | {r['start']} | "
+                         f"{r['rate']:.2f} growth steps/s | {r['sweeps']:.0f} | "
+                         f"{r['vs_plain']:.2f} |")
+        else:
+            lines.append(f"| walkers | {r['size']}² | {r['backend']} | — | "
+                         f"{r['rate']:.3g} walker steps/s | — | {r['vs_plain']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
 def ensemble_markdown(rows: list[dict]) -> str:
     if not rows:
         return ""
@@ -883,6 +950,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="steps of the timed rdgpu.sweep (0: no sweep)")
     parser.add_argument("--sweep-members", type=int, default=256,
                         help="members of the timed rdgpu.sweep (at most those of the ensemble)")
+    parser.add_argument("--dla-sizes", type=int, nargs="*", default=[256, 512],
+                        help="grid sizes of the DLA rows (none: no growth rows)")
+    parser.add_argument("--dla-steps", type=int, default=12,
+                        help="growth steps timed at 256² (fewer on larger grids)")
+    parser.add_argument("--walker-steps", type=int, default=1500,
+                        help="swarm steps of the walker rows")
     parser.add_argument("--real-size", type=int, default=1024,
                         help="grid size of the real-state rows (perf/real_states.py; 0: none)")
     args = parser.parse_args(argv)
@@ -926,6 +999,7 @@ def main(argv: list[str] | None = None) -> int:
             args, {k: b for k, b in backends.items() if k != "numpy"}, memory))
     ensembles = section("ensembles", lambda: ensemble_rows(args, backends, memory)) \
         if args.members > 0 else []
+    growth = section("growth", lambda: growth_rows(args, backends)) if args.dla_sizes else []
     real = []
     if args.real_size > 0:
         import real_states
@@ -947,12 +1021,13 @@ def main(argv: list[str] | None = None) -> int:
                 load_average=dict(start=load_start, end=_load()),
                 date=time.strftime("%Y-%m-%d %H:%M"))
     (out / "bench.json").write_text(json.dumps(dict(
-        meta=meta, rows=rows, models=models, ensembles=ensembles, real_states=real),
+        meta=meta, rows=rows, models=models, ensembles=ensembles, growth=growth,
+        real_states=real),
         indent=1))
     grid = [r for r in rows if r["kernel"] not in MESH_KERNELS]
     table = header_markdown(meta) + grid_markdown(grid) + mesh_markdown(
         [r for r in rows if r["kernel"] in MESH_KERNELS]) + model_markdown(models) \
-        + ensemble_markdown(ensembles)
+        + ensemble_markdown(ensembles) + growth_markdown(growth)
     if real:
         table += "\n" + real_states.markdown(real, 200, 2000)
     (out / "bench.md").write_text(table)
