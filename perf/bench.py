@@ -43,6 +43,9 @@ Rows:
   same cell count, and the sweep rate in members·steps/s (in the step, and end to end
   through ``rdgpu.sweep`` where it exists: ``--sweep-members``, ``--sweep-steps``); NumPy
   runs ``--numpy-members`` members;
+* growth (``--dla-sizes``, none to skip): DLA growth steps per second and SOR sweeps per
+  growth step (warm and cold start) and walker steps per second, against the same
+  algorithms written the obvious way in NumPy (``perf/dla.py``, ``perf/walkers.py``);
 * real states (``--real-size``, 0 to skip; ``perf/real_states.py``): presets from their
   default initial conditions, steps 0-200 against 2000-2200 of the same run.
 
