@@ -37,7 +37,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a clone without installing
 
-from rdgpu.analysis import classify_pattern, spiral_tips  # noqa: E402
+from rdgpu.analysis import classify_pattern, fractal_dimension, spiral_tips  # noqa: E402
 from rdgpu.cli import main as rdgpu_main  # noqa: E402
 from rdgpu.models import PRESETS  # noqa: E402
 from rdgpu.output import load_npz  # noqa: E402
@@ -81,6 +81,55 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
     ("turing-seed003-spots", "Turing's 1952 spot model, Chattopadhyay eq. 2.15 on 64² "
      "(field b; D_a = 0.25)", ["--scale", "4"]),
 ]
+
+
+#: the growth systems of seed 001 and seed 003 §4.2 (not presets): name -> (caption,
+#: source, the arguments after ``rdgpu run``); "measured" is their fractal dimension
+#: (mass-radius about the seed cell for radial growth, box counting for seed001's) or the
+#: front's inside fraction
+GROWTH_ENTRIES: dict[str, tuple[str, str, list[str]]] = {
+    "dla-eta0-radial": ("DLA by the nutrient field, η = 0: a compact bulk", "seed 001 §1, eq. 2",
+                        ["dla", "--param", "eta=0", "--param", "geometry=radial", "--size",
+                         "96", "--steps", "1500"]),
+    "dla-eta1-radial": ("DLA, η = 1: ordinary diffusion-limited aggregation",
+                        "seed 001 §1, eq. 2",
+                        ["dla", "--param", "eta=1", "--param", "geometry=radial", "--size",
+                         "128", "--steps", "3000"]),
+    "dla-eta2-radial": ("DLA, η = 2: sparser, more linear growth", "seed 001 §1, eq. 2",
+                        ["dla", "--param", "eta=2", "--param", "geometry=radial", "--size",
+                         "128", "--steps", "3000"]),
+    "dla-eta1-seed001": ("DLA, η = 1, the seed's set-up: grown up from the bottom row "
+                         "towards c = 1 at the top", "seed 001 §1, eq. 2",
+                         ["dla", "--param", "eta=1", "--size", "128", "--steps", "3000"]),
+    "walkers-sticking1": ("Random walkers, sticking 1: 4000 particles, 64 walkers in flight",
+                          "seed 001 §2", ["random-walk-dla", "--param", "sticking=1",
+                                          "--param", "walkers=64", "--size", "256",
+                                          "--steps", "4000"]),
+    "walkers-sticking01": ("Random walkers, sticking 0.1: denser, not thinner", "seed 001 §2",
+                           ["random-walk-dla", "--param", "sticking=0.1", "--param",
+                            "walkers=64", "--size", "256", "--steps", "4000"]),
+    "seed003-front": ("A level-set front driven by Turing's spots (β = Δu): the region "
+                      "φ < 0 in black", "seed 003 §4.2", ["seed003-front", "--scale", "4"]),
+}
+
+
+def growth_command(name: str, backend: str) -> list[str]:
+    argv = ["run", *GROWTH_ENTRIES[name][2], "--backend", backend]
+    if "--scale" not in argv:
+        argv += ["--scale", "1"]
+    return argv + ["--out", str(OUT / f"{name}.png")]
+
+
+def growth_measure(name: str, data: Path) -> str:
+    z = np.load(data)
+    if name == "seed003-front":
+        return f"{z['mask'].mean():.0%} inside the front"
+    mask = z["mask"]
+    if "geometry=radial" in GROWTH_ENTRIES[name][2] or name.startswith("walkers"):
+        d = fractal_dimension(mask, center=(mask.shape[0] // 2, mask.shape[1] // 2))
+        return f"D = {d.dimension:.2f} (mass-radius, {int(mask.sum())} cells)"
+    d = fractal_dimension(mask, method="box")
+    return f"D = {d.dimension:.2f} (box counting, {int(mask.sum())} cells)"
 
 
 def command(name: str, extra: list[str], backend: str) -> list[str]:
@@ -151,13 +200,15 @@ def write_table(rows: list[tuple[str, str, str, str, str]]) -> Path:
         f"over {MAX_BYTES // 1000} kB; the 400² grid is downscaled), mesh renderings "
         f"(800 × 800) are downscaled to {MESH_SIZE}²; each caption says which. "
         "\"Measured\" is the class `rdgpu.analysis.classify_pattern` gives the final field "
-        "(the number of spiral tips for Barkley); `rdgpu presets` lists what each preset "
+        "(the number of spiral tips for Barkley; for the growth systems, the cluster's fractal "
+        "dimension or the front's inside fraction); `rdgpu presets` lists what each preset "
         "should give."
     )
     lines = ["# Gallery", "", *textwrap.wrap(intro, 90), "",
              "| image | pattern (source) | measured | command |", "|---|---|---|---|"]
     for name, caption, note, measured, cmd in rows:
-        src = PRESETS[name].source.replace("|", "\\|")
+        src = (PRESETS[name].source if name in PRESETS else GROWTH_ENTRIES[name][1])
+        src = src.replace("|", "\\|")
         lines.append(f"| ![{name}]({name}.png) | {caption} ({src}; picture: {note}) | "
                      f"{measured} | `{cmd}` |")
     path = ROOT / OUT / "gallery.md"
@@ -201,6 +252,23 @@ def main(argv: list[str] | None = None) -> int:
         if size > MAX_BYTES:
             print(f"warning: {png} is {size} bytes (> {MAX_BYTES})", file=sys.stderr)
         rows.append((name, caption, note, measured, shown))
+    for name, (caption, _, _) in GROWTH_ENTRIES.items():
+        argv_run = growth_command(name, args.backend)
+        shown = "rdgpu " + " ".join(argv_run)
+        if args.only and name not in args.only:
+            if name in previous:
+                rows.append(previous[name])
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            data = Path(tmp) / "run.npz"
+            code = rdgpu_main(argv_run + ["--data", str(data), "--quiet"])
+            if code != 0:
+                print(f"{shown}: exit status {code}", file=sys.stderr)
+                return code
+            measured = growth_measure(name, data)
+        note = shrink(ROOT / OUT / f"{name}.png", mesh=False)
+        print(f"{name}: {measured}", flush=True)
+        rows.append((name, caption, note, measured, shown))
     print(f"wrote {write_table(rows)}")
     return 0
 
@@ -209,6 +277,7 @@ def _previous_rows() -> dict[str, tuple[str, str, str, str, str]]:
     """Rows of an existing gallery.md, by preset (kept by --only)."""
     path = ROOT / OUT / "gallery.md"
     captions = {name: caption for name, caption, _ in ENTRIES}
+    captions.update({name: entry[0] for name, entry in GROWTH_ENTRIES.items()})
     rows = {}
     if not path.exists():
         return rows
