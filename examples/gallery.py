@@ -216,6 +216,15 @@ def write_table(rows: list[tuple[str, str, str, str, str]]) -> Path:
     return path
 
 
+def run_and_measure(argv_run: list[str], measure_data) -> tuple[int, str]:
+    """Run ``rdgpu`` with a temporary ``--data`` file: (exit status, what
+    ``measure_data(path)`` says of that file; "" when the run failed)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        data = Path(tmp) / "run.npz"
+        code = rdgpu_main(argv_run + ["--data", str(data), "--quiet"])
+        return code, (measure_data(data) if code == 0 else "")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", default="opencl", help="rdgpu backend (default opencl)")
@@ -237,13 +246,10 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(previous[name])
             continue
         t0 = time.perf_counter()
-        with tempfile.TemporaryDirectory() as tmp:
-            data = Path(tmp) / "run.npz"
-            code = rdgpu_main(argv_run + ["--data", str(data), "--quiet"])
-            if code != 0:
-                print(f"{shown}: exit status {code}", file=sys.stderr)
-                return code
-            measured = measure(name, data)
+        code, measured = run_and_measure(argv_run, lambda data, n=name: measure(n, data))
+        if code != 0:
+            print(f"{shown}: exit status {code}", file=sys.stderr)
+            return code
         png = ROOT / OUT / f"{name}.png"
         note = shrink(png, mesh="mesh" in PRESETS[name].domain)
         size = png.stat().st_size
@@ -259,13 +265,11 @@ def main(argv: list[str] | None = None) -> int:
             if name in previous:
                 rows.append(previous[name])
             continue
-        with tempfile.TemporaryDirectory() as tmp:
-            data = Path(tmp) / "run.npz"
-            code = rdgpu_main(argv_run + ["--data", str(data), "--quiet"])
-            if code != 0:
-                print(f"{shown}: exit status {code}", file=sys.stderr)
-                return code
-            measured = growth_measure(name, data)
+        code, measured = run_and_measure(argv_run,
+                                         lambda data, n=name: growth_measure(n, data))
+        if code != 0:
+            print(f"{shown}: exit status {code}", file=sys.stderr)
+            return code
         note = shrink(ROOT / OUT / f"{name}.png", mesh=False)
         print(f"{name}: {measured}", flush=True)
         rows.append((name, caption, note, measured, shown))
