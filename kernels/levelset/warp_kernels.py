@@ -527,26 +527,14 @@ def _build_reinit3(dtype, subcell):
 
 _TYPES = ((np.float32, wp.float32), (np.float64, wp.float64))
 
-STEP = {
-    (np.dtype(npt), speed_field): _build_step(wt, speed_field)
-    for npt, wt in _TYPES
-    for speed_field in (False, True)
-}
+def _table(build) -> dict:
+    """``{(dtype, flag): build(warp type, flag)}`` for both dtypes and both values of the
+    builder's flag (the speed as a field / the subcell fix)."""
+    return {(np.dtype(npt), flag): build(wt, flag) for npt, wt in _TYPES
+            for flag in (False, True)}
 
-REINIT = {
-    (np.dtype(npt), subcell): _build_reinit(wt, subcell)
-    for npt, wt in _TYPES
-    for subcell in (False, True)
-}
 
-STEP3 = {
-    (np.dtype(npt), speed_field): _build_step3(wt, speed_field)
-    for npt, wt in _TYPES
-    for speed_field in (False, True)
-}
-
-REINIT3 = {
-    (np.dtype(npt), subcell): _build_reinit3(wt, subcell)
-    for npt, wt in _TYPES
-    for subcell in (False, True)
-}
+STEP = _table(_build_step)  # keys (dtype, speed_field)
+REINIT = _table(_build_reinit)  # keys (dtype, subcell)
+STEP3 = _table(_build_step3)
+REINIT3 = _table(_build_reinit3)
