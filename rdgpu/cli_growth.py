@@ -119,23 +119,14 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     say(args, f"{args.model} on a {size[0]}x{size[1]} grid, {steps} "
               f"{'growth steps' if args.model == 'dla' else 'particles'}, "
               + ", ".join(f"{k}={v}" for k, v in params.items() if v is not None))
-    out = args.out
-    if out is None and not args.data:
-        out = f"{args.model.replace('-', '_')}.png"
-    written = []
-    if out is not None:  # coloured by arrival, empty cells white (any cluster's arrival)
-        from .dla import dla_image
+    from .dla import dla_image
 
-        written.append(dla_image(result, out, args.cmap or "viridis", args.scale or 2))
-    for d in args.data or []:
-        arrays = {"mask": result.mask, "arrival": result.arrival,
-                  "settings": np.array(json.dumps(settings))}
-        if getattr(result, "c", None) is not None:
-            arrays["c"] = result.c
-        np.savez_compressed(d, **arrays)
-        written.append(d)
-    for path in written:
-        say(args, f"wrote {path}")
+    arrays = {"mask": result.mask, "arrival": result.arrival}
+    if getattr(result, "c", None) is not None:
+        arrays["c"] = result.c
+    # the picture: coloured by arrival, empty cells white (any cluster's arrival)
+    _write(args, say, lambda out: dla_image(result, out, args.cmap or "viridis",
+                                            args.scale or 2), arrays, settings)
     dim = ""
     if grown >= 50:  # radial: mass-radius about the seed cell; seed001: box counting
         from .analysis import fractal_dimension
@@ -170,18 +161,23 @@ def _front(args: argparse.Namespace, params: dict, steps: int, say,
         raise usage(str(exc)) from None
     say(args, "seed003-front: " + ", ".join(f"{k}={v}" for k, v in params.items())
         + f", {steps} front steps")
-    out = args.out
-    if out is None and not args.data:
-        out = "seed003_front.png"
-    written = []
-    if out is not None:
-        written.append(result.save_png(out, scale=args.scale or 4))
-    for d in args.data or []:
-        np.savez_compressed(d, phi=result.phi, mask=result.mask,
-                            settings=np.array(json.dumps({"steps": steps, **params})))
-        written.append(d)
-    for path in written:
-        say(args, f"wrote {path}")
+    _write(args, say, lambda out: result.save_png(out, scale=args.scale or 4),
+           {"phi": result.phi, "mask": result.mask}, {"steps": steps, **params})
     say(args, f"inside the front: {result.mask.mean():.1%} of the grid, {result.substeps} "
               f"front substeps ({time.perf_counter() - t0:.2f} s)")
     return 0
+
+
+def _write(args: argparse.Namespace, say, picture, arrays: dict, settings: dict) -> None:
+    """``--out`` by ``picture(path)`` (default ``MODEL.png`` when neither ``--out`` nor
+    ``--data`` is given) and each ``--data`` NPZ with ``arrays`` and the JSON
+    ``settings``; says what it wrote."""
+    out = args.out
+    if out is None and not args.data:
+        out = f"{args.model.replace('-', '_')}.png"
+    written = [] if out is None else [picture(out)]
+    for d in args.data or []:
+        np.savez_compressed(d, **arrays, settings=np.array(json.dumps(settings)))
+        written.append(d)
+    for path in written:
+        say(args, f"wrote {path}")
