@@ -137,24 +137,48 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _face_geometry(V: np.ndarray, F: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+Period = tuple[float, float] | None
+
+
+def _min_image(d: np.ndarray, period: Period) -> np.ndarray:
+    """Difference vectors ``d`` (coordinate-major, rows x, y, z, ...) with x and y replaced
+    by their minimum image modulo ``period = (Lx, Ly)`` (in place; no-op for ``None``)."""
+    if period is not None:
+        for axis in (0, 1):
+            d[axis] -= period[axis] * np.round(d[axis] / period[axis])
+    return d
+
+
+def _face_cross(
+    V: np.ndarray, F: np.ndarray, period: Period = None
+) -> tuple[list[np.ndarray], np.ndarray]:
     """Edge vectors ``e_k`` as (3, m) arrays (opposite corner k: e0 = p2 − p1, e1 = p0 − p2,
-    e2 = p1 − p0) and twice the area of each face (cross-product norm)."""
+    e2 = p1 − p0; minimum images on a periodic mesh) and the face normals
+    ``(p1 − p0) × (p2 − p0)`` (3, m), of length twice the area."""
     VT = np.ascontiguousarray(V.T)
     c0, c1, c2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
     p0, p1, p2 = VT[:, c0], VT[:, c1], VT[:, c2]
-    e0, e1, e2 = p2 - p1, p0 - p2, p1 - p0
+    e0, e1, e2 = (_min_image(d, period) for d in (p2 - p1, p0 - p2, p1 - p0))
     # cross(p1 - p0, p2 - p0) = cross(e2, -e1) = cross(e1, e2)
     cx = e1[1] * e2[2] - e1[2] * e2[1]
     cy = e1[2] * e2[0] - e1[0] * e2[2]
     cz = e1[0] * e2[1] - e1[1] * e2[0]
-    dbl = np.sqrt(cx * cx + cy * cy + cz * cz)
-    return [e0, e1, e2], dbl
+    return [e0, e1, e2], np.stack([cx, cy, cz])
 
 
-def _double_areas(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _face_geometry(
+    V: np.ndarray, F: np.ndarray, period: Period = None
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """Edge vectors ``e_k`` as in :func:`_face_cross` and twice the area of each face."""
+    e, c = _face_cross(V, F, period)
+    return e, np.sqrt(_dot(c, c))
+
+
+def _double_areas(
+    V: np.ndarray, F: np.ndarray, period: Period = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(2·area, squared longest edge) per face."""
-    e, dbl = _face_geometry(V, F)
+    e, dbl = _face_geometry(V, F, period)
     lmax2 = np.maximum(np.maximum(_dot(e[0], e[0]), _dot(e[1], e[1])), _dot(e[2], e[2]))
     return dbl, lmax2
 
@@ -196,16 +220,20 @@ def _merge_exact_duplicates(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, n
 
 
 def _assemble(
-    V: np.ndarray, F: np.ndarray, edges: np.ndarray, corner_edge: np.ndarray
+    V: np.ndarray,
+    F: np.ndarray,
+    edges: np.ndarray,
+    corner_edge: np.ndarray,
+    period: Period = None,
 ) -> tuple[sp.csr_matrix, np.ndarray]:
     """Cotangent matrix W (csr) and mixed Voronoi areas A for a validated mesh.
 
     ``edges`` are the unique undirected edges (i < j, lexicographically sorted) and
     ``corner_edge[3*f + k]`` is the index into ``edges`` of the edge opposite corner k of
-    face f.
+    face f. ``period``: minimum-image edge vectors (see :class:`SurfaceMesh`).
     """
     n = V.shape[0]
-    e, dbl = _face_geometry(V, F)  # dbl = 2·area, > 0 after validation
+    e, dbl = _face_geometry(V, F, period)  # dbl = 2·area, > 0 after validation
     # dot product of the two edges leaving corner k (|a||b| cos), and cot of its angle
     dots = [-_dot(e[(k + 2) % 3], e[(k + 1) % 3]) for k in range(3)]
     inv = 1.0 / dbl
@@ -242,11 +270,11 @@ def _assemble(
     return W, A
 
 
-def _element_eigenvalue_bound(V: np.ndarray, F: np.ndarray) -> float:
+def _element_eigenvalue_bound(V: np.ndarray, F: np.ndarray, period: Period = None) -> float:
     """``max_f λ_max(K_f, diag(q_f))`` over faces: K_f = face f's cotangent stiffness (PSD,
     null vector 1), q_f = its corners' mixed-Voronoi shares. Since −W = Σ K_f and
     A = Σ diag(q_f), this bounds λ_max(−W, A) from above (Irons' element theorem)."""
-    e, dbl = _face_geometry(V, F)
+    e, dbl = _face_geometry(V, F, period)
     dots = [-_dot(e[(k + 2) % 3], e[(k + 1) % 3]) for k in range(3)]
     cot = [d / dbl for d in dots]
     area = 0.5 * dbl
@@ -386,6 +414,36 @@ def _check_grid_size(nx: int, ny: int) -> None:
         )
 
 
+def _as_period(period: Any) -> tuple[float, float] | None:
+    """``None`` or a validated pair of positive finite periods ``(Lx, Ly)``."""
+    if period is None:
+        return None
+    try:
+        Lx, Ly = (float(p) for p in period)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"period must be None or a pair (Lx, Ly) of numbers, got {period!r}"
+        ) from None
+    if not (np.isfinite(Lx) and np.isfinite(Ly) and Lx > 0 and Ly > 0):
+        raise ValueError(f"period (Lx, Ly) must be positive and finite, got {(Lx, Ly)}")
+    return Lx, Ly
+
+
+def _check_periodic_faces(V: np.ndarray, F: np.ndarray, period: tuple[float, float]) -> None:
+    """Every face's three minimum-image edge vectors must close up (sum to zero); they do not
+    when a triangle is half a period wide or more, and its geometry is then ambiguous."""
+    e, _ = _face_cross(V, F, period)
+    gap = np.abs(e[0] + e[1] + e[2])[:2].max(axis=0)
+    bad = np.flatnonzero(gap > 1e-9 * max(period))
+    if bad.size:
+        f = int(bad[0])
+        raise DegenerateMeshError(
+            f"{bad.size} faces do not close up under the minimum image of period {period} "
+            f"(faces {_examples(bad)}; face {f} = {F[f].tolist()}): on a periodic mesh every "
+            "triangle must be narrower than half a period along x and y"
+        )
+
+
 def _require(module: str, purpose: str) -> Any:
     import importlib
 
@@ -421,6 +479,14 @@ class SurfaceMesh:
         dropped) and ``mesh.repairs`` lists what was done.
     area_rtol : float
         A face is "zero-area" when ``2·area <= area_rtol · (longest edge)²``.
+    period : (Lx, Ly) or None
+        A mesh periodic in x and y (e.g. a torus-topology rough plane,
+        :func:`rdgpu.surfaces.graph_mesh`): every edge vector used for cotangents, areas
+        and lengths is the minimum image modulo ``(Lx, Ly)`` in x and y, so triangles may
+        wrap across the domain (every edge must be shorter than half a period along each
+        axis). ``None`` (default): plain coordinates. Export (:meth:`to_pyvista`,
+        :meth:`to_trimesh`, :meth:`save`) unwraps a periodic mesh: seam vertices are
+        duplicated so that no triangle spans the domain.
 
     Never repaired (always an error): NaN/Inf coordinates, face indices out of range,
     non-manifold edges (an edge shared by more than two faces). Open meshes (edges in
@@ -444,9 +510,11 @@ class SurfaceMesh:
         *,
         repair: bool = False,
         area_rtol: float = ZERO_AREA_RTOL,
+        period: tuple[float, float] | None = None,
     ) -> None:
         V = _as_vertices(vertices)
         F = _as_faces(faces, V.shape[0])
+        period = _as_period(period)
         n0, m0 = V.shape[0], F.shape[0]
         repairs: list[str] = []
         vid = np.arange(n0, dtype=np.int64)  # input index of each current vertex
@@ -467,7 +535,7 @@ class SurfaceMesh:
             repairs.append(f"merged {dup.size} duplicate vertices")
 
         # zero-area faces (also catches faces that repeat a vertex)
-        dbl, lmax2 = _double_areas(V, F)
+        dbl, lmax2 = _double_areas(V, F, period)
         bad = dbl <= area_rtol * lmax2
         if bad.any():
             rows = np.flatnonzero(bad)
@@ -539,8 +607,11 @@ class SurfaceMesh:
         fmap = np.full(m0, -1, dtype=np.int64)
         fmap[fid] = np.arange(F.shape[0])
 
+        if period is not None:
+            _check_periodic_faces(V, F, period)
         self.vertices = V
         self.faces = np.ascontiguousarray(F)
+        self.period = period
         self.vertex_map = vmap
         self.face_map = fmap
         self.repairs = tuple(repairs)
@@ -596,13 +667,14 @@ class SurfaceMesh:
 
     @cached_property
     def mean_edge_length(self) -> float:
-        d = self.vertices[self._edges[:, 1]] - self.vertices[self._edges[:, 0]]
-        return float(np.linalg.norm(d, axis=1).mean())
+        d = _min_image((self.vertices[self._edges[:, 1]] - self.vertices[self._edges[:, 0]]).T,
+                       self.period)
+        return float(np.sqrt(_dot(d, d)).mean())
 
     @cached_property
     def face_areas(self) -> np.ndarray:
         """(m,) float64 triangle areas."""
-        a = 0.5 * _double_areas(self.vertices, self.faces)[0]
+        a = 0.5 * _double_areas(self.vertices, self.faces, self.period)[0]
         a.flags.writeable = False
         return a
 
@@ -613,7 +685,9 @@ class SurfaceMesh:
     # --------------------------------------------------------------------- operators
     @cached_property
     def _operators(self) -> tuple[sp.csr_matrix, np.ndarray]:
-        W, A = _assemble(self.vertices, self.faces, self._edges, self._corner_edge)
+        W, A = _assemble(
+            self.vertices, self.faces, self._edges, self._corner_edge, self.period
+        )
         A.flags.writeable = False
         return W, A
 
@@ -644,7 +718,7 @@ class SurfaceMesh:
         """Rigorous upper bound on λ_max(−L): min of Gershgorin and the element bound."""
         L = self.laplacian
         gersh = float(np.add.reduceat(np.abs(L.data), L.indptr[:-1]).max())
-        return min(gersh, _element_eigenvalue_bound(self.vertices, self.faces))
+        return min(gersh, _element_eigenvalue_bound(self.vertices, self.faces, self.period))
 
     def spectral_radius(
         self, method: Literal["auto", "eigsh", "bound", "gershgorin"] = "auto"
@@ -756,17 +830,56 @@ class SurfaceMesh:
         """
         return load_with_fields(path, repair=repair)[0]
 
+    def unwrapped(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(V, F, source)`` for drawing and export: on a periodic mesh, each face is laid
+        out from its first corner by minimum-image edges, and a corner that lands one (or
+        more) periods away from its stored vertex gets a shifted copy of it, appended after
+        the original vertices (which keep their indices); ``source[i]`` is the vertex that
+        new vertex ``i`` copies (use ``field[source]``). No triangle then spans the domain.
+        A non-periodic mesh returns its own arrays and ``source = arange(n)``."""
+        n = self.n_vertices
+        if self.period is None:
+            return np.array(self.vertices), np.array(self.faces), np.arange(n)
+        L = np.asarray(self.period)
+        V, F = self.vertices, self.faces
+        p0 = V[F[:, 0], :2]
+        shift = np.zeros((F.shape[0], 3, 2), dtype=np.int64)
+        for k in (1, 2):
+            d = _min_image((V[F[:, k], :2] - p0).T, self.period).T
+            shift[:, k] = np.round((p0 + d - V[F[:, k], :2]) / L).astype(np.int64)
+        moved = (shift != 0).any(axis=2)
+        rows = np.column_stack([F[moved], shift[moved]])
+        extra, inv = np.unique(rows, axis=0, return_inverse=True)
+        F2 = np.array(F)
+        F2[moved] = n + inv.ravel()
+        V_extra = V[extra[:, 0]].copy()
+        V_extra[:, :2] += extra[:, 1:] * L
+        source = np.concatenate([np.arange(n), extra[:, 0]])
+        return np.vstack([V, V_extra]), F2, source
+
+    def _export(
+        self, fields: Mapping[str, np.ndarray] | None
+    ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Unwrapped vertices, faces and checked per-vertex fields for writing."""
+        flds = self._check_fields(fields)
+        V, F, src = self.unwrapped()
+        return V, F, {k: np.asarray(a)[src] for k, a in flds.items()}
+
     def to_trimesh(self) -> Any:
-        """A ``trimesh.Trimesh`` with the same vertices and faces (``process=False``)."""
+        """A ``trimesh.Trimesh`` with the same vertices and faces (``process=False``); a
+        periodic mesh is unwrapped first (:meth:`unwrapped`)."""
         trimesh = _require("trimesh", "SurfaceMesh.to_trimesh")
-        return trimesh.Trimesh(np.array(self.vertices), np.array(self.faces), process=False)
+        V, F, _ = self.unwrapped()
+        return trimesh.Trimesh(V, F, process=False)
 
     def to_pyvista(self, fields: Mapping[str, np.ndarray] | None = None) -> Any:
-        """A pyvista ``PolyData`` with the per-vertex ``fields`` as point data."""
+        """A pyvista ``PolyData`` with the per-vertex ``fields`` as point data; a periodic
+        mesh is unwrapped first (:meth:`unwrapped`), its fields copied to the seam copies."""
         pv = _require("pyvista", "SurfaceMesh.to_pyvista")
-        cells = np.hstack([np.full((self.n_faces, 1), 3, dtype=np.int64), self.faces]).ravel()
-        pd = pv.PolyData(np.array(self.vertices), cells)
-        for name, arr in self._check_fields(fields).items():
+        V, F, flds = self._export(fields)
+        cells = np.hstack([np.full((F.shape[0], 1), 3, dtype=np.int64), F]).ravel()
+        pd = pv.PolyData(V, cells)
+        for name, arr in flds.items():
             pd.point_data[name] = arr
         return pd
 
@@ -786,17 +899,18 @@ class SurfaceMesh:
         """Write the mesh. ``.vtk``/``.vtp``/``.vtu`` (pyvista) and ``.ply`` (binary, float64
         coordinates) keep per-vertex ``fields`` (shape (n,) or (n, k); in PLY a (n, k) field
         is stored as properties ``name_0..name_{k-1}``). ``.obj``/``.off`` (17 significant
-        digits) and ``.stl`` (float32, via trimesh) hold geometry only and refuse fields."""
+        digits) and ``.stl`` (float32, via trimesh) hold geometry only and refuse fields.
+        A periodic mesh is written unwrapped (:meth:`unwrapped`); the period is not stored."""
         path = Path(path)
         ext = path.suffix.lower()
-        flds = self._check_fields(fields)
+        V, F, flds = self._export(fields)
         if ext in _PYVISTA_FORMATS:
-            pd = self.to_pyvista(flds)
+            pd = self.to_pyvista(fields)
             if ext == ".vtu":
                 pd = pd.cast_to_unstructured_grid()
             pd.save(str(path), binary=True)
         elif ext == ".ply":
-            _write_ply(path, self.vertices, self.faces, flds)
+            _write_ply(path, V, F, flds)
         elif ext in (".obj", ".off", ".stl"):
             if flds:
                 raise ValueError(
@@ -805,14 +919,64 @@ class SurfaceMesh:
             if ext == ".stl":
                 self.to_trimesh().export(str(path))
             else:
-                _write_text_mesh(path, ext, self.vertices, self.faces)
+                _write_text_mesh(path, ext, V, F)
         else:
             raise ValueError(
                 f"unsupported mesh format {ext!r}; use one of "
                 f"{', '.join(_PYVISTA_FORMATS + _TRIMESH_FORMATS)}"
             )
 
+    def roughen(
+        self,
+        amplitude: float = 0.1,
+        filter_steps: int = 15,
+        seed: int = 0,
+        *,
+        tau: float | None = None,
+    ) -> SurfaceMesh:
+        """A new mesh with heat-filtered random roughness of ``max`` displacement
+        ``amplitude`` (absolute length) along the vertex normals; see
+        :func:`rdgpu.surfaces.roughen` (uniform random values, ``filter_steps`` implicit
+        heat steps ``(A − τW) x_{k+1} = A x_k``, ``τ`` = mean edge length² by default,
+        minus the area-weighted mean). Same faces; reproducible per ``seed``."""
+        from .surfaces import roughen
+
+        return roughen(self, amplitude, filter_steps, seed, tau=tau)
+
     # ------------------------------------------------------------------- generators
+    @classmethod
+    def disc(cls, radius: float = 1.0, rings: int = 16) -> SurfaceMesh:
+        """Planar disc (z = 0) of ``radius`` centred at the origin: a centre vertex and
+        ``rings`` concentric rings, ring k (radius ``k·radius/rings``) holding ``6k``
+        equally spaced vertices, the first at angle 0. Between rings k − 1 and k each of
+        the six 60° sectors holds ``2k − 1`` triangles (a subdivided hexagon bent onto
+        circles), so the triangles are near-equilateral; ``1 + 3·rings·(rings + 1)``
+        vertices, ``6·rings²`` faces, counter-clockwise (normal +z), and a boundary polygon
+        of ``6·rings`` edges whose area tends to ``π·radius²``."""
+        if isinstance(rings, bool) or int(rings) != rings or rings < 1:
+            raise ValueError(f"rings must be an int >= 1, got {rings!r}")
+        if not (np.isfinite(radius) and radius > 0):
+            raise ValueError(f"radius must be positive and finite, got {radius}")
+        rings = int(rings)
+        k = np.repeat(np.arange(1, rings + 1), 6 * np.arange(1, rings + 1))
+        start = 1 + 3 * k * (k - 1)  # index of ring k's first vertex
+        theta = 2 * np.pi * (np.arange(k.size) + 1 - start) / (6 * k)
+        r = radius * k / rings
+        V = np.vstack([[0.0, 0.0, 0.0], np.stack([r * np.cos(theta), r * np.sin(theta),
+                                                  np.zeros(k.size)], axis=1)])
+        faces = []
+        for q in range(1, rings + 1):  # loop over rings, not faces
+            outer0, n_in = 1 + 3 * q * (q - 1), 6 * (q - 1)
+            inner0 = 1 + 3 * (q - 1) * (q - 2) if q > 1 else 0
+            s = np.repeat(np.arange(6), q)  # sector
+            i = np.tile(np.arange(q), 6)  # position in the sector
+            o0 = outer0 + (s * q + i) % (6 * q)
+            o1 = outer0 + (s * q + i + 1) % (6 * q)
+            i0 = inner0 + (s * (q - 1) + i) % max(n_in, 1)
+            i1 = inner0 + (s * (q - 1) + i + 1) % max(n_in, 1)
+            up = i < q - 1
+            faces += [np.stack([i0, o0, o1], axis=1), np.stack([i0, o1, i1], axis=1)[up]]
+        return cls(V, np.concatenate(faces))
     @classmethod
     def icosphere(cls, subdivisions: int = 3, radius: float = 1.0) -> SurfaceMesh:
         """Geodesic sphere: an icosahedron subdivided ``subdivisions`` times (each splits
