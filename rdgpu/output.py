@@ -208,8 +208,12 @@ def _render_frames(mesh: Any, frames: np.ndarray, options: dict) -> np.ndarray:
     if frames.ndim != 2 or frames.shape[1] != mesh.n_vertices:
         raise ValueError(f"a mesh field needs one value per vertex ({mesh.n_vertices}), got "
                          f"shape {frames.shape[1:]}")
-    arrays = {"vertices": np.asarray(mesh.vertices), "faces": np.asarray(mesh.faces),
-              "frames": frames}
+    if getattr(mesh, "period", None) is not None:  # periodic: draw it unwrapped at the seams
+        V, F, source = mesh.unwrapped()
+        arrays = {"vertices": V, "faces": F, "frames": frames[:, source]}
+    else:
+        arrays = {"vertices": np.asarray(mesh.vertices), "faces": np.asarray(mesh.faces),
+                  "frames": frames}
     return _render(arrays, {**options, "kind": "mesh"})
 
 

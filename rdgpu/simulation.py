@@ -202,6 +202,8 @@ def describe_domain(domain: Any, source: Any = None) -> dict:
     if _is_mesh(domain):
         out: dict[str, Any] = {"kind": "mesh", "n_vertices": int(domain.n_vertices),
                                "n_faces": int(domain.n_faces)}
+        if getattr(domain, "period", None) is not None:  # a periodic (torus-topology) mesh
+            out["period"] = [float(p) for p in domain.period]
         if isinstance(source, Mapping) and "mesh" in source:
             out["source"] = {k: (str(v) if isinstance(v, os.PathLike) else v)
                              for k, v in source.items()}
@@ -217,7 +219,7 @@ def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) ->
                     bc=bc)
     from .mesh import SurfaceMesh
 
-    return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"])
+    return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"], period=desc.get("period"))
 
 
 def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain: Any) -> list[str]:
@@ -243,6 +245,8 @@ def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain:
                 out.append(f"{key} {theirs} in the checkpoint, {ours} here")
         return out
     V, F = arrays["mesh_vertices"], arrays["mesh_faces"]
+    if desc.get("period") != mine.get("period"):
+        out.append(f"mesh period {desc.get('period')} in the checkpoint, {mine.get('period')} here")
     if len(V) != domain.n_vertices or len(F) != domain.n_faces:
         out.append(f"mesh of {len(V)} vertices and {len(F)} faces in the checkpoint, "
                    f"{domain.n_vertices} vertices and {domain.n_faces} faces here")

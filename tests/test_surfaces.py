@@ -372,3 +372,38 @@ def test_periodic_face_too_wide_is_rejected() -> None:
     SurfaceMesh(wide, [[0, 1, 2]])  # fine without a period
     with pytest.raises(DegenerateMeshError, match="half a period"):
         SurfaceMesh(wide, [[0, 1, 2]], period=(1.5, 2.0))  # its three edges wrap apart
+
+
+# ------------------------------------------------------------------------ periodic meshes elsewhere
+
+
+def test_periodic_mesh_simulation_data_file_keeps_period(tmp_path: Path) -> None:
+    """A run on a periodic mesh saved to .npz loads back on the same periodic mesh (the
+    wrapped triangles would otherwise span the domain)."""
+    from rdgpu.output import load_npz, save_npz
+    from rdgpu.simulation import Simulation
+
+    mesh = graph_mesh(random_waves((10, 12), 0.3, 2), dx=0.5)
+    result = Simulation("gray-scott", mesh, None, dt=0.05, backend="numpy", seed=0).run(3)
+    back = load_npz(save_npz(result, tmp_path / "run.npz")).domain
+    assert back.period == mesh.period
+    np.testing.assert_array_equal(back.laplacian.toarray(), mesh.laplacian.toarray())
+
+
+def test_periodic_mesh_is_rendered_unwrapped(monkeypatch: pytest.MonkeyPatch) -> None:
+    from rdgpu import output
+
+    seen: dict[str, np.ndarray] = {}
+
+    def fake_render(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
+        seen.update(arrays)
+        return np.zeros((len(arrays["frames"]), 2, 2, 3), dtype=np.uint8)
+
+    monkeypatch.setattr(output, "_render", fake_render)
+    mesh = graph_mesh(np.zeros((4, 5)), dx=1.0)
+    field = np.arange(mesh.n_vertices, dtype=np.float64)
+    output.render_mesh(mesh, field)
+    V, F, src = mesh.unwrapped()
+    np.testing.assert_array_equal(seen["vertices"], V)
+    np.testing.assert_array_equal(seen["faces"], F)
+    np.testing.assert_array_equal(seen["frames"][0], field[src])
