@@ -626,6 +626,8 @@ class SurfaceMesh:
     # ---------------------------------------------------------------- basic properties
     def __repr__(self) -> str:
         kind = "closed" if self.is_closed else "open"
+        if self.period is not None:
+            kind += f", period=({self.period[0]:g}, {self.period[1]:g})"
         return f"SurfaceMesh(n_vertices={self.n_vertices}, n_faces={self.n_faces}, {kind})"
 
     @property

@@ -207,6 +207,7 @@ def test_flat_periodic_plane_is_the_5_point_laplacian(
     mesh = graph_mesh(np.zeros((ny, nx)), dx=dx, dy=dy)
     assert mesh.is_closed and mesh.boundary_edges.shape == (0, 2)
     assert mesh.period == (nx * dx, ny * dy)
+    assert repr(mesh).endswith(f"closed, period=({nx * dx:g}, {ny * dy:g}))")
     assert mesh.total_area == pytest.approx(nx * dx * ny * dy, rel=1e-14)
     np.testing.assert_allclose(mesh.areas, dx * dy, rtol=1e-14)
     d2 = lambda n, h: sp.diags([1.0, -2.0, 1.0], [-1, 0, 1], (n, n)).tolil()  # noqa: E731
