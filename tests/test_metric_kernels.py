@@ -71,6 +71,17 @@ def test_members_share_the_coefficients(variant_backend, dtype, shape):
         np.testing.assert_array_equal(got[m], reference(u[m], surface.height))
 
 
+def test_subnormal_results_are_flushed(variant_backend, dtype):
+    """Values far below the smallest normal number come out as 0, never subnormal."""
+    tiny = np.finfo(dtype).tiny
+    rng = np.random.default_rng(23)
+    u = (rng.uniform(1.0, 2.0, (9, 12)) * 4 * tiny).astype(dtype)
+    out = rdgpu.laplacian(u, height=rng.uniform(-1.0, 1.0, u.shape), dx=50.0,
+                          backend=variant_backend)
+    assert np.all((out == 0) | (np.abs(out) >= tiny))
+    assert np.count_nonzero(out == 0) > 0
+
+
 def test_flat_surface_is_the_five_point_laplacian(backend, dtype):
     u, _ = random_problem((17, 24), dtype, 11, 1.0)
     flat = rdgpu.laplacian(u, dx=DX, dy=DY, backend=backend)
