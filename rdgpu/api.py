@@ -171,10 +171,11 @@ def laplacian(
     bc: Any = "periodic",
     stencil: int = 5,
     mesh: Any = None,
+    height: Any = None,
     backend: BackendSpec = None,
 ) -> np.ndarray:
     """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (equations §1),
-    or on a triangle mesh (equations §6).
+    on a triangle mesh (equations §6), or on the graph surface ``z = h(x, y)`` (``height``).
 
     ``bc`` is one condition or a pair ``(y_bc, x_bc)``: ``"periodic"``, ``"neumann"`` or
     ``("dirichlet", g)``.  The 9-point stencil needs ``dx == dy``.  Units: ``[u]/length²``.
@@ -183,7 +184,16 @@ def laplacian(
     ``n_vertices``) and the result is ``L u`` with the cotangent operator ``L = A⁻¹W``
     (``mesh.laplacian``; open boundaries are zero-flux).  ``dx``, ``dy``, ``bc`` and
     ``stencil`` do not apply to a mesh and must be left at their defaults.
+
+    ``height``: ``h[ny, nx]`` at the cell centres (in the units of ``dx``); the result is
+    then the Laplace-Beltrami operator ``Δ_Γ u = (1/√g) ∂_i(√g g^{ij} ∂_j u)`` of the
+    surface ``z = h(x, y)`` over the parameter grid of ``u[ny, nx]`` (the conservative
+    9-point form of :class:`rdgpu.metric.GraphSurface`; ``h = 0`` gives the 5-point
+    Laplacian to round-off).  The surface is periodic: ``bc`` must be ``"periodic"`` on both
+    axes; ``stencil`` does not apply and ``mesh`` cannot be given too.  ``u`` must be 2-D.
     """
+    if height is not None:
+        return _surface_laplacian(u, height, dx, dy, bc, stencil, mesh, backend)
     if mesh is not None:
         _no_grid_args(dx, dy, bc, stencil)
         field = _mesh_field(u, mesh, "u")
@@ -203,6 +213,45 @@ def laplacian(
     d_u = be.upload(field)
     out = be.empty_like(d_u)
     be.laplacian(d_u, out, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
+    return _restore(_finite(out.numpy(), "laplacian"), u)
+
+
+def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: Any,
+                       mesh: Any, backend: BackendSpec) -> np.ndarray:
+    """``rdgpu.laplacian(u, height=h, ...)``: ``Δ_Γ u`` on the periodic graph surface of h."""
+    from .metric import GraphSurface
+
+    if mesh is not None:
+        raise ValueError("height= and mesh= given together: height makes the graph surface "
+                         "z = h(x, y) over the grid of u, a mesh is a surface of its own; "
+                         "give one of them")
+    if stencil != 5 or isinstance(stencil, bool):
+        raise ValueError(f"stencil={stencil!r} given with height=: the surface operator has "
+                         "its own 9-point form (rdgpu.metric); leave stencil at its default")
+    if np.ndim(u) != 2:
+        raise ValueError(f"with height= u must be a 2-D array [ny, nx] on the surface's "
+                         f"parameter grid, got a {np.ndim(u)}-D array of shape {np.shape(u)}")
+    field, grid = _grid_problem(u, "u", dx, dy, bc)
+    if grid.bcs.x.kind != PERIODIC or grid.bcs.y.kind != PERIODIC:
+        raise ValueError(f"a graph surface (height=) is periodic on both axes; got bc={bc!r}, "
+                         "allowed: 'periodic'")
+    try:
+        h = np.asarray(height, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"height must be an array of real numbers, got "
+                        f"{type(height).__name__}") from exc
+    if h.shape != field.shape:
+        raise ValueError(f"height has shape {h.shape}; it must have u's shape {field.shape} "
+                         "(one height per cell)")
+    if not np.isfinite(h).all():
+        bad = int(np.count_nonzero(~np.isfinite(h)))
+        raise ValueError(f"height contains {bad} NaN or Inf value(s); all values must be "
+                         "finite")
+    surface = GraphSurface(field.shape, dx=grid.dx, dy=grid.dy, height=h)
+    be = get_backend(backend)
+    d_u = be.upload(field)
+    out = be.empty_like(d_u)
+    be.metric_laplacian(d_u, be.upload_metric(surface, field.dtype), out)
     return _restore(_finite(out.numpy(), "laplacian"), u)
 
 

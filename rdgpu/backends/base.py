@@ -15,7 +15,9 @@ Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, 
 
 from __future__ import annotations
 
+import threading
 from abc import ABC, abstractmethod
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +29,11 @@ Scalar = float
 FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
 
 _REAL_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+#: the metric coefficient arrays, in the kernels' argument order (kernels/metric/reference.py)
+METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
+#: how many (surface, dtype) uploads ``Backend.upload_metric`` keeps per backend
+_METRIC_CACHE = 8
+_METRIC_LOCK = threading.Lock()
 
 
 @dataclass(eq=False)
@@ -167,6 +174,68 @@ class Backend(ABC):
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
         """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
+
+    @abstractmethod
+    def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
+                         out: DeviceArray) -> None:
+        """``out = Δ_Γ u``, the Laplace-Beltrami operator of a graph surface over a periodic
+        grid (``rdgpu.metric``; the conservative 9-point form of
+        ``kernels/metric/reference.py``, in its evaluation order).
+
+        ``u``, ``out``: ``[ny, nx]``, or ``[nm, ny, nx]`` for ``nm`` members sharing one
+        surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
+        dtype, e.g. from :meth:`upload_metric` (upload once, reuse).  Units: ``[u]/length²``
+        when the coefficients are those of spacings in length units."""
+
+    def upload_metric(self, surface: Any, dtype: Any) -> tuple[DeviceArray, ...]:
+        """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.metric.GraphSurface`
+        rounded to ``dtype`` (subnormals flushed), on this backend.  Cached per backend for
+        the last few ``(surface, dtype)`` pairs: surfaces compare by grid and height, so an
+        equal surface built again reuses the upload.  Treat the arrays as read-only."""
+        from ..metric import GraphSurface
+
+        if not isinstance(surface, GraphSurface):
+            raise TypeError(f"upload_metric needs an rdgpu.metric.GraphSurface, got "
+                            f"{type(surface).__name__}")
+        dtype = np.dtype(dtype)
+        if dtype not in _REAL_DTYPES:
+            raise TypeError(f"the metric coefficients must be float32 or float64, got {dtype}")
+        key = (surface, dtype.char)
+        with _METRIC_LOCK:
+            cache = self.__dict__.setdefault("_metric_uploads", OrderedDict())
+            found = cache.get(key)
+            if found is None:
+                c = surface.coefficients_as(dtype)
+                found = tuple(self.upload(c[k]) for k in METRIC_COEFFICIENTS)
+                cache[key] = found
+                while len(cache) > _METRIC_CACHE:
+                    cache.popitem(last=False)
+            cache.move_to_end(key)
+        return found
+
+    @staticmethod
+    def _check_metric(u: DeviceArray, coefficients: Any, out: DeviceArray) -> int:
+        """Check ``metric_laplacian``'s operands (module doc of the method); return the
+        number of members ``nm``."""
+        if len(u.shape) not in (2, 3):
+            raise ValueError(f"metric_laplacian takes u of shape [ny, nx] or [nm, ny, nx], "
+                             f"got {u.shape}")
+        if u.dtype not in _REAL_DTYPES:
+            raise TypeError(f"metric_laplacian: u must be float32 or float64, got {u.dtype}")
+        if out.shape != u.shape or out.dtype != u.dtype or out.backend is not u.backend:
+            raise ValueError(f"metric_laplacian: out ({out.shape} {out.dtype}) must match u "
+                             f"({u.shape} {u.dtype}) on the same backend")
+        if not isinstance(coefficients, (tuple, list)) or len(coefficients) != 4:
+            raise TypeError("metric_laplacian: coefficients must be the 4 device arrays "
+                            "(ex, ny, bx, w), e.g. backend.upload_metric(surface, dtype)")
+        for name, c in zip(METRIC_COEFFICIENTS, coefficients, strict=True):
+            if not isinstance(c, DeviceArray) or c.backend is not u.backend:
+                raise TypeError(f"metric_laplacian: coefficient {name} must be a DeviceArray "
+                                f"of u's backend ({u.backend.name})")
+            if c.shape != u.shape[-2:] or c.dtype != u.dtype:
+                raise ValueError(f"metric_laplacian: coefficient {name} is {c.shape} {c.dtype}; "
+                                 f"u {u.shape} {u.dtype} needs {u.shape[-2:]} {u.dtype}")
+        return u.shape[0] if len(u.shape) == 3 else 1
 
     @abstractmethod
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:

@@ -38,6 +38,7 @@ class NumpyBackend(Backend):
         self._ls = load_module("levelset", "reference.py")
         self._mesh = load_module("mesh", "reference.py")
         self._walk = load_module("walkers", "reference.py")
+        self._metric = load_module("metric", "reference.py")
 
     # memory
     def upload(self, a: np.ndarray) -> DeviceArray:
@@ -62,6 +63,11 @@ class NumpyBackend(Backend):
     # kernels
     def laplacian(self, u, out, *, dx, dy, bc: GridBC, stencil):
         out.handle[...] = self._lap.laplacian(u.handle, dx, dy, bc, stencil)
+
+    def metric_laplacian(self, u, coefficients, out):
+        self._check_metric(u, coefficients, out)
+        out.handle[...] = self._metric.metric_laplacian(u.handle,
+                                                        *(c.handle for c in coefficients))
 
     def bernoulli(self, u, out, *, decay):
         out.handle[...] = self._ber.bernoulli(u.handle, decay)

@@ -41,7 +41,7 @@ from ..kernel_files import load_module, read_source
 from .base import Backend, DeviceArray, FieldOrScalar, _check_range
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
-_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh")
+_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric")
 # Argument types of every kernel (must match the .cl signatures): B = buffer, i = int32,
 # l = int64, r = the real type.  Declaring them lets PyOpenCL pack scalars fast (untyped
 # scalar arguments cost ~15 us each on PoCL).
@@ -50,6 +50,7 @@ _GRID3 = "iiiiririr"  # nx, ny, nz, y_kind, g_y, x_kind, g_x, z_kind, g_z
 _KERNEL_ARGS = {
     "laplacian5": "BB" + _GRID + "rr",
     "laplacian9": "BB" + _GRID + "r",
+    "metric_laplacian": "BBBBBBiii",  # u, ex, ny, bx, w, out; nx, ny, nm
     "bernoulli": "BBllrr",
     "gray_scott_ss": "BBBBBB" + _GRID + "rrrrrrr",
     "gray_scott_fs": "BBBBBB" + _GRID + "rrrrrrr",
@@ -464,6 +465,18 @@ class OpenCLBackend(Backend):
             self._launch_grid(ks["laplacian9"], ny, args)
         else:
             raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
+
+    def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
+                         out: DeviceArray) -> None:
+        nm = self._check_metric(u, coefficients, out)
+        self._check_on_device(u, out)
+        ny, nx = u.shape[-2:]
+        if nm * ny * nx > _MAX_CELLS:
+            raise ValueError(f"{nm} members of {ny}x{nx} cells are too many for the OpenCL "
+                             "kernels")
+        args = (u.handle, *(c.handle for c in coefficients), out.handle, nx, ny, nm)
+        self._launch_grid(self.kernels(u.dtype)["metric_laplacian"], nm * ny if nx else 0,
+                          args)
 
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         if out.shape != u.shape or out.dtype != u.dtype:

@@ -329,6 +329,31 @@ class WarpBackend(Backend):
         args = [u.handle, out.handle, cx, cy, *self._bc_args(bc, t)]
         self._run_grid(kernels, u.shape, args)
 
+    def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
+                         out: DeviceArray) -> None:
+        nm = self._check_metric(u, coefficients, out)
+        ny, nx = u.shape[-2:]
+        if nm * ny * nx == 0:
+            return
+        rows, cells = self._family("metric").KERNELS[u.dtype]
+        args = [self._members(u, nm), *(c.handle for c in coefficients), self._members(out, nm)]
+        if self._cells:
+            self._launch(cells, (nm, ny, nx), args, 0)
+            return
+        self._run_split(rows, nm * ny, nm * ny * nx, args)
+
+    @staticmethod
+    def _members(d: DeviceArray, nm: int):
+        """A cached ``[nm, ny, nx]`` view of a ``[ny, nx]`` or ``[nm, ny, nx]`` array."""
+        h = d.handle
+        if h.ndim == 3:
+            return h
+        view = d.meta.get("warp_members")
+        if view is None or view._ref is not h:
+            view = h.reshape((nm, *h.shape))
+            d.meta["warp_members"] = view
+        return view
+
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         t = self._real(u, "bernoulli input")
         self._same(u, out, "bernoulli output")

@@ -1,0 +1,235 @@
+"""The metric Laplace-Beltrami kernel (``rdgpu.laplacian(height=)``): the seed's heat-equation
+convergence check and a benchmark against the flat 5-point Laplacian.
+
+    python perf/metric.py [--sizes N ...] [--backends B ...] [--seconds 0.3]
+                          [--heat-sizes 16 32 64 128] [--heat-backend numpy] [--out perf/results]
+
+(a) Seed 002 §3, eq. 14: ``u_t = Δ_Γ u + f`` on the rough periodic surface ``z = h(x, y)``
+over ``[0, 2π]²`` (:data:`HEIGHT`, waves up to wave number 2, max |h| ≈ 1), with the
+manufactured solution ``u = e^{-t} sin(x) cos(y)`` and ``f = e^{-t}(−s − Δ_Γ s)``,
+``s = sin(x) cos(y)``, where ``Δ_Γ s`` is the exact operator (closed form of
+``kernels/metric/exact.py``, checked here against its FFT form).  Forward Euler with
+``rdgpu.laplacian(height=)`` every step (float64) to ``T = 1``, ``dt = κ dx²`` with one ``κ``
+for every grid (stable on all: ``κ dx² · λ_max ≤ 1`` by the Gershgorin bound), so the time
+error is second order too.  The table: the relative ℓ² error ``‖u − u_exact‖₂ / ‖u_exact‖₂``
+at ``T`` against ``n`` and the observed orders; written to ``metric_convergence.md``.
+
+(b) The metric kernel against the flat 5-point one on each backend, side by side in one
+run (float32, the same random ``u``; the metric coefficients uploaded once): Mcell/s and
+% of the memory-bandwidth roofline (``perf/machine.py``, ``perf/bench.py``: bytes counted
+the STREAM way; flat 8 bytes per cell, u and out; metric 24, u, out and the four
+coefficient arrays).  Sizes from the caches as ``perf/bench.py`` picks them (a
+cache-resident one, a mid one, one whose working set is at least 4× the LLC); written to
+``metric_bench.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+try:
+    import rdgpu
+except ImportError:  # run from a source checkout without installing
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import rdgpu
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench  # noqa: E402 - perf/bench.py, next to this file
+import machine  # noqa: E402
+
+from rdgpu.boundary import parse_bc  # noqa: E402
+from rdgpu.kernel_files import load_module  # noqa: E402
+from rdgpu.metric import GraphSurface  # noqa: E402
+
+EXACT = load_module("metric", "exact.py")
+#: the rough surface of the heat check: a few waves, max |h| about 1
+HEIGHT = EXACT.Waves(((0.4, 1, 1, 0.3), (0.3, 2, -1, 1.1), (0.2, 1, 2, 2.0), (0.2, 0, 1, 0.0)))
+#: ``s = sin(x) cos(y)`` as waves: ½ sin(x + y) + ½ sin(x − y)
+SHAPE = EXACT.Waves(((0.5, 1, 1, -np.pi / 2), (0.5, 1, -1, -np.pi / 2)))
+T_END = 1.0
+BYTES = {"flat 5-point": 8, "metric": 24}  # float32 bytes moved per cell
+
+
+# ---------------------------------------------------------------------------- (a) heat
+def heat_error(n: int, kappa: float, backend: str | None) -> dict:
+    """Forward Euler to ``T_END`` on the n² grid; the relative ℓ² error and the run's facts."""
+    d = 2 * np.pi / n
+    x = (np.arange(n) + 0.5) * d
+    X, Y = np.meshgrid(x, x)
+    h = HEIGHT(X, Y)
+    s = SHAPE(X, Y)
+    lap_s = EXACT.exact_laplace_beltrami(HEIGHT, SHAPE, X, Y)
+    spectral_gap = np.abs(lap_s - EXACT.spectral_laplace_beltrami(h, s, d, d)).max()
+    forcing = -s - lap_s  # f = e^{-t} forcing
+    steps = int(np.ceil(T_END / (kappa * d * d)))
+    dt = T_END / steps
+    u = s.copy()
+    t0 = time.perf_counter()
+    for k in range(steps):
+        u = u + dt * (rdgpu.laplacian(u, height=h, dx=d, backend=backend)
+                      + np.exp(-k * dt) * forcing)
+    exact = np.exp(-T_END) * s
+    return dict(n=n, dx=d, dt=dt, steps=steps, seconds=time.perf_counter() - t0,
+                error=float(np.linalg.norm(u - exact) / np.linalg.norm(exact)),
+                spectral_gap=float(spectral_gap))
+
+
+def heat_table(sizes: list[int], backend: str | None) -> tuple[list[dict], str]:
+    """The error table over ``sizes`` (one κ for all) and its Markdown."""
+    bounds = []
+    for n in sizes:
+        d = 2 * np.pi / n
+        x = (np.arange(n) + 0.5) * d
+        X, Y = np.meshgrid(x, x)
+        bounds.append(GraphSurface((n, n), dx=d, height=HEIGHT(X, Y)).spectral_bound() * d * d)
+    kappa = 1.0 / max(bounds)  # dt λ_max ≤ 1 < 2 on every grid
+    rows = []
+    for n in sizes:
+        r = heat_error(n, kappa, backend)
+        r["order"] = None if not rows else float(np.log2(rows[-1]["error"] / r["error"]))
+        rows.append(r)
+        print(f"heat n={n:4d}  dt={r['dt']:.3e}  steps={r['steps']:6d}  rel l2 error "
+              f"{r['error']:.3e}  order {bench.fmt(r['order'], '.2f')}  "
+              f"({r['seconds']:.1f} s)", flush=True)
+    be = rdgpu.get_backend(backend)
+    lines = [
+        "# Heat equation on a rough periodic surface (seed 002 §3, eq. 14)",
+        "",
+        f"`u_t = Δ_Γ u + f` on `z = h(x, y)` over `[0, 2π]²`, `h` = {_waves_text(HEIGHT)} "
+        f"(max |h| = {np.abs(HEIGHT(X, Y)).max():.2f}); exact `u = e^(-t) sin(x) cos(y)`, "
+        "`f` from the exact operator (closed form; its FFT form agrees to the gap below). "
+        f"Forward Euler with `rdgpu.laplacian(height=)` (backend {be.name}, float64) to "
+        f"`T = {T_END:g}`, `dt = κ dx²` with κ = {kappa:.4f} for every grid "
+        "(`dt · λ_max ≤ 1`). Error: `‖u − u_exact‖₂ / ‖u_exact‖₂` at `T`.",
+        "",
+        "| n | dx | dt | steps | relative ℓ² error | observed order | exact − FFT |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['n']} | {r['dx']:.4f} | {r['dt']:.3e} | {r['steps']} | "
+                     f"{r['error']:.3e} | {bench.fmt(r['order'], '.2f')} | "
+                     f"{r['spectral_gap']:.1e} |")
+    lines += ["", f"Command: `python perf/metric.py --heat-sizes {' '.join(map(str, sizes))}"
+              f"{'' if backend is None else ' --heat-backend ' + backend}`", ""]
+    return rows, "\n".join(lines)
+
+
+def _waves_text(w) -> str:
+    return " + ".join(f"{a:g} cos({kx:g}x {'+' if ky >= 0 else '−'} {abs(ky):g}y + {p:.2g})"
+                      for a, kx, ky, p in w.terms)
+
+
+# ---------------------------------------------------------------------------- (b) bench
+def make_step(kind: str, be, n: int):
+    """Device arrays for one case and a closure applying the kernel once."""
+    rng = np.random.default_rng(0)
+    u = be.upload(rng.random((n, n), np.float32))
+    out = be.empty((n, n), np.float32)
+    if kind == "metric":
+        d = 2 * np.pi / n
+        x = (np.arange(n) + 0.5) * d
+        X, Y = np.meshgrid(x, x)
+        surface = GraphSurface((n, n), dx=d, height=HEIGHT(X, Y))
+        coefficients = be.upload_metric(surface, np.float32)
+        return lambda: be.metric_laplacian(u, coefficients, out)
+    bc = parse_bc("periodic")
+    d = 2 * np.pi / n
+    return lambda: be.laplacian(u, out, dx=d, dy=d, bc=bc, stencil=5)
+
+
+def bench_rows(sizes: list[int], backends: dict, memory: dict, seconds: float) -> list[dict]:
+    rows = []
+    for n in sizes:
+        for label, be in backends.items():
+            for kind, nbytes in BYTES.items():
+                step = make_step(kind, be, n)
+                t = bench.time_case(be, step, seconds)
+                del step
+                row = dict(kernel=kind, size=n, cells=n * n, backend=label, device=be.device,
+                           seconds_per_step=t, mcells=n * n / t / 1e6)
+                rows.append(bench.add_roofline(row, bench.memory_of(label, memory), nbytes))
+                bench.progress(f"{kind:13s} {n:5d}²", row)
+    flat = {(r["size"], r["backend"]): r["mcells"] for r in rows if r["kernel"] != "metric"}
+    for r in rows:
+        r["vs_flat"] = r["mcells"] / flat[r["size"], r["backend"]]
+    return rows
+
+
+def bench_markdown(rows: list[dict], memory: dict, caches, sizes_auto: bool,
+                   argv: list[str]) -> str:
+    cpu = memory["cpu"]
+    lines = [
+        "# The metric Laplace-Beltrami kernel against the flat 5-point Laplacian",
+        "",
+        f"Machine: {machine.cpu_name()}, {os.cpu_count()} CPUs; {caches.describe()}. "
+        f"Load average (1 min) at the end: {os.getloadavg()[0]:.1f}.",
+        "",
+        f"Bandwidth (triad outside the cache, best of repeats, before and after the rows: "
+        f"{' and '.join(f'{x:.1f}' for x in cpu['GBps_runs'])} GB/s; the better one): "
+        f"**{cpu['GBps']:.1f} GB/s** ({cpu['GBps_from']}). float32, periodic, best of "
+        "repeats. Bytes per cell counted "
+        "the STREAM way: flat 8 (read u, write out), metric 24 (u, the four coefficient "
+        "arrays ex, ny, bx, w, out). % roofline = Mcell/s ÷ (bandwidth ÷ bytes per cell), only "
+        "where the working set exceeds the LLC (`cache` otherwise). Sizes "
+        + ", ".join(f"{n}²" for n in sorted({r['size'] for r in rows}))
+        + (" from the caches (cache-resident, mid, ≥ 4× LLC)." if sizes_auto else " (given)."),
+        "",
+        "| size | backend | kernel | Mcell/s | metric ÷ flat | working set / LLC | "
+        "roofline Mcell/s | % roofline |",
+        "|---|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['size']}² | {r['backend']} | {r['kernel']} | {r['mcells']:.0f} | "
+                     f"{r['vs_flat']:.2f} | {bench.fmt(r['working_set_over_llc'], '.2f')} | "
+                     f"{r['roofline_mcells']:.0f} | {bench.roof_text(r)} |")
+    lines += ["", f"Command: `{' '.join(['python perf/metric.py', *argv])}`", ""]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="*", default=None,
+                        help="benchmark grid sizes (default: from the caches; none: no bench)")
+    parser.add_argument("--backends", nargs="+", default=list(bench.CPU_LABELS),
+                        help=f"of {', '.join(bench.CPU_LABELS)}")
+    parser.add_argument("--seconds", type=float, default=0.3, help="timing per case")
+    parser.add_argument("--heat-sizes", type=int, nargs="*", default=[16, 32, 64, 128],
+                        help="grids of the heat check (none: no heat check)")
+    parser.add_argument("--heat-backend", default=None,
+                        help="backend of the heat check (default: rdgpu's choice)")
+    parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    if args.heat_sizes:
+        _, text = heat_table(args.heat_sizes, args.heat_backend)
+        (out / "metric_convergence.md").write_text(text)
+        print(text)
+    if args.sizes is not None and not args.sizes:
+        return 0
+    caches = machine.cpu_caches()
+    backends = bench.resolve_backends(args.backends, gpu=False)
+    print("backends: " + "; ".join(f"{k} = {b.device}" for k, b in backends.items()))
+    memory = bench.measure_memory(backends, caches, min(args.seconds, 0.5))
+    sizes_auto = args.sizes is None
+    sizes = args.sizes or machine.default_sizes(caches.llc, min(BYTES.values()),
+                                                max(BYTES.values()))
+    print(f"sizes: {sizes}; bandwidth {memory['cpu']['GBps']:.1f} GB/s", flush=True)
+    rows = bench_rows(sizes, backends, memory, args.seconds)
+    # other work on the machine comes and goes: measure again, keep the better bandwidth
+    bench.remeasure(memory, backends, caches, min(args.seconds, 0.5), [rows])
+    text = bench_markdown(rows, memory, caches, sizes_auto, argv)
+    (out / "metric_bench.md").write_text(text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
