@@ -629,10 +629,11 @@ def save_mesh(mesh: Any, path: PathLike, fields: Mapping[str, np.ndarray] | None
 def save_npz(result: Any, path: PathLike) -> Path:
     """One data file for a run: ``final_<s>`` and ``snapshots_<s>`` per species, ``times``,
     ``snapshot_steps``, ``param_<name>`` for field-valued parameters, ``mesh_vertices`` and
-    ``mesh_faces`` on a mesh, and JSON strings ``meta`` (everything else: model, step, time,
+    ``mesh_faces`` on a mesh, ``surface_height`` on a graph surface, and JSON strings
+    ``meta`` (everything else: model, step, time,
     dt, dtype, seed, init, domain, wall time, divergence message), ``params``, ``backend``,
     ``device`` and ``versions``.  Written atomically (temporary file, fsync, rename)."""
-    from .simulation import _atomic_savez, _json_str, _split_params
+    from .simulation import _atomic_savez, _json_str, _split_params, domain_arrays
 
     scalars, fields = _split_params(result.params)
     meta = {
@@ -667,9 +668,7 @@ def save_npz(result: Any, path: PathLike) -> Path:
         arrays[f"snapshots_{s}"] = np.asarray(result.snapshots[s])
     for k, a in fields.items():
         arrays[f"param_{k}"] = a
-    if _is_mesh(result.domain):
-        arrays["mesh_vertices"] = np.asarray(result.domain.vertices)
-        arrays["mesh_faces"] = np.asarray(result.domain.faces)
+    arrays.update(domain_arrays(result.domain))
     path = Path(path)
     if path.suffix.lower() != ".npz":
         raise ValueError(f"the data file must end in .npz, got {str(path)!r}")
