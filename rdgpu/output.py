@@ -630,9 +630,9 @@ def save_npz(result: Any, path: PathLike) -> Path:
     """One data file for a run: ``final_<s>`` and ``snapshots_<s>`` per species, ``times``,
     ``snapshot_steps``, ``param_<name>`` for field-valued parameters, ``mesh_vertices`` and
     ``mesh_faces`` on a mesh, ``surface_height`` on a graph surface, and JSON strings
-    ``meta`` (everything else: model, step, time,
-    dt, dtype, seed, init, domain, wall time, divergence message), ``params``, ``backend``,
-    ``device`` and ``versions``.  Written atomically (temporary file, fsync, rename)."""
+    ``meta`` (everything else: model, step, time, dt, dtype, seed, init, domain, wall time,
+    divergence message), ``params``, ``backend``, ``device`` and ``versions``.  Written
+    atomically (temporary file, fsync, rename)."""
     from .simulation import _atomic_savez, _json_str, _split_params, domain_arrays
 
     scalars, fields = _split_params(result.params)
