@@ -123,8 +123,8 @@ class RDFront:
         grid = sim.domain
         if hasattr(grid, "height"):  # rdgpu.metric.GraphSurface: its fronts are not flat
             raise ValueError("a reaction-diffusion front moves in the flat plane of a 2-D "
-                             "grid; a graph surface (z = h) is not supported: use "
-                             "Grid((ny, nx)) or a SurfaceMesh model run")
+                             "grid; a graph surface (z = h) is not supported: use a "
+                             "flat Grid((ny, nx))")
         if not isinstance(grid, Grid) or grid.ndim != 2 or sim.members is not None:
             raise ValueError("a reaction-diffusion front runs on a single 2-D grid (ny, nx); "
                              f"got {type(grid).__name__} of shape {getattr(grid, 'shape', '?')}"
