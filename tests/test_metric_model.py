@@ -54,7 +54,7 @@ def _run(model, domain, params, be, dtype, method, steps=4, dt=None, start=None,
     """``steps`` steps from ``start``, ``dt`` by default half the stability limit."""
     if dt is None:
         p = {k: v for k, v in params.items() if np.ndim(v) == 0}
-        dt = 0.5 * model.dt_limit(domain, p, method=method)
+        dt = min(0.5 * model.dt_limit(domain, p, method=method), 1.0)
     st = model.stepper(domain, params, dt=dt, backend=be, dtype=dtype, method=method, **kw)
     st.set_state(start if start is not None else _start(model, domain.shape))
     st.advance(steps)
