@@ -253,8 +253,6 @@ def _render_here(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
     frames = arrays["frames"]
     if kind == "volume":
         r: Any = _VolumeRenderer(frames.shape[1:], tuple(arrays["spacing"]), **options)
-    elif kind == "surface":
-        r = _SurfaceRenderer(arrays["points"], **options)
     else:
         r = _MeshRenderer(arrays["vertices"], arrays["faces"], **options)
     try:
@@ -823,49 +821,26 @@ def write_outputs(
 
 
 # ---------------------------------------------------------------------- graph surfaces
-class _SurfaceRenderer:
-    """One off-screen pyvista plotter for fields on a graph surface: a ``StructuredGrid``
-    of the points ``[ny + 1, nx + 1, 3]`` (one period, closed by the wrapped first row
-    and column), smooth shading, the field as point data."""
-
-    def __init__(self, points: np.ndarray, *, cmap: str, clim: tuple[float, float],
-                 camera: Any, window_size: tuple[int, int], background: str,
-                 show_edges: bool, scalar_bar: bool) -> None:
-        pv = _pyvista()
-        p = np.asarray(points, dtype=np.float64)
-        self.shape = p.shape[:2]
-        self.grid = pv.StructuredGrid(p[..., 0], p[..., 1], p[..., 2])
-        self.grid.point_data["field"] = np.zeros(p.shape[0] * p.shape[1])
-        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
-        self.plotter.set_background(background)
-        self.plotter.add_mesh(self.grid, scalars="field", cmap=cmap, clim=list(clim),
-                              show_edges=show_edges, show_scalar_bar=scalar_bar,
-                              smooth_shading=True)
-        _camera(self.plotter, camera)
-
-    def image(self, field: np.ndarray) -> np.ndarray:
-        """Render a ``[ny, nx]`` field (wrapped onto the closing row and column)."""
-        f = np.pad(np.asarray(field, dtype=np.float64), ((0, 1), (0, 1)), mode="wrap")
-        # StructuredGrid(x, y, z) orders its points as x.ravel(order="F")
-        self.grid.point_data["field"][:] = f.ravel(order="F")
-        self.grid.point_data["field"].Modified()
-        return _screenshot(self.plotter)
-
-    def close(self) -> None:
-        self.plotter.close()
-
-
-def surface_points(surface: Any, warp_scale: float = 1.0) -> np.ndarray:
-    """``[ny + 1, nx + 1, 3]`` points ``(x, y, warp_scale·h)`` of a graph surface's cell
-    centres over one period, the first row and column repeated one period on (so the
-    picture closes up); ``x = (j + ½) dx``, ``y = (i + ½) dy``."""
+def surface_mesh(surface: Any, warp_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices, faces)`` of a graph surface drawn as ``z = warp_scale · h``: its cell
+    centres ``(x, y) = ((j + ½) dx, (i + ½) dy)`` over one period, the first row and
+    column repeated one period on (so the picture closes up), as the structured grid of
+    ``[ny + 1, nx + 1]`` points (C order) cut into two triangles per quad."""
     ny, nx = surface.shape
     x = (np.arange(nx + 1) + 0.5) * surface.dx
     y = (np.arange(ny + 1) + 0.5) * surface.dy
     yy, xx = np.meshgrid(y, x, indexing="ij")
-    z = warp_scale * np.pad(np.asarray(surface.height, dtype=np.float64), ((0, 1), (0, 1)),
-                            mode="wrap")
-    return np.stack([xx, yy, z], axis=-1)
+    z = warp_scale * _wrap_closed(surface.height)
+    vertices = np.stack([xx, yy, z], axis=-1).reshape(-1, 3)
+    a = (np.arange(ny)[:, None] * (nx + 1) + np.arange(nx)[None, :]).ravel()
+    b, c = a + 1, a + nx + 1
+    faces = np.concatenate([np.stack([a, b, c + 1], axis=1), np.stack([a, c + 1, c], axis=1)])
+    return vertices, faces.astype(np.int64)
+
+
+def _wrap_closed(a: Any) -> np.ndarray:
+    """An ``[ny, nx]`` array with its first row and column appended (periodic closure)."""
+    return np.pad(np.asarray(a, dtype=np.float64), ((0, 1), (0, 1)), mode="wrap")
 
 
 def render_surface(
@@ -883,7 +858,8 @@ def render_surface(
 ) -> Path:
     """Write a PNG of ``field`` (``[ny, nx]``, on the parameter grid) drawn on the 3-D
     surface ``z = warp_scale · h`` of the :class:`~rdgpu.metric.GraphSurface` ``surface``:
-    pyvista, off-screen (in a child process, see :func:`_render`), smooth shading.
+    the field as point data of :func:`surface_mesh`, rendered as a mesh is
+    (:func:`render_mesh`: pyvista, off-screen in a child process, smooth shading).
     ``camera`` as in :func:`render_mesh`; ``vmin``/``vmax`` fix the colour scale."""
     from .metric import GraphSurface
 
@@ -899,8 +875,9 @@ def render_surface(
         raise ValueError(f"warp_scale must be a finite number, got {warp_scale!r}")
     options = _render_options(f, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
                               window_size=window_size, background=background)
-    arrays = {"points": surface_points(surface, scale), "frames": f[None]}
-    img = _render(arrays, {**options, "kind": "surface"})[0]
+    vertices, faces = surface_mesh(surface, scale)
+    arrays = {"vertices": vertices, "faces": faces, "frames": _wrap_closed(f).reshape(1, -1)}
+    img = _render(arrays, {**options, "kind": "mesh"})[0]
     import imageio.v3 as iio
 
     path = _prepare(path)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip
+from conftest import backend_or_skip, variant_or_skip
 
 from rdgpu import Simulation
 from rdgpu.domains import Grid
@@ -61,21 +61,6 @@ def _run(model, domain, params, be, dtype, method, steps=4, dt=None, start=None,
     return st.get_state()
 
 
-def _variant(name: str):
-    """A backend by name, ``warp-cells``/``opencl-strided`` the GPU launch shapes on the
-    CPU (skipped where unavailable)."""
-    base = backend_or_skip(name.split("-")[0])
-    if name == "warp-cells":
-        from rdgpu.backends.warp_backend import WarpBackend
-
-        return WarpBackend("cpu", launch="cells")
-    if name == "opencl-strided":
-        from rdgpu.backends.opencl_backend import OpenCLBackend
-
-        return OpenCLBackend(layout="strided", col_stride=4)
-    return base
-
-
 def _assert_same(a, b, what=""):
     for s in a:
         np.testing.assert_array_equal(a[s], b[s], err_msg=f"{what} field {s}")
@@ -87,7 +72,7 @@ def _assert_same(a, b, what=""):
 @pytest.mark.parametrize("variant", ["warp", "opencl", "warp-cells", "opencl-strided"])
 def test_backends_equal_the_numpy_reference(variant, model, method, dtype):
     """Every shape, with a parameter field (``k`` / ``a`` vary per cell): bit for bit."""
-    be = _variant(variant)
+    be = variant_or_skip(variant)
     for shape in SHAPES:
         surface = _surface(shape)
         field = "k" if model is GS else "a"
@@ -327,6 +312,14 @@ def test_render_surface_writes_a_picture(tmp_path):
     img = iio.imread(path)
     assert img.shape == (160, 200, 3)
     assert len(np.unique(img.reshape(-1, 3), axis=0)) > 100  # coloured, shaded
+    from rdgpu.output import surface_mesh
+
+    V, F = surface_mesh(surface, warp_scale=2.0)
+    grid = V.reshape(17, 21, 3)
+    np.testing.assert_array_equal(grid[:16, :20, 2], 2.0 * surface.height)
+    np.testing.assert_array_equal(grid[16, :20, 2], grid[0, :20, 2])  # closed up
+    assert grid[3, 4, 0] == 4.5 and grid[3, 4, 1] == 3.5
+    assert F.shape == (2 * 16 * 20, 3) and F.max() == V.shape[0] - 1
     with pytest.raises(ValueError, match="the field has shape"):
         render_surface(surface, u.T, tmp_path / "t.png")
     with pytest.raises(TypeError, match="GraphSurface"):
