@@ -341,6 +341,14 @@ def test_bad_surface_specs(spec, match):
         Simulation("gray-scott", spec, {}, backend="numpy")
 
 
+def test_preset_domains_with_a_height_are_surfaces():
+    from rdgpu.models.presets import build_domain
+
+    h = _height((6, 5))
+    d = build_domain({"grid": (6, 5), "height": h, "dx": 0.5})
+    assert isinstance(d, GraphSurface) and d.dx == 0.5 and np.array_equal(d.height, h)
+
+
 def test_isotropic_stencil_and_blocking_are_refused():
     surface = _surface((8, 6))
     with pytest.raises(ValueError, match="isotropic stencil.*graph surface"):
