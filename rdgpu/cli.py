@@ -213,6 +213,8 @@ def _describe_domain(domain: Any) -> str:
         axes = (bc.z, bc.y, bc.x) if domain.ndim == 3 else (bc.y, bc.x)
         names = [a.name for a in axes]
         bcs = names[0] if len(set(axes)) == 1 else "/".join(names)
+        if hasattr(domain, "height"):  # a graph surface (rdgpu.metric)
+            return f"graph surface over a {_grid_text(domain.shape)} grid (dx={domain.dx:g})"
         return f"{_grid_text(domain.shape)} grid (dx={domain.dx:g}, {bcs})"
     return f"mesh of {domain.n_vertices} vertices, {domain.n_faces} faces"
 
@@ -220,7 +222,8 @@ def _describe_domain(domain: Any) -> str:
 def _describe_spec(spec: dict) -> str:
     if "grid" in spec:
         g = spec["grid"]
-        return f"{_grid_text((g, g) if isinstance(g, int) else g)} grid"
+        surface = "graph surface over a " if "height" in spec else ""
+        return f"{surface}{_grid_text((g, g) if isinstance(g, int) else g)} grid"
     opts = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "mesh")
     return f"mesh {spec['mesh']}" + (f" ({opts})" if opts else "")
 

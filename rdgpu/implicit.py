@@ -104,12 +104,20 @@ def _is_mesh(domain: Any) -> bool:
     return isinstance(domain, SurfaceMesh)
 
 
+def _is_surface(domain: Any) -> bool:
+    from .metric import GraphSurface
+
+    return isinstance(domain, GraphSurface)
+
+
 def operator_matrix(domain: Any) -> tuple[Any, np.ndarray]:
     """``(M, b)`` with ``L u = M u + b`` (float64) on ``domain``, acting on the flat field:
-    the mesh's ``A⁻¹W`` and ``b = 0``, or a grid's 5-point (3-D: 7-point) matrix and
-    Dirichlet vector."""
+    the mesh's ``A⁻¹W`` and ``b = 0``, a graph surface's 9-point ``Δ_Γ`` and ``b = 0``, or a
+    grid's 5-point (3-D: 7-point) matrix and Dirichlet vector."""
     import scipy.sparse as sp
 
+    if _is_surface(domain):  # before Grid: a graph surface is a Grid subclass
+        return domain.laplacian, np.zeros(domain.n_points)
     if isinstance(domain, Grid):
         ref = load_module("laplacian", "reference.py")
         dz = domain.dz if domain.ndim == 3 else None
@@ -133,10 +141,17 @@ def _valid_colouring(M: Any, colour: np.ndarray) -> bool:
 
 
 def _colouring(domain: Any, M: Any) -> np.ndarray:
-    """Red-black on a grid (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``) where that is a
-    valid colouring of ``M``, else greedy."""
+    """Red-black on a grid (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``), four colours by
+    the parities of (row, column) on a graph surface (its 9-point graph), where that is a
+    valid colouring of ``M``; else greedy."""
     from .mesh import greedy_colouring
 
+    if _is_surface(domain):
+        i, j = np.indices(domain.shape)
+        colour = (2 * (i % 2) + j % 2).astype(np.int32).ravel()
+        if _valid_colouring(M, colour):
+            return colour
+        return greedy_colouring(M, symmetric=False)
     if isinstance(domain, Grid):
         colour = (np.indices(domain.shape).sum(axis=0) % 2).astype(np.int32).ravel()
         if _valid_colouring(M, colour):
@@ -198,18 +213,27 @@ def _mesh_eigenvalue(mesh: Any, labels: np.ndarray, count: int) -> tuple[float, 
     cached = _MESH_SPECTRA.get(mesh)
     if cached is not None:
         return cached
+    found = _pencil_eigenvalue(mesh.weights, mesh.areas, count)
+    result = (found, True) if found is not None else (_geodesic_estimate(mesh, labels), False)
+    _MESH_SPECTRA[mesh] = result
+    return result
+
+
+def _pencil_eigenvalue(W: Any, A: np.ndarray, count: int) -> float | None:
+    """The smallest eigenvalue of the pencil ``(−W, diag(A))`` after the ``count``
+    zeros (``W`` symmetric with zero row sums, ``A > 0``): dense up to 600 unknowns,
+    shift-invert Lanczos up to :data:`EIGSH_MAX_VERTICES`; None above that or on failure."""
     import scipy.sparse as sp
 
-    W, A = mesh.weights, mesh.areas
-    n = mesh.n_vertices
+    n = len(A)
     result = None
     if n <= count:
-        result = (math.inf, True)
+        result = math.inf
     elif n <= 600:
         from scipy.linalg import eigh
 
         vals = eigh(-W.toarray(), np.diag(A), eigvals_only=True)
-        result = (float(vals[count]), True)
+        result = float(vals[count])
     elif n <= EIGSH_MAX_VERTICES and count <= 8:
         from scipy.sparse.linalg import (
             ArpackError,
@@ -230,12 +254,30 @@ def _mesh_eigenvalue(mesh: Any, labels: np.ndarray, count: int) -> tuple[float, 
             nu = eigsh(op, k=count + 1, which="LM", tol=1e-8, v0=v0,
                        return_eigenvectors=False)
             lam = np.sort(1.0 / nu - sigma)
-            result = (float(lam[count]), True)
+            result = float(lam[count])
         except (ArpackError, ArpackNoConvergence):
             result = None
-    if result is None:
-        result = (_geodesic_estimate(mesh, labels), False)
-    _MESH_SPECTRA[mesh] = result
+    return result
+
+
+def _surface_eigenvalue(surface: Any) -> tuple[float, bool]:
+    """``(λ₁, exact)`` of ``−Δ_Γ`` on a graph surface: the pencil ``(−√g Δ_Γ, √g)``
+    (:func:`_pencil_eigenvalue`; one closed component), or above its size limit the flat
+    grid's ``λ₁`` scaled by the flat over the surface area (an estimate).  Cached."""
+    cached = _MESH_SPECTRA.get(surface)
+    if cached is not None:
+        return cached
+    import scipy.sparse as sp
+
+    area = surface.area_weights.ravel() / (surface.dx * surface.dy)  # √g
+    W = sp.diags(area) @ surface.laplacian
+    found = _pencil_eigenvalue(sp.csr_matrix(0.5 * (W + W.T)), area, 1)
+    if found is None:
+        flat = Grid(surface.shape, dx=surface.dx, dy=surface.dy)
+        result = (_grid_eigenvalue(flat) / float(area.mean()), False)
+    else:
+        result = (found, True)
+    _MESH_SPECTRA[surface] = result
     return result
 
 
@@ -261,7 +303,9 @@ def _geodesic_estimate(mesh: Any, labels: np.ndarray) -> float:
 def smallest_eigenvalue(domain: Any) -> tuple[float, bool]:
     """``(λ₁, exact)``: the smallest eigenvalue of ``−L`` on ``domain`` that is not the
     constant null vector of a closed component (``inf`` if there is none), and whether it
-    is exact (grid: analytic; mesh: Lanczos) rather than the geodesic-diameter estimate."""
+    is exact (grid: analytic; mesh, graph surface: Lanczos) rather than an estimate."""
+    if _is_surface(domain):
+        return _surface_eigenvalue(domain)
     if isinstance(domain, Grid):
         return _grid_eigenvalue(domain), True
     M, _ = operator_matrix(domain)
@@ -360,13 +404,18 @@ class ImplicitDiffusion:
 
         # closed components, their weights, the spectrum SOR sees after the projection
         self._labels, self._count, self._closed = _components(M)
-        self.weights = (np.asarray(domain.areas, dtype=np.float64) if _is_mesh(domain)
-                        else np.ones(n))
-        self._wsum = np.bincount(self._labels, weights=self.weights, minlength=self._count)
-        if isinstance(domain, Grid):
-            lam, exact = _grid_eigenvalue(domain), True
+        # Σ_i w_i M_ij = 0: the vertex areas, a graph surface's √g dx dy, else 1
+        if _is_mesh(domain):
+            self.weights = np.asarray(domain.areas, dtype=np.float64)
+        elif _is_surface(domain):
+            self.weights = np.asarray(domain.area_weights, dtype=np.float64).ravel()
         else:
+            self.weights = np.ones(n)
+        self._wsum = np.bincount(self._labels, weights=self.weights, minlength=self._count)
+        if _is_mesh(domain):
             lam, exact = _mesh_eigenvalue(domain, self._labels, self._count)
+        else:
+            lam, exact = smallest_eigenvalue(domain)
         #: smallest eigenvalue of −M that SOR has to resolve (constant null vectors of closed
         #: components excluded: the projection handles them exactly)
         self.lambda1 = lam
@@ -428,7 +477,8 @@ class ImplicitDiffusion:
         self.total_sweeps = 0
 
     def __repr__(self) -> str:
-        kind = "grid" if isinstance(self.domain, Grid) else "mesh"
+        kind = ("graph surface" if _is_surface(self.domain) else
+                "grid" if isinstance(self.domain, Grid) else "mesh")
         return (f"ImplicitDiffusion({kind} of {self.n}, D={self.D}, dt={self.dt}, "
                 f"theta={self.theta}, colours={len(self._rows)}, omega={self.omega:.4f}, "
                 f"backend={self.backend.name})")
@@ -663,7 +713,8 @@ class ImplicitDiffusion:
     def _describe(self) -> str:
         method = {1.0: "backward Euler", 0.5: "Crank-Nicolson"}.get(self.theta,
                                                                     f"theta={self.theta}")
-        where = ("x".join(map(str, self.shape)) + " grid" if isinstance(self.domain, Grid)
+        grid = "graph surface" if _is_surface(self.domain) else "grid"
+        where = ("x".join(map(str, self.shape)) + f" {grid}" if isinstance(self.domain, Grid)
                  else f"mesh of {self.n} vertices")
         return f"{method}, dt={self.dt:.3g}, D={self.D:.3g}, {where}, {self.dtype}"
 

@@ -633,10 +633,11 @@ def save_mesh(mesh: Any, path: PathLike, fields: Mapping[str, np.ndarray] | None
 def save_npz(result: Any, path: PathLike) -> Path:
     """One data file for a run: ``final_<s>`` and ``snapshots_<s>`` per species, ``times``,
     ``snapshot_steps``, ``param_<name>`` for field-valued parameters, ``mesh_vertices`` and
-    ``mesh_faces`` on a mesh, and JSON strings ``meta`` (everything else: model, step, time,
-    dt, dtype, seed, init, domain, wall time, divergence message), ``params``, ``backend``,
-    ``device`` and ``versions``.  Written atomically (temporary file, fsync, rename)."""
-    from .simulation import _atomic_savez, _json_str, _split_params
+    ``mesh_faces`` on a mesh, ``surface_height`` on a graph surface, and JSON strings
+    ``meta`` (everything else: model, step, time, dt, dtype, seed, init, domain, wall time,
+    divergence message), ``params``, ``backend``, ``device`` and ``versions``.  Written
+    atomically (temporary file, fsync, rename)."""
+    from .simulation import _atomic_savez, _json_str, _split_params, domain_arrays
 
     scalars, fields = _split_params(result.params)
     meta = {
@@ -671,9 +672,7 @@ def save_npz(result: Any, path: PathLike) -> Path:
         arrays[f"snapshots_{s}"] = np.asarray(result.snapshots[s])
     for k, a in fields.items():
         arrays[f"param_{k}"] = a
-    if _is_mesh(result.domain):
-        arrays["mesh_vertices"] = np.asarray(result.domain.vertices)
-        arrays["mesh_faces"] = np.asarray(result.domain.faces)
+    arrays.update(domain_arrays(result.domain))
     path = Path(path)
     if path.suffix.lower() != ".npz":
         raise ValueError(f"the data file must end in .npz, got {str(path)!r}")
@@ -823,3 +822,68 @@ def write_outputs(
                 raise ValueError(f"a data file must be .npz or a mesh file "
                                  f"({', '.join(MESH_FORMATS)}), got {str(p)!r}")
     return written
+
+
+# ---------------------------------------------------------------------- graph surfaces
+def surface_mesh(surface: Any, warp_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices, faces)`` of a graph surface drawn as ``z = warp_scale · h``: its cell
+    centres ``(x, y) = ((j + ½) dx, (i + ½) dy)`` over one period, the first row and
+    column repeated one period on (so the picture closes up), as the structured grid of
+    ``[ny + 1, nx + 1]`` points (C order) cut into two triangles per quad."""
+    ny, nx = surface.shape
+    x = (np.arange(nx + 1) + 0.5) * surface.dx
+    y = (np.arange(ny + 1) + 0.5) * surface.dy
+    yy, xx = np.meshgrid(y, x, indexing="ij")
+    z = warp_scale * _wrap_closed(surface.height)
+    vertices = np.stack([xx, yy, z], axis=-1).reshape(-1, 3)
+    a = (np.arange(ny)[:, None] * (nx + 1) + np.arange(nx)[None, :]).ravel()
+    b, c = a + 1, a + nx + 1
+    faces = np.concatenate([np.stack([a, b, c + 1], axis=1), np.stack([a, c + 1, c], axis=1)])
+    return vertices, faces.astype(np.int64)
+
+
+def _wrap_closed(a: Any) -> np.ndarray:
+    """An ``[ny, nx]`` array with its first row and column appended (periodic closure)."""
+    return np.pad(np.asarray(a, dtype=np.float64), ((0, 1), (0, 1)), mode="wrap")
+
+
+def render_surface(
+    surface: Any,
+    field: np.ndarray,
+    path: PathLike,
+    *,
+    cmap: str = "viridis",
+    warp_scale: float = 1.0,
+    camera: Any = None,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    window_size: tuple[int, int] = (800, 800),
+    background: str = "white",
+) -> Path:
+    """Write a PNG of ``field`` (``[ny, nx]``, on the parameter grid) drawn on the 3-D
+    surface ``z = warp_scale · h`` of the :class:`~rdgpu.metric.GraphSurface` ``surface``:
+    the field as point data of :func:`surface_mesh`, rendered as a mesh is
+    (:func:`render_mesh`: pyvista, off-screen in a child process, smooth shading).
+    ``camera`` as in :func:`render_mesh`; ``vmin``/``vmax`` fix the colour scale."""
+    from .metric import GraphSurface
+
+    if not isinstance(surface, GraphSurface):
+        raise TypeError(f"render_surface draws on an rdgpu.metric.GraphSurface, got "
+                        f"{type(surface).__name__}")
+    f = np.asarray(field.numpy() if hasattr(field, "numpy") else field, dtype=np.float64)
+    if f.shape != surface.shape:
+        raise ValueError(f"the field has shape {f.shape}; the surface's grid is "
+                         f"{surface.shape}")
+    scale = float(warp_scale)
+    if not math.isfinite(scale):
+        raise ValueError(f"warp_scale must be a finite number, got {warp_scale!r}")
+    options = _render_options(f, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
+                              window_size=window_size, background=background)
+    vertices, faces = surface_mesh(surface, scale)
+    arrays = {"vertices": vertices, "faces": faces, "frames": _wrap_closed(f).reshape(1, -1)}
+    img = _render(arrays, {**options, "kind": "mesh"})[0]
+    import imageio.v3 as iio
+
+    path = _prepare(path)
+    iio.imwrite(path, img)
+    return path

@@ -125,7 +125,9 @@ def build_domain(spec: Any) -> Any:
     """A :class:`Grid` or :class:`SurfaceMesh` from a preset's domain description.
 
     ``{"grid": (ny, nx), "dx": 1.0, "dy": None, "bc": "periodic"}`` gives a grid (a 3-D
-    one from ``(nz, ny, nx)``, with the option ``dz``; an int ``n`` means ``(n, n)``);
+    one from ``(nz, ny, nx)``, with the option ``dz``; an int ``n`` means ``(n, n)``); with
+    ``"height": h`` (an ``[ny, nx]`` array) the graph surface ``z = h`` over that periodic
+    grid (:class:`~rdgpu.metric.GraphSurface`);
     ``{"mesh": NAME, **options}`` a mesh, where NAME is ``"sphere"`` (icosphere, options
     ``subdivisions`` = 4, ``radius``), ``"uv-sphere"``, ``"torus"`` (``R``, ``r``,
     ``n_major`` = 96, ``n_minor`` = 48), ``"plane"`` (jittered plane), ``"height-field"``,
@@ -140,12 +142,14 @@ def build_domain(spec: Any) -> Any:
         shape = spec.pop("grid")
         if isinstance(shape, (int, np.integer)):
             shape = (int(shape), int(shape))
-        allowed = {"dx", "dy", "dz", "bc"}
+        allowed = {"dx", "dy", "dz", "bc", "height"}
         unknown = set(spec) - allowed
         if unknown:
             raise ValueError(
                 f"unknown grid option(s) {sorted(unknown)}; allowed: {sorted(allowed)}"
             )
+        if "height" in spec:
+            return _graph_surface(shape, spec)
         return Grid(tuple(int(n) for n in shape), dx=float(spec.get("dx", 1.0)),
                     dy=spec.get("dy"), dz=spec.get("dz"), bc=spec.get("bc", "periodic"))
     if "mesh" in spec:
@@ -179,6 +183,43 @@ def build_domain(spec: Any) -> Any:
     raise ValueError(f"a domain dict needs a 'grid' or a 'mesh' key, got {sorted(spec)}")
 
 
+def _graph_surface(shape: Any, spec: Mapping) -> Any:
+    """The :class:`~rdgpu.metric.GraphSurface` of a ``{"grid": (ny, nx), "height": h}``
+    description (``dz`` not allowed; ``bc`` periodic only)."""
+    from .metric import GraphSurface
+
+    if spec.get("dz") is not None:
+        raise ValueError("a graph surface is 2-D: the 'dz' option is not allowed with "
+                         "'height'")
+    shape = tuple(int(n) for n in shape)
+    if len(shape) != 2:
+        raise ValueError(f"a graph surface needs a 2-D grid shape (ny, nx), got {shape}")
+    try:
+        h = np.asarray(spec["height"], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"height must be an [ny, nx] array of numbers, got "
+                         f"{type(spec['height']).__name__}") from None
+    return GraphSurface(shape, dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
+                        bc=spec.get("bc", "periodic"), height=h)
+
+
+def _is_surface(domain: Any) -> bool:
+    from .metric import GraphSurface
+
+    return isinstance(domain, GraphSurface)
+
+
+def domain_arrays(domain: Any) -> dict[str, np.ndarray]:
+    """The arrays a data file or checkpoint keeps of its domain beside the description:
+    ``mesh_vertices``/``mesh_faces`` of a mesh, ``surface_height`` of a graph surface."""
+    if _is_mesh(domain):
+        return {"mesh_vertices": np.asarray(domain.vertices),
+                "mesh_faces": np.asarray(domain.faces)}
+    if _is_surface(domain):
+        return {"surface_height": np.asarray(domain.height)}
+    return {}
+
+
 def _bc_json(grid: Grid) -> list:
     """The grid's conditions as JSON, one per axis of ``field_shape``: ``[x_bc]`` (1-D),
     ``[y_bc, x_bc]`` (2-D) or ``[z_bc, y_bc, x_bc]`` (3-D)."""
@@ -192,12 +233,17 @@ def describe_domain(domain: Any, source: Any = None) -> dict:
 
     A grid: ``kind``, ``shape`` (``field_shape``), ``dx``, ``dy`` (``None`` in 1-D) and
     ``bc`` (see :func:`_bc_json`); a 3-D grid also ``dz`` (1-D and 2-D descriptions have no
-    ``dz`` key, as before 3-D grids existed)."""
+    ``dz`` key, as before 3-D grids existed).  A graph surface: the same keys with ``kind``
+    ``graph-surface`` and ``height_digest``; its height is kept as an array
+    (:func:`domain_arrays`)."""
     if isinstance(domain, Grid):
-        out = {"kind": "grid", "shape": list(domain.field_shape), "dx": float(domain.dx),
+        out = {"kind": "graph-surface" if _is_surface(domain) else "grid",
+               "shape": list(domain.field_shape), "dx": float(domain.dx),
                "dy": float(domain.dy) if domain.ndim >= 2 else None, "bc": _bc_json(domain)}
         if domain.ndim == 3:
             out["dz"] = float(domain.dz)
+        if _is_surface(domain):
+            out["height_digest"] = domain.digest
         return out
     if _is_mesh(domain):
         out: dict[str, Any] = {"kind": "mesh", "n_vertices": int(domain.n_vertices),
@@ -212,6 +258,11 @@ def describe_domain(domain: Any, source: Any = None) -> dict:
 
 
 def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) -> Any:
+    if desc["kind"] == "graph-surface":
+        from .metric import GraphSurface
+
+        return GraphSurface(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"],
+                            height=arrays["surface_height"])
     if desc["kind"] == "grid":
         conds = [tuple(b) if isinstance(b, list) else b for b in desc["bc"]]
         bc = conds[0] if len(set(conds)) == 1 else tuple(conds)
@@ -222,6 +273,10 @@ def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) ->
     return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"], period=desc.get("period"))
 
 
+#: the description kinds of grids (fields ``[ny, nx]``...; keys shape, dx, dy, bc)
+GRID_KINDS = ("grid", "graph-surface")
+
+
 def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain: Any) -> list[str]:
     """What differs between a checkpoint's domain (``desc``, ``arrays``) and ``domain``:
     one ``"WHAT X in the checkpoint, Y here"`` per difference (empty when equal)."""
@@ -229,7 +284,11 @@ def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain:
     if desc.get("kind") != mine["kind"]:
         return [f"a {desc.get('kind')} in the checkpoint, a {mine['kind']} here"]
     out = []
-    if mine["kind"] == "grid":
+    if mine["kind"] in GRID_KINDS:
+        if mine["kind"] == "graph-surface" and mine["shape"] == desc.get("shape") and \
+                not np.array_equal(arrays["surface_height"], domain.height):
+            shift = float(np.abs(arrays["surface_height"] - domain.height).max())
+            out.append(f"surface height differs from this simulation's (by up to {shift:.3g})")
         for key in ("shape", "dx", "dy", "dz", "bc"):
             if key == "dz" and ("dz" not in desc or "dz" not in mine):
                 continue  # 2-D against 3-D: the shapes differ already
@@ -820,7 +879,8 @@ def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -
     kind = meta["domain"].get("kind")
     if kind == "mesh":
         needed += ["mesh_vertices", "mesh_faces"]
-    elif kind == "grid":
+    elif kind in GRID_KINDS:
+        needed += ["surface_height"] if kind == "graph-surface" else []
         keys = ("shape", "dx", "dy", "bc")
         if isinstance(meta["domain"].get("shape"), list) and len(meta["domain"]["shape"]) == 3:
             keys += ("dz",)
@@ -845,7 +905,7 @@ def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -
             raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
                              f"{shape} for an ensemble of {members} members")
         shape = shape[1:]
-    if kind == "grid" and list(shape) != list(meta["domain"]["shape"]):
+    if kind in GRID_KINDS and list(shape) != list(meta["domain"]["shape"]):
         raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
                          f"{shape} on a grid of {meta['domain']['shape']}")
     if kind == "mesh" and shape != (len(arrays["mesh_vertices"]),):
@@ -1337,9 +1397,7 @@ class Simulation:
         arrays["snap_steps"] = np.asarray(snap_steps, dtype=np.int64)
         for k, v in _split_params(self.params)[1].items():
             arrays[f"param__{k}"] = v
-        if _is_mesh(self.domain):
-            arrays["mesh_vertices"] = np.asarray(self.domain.vertices)
-            arrays["mesh_faces"] = np.asarray(self.domain.faces)
+        arrays.update(domain_arrays(self.domain))
         return arrays
 
     def save_checkpoint(self, path: str | os.PathLike) -> Path:

@@ -38,7 +38,11 @@ VARIANTS = ["numpy", "warp", "warp-cells", "opencl", "opencl-strided"]
 @pytest.fixture(params=VARIANTS)
 def variant_backend(request):
     """A backend of :data:`VARIANTS` (skipped where unavailable)."""
-    name = request.param
+    return variant_or_skip(request.param)
+
+
+def variant_or_skip(name: str):
+    """The backend of :data:`VARIANTS` called ``name`` (skipped where unavailable)."""
     base = backend_or_skip(name.split("-")[0])
     if name == "warp-cells":
         from rdgpu.backends.warp_backend import WarpBackend

@@ -23,6 +23,12 @@ from .model import Model, _scalar_param, check_dt, domain_shape, resolve_params
 __all__ = ["AllenCahn", "AllenCahnStepper"]
 
 
+def _is_surface(domain: Any) -> bool:
+    from ..metric import GraphSurface
+
+    return isinstance(domain, GraphSurface)
+
+
 def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
     """Differences across every face of ``axis`` under its boundary condition (the faces
     the 5-point stencil couples): periodic wraps, Neumann has no boundary face, a
@@ -119,6 +125,8 @@ class AllenCahn(Model):
     ) -> float:
         if method != "explicit":
             return math.inf
+        if _is_surface(domain):  # 2/λ_max of Δ_Γ (its Gershgorin bound)
+            return 2.0 / domain.spectral_bound()
         if isinstance(domain, Grid):
             # dy, dz are inf along absent axes: 1/h² = 0 there (1-D, 2-D)
             return 1.0 / (2.0 * (1.0 / domain.dx**2 + 1.0 / domain.dy**2
@@ -144,7 +152,8 @@ class AllenCahn(Model):
         eps = _scalar_param(p, "eps", "parameter")
         if not eps > 0:
             raise ValueError(f"eps must be > 0, got {eps}")
-        what = "explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh"
+        what = ("explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh or a graph "
+                "surface")
         dt = check_dt(dt, self.dt_limit(domain, p, method), what, check_stability)
         return AllenCahnStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
                                 method)
@@ -153,6 +162,9 @@ class AllenCahn(Model):
     def energy(domain: Any, u: Any, params: Mapping[str, Any] | None = None) -> float:
         """``J(u) = ∫ ½|∇u|² + ((u² − 1)²/4 + b u)/ε²`` (float64).
 
+        Graph surface: ``½ uᵀ(−a Δ_Γ)u + Σ a_i ((u_i² − 1)²/4 + b u_i)/ε²`` with ``a`` its
+        :attr:`~rdgpu.metric.GraphSurface.area_weights` (``a Δ_Γ`` is symmetric), so
+        ``−∂J/∂u = a (Δ_Γ u − (u³ − u + b)/ε²)``.
         Grid: ``dx dy [½ Σ_faces (Δ_face u / h)² + Σ_cells ((u²−1)²/4 + b u)/ε²]`` with the
         faces of the 5-point stencil and its boundary conditions, so ``−∂J/∂u = dx dy
         (Δ_h u − (u³ − u + b)/ε²)`` exactly.  Mesh: ``½ uᵀ(−W)u + Σ A_i ((u_i² − 1)²/4 +
@@ -172,6 +184,11 @@ class AllenCahn(Model):
         u = np.asarray(u, dtype=np.float64)
         b = np.asarray(p["b"], dtype=np.float64)
         eps = float(p["eps"])
+        if _is_surface(domain):
+            a = domain.area_weights.ravel()
+            u = u.ravel()
+            pot = ((u * u - 1.0) ** 2 / 4.0 + b.ravel() * u) / eps**2
+            return 0.5 * float(u @ (-(a * (domain.laplacian @ u)))) + float(np.sum(a * pot))
         if isinstance(domain, Grid):
             u = u.reshape(domain.shape)
             b = b.reshape(domain.shape) if b.size > 1 else b

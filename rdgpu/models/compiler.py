@@ -15,6 +15,9 @@ Domains (:class:`Target`):
   left out), ghosts by :mod:`rdgpu.boundary` (a Dirichlet ghost of a stored
   ``laplace(s)`` is 0: the bilaplacian's "simply supported" condition ``Δs = 0``).
   ``x, y, z`` are cell centres ``(j + ½) dx`` (0 along absent axes);
+* a :class:`~rdgpu.metric.GraphSurface` (kind ``grid2metric``): the periodic 9-point
+  ``Δ_Γ`` of ``kernels/metric/reference.py`` in its operation order, its four coefficient
+  arrays ``[ny, nx]`` shared by the ensemble members (read at the in-member cell);
 * a :class:`~rdgpu.mesh.SurfaceMesh`: ``laplace(s)_i = Σ_q L_iq s_q`` over the CSR row of
   ``L = A⁻¹W`` in index order; ``x, y, z`` are the vertex coordinates.
 
@@ -47,6 +50,7 @@ from ..backends.base import Backend, DeviceArray
 from ..domains import Grid
 from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
+from ..metric import GraphSurface
 from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
 
 __all__ = ["Output", "PerMember", "Program", "Target", "cache_dir", "launch"]
@@ -141,6 +145,8 @@ class Target:
     coords: dict[str, Any] = field(default_factory=dict)  # mesh: "x" -> DeviceArray
     host: dict[str, Any] = field(default_factory=dict)  # cached host data (NumPy)
     members: int = 1
+    #: graph surfaces: the metric coefficients ``ex, ny, bx, w`` (DeviceArrays ``[ny, nx]``)
+    metric: tuple[Any, ...] = ()
 
     @classmethod
     def bind(cls, domain: Any, backend: Backend, dtype: Any,
@@ -152,7 +158,10 @@ class Target:
         if int(members) < 1:
             raise ValueError(f"members must be >= 1, got {members}")
         t = cls(domain, backend, dtype, stencil=stencil, members=int(members))
-        if not isinstance(domain, Grid):
+        if isinstance(domain, GraphSurface):
+            c = domain.coefficients_as(dtype)
+            t.metric = tuple(backend.upload(c[k]) for k in METRIC_COEFFICIENTS)
+        elif not isinstance(domain, Grid):
             t.csr = backend.upload_csr(domain.laplacian, dtype)
         return t
 
@@ -162,9 +171,12 @@ class Target:
 
     @property
     def kind(self) -> str:
-        """``grid1``..``grid3`` (``+ "iso"`` for the isotropic stencil) or ``mesh``."""
+        """``grid1``..``grid3`` (``+ "iso"`` for the isotropic stencil), ``grid2metric`` (a
+        graph surface) or ``mesh``."""
         if not self.is_grid:
             return "mesh"
+        if isinstance(self.domain, GraphSurface):
+            return "grid2metric"
         iso = self.stencil == "isotropic" and self.domain.ndim > 1
         return f"grid{self.domain.ndim}" + ("iso" if iso else "")
 
@@ -228,12 +240,17 @@ class Target:
 
 
 STENCILS = ("compact", "isotropic")
+#: the metric coefficient arrays in the kernels' argument order (kernels/metric/reference.py)
+METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
 
 
 def check_stencil(domain: Any, stencil: str) -> None:
     """``stencil`` is known, and an isotropic one has a uniform grid spacing."""
     if stencil not in STENCILS:
         raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
+    if stencil == "isotropic" and isinstance(domain, GraphSurface):
+        raise ValueError("the isotropic stencil is a flat-grid stencil; a graph surface has "
+                         "its own 9-point Laplace-Beltrami operator: use stencil='compact'")
     if stencil == "isotropic" and isinstance(domain, Grid) and domain.ndim > 1:
         hs = [domain.dx, domain.dy] + ([domain.dz] if domain.ndim > 2 else [])
         if max(hs) != min(hs):
@@ -344,7 +361,11 @@ def run_numpy(program: Program, target: Target, inputs: Mapping[str, np.ndarray]
     def lap(name: str, order: int) -> np.ndarray:
         if name not in laps:
             a = env[name]
-            if target.is_grid:
+            if target.kind == "grid2metric":
+                ref = load_module("metric", "reference.py")
+                c = target.domain.coefficients_as(dtype)
+                laps[name] = ref.metric_laplacian(a, *(c[k] for k in METRIC_COEFFICIENTS))
+            elif target.is_grid:
                 laps[name] = _grid_laplacian(a, target, name in program.zero_ghost)
             else:
                 L = target.domain.laplacian
@@ -435,19 +456,30 @@ _ROWS = {(0, 0): "r", (0, -1): "s", (0, 1): "n", (-1, 0): "b", (1, 0): "t",
 def _stencil_positions(kind: str) -> list[str]:
     nd = int(kind[4])
     names = ["w", "e"] + (["s", "n"] if nd > 1 else []) + (["b", "t"] if nd > 2 else [])
-    if kind.endswith("iso"):
+    if kind.endswith(("iso", "metric")):
         names += ["sw", "se", "nw", "ne"]
         if nd > 2:
             names += ["bw", "be", "tw", "te", "bs", "bn", "ts", "tn"]
     return names
 
 
-def _laplacian_text(kind: str, s: str, num) -> str:
+def _laplacian_text(kind: str, s: str, num, flush: str = "FLUSH") -> str:
     """The Laplacian of field ``s`` from the position values ``q{pos}_{s}`` and ``c_{s}``,
-    in the reference's operation order; ``num(v)`` writes a literal."""
+    in the reference's operation order; ``num(v)`` writes a literal, ``flush`` names the
+    subnormal flush (the metric operator flushes its result, as its reference)."""
     nd = int(kind[4])
     v = {p: f"q{p}_{s}" for p in _stencil_positions(kind)}
     c = f"c_{s}"
+    if kind == "grid2metric":  # kernels/metric/reference.py, operation by operation
+        def a(coef: str, pos: str, sign: str = "") -> str:
+            return f"(m{coef}_ * ({v[pos]} - {c}))" if not sign else \
+                f"(m{coef}_ * ({c} - {v[pos]}))"
+
+        axial = (f"(({a('ex', 'e')} - {a('exw', 'w', '-')}) + "
+                 f"({a('ny', 'n')} - {a('nys', 's', '-')}))")
+        cross = (f"(({a('bx', 'ne')} + {a('bxsw', 'sw')}) - "
+                 f"({a('bxs', 'se')} + {a('bxw', 'nw')}))")
+        return f"{flush}(mw_ * ({axial} + {cross}))"
     if not kind.endswith("iso"):
         lap = f"(({v['e']} + {v['w']}) - {num(2)} * {c}) * cx"
         if nd > 1:
@@ -469,6 +501,26 @@ def _laplacian_text(kind: str, s: str, num) -> str:
     faces = total(["w", "e", "s", "n", "b", "t"])
     edges = total(corners + ["bw", "be", "tw", "te", "bs", "bn", "ts", "tn"])
     return f"((({num(2)} * {faces}) + {edges}) - ({num(24)} * {c})) * cx"
+
+
+#: the metric coefficients a cell reads: local name -> (argument, row, column offset), the
+#: row ``c`` (this cell's) or ``s`` (the south neighbour's), in the reference's notation
+_METRIC_LOADS = {
+    "ex": ("me_ex", "c", 0), "exw": ("me_ex", "c", -1), "ny": ("me_ny", "c", 0),
+    "nys": ("me_ny", "s", 0), "bx": ("me_bx", "c", 0), "bxsw": ("me_bx", "s", -1),
+    "bxs": ("me_bx", "s", 0), "bxw": ("me_bx", "c", -1), "w": ("me_w", "c", 0),
+}
+#: the metric coefficient arguments, after the program's own (:func:`_signature`)
+_METRIC_ARGS = tuple(f"me_{k}" for k in METRIC_COEFFICIENTS)
+
+
+def _metric_loads(kind: str, stencil: Sequence[str], load) -> list[str]:
+    """The statements loading the metric coefficients of a cell (none unless ``kind`` is
+    ``grid2metric`` and a Laplacian is taken): ``load(argument, row, dx)`` writes a load."""
+    if kind != "grid2metric" or not stencil:
+        return []
+    return [f"m{name}_ = {load(arg, row, dx)}" for name, (arg, row, dx) in
+            _METRIC_LOADS.items()]
 
 
 def _neighbour_value(program: Program, s: str, load, fields, lit, fn) -> str:
@@ -508,6 +560,10 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
     coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}"
                          for c in program.refs("coord"))
     row = _member_lines(member) if kind != "mesh" else []
+    if kind == "grid2metric":  # the in-member offsets of this row and its south row
+        row += ["const long mc_ = (long)i * nx;",
+                "const long ms_ = (long)lo_index(i, ny, y_kind) * nx;",
+                "(void)mc_; (void)ms_;"]
     return opencl_head(program) + (
         text.replace("@ARGS@", ",\n        ".join(decl))
         .replace("@COORDS@", coord_decl if kind == "mesh" else "")
@@ -557,6 +613,8 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
             decl.append(f"__global real *RESTRICT {nm}")
         else:
             decl.append(f"const real {nm}")
+    if kind == "grid2metric":
+        decl += [f"__global const real *RESTRICT {nm}" for nm in _METRIC_ARGS]
     coords = program.refs("coord")
     body = _member_lines(member) if kind == "mesh" else []
     for p in program.refs("param"):
@@ -605,6 +663,9 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
                     g = "R0" if s in program.zero_ghost else f"g{axis}"
                     value = f"({flags[flag]} ? {g} : {value})"
                 body.append(f"const real q{pos}_{s} = {value};")
+        cols = {-1: "cc_.w", 0: "j"}
+        body += [f"const real {ln};" for ln in _metric_loads(
+            kind, stencil, lambda a, r, dx: f"{a}[m{r}_ + {cols[dx]}]")]
         for s in stencil:
             body.append(f"const real L_{s} = "
                         f"{_laplacian_text(kind, s, lambda v: f'((real){v})')};")
@@ -659,6 +720,7 @@ def _opencl_kernel(program: Program, target: Target, fields: frozenset[str],
             codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
                      *[None] * len(program.refs("coord"))]
         else:
+            codes += [None] * len(target.metric)
             codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
         k.set_scalar_arg_dtypes(codes)
         return k
@@ -710,8 +772,8 @@ def _launch_opencl(program, target, bufs, fields, member):
     dx, dy, dz = target.spacing()
     cx, cy, cz = _grid_coefficients(target)
     nm = target.members
-    args = [*bufs, nx, ny, nz, nm, b.x.kind, b.x.value, b.y.kind, b.y.value, b.z.kind,
-            b.z.value, cx, cy, cz, dx, dy, dz]
+    args = [*bufs, *(c.handle for c in target.metric), nx, ny, nz, nm, b.x.kind, b.x.value,
+            b.y.kind, b.y.value, b.z.kind, b.z.value, cx, cy, cz, dx, dy, dz]
     be._launch_grid(k, ny * nz * nm, args)
 
 
@@ -738,6 +800,8 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         return f"{_WP_FUNCS[name]}({', '.join(args)})"
 
     sig = _signature(program, fields, member)
+    if kind == "grid2metric":
+        sig += [("field", nm) for nm in _METRIC_ARGS]
     array = "A" if kind == "mesh" else "A2"
     kdecl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else
                       f"{nm}: A" if k == "member" else f"{nm}: real" for k, nm in sig)
@@ -795,8 +859,13 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                             g = "real(0.0)" if s in program.zero_ghost else f"g{axis}"
                             v = f"wp.where({flags[flag]}, {g}, {v})"
                     body.append(f"q{pos}_{s} = {v}")
+            if kind == "grid2metric" and stencil:  # in-member rows: the coefficients' rows
+                body += ["mc_ = r % me_w.shape[0]", "ms_ = rs % me_w.shape[0]"]
+            body += _metric_loads(kind, stencil,
+                                  lambda a, r, dx: f"{a}[m{r}_, {col[dx]}]")
             for s in stencil:
-                body.append(f"L_{s} = {_laplacian_text(kind, s, lambda v: f'real({v}.0)')}")
+                lap = _laplacian_text(kind, s, lambda v: f"real({v}.0)", "flush")
+                body.append(f"L_{s} = {lap}")
         for i, o in enumerate(program.outputs):
             body.append(f"o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)}")
             lo, hi = o.bounds
@@ -912,8 +981,9 @@ def _launch_warp(program, target, bufs, fields, member):
     b = d.bcs
     dx, dy, dz = target.spacing()
     cx, cy, cz = _grid_coefficients(target)
-    args = [*bufs, nx, ny, nz, nm, b.x.kind, t(b.x.value), b.y.kind, t(b.y.value), b.z.kind,
-            t(b.z.value), t(cx), t(cy), t(cz), t(dx), t(dy), t(dz)]
+    args = [*bufs, *(_warp_rows(c) for c in target.metric), nx, ny, nz, nm, b.x.kind,
+            t(b.x.value), b.y.kind, t(b.y.value), b.z.kind, t(b.z.value), t(cx), t(cy), t(cz),
+            t(dx), t(dy), t(dz)]
     rows = ny * nz * nm
     if be._cells:
         be._launch(mod.cells, (rows, nx), args, 0)

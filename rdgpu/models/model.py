@@ -575,7 +575,14 @@ def _method(method: str, allowed: Sequence[str]) -> str:
 def _largest_mode(domain: Any, stencil: str = "compact") -> float:
     """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes
     (the isotropic stencils: the maximum of their symbol, ``16/(3h²)`` in 2-D), ``λ_max(−L)``
-    on a mesh."""
+    on a mesh, and on a graph surface its ``Δ_Γ``'s Gershgorin bound
+    (:meth:`~rdgpu.metric.GraphSurface.spectral_bound`)."""
+    from ..metric import GraphSurface
+    from .compiler import check_stencil
+
+    if isinstance(domain, GraphSurface):
+        check_stencil(domain, stencil)  # the isotropic stencil is refused
+        return domain.spectral_bound()
     if isinstance(domain, Grid) and stencil == "isotropic" and domain.ndim > 1:
         th = np.linspace(0.0, np.pi, 33)
         c = np.meshgrid(*([np.cos(th)] * domain.ndim), indexing="ij")

@@ -23,6 +23,10 @@ def build_domain(spec: Mapping[str, Any]) -> Any:
     ``{"mesh": "sphere", "subdivisions": 4, "radius": 1.0}``, ``{"mesh": "torus", "R": 1,
     "r": 0.3, "n_major": 96, "n_minor": 48}`` or ``{"mesh": "path/to/file.obj"}``."""
     spec = dict(spec)
+    if "grid" in spec and "height" in spec:  # a graph surface: never silently flat
+        from ..simulation import build_domain as build_any
+
+        return build_any(spec)
     if "grid" in spec:
         shape = spec["grid"]
         shape = (int(shape),) * 2 if np.ndim(shape) == 0 else tuple(int(n) for n in shape)
