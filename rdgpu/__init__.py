@@ -58,6 +58,14 @@ def __getattr__(name: str):
         from .walkers import random_walk_dla
 
         return random_walk_dla
+    if name == "surfaces":  # rough-surface generators (seed 002), imported on first use
+        import importlib
+
+        return importlib.import_module(".surfaces", __name__)
+    if name == "GraphSurface":  # z = h(x, y) over a periodic grid, the metric Δ_Γ
+        from .metric import GraphSurface
+
+        return GraphSurface
     if name in ("define_model", "Simulation"):  # the model layer, imported on first use
         if name == "Simulation":
             from .simulation import Simulation
@@ -73,6 +81,7 @@ __all__ = [
     "BackendUnavailableError",
     "ConvergenceError",
     "DLAResult",
+    "GraphSurface",
     "ImplicitDiffusion",
     "RDFront",
     "StabilityError",
@@ -100,6 +109,7 @@ __all__ = [
     "sor_sweep",
     "spmv",
     "sweep",
+    "surfaces",
     "sweep_map",
     "use_backend",
 ]

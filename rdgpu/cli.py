@@ -255,16 +255,75 @@ def _domain_spec(args: argparse.Namespace, preset: Any, model: Any) -> Any:
             keep["bc"] = _bc_for_3d(keep.get("bc", "periodic"))
         elif len(args.size) == 2 and "dz" in keep:
             del keep["dz"]
-        return {"grid": args.size, **keep}
+        return _surface_options(args, {"grid": args.size, **keep})
     if args.mesh is not None:
-        if "mesh" in base and str(base["mesh"]) == args.mesh:
-            return base
-        from .simulation import _MESH_GENERATORS
+        if "mesh" not in base or str(base["mesh"]) != args.mesh:
+            from .simulation import _MESH_GENERATORS
 
-        if args.mesh.lower() not in _MESH_GENERATORS and not Path(args.mesh).exists():
-            raise UsageError(f"--mesh {args.mesh!r}: no such file (or use sphere or torus)")
-        return {"mesh": args.mesh}
-    return base
+            if args.mesh.lower() not in _MESH_GENERATORS and not Path(args.mesh).exists():
+                raise UsageError(f"--mesh {args.mesh!r}: no such file (or use sphere, torus "
+                                 "or disc)")
+            base = {"mesh": args.mesh}
+    return _surface_options(args, base)
+
+
+def _surface_options(args: argparse.Namespace, spec: dict) -> dict:
+    """``--height`` on a grid, ``--roughen`` on a mesh."""
+    height = getattr(args, "height", None)
+    rough = getattr(args, "roughen", None)
+    if height is not None:
+        if "grid" not in spec:
+            raise UsageError("--height needs a 2-D grid (--size NxM); for a mesh use --roughen")
+        spec = {**spec, "height": height}
+    if rough is not None:
+        if "mesh" not in spec:
+            raise UsageError("--roughen needs a mesh (--mesh); for a grid use --height")
+        spec = {**spec, "roughen": rough}
+    return spec
+
+
+def _height(text: str) -> Any:
+    """``--height``: ``waves:A:M[xN][:SEED]``, ``heat:A:STEPS[:SEED]`` or ``FILE.npy``."""
+    kind, _, rest = text.partition(":")
+    parts = rest.split(":") if rest else []
+    try:
+        if kind == "waves" and len(parts) in (2, 3):
+            freq = tuple(int(f) for f in parts[1].lower().split("x"))
+            if len(freq) not in (1, 2):
+                raise ValueError
+            return {"kind": "random-waves", "amplitude": float(parts[0]),
+                    "max_frequency": list(freq) if len(freq) == 2 else freq[0],
+                    "seed": int(parts[2]) if len(parts) == 3 else 0}
+        if kind == "heat" and len(parts) in (2, 3):
+            return {"kind": "heat-filtered", "amplitude": float(parts[0]),
+                    "filter_steps": int(parts[1]),
+                    "seed": int(parts[2]) if len(parts) == 3 else 0}
+    except ValueError:
+        pass
+    else:
+        if kind not in ("waves", "heat") and text.endswith(".npy"):
+            if not Path(text).is_file():
+                raise argparse.ArgumentTypeError(f"no such file: {text}")
+            import numpy as np
+
+            return np.load(text)
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: expected waves:AMPLITUDE:M[xN][:SEED] (e.g. waves:0.5:5x15), "
+        "heat:AMPLITUDE:STEPS[:SEED] (e.g. heat:0.5:15) or FILE.npy")
+
+
+def _roughen(text: str) -> dict:
+    """``--roughen AMPLITUDE[:STEPS[:SEED]]``."""
+    parts = text.split(":")
+    try:
+        if not 1 <= len(parts) <= 3:
+            raise ValueError
+        out = {"amplitude": float(parts[0]), "filter_steps": int(parts[1]) if len(parts) > 1
+               else 15, "seed": int(parts[2]) if len(parts) > 2 else 0}
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected AMPLITUDE[:STEPS[:SEED]], e.g. 0.05:15:3") from None
+    return out
 
 
 def _bc_for_3d(bc: Any) -> Any:
@@ -958,8 +1017,18 @@ def build_parser() -> argparse.ArgumentParser:
                        help="grid of N rows x M columns (256 means 256x256), or NxMxK: a "
                        "3-D grid of N planes (z) x M rows (y) x K columns (x); a preset's "
                        "or model's (y, x) boundary conditions give z the rows' condition")
-    where.add_argument("--mesh", metavar="FILE|sphere|torus",
+    where.add_argument("--mesh", metavar="FILE|sphere|torus|disc",
                        help="run on a triangle mesh: a generator or a mesh file")
+    what.add_argument("--height", type=_height, metavar="SPEC",
+                      help="run on the rough surface z = h(x, y) over the (periodic) grid: "
+                      "'waves:AMPLITUDE:M[xN][:SEED]' (random waves up to frequency M "
+                      "along x and N along y, seed 002 eqs. 6-7), "
+                      "'heat:AMPLITUDE:STEPS[:SEED]' (heat-filtered random heights) or "
+                      "FILE.npy (an [ny, nx] array); AMPLITUDE in the units of dx")
+    what.add_argument("--roughen", type=_roughen, metavar="AMPLITUDE[:STEPS[:SEED]]",
+                      help="roughen the mesh: random normal displacements of at most "
+                      "AMPLITUDE, smoothed by STEPS (default 15) heat-filter steps "
+                      "(SurfaceMesh.roughen)")
     what.add_argument("--steps", type=_positive_int, metavar="N",
                       help="time steps (default: the preset's, else the model's default "
                       "run length over dt; with --resume: the total of the interrupted run)")

@@ -114,6 +114,8 @@ _MESH_GENERATORS = {
     "plane": "jittered_plane",
     "height-field": "height_field",
     "height_field": "height_field",
+    "disc": "disc",
+    "disk": "disc",
 }
 
 
@@ -131,7 +133,14 @@ def build_domain(spec: Any) -> Any:
     ``{"mesh": NAME, **options}`` a mesh, where NAME is ``"sphere"`` (icosphere, options
     ``subdivisions`` = 4, ``radius``), ``"uv-sphere"``, ``"torus"`` (``R``, ``r``,
     ``n_major`` = 96, ``n_minor`` = 48), ``"plane"`` (jittered plane), ``"height-field"``,
-    or a mesh file path (option ``repair``).  A Grid or SurfaceMesh is returned as it is.
+    ``"disc"`` (``radius``, ``rings``), or a mesh file path (option ``repair``).
+
+    ``"height"`` may also describe a generated surface (:mod:`rdgpu.surfaces`):
+    ``{"kind": "random-waves", "amplitude": 0.1, "max_frequency": [5, 15], "seed": 0,
+    "attenuation": 0}`` or ``{"kind": "heat-filtered", "amplitude": 0.1, "filter_steps":
+    15, "seed": 0}``; a mesh takes ``"roughen": {"amplitude": a, "filter_steps": k,
+    "seed": s}`` (:meth:`~rdgpu.mesh.SurfaceMesh.roughen` of the generated or loaded mesh).
+    A Grid or SurfaceMesh is returned as it is.
     """
     if isinstance(spec, Grid) or _is_mesh(spec):
         return spec
@@ -153,34 +162,53 @@ def build_domain(spec: Any) -> Any:
         return Grid(tuple(int(n) for n in shape), dx=float(spec.get("dx", 1.0)),
                     dy=spec.get("dy"), dz=spec.get("dz"), bc=spec.get("bc", "periodic"))
     if "mesh" in spec:
-        from .mesh import SurfaceMesh
-
         name = spec.pop("mesh")
-        if not isinstance(name, (str, os.PathLike)):
-            raise ValueError(f"mesh must be a generator name or a file path, got {name!r}")
-        key = str(name).lower()
-        if key in _MESH_GENERATORS:
-            spec = {**_MESH_DEFAULTS.get(_MESH_GENERATORS[key], {}), **spec}
-            try:
-                return getattr(SurfaceMesh, _MESH_GENERATORS[key])(**spec)
-            except TypeError as exc:
-                raise ValueError(f"bad options for mesh {key!r}: {exc}") from None
-        path = Path(name)
-        if not path.exists():
-            raise ValueError(
-                f"mesh {str(name)!r} is neither a generator ({', '.join(sorted(_MESH_GENERATORS))})"
-                " nor an existing file"
-            )
-        if not path.is_file():
-            raise ValueError(f"mesh file {str(name)!r} is not a file")
-        try:
-            return SurfaceMesh.load(path, repair=bool(spec.pop("repair", False)))
-        except Exception as exc:  # noqa: BLE001 - readers fail in many ways on bad files
-            why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise ValueError(f"mesh file {str(name)!r} is not a usable triangle mesh: {why} "
-                             "(OBJ, PLY, STL, OFF or VTK with triangle faces; "
-                             "repair=True mends duplicate or unused vertices)") from None
+        rough = spec.pop("roughen", None)
+        if rough is not None:
+            return _roughened(_mesh_from(name, spec), rough)
+        return _mesh_from(name, spec)
     raise ValueError(f"a domain dict needs a 'grid' or a 'mesh' key, got {sorted(spec)}")
+
+
+def _roughened(mesh: Any, options: Any) -> Any:
+    """``mesh.roughen(**options)``, with the options checked."""
+    if not isinstance(options, Mapping):
+        raise ValueError(f"roughen must be a dict of SurfaceMesh.roughen options "
+                         f"(amplitude, filter_steps, seed, tau), got {options!r}")
+    try:
+        return mesh.roughen(**options)
+    except TypeError as exc:
+        raise ValueError(f"bad roughen options {dict(options)}: {exc}") from None
+
+
+def _mesh_from(name: Any, spec: dict) -> Any:
+    """A mesh from a generator name or a file path (:func:`build_domain`)."""
+    from .mesh import SurfaceMesh
+
+    if not isinstance(name, (str, os.PathLike)):
+        raise ValueError(f"mesh must be a generator name or a file path, got {name!r}")
+    key = str(name).lower()
+    if key in _MESH_GENERATORS:
+        spec = {**_MESH_DEFAULTS.get(_MESH_GENERATORS[key], {}), **spec}
+        try:
+            return getattr(SurfaceMesh, _MESH_GENERATORS[key])(**spec)
+        except TypeError as exc:
+            raise ValueError(f"bad options for mesh {key!r}: {exc}") from None
+    path = Path(name)
+    if not path.exists():
+        raise ValueError(
+            f"mesh {str(name)!r} is neither a generator ({', '.join(sorted(_MESH_GENERATORS))})"
+            " nor an existing file"
+        )
+    if not path.is_file():
+        raise ValueError(f"mesh file {str(name)!r} is not a file")
+    try:
+        return SurfaceMesh.load(path, repair=bool(spec.pop("repair", False)))
+    except Exception as exc:  # noqa: BLE001 - readers fail in many ways on bad files
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"mesh file {str(name)!r} is not a usable triangle mesh: {why} "
+                         "(OBJ, PLY, STL, OFF or VTK with triangle faces; "
+                         "repair=True mends duplicate or unused vertices)") from None
 
 
 def _graph_surface(shape: Any, spec: Mapping) -> Any:
@@ -194,13 +222,36 @@ def _graph_surface(shape: Any, spec: Mapping) -> Any:
     shape = tuple(int(n) for n in shape)
     if len(shape) != 2:
         raise ValueError(f"a graph surface needs a 2-D grid shape (ny, nx), got {shape}")
+    height = spec["height"]
+    if isinstance(height, Mapping):
+        height = _generated_height(shape, height, float(spec.get("dx", 1.0)), spec.get("dy"))
     try:
-        h = np.asarray(spec["height"], dtype=np.float64)
+        h = np.asarray(height, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"height must be an [ny, nx] array of numbers, got "
                          f"{type(spec['height']).__name__}") from None
     return GraphSurface(shape, dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
                         bc=spec.get("bc", "periodic"), height=h)
+
+
+#: ``"height": {"kind": ...}`` generators (rdgpu.surfaces)
+_HEIGHT_GENERATORS = {"random-waves": "random_waves", "heat-filtered": "heat_filtered"}
+
+
+def _generated_height(shape: tuple[int, ...], options: Mapping, dx: float,
+                      dy: Any) -> np.ndarray:
+    """The height of a ``{"kind": "random-waves" | "heat-filtered", **options}`` spec."""
+    from . import surfaces
+
+    options = dict(options)
+    kind = options.pop("kind", None)
+    if kind not in _HEIGHT_GENERATORS:
+        raise ValueError(f"a generated height needs 'kind': one of "
+                         f"{', '.join(_HEIGHT_GENERATORS)}; got {kind!r}")
+    try:
+        return getattr(surfaces, _HEIGHT_GENERATORS[kind])(shape, dx=dx, dy=dy, **options)
+    except TypeError as exc:
+        raise ValueError(f"bad options for the {kind} height: {exc}") from None
 
 
 def _is_surface(domain: Any) -> bool:
