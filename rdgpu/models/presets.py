@@ -11,41 +11,20 @@ from typing import Any
 import numpy as np
 
 from ..backends.base import Backend
-from ..domains import Grid
 from .library import MODELS
 
 __all__ = ["PRESETS", "Preset", "build_domain"]
 
 
 def build_domain(spec: Mapping[str, Any]) -> Any:
-    """A domain from a preset's dict: ``{"grid": (ny, nx), "dx": 1.0, "bc": "periodic"}``
-    (``(nx,)`` 1-D, ``(nz, ny, nx)`` 3-D with ``"dz"``),
-    ``{"mesh": "sphere", "subdivisions": 4, "radius": 1.0}``, ``{"mesh": "torus", "R": 1,
-    "r": 0.3, "n_major": 96, "n_minor": 48}`` or ``{"mesh": "path/to/file.obj"}``."""
-    spec = dict(spec)
-    if "grid" in spec and "height" in spec:  # a graph surface: never silently flat
-        from ..simulation import build_domain as build_any
+    """A domain from a preset's dict (:func:`rdgpu.simulation.build_domain`):
+    ``{"grid": (ny, nx), "dx": 1.0, "bc": "periodic"}`` (``(nx,)`` 1-D, ``(nz, ny, nx)``
+    3-D with ``"dz"``; ``"height"``: a graph surface), ``{"mesh": "sphere", "subdivisions":
+    4, "radius": 1.0}``, ``{"mesh": "disc", "radius": 30, "rings": 50}`` (``"roughen"``:
+    a rough copy), ``{"mesh": "path/to/file.obj"}``..."""
+    from ..simulation import build_domain as build_any
 
-        return build_any(spec)
-    if "grid" in spec:
-        shape = spec["grid"]
-        shape = (int(shape),) * 2 if np.ndim(shape) == 0 else tuple(int(n) for n in shape)
-        return Grid(shape, dx=float(spec.get("dx", 1.0)), dy=spec.get("dy"),
-                    bc=spec.get("bc", "periodic"), dz=spec.get("dz"))
-    if "mesh" in spec:
-        from ..mesh import SurfaceMesh
-
-        kind = spec["mesh"]
-        if kind == "sphere":
-            return SurfaceMesh.icosphere(int(spec.get("subdivisions", 4)),
-                                         float(spec.get("radius", 1.0)))
-        if kind == "torus":
-            return SurfaceMesh.torus(
-                float(spec.get("R", 1.0)), float(spec.get("r", 0.3)),
-                int(spec.get("n_major", 96)), int(spec.get("n_minor", 48)),
-            )
-        return SurfaceMesh.load(kind, repair=bool(spec.get("repair", False)))
-    raise ValueError(f"a domain spec has a 'grid' or a 'mesh' key, got {sorted(spec)}")
+    return build_any(spec)
 
 
 
