@@ -6,7 +6,8 @@ seed 002 eq. 18 with the ``"imex"`` split.
    time of the previous level would pull the order to 1) and against a tiny-step RK3
    reference of Gray-Scott; ``"imex"`` is first order on the same problem.
 2. Warp and OpenCL equal the NumPy reference bit for bit (``+ − × ÷`` models; cross-
-   diffusion, a clamp, a term in ``t``, a bilaplacian with its two solves), float32 and
+   diffusion, a clamp, a term in ``t``, a bilaplacian with its two solves, an explicit
+   bilaplacian with its pre-pass), float32 and
    float64, 1-D/2-D/3-D grids with every boundary kind and a mesh.
 3. Ensembles: each member equals its run alone.
 4. State: ``get_state(history=True)`` → ``set_state`` goes on bit for bit; new fields
@@ -43,6 +44,12 @@ EXACT = define_model(
     {"Du": 0.3, "Dv": 0.15, "c": 0.02, "a": 0.04, "b": 0.1},
     bounds={"v": (0.0, None)},
 )
+#: a bilaplacian of the other species: explicit, its inner Laplacian stored by a pre-pass
+#: of x and of the previous level
+CROSS4 = define_model(
+    "bdf2-cross4",
+    {"u": "Du*laplace(u) - e*laplace(laplace(v)) - u*v", "v": "Dv*laplace(v) + u*v - b*v"},
+    {"Du": 0.5, "Dv": 0.3, "e": 0.01, "b": 0.1})
 #: Swift-Hohenberg: a bilaplacian, two backward-Euler solves per step
 SH = define_model("sh", {"u": "(r - 1)*u - 2*laplace(u) - laplace(laplace(u)) - u*u*u"},
                   {"r": 0.3})
@@ -100,6 +107,7 @@ def _domains():
     mesh = SurfaceMesh.icosphere(1)
     yield mesh, EXACT, {}
     yield Grid((8, 6), dx=0.8, bc="periodic"), SH, {}
+    yield Grid((5, 7), dx=0.9, bc=("neumann", ("dirichlet", 0.1))), CROSS4, {}
 
 
 def _start(model, domain, seed: int = 3) -> dict[str, np.ndarray]:
