@@ -72,8 +72,8 @@ ORDER = _perf_module()
 # ---------------------------------------------------------------------------- 1. order
 def test_second_order_against_an_exact_solution():
     """The forced Fourier mode (``forced_mode``) at T = 2 for h = T/8 ... T/64 (1-8× the
-    explicit limit, 0.031): each halving divides BDF2's error by 4 (measured orders 2.00,
-    2.00, 2.00) and IMEX's by 2."""
+    explicit limit, 0.031): each halving divides BDF2's error by 4 (measured orders 1.99,
+    2.01, 2.01) and IMEX's by 2 (0.99, 1.00, 1.00)."""
     model, grid, params, init, exact = ORDER.forced_mode()
     T, ns = 2.0, [8, 16, 32, 64]
     assert model.dt_limit(grid, params, "euler") <= T / ns[-1]
