@@ -219,6 +219,23 @@ def test_checkpoint_resume_equals_the_whole_run(tmp_path, members):
         np.testing.assert_array_equal(resumed.fields[s], whole.fields[s])
 
 
+def test_a_frozen_member_leaves_the_others_as_alone():
+    """An ensemble member that blows up is frozen (its fields and history put back to the
+    last checked state); the other member keeps its history and ends bit for bit as its
+    run alone."""
+    model = define_model("blow-up", {"u": "0.5*laplace(u) + g*u*u - 0.1*u"}, {"g": 0.0})
+    grid = Grid((6, 6), dx=1.0, bc="periodic")
+    u0 = 0.5 + 0.1 * np.random.default_rng(0).random((2, *grid.shape))
+    kw = {"dt": 0.2, "backend": "numpy", "dtype": "float64", "options": {"method": "bdf2"}}
+    with pytest.warns(RuntimeWarning, match="member 1 diverged"):
+        both = Simulation(model, grid, {"g": np.array([0.0, 5.0])}, fields={"u": u0},
+                          members=2, **kw).run(60, progress=False, check_every=5)
+    assert set(both.diverged_members) == {1}
+    alone = Simulation(model, grid, {"g": 0.0}, fields={"u": u0[0]}, **kw).run(
+        60, progress=False)
+    np.testing.assert_array_equal(both.fields["u"][0], alone.fields["u"])
+
+
 # ---------------------------------------------------------------------------- 5. stability
 def test_stability_limits():
     """Diagonal diffusion: no limit (Gray-Scott on a grid and a mesh); a bilaplacian's
