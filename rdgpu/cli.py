@@ -1046,7 +1046,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="grid Laplacian: compact (3/5/7 points, default) or isotropic "
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
     what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
-                      "heun, rk3, imex, imex-cn (Allen-Cahn: explicit, implicit, "
+                      "heun, rk3, imex, imex-cn, bdf2 (Allen-Cahn: explicit, implicit, "
                       "crank-nicolson)")
     what.add_argument("--block-steps", type=int, metavar="K", help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "

@@ -1026,6 +1026,15 @@ def _model_bound(model: Any, species: str) -> float:
     return DEFAULT_BOUND if bound is None else float(bound)
 
 
+def _restore(stepper: Any, state: Mapping[str, np.ndarray], step: int) -> None:
+    """``stepper.set_state(state)`` at ``step`` (its clock too, where it keeps one: the
+    time of a time-dependent model, BDF2's previous level)."""
+    if _accepts(stepper.set_state, "steps"):
+        stepper.set_state(state, steps=step)
+    else:
+        stepper.set_state(state)
+
+
 def _accepts(func: Any, name: str) -> bool:
     try:
         params = inspect.signature(func).parameters
@@ -1405,9 +1414,14 @@ class Simulation:
         """Download the current fields."""
         return self.host_state()
 
-    def host_state(self) -> dict[str, np.ndarray]:
-        """The current fields, downloaded, each of :attr:`shape`."""
-        return {k: a.reshape(self.field_shape) for k, a in self.stepper.get_state().items()}
+    def host_state(self, history: bool = False) -> dict[str, np.ndarray]:
+        """The current fields, downloaded, each of :attr:`shape`; ``history``: also what a
+        multistep method carries between steps (BDF2's previous level, ``"_prev_<s>"``:
+        :meth:`rdgpu.models.ModelStepper.get_state`), so that ``stepper.set_state`` of it
+        goes on bit for bit."""
+        get = self.stepper.get_state
+        state = get(history=True) if history and _accepts(get, "history") else get()
+        return {k: a.reshape(self.field_shape) for k, a in state.items()}
 
     # ------------------------------------------------------------------ checkpoints
     def _meta(self) -> dict:
@@ -1446,6 +1460,8 @@ class Simulation:
             arrays[f"snap__{s}"] = (np.stack(snaps[s]) if snaps[s]
                                     else np.zeros((0, *self.field_shape), self.dtype))
         arrays["snap_steps"] = np.asarray(snap_steps, dtype=np.int64)
+        for k in set(state) - set(self.species):  # a multistep method's history
+            arrays[f"history__{k}"] = state[k]
         for k, v in _split_params(self.params)[1].items():
             arrays[f"param__{k}"] = v
         arrays.update(domain_arrays(self.domain))
@@ -1455,7 +1471,8 @@ class Simulation:
         """Write the current state (no run in progress) as a checkpoint, atomically."""
         run = {"start": self.step, "target": self.step, "snapshot_every": None,
                "check_every": None, "checkpoint_every": None}
-        arrays = self._checkpoint_arrays(self.state(), run, {s: [] for s in self.species}, [])
+        arrays = self._checkpoint_arrays(self.host_state(history=True), run,
+                                         {s: [] for s in self.species}, [])
         _atomic_savez(Path(path), arrays)
         return Path(path)
 
@@ -1548,7 +1565,9 @@ class Simulation:
         if any(fields[s].dtype != arrays[f"field__{s}"].dtype for s in self.species):
             raise ValueError(f"checkpoint dtype {meta['dtype']} differs from the "
                              f"simulation's {self.dtype}")
-        self.stepper.set_state(fields)
+        history = {k[len("history__"):]: v for k, v in arrays.items()
+                   if k.startswith("history__")}
+        _restore(self.stepper, {**fields, **history}, int(meta["step"]))
         self.frozen = {int(m): what for m, what in (meta.get("frozen") or {}).items()}
         self.step = int(meta["step"])
         self._resume_run = {**meta["run"], "path": str(path)}
@@ -1791,8 +1810,8 @@ class _Runner:
         sim = self.sim
         good_step, good = self.last_good
         for m, (s, what) in sorted(bad.items()):
-            for sp in sim.species:
-                state[sp][m] = good[sp][m]
+            for k in state.keys() & good.keys():
+                state[k][m] = good[k][m]
             sim.frozen[m] = (f"member {m} diverged between steps {good_step} and {step}: "
                              f"field {s!r} has {what}; frozen at step {good_step}")
             warnings.warn(f"{sim.model.name}: {sim.frozen[m]}", RuntimeWarning, stacklevel=4)
@@ -1810,11 +1829,11 @@ class _Runner:
         sim = self.sim
         if not sim.frozen or self.last_good is None:
             return
-        state = sim.host_state()
+        state = sim.host_state(history=True)
         kept = self.last_good[1]
         for m in sim.frozen:
-            for s in sim.species:
-                state[s][m] = kept[s][m]
+            for k in state.keys() & kept.keys():
+                state[k][m] = kept[k][m]
         sim.stepper.set_state(state)
 
     def diverged(self, step: int, state: dict[str, np.ndarray], species: str, what: str):
@@ -1830,16 +1849,16 @@ class _Runner:
         good_step, good = self.last_good
         first_bad, bad_field, bad_what = step, species, what
         if step - good_step > 1:
-            sim.stepper.set_state(good)
+            _restore(sim.stepper, good, good_step)
             for k in range(good_step + 1, step + 1):
                 sim.stepper.advance(1)
-                cur = sim.host_state()
+                cur = sim.host_state(history=True)
                 found = self.find_bad(cur)
                 if found:
                     first_bad, (bad_field, bad_what) = k, found
                     break
                 good_step, good = k, cur
-        sim.stepper.set_state(good)
+        _restore(sim.stepper, good, good_step)
         sim.step = good_step
         # keep the good snapshots up to the last good step
         self.flush()
@@ -1899,7 +1918,7 @@ class _Runner:
         else it becomes the last good state."""
         if self.last_good is not None and self.last_good[0] == step:
             return self.last_good[1]
-        state = self.sim.host_state()
+        state = self.sim.host_state(history=True)
         if self.sim.members is not None:
             bad = self.bad_members(state)
             if bad:
@@ -1948,7 +1967,7 @@ class _Runner:
             where = f"step {step}"
         elif self.last_good is not None:
             good_step, good = self.last_good
-            sim.stepper.set_state(good)
+            _restore(sim.stepper, good, good_step)
             sim.step = good_step
             self.pending = [(k, b) for k, b in self.pending if k <= good_step]
             self.flush()
@@ -1974,7 +1993,7 @@ class _Runner:
         target = run["target"]
         step = sim.step
         if ce or self.checkpoint is not None:
-            first = sim.host_state()
+            first = sim.host_state(history=True)
             found = self.find_bad(first)
             if found and sim.members is not None:
                 bad = self.bad_members(first)

@@ -9,19 +9,45 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
 * ``"rk3"`` (3rd order, Shu-Osher SSP-RK3): ``x₁ = x + h f(x, t)``, ``x₂ = ¾x + ¼(x₁ +
   h f(x₁, t + h))``, ``x' = ⅓x + ⅔(x₂ + h f(x₂, t + h/2))`` — each stage one fused pass of
   the form ``a·base + b·(y + h f(y))``;
-* ``"imex"`` / ``"imex-cn"``: implicit-explicit.  Each species' own linear spatial terms
-  ``α Δs + β Δ²s`` (constant coefficients, ``β <= 0``) go to an implicit operator
-  ``P = (I − a₁Δ)(I − a₂Δ)``, everything else (reactions, cross-diffusion, any other
-  term) stays explicit:  ``y = x + h (f(x) − α Δx − β Δ²x) + (P − I) x`` in one fused
-  pass, then ``x' = P⁻¹ y`` by one or two backward-Euler diffusion solves on the device
-  (multicolour SOR, :class:`rdgpu.implicit.ImplicitDiffusion`).  Without a bilaplacian,
+* ``"imex"`` / ``"imex-cn"``: implicit-explicit. Each species' own linear spatial terms
+  ``α Δs + β Δ²s`` (constant coefficients, ``β <= 0``) go to an implicit operator ``P = (I
+  − a₁Δ)(I − a₂Δ)``, everything else (reactions, cross-diffusion, any other term) stays
+  explicit: ``y = x + h f(x) + (P − I) x`` in one fused pass (its expression leaves ``α Δs
+  + β Δ²s`` out and adds what is left of ``(P − I)x/h``), then ``x' = P⁻¹ y``, i.e. ``P
+  (x' − x) = h f(x)``, by one or two backward-Euler diffusion solves on the device
+  (multicolour SOR, :class:`rdgpu.implicit.ImplicitDiffusion`). Without a bilaplacian,
   ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1) or Crank-Nicolson
   (``"imex-cn"``, θ = ½) diffusion with explicit reaction, stable far beyond the explicit
-  limit.  With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
+  limit. With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
   α)``: a linearly stabilised scheme (Eyre's convex splitting in spirit) whose
-  amplification factor stays in the unit disk for every decaying mode, so ``h`` is set
-  by accuracy, not by ``1/m_max²``; it keeps steady states exactly (``x' = x`` where
-  ``f(x) = 0``).  First order in time.
+  amplification factor ``1 + h A(m)/((1 + a₁m)(1 + a₂m))`` stays in the unit disk for
+  every decaying mode, so ``h`` is set by accuracy, not by ``1/m_max²``; it keeps steady
+  states exactly (``x' = x`` where ``f(x) = 0``). First order in time;
+* ``"bdf2"`` (2nd order): the semi-implicit BDF2 (SBDF2; seed 002 eq. 18 and its refs,
+  Ascher & Petzold, Ruuth in J. Math. Biol. 34), with the same split into implicit ``L``
+  (each species' own ``α Δs + β Δ²s``) and explicit ``N`` (the rest) as ``"imex"``::
+
+      (3x' − 4x + x₋)/(2h) = L x' + 2N(x, t) − N(x₋, t − h)
+
+  that is ``P x' = y`` with ``P = I − (2h/3) L`` (the ``P`` of ``"imex"`` for the step
+  ``h' = 2h/3``: ``a₁ = h'α`` without a bilaplacian, the stabilised pair with one, whose
+  difference from ``α Δ`` then moves into ``N``) and ``y = x + ((x − x₋)/3 + h'(2N(x) −
+  N(x₋)))``, one fused pass that reads ``x`` and the previous level ``x₋`` and evaluates
+  ``N`` at both (``x₋`` at ``t − h``), then the same backward-Euler solves as ``"imex"``
+  (:class:`rdgpu.implicit.ImplicitDiffusion`, the same tolerances and sweeps).  Nothing
+  but ``x₋`` is carried between steps: re-evaluating ``N(x₋)`` costs a second reaction
+  evaluation in a pass that is memory-bound, where storing ``N`` would add a field read and
+  a field write per species and make the history depend on more than the fields.  The
+  first step, and the first after :meth:`ModelStepper.set_state` with new fields, is the
+  ``"imex"`` (backward Euler) step: first order once, second order over a run.  The
+  history ``x₋`` is in ``get_state(history=True)`` as ``"_prev_<species>"`` and
+  ``set_state`` takes it back, so a stepper restored with it continues bit for bit.
+  Stability (:func:`stability_limit`: the spectral radius of the two-level recursion's
+  companion matrix per mode): each species' own diffusion is damped at any ``h`` (BDF2 is
+  A-stable: no limit); explicit cross-diffusion sets a limit (``c = 0.3`` between ``Δu``
+  and ``Δv`` on a 16² grid: 5.5, against Euler's 0.32); a bilaplacian's stabilised pair
+  leaves none in practice (Swift-Hohenberg: ~10⁶, where round-off meets the neutral mode
+  ``A(m) = 0``); the reaction terms limit ``h`` as in every explicit method.
 
 ``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
 (Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
@@ -44,7 +70,10 @@ from .compiler import Output, PerMember, Program, Target, launch
 __all__ = ["FieldStepper", "ModelStepper", "stability_limit"]
 
 EXPLICIT = ("euler", "heun", "rk3")
-_THETA = {"imex": 1.0, "imex-cn": 0.5}
+#: the methods with implicit solves, and their θ (BDF2's start step is backward Euler)
+_THETA = {"imex": 1.0, "imex-cn": 0.5, "bdf2": 1.0}
+#: the key of species ``s``'s previous level in ``get_state(history=True)``/``set_state``
+HISTORY = "_prev_{}"
 
 
 # ---------------------------------------------------------------------------- stability
@@ -66,13 +95,11 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
         lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
         neg = lam[lam.real < -1e-300]
         return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
-    theta = _THETA[method]
-
     def stable(h: float) -> bool:
         for m in ms:
             A = -m * D + m * m * B
             exact = np.max(np.linalg.eigvals(A).real)
-            G = _imex_amplification(D, B, m, h, theta)
+            G = _amplification(D, B, m, h, method)
             rho = np.max(np.abs(np.linalg.eigvals(G)))
             if exact <= 0 and rho > 1.0 + 1e-9:
                 return False
@@ -108,16 +135,37 @@ def _implicit_factors(alpha: float, beta: float, h: float, theta: float) -> tupl
     return 0.5 * (total + disc), 0.5 * (total - disc)
 
 
-def _imex_amplification(D, B, m, h, theta):
+def _amplification(D: np.ndarray, B: np.ndarray, m: float, h: float,
+                   method: str) -> np.ndarray:
+    """The matrix that advances a Fourier mode (``−Δ`` eigenvalue ``m``) by one step of
+    an implicit ``method``: ``n × n`` for IMEX, the ``2n × 2n`` companion matrix of BDF2's
+    recursion ``P x' = (4/3 + 2h'E) x − (1/3 + h'E) x₋`` (``h' = 2h/3``, ``P`` the
+    implicit factors' symbol per species, ``E = A(m) + (P − I)/h'`` the explicit linear
+    part)."""
+    if method != "bdf2":
+        return _imex_amplification(D, B, m, h, _THETA[method])
     n = D.shape[0]
-    G = np.eye(n) + h * (-m * D + m * m * B)
+    hb = 2.0 * h / 3.0
+    p = np.empty(n)
+    for i in range(n):
+        a1, a2 = _implicit_factors(D[i, i], B[i, i], hb, 1.0)
+        p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
+    E = -m * D + m * m * B + np.diag((p - 1.0) / hb)
+    G = np.zeros((2 * n, 2 * n))
+    G[:n, :n] = (4.0 / 3.0 * np.eye(n) + 2.0 * hb * E) / p[:, None]
+    G[:n, n:] = -(1.0 / 3.0 * np.eye(n) + hb * E) / p[:, None]
+    G[n:, :n] = np.eye(n)
+    return G
+
+
+def _imex_amplification(D, B, m, h, theta):
+    """IMEX's ``G = I + h P⁻¹ A(m)``: the scheme is ``P (x' − x) = h f(x)`` (module doc)."""
+    n = D.shape[0]
+    p = np.empty(n)
     for i in range(n):
         a1, a2 = _implicit_factors(D[i, i], B[i, i], h, theta)
-        p = (1.0 + a1 * m) * (1.0 + a2 * m)
-        # explicit part: (P − I) x − h α Δx − h β Δ²x on the diagonal
-        G[i, i] += (p - 1.0) + h * (m * D[i, i]) - h * m * m * B[i, i]
-        G[i] /= p
-    return G
+        p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
+    return np.eye(n) + h * (-m * D + m * m * B) / p[:, None]
 
 
 # ---------------------------------------------------------------------------- stepper
@@ -178,7 +226,9 @@ class FieldStepper:
     def state(self) -> dict[str, DeviceArray]:
         return dict(zip(self.species, self._x, strict=True))
 
-    def get_state(self) -> dict[str, np.ndarray]:
+    def get_state(self, history: bool = False) -> dict[str, np.ndarray]:
+        """Every species' field, downloaded (``history``: also what a multistep method
+        carries between steps; a one-step method carries nothing)."""
         return {s: x.numpy() for s, x in zip(self.species, self._x, strict=True)}
 
     def advance(self, steps: int) -> None:
@@ -290,15 +340,34 @@ class ModelStepper(FieldStepper):
                         for _ in range(n_stages)]
 
     def _setup_imex(self, trees, tol, inline) -> None:
+        cache: dict[float, Any] = {}
+        if self.method == "bdf2":
+            # the start step: backward-Euler IMEX over h (its program is ``_euler``)
+            start, self._start_solvers = self._split(trees, inline, self.dt, 1.0, tol, cache)
+            self._setup_explicit_from(start)
+            explicit, self._solvers = self._split(trees, inline, 2.0 * self.dt / 3.0, 1.0,
+                                                  tol, cache)
+            self._setup_bdf2(explicit)
+        else:
+            explicit, self._solvers = self._split(trees, inline, self.dt,
+                                                  _THETA[self.method], tol, cache)
+            self._setup_explicit_from(explicit)
+        # an ensemble solves member by member: the same solves, sweeps and convergence
+        # tests as each member alone (one member's field at a time in these buffers)
+        one = self.shape if self.members is None else self.shape[1:]
+        self._tmp = [self.backend.empty(one, self.dtype) for _ in range(2)]
+
+    def _split(self, trees, inline, h: float, theta: float, tol,
+               cache: dict[float, Any]) -> tuple[dict[str, eq.Node], dict[str, list[Any]]]:
+        """``(explicit, solvers)`` of an implicit step over ``h`` (module doc): per species
+        the explicit rest of its right-hand side and the backward-Euler solvers of ``P``
+        (shared through ``cache``, keyed by their ``a``)."""
         from ..implicit import ImplicitDiffusion
 
-        theta = 1.0 if self.method == "imex" else 0.5
-        h = self.dt
         merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
                       else None) for k, v in self.params.items()}
         explicit: dict[str, eq.Node] = {}
-        self._solvers: dict[str, list[Any]] = {}
-        cache: dict[float, Any] = {}
+        solvers: dict[str, list[Any]] = {}
         for s in self.species:
             lin = eq.linear_parts(trees[s])
             if lin is None and self.model.linear[s] is not None:
@@ -339,20 +408,50 @@ class ModelStepper(FieldStepper):
             for i, term in enumerate(terms):
                 expr = term if i == 0 else eq.Bin("+", expr, term)
             explicit[s] = expr
-            solvers = []
+            solvers[s] = []
             for a in (a1, a2):
                 if a > 0:
                     if a not in cache:
                         cache[a] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
                                                      backend=self.backend, dtype=self.dtype,
                                                      tol=tol)
-                    solvers.append(cache[a])
-            self._solvers[s] = solvers
-        self._setup_explicit_from(explicit)
-        # an ensemble solves member by member: the same solves, sweeps and convergence
-        # tests as each member alone (one member's field at a time in these buffers)
-        one = self.shape if self.members is None else self.shape[1:]
-        self._tmp = [self.backend.empty(one, self.dtype) for _ in range(2)]
+                    solvers[s].append(cache[a])
+        return explicit, solvers
+
+    def _setup_bdf2(self, explicit: dict[str, eq.Node]) -> None:
+        """BDF2's explicit pass ``y = x + ((x − x₋)/3 + h'(2N(x, t) − N(x₋, t₋)))``
+        (``_b = h'``, ``_tp = t₋``), its own bilaplacian pre-pass, the buffers of ``x₋``."""
+        prev = {s: HISTORY.format(s) for s in self.species}
+
+        def back(n: eq.Node) -> eq.Node | None:  # N at the previous level
+            if isinstance(n, eq.Ref) and n.kind == "species":
+                return eq.Ref("species", prev[n.name])
+            if isinstance(n, eq.Lap):
+                return eq.Lap(prev[n.name], n.order)
+            if isinstance(n, eq.Ref) and n.kind == "time":
+                return eq.Ref("builtin", "_tp")
+            return None
+
+        exprs = {}
+        for s in self.species:
+            x, xp = eq.Ref("species", s), eq.Ref("species", prev[s])
+            extrapolated = eq.Bin("-", eq.Bin("*", eq.Num(2.0), explicit[s]),
+                                  eq.substitute(explicit[s], back))
+            exprs[s] = eq.Bin("+", x, eq.Bin(
+                "+", eq.Bin("/", eq.Bin("-", x, xp), eq.Num(3.0)),
+                eq.Bin("*", eq.Ref("builtin", "_b"), extrapolated)))
+        low, pre = self._lower(exprs)
+        aux = [] if pre is None else [self.backend.empty(self.shape, self.dtype)
+                                      for _ in pre.outputs]
+        aux_names = () if pre is None else tuple(o.name for o in pre.outputs)
+        self._bdf2 = Program(
+            self.species + aux_names + tuple(prev.values()),
+            tuple(Output(s, low[s], self._bounds(s)) for s in self.species),
+            frozenset(aux_names))
+        self._bdf2_pre = (pre, aux)
+        self._prev = [self.backend.empty(self.shape, self.dtype) for _ in self.species]
+        #: whether ``_prev`` holds the previous level (else the next step is the start step)
+        self._has_prev = False
 
     def _setup_explicit_from(self, explicit: dict[str, eq.Node]) -> None:
         method, self.method = self.method, "euler"
@@ -390,13 +489,16 @@ class ModelStepper(FieldStepper):
 
     def _eval(self, program: Program, ins: list[DeviceArray], outs: list[DeviceArray],
               time: float, extra: list[DeviceArray] = (), a: float = 0.0,
-              b: float = 1.0) -> None:
-        if self._pre is not None:
-            src = dict(zip(self.species, ins, strict=True))
-            launch(self._pre, self.target, [src[s] for s in self._pre.inputs], self._aux,
-                   self._dev, {}, time)
-        launch(program, self.target, [*ins, *self._aux, *extra], outs, self._dev,
-               {"_h": self.dt, "_a": a, "_b": b}, time)
+              b: float = 1.0, prepass: tuple[Program | None, list] | None = None,
+              tp: float = 0.0) -> None:
+        """One pass of ``program`` (inputs: ``ins``, the pre-pass results, ``extra``),
+        after its bilaplacian pre-pass (``prepass``: default the explicit program's)."""
+        pre, aux = (self._pre, self._aux) if prepass is None else prepass
+        if pre is not None:
+            src = dict(zip(program.inputs, [*ins, *aux, *extra], strict=True))
+            launch(pre, self.target, [src[s] for s in pre.inputs], aux, self._dev, {}, time)
+        launch(program, self.target, [*ins, *aux, *extra], outs, self._dev,
+               {"_h": self.dt, "_a": a, "_b": b, "_tp": tp}, time)
 
     def _step(self) -> None:
         t0, h = self.time, self.dt
@@ -412,17 +514,33 @@ class ModelStepper(FieldStepper):
             self._eval(self._euler, x, s1, t0)
             self._eval(self._combine, s1, s2, t0 + h, x, 0.75, 0.25)
             self._eval(self._combine, s2, y, t0 + 0.5 * h, x, 1.0 / 3.0, 2.0 / 3.0)
+        elif self.method == "bdf2":
+            if self._has_prev:
+                self._eval(self._bdf2, x, y, t0, self._prev, b=2.0 * h / 3.0,
+                           prepass=self._bdf2_pre, tp=(self.steps_done - 1) * h)
+                self._solve_all(y, self._solvers)
+            else:
+                self._eval(self._euler, x, y, t0)
+                self._solve_all(y, self._start_solvers)
+            # x₋ ← x; advance() then makes y the new x and the old x₋ the next scratch
+            self._prev, self._x = self._x, self._prev
+            self._has_prev = True
         else:
             self._eval(self._euler, x, y, t0)
-            for i, s in enumerate(self.species):
-                if self.members is None:
-                    self._solve(self._solvers[s], y[i])
-                    continue
-                n = self._tmp[1].size
-                for m in range(self.members):
-                    self.backend.copy_range(y[i], m * n, self._tmp[1], 0, n)
-                    self._solve(self._solvers[s], self._tmp[1])
-                    self.backend.copy_range(self._tmp[1], 0, y[i], m * n, n)
+            self._solve_all(y, self._solvers)
+
+    def _solve_all(self, y: list[DeviceArray], solvers: dict[str, list[Any]]) -> None:
+        """Every species' implicit solves on ``y``, in place; an ensemble member by
+        member."""
+        for i, s in enumerate(self.species):
+            if self.members is None:
+                self._solve(solvers[s], y[i])
+                continue
+            n = self._tmp[1].size
+            for m in range(self.members):
+                self.backend.copy_range(y[i], m * n, self._tmp[1], 0, n)
+                self._solve(solvers[s], self._tmp[1])
+                self.backend.copy_range(self._tmp[1], 0, y[i], m * n, n)
 
     def _solve(self, solvers: list[Any], y: DeviceArray) -> None:
         """``y`` ← the implicit solves of one species' IMEX step, in place."""
@@ -431,3 +549,33 @@ class ModelStepper(FieldStepper):
         elif len(solvers) == 2:
             solvers[0].step(y, self._tmp[0])
             solvers[1].step(self._tmp[0], y)
+
+    # ------------------------------------------------------------------ state
+    def get_state(self, history: bool = False) -> dict[str, np.ndarray]:
+        """Every species' field; with ``history=True`` also what the next step reads
+        besides them: BDF2's previous level as ``"_prev_<species>"`` (once it has one)."""
+        out = super().get_state(history)
+        if history and self.method == "bdf2" and self._has_prev:
+            out.update({HISTORY.format(s): p.numpy()
+                        for s, p in zip(self.species, self._prev, strict=True)})
+        return out
+
+    def set_state(self, fields: Mapping[str, Any], *, steps: int | None = None) -> None:
+        """Upload every species' field.  BDF2: with the ``"_prev_<species>"`` fields of
+        ``get_state(history=True)`` the run goes on as it would have from there, bit for
+        bit; without them (new fields) its history restarts and the next step is the
+        backward-Euler IMEX start step."""
+        keys = [HISTORY.format(s) for s in self.species]
+        given = [k for k in keys if k in fields]
+        if given and self.method != "bdf2":
+            raise ValueError(f"method {self.method!r} carries no history; {given} are "
+                             "accepted by method 'bdf2' only")
+        if given and len(given) != len(keys):
+            raise KeyError(f"set_state: the history needs every one of {keys} or none; "
+                           f"missing {sorted(set(keys) - set(given))}")
+        super().set_state(fields, steps=steps)
+        if self.method != "bdf2":
+            return
+        for k, p in zip(given, self._prev, strict=False):
+            self.backend.copy(self.backend.upload(self._host_field(k, fields[k])), p)
+        self._has_prev = bool(given)

@@ -50,7 +50,7 @@ from . import equations as eq
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
 
 #: time-stepping methods of a model (``options={"method": ...}``, ``--method``)
-METHODS = ("euler", "heun", "rk3", "imex", "imex-cn")
+METHODS = ("euler", "heun", "rk3", "imex", "imex-cn", "bdf2")
 _ALIASES = {"explicit": "euler", "forward-euler": "euler", "rk2": "heun",
             "ssprk3": "rk3", "imex-be": "imex"}
 _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
@@ -495,7 +495,7 @@ class Model:
         if ops is None:
             return math.inf
         method = _method(method or self.default_method, self.methods)
-        if method.startswith("imex"):
+        if method in ("imex", "imex-cn", "bdf2"):
             for s, beta in zip(self.species, np.diag(ops[1]), strict=True):
                 if beta > 0:
                     raise ValueError(
