@@ -6,8 +6,9 @@
 
 The modified Allen-Cahn equation ``u_t = Δ_Γ u − (u³ − u + b)/ε²`` (Dascal, Pai & Kimmel)
 on the unit icosphere of 4, 5 and 6 subdivisions (h = mean edge length 0.0755, 0.0378,
-0.0189), ε/h ∈ :data:`RATIOS`, b ∈ :data:`BS` (the brief's seven values and ±0.05), random initial data uniform in [−1, 1]
-(seed 0), OpenCL, float64, explicit Strang splitting with ``dt = min(ε²/2, dt_limit/2)``.
+0.0189), ε/h ∈ :data:`RATIOS`, b ∈ :data:`BS` (the brief's seven values and ±0.05),
+random initial data uniform in [−1, 1] (seed 0), OpenCL, float64, explicit Strang
+splitting with ``dt = min(ε²/2, dt_limit/2)``.
 
 Time is in units of ε² (the natural time of the reaction; the interface is ~4 ε wide and
 a front driven by b moves ~2|b| ε per ε²).  Every run lasts to ``T = 10 000 ε²`` (or until
@@ -156,8 +157,8 @@ def measure_presets(names: tuple[str, ...] | None = None, factor: int = 3) -> di
         row: dict[str, Any] = {"steps": p.steps, "t_eps2": p.steps * p.dt / eps**2,
                                "eps_over_h": eps / float(sim.domain.mean_edge_length),
                                "b": float(sim.params["b"]), "seconds": seconds,
-                               "max_change_to_x%d" % factor: float(np.max(np.abs(u2 - u1)))}
-        for tag, u in (("at_steps", u1), ("at_x%d" % factor, u2)):
+                               f"max_change_to_x{factor}": float(np.max(np.abs(u2 - u1)))}
+        for tag, u in (("at_steps", u1), (f"at_x{factor}", u2)):
             comps = phase_components(u, sim.domain, 0.0)
             uniform = (u > 0).all() or (u <= 0).all()
             row[tag] = {"class": classify_pattern(u, sim.domain, 0.0),
@@ -166,6 +167,71 @@ def measure_presets(names: tuple[str, ...] | None = None, factor: int = 3) -> di
         out[name] = row
         print(f"{name}: {row}", flush=True)
     return out
+
+
+#: the isometry experiment's tube: radius 1, 96 vertices around, near-equilateral triangles,
+#: length ~8; bent by π/2 (bend radius 5.1: lengths along the axis scaled by 1 ± 0.2)
+#: and π (radius 2.5: ± 0.4)
+ISO_TUBE = {"radius": 1.0, "n_around": 96, "length": 8.0}
+ISO_ANGLES = (0.5 * np.pi, np.pi)
+#: (b, time in ε², phase compared): spots, inverted spots, stripes twice
+ISO_CASES = ((-0.05, 8.0, "low"), (0.05, 8.0, "high"), (0.0, 30.0, "high"),
+             (0.0, 100.0, "high"))
+ISO_FIG = ROOT / "docs" / "img" / "seed000_isometry.png"
+
+
+def iso_tube(radius: float, n_around: int, length: float) -> SurfaceMesh:
+    """The tube of :data:`ISO_TUBE`: rings ``(2π r/n) √3/2`` apart (equilateral triangles)."""
+    from rdgpu.isometry import cylinder
+
+    dz = 2.0 * np.pi * radius / n_around * np.sqrt(3.0) / 2.0
+    n_along = int(length / dz) + 1
+    return cylinder(radius, (n_along - 1) * dz, n_around, n_along)
+
+
+def isometry(render: bool = True) -> dict[str, Any]:
+    """Seed 000's Figs. 12/15: overlaps (same data, straight vs bent; different data,
+    straight vs straight) for :data:`ISO_CASES` at :data:`ISO_ANGLES`; the figure pair of
+    the first case at the first angle."""
+    from rdgpu.isometry import bend, isometry_experiment
+
+    tube = iso_tube(**ISO_TUBE)
+    rows = []
+    pair = None
+    for angle in ISO_ANGLES:
+        bent = bend(tube, angle)
+        for b, t, phase in ISO_CASES:
+            r = isometry_experiment(tube, bent, ratio=1.0, b=b, t_eps2=t, phase=phase)
+            if pair is None:
+                pair = (bent, r)
+            rows.append({"angle": float(angle), "b": b, "t_eps2": r["t_eps2"],
+                         "steps": r["steps"], "phase": phase,
+                         **{k: r[k] for k in ("eps", "dt", "dice_same", "dice_baseline",
+                                              "jaccard_same", "jaccard_baseline")}})
+            print(f"isometry: {rows[-1]}", flush=True)
+    out = {"tube": {**ISO_TUBE, "vertices": tube.n_vertices,
+                    "h": float(tube.mean_edge_length)}, "rows": rows}
+    if render and pair is not None:
+        iso_figure(tube, *pair)
+    return out
+
+
+def iso_figure(tube: SurfaceMesh, bent: SurfaceMesh, r: dict[str, Any],
+               path: Path = ISO_FIG) -> Path:
+    """Straight and bent tube side by side, same initial data (smooth shading)."""
+    import imageio.v3 as iio
+
+    from rdgpu.output import render_mesh
+
+    views = []
+    for mesh, u in ((tube, r["u_straight"]), (bent, r["u_bent"])):
+        c = np.asarray(mesh.vertices).mean(axis=0)
+        cam = [(c[0], c[1] - 14.0, c[2]), tuple(c), (1.0, 0.0, 0.0)]
+        views.append(render_mesh(mesh, u, camera=cam, vmin=-1, vmax=1,
+                                 window_size=(480, 480)))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(path, np.concatenate(views, axis=1))
+    return path
 
 
 def save(results: dict[str, Any]) -> None:
@@ -214,7 +280,7 @@ def figure(results: dict[str, Any], path: Path = FIG_PATH) -> Path:
     runs = results["runs"]
     levels = sorted({r["level"] for r in runs.values()})
     fig, axes = plt.subplots(1, len(levels), figsize=(5.2 * len(levels), 4.6), squeeze=False)
-    for ax, level in zip(axes[0], levels):
+    for ax, level in zip(axes[0], levels, strict=True):
         rows = [r for r in runs.values() if r["level"] == level]
         ratios = sorted({r["ratio"] for r in rows})
         bs = sorted({r["b"] for r in rows})
@@ -257,6 +323,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--bs", type=float, nargs="+", default=list(BS))
     ap.add_argument("--figure-only", action="store_true",
                     help="rebuild the figure and table from the JSON without running")
+    ap.add_argument("--parts", nargs="+", default=["study", "presets", "isometry"],
+                    choices=["study", "presets", "isometry"], help="what to run")
     args = ap.parse_args(argv)
     results = json.loads(JSON_PATH.read_text()) if JSON_PATH.exists() else {}
     if not args.figure_only:
