@@ -226,9 +226,33 @@ def iso_figure(tube: SurfaceMesh, bent: SurfaceMesh, r: dict[str, Any],
     views = []
     for mesh, u in ((tube, r["u_straight"]), (bent, r["u_bent"])):
         c = np.asarray(mesh.vertices).mean(axis=0)
-        cam = [(c[0], c[1] - 14.0, c[2]), tuple(c), (1.0, 0.0, 0.0)]
+        cam = [(c[0], c[1] - 22.0, c[2]), tuple(c), (1.0, 0.0, 0.0)]
         views.append(render_mesh(mesh, u, camera=cam, vmin=-1, vmax=1,
                                  window_size=(480, 480)))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(path, np.concatenate(views, axis=1))
+    return path
+
+
+SPHERES_FIG = ROOT / "docs" / "img" / "seed000_spheres.png"
+
+
+def spheres(names: tuple[str, ...] = ("ac-sphere-spots", "ac-sphere-resolved-spots"),
+            path: Path = SPHERES_FIG) -> Path:
+    """Each preset's field at its final step (OpenCL, float64), rendered side by side with
+    the same camera (smooth shading)."""
+    import imageio.v3 as iio
+
+    from rdgpu.models import PRESETS
+    from rdgpu.output import render_mesh
+    from rdgpu.simulation import Simulation
+
+    views = []
+    for name in names:
+        p = PRESETS[name]
+        sim = Simulation.from_preset(p, backend="opencl", dtype="float64")
+        u = sim.run(p.steps, snapshot_every=0, progress=False).fields["u"]
+        views.append(render_mesh(sim.domain, u, vmin=-1, vmax=1, window_size=(480, 480)))
     path.parent.mkdir(parents=True, exist_ok=True)
     iio.imwrite(path, np.concatenate(views, axis=1))
     return path
@@ -323,20 +347,27 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--bs", type=float, nargs="+", default=list(BS))
     ap.add_argument("--figure-only", action="store_true",
                     help="rebuild the figure and table from the JSON without running")
-    ap.add_argument("--parts", nargs="+", default=["study", "presets", "isometry"],
-                    choices=["study", "presets", "isometry"], help="what to run")
+    parts = ["study", "presets", "isometry", "spheres"]
+    ap.add_argument("--parts", nargs="+", default=parts, choices=parts, help="what to run")
     args = ap.parse_args(argv)
     results = json.loads(JSON_PATH.read_text()) if JSON_PATH.exists() else {}
-    if not args.figure_only:
+    if not args.figure_only and "study" in args.parts:
         results["settings"] = {"samples_eps2": list(SAMPLES), "frozen_tol": FROZEN_TOL,
                                "init": "uniform random in [-1, 1], seed 0",
                                "backend": "opencl", "dtype": "float64",
                                "dt": "min(eps^2/2, dt_limit/2)"}
         t0 = time.perf_counter()
         run_study(tuple(args.levels), tuple(args.ratios), tuple(args.bs), results)
-        results["presets"] = measure_presets()
         results["settings"]["last_wall_s"] = time.perf_counter() - t0
         save(results)
+    if not args.figure_only and "presets" in args.parts:
+        results["presets"] = measure_presets()
+        save(results)
+    if not args.figure_only and "isometry" in args.parts:
+        results["isometry"] = isometry()
+        save(results)
+    if not args.figure_only and "spheres" in args.parts:
+        print(f"spheres: {spheres()}")
     print(table(results))
     print(f"figure: {figure(results)}")
 
