@@ -173,8 +173,9 @@ _AC_MESH = {"mesh": "sphere", "subdivisions": 5, "radius": 1.0}
 _AC_EPS_GLOBAL = 0.0057
 _AC_EPS_LOCAL = 0.0113
 _AC_PINNED = ("pinned by the mesh: the interfaces are under one vertex wide and the field "
-              "is frozen (identical at steps 3000 and 9000); with ε resolved (ε/h ≳ 0.5) "
-              "the same b coarsens to a uniform field within ~100 ε² (docs/seed000.md)")
+              "is frozen (identical at steps 3000 and 9000); with ε resolved (ε/h ≥ 0.5) ")
+_AC_RESOLVED_FATE = {True: "the same b makes the field uniform within 1-10 ε²",
+                     False: "b = 0 coarsens by curvature, uniform after 70-5000 ε² or later"}
 for _name, _b, _cls in (("spots", -0.25, "spots"), ("inverted-spots", 0.25, "inverted-spots"),
                         ("stripes", 0.0, "stripes"), ("uniform", -0.35, "uniform")):
     _add(Preset(
@@ -186,7 +187,8 @@ for _name, _b, _cls in (("spots", -0.25, "spots"), ("inverted-spots", 0.25, "inv
         description=f"modified Allen-Cahn, b = {_b}, ε = {_AC_EPS_GLOBAL} (0.15 mean edge), "
         "random initial data on the unit sphere" + (
             "; |b| past the measured ~0.30 threshold: decays to a constant"
-            if _name == "uniform" else "; " + _AC_PINNED),
+            if _name == "uniform" else "; " + _AC_PINNED + _AC_RESOLVED_FATE[_b != 0]
+            + " (docs/seed000.md)"),
     ))
 # Localized patterns (Dascal et al. §4.2, Figs. 13-14): random data in a patch (0 elsewhere);
 # ε = 0.3 h.  b = ±0.08: the favoured phase takes the rest of the sphere, the pattern stays
@@ -219,13 +221,13 @@ for _name, _b, _cls in (("local-spots", -0.08, "spots"),
 _AC_MESH_FINE = {"mesh": "sphere", "subdivisions": 6, "radius": 1.0}
 _AC_EPS_RESOLVED = 0.0189
 _AC_DT_RESOLVED = 4.8e-5
-for _name, _b, _cls, _steps, _what in (
-        ("resolved-spots", -0.05, "spots", 60,
+for _name, _b, _cls, _steps, _secs, _what in (
+        ("resolved-spots", -0.05, "spots", 60, 0.03,
          "29 spots of u < 0 (seed 0), 2.5 vertices inside |u| < 0.9 per crossing edge"),
-        ("resolved-inverted-spots", 0.05, "inverted-spots", 60,
+        ("resolved-inverted-spots", 0.05, "inverted-spots", 60, 0.03,
          "47 inverted spots (islands of u > 0, seed 0)"),
-        ("resolved-stripes", 0.0, "stripes", 745,
-         "a few coarse bands of each phase, still coarsening")):
+        ("resolved-stripes", 0.0, "stripes", 745, 0.2,
+         "a few coarse bands of each phase (3 + 4 components), still coarsening")):
     _add(Preset(
         f"ac-sphere-{_name}", "allen-cahn", {"b": _b, "eps": _AC_EPS_RESOLVED},
         dt=_AC_DT_RESOLVED, steps=_steps, domain=dict(_AC_MESH_FINE),
@@ -235,7 +237,8 @@ for _name, _b, _cls, _steps, _what in (
         classify={"field": "u", "threshold": 0.0},
         description=f"modified Allen-Cahn, b = {_b}, ε = {_AC_EPS_RESOLVED} (1.0 mean edge of "
         f"icosphere(6)), random data in [-1, 1]; at step {_steps} "
-        f"(t = {_steps * _AC_DT_RESOLVED / _AC_EPS_RESOLVED**2:.0f} ε²): {_what}. " + (
+        f"(t = {_steps * _AC_DT_RESOLVED / _AC_EPS_RESOLVED**2:.0f} ε²; {_secs} s of stepping "
+        f"on OpenCL on a 2-core CPU, 1.5-2 s for the whole CLI run): {_what}. " + (
             "Transient: the spots shrink and the field is uniform by ~25 ε² (~190 steps)"
             if _b != 0 else "Transient: curvature flow makes it uniform by ~2000 ε²"),
     ))
