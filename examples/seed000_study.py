@@ -1,12 +1,13 @@
 """Seed 000's spots on icospheres: pinned, transient or stable?  A convergence study.
 
-    python examples/seed000_study.py               # run the grid, write JSON, page table, figure
+    python examples/seed000_study.py               # everything: ~6-9 min on a shared 2-core CPU
     python examples/seed000_study.py --figure-only # rebuild figure and table from the JSON
     python examples/seed000_study.py --levels 4    # a subset (merged into the JSON)
+    python examples/seed000_study.py --parts isometry spheres   # only those parts
 
 The modified Allen-Cahn equation ``u_t = Δ_Γ u − (u³ − u + b)/ε²`` (Dascal, Pai & Kimmel)
 on the unit icosphere of 4, 5 and 6 subdivisions (h = mean edge length 0.0755, 0.0378,
-0.0189), ε/h ∈ :data:`RATIOS`, b ∈ :data:`BS` (the brief's seven values and ±0.05),
+0.0189), ε/h ∈ :data:`RATIOS`, b ∈ :data:`BS` (issue 11's seven values and ±0.05),
 random initial data uniform in [−1, 1] (seed 0), OpenCL, float64, explicit Strang
 splitting with ``dt = min(ε²/2, dt_limit/2)``.
 
@@ -25,7 +26,11 @@ sample.  A run's verdict:
 * ``coarsening``: still changing at T ("not by T").
 
 Results go to ``docs/data/seed000_study.json`` (with the wall time of every run), the figure
-to ``docs/img/seed000_study.png``, and a markdown table to stdout.
+to ``docs/img/seed000_study.png``, and a markdown table to stdout.  The other parts:
+``presets`` measures every ``ac-sphere-*`` preset (class, components, interface width at its
+steps and at 3× its steps); ``isometry`` runs seed 000's isometry experiment
+(:mod:`rdgpu.isometry`, figure ``docs/img/seed000_isometry.png``); ``spheres`` renders the
+pinned and the resolved spot presets side by side (``docs/img/seed000_spheres.png``).
 """
 
 from __future__ import annotations
