@@ -129,26 +129,45 @@ def _screenshot(plotter: Any) -> np.ndarray:
 
 
 class _MeshRenderer:
-    """One off-screen pyvista plotter for a mesh; :meth:`image` renders a field."""
+    """One off-screen pyvista plotter for a mesh; :meth:`image` renders a per-vertex field.
+
+    ``smooth=True`` (the default): the field is point data, its colours interpolated across
+    every face (the scalars are interpolated before the colour map, so a face between a
+    vertex at −1 and one at +1 shows the whole map in between) and lit with smooth (Phong,
+    per-vertex normal) shading: a resolved interface looks like the smooth curve it is.
+    ``smooth=False``: flat faces, each coloured by the mean of its three vertices (cell
+    data), which shows the pattern as the mesh resolves it, triangle by triangle."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, cmap: str,
                  clim: tuple[float, float], camera: Any, window_size: tuple[int, int],
-                 background: str, show_edges: bool, scalar_bar: bool) -> None:
+                 background: str, show_edges: bool, scalar_bar: bool,
+                 smooth: bool = True) -> None:
         pv = _pyvista()
+        faces = np.asarray(faces, dtype=np.int64)
         cells = np.hstack([np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel()
         self.pd = pv.PolyData(np.asarray(vertices, dtype=np.float64), cells)
         self.n = len(vertices)
-        self.pd.point_data["field"] = np.zeros(self.n)
+        self.faces = faces
+        self.smooth = bool(smooth)
+        data = self.pd.point_data if self.smooth else self.pd.cell_data
+        data["field"] = np.zeros(self.n if self.smooth else len(faces))
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background(background)
         self.plotter.add_mesh(self.pd, scalars="field", cmap=cmap, clim=list(clim),
                               show_edges=show_edges, show_scalar_bar=scalar_bar,
-                              smooth_shading=True)
+                              preference="point" if self.smooth else "cell",
+                              smooth_shading=self.smooth, interpolate_before_map=True)
         _camera(self.plotter, camera)
 
     def image(self, field: np.ndarray) -> np.ndarray:
-        self.pd.point_data["field"][:] = np.asarray(field, dtype=np.float64).ravel()
-        self.pd.point_data["field"].Modified()
+        f = np.asarray(field, dtype=np.float64).ravel()
+        if self.smooth:
+            arr = self.pd.point_data["field"]
+            arr[:] = f
+        else:
+            arr = self.pd.cell_data["field"]
+            arr[:] = f[self.faces].mean(axis=1)
+        arr.Modified()
         return _screenshot(self.plotter)
 
     def close(self) -> None:
@@ -277,12 +296,14 @@ def _render_main(src: str, dst: str) -> None:
 
 def _render_options(frames: np.ndarray, *, cmap: str, camera: Any, vmin: float | None,
                     vmax: float | None, window_size: tuple[int, int], background: str = "white",
-                    show_edges: bool = False, scalar_bar: bool = False) -> dict:
+                    show_edges: bool = False, scalar_bar: bool = False,
+                    smooth: bool | None = None) -> dict:
     if isinstance(camera, (tuple, list)):
         camera = [list(map(float, p)) for p in camera]
     return {"cmap": cmap, "clim": list(_limits(frames, vmin, vmax)), "camera": camera,
             "window_size": [int(w) for w in window_size], "background": background,
-            "show_edges": bool(show_edges), "scalar_bar": bool(scalar_bar)}
+            "show_edges": bool(show_edges), "scalar_bar": bool(scalar_bar),
+            **({} if smooth is None else {"smooth": bool(smooth)})}
 
 
 def render_mesh(
@@ -297,9 +318,12 @@ def render_mesh(
     background: str = "white",
     show_edges: bool = False,
     scalar_bar: bool = False,
+    smooth: bool = True,
 ) -> np.ndarray:
     """Render a per-vertex ``field`` on ``mesh`` off-screen with pyvista; an ``(h, w, 3)``
-    uint8 image (rendered in a child process, see :func:`_render_frames`).
+    uint8 image (rendered in a child process, see :func:`_render_frames`).  ``smooth``:
+    colours interpolated across faces with smooth shading (default), or flat faces coloured
+    by their vertices' mean (see :class:`_MeshRenderer`).
 
     ``camera``: ``None`` (isometric view, zoomed 1.3), a pyvista view name (``"xy"``,
     ``"iso"``, ...), a ``[position, focal_point, viewup]`` triple, or a dict with any of
@@ -308,7 +332,7 @@ def render_mesh(
     field = np.asarray(field, dtype=np.float64).ravel()
     options = _render_options(field, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
                               window_size=window_size, background=background,
-                              show_edges=show_edges, scalar_bar=scalar_bar)
+                              show_edges=show_edges, scalar_bar=scalar_bar, smooth=smooth)
     return _render_frames(mesh, field[None, :], options)[0]
 
 

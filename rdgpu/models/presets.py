@@ -142,16 +142,23 @@ for _letter, (_F, _k, _cls, _desc) in _PEARSON.items():
     ))
 
 # --- Dascal et al.: modified Allen-Cahn on the unit sphere (icosphere, 5 subdivisions: 10 242
-# vertices, mean edge h = 0.0378).  The pattern class depends on ε/h: with ε ≪ h the
-# interfaces are pinned by the mesh (the seed's regime: dt = 0.9 explicit means its edges
-# were long compared with ε), which is what keeps spots from shrinking away.
-# Global patterns: ε = 0.15 h, dt = ε²/2 (the splitting is accurate), random data in
-# [-1, 1]; measured: b = -0.25 spots, 0 stripes, +0.25 inverted spots; the field decays to
-# a constant from |b| ≈ 0.30 (b = -0.28: 85 spots; -0.30: uniform or a few spots by seed),
-# below 2/(3√3) ≈ 0.385 where u³ − u + b loses its second stable root.
+# vertices, mean edge h = 0.0378).  The pattern depends on ε/h (examples/seed000_study.py,
+# docs/seed000.md).  With ε ≪ h (the seed's regime: dt = 0.9 explicit means its edges were
+# long compared with ε) the interfaces are pinned by the mesh: a discrete equilibrium
+# reached within a few hundred ε², with interfaces under one vertex wide, that the
+# continuous equation does not have.  That is what keeps these spots from shrinking away.
+# Global patterns: ε = 0.15 h, dt = ε²/2, random data in [-1, 1]; measured: b = -0.25 spots,
+# 0 stripes, +0.25 inverted spots, all frozen (u at step 9000 equals u at step 3000 to
+# 4e-14, OpenCL float64); the field decays to a constant from |b| ≈ 0.30 (b = -0.28: 85
+# spots; -0.30: uniform or a few spots by seed), below 2/(3√3) ≈ 0.385 where u³ − u + b
+# loses its second stable root.
 _AC_MESH = {"mesh": "sphere", "subdivisions": 5, "radius": 1.0}
 _AC_EPS_GLOBAL = 0.0057
 _AC_EPS_LOCAL = 0.0113
+_AC_PINNED = ("pinned by the mesh: the interfaces are under one vertex wide and the field "
+              "is frozen (identical at steps 3000 and 9000); with ε resolved (ε/h ≥ 0.5) ")
+_AC_RESOLVED_FATE = {True: "the same b makes the field uniform within 1-10 ε²",
+                     False: "b = 0 coarsens by curvature, uniform after 70-5000 ε² or later"}
 for _name, _b, _cls in (("spots", -0.25, "spots"), ("inverted-spots", 0.25, "inverted-spots"),
                         ("stripes", 0.0, "stripes"), ("uniform", -0.35, "uniform")):
     _add(Preset(
@@ -163,11 +170,13 @@ for _name, _b, _cls in (("spots", -0.25, "spots"), ("inverted-spots", 0.25, "inv
         description=f"modified Allen-Cahn, b = {_b}, ε = {_AC_EPS_GLOBAL} (0.15 mean edge), "
         "random initial data on the unit sphere" + (
             "; |b| past the measured ~0.30 threshold: decays to a constant"
-            if _name == "uniform" else ""),
+            if _name == "uniform" else "; " + _AC_PINNED + _AC_RESOLVED_FATE[_b != 0]
+            + " (docs/seed000.md)"),
     ))
 # Localized patterns (Dascal et al. §4.2, Figs. 13-14): random data in a patch (0 elsewhere);
 # ε = 0.3 h.  b = ±0.08: the favoured phase takes the rest of the sphere, the pattern stays
 # in the patch; b = 0: u = 0 is an unstable equilibrium that the fronts invade everywhere.
+# Also pinned: u at step 9000 equals u at step 3000 (interfaces 0.4-0.7 vertices wide).
 for _name, _b, _cls in (("local-spots", -0.08, "spots"),
                         ("local-inverted-spots", 0.08, "inverted-spots"),
                         ("local-spreads", 0.0, "stripes")):
@@ -182,7 +191,39 @@ for _name, _b, _cls in (("local-spots", -0.08, "spots"),
         "random data in a patch of radius 0.6 around a random vertex: " + (
             "the pattern spreads over the whole sphere (stripes everywhere: every point "
             "far from the patch leaves u = 0, both phases appear there)" if _b == 0 else
-            "the pattern stays in the patch"),
+            "the pattern stays in the patch") + "; pinned by the mesh (frozen: identical "
+        "at steps 3000 and 9000)",
+    ))
+# Resolved patterns: icosphere(6) (40 962 vertices, h = 0.01889), ε = h (the interface
+# tanh profile spans ~4 ε, several vertices), dt = 4.8e-5 (just under half the explicit
+# limit 9.73e-5; ε²/2 would exceed it).  Measured (docs/seed000.md): with b = ∓0.05 the
+# random data separate into stripes by 3 ε², break into spots by 4 ε² (~90 of them), and
+# the spots then shrink and vanish one by one: uniform by ~25 ε² (~190 steps).  Resolved
+# spots are transient for every b ≠ 0 measured; these presets stop at 8 ε² (60 steps),
+# while 29 (b < 0) or 47 (b > 0) spots exist.  b = 0 coarsens by curvature (stripes to ~2000 ε²).
+_AC_MESH_FINE = {"mesh": "sphere", "subdivisions": 6, "radius": 1.0}
+_AC_EPS_RESOLVED = 0.0189
+_AC_DT_RESOLVED = 4.8e-5
+for _name, _b, _cls, _steps, _secs, _what in (
+        ("resolved-spots", -0.05, "spots", 60, 0.03,
+         "29 spots of u < 0 (seed 0), 2.5 vertices inside |u| < 0.9 per crossing edge"),
+        ("resolved-inverted-spots", 0.05, "inverted-spots", 60, 0.03,
+         "47 inverted spots (islands of u > 0, seed 0)"),
+        ("resolved-stripes", 0.0, "stripes", 745, 0.2,
+         "a few coarse bands of each phase (3 + 4 components), still coarsening")):
+    _add(Preset(
+        f"ac-sphere-{_name}", "allen-cahn", {"b": _b, "eps": _AC_EPS_RESOLVED},
+        dt=_AC_DT_RESOLVED, steps=_steps, domain=dict(_AC_MESH_FINE),
+        init={"kind": "uniform", "values": {"u": 0.0}, "noise": 1.0},
+        source="Dascal et al. §4.1 with the interface resolved (docs/seed000.md)",
+        expect=_cls, snapshot_every=max(_steps // 20, 1),
+        classify={"field": "u", "threshold": 0.0},
+        description=f"modified Allen-Cahn, b = {_b}, ε = {_AC_EPS_RESOLVED} (1.0 mean edge of "
+        f"icosphere(6)), random data in [-1, 1]; at step {_steps} "
+        f"(t = {_steps * _AC_DT_RESOLVED / _AC_EPS_RESOLVED**2:.0f} ε²; {_secs} s of stepping "
+        f"on OpenCL on a 2-core CPU, 1.5-2 s for the whole CLI run): {_what}. " + (
+            "Transient: the spots shrink and the field is uniform by ~25 ε² (~190 steps)"
+            if _b != 0 else "Transient: curvature flow makes it uniform by ~2000 ε²"),
     ))
 
 # --- Quillen 2025: Brusselator, FitzHugh-Nagumo, Barkley (periodic unless said otherwise)
