@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,17 @@ from rdgpu.kernel_files import load_module
 
 BACKENDS = ["numpy", "warp", "opencl"]
 DTYPES = [np.float32, np.float64]
+
+
+def perf_module(name: str):
+    """``perf/<name>.py`` loaded as a module (benchmarks whose problems the tests share)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "perf" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def backend_or_skip(name: str):

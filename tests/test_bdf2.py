@@ -19,11 +19,10 @@ seed 002 eq. 18 with the ``"imex"`` split.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip
+from conftest import backend_or_skip, perf_module
 
 from rdgpu.cli import main
 from rdgpu.domains import Grid
@@ -55,18 +54,7 @@ SH = define_model("sh", {"u": "(r - 1)*u - 2*laplace(u) - laplace(laplace(u)) - 
                   {"r": 0.3})
 
 
-def _perf_module():
-    """``perf/bdf2_order.py``: the order problems and their error measurement."""
-    import importlib.util
-
-    path = Path(__file__).resolve().parents[1] / "perf" / "bdf2_order.py"
-    spec = importlib.util.spec_from_file_location("bdf2_order", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-ORDER = _perf_module()
+ORDER = perf_module("bdf2_order")
 
 
 # ---------------------------------------------------------------------------- 1. order

@@ -73,3 +73,36 @@ def spectral_laplace_beltrami(h: np.ndarray, u: np.ndarray, dx: float,
     fx = ((1.0 + hy**2) * ux - hx * hy * uy) / root
     fy = ((1.0 + hx**2) * uy - hx * hy * ux) / root
     return (ddx(fx) + ddy(fy)) / root
+
+
+#: the surface and the exact solution's spatial parts of :func:`manufactured_rds`
+RDS_HEIGHT = Waves(((0.4, 1.0, 2.0, 0.3), (0.3, -2.0, 1.0, 1.1)))
+RDS_U = Waves(((1.0, 1.0, 1.0, 0.0), (0.5, 0.0, 2.0, 0.7)))
+RDS_V = Waves(((0.8, 2.0, -1.0, 0.2), (0.4, 1.0, 0.0, 0.0)))
+
+
+def manufactured_rds(n: int, Du: float = 1.0, Dv: float = 0.5) -> dict:
+    """Seed 002 §4's convergence check: a reaction-diffusion system on the rough periodic
+    surface ``z = RDS_HEIGHT`` over ``[0, 2π]²`` (``n × n`` cells) whose exact solution is
+    ``u = e^{−t} φ``, ``v = e^{−t} ψ`` (``φ = RDS_U``, ``ψ = RDS_V``):
+
+        ``u_t = Du Δ_Γ u − uv + e^{−t} Au + e^{−2t} P``,
+        ``v_t = Dv Δ_Γ v + uv + e^{−t} Av − e^{−2t} P``,
+
+    with the parameter fields ``Au = −(φ + Du Δ_Γ φ)``, ``Av = −(ψ + Dv Δ_Γ ψ)``, ``P = φψ``
+    (``Δ_Γ`` exact).  Returns the model's ``equations``, the ``domain`` dict, the
+    ``params``, the initial ``fields`` and ``exact(t)`` giving ``(u, v)``."""
+    d = 2.0 * np.pi / n
+    c = (np.arange(n) + 0.5) * d
+    y, x = np.meshgrid(c, c, indexing="ij")
+    phi, psi = RDS_U(x, y), RDS_V(x, y)
+    return {
+        "equations": {"u": "Du*laplace(u) - u*v + exp(-t)*Au + exp(-2*t)*P",
+                      "v": "Dv*laplace(v) + u*v + exp(-t)*Av - exp(-2*t)*P"},
+        "domain": {"grid": (n, n), "dx": d, "height": RDS_HEIGHT(x, y)},
+        "params": {"Du": Du, "Dv": Dv, "P": phi * psi,
+                   "Au": -(phi + Du * exact_laplace_beltrami(RDS_HEIGHT, RDS_U, x, y)),
+                   "Av": -(psi + Dv * exact_laplace_beltrami(RDS_HEIGHT, RDS_V, x, y))},
+        "fields": {"u": phi, "v": psi},
+        "exact": lambda t: (np.exp(-t) * phi, np.exp(-t) * psi),
+    }
