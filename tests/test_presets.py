@@ -351,3 +351,16 @@ def test_every_preset_runs_from_the_cli(name, backend, tmp_path, capsys):
     if "grid" in p.domain:
         assert res.fields[p.classify.get("field", "u")].shape == tuple(p.domain["grid"])
         assert (tmp_path / "run.png").stat().st_size > 0
+
+
+# ----------------------------------------------------------- issue 11: disc, rough sphere
+@pytest.mark.parametrize("name", ["swift-hohenberg-disc", "gray-scott-rough-sphere"])
+def test_disc_and_rough_sphere_presets(name):
+    """Seed 004 Fig. 13's stripes on a disc, and spots on a heat-filtered rough sphere
+    (seed 002 §5): the presets reach their classes (opencl: 8 s and 1 s here)."""
+    sim, res = _simulate(name, "opencl")
+    assert _classify(name, sim, res) == PRESETS[name].expect
+    if name == "gray-scott-rough-sphere":
+        radii = np.linalg.norm(sim.domain.vertices, axis=1)
+        assert 0.5 < np.ptp(radii) <= 3.0 + 1e-9  # rough: bumps of up to ±1.5
+        assert len(phase_components(_field(name, res), sim.domain, None)["high"]) >= 20

@@ -452,3 +452,31 @@ _add(Preset(
     "connected sea, a few blobs stretched into short worms); at F = 0.026, k = 0.061 "
     "(Pearson's λ) the blobs instead keep growing into shells and breaking up",
 ))
+
+# --- Quillen 2025 §6 (Fig. 13): Swift-Hohenberg on a triangulated disc, natural boundary
+_add(Preset(
+    "swift-hohenberg-disc", "swift-hohenberg", {"r": 0.2, "g": 0.0},
+    dt=0.5, steps=600, domain={"mesh": "disc", "radius": 30.0, "rings": 50},
+    init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
+    source="Quillen 2025 §6, eq. 73, Fig. 13 (r = 0.2, γ_u = 0, a disc with the natural "
+    "(Neumann) boundary)", expect="stripes", snapshot_every=50,
+    classify={"field": "u", "threshold": 0.0}, options={"method": "imex"},
+    description="a disc of radius 30 (about 10 wavelengths 2π across; 7651 vertices, edges "
+    "≈ 0.67, SurfaceMesh.disc) from small noise: stripes of wavelength 2π that meet the "
+    "boundary at right angles, with a few defects, by t = 300",
+))
+
+# --- seed 002 §5 (Fig. 14 b): a pattern on a closed rough surface (heat-filtered sphere)
+_add(Preset(
+    "gray-scott-rough-sphere", "gray-scott", {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.065},
+    dt=1.0, steps=15000,
+    domain={"mesh": "sphere", "subdivisions": 5, "radius": 25.0,
+            "roughen": {"amplitude": 1.5, "filter_steps": 6, "seed": 3}},
+    init={"kind": "spots", "values": {"u": 1.0, "v": 0.0}, "inside": {"u": 0.5, "v": 0.25}},
+    source="Rough closed surfaces by random nodal values and heat filters (seed 002 §5, "
+    "Fig. 14 b); Gray-Scott spots (Pearson 1993)", expect="inverted-spots",
+    snapshot_every=500, classify={"field": "v", "threshold": None},
+    description="a sphere of radius 25 (icosphere(5), 10 242 vertices) roughened by "
+    "SurfaceMesh.roughen (bumps up to 1.5 along the normals, 6 heat-filter steps): "
+    "seeded spots of high v divide until they tile the bumpy surface",
+))
