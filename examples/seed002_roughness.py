@@ -223,6 +223,28 @@ def _fmt(x: float, digits: int = 2) -> str:
     return "—" if isinstance(x, float) and math.isnan(x) else f"{x:.{digits}f}"
 
 
+def summary(rows: list[dict]) -> list[str]:
+    """One line per rough run: its measures against the flat run's (ratios), so the claim
+    "spots multiply and deform as amplitude and frequency rise" is read off the numbers."""
+    out = ["Against the flat run of the same pattern (ratios rough/flat):", ""]
+    for pattern in PATTERNS:
+        flat = [r for r in rows if r["pattern"] == pattern and r["amplitude"] == 0.0]
+        if not flat:
+            continue
+        f = flat[0]
+        for r in rows:
+            if r["pattern"] != pattern or r["amplitude"] == 0.0:
+                continue
+            out.append(
+                f"- {pattern}, amplitude {r['amplitude']:g}, (M, N) = ({r['M']}, {r['N']}): "
+                f"count ×{r['count'] / max(f['count'], 1):.2f}, area ×{r['area'] / f['area']:.2f}, "
+                f"spots/area ×{r['density'] / f['density']:.2f}, size CV "
+                f"{_fmt(f['size_spread'])} → {_fmt(r['size_spread'])}, elongation "
+                f"{_fmt(f['elongation'])} → {_fmt(r['elongation'])}, coherence "
+                f"{f['coherence']:.2f} → {r['coherence']:.2f}")
+    return out
+
+
 def write_table(rows: list[dict], config: dict[str, Any], engine: str, path: Path) -> None:
     """The markdown table (and the JSON beside it)."""
     n = config["n"]
@@ -247,6 +269,7 @@ def write_table(rows: list[dict], config: dict[str, Any], engine: str, path: Pat
             f"{r['t']:g} | {r['count']} | {r['density']:.2f} | "
             f"{_fmt(r['size_spread'])} | {_fmt(r['elongation'])} | {r['coherence']:.3f} | "
             f"{_fmt(r['angle_deg'], 0)} |")
+    lines += ["", *summary(rows)]
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n")
     data = [{k: v for k, v in r.items() if k != "u"} for r in rows]
