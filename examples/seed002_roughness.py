@@ -307,6 +307,8 @@ def write_figure(rows: list[dict], config: dict[str, Any], path: Path) -> None:
                 ax.set_title(f"{pattern} (M,N)={tuple(freq)}", fontsize=8)
             if j == 0:
                 ax.set_ylabel(f"amplitude {amp:g}", fontsize=8)
+    fig.suptitle("BVAM u on the parameter plane [0, 2)² (rows: amplitude, max|h|/side; "
+                 "columns: max frequencies (M, N))", fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
@@ -319,11 +321,17 @@ def main(argv: list[str] | None = None) -> int:
                     "half the run time (about a minute)")
     ap.add_argument("--engine", choices=("simulation", "scipy"), default="simulation")
     ap.add_argument("--backend", default="numpy", help="rdgpu backend (engine simulation)")
+    ap.add_argument("--n", type=int, default=None, help="grid side (default 128; 64 quick): "
+                    "the steepest surfaces need more (see the table's min cells/λ)")
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "docs",
                     help="writes data/seed002_roughness.{md,json}, img/seed002_roughness.png")
     args = ap.parse_args(argv)
-    config = QUICK if args.quick else FULL
+    config = dict(QUICK if args.quick else FULL)
+    if args.n is not None:
+        if args.n < 16:
+            raise SystemExit(f"--n must be at least 16 cells, got {args.n}")
+        config["n"] = args.n
     rows = experiment(config, args.engine, args.backend, args.seed)
     write_table(rows, config, args.engine, args.out / "data" / "seed002_roughness.md")
     write_figure(rows, config, args.out / "img" / "seed002_roughness.png")
