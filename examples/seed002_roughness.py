@@ -36,10 +36,8 @@ left and stripes right, each panel labelled with its measures).
     python examples/seed002_roughness.py            # 7 + 7 runs at 128² (~8 min, 2 busy cores)
     python examples/seed002_roughness.py --quick    # 64², 2 amplitudes × 2 frequencies
 
-``--engine simulation`` (default) runs :class:`rdgpu.Simulation` on the graph surface
-(``{"grid": (n, n), "dx": dx, "height": h}``, method ``imex``); ``--engine scipy`` runs
-the same IMEX Euler scheme with SciPy's sparse LU on ``GraphSurface(...).laplacian`` (the
-prototype this study was tuned with; float64).
+Each run is :class:`rdgpu.Simulation` on the graph surface (``{"grid": (n, n), "dx": dx,
+"height": h}``, method ``imex``, float64, ``--backend``, default opencl).
 """
 
 from __future__ import annotations
@@ -59,6 +57,7 @@ sys.path.insert(0, str(ROOT))
 
 from rdgpu.analysis import spot_statistics, stripe_orientation  # noqa: E402
 from rdgpu.metric import GraphSurface  # noqa: E402
+from rdgpu.surfaces import random_waves  # noqa: E402
 
 SIDE = 2.0  # the parameter square [0, 2)², periodic
 BVAM = {"D": 0.516, "delta": 6.6e-4, "alpha": 0.899, "beta": -0.91, "gamma": -0.899}
@@ -90,64 +89,13 @@ def bvam_model() -> Any:
     )
 
 
-def _random_waves_standin(shape: tuple[int, int], amplitude: float,
-                          max_frequency: tuple[int, int], seed: int, dx: float) -> np.ndarray:
-    """Stand-in for ``rdgpu.surfaces.random_waves`` (used only where that is missing):
-    ``Σ c_mn cos(2π(m x/Lx + n y/Ly) + φ_mn)`` over ``0 ≤ m ≤ M``, ``|n| ≤ N`` (not both
-    0), ``c`` standard normal, ``φ`` uniform, scaled so ``max|h| = amplitude``."""
-    ny, nx = shape
-    rng = np.random.default_rng(seed)
-    y, x = (np.mgrid[0:ny, 0:nx] + 0.5) * dx
-    big_m, big_n = max_frequency
-    h = np.zeros(shape)
-    for m in range(big_m + 1):
-        for n in range(-big_n, big_n + 1):
-            if m == 0 and n <= 0:
-                continue
-            c, phi = rng.standard_normal(), rng.uniform(0.0, 2.0 * np.pi)
-            h += c * np.cos(2.0 * np.pi * (m * x / (nx * dx) + n * y / (ny * dx)) + phi)
-    peak = float(np.abs(h).max())
-    return h * (amplitude / peak) if peak > 0 else h
-
-
 def surface_height(n: int, amplitude: float, frequency: tuple[int, int], seed: int) -> np.ndarray:
     """The random-wave height over the ``n × n`` grid of side :data:`SIDE` (absolute units:
     ``max|h| = amplitude · SIDE``)."""
-    dx = SIDE / n
     if amplitude == 0.0:
         return np.zeros((n, n))
-    try:
-        from rdgpu.surfaces import random_waves
-    except ImportError:
-        return _random_waves_standin((n, n), amplitude * SIDE, frequency, seed, dx)
-    return np.asarray(random_waves((n, n), amplitude=amplitude * SIDE,
-                                   max_frequency=frequency, seed=seed, dx=dx))
-
-
-def _reactions(u: np.ndarray, v: np.ndarray, p: dict[str, float]) -> tuple[np.ndarray, ...]:
-    a, b, g, r1, r2 = p["alpha"], p["beta"], p["gamma"], p["r1"], p["r2"]
-    fu = a * u * (1.0 - r1 * v * v) + v * (1.0 - r2 * u)
-    fv = b * v * (1.0 + a * r1 / b * u * v) + u * (g + r2 * v)
-    return fu, fv
-
-
-def run_scipy(height: np.ndarray, params: dict[str, float], u0: np.ndarray, v0: np.ndarray,
-              steps: int) -> np.ndarray:
-    """IMEX Euler on the surface: ``(I − dt d Δ_Γ) w' = w + dt f(u, v)`` per species,
-    Δ_Γ the :class:`GraphSurface` CSR matrix, factorised once (float64).  Returns u."""
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import splu
-
-    n = height.shape[0]
-    lap = GraphSurface((n, n), dx=SIDE / n, height=height).laplacian
-    eye = sp.identity(n * n, format="csc")
-    solve_u = splu((eye - DT * params["D"] * params["delta"] * lap).tocsc()).solve
-    solve_v = splu((eye - DT * params["delta"] * lap).tocsc()).solve
-    u, v = u0.ravel().copy(), v0.ravel().copy()
-    for _ in range(steps):
-        fu, fv = _reactions(u, v, params)
-        u, v = solve_u(u + DT * fu), solve_v(v + DT * fv)
-    return u.reshape(n, n)
+    return random_waves((n, n), amplitude=amplitude * SIDE, max_frequency=frequency,
+                        seed=seed, dx=SIDE / n)
 
 
 def run_simulation(height: np.ndarray, params: dict[str, float], u0: np.ndarray,
@@ -184,23 +132,22 @@ def slope_of(height: np.ndarray) -> float:
     return float(np.hypot(gx, gy).max())
 
 
-def experiment(config: dict[str, Any], engine: str, backend: str, seed: int) -> list[dict]:
+def experiment(config: dict[str, Any], backend: str, seed: int) -> list[dict]:
     """Every (pattern, amplitude, frequency) run, flat once per pattern."""
     n = config["n"]
     rng = np.random.default_rng(seed)
     u0, v0 = rng.uniform(-0.5, 0.5, (2, n, n))
     rows = []
     for pattern, (extra, t_end) in PATTERNS.items():
+        if pattern not in config.get("patterns", PATTERNS):
+            continue
         params = {**BVAM, **extra}
         steps = int(round(t_end * config.get("time_scale", 1.0) / DT))
         for amp in config["amplitudes"]:
             for freq in (config["frequencies"][:1] if amp == 0.0 else config["frequencies"]):
                 h = surface_height(n, amp, freq, seed + 1)
                 start = time.perf_counter()
-                if engine == "scipy":
-                    u = run_scipy(h, params, u0, v0, steps)
-                else:
-                    u = run_simulation(h, params, u0, v0, steps, backend)
+                u = run_simulation(h, params, u0, v0, steps, backend)
                 row = {"pattern": pattern, "amplitude": amp, "M": freq[0], "N": freq[1],
                        "max_slope": slope_of(h), "area": float(
                            GraphSurface((n, n), dx=SIDE / n, height=h).total_area),
@@ -245,14 +192,14 @@ def summary(rows: list[dict]) -> list[str]:
     return out
 
 
-def write_table(rows: list[dict], config: dict[str, Any], engine: str, path: Path) -> None:
+def write_table(rows: list[dict], config: dict[str, Any], backend: str, path: Path) -> None:
     """The markdown table (and the JSON beside it)."""
     n = config["n"]
     lines = [
         "# Seed 002 §4.2: spots and stripes on rough surfaces, measured",
         "",
         f"BVAM (Barrio et al. 1999), {n}×{n} periodic grid over [0, {SIDE:g})², IMEX Euler "
-        f"dt = {DT}, engine `{engine}`; amplitude = max|h| / side; measures of the final u "
+        f"dt = {DT}, backend `{backend}`; amplitude = max|h| / side; measures of the final u "
         "by `rdgpu.analysis` (spots: high-u regions of ≥ 2 cells, midrange threshold; "
         "areas on the surface; min cells/λ: the flat wavelength 0.256 over dx·√(1 + slope²), "
         "the resolution where the surface is steepest). Written by "
@@ -275,7 +222,7 @@ def write_table(rows: list[dict], config: dict[str, Any], engine: str, path: Pat
     data = [{k: v for k, v in r.items() if k != "u"} for r in rows]
     path.with_suffix(".json").write_text(json.dumps(
         {"model": "bvam", "params": BVAM, "patterns": {k: v[0] for k, v in PATTERNS.items()},
-         "n": n, "side": SIDE, "dt": DT, "engine": engine, "rows": data}, indent=1,
+         "n": n, "side": SIDE, "dt": DT, "backend": backend, "rows": data}, indent=1,
         default=float) + "\n")
 
 
@@ -319,8 +266,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="64², 2 amplitudes × 2 frequencies, "
                     "half the run time (about a minute)")
-    ap.add_argument("--engine", choices=("simulation", "scipy"), default="simulation")
-    ap.add_argument("--backend", default="numpy", help="rdgpu backend (engine simulation)")
+    ap.add_argument("--backend", default="opencl", help="rdgpu backend (default opencl)")
     ap.add_argument("--n", type=int, default=None, help="grid side (default 128; 64 quick): "
                     "the steepest surfaces need more (see the table's min cells/λ)")
     ap.add_argument("--seed", type=int, default=2)
@@ -332,8 +278,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.n < 16:
             raise SystemExit(f"--n must be at least 16 cells, got {args.n}")
         config["n"] = args.n
-    rows = experiment(config, args.engine, args.backend, args.seed)
-    write_table(rows, config, args.engine, args.out / "data" / "seed002_roughness.md")
+    rows = experiment(config, args.backend, args.seed)
+    write_table(rows, config, args.backend, args.out / "data" / "seed002_roughness.md")
     write_figure(rows, config, args.out / "img" / "seed002_roughness.png")
     print(f"wrote {args.out / 'data' / 'seed002_roughness.md'} and "
           f"{args.out / 'img' / 'seed002_roughness.png'}")

@@ -16,12 +16,13 @@ BACKENDS = ["numpy", "warp", "opencl"]
 DTYPES = [np.float32, np.float64]
 
 
-def perf_module(name: str):
-    """``perf/<name>.py`` loaded as a module (benchmarks whose problems the tests share)."""
+def repo_module(path: str):
+    """A script of the repository (``perf/bdf2_order.py``, ``examples/...``) loaded as a
+    module, for tests that share its problems."""
     import importlib.util
 
-    path = Path(__file__).resolve().parents[1] / "perf" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(name, path)
+    file = Path(__file__).resolve().parents[1] / path
+    spec = importlib.util.spec_from_file_location(file.stem, file)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

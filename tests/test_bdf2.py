@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip, perf_module
+from conftest import backend_or_skip, repo_module
 
 from rdgpu.cli import main
 from rdgpu.domains import Grid
@@ -54,7 +54,7 @@ SH = define_model("sh", {"u": "(r - 1)*u - 2*laplace(u) - laplace(laplace(u)) - 
                   {"r": 0.3})
 
 
-ORDER = perf_module("bdf2_order")
+ORDER = repo_module("perf/bdf2_order.py")
 
 
 # ---------------------------------------------------------------------------- 1. order

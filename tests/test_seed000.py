@@ -3,13 +3,12 @@ presets, the isometry experiment (rdgpu.isometry) and smooth mesh shading."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip
+from conftest import backend_or_skip, repo_module
 
 from rdgpu.analysis import classify_pattern, phase_components
 from rdgpu.isometry import bend, cylinder, interface_width, isometry_experiment, phase_overlap
@@ -23,11 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def study():
     """examples/seed000_study.py as a module (its ``run_case``)."""
-    spec = importlib.util.spec_from_file_location("seed000_study",
-                                                  ROOT / "examples" / "seed000_study.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return repo_module("examples/seed000_study.py")
 
 
 # ------------------------------------------------------------------ frozen versus resolved

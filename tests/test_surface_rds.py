@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip, perf_module
+from conftest import backend_or_skip, repo_module
 
-RDS = perf_module("surface_rds")
+RDS = repo_module("perf/surface_rds.py")
 
 
 @pytest.mark.parametrize("method, order", [("bdf2", 2.0), ("imex", 1.0)])
