@@ -80,6 +80,19 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
     ("barkley-spirals", "Barkley's excitable medium: rotating spirals (field u)", []),
     ("turing-seed003-spots", "Turing's 1952 spot model, Chattopadhyay eq. 2.15 on 64² "
      "(field b; D_a = 0.25)", ["--scale", "4"]),
+    ("ac-sphere-resolved-spots", "Modified Allen-Cahn with the interface resolved (ε = h, "
+     "b = −0.05, icosphere(6)) at 8 ε², while its spots exist: they are transient "
+     "(docs/seed000.md)", []),
+    ("bvam-cheetah", "Cheetah: BVAM spots on a random-wave surface, M = 5, N = 15, "
+     "amplitude 0.1 of the side (seed 002 Fig. 12 d; the parameter plane)", []),
+    ("bvam-genet", "Genet: BVAM spots on a random-wave surface, M = N = 15, amplitude 0.05 "
+     "of the side (seed 002 Fig. 12 b)", []),
+    ("bvam-angelfish", "Emperor angelfish: BVAM stripes on a random-wave surface, M = N = "
+     "5, amplitude 0.05 of the side (seed 002 Fig. 12 a)", []),
+    ("gray-scott-rough-sphere", "Gray-Scott spots on a closed rough surface: a sphere "
+     "roughened by heat-filtered random displacements (seed 002 §5, Fig. 14 b)", []),
+    ("swift-hohenberg-disc", "Swift-Hohenberg stripes on a triangulated disc, natural "
+     "boundary (Quillen 2025 §6, Fig. 13)", []),
 ]
 
 

@@ -6,7 +6,8 @@ frequencies up to ``M`` along x and ``N`` along y, scaled so ``max|h|`` is the a
 and concludes that "the number of spots increases as the frequencies and the amplitude
 increase" and that the patterns deform.  Its reaction terms were lost in conversion; this
 script uses the BVAM system of Barrio, Varea, Aragón & Maini (1999), the Barrio-type model
-of the seed's reference [31] (Li & Ling 2020), at the origin-centred steady state (0, 0):
+of the seed's reference [31] (Li & Ling 2020), at the origin-centred steady state (0, 0)
+(``rdgpu.models.MODELS["bvam"]``):
 
     u_t = D δ Δ_Γ u + α u (1 − r1 v²) + v (1 − r2 u)
     v_t =   δ Δ_Γ v + β v (1 + (α r1/β) u v) + u (γ + r2 v)
@@ -57,10 +58,10 @@ sys.path.insert(0, str(ROOT))
 
 from rdgpu.analysis import spot_statistics, stripe_orientation  # noqa: E402
 from rdgpu.metric import GraphSurface  # noqa: E402
+from rdgpu.models import MODELS  # noqa: E402
 from rdgpu.surfaces import random_waves  # noqa: E402
 
 SIDE = 2.0  # the parameter square [0, 2)², periodic
-BVAM = {"D": 0.516, "delta": 6.6e-4, "alpha": 0.899, "beta": -0.91, "gamma": -0.899}
 PATTERNS = {  # r1, r2 and the end time of each pattern (the seed's t)
     "spots": ({"r1": 0.02, "r2": 0.2}, 800.0),
     "stripes": ({"r1": 3.5, "r2": 0.0}, 2000.0),
@@ -71,22 +72,6 @@ QUICK = {"n": 64, "amplitudes": (0.0, 0.05), "frequencies": ((5, 5), (15, 15)),
          "time_scale": 0.5}
 DT = 0.5
 WAVELENGTH = 0.256  # the flat fastest-growing wavelength (module docstring)
-
-
-def bvam_model() -> Any:
-    """The BVAM model (module docstring) as an ``rdgpu`` model."""
-    from rdgpu.models import define_model
-
-    return define_model(
-        "bvam",
-        {"u": "D*delta*laplace(u) + alpha*u*(1 - r1*v*v) + v*(1 - r2*u)",
-         "v": "delta*laplace(v) + beta*v*(1 + alpha*r1/beta*u*v) + u*(gamma + r2*v)"},
-        {**BVAM, **PATTERNS["spots"][0]},
-        description="BVAM (Barrio et al. 1999): spots r1 = 0.02, r2 = 0.2; stripes "
-        "r1 = 3.5, r2 = 0",
-        source="Barrio, Varea, Aragón & Maini 1999; Li & Ling 2020",
-        steady_guess=lambda p: (0.0, 0.0),
-    )
 
 
 def surface_height(n: int, amplitude: float, frequency: tuple[int, int], seed: int) -> np.ndarray:
@@ -104,7 +89,7 @@ def run_simulation(height: np.ndarray, params: dict[str, float], u0: np.ndarray,
     from rdgpu.simulation import Simulation
 
     n = height.shape[0]
-    sim = Simulation(bvam_model(), {"grid": (n, n), "dx": SIDE / n, "height": height},
+    sim = Simulation("bvam", {"grid": (n, n), "dx": SIDE / n, "height": height},
                      params, dt=DT, backend=backend, dtype="float64",
                      fields={"u": u0, "v": v0}, options={"method": "imex"})
     return np.asarray(sim.run(steps, progress=False).fields["u"], dtype=np.float64)
@@ -141,7 +126,7 @@ def experiment(config: dict[str, Any], backend: str, seed: int) -> list[dict]:
     for pattern, (extra, t_end) in PATTERNS.items():
         if pattern not in config.get("patterns", PATTERNS):
             continue
-        params = {**BVAM, **extra}
+        params = {**MODELS["bvam"].defaults, **extra}
         steps = int(round(t_end * config.get("time_scale", 1.0) / DT))
         for amp in config["amplitudes"]:
             for freq in (config["frequencies"][:1] if amp == 0.0 else config["frequencies"]):
@@ -221,7 +206,8 @@ def write_table(rows: list[dict], config: dict[str, Any], backend: str, path: Pa
     path.write_text("\n".join(lines) + "\n")
     data = [{k: v for k, v in r.items() if k != "u"} for r in rows]
     path.with_suffix(".json").write_text(json.dumps(
-        {"model": "bvam", "params": BVAM, "patterns": {k: v[0] for k, v in PATTERNS.items()},
+        {"model": "bvam", "params": dict(MODELS["bvam"].defaults),
+         "patterns": {k: v[0] for k, v in PATTERNS.items()},
          "n": n, "side": SIDE, "dt": DT, "backend": backend, "rows": data}, indent=1,
         default=float) + "\n")
 

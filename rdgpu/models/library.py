@@ -78,6 +78,23 @@ SCHNAKENBERG = Model(
     default_time=100.0,
 )
 
+BVAM = Model(
+    "bvam",
+    {"u": "D*delta*laplace(u) + alpha*u*(1 - r1*v*v) + v*(1 - r2*u)",
+     "v": "delta*laplace(v) + beta*v*(1 + alpha*r1/beta*u*v) + u*(gamma + r2*v)"},
+    {"D": 0.516, "delta": 6.6e-4, "alpha": 0.899, "beta": -0.91, "gamma": -0.899,
+     "r1": 0.02, "r2": 0.2},
+    description="BVAM (Barrio, Varea, Aragón & Maini 1999) about the steady state (0, 0): "
+    "u_t = Dδ Δu + αu(1 − r1 v²) + v(1 − r2 u), v_t = δ Δv + βv(1 + (α r1/β) uv) + "
+    "u(γ + r2 v); spots for r1 = 0.02, r2 = 0.2 (the quadratic term wins), stripes for "
+    "r1 = 3.5, r2 = 0 (cubic only). δ = 6.6e-4 puts the fastest linear mode at wavelength "
+    "0.256: about 8 across the square [0, 2)² of seed 002's experiments",
+    source="Barrio et al. 1999 (Bull. Math. Biol. 61); Li & Ling 2020 (seed 002 ref. 31); "
+    "seed 002 §4",
+    steady_guess=lambda p: (0.0, 0.0),
+    spacing=2.0 / 128, default_dt=0.5, default_time=800.0, default_method="imex",
+)
+
 BARKLEY = Model(
     "barkley",
     {"u": "Du*laplace(u) + u*(1 - u)*(u - (v + b)/a)/eps",
@@ -186,6 +203,6 @@ ALLEN_CAHN = AllenCahn()
 #: every model by its command-line name
 MODELS: dict[str, Any] = {
     m.name: m
-    for m in (GRAY_SCOTT, ALLEN_CAHN, BRUSSELATOR, FITZHUGH_NAGUMO, SCHNAKENBERG, BARKLEY,
+    for m in (GRAY_SCOTT, ALLEN_CAHN, BRUSSELATOR, FITZHUGH_NAGUMO, SCHNAKENBERG, BVAM, BARKLEY,
               TURING, COMPLEX_GINZBURG_LANDAU, SWIFT_HOHENBERG, MEINHARDT_STRIPES)
 }

@@ -480,3 +480,37 @@ _add(Preset(
     "SurfaceMesh.roughen (bumps up to 1.5 along the normals, 6 heat-filter steps): "
     "seeded spots of high v divide until they tile the bumpy surface",
 ))
+
+# --- seed 002 §4.3 (Fig. 12): animal coats on random-wave surfaces, BVAM spots and stripes
+# on the square [0, 2)² (128², periodic), the seed's dt = 0.5 and run lengths; amplitude
+# 0.1 of the side is the seed's "scale 0.1" (docs/data/seed002_roughness.md)
+_BVAM_INIT = {"kind": "uniform", "values": {"u": 0.0, "v": 0.0}, "noise": 0.5}
+_BVAM_STRIPES = {"r1": 3.5, "r2": 0.0}
+
+
+def _rough_square(amplitude: float, frequency: tuple[int, int], seed: int = 3) -> dict:
+    return {"grid": (128, 128), "dx": 2.0 / 128, "height": {
+        "kind": "random-waves", "amplitude": amplitude, "max_frequency": list(frequency),
+        "seed": seed}}
+
+
+for _name, _what, _amp, _freq, _coat in (
+        ("bvam-cheetah", "spots", 0.2, (5, 15), "cheetah (Fig. 12 d: spots, M = 5, N = 15, "
+         "scale 0.1)"),
+        ("bvam-genet", "spots", 0.1, (15, 15), "genet (Fig. 12 b: spots, M = N = 15; "
+         "at the seed's scale 0.1 the steepest slopes leave under 3 cells per wavelength at "
+         "128², so scale 0.05)"),
+        ("bvam-angelfish", "stripes", 0.1, (5, 5), "emperor angelfish (Fig. 12 a: stripes, "
+         "M = N = 5, scale 0.05)")):
+    _add(Preset(
+        _name, "bvam", dict(_BVAM_STRIPES) if _what == "stripes" else {},
+        dt=0.5, steps=1600 if _what == "spots" else 4000, domain=_rough_square(_amp, _freq),
+        init=dict(_BVAM_INIT), options={"method": "imex"},
+        source="Seed 002 §4.3, Fig. 12; BVAM (Barrio et al. 1999)",
+        expect="inverted-spots" if _what == "spots" else "stripes", snapshot_every=200,
+        classify={"field": "u", "threshold": None},
+        description=f"the {_coat}: BVAM {_what} on the random-wave surface of max|h| = "
+        f"{_amp:g} (the side is 2; rdgpu.surfaces.random_waves, seed 3), shown on the "
+        "parameter plane; irregular where the surface is steep (docs/data/"
+        "seed002_roughness.md measures how)",
+    ))
