@@ -128,6 +128,13 @@ def _screenshot(plotter: Any) -> np.ndarray:
     return np.asarray(plotter.screenshot(return_img=True))[..., :3].copy()
 
 
+def _is_planar(vertices: np.ndarray) -> bool:
+    """All vertices in the plane z = const (to 1e-9 of the mesh's size)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    extent = float(np.ptp(v, axis=0).max()) if len(v) else 0.0
+    return len(v) > 0 and float(np.ptp(v[:, 2])) <= 1e-9 * max(extent, 1e-300)
+
+
 class _MeshRenderer:
     """One off-screen pyvista plotter for a mesh; :meth:`image` renders a per-vertex field.
 
@@ -157,7 +164,11 @@ class _MeshRenderer:
                               show_edges=show_edges, show_scalar_bar=scalar_bar,
                               preference="point" if self.smooth else "cell",
                               smooth_shading=self.smooth, interpolate_before_map=True)
-        _camera(self.plotter, camera)
+        if camera is None and _is_planar(vertices):
+            self.plotter.camera_position = "xy"  # a flat mesh (a disc, a plane): from above
+            self.plotter.camera.zoom(1.3)
+        else:
+            _camera(self.plotter, camera)
 
     def image(self, field: np.ndarray) -> np.ndarray:
         f = np.asarray(field, dtype=np.float64).ravel()

@@ -185,3 +185,14 @@ print("ok" if used else "no usable OpenCL platform")
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           env=env, timeout=300)
     assert proc.returncode == 0 and "ok" in proc.stdout, proc.stderr[-2000:]
+
+
+def test_a_flat_mesh_is_seen_from_above(tmp_path, pyvista):
+    """A planar mesh (here a disc) is drawn face on by default: its picture is round."""
+    disc = rdgpu.SurfaceMesh.disc(radius=1.0, rings=12)
+    field = disc.vertices[:, 0]
+    p = output.render_mesh_png(disc, field, tmp_path / "disc.png", window_size=(200, 200))
+    img = iio.imread(p)[..., :3].astype(int)
+    rows, cols = np.nonzero(img.sum(axis=2) < 3 * 250)
+    height, width = np.ptp(rows) + 1, np.ptp(cols) + 1
+    assert abs(height / width - 1.0) < 0.05, (height, width)
