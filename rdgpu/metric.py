@@ -62,22 +62,26 @@ def metric_coefficients(h: np.ndarray, dx: float, dy: float) -> dict[str, np.nda
     return {"ex": ex, "ny": ny, "bx": bx, "w": w}
 
 
+def _couplings(coefficients: dict[str, np.ndarray]) -> list[tuple[tuple[int, int], np.ndarray]]:
+    """``((dy, dx), a)``: each neighbour's offset and its coefficient ``a_k`` at every cell
+    (``Δ_Γ u = w Σ_k a_k (u_k − u_c)``, ``kernels/metric/reference.py``)."""
+    ex, ny, bx = coefficients["ex"], coefficients["ny"], coefficients["bx"]
+    return [((0, 1), ex), ((0, -1), _shift(ex, 0, -1)), ((1, 0), ny),
+            ((-1, 0), _shift(ny, -1, 0)), ((1, 1), bx), ((-1, -1), _shift(bx, -1, -1)),
+            ((-1, 1), -_shift(bx, -1, 0)), ((1, -1), -_shift(bx, 0, -1))]
+
+
 def metric_matrix(coefficients: dict[str, np.ndarray]) -> Any:
     """``Δ_Γ`` as a SciPy CSR matrix (float64) on the flat field ``u.ravel()``: the same
     couplings as the kernels, duplicates summed (grids narrower than 3 wrap onto
     themselves), indices sorted."""
     import scipy.sparse as sp
 
-    ex, ny, bx, w = (coefficients[k] for k in ("ex", "ny", "bx", "w"))
-    rows, cols = ex.shape
+    w = coefficients["w"]
+    rows, cols = w.shape
     idx = np.arange(rows * cols).reshape(rows, cols)
-    couplings = [  # (neighbour offset (dy, dx), coefficient at this cell)
-        ((0, 1), ex), ((0, -1), _shift(ex, 0, -1)), ((1, 0), ny), ((-1, 0), _shift(ny, -1, 0)),
-        ((1, 1), bx), ((-1, -1), _shift(bx, -1, -1)), ((-1, 1), -_shift(bx, -1, 0)),
-        ((1, -1), -_shift(bx, 0, -1)),
-    ]
     r, c, v = [], [], []
-    for (oy, ox), a in couplings:
+    for (oy, ox), a in _couplings(coefficients):
         vals = (w * a).ravel()
         r += [idx.ravel(), idx.ravel()]
         c += [_shift(idx, oy, ox).ravel(), idx.ravel()]
@@ -176,11 +180,17 @@ class GraphSurface(Grid):
         return float(self.area_weights.sum())
 
     def spectral_bound(self) -> float:
-        """An upper bound of ``|λ|`` over the spectrum of ``Δ_Γ``: its largest Gershgorin
-        radius ``2 w_c Σ_k |a_k|`` (exact for the flat grid's highest mode)."""
+        """An upper bound of ``|λ|`` over the spectrum of ``Δ_Γ``: the largest Gershgorin
+        row sum ``w_c (|Σ_k a_k| + Σ_k |a_k|)`` over the cells (exact for the flat grid's
+        highest mode), from the coefficients (no matrix is built)."""
         if "bound" not in self._cache:
-            m = self.laplacian
-            self._cache["bound"] = float(abs(m).sum(axis=1).max())
+            total = np.zeros(self.shape)
+            size = np.zeros(self.shape)
+            for _, a in _couplings(self.coefficients):
+                total += a
+                size += np.abs(a)
+            w = self.coefficients["w"]
+            self._cache["bound"] = float((w * (np.abs(total) + size)).max())
         return self._cache["bound"]
 
     def reference_laplacian(self, u: np.ndarray) -> np.ndarray:
