@@ -66,9 +66,9 @@ def _dt(model, domain):
     """0.8 of the explicit limit (Swift-Hohenberg's own method, IMEX, has none)."""
     explicit = "euler" if "euler" in getattr(model, "methods", ()) else "explicit"
     dt = 0.8 * model.dt_limit(domain, {}, explicit)
-    if model.name == "barkley":
-        dt = min(dt, 0.01)
-    return dt
+    # the limit is the diffusion's: the reactions of Barkley (1/ε) and BVAM (rates ~1 with
+    # diffusion ~1e-3) set a smaller one
+    return min(dt, {"barkley": 0.01, "bvam": 0.5}.get(model.name, dt))
 
 
 def _close(a, b, dtype):
@@ -192,7 +192,8 @@ def test_declarative_model_and_registry():
     u = st.get_state()["u"]
     assert np.allclose(u, u[0, 0]) and 0.5 < u[0, 0] < 1
     assert set(MODELS) == {"gray-scott", "allen-cahn", "brusselator", "fitzhugh-nagumo",
-                           "schnakenberg", "barkley", "turing", "complex-ginzburg-landau",
+                           "schnakenberg", "bvam", "barkley", "turing",
+                           "complex-ginzburg-landau",
                            "swift-hohenberg", "meinhardt-stripes"}
     for p in PRESETS.values():
         assert p.model in MODELS and p.source and p.expect
