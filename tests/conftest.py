@@ -16,6 +16,18 @@ BACKENDS = ["numpy", "warp", "opencl"]
 DTYPES = [np.float32, np.float64]
 
 
+def cli(capsys, *argv):
+    """Run the ``rdgpu`` command in-process: (exit status, stdout, stderr)."""
+    from rdgpu.cli import main
+
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse: --help and usage errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
 def repo_module(path: str):
     """A script of the repository (``perf/bdf2_order.py``, ``examples/...``) loaded as a
     module, for tests that share its problems."""

@@ -12,7 +12,7 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from conftest import backend_or_skip, interrupt_after
+from conftest import backend_or_skip, cli, interrupt_after
 
 import rdgpu
 from rdgpu.cli import main
@@ -21,16 +21,6 @@ from rdgpu.simulation import Simulation
 
 ROOT = Path(rdgpu.__file__).resolve().parents[1]
 models = pytest.importorskip("rdgpu.models")
-
-
-def cli(capsys, *argv):
-    """Run the CLI in-process: (exit status, stdout, stderr)."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse: --help and usage errors
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def subprocess_env():

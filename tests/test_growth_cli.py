@@ -6,18 +6,9 @@ from __future__ import annotations
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from conftest import cli as run
 
 import rdgpu
-from rdgpu.cli import main
-
-
-def run(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_dla_writes_the_cluster_and_its_picture(capsys, tmp_path):

@@ -5,21 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import cli
 
-from rdgpu.cli import main
 from rdgpu.metric import GraphSurface
 from rdgpu.output import load_npz
 from rdgpu.simulation import build_domain
 from rdgpu.surfaces import heat_filtered, random_waves
-
-
-def cli(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_generated_heights_in_a_domain_dict():
