@@ -84,8 +84,9 @@ class AllenCahn(Model):
     methods = ("explicit", "implicit", "crank-nicolson")
     #: the default ε is this times the spacing (grid: min(dx, dy); mesh: mean edge length):
     #: interfaces pinned by the discretisation, the regime of Dascal et al. where b ≠ 0 gives
-    #: spots (b < 0) or inverted spots (b > 0) that do not shrink away; the presets use
-    #: 0.15 (global) and 0.3 (localized)
+    #: spots (b < 0) or inverted spots (b > 0) that do not shrink away because they cannot
+    #: move; the presets use 0.15 (global) and 0.3 (localized).  With the interface resolved
+    #: (ε ≥ 0.5 h) every b ≠ 0 goes uniform within ~70 ε² (docs/seed000.md)
     eps_per_spacing = 0.3
 
     def __init__(self) -> None:
