@@ -30,7 +30,7 @@ import os
 from collections.abc import Callable, Mapping
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NoReturn
 
 import numpy as np
 import scipy.sparse as sp
@@ -824,8 +824,28 @@ class SurfaceMesh:
         return cls(*_pyvista_arrays(pv, pd), repair=repair)
 
     @classmethod
+    def from_meshio(cls, mesh: Any, *, repair: bool = False) -> SurfaceMesh:
+        """From a ``meshio.Mesh``: its ``triangle`` cells, and its ``quad`` cells split into
+        two triangles each (``(a, b, c, d)`` → ``(a, b, c)``, ``(a, c, d)``); other cell
+        blocks (points, lines, volume cells) are ignored. 2-D points get ``z = 0``. A mesh
+        with no triangles or quads is refused. Its ``point_data`` is not kept here; use
+        :func:`load_with_fields` (files) or read ``mesh.point_data`` yourself."""
+        V, F, _ = _meshio_arrays(mesh)
+        return cls(V, F, repair=repair)
+
+    def to_meshio(self, fields: Mapping[str, np.ndarray] | None = None) -> Any:
+        """A ``meshio.Mesh`` with one ``triangle`` cell block and the per-vertex ``fields``
+        (shape (n,) or (n, k)) as ``point_data``; a periodic mesh is unwrapped first
+        (:meth:`unwrapped`), its fields copied to the seam copies."""
+        meshio = _require("meshio", "SurfaceMesh.to_meshio")
+        V, F, flds = self._export(fields)
+        return meshio.Mesh(V, [("triangle", F)], point_data=flds)
+
+    @classmethod
     def load(cls, path: PathLike, *, repair: bool = False) -> SurfaceMesh:
-        """Read OBJ, PLY, STL, OFF (via trimesh) or VTK/VTP/VTU (via pyvista).
+        """Read OBJ, PLY, STL, OFF (via trimesh), VTK/VTP/VTU (via pyvista), or any other
+        format meshio reads (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...; see
+        :meth:`from_meshio` for the cells taken).
 
         Vertex order is kept. STL stores a triangle soup, so its bitwise-identical vertices
         are always merged. Use :func:`load_with_fields` to get per-vertex data too.
@@ -897,16 +917,31 @@ class SurfaceMesh:
             out[str(name)] = a
         return out
 
-    def save(self, path: PathLike, fields: Mapping[str, np.ndarray] | None = None) -> None:
+    def save(
+        self,
+        path: PathLike,
+        fields: Mapping[str, np.ndarray] | None = None,
+        *,
+        file_format: str | None = None,
+    ) -> None:
         """Write the mesh. ``.vtk``/``.vtp``/``.vtu`` (pyvista) and ``.ply`` (binary, float64
         coordinates) keep per-vertex ``fields`` (shape (n,) or (n, k); in PLY a (n, k) field
         is stored as properties ``name_0..name_{k-1}``). ``.obj``/``.off`` (17 significant
         digits) and ``.stl`` (float32, via trimesh) hold geometry only and refuse fields.
+        Any other extension meshio writes (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...)
+        goes through :meth:`to_meshio`, fields as point data (``.msh`` is written as gmsh
+        4.1 binary, not ANSYS); ``file_format`` (a meshio format name such as ``"gmsh22"``)
+        always writes through meshio in that format.
         A periodic mesh is written unwrapped (:meth:`unwrapped`); the period is not stored."""
         path = Path(path)
         ext = path.suffix.lower()
         V, F, flds = self._export(fields)
-        if ext in _PYVISTA_FORMATS:
+        if file_format is not None or _is_meshio_only(path):
+            meshio = _require("meshio", f"writing {ext or path.name} files")
+            if file_format is None and ext == ".msh":  # meshio would pick ANSYS first
+                file_format = "gmsh"
+            meshio.write(str(path), self.to_meshio(fields), file_format=file_format)
+        elif ext in _PYVISTA_FORMATS:
             pd = self.to_pyvista(fields)
             if ext == ".vtu":
                 pd = pd.cast_to_unstructured_grid()
@@ -923,10 +958,7 @@ class SurfaceMesh:
             else:
                 _write_text_mesh(path, ext, V, F)
         else:
-            raise ValueError(
-                f"unsupported mesh format {ext!r}; use one of "
-                f"{', '.join(_PYVISTA_FORMATS + _TRIMESH_FORMATS)}"
-            )
+            _unsupported(path)
 
     def roughen(
         self,
@@ -1161,6 +1193,66 @@ def _pyvista_arrays(pv: Any, pd: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(pd.points, dtype=np.float64), faces[:, 1:].astype(np.int64)
 
 
+def _meshio_extensions() -> tuple[str, ...]:
+    """The file extensions meshio knows (empty when meshio is not installed)."""
+    try:
+        import meshio
+    except ImportError:
+        return ()
+    return tuple(sorted(meshio.extension_to_filetypes))
+
+
+def _is_meshio_only(path: Path) -> bool:
+    """Whether ``path`` is a format the trimesh/pyvista loaders do not handle but meshio
+    does (``.msh``, ``.xdmf``, ``.med``, ``.vol.gz``, ...)."""
+    if path.suffix.lower() in _PYVISTA_FORMATS + _TRIMESH_FORMATS:
+        return False
+    name = path.name.lower()
+    return any(name.endswith(e) for e in _meshio_extensions())
+
+
+def _unsupported(path: Path) -> NoReturn:
+    ours = ", ".join(_PYVISTA_FORMATS + _TRIMESH_FORMATS)
+    more = _meshio_extensions()
+    extra = (f"; through meshio also {', '.join(more)}" if more
+             else "; pip install meshio for .msh, .xdmf, .med, .inp and more")
+    raise ValueError(f"unsupported mesh format {path.suffix.lower() or path.name!r}; "
+                     f"use one of {ours}{extra}")
+
+
+def _meshio_arrays(m: Any) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """``(V, F, point fields)`` of a ``meshio.Mesh``: triangles, quads split in two
+    (``(a, b, c)``, ``(a, c, d)``), 2-D points padded with ``z = 0``; point data whose first
+    axis is the points (meshio's own ``gmsh:*`` bookkeeping arrays left out)."""
+    if not (hasattr(m, "points") and hasattr(m, "cells")):
+        raise TypeError(f"expected a meshio.Mesh, got {type(m).__name__}")
+    P = np.asarray(m.points, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] not in (2, 3):
+        raise DegenerateMeshError(f"meshio points must be (n, 2) or (n, 3), got {P.shape}")
+    if P.shape[1] == 2:
+        P = np.column_stack([P, np.zeros(len(P))])
+    tris = []
+    for block in m.cells:
+        data = np.asarray(block.data, dtype=np.int64)
+        if block.type == "triangle":
+            tris.append(data)
+        elif block.type == "quad":
+            tris += [data[:, [0, 1, 2]], data[:, [0, 2, 3]]]
+    if not tris:
+        kinds = sorted({b.type for b in m.cells}) or ["none"]
+        raise DegenerateMeshError(
+            f"the meshio mesh has no triangle or quad cells (cell types: {', '.join(kinds)}); "
+            "a SurfaceMesh needs a triangle (or quad) surface: extract the boundary surface "
+            "of a volume mesh first, and convert higher-order cells to linear ones"
+        )
+    fields = {
+        str(k): np.array(a)
+        for k, a in m.point_data.items()
+        if not str(k).startswith("gmsh:") and np.ndim(a) in (1, 2) and len(a) == len(P)
+    }
+    return P, np.concatenate(tris), fields
+
+
 def _write_text_mesh(path: Path, ext: str, V: np.ndarray, F: np.ndarray) -> None:
     with open(path, "w", encoding="ascii") as fh:
         if ext == ".obj":
@@ -1243,14 +1335,18 @@ def _regroup_ply_fields(raw: Any) -> dict[str, np.ndarray]:
 def load_with_fields(
     path: PathLike, *, repair: bool = False
 ) -> tuple[SurfaceMesh, dict[str, np.ndarray]]:
-    """Read a mesh and its per-vertex fields: VTK/VTP/VTU point data (pyvista) or the extra
-    vertex properties of a PLY file (``name_0..name_{k-1}`` regrouped into an (n, k) array).
+    """Read a mesh and its per-vertex fields: VTK/VTP/VTU point data (pyvista), the extra
+    vertex properties of a PLY file (``name_0..name_{k-1}`` regrouped into an (n, k) array)
+    or, for the formats only meshio reads (``.msh``, ``.xdmf``, ...), meshio's point data.
     OBJ, OFF and STL give no fields. If ``repair`` changed the vertex numbering the fields
     are renumbered with ``mesh.vertex_map`` (for merged duplicates the last copy wins)."""
     path = Path(path)
     ext = path.suffix.lower()
     fields: dict[str, np.ndarray] = {}
-    if ext in _PYVISTA_FORMATS:
+    if _is_meshio_only(path):
+        meshio = _require("meshio", f"reading {ext or path.name} files")
+        V, F, fields = _meshio_arrays(meshio.read(str(path)))
+    elif ext in _PYVISTA_FORMATS:
         pv = _require("pyvista", f"reading {ext} files")
         src = _pyvista_surface(pv, pv.read(str(path)))
         V, F = _pyvista_arrays(pv, src)
@@ -1270,10 +1366,7 @@ def load_with_fields(
             if raw is not None and raw.dtype.names and len(raw) == len(V):
                 fields = _regroup_ply_fields(raw)
     else:
-        raise ValueError(
-            f"unsupported mesh format {ext!r}; use one of "
-            f"{', '.join(_PYVISTA_FORMATS + _TRIMESH_FORMATS)}"
-        )
+        _unsupported(path)
     mesh = SurfaceMesh(V, F, repair=repair)
     if mesh.repairs and fields:
         keep = mesh.vertex_map >= 0
