@@ -731,6 +731,18 @@ class Result:
     def species(self) -> tuple[str, ...]:
         return tuple(self.fields)
 
+    def to_xarray(self) -> Any:
+        """The result as an ``xarray.Dataset``: one variable per species on dims ``(x,)``,
+        ``(y, x)`` or ``(z, y, x)`` (cell-centre coordinates) or ``(vertex,)`` (a mesh:
+        coordinates ``x``, ``y``, ``z``, ``faces``), led by ``member`` for an ensemble and
+        by ``time`` when snapshots were taken (the final state appended if it is not the
+        last one); parameter fields as ``param_<name>``, a graph surface's ``height``; the
+        model, parameters, dt, backend, dtype and domain as attributes. Needs xarray. See
+        :mod:`rdgpu.dataset` for the full layout."""
+        from .dataset import result_dataset
+
+        return result_dataset(self)
+
     def __repr__(self) -> str:
         shape = next(iter(self.fields.values())).shape if self.fields else ()
         return (f"Result(model={self.model!r}, step={self.step}, time={self.time:g}, "
