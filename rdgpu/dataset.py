@@ -15,7 +15,8 @@ Layout
 * Parameter fields are data variables ``param_<name>`` on the spatial dims (and ``member``
   when they differ per member); a graph surface adds its ``height`` (length units, ``(y, x)``).
 * ``attrs``: ``model``, ``dt``, ``backend``, ``device``, ``dtype``, ``final_step``,
-  ``final_time``, ``seed``, ``members`` (when set), ``diverged`` (when the run diverged),
+  ``final_time``, ``seed`` (an int, or JSON for a per-member list), ``members`` (when
+  set), ``diverged`` (when the run diverged),
   ``domain_kind``, ``domain`` (the JSON description of ``rdgpu.simulation.describe_domain``),
   ``params`` (the scalar parameters as JSON), one ``param_<name>`` per scalar parameter,
   ``init`` (JSON) and ``rdgpu_version``. Every attribute is a string or a number, so
@@ -105,8 +106,10 @@ def _attrs(result: Any) -> dict[str, Any]:
     for k, v in scalars.items():
         if isinstance(v, (int, float)) and not isinstance(v, bool):
             attrs[f"param_{k}"] = v
-    if result.seed is not None:
-        attrs["seed"] = int(result.seed)
+    if result.seed is not None:  # netCDF-3 holds 32-bit integers; anything else as JSON
+        seed = result.seed
+        small = isinstance(seed, (int, np.integer)) and abs(int(seed)) < 2**31
+        attrs["seed"] = int(seed) if small else json.dumps(seed, default=_json_default)
     if result.members is not None:
         attrs["members"] = int(result.members)
     if result.diverged:
