@@ -259,6 +259,8 @@ def test_to_xarray_grid_with_snapshots(grid_result):
         np.testing.assert_array_equal(ds[s].values, r.snapshots[s])
         np.testing.assert_array_equal(ds[s].isel(time=-1).values, r.fields[s])
         assert ds[s].dtype == np.float32
+    # no copies: the Dataset wraps the result's arrays
+    assert np.shares_memory(ds["u"].values, r.snapshots["u"])
     assert ds["param_F"].dims == ("y", "x")
     np.testing.assert_array_equal(ds["param_F"].values, r.params["F"])
     # label-based selection works on the cell centres
@@ -285,6 +287,7 @@ def test_to_xarray_1d_and_3d_grids():
     assert ds["u"].dims == ("x",) and "y" not in ds.coords
     np.testing.assert_array_equal(ds["x"], _centres(20, 0.7))
     np.testing.assert_array_equal(ds["v"].values, r1.fields["v"])
+    assert np.shares_memory(ds["v"].values, r1.fields["v"])
     assert float(ds["time"]) == r1.time and int(ds["step"]) == 5
     _check_attrs(ds, r1)
 
@@ -314,9 +317,15 @@ def test_to_xarray_ensemble():
     assert json.loads(ds.attrs["seed"]) == [5, 6, 7]
 
 
-def test_to_xarray_mesh():
-    mesh = SurfaceMesh.icosphere(1)
-    r = Simulation("gray-scott", mesh, GS, backend="numpy").run(3, snapshot_every=3)
+@pytest.fixture(scope="module")
+def mesh_result():
+    return Simulation("gray-scott", SurfaceMesh.icosphere(1), GS, backend="numpy").run(
+        3, snapshot_every=3)
+
+
+def test_to_xarray_mesh(mesh_result):
+    r = mesh_result
+    mesh = r.domain
     ds = r.to_xarray()
     assert ds["u"].dims == ("time", "vertex")
     for k, name in enumerate("xyz"):
@@ -376,18 +385,21 @@ def test_to_xarray_errors(grid_result):
         dataclasses.replace(grid_result, fields=clash, snapshots=snaps).to_xarray()
 
 
-def test_xarray_plot_smoke(grid_result):
+def test_xarray_plot_smoke(grid_result, mesh_result):
     mpl = pytest.importorskip("matplotlib")
     mpl.use("Agg")
     import matplotlib.pyplot as plt
 
     ds = grid_result.to_xarray()
-    fig, axes = plt.subplots(1, 2)
+    on_mesh = mesh_result.to_xarray().isel(time=-1)
+    fig, axes = plt.subplots(1, 3)
     try:
-        mesh = ds["u"].isel(time=-1).plot(ax=axes[0])
-        assert mesh.get_array().size == 6 * 10
+        quads = ds["u"].isel(time=-1).plot(ax=axes[0])
+        assert quads.get_array().size == 6 * 10
         lines = ds["v"].mean(("y", "x")).plot(ax=axes[1])
         np.testing.assert_array_equal(lines[0].get_xdata(), grid_result.times)
+        dots = on_mesh.plot.scatter(x="x", y="y", hue="v", ax=axes[2], add_colorbar=False)
+        np.testing.assert_array_equal(dots.get_offsets()[:, 0], mesh_result.domain.vertices[:, 0])
         fig.canvas.draw()
     finally:
         plt.close(fig)
