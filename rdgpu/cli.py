@@ -1064,7 +1064,7 @@ def build_parser() -> argparse.ArgumentParser:
     outs.add_argument("--movie", metavar="PATH.gif|mp4", help="movie of the snapshots")
     outs.add_argument("--data", action="append", metavar="PATH",
                       help="data file: .npz (snapshots, times, parameters, versions) or, on "
-                      "a mesh, .vtk/.vtp/.vtu/.ply with the fields (repeatable)")
+                      "a mesh, .vtk/.vtp/.vtu/.ply/.msh/.xdmf/.inp with the fields (repeatable)")
     outs.add_argument("--field", help="the field to picture (default: the model's)")
     outs.add_argument("--cmap", help="Matplotlib colour map (default viridis)")
     outs.add_argument("--range", type=_colour_range, metavar="LO:HI|auto",

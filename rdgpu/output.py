@@ -47,7 +47,9 @@ __all__ = [
 ]
 
 MOVIE_FORMATS = (".gif", ".mp4")
-MESH_FORMATS = (".vtk", ".vtp", ".vtu", ".ply")
+#: mesh files that keep per-vertex fields (VTK and PLY by pyvista/rdgpu; gmsh, XDMF, Abaqus
+#: by meshio, the ``[mesh]`` extra)
+MESH_FORMATS = (".vtk", ".vtp", ".vtu", ".ply", ".msh", ".xdmf", ".inp")
 #: how a field on a 3-D grid is pictured (see :func:`save_png`)
 VIEWS_3D = ("auto", "isosurface", "slices")
 _NPZ_FORMAT = 1
@@ -652,10 +654,11 @@ def save_movie(
 
 # ------------------------------------------------------------------------ mesh files
 def save_mesh(mesh: Any, path: PathLike, fields: Mapping[str, np.ndarray] | None = None) -> Path:
-    """Write ``mesh`` with per-vertex ``fields`` attached (``.vtk``, ``.vtp``, ``.vtu``,
-    ``.ply``; see ``SurfaceMesh.save``)."""
+    """Write ``mesh`` with per-vertex ``fields`` attached (:data:`MESH_FORMATS`; see
+    ``SurfaceMesh.save``)."""
     if not _is_mesh(mesh):
-        raise ValueError("VTK/PLY files need a mesh domain; use save_npz or save_png for a grid")
+        raise ValueError("mesh files (VTK, PLY, gmsh...) need a mesh domain; use save_npz or "
+                         "save_png for a grid")
     path = Path(path)
     if path.suffix.lower() not in MESH_FORMATS:
         raise ValueError(f"a mesh file with fields must be one of {', '.join(MESH_FORMATS)}, "

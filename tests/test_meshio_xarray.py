@@ -403,3 +403,19 @@ def test_xarray_plot_smoke(grid_result, mesh_result):
         fig.canvas.draw()
     finally:
         plt.close(fig)
+
+
+def test_cli_writes_gmsh_data_files(capsys, tmp_path):
+    """``rdgpu run --mesh ... --data out.msh``: the fields in a gmsh file (meshio)."""
+    from conftest import cli
+
+    code, _, err = cli(capsys, "run", "gray-scott", "--mesh", "sphere", "--steps", 3,
+                       "--backend", "numpy", "--data", tmp_path / "run.msh",
+                       "--data", tmp_path / "run.npz")
+    assert code == 0, err
+    mesh, fields = load_with_fields(tmp_path / "run.msh")
+    from rdgpu.output import load_npz
+
+    result = load_npz(tmp_path / "run.npz")
+    assert mesh.n_vertices == result.domain.n_vertices
+    np.testing.assert_allclose(fields["v"], result.fields["v"])
