@@ -88,6 +88,7 @@ def require(module: str, purpose: str) -> ModuleType:
     extra_of(module)
     top = module.partition(".")[0]
     try:
+        importlib.import_module(top)  # first: a loaded submodule would hide a missing parent
         return importlib.import_module(module)
     except ModuleNotFoundError as exc:
         if exc.name is not None and exc.name.partition(".")[0] == top:
