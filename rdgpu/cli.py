@@ -1088,12 +1088,15 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--no-stability-check", action="store_true",
                       help="run even if dt is past the stability limit")
     outs = run.add_argument_group("outputs")
-    outs.add_argument("--out", metavar="PATH.png", help="PNG of the final field (a mesh is "
-                      "rendered with pyvista); default MODEL.png if no other output is given")
-    outs.add_argument("--movie", metavar="PATH.gif|mp4", help="movie of the snapshots")
+    outs.add_argument("--out", metavar="PATH.png", help="PNG of the final field (the media "
+                      "extra; a mesh is rendered with pyvista: the mesh extra too); default "
+                      "MODEL.png if no other output is given")
+    outs.add_argument("--movie", metavar="PATH.gif|mp4", help="movie of the snapshots (the "
+                      "media extra)")
     outs.add_argument("--data", action="append", metavar="PATH",
-                      help="data file: .npz (snapshots, times, parameters, versions) or, on "
-                      "a mesh, .vtk/.vtp/.vtu/.ply with the fields (repeatable)")
+                      help="data file: .npz (snapshots, times, parameters, versions; needs "
+                      "no extra) or, on a mesh, .vtk/.vtp/.vtu/.ply with the fields "
+                      "(repeatable)")
     outs.add_argument("--field", help="the field to picture (default: the model's)")
     outs.add_argument("--cmap", help="Matplotlib colour map (default viridis)")
     outs.add_argument("--range", type=_colour_range, metavar="LO:HI|auto",
