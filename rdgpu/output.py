@@ -494,7 +494,7 @@ def _volume_images(frames: np.ndarray, domain: Any, *, view: str, level: float |
         try:
             return list(_render_volume(frames, domain, level, cmap=cmap, clim=(lo, hi),
                                        camera=camera, window_size=window_size))
-        except RuntimeError as exc:
+        except (RuntimeError, ImportError) as exc:  # a failed rendering, a broken VTK
             if view != "auto":
                 raise
             warnings.warn(f"{exc}; drawing mid-plane slices instead", RuntimeWarning,
