@@ -29,7 +29,7 @@ PIP_NAMES: dict[str, str] = {"imageio_ffmpeg": "imageio-ffmpeg", "pde": "py-pde"
 class MissingExtraError(ImportError):
     """An optional package is missing (or fails to import); ``extra`` installs it."""
 
-    def __init__(self, message: str, *, module: str, extra: str) -> None:
+    def __init__(self, message: str, *, module: str = "", extra: str = "") -> None:
         super().__init__(message, name=module)
         self.module = module
         self.extra = extra

@@ -6,6 +6,7 @@ ImportError that names the extra installing it."""
 from __future__ import annotations
 
 import json
+import pickle
 import re
 import subprocess
 import sys
@@ -103,6 +104,8 @@ def test_a_missing_module_names_its_extra(module, extra, monkeypatch):
     assert info.value.extra == extra and info.value.module == module
     package = PIP_NAMES.get(module, module)
     assert str(info.value) == f"doing the thing needs {package}: {_hint(extra)}"
+    back = pickle.loads(pickle.dumps(info.value))  # e.g. raised in a Dask worker
+    assert (str(back), back.extra, back.module) == (str(info.value), extra, module)
     with pytest.raises(ImportError, match=re.escape(_hint(extra))):
         check(f"{module}.sub", "doing the thing")
 
