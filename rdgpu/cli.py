@@ -30,6 +30,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ._optional import MissingExtraError, check, require
+
 DEFAULT_SIZE = (256, 256)
 #: steps of a model that has no default run length of its own
 DEFAULT_STEPS = 10_000
@@ -437,8 +439,7 @@ def _check_options(args: argparse.Namespace) -> None:
     if args.movie and args.snapshot_every == 0:
         raise UsageError("--movie needs snapshots: --snapshot-every must be > 0")
     if args.cmap is not None:
-        from matplotlib import colormaps
-
+        colormaps = require("matplotlib", "--cmap (a Matplotlib colour map)").colormaps
         if args.cmap not in colormaps:
             close = [c for c in sorted(colormaps) if c.lower().startswith(args.cmap[:3].lower())
                      and not c.endswith("_r")][:4]
@@ -531,11 +532,35 @@ def _check_view(args: argparse.Namespace, domain: Any) -> None:
                                  f"a {_describe_domain(domain)}")
         return
     if args.view == "isosurface":
-        import importlib.util
+        check("pyvista", "--view isosurface (--view slices needs only the media extra)")
 
-        if importlib.util.find_spec("pyvista") is None:
-            raise UsageError("--view isosurface needs pyvista (pip install pyvista); "
-                             "--view slices needs nothing more")
+
+def _check_extras(args: argparse.Namespace, is_mesh: bool) -> None:
+    """The optional packages that the asked-for outputs need, checked before the run: a
+    missing one raises :class:`MissingExtraError` naming the extra (``--data PATH.npz``
+    needs none)."""
+    default_png = args.out is None and not args.movie and not args.data
+    pictures = bool(args.out or args.movie or default_png)
+    needs = []
+    if pictures:
+        what = "writing the PNG picture" if args.out or default_png else "writing the movie"
+        needs += [("imageio", what), ("matplotlib", what)]
+    if args.movie and Path(args.movie).suffix.lower() == ".mp4":
+        needs.append(("imageio_ffmpeg", "writing MP4 movies"))
+    if is_mesh and pictures:
+        needs.append(("pyvista", "rendering the mesh"))
+    if any(Path(d).suffix.lower() in (".vtk", ".vtp", ".vtu") for d in args.data or []):
+        needs.append(("pyvista", "writing VTK files"))
+    if any(Path(d).suffix.lower() in (".msh", ".xdmf", ".inp") for d in args.data or []):
+        needs.append(("meshio", "writing gmsh/XDMF/Abaqus files"))
+    for module, purpose in needs:
+        try:
+            check(module, purpose)
+        except MissingExtraError as exc:
+            if not default_png:
+                raise
+            raise MissingExtraError(f"{exc} (or give --data PATH.npz to write the fields "
+                                    "and no picture)", module=exc.module, extra=exc.extra) from None
 
 
 def _cli_words(text: str) -> str:
@@ -768,8 +793,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .output import MESH_FORMATS, write_outputs
 
     if is_growth(args):  # dla, random-walk-dla: growth models, not reaction-diffusion
+        _check_extras(args, is_mesh=False)
         return run_growth(args, _say, UsageError)
     _check_options(args)
+    _check_extras(args, is_mesh=False)  # before the model and the domain are built
     sim, preset, kwargs = _build_simulation(args)
     total, every = kwargs.pop("_total"), kwargs.pop("_snapshot_every")
     target = kwargs.pop("_target")
@@ -780,6 +807,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if not is_mesh and any(Path(d).suffix.lower() in MESH_FORMATS for d in args.data or []):
         raise UsageError("VTK/PLY data files need a mesh (--mesh); use .npz for a grid")
     _check_view(args, sim.domain)
+    if is_mesh:
+        _check_extras(args, is_mesh=True)
     if args.movie and not every:
         raise UsageError("--movie needs snapshots, and this run takes none: give "
                          "--snapshot-every N")
@@ -884,6 +913,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
         sweep_module = importlib.import_module("rdgpu.sweep")
         sweep_module._need("xarray", "dask", "distributed")
+        if out:
+            check("matplotlib", "drawing the sweep's map (--data alone needs no picture)")
     except ImportError as exc:
         print(f"rdgpu: error: {exc}", file=sys.stderr)
         return EXIT_FAILED
@@ -1059,12 +1090,15 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--no-stability-check", action="store_true",
                       help="run even if dt is past the stability limit")
     outs = run.add_argument_group("outputs")
-    outs.add_argument("--out", metavar="PATH.png", help="PNG of the final field (a mesh is "
-                      "rendered with pyvista); default MODEL.png if no other output is given")
-    outs.add_argument("--movie", metavar="PATH.gif|mp4", help="movie of the snapshots")
+    outs.add_argument("--out", metavar="PATH.png", help="PNG of the final field (the media "
+                      "extra; a mesh is rendered with pyvista: the mesh extra too); default "
+                      "MODEL.png if no other output is given")
+    outs.add_argument("--movie", metavar="PATH.gif|mp4", help="movie of the snapshots (the "
+                      "media extra)")
     outs.add_argument("--data", action="append", metavar="PATH",
-                      help="data file: .npz (snapshots, times, parameters, versions) or, on "
-                      "a mesh, .vtk/.vtp/.vtu/.ply/.msh/.xdmf/.inp with the fields (repeatable)")
+                      help="data file: .npz (snapshots, times, parameters, versions; needs "
+                      "no extra) or, on a mesh, .vtk/.vtp/.vtu/.ply/.msh/.xdmf/.inp with the "
+                      "fields (repeatable; the [mesh] extra)")
     outs.add_argument("--field", help="the field to picture (default: the model's)")
     outs.add_argument("--cmap", help="Matplotlib colour map (default viridis)")
     outs.add_argument("--range", type=_colour_range, metavar="LO:HI|auto",
@@ -1159,6 +1193,11 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"rdgpu: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except ImportError as exc:  # an optional package: the message names its extra
+        if debug:
+            raise
+        print(f"rdgpu: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_FAILED
     except MemoryError:
         if debug:
             raise

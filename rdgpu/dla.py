@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ._optional import require
 from .api import BackendSpec, optimal_omega
 from .boundary import GridBC
 from .dispatch import get_backend
@@ -288,8 +289,8 @@ def dla_image(result: DLAResult, path: str | Path, cmap: str = "viridis",
     """Write ``result`` as a PNG coloured by arrival step (Matplotlib ``cmap``), empty
     cells white; the seed001 geometry's bottom row is drawn at the bottom (row 0 of
     the array is the bottom of the picture)."""
-    import imageio.v3 as iio
-    from matplotlib import colormaps
+    iio = require("imageio.v3", "writing PNG pictures")
+    colormaps = require("matplotlib", "colouring pictures").colormaps
 
     arrival = np.asarray(result.arrival)
     top = max(int(arrival.max()), 1)

@@ -6,12 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ._optional import require
+
 
 def to_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
            vmax: float | None = None) -> np.ndarray:
     """Map a 2-D field to an ``(ny, nx, 3)`` uint8 image; row 0 is the top of the image."""
-    from matplotlib import colormaps
-
+    colormaps = require("matplotlib", "colouring pictures").colormaps
     a = np.asarray(field, dtype=np.float64)
     if a.ndim == 1:
         a = a[None, :]
@@ -27,8 +28,7 @@ def to_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
 def save_png(path: str | Path, field: np.ndarray, cmap: str = "viridis",
              vmin: float | None = None, vmax: float | None = None, scale: int = 1) -> Path:
     """Write ``field`` as a colour-mapped PNG, each cell ``scale``×``scale`` pixels."""
-    import imageio.v3 as iio
-
+    iio = require("imageio.v3", "writing PNG pictures")
     rgb = to_rgb(field, cmap, vmin, vmax)
     if scale > 1:
         rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)

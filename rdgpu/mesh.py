@@ -35,6 +35,8 @@ from typing import Any, Literal, NoReturn
 import numpy as np
 import scipy.sparse as sp
 
+from ._optional import require as _require
+
 __all__ = [
     "DegenerateMeshError",
     "SurfaceMesh",
@@ -442,17 +444,6 @@ def _check_periodic_faces(V: np.ndarray, F: np.ndarray, period: tuple[float, flo
             f"(faces {_examples(bad)}; face {f} = {F[f].tolist()}): on a periodic mesh every "
             "triangle must be narrower than half a period along x and y"
         )
-
-
-def _require(module: str, purpose: str) -> Any:
-    import importlib
-
-    try:
-        return importlib.import_module(module)
-    except ImportError:
-        raise ImportError(
-            f"{purpose} needs the optional package '{module}' (pip install {module})"
-        ) from None
 
 
 # ----------------------------------------------------------------------------------------

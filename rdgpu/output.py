@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ._optional import available, check, require
 from .domains import Grid
 from .images import to_rgb
 
@@ -111,10 +112,7 @@ def _camera(plotter: Any, camera: Any) -> None:
 
 def _pyvista() -> Any:
     """pyvista, set to render off-screen, with VTK's display warnings silenced."""
-    try:
-        import pyvista as pv
-    except ImportError as exc:  # pragma: no cover - pyvista is a test dependency
-        raise RuntimeError(f"rendering needs pyvista ({exc}): pip install pyvista") from None
+    pv = require("pyvista", "rendering meshes and 3-D isosurfaces")
     pv.OFF_SCREEN = True
     try:  # VTK warns when no X display exists, then renders with EGL/OSMesa anyway
         from vtkmodules.vtkCommonCore import vtkLogger
@@ -226,8 +224,7 @@ class _VolumeRenderer:
 
 def _level_colour(cmap: str, clim: tuple[float, float], level: float) -> tuple:
     """The RGB colour (floats in [0, 1]) that ``cmap`` gives ``level`` on the scale ``clim``."""
-    from matplotlib import colormaps
-
+    colormaps = require("matplotlib", "colouring the isosurface").colormaps
     lo, hi = clim
     t = (level - lo) / (hi - lo) if hi > lo else 0.5
     return tuple(float(c) for c in colormaps[cmap](min(max(t, 0.0), 1.0))[:3])
@@ -259,6 +256,8 @@ def _render(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
     later in the same process aborts it ("LLVM ERROR: inconsistency in registered
     CommandLine options").  ``RDGPU_RENDER_INPROCESS=1`` renders in this process instead
     (faster; safe when no OpenCL device is opened after the first rendering)."""
+    what = "the 3-D field" if options.get("kind") == "volume" else "the mesh"
+    check("pyvista", f"rendering {what}")  # here: the child's traceback would bury the hint
     if os.environ.get("RDGPU_RENDER_INPROCESS"):
         return _render_here(arrays, options)
     import subprocess
@@ -276,7 +275,6 @@ def _render(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
                               capture_output=True, text=True)
         if proc.returncode != 0 or not dst.exists():
             lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
-            what = "the 3-D field" if options.get("kind") == "volume" else "the mesh"
             raise RuntimeError(f"rendering {what} failed: "
                                + (lines[-1] if lines else f"exit status {proc.returncode}"))
         with np.load(dst) as z:
@@ -352,8 +350,7 @@ def render_mesh(
 def render_mesh_png(mesh: Any, field: np.ndarray, path: PathLike, *, cmap: str = "viridis",
                     camera: Any = None, **kwargs: Any) -> Path:
     """Write :func:`render_mesh` of ``field`` on ``mesh`` to the PNG ``path``."""
-    import imageio.v3 as iio
-
+    iio = require("imageio.v3", "writing PNG pictures")
     img = render_mesh(mesh, field, cmap=cmap, camera=camera, **kwargs)
     path = _prepare(path)
     iio.imwrite(path, img)
@@ -478,15 +475,13 @@ def _volume_view(view: str, frames: np.ndarray, level: float) -> str:
     """The renderer of 3-D frames: ``view`` itself, or for ``"auto"`` the isosurface when
     pyvista is installed, every side has 2 cells or more and some frame reaches ``level``
     (else there is nothing to draw), and the slices otherwise."""
-    import importlib.util
-
     if view not in VIEWS_3D:
         raise ValueError(f"view must be one of {', '.join(VIEWS_3D)}, got {view!r}")
     if view != "auto":
         return view
     finite = frames[np.isfinite(frames)]
     crosses = finite.size > 0 and finite.min() < level < finite.max()
-    if importlib.util.find_spec("pyvista") is None or min(frames.shape[1:]) < 2 or not crosses:
+    if not available("pyvista") or min(frames.shape[1:]) < 2 or not crosses:
         return "slices"
     return "isosurface"
 
@@ -501,7 +496,7 @@ def _volume_images(frames: np.ndarray, domain: Any, *, view: str, level: float |
         try:
             return list(_render_volume(frames, domain, level, cmap=cmap, clim=(lo, hi),
                                        camera=camera, window_size=window_size))
-        except RuntimeError as exc:
+        except (RuntimeError, ImportError) as exc:  # a failed rendering, a broken VTK
             if view != "auto":
                 raise
             warnings.warn(f"{exc}; drawing mid-plane slices instead", RuntimeWarning,
@@ -539,10 +534,9 @@ def save_png(
     if _is_volume(field, domain):
         frames = _volume_frames(np.asarray(field)[None], domain)
         lo, hi = _limits(frames, vmin, vmax)
+        iio = require("imageio.v3", "writing PNG pictures")
         img = _volume_images(frames, domain, view=view, level=level, cmap=cmap, lo=lo, hi=hi,
                              scale=scale, camera=camera, window_size=window_size)[0]
-        import imageio.v3 as iio
-
         path = _prepare(path)
         iio.imwrite(path, img)
         return path
@@ -560,8 +554,7 @@ def save_png(
 def _save_line_plot(path: Path, field: np.ndarray, grid: Grid, vmin: float | None,
                     vmax: float | None) -> Path:
     """A 1-D field as a curve over the cell centres ``x = (j + ½) dx``."""
-    import matplotlib
-
+    matplotlib = require("matplotlib", "plotting a 1-D field")
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
@@ -634,17 +627,11 @@ def save_movie(
             images.append(rgb)
     path = _prepare(path)
     if ext == ".gif":
-        import imageio.v3 as iio
-
+        iio = require("imageio.v3", "writing GIF movies")
         iio.imwrite(path, np.stack(images), extension=".gif", duration=1000.0 / fps, loop=0)
     else:
-        try:
-            import imageio_ffmpeg  # noqa: F401
-        except ImportError:
-            raise RuntimeError("writing MP4 needs imageio-ffmpeg: pip install imageio-ffmpeg "
-                               "(or write a .gif)") from None
-        import imageio.v2 as iio2
-
+        require("imageio_ffmpeg", "writing MP4 movies")
+        iio2 = require("imageio.v2", "writing MP4 movies")
         with iio2.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264",
                              pixelformat="yuv420p", macro_block_size=1, quality=8) as w:
             for img in images:
@@ -919,9 +906,8 @@ def render_surface(
                               window_size=window_size, background=background)
     vertices, faces = surface_mesh(surface, scale)
     arrays = {"vertices": vertices, "faces": faces, "frames": _wrap_closed(f).reshape(1, -1)}
+    iio = require("imageio.v3", "writing PNG pictures")
     img = _render(arrays, {**options, "kind": "mesh"})[0]
-    import imageio.v3 as iio
-
     path = _prepare(path)
     iio.imwrite(path, img)
     return path

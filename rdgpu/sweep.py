@@ -16,7 +16,6 @@ Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarr
 
 from __future__ import annotations
 
-import importlib
 import itertools
 import json
 import math
@@ -28,6 +27,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ._optional import require
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
 
@@ -47,15 +48,7 @@ _SPACE_DIMS = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
 # ------------------------------------------------------------------------ optional extra
 def _need(*modules: str) -> list[Any]:
     """Import the optional modules of the ``dask`` extra, or say how to get them."""
-    out = []
-    for name in modules:
-        try:
-            out.append(importlib.import_module(name))
-        except ImportError as exc:
-            raise ImportError(
-                f"rdgpu.sweep needs {name} ({exc}); install the extra: "
-                'pip install "rdgpu[dask]" (dask[distributed], xarray, zarr)') from None
-    return out
+    return [require(name, "rdgpu.sweep") for name in modules]
 
 
 # ------------------------------------------------------------------------ axes
@@ -625,8 +618,7 @@ def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
     values.  More than two swept parameters: the first value of the others is shown.
     ``scale``: pixels per grid cell (default: a mosaic at least 1200 pixels across); NaN
     (a diverged member) is white."""
-    import matplotlib
-
+    matplotlib = require("matplotlib", "drawing the sweep's map")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -82,7 +82,7 @@ def test_mp4(grid_result, tmp_path):
 
 def test_mp4_without_ffmpeg_says_what_to_install(grid_result, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
-    with pytest.raises(RuntimeError, match="pip install imageio-ffmpeg"):
+    with pytest.raises(ImportError, match=r'needs imageio-ffmpeg: pip install "rdgpu\[media\]"'):
         output.save_movie(tmp_path / "m.mp4", grid_result.snapshots["u"], grid_result.domain)
 
 
