@@ -9,6 +9,7 @@ Pick a backend per call (``backend="opencl"``), per block (``with rdgpu.use_back
 per process (``rdgpu.set_backend("numpy")`` or ``RDGPU_BACKEND``); ``"auto"`` otherwise.
 """
 
+from ._optional import MissingExtraError
 from .api import (
     allen_cahn,
     bernoulli_substep,
@@ -83,6 +84,7 @@ __all__ = [
     "DLAResult",
     "GraphSurface",
     "ImplicitDiffusion",
+    "MissingExtraError",
     "RDFront",
     "StabilityError",
     "Simulation",

@@ -35,13 +35,9 @@ __all__ = ["result_dataset"]
 
 
 def _xarray() -> Any:
-    try:
-        import xarray
-    except ImportError:
-        raise ImportError(
-            "Result.to_xarray needs the optional package 'xarray' (pip install xarray)"
-        ) from None
-    return xarray
+    from ._optional import require
+
+    return require("xarray", "Result.to_xarray()")
 
 
 def _space(domain: Any) -> tuple[tuple[str, ...], dict[str, Any]]:
