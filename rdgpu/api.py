@@ -66,8 +66,10 @@ def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) ->
     see is checked for dtype, rank and size only, and given as an :class:`_Unread`."""
     try:
         kind = interop.kind_of(u)
-    except TypeError:
+    except interop.NotAnArray:
         return check.as_field(u, name, ndim=ndim)  # its message: what is allowed
+    except TypeError as exc:
+        raise TypeError(f"{name}: {exc}") from None
     if kind == "list" and not isinstance(u, (list, tuple)):
         u = np.asarray(u)
     if kind in ("numpy", "list"):

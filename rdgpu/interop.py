@@ -34,6 +34,10 @@ from .backends.base import Backend, DeviceArray
 
 KINDS = ("numpy", "list", "warp", "pyopencl", "torch", "dlpack")
 
+
+class NotAnArray(TypeError):
+    """An object that is no array of any kind (a string, a dict, ``None``...)."""
+
 #: the memory of a DLPack device type code that the host can read
 _DLPACK_HOST = (1, 3)  # kDLCPU, kDLCUDAHost
 
@@ -55,7 +59,8 @@ def _is_torch(x: Any) -> bool:
 
 def kind_of(x: Any) -> str:
     """The kind of array ``x`` is (one of :data:`KINDS`); raises ``TypeError`` for an
-    object that is no array (a string, a dict, ``None``, a ``pyopencl.Buffer``...)."""
+    object that is no array: :class:`NotAnArray` for a string, a dict, ``None``..., and
+    for a ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it."""
     if isinstance(x, np.ndarray):
         return "numpy"
     wa = _warp_array_type()
@@ -72,7 +77,7 @@ def kind_of(x: Any) -> str:
         raise TypeError("a pyopencl Buffer has no shape or dtype; wrap it as "
                         "pyopencl.array.Array(queue, shape, dtype, data=buffer)")
     if isinstance(x, (str, bytes, dict, set)) or x is None:
-        raise TypeError(f"expected an array, got {type(x).__name__}; allowed: NumPy arrays, "
+        raise NotAnArray(f"expected an array, got {type(x).__name__}; allowed: NumPy arrays, "
                         "lists, Warp/pyopencl arrays, and objects with __dlpack__ or "
                         "__cuda_array_interface__ (PyTorch, CuPy, JAX)")
     return "list"
@@ -82,7 +87,7 @@ def is_array(x: Any) -> bool:
     """Whether ``x`` is an array of some library (not a number, string or list)."""
     try:
         return kind_of(x) != "list" or hasattr(x, "__array__")
-    except TypeError:
+    except TypeError:  # NotAnArray, or a pyopencl Buffer
         return False
 
 
