@@ -42,19 +42,11 @@ class NotAnArray(TypeError):
 _DLPACK_HOST = (1, 3)  # kDLCPU, kDLCUDAHost
 
 
-def _warp_array_type() -> type | None:
-    wp = sys.modules.get("warp")
-    return getattr(wp, "array", None) if wp is not None else None
-
-
-def _is_pyopencl_array(x: Any) -> bool:
-    mod = sys.modules.get("pyopencl.array")
-    return mod is not None and isinstance(x, mod.Array)
-
-
-def _is_torch(x: Any) -> bool:
-    torch = sys.modules.get("torch")
-    return torch is not None and isinstance(x, torch.Tensor)
+def _is(x: Any, module: str, name: str) -> bool:
+    """Whether ``x`` is a ``module.name`` of a module already imported (no import here;
+    a module still being imported by another thread has no such type yet: False)."""
+    cls = getattr(sys.modules.get(module), name, None)
+    return isinstance(cls, type) and isinstance(x, cls)
 
 
 def kind_of(x: Any) -> str:
@@ -63,17 +55,15 @@ def kind_of(x: Any) -> str:
     for a ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it."""
     if isinstance(x, np.ndarray):
         return "numpy"
-    wa = _warp_array_type()
-    if wa is not None and isinstance(x, wa):
+    if _is(x, "warp", "array"):
         return "warp"
-    if _is_pyopencl_array(x):
+    if _is(x, "pyopencl.array", "Array"):
         return "pyopencl"
-    if _is_torch(x):
+    if _is(x, "torch", "Tensor"):
         return "torch"
     if hasattr(x, "__dlpack__") or hasattr(x, "__cuda_array_interface__"):
         return "dlpack"
-    cl = sys.modules.get("pyopencl")
-    if cl is not None and isinstance(x, cl.MemoryObjectHolder):
+    if _is(x, "pyopencl", "MemoryObjectHolder"):
         raise TypeError("a pyopencl Buffer has no shape or dtype; wrap it as "
                         "pyopencl.array.Array(queue, shape, dtype, data=buffer)")
     if isinstance(x, (str, bytes, dict, set)) or x is None:
@@ -211,11 +201,15 @@ def wrap(x: Any, be: Backend, shape: tuple[int, ...] | None = None) -> DeviceArr
     return DeviceArray(be, host_view(x).reshape(shape), shape, dtype, {"owner": x})
 
 
+def _address(a: np.ndarray) -> int:
+    return int(a.__array_interface__["data"][0])
+
+
 def pointer(d: DeviceArray) -> int | None:
     """The address of ``d``'s memory (an OpenCL buffer's ``int_ptr``), for alias checks."""
     h = d.handle
     if isinstance(h, np.ndarray):
-        return int(h.__array_interface__["data"][0])
+        return _address(h)
     if hasattr(h, "ptr"):
         return int(h.ptr)
     return int(getattr(h, "int_ptr", id(h)))
@@ -228,7 +222,7 @@ def to_device(x: Any, checked: np.ndarray | None, be: Backend,
     one upload of ``checked`` (or of ``x`` read on the host)."""
     if resident(x, be):
         view = host_view(x)
-        if checked is None or (view is not None and np.shares_memory(view, checked)):
+        if checked is None or (view is not None and _address(view) == _address(checked)):
             return wrap(x, be, shape)
     if checked is None:
         checked = np.ascontiguousarray(to_numpy(x))
