@@ -131,20 +131,43 @@ def _give_host(result: np.ndarray, given: Any, out: Any) -> Any:
     return out
 
 
-def _advance(be: Backend, start: tuple[DeviceArray, ...], n: int, step: Any
-             ) -> tuple[DeviceArray, ...]:
+def _target(be: Backend, out: Any, like: DeviceArray,
+            reads: tuple[DeviceArray, ...] = ()) -> DeviceArray | None:
+    """``out`` (checked) as a device array of ``like``'s shape a kernel can write directly:
+    where it lives on ``be`` and is none of the arrays the call ``reads``; else None."""
+    if out is None or not interop.resident(out, be):
+        return None
+    d = interop.wrap(out, be, like.shape)
+    return None if any(interop.overlaps(d, r) for r in reads) else d
+
+
+def _fresh(be: Backend, out: Any, like: DeviceArray) -> DeviceArray:
+    """The result buffer of a one-kernel call: ``out`` itself where a kernel can write it
+    (:func:`_target`), else a new array."""
+    return _target(be, out, like, (like,)) or be.empty_like(like)
+
+
+def _advance(be: Backend, start: tuple[DeviceArray, ...], n: int, step: Any,
+             outs: tuple[Any, ...] | None = None) -> tuple[DeviceArray, ...]:
     """``n`` calls of ``step(cur, nxt)`` (tuples of device arrays) from ``start``, which is
     only read (it may be the caller's memory), ping-ponging between buffers of the call's
-    own; the result is always such a buffer (a copy of ``start`` when ``n == 0``)."""
-    bufs = [tuple(be.empty_like(d) for d in start) for _ in range(max(1, min(n, 2)))]
+    own; the last step writes the caller's ``outs`` directly where a kernel can (see
+    :func:`_target`).  The result is never ``start`` (a copy of it when ``n == 0``)."""
+    final = None
+    if outs is not None and n > 0:
+        final = tuple(_target(be, o, d, start) for o, d in zip(outs, start, strict=True))
+        final = None if None in final else final
+    own = n if final is None else n - 1
+    bufs = [tuple(be.empty_like(d) for d in start) for _ in range(max(1, min(own, 2)))]
     if n == 0:
         for src, dst in zip(start, bufs[0], strict=True):
             be.copy(src, dst)
         return bufs[0]
     cur = start
     for i in range(n):
-        step(cur, bufs[i % 2])
-        cur = bufs[i % 2]
+        nxt = final if (final is not None and i == n - 1) else bufs[i % 2]
+        step(cur, nxt)
+        cur = nxt
     return cur
 
 
@@ -302,7 +325,7 @@ def laplacian(
         field = _mesh_field(u, mesh, "u", be)
         _out_for(out, u, field.dtype)
         d_u = _on(be, u, field)
-        res = be.empty_like(d_u)
+        res = _fresh(be, out, d_u)
         be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, res)
         return _give(res, u, out, "laplacian")
     if isinstance(stencil, bool) or stencil not in (5, 9):
@@ -314,7 +337,7 @@ def laplacian(
         raise ValueError(f"the 9-point stencil needs dx == dy, got dx={grid.dx}, dy={grid.dy}")
     _out_for(out, u, field.dtype)
     d_u = _on(be, u, field)
-    res = be.empty_like(d_u)
+    res = _fresh(be, out, d_u)
     be.laplacian(d_u, res, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
     return _give(res, u, out, "laplacian")
 
@@ -355,7 +378,7 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
     surface = GraphSurface(field.shape, dx=grid.dx, dy=grid.dy, height=h)
     _out_for(out, u, field.dtype)
     d_u = _on(be, u, field)
-    res = be.empty_like(d_u)
+    res = _fresh(be, out, d_u)
     be.metric_laplacian(d_u, be.upload_metric(surface, field.dtype), res)
     return _give(res, u, out, "laplacian")
 
@@ -383,7 +406,7 @@ def bernoulli_substep(
     decay = bernoulli_decay(tau, eps, field.dtype)
     _out_for(out, u, field.dtype)
     d_u = _on(be, u, field)
-    res = be.empty_like(d_u)
+    res = _fresh(be, out, d_u)
     be.bernoulli(d_u, res, decay=decay)
     return _give(res, u, out, "bernoulli_substep")
 
@@ -440,6 +463,8 @@ def gray_scott(
                             f"{type(out).__name__}")
         _out_for(out[0], u, gu.dtype)
         _out_for(out[1], v, gv.dtype)
+        if out[0] is out[1]:
+            raise ValueError("out holds one array twice; u_out and v_out must be two arrays")
     outs = (None, None) if out is None else tuple(out)
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dt = check.scalar(dt, "dt")
@@ -480,7 +505,7 @@ def gray_scott(
             kernel(cur, nxt)
             done[0] += 1
             bar.tick(done[0])
-        res_u, res_v = _advance(be, start, n, step)
+        res_u, res_v = _advance(be, start, n, step, outs)
     gs = {"stepping": True, "check_stability": check_stability}
     return (_give(res_u, u, outs[0], "gray_scott", **gs),
             _give(res_v, v, outs[1], "gray_scott", **gs))
@@ -617,7 +642,7 @@ def diffusion_step(
 
         def step(cur, nxt):
             solver.step(cur[0], nxt[0], source=d_src)
-    (res,) = _advance(be, start, n, step)
+    (res,) = _advance(be, start, n, step, (out,))
     return _give(res, u, out, "diffusion_step", stepping=True,
                  check_stability=check_stability)
 
@@ -935,7 +960,7 @@ def levelset_advance(
 
     def step(cur, nxt):
         be.levelset_step(cur[0], d_F, nxt[0], dt=dt, dx=dx, dy=dy, bc=bcs, **kw)
-    (res,) = _advance(be, (_on(be, phi, grid),), n, step)
+    (res,) = _advance(be, (_on(be, phi, grid),), n, step, (out,))
     return _give(res, phi, out, "levelset_advance", stepping=True,
                  check_stability=check_stability)
 
@@ -979,5 +1004,5 @@ def reinitialize(
     def step(cur, nxt):
         be.reinit_step(cur[0], phi0, nxt[0], dtau=dtau, width=dx, dx=dx, dy=dy, bc=bcs,
                        subcell=subcell_fix, **kw)
-    (res,) = _advance(be, (phi0,), n, step)
+    (res,) = _advance(be, (phi0,), n, step, (out,))
     return interop.deliver(res, phi, _given_shape(phi), out)

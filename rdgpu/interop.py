@@ -215,6 +215,15 @@ def pointer(d: DeviceArray) -> int | None:
     return int(getattr(h, "int_ptr", id(h)))
 
 
+def overlaps(a: DeviceArray, b: DeviceArray) -> bool:
+    """Whether two device arrays share memory (address ranges; OpenCL buffers: the same
+    buffer)."""
+    if isinstance(a.handle, np.ndarray) or hasattr(a.handle, "ptr"):
+        start_a, start_b = pointer(a), pointer(b)
+        return start_a < start_b + b.nbytes and start_b < start_a + a.nbytes
+    return pointer(a) == pointer(b)
+
+
 def to_device(x: Any, checked: np.ndarray | None, be: Backend,
               shape: tuple[int, ...]) -> DeviceArray:
     """``x`` on ``be`` with ``shape``: wrapped when resident there and ``checked`` (its
@@ -272,7 +281,7 @@ def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = N
     if out is not None:
         if resident(out, be):
             target = wrap(out, be, result.shape)
-            if pointer(target) != pointer(result):
+            if not overlaps(target, result):
                 be.copy(result, target)
                 be.synchronize()
             return out

@@ -268,6 +268,33 @@ def test_pyopencl_out_on_the_backend_context(monkeypatch):
     assert np.array_equal(target.get(), rdgpu.laplacian(u, backend=be))
 
 
+def test_out_on_the_device_is_written_by_the_kernel(monkeypatch):
+    be = backend_or_skip("warp")
+    u, v = _fields()
+    wu, wv = wp.array(u, device="cpu"), wp.array(v, device="cpu")
+    uo, vo = wp.empty_like(wu), wp.empty_like(wv)
+    seen = _spy(monkeypatch, be, "gray_scott")
+    _forbid(monkeypatch, be, "copy", "upload", "download")  # no copy, not even on the device
+    rdgpu.gray_scott(wu, wv, steps=3, backend=be, out=(uo, vo), **GS)
+    assert (seen[-1][2].handle.ptr, seen[-1][3].handle.ptr) == (uo.ptr, vo.ptr)
+    assert all(a.handle.ptr not in (uo.ptr, vo.ptr) for call in seen[:-1] for a in call)
+    monkeypatch.undo()
+    eu, ev = rdgpu.gray_scott(u, v, steps=3, backend="numpy", **GS)
+    assert np.array_equal(uo.numpy(), eu) and np.array_equal(vo.numpy(), ev)
+
+
+@pytest.mark.parametrize("name", ["numpy", "warp"])
+def test_out_overlapping_the_input(name):
+    be = backend_or_skip(name)
+    u, _ = _fields()
+    want = rdgpu.laplacian(u, backend="numpy")
+    big = np.zeros((u.shape[0] + 2, u.shape[1]))
+    big[:-2] = u
+    got = rdgpu.laplacian(big[:-2], backend=be, out=big[2:])
+    assert np.shares_memory(got, big)
+    assert np.array_equal(big[2:], want)
+
+
 def test_out_may_be_the_input():
     u, _ = _fields()
     want = rdgpu.laplacian(u, backend="numpy")
