@@ -214,6 +214,21 @@ def test_pyopencl_array_on_the_backend_context_stays_on_the_device(monkeypatch):
     assert np.array_equal(du.get(), u)  # the input is not modified
 
 
+def test_arrays_of_another_device_make_one_copy_and_come_back_as_their_kind():
+    be = backend_or_skip("opencl")
+    cla = pytest.importorskip("pyopencl.array")
+    u, _ = _fields(dtype=np.float32)
+    want = rdgpu.laplacian(u, backend="numpy")
+    du = cla.to_device(be.queue, u)
+    on_host = rdgpu.laplacian(du, backend="numpy")  # a pyopencl array on the numpy backend
+    assert isinstance(on_host, cla.Array) and on_host.queue is du.queue
+    assert np.array_equal(on_host.get(), want)
+    w = wp.array(u, device="cpu")  # a Warp array on the OpenCL backend
+    got = rdgpu.laplacian(w, backend=be)
+    assert isinstance(got, wp.array) and got.device == w.device
+    assert np.array_equal(got.numpy(), rdgpu.laplacian(u, backend=be))
+
+
 def test_pyopencl_buffer_alone_is_refused_with_the_fix():
     be = backend_or_skip("opencl")
     cl = pytest.importorskip("pyopencl")
