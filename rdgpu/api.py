@@ -157,12 +157,13 @@ def _advance(be: Backend, start: tuple[DeviceArray, ...], n: int, step: Any,
     if outs is not None and n > 0:
         final = tuple(_target(be, o, d, start) for o, d in zip(outs, start, strict=True))
         final = None if None in final else final
-    own = n if final is None else n - 1
-    bufs = [tuple(be.empty_like(d) for d in start) for _ in range(max(1, min(own, 2)))]
     if n == 0:
-        for src, dst in zip(start, bufs[0], strict=True):
+        copies = tuple(be.empty_like(d) for d in start)
+        for src, dst in zip(start, copies, strict=True):
             be.copy(src, dst)
-        return bufs[0]
+        return copies
+    own = n if final is None else n - 1  # the steps that write buffers of the call's own
+    bufs = [tuple(be.empty_like(d) for d in start) for _ in range(min(own, 2))]
     cur = start
     for i in range(n):
         nxt = final if (final is not None and i == n - 1) else bufs[i % 2]
