@@ -249,8 +249,10 @@ def _writable_kind(out: Any) -> str:
         raise TypeError(f"out must be an array that can receive the result (NumPy, Warp, "
                         f"pyopencl, PyTorch, or a CPU DLPack array), got "
                         f"{type(out).__name__}")
-    if kind == "numpy" and not out.flags.writeable:
-        raise ValueError("out is a read-only NumPy array; pass a writable one")
+    view = host_view(out)
+    if view is not None and not view.flags.writeable:
+        raise ValueError(f"out is a read-only array ({type(out).__name__}); pass a writable "
+                         "one")
     return kind
 
 

@@ -310,6 +310,16 @@ def test_out_overlapping_the_input(name):
     assert np.array_equal(big[2:], want)
 
 
+@pytest.mark.parametrize("name", ["numpy", "warp"])
+def test_out_may_be_a_cpu_dlpack_array(name):
+    be = backend_or_skip(name)
+    u, _ = _fields()
+    target = np.empty_like(u)
+    out = _DLPackOnly(target)
+    assert rdgpu.bernoulli_substep(u, tau=0.2, eps=0.5, backend=be, out=out) is out
+    assert np.array_equal(target, rdgpu.bernoulli_substep(u, tau=0.2, eps=0.5, backend=be))
+
+
 def test_out_may_be_the_input():
     u, _ = _fields()
     want = rdgpu.laplacian(u, backend="numpy")
