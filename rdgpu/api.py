@@ -1,10 +1,16 @@
-"""The functional API: NumPy arrays in, NumPy arrays out, any backend.
+"""The functional API: arrays of any library in, the same kind out, any backend.
 
 Every function checks its input, uploads it once, runs all its steps on the device and
-downloads once.  Inputs are never modified; results keep the input dtype (float32 or
-float64).  Grid arrays are ``u[ny, nx]`` (row index is y); a 1-D array ``u[nx]`` is a 1-D
-problem: ``bc`` is its one condition, ``dy`` does not apply, and the stability limits are
-the 1-D ones (the kernels run it as one row with no y axis, see :class:`rdgpu.domains.Grid`).
+downloads once.  Arrays of any kind are accepted (:mod:`rdgpu.interop`: NumPy, lists,
+Warp, pyopencl, PyTorch, DLPack); one already in the backend's memory is used in place
+(no copy), and the result comes back as the kind of the input (a list gives a NumPy
+array).  ``out=`` takes an array of the result's shape and dtype (any writable kind)
+that receives the result and is returned, so a loop can reuse it.
+
+Inputs are never modified; results keep the input dtype (float32 or float64).  Grid
+arrays are ``u[ny, nx]`` (row index is y); a 1-D array ``u[nx]`` is a 1-D problem:
+``bc`` is its one condition, ``dy`` does not apply, and the stability limits are the 1-D
+ones (the kernels run it as one row with no y axis, see :class:`rdgpu.domains.Grid`).
 See docs/equations.md for every scheme.
 """
 
@@ -16,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from . import interop
 from . import validation as check
 from .backends.base import Backend, DeviceArray
 from .boundary import PERIODIC
@@ -24,11 +31,6 @@ from .domains import Grid
 from .errors import StabilityError
 
 BackendSpec = str | Backend | None
-
-
-def _restore(result: np.ndarray, original: Any) -> np.ndarray:
-    """``result`` in the shape of the caller's input (which may be a list)."""
-    return result.reshape(np.shape(original))
 
 
 def _finite(out: np.ndarray, what: str, *, stepping: bool = False,
@@ -53,6 +55,123 @@ def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceA
     return backend.upload(x) if isinstance(x, np.ndarray) else x
 
 
+class _Unread(np.ndarray):
+    """A zero-strided stand-in of the shape and dtype of an array that stays on its device
+    (its values are not read: that would be the copy the caller avoids)."""
+
+
+def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> np.ndarray:
+    """``check.as_field`` for an array of any kind: read in place where the host can (one
+    copy for a device array elsewhere); an array resident on ``be`` that the host cannot
+    see is checked for dtype, rank and size only, and given as an :class:`_Unread`."""
+    try:
+        kind = interop.kind_of(u)
+    except interop.NotAnArray:
+        return check.as_field(u, name, ndim=ndim)  # its message: what is allowed
+    except TypeError as exc:
+        raise TypeError(f"{name}: {exc}") from None
+    if kind == "list" and not isinstance(u, (list, tuple)):
+        u = np.asarray(u)
+    if kind in ("numpy", "list"):
+        return check.as_field(u, name, ndim=ndim)
+    view = interop.host_view(u)
+    if view is None and be is not None and interop.resident(u, be):
+        shape, dtype = interop.shape_dtype(u)
+        if dtype not in check.DTYPES:
+            raise TypeError(f"{name} has unsupported dtype {dtype}; allowed: float32, float64")
+        if len(shape) not in ndim:
+            allowed = " or ".join(f"{d}-D" for d in ndim)
+            raise ValueError(f"{name} must be {allowed}, got shape {shape}")
+        if 0 in shape:
+            raise ValueError(f"{name} is empty (shape {shape}); every axis needs a cell")
+        return np.broadcast_to(np.zeros((), dtype), shape).view(_Unread)
+    return check.as_field(view if view is not None else interop.to_numpy(u), name, ndim=ndim)
+
+
+def _on(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
+    """The checked ``field`` of the caller's ``given`` array on ``be``: ``given``'s own
+    memory where it lives there and the checks made no copy, else one upload."""
+    return interop.to_device(given, None if isinstance(field, _Unread) else field, be,
+                             field.shape)
+
+
+def _given_shape(x: Any) -> tuple[int, ...]:
+    """The shape of the caller's array of any kind (a list's as NumPy reads it)."""
+    return interop.shape_dtype(x)[0] if interop.is_array(x) else np.shape(x)
+
+
+def _param(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
+    """``check.scalar_or_field`` for a number or an array of any kind (read on the host)."""
+    return check.scalar_or_field(interop.to_numpy(x) if interop.is_array(x) else x, name,
+                                 like)
+
+
+def _out_for(out: Any, given: Any, dtype: np.dtype, shape: Any = None) -> None:
+    """Check ``out`` (if given) against the result: ``given``'s shape (or ``shape``)."""
+    if out is not None:
+        interop.check_out(out, _given_shape(given) if shape is None else shape,
+                          dtype)
+
+
+def _give(d: DeviceArray, given: Any, out: Any, what: str, shape: Any = None,
+          **finite: Any) -> Any:
+    """The result ``d`` (a buffer of the call's own) as the kind of ``given``, in
+    ``given``'s shape (or ``shape``), or written into ``out``; checked by :func:`_finite`
+    wherever the host sees it."""
+    shape = _given_shape(given) if shape is None else tuple(shape)
+    return interop.deliver(d, given, shape, out,
+                           check=lambda host: _finite(host, what, **finite))
+
+
+def _give_host(result: np.ndarray, given: Any, out: Any) -> Any:
+    """A host result as the kind of ``given``, or written into ``out``."""
+    if out is None:
+        return interop.from_numpy(result, given)
+    interop.fill(out, result)
+    return out
+
+
+def _target(be: Backend, out: Any, like: DeviceArray,
+            reads: tuple[DeviceArray, ...] = ()) -> DeviceArray | None:
+    """``out`` (checked) as a device array of ``like``'s shape a kernel can write directly:
+    where it lives on ``be`` and is none of the arrays the call ``reads``; else None."""
+    if out is None or not interop.resident(out, be):
+        return None
+    d = interop.wrap(out, be, like.shape)
+    return None if any(interop.overlaps(d, r) for r in reads) else d
+
+
+def _fresh(be: Backend, out: Any, like: DeviceArray) -> DeviceArray:
+    """The result buffer of a one-kernel call: ``out`` itself where a kernel can write it
+    (:func:`_target`), else a new array."""
+    return _target(be, out, like, (like,)) or be.empty_like(like)
+
+
+def _advance(be: Backend, start: tuple[DeviceArray, ...], n: int, step: Any,
+             outs: tuple[Any, ...] | None = None) -> tuple[DeviceArray, ...]:
+    """``n`` calls of ``step(cur, nxt)`` (tuples of device arrays) from ``start``, which is
+    only read (it may be the caller's memory), ping-ponging between buffers of the call's
+    own; the last step writes the caller's ``outs`` directly where a kernel can (see
+    :func:`_target`).  The result is never ``start`` (a copy of it when ``n == 0``)."""
+    final = None
+    if outs is not None and n > 0:
+        final = tuple(_target(be, o, d, start) for o, d in zip(outs, start, strict=True))
+        final = None if None in final else final
+    if n == 0:
+        copies = tuple(be.empty_like(d) for d in start)
+        for src, dst in zip(start, copies, strict=True):
+            be.copy(src, dst)
+        return copies
+    own = n if final is None else n - 1  # the steps that write buffers of the call's own
+    bufs = [tuple(be.empty_like(d) for d in start) for _ in range(min(own, 2))]
+    cur = start
+    for i in range(n):
+        nxt = final if (final is not None and i == n - 1) else bufs[i % 2]
+        step(cur, nxt)
+        cur = nxt
+    return cur
+
+
 def _check_mesh(mesh: Any) -> Any:
     from .mesh import SurfaceMesh
 
@@ -61,16 +180,17 @@ def _check_mesh(mesh: Any) -> Any:
     return mesh
 
 
-def _mesh_field(u: Any, mesh: Any, name: str) -> np.ndarray:
-    """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite."""
+def _mesh_field(u: Any, mesh: Any, name: str, be: Backend | None = None) -> np.ndarray:
+    """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite
+    (``be``: see :func:`_host_field`)."""
     n = _check_mesh(mesh).n_vertices
-    shape = np.shape(u)
+    shape = _given_shape(u)
     if len(shape) != 1 or shape[0] != n:
         raise ValueError(
             f"{name} has shape {shape}; on a mesh of {n} vertices it must be a 1-D array of "
             f"{n} values (one per vertex, in the order of mesh.vertices)"
         )
-    return check.as_field(u, name, ndim=(1,))
+    return _host_field(u, name, (1,), be)
 
 
 def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
@@ -87,9 +207,11 @@ def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
         )
 
 
-def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any) -> tuple[np.ndarray, Grid]:
-    """``(field [ny, nx], Grid)`` of a 1-D ``u[nx]`` or 2-D ``u[ny, nx]`` grid field."""
-    field = check.as_field(u, name, ndim=(1, 2))
+def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
+                  be: Backend | None = None) -> tuple[np.ndarray, Grid]:
+    """``(field [ny, nx], Grid)`` of a 1-D ``u[nx]`` or 2-D ``u[ny, nx]`` grid field
+    (``be``: see :func:`_host_field`)."""
+    field = _host_field(u, name, (1, 2), be)
     dx, dy = check.spacing(dx, dy)
     if field.ndim == 1:
         if dy != dx:
@@ -102,12 +224,13 @@ def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any) -> tuple[np.ndar
     return field.reshape(grid.shape), grid
 
 
-def _grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u"):
+def _grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u",
+                  be: Backend | None = None):
     """``(field, domain)``: a per-vertex field and the mesh, or a grid field and its Grid."""
     if mesh is not None:
         _no_grid_args(dx, dy, bc)
-        return _mesh_field(u, mesh, name), mesh
-    return _grid_problem(u, name, dx, dy, bc)
+        return _mesh_field(u, mesh, name, be), mesh
+    return _grid_problem(u, name, dx, dy, bc, be)
 
 
 class _progress_bar:
@@ -173,7 +296,8 @@ def laplacian(
     mesh: Any = None,
     height: Any = None,
     backend: BackendSpec = None,
-) -> np.ndarray:
+    out: Any = None,
+) -> Any:
     """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (equations §1),
     on a triangle mesh (equations §6), or on the graph surface ``z = h(x, y)`` (``height``).
 
@@ -191,33 +315,36 @@ def laplacian(
     9-point form of :class:`rdgpu.metric.GraphSurface`; ``h = 0`` gives the 5-point
     Laplacian to round-off).  The surface is periodic: ``bc`` must be ``"periodic"`` on both
     axes; ``stencil`` does not apply and ``mesh`` cannot be given too.  ``u`` must be 2-D.
+
+    ``out``: an array of u's shape and dtype that receives the result (module doc).
     """
     if height is not None:
-        return _surface_laplacian(u, height, dx, dy, bc, stencil, mesh, backend)
+        return _surface_laplacian(u, height, dx, dy, bc, stencil, mesh, backend, out)
+    be = get_backend(backend)
     if mesh is not None:
         _no_grid_args(dx, dy, bc, stencil)
-        field = _mesh_field(u, mesh, "u")
-        be = get_backend(backend)
-        d_u = be.upload(field)
-        out = be.empty_like(d_u)
-        be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, out)
-        return _finite(out.numpy(), "laplacian")
+        field = _mesh_field(u, mesh, "u", be)
+        _out_for(out, u, field.dtype)
+        d_u = _on(be, u, field)
+        res = _fresh(be, out, d_u)
+        be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, res)
+        return _give(res, u, out, "laplacian")
     if isinstance(stencil, bool) or stencil not in (5, 9):
         raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
-    field, grid = _grid_problem(u, "u", dx, dy, bc)
+    field, grid = _grid_problem(u, "u", dx, dy, bc, be)
     if grid.ndim == 1:
         stencil = 5  # both stencils are the 3-point (E + W − 2u)/dx² in 1-D
     elif stencil == 9 and grid.dx != grid.dy:
         raise ValueError(f"the 9-point stencil needs dx == dy, got dx={grid.dx}, dy={grid.dy}")
-    be = get_backend(backend)
-    d_u = be.upload(field)
-    out = be.empty_like(d_u)
-    be.laplacian(d_u, out, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
-    return _restore(_finite(out.numpy(), "laplacian"), u)
+    _out_for(out, u, field.dtype)
+    d_u = _on(be, u, field)
+    res = _fresh(be, out, d_u)
+    be.laplacian(d_u, res, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
+    return _give(res, u, out, "laplacian")
 
 
 def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: Any,
-                       mesh: Any, backend: BackendSpec) -> np.ndarray:
+                       mesh: Any, backend: BackendSpec, out: Any) -> Any:
     """``rdgpu.laplacian(u, height=h, ...)``: ``Δ_Γ u`` on the periodic graph surface of h."""
     from .metric import GraphSurface
 
@@ -228,15 +355,17 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
     if stencil != 5 or isinstance(stencil, bool):
         raise ValueError(f"stencil={stencil!r} given with height=: the surface operator has "
                          "its own 9-point form (rdgpu.metric); leave stencil at its default")
-    if np.ndim(u) != 2:
+    shape_u = _given_shape(u)
+    if len(shape_u) != 2:
         raise ValueError(f"with height= u must be a 2-D array [ny, nx] on the surface's "
-                         f"parameter grid, got a {np.ndim(u)}-D array of shape {np.shape(u)}")
-    field, grid = _grid_problem(u, "u", dx, dy, bc)
+                         f"parameter grid, got a {len(shape_u)}-D array of shape {shape_u}")
+    be = get_backend(backend)
+    field, grid = _grid_problem(u, "u", dx, dy, bc, be)
     if grid.bcs.x.kind != PERIODIC or grid.bcs.y.kind != PERIODIC:
         raise ValueError(f"a graph surface (height=) is periodic on both axes; got bc={bc!r}, "
                          "allowed: 'periodic'")
     try:
-        h = np.asarray(height, dtype=np.float64)
+        h = np.asarray(interop.to_numpy(height), dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise TypeError(f"height must be an array of real numbers, got "
                         f"{type(height).__name__}") from exc
@@ -248,11 +377,11 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
         raise ValueError(f"height contains {bad} NaN or Inf value(s); all values must be "
                          "finite")
     surface = GraphSurface(field.shape, dx=grid.dx, dy=grid.dy, height=h)
-    be = get_backend(backend)
-    d_u = be.upload(field)
-    out = be.empty_like(d_u)
-    be.metric_laplacian(d_u, be.upload_metric(surface, field.dtype), out)
-    return _restore(_finite(out.numpy(), "laplacian"), u)
+    _out_for(out, u, field.dtype)
+    d_u = _on(be, u, field)
+    res = _fresh(be, out, d_u)
+    be.metric_laplacian(d_u, be.upload_metric(surface, field.dtype), res)
+    return _give(res, u, out, "laplacian")
 
 
 # ---------------------------------------------------------------------------- Bernoulli
@@ -266,20 +395,21 @@ def bernoulli_decay(tau: float, eps: float, dtype: Any) -> float:
 
 
 def bernoulli_substep(
-    u: np.ndarray, *, tau: float, eps: float, backend: BackendSpec = None
-) -> np.ndarray:
+    u: Any, *, tau: float, eps: float, backend: BackendSpec = None, out: Any = None
+) -> Any:
     """Exact solution of ``u_t = (u − u³)/ε²`` after a time ``tau`` (equations §2), pointwise.
 
-    Works on arrays of any shape (grid cells or mesh vertices)."""
-    field = check.as_field(u, "u", ndim=tuple(range(1, 8)))
+    Works on arrays of any shape (grid cells or mesh vertices).  ``out``: module doc."""
+    be = get_backend(backend)
+    field = _host_field(u, "u", tuple(range(1, 8)), be)
     tau = check.scalar(tau, "tau")
     eps = check.scalar(eps, "eps", strict=True)
     decay = bernoulli_decay(tau, eps, field.dtype)
-    be = get_backend(backend)
-    d_u = be.upload(field)
-    out = be.empty_like(d_u)
-    be.bernoulli(d_u, out, decay=decay)
-    return _finite(out.numpy(), "bernoulli_substep")
+    _out_for(out, u, field.dtype)
+    d_u = _on(be, u, field)
+    res = _fresh(be, out, d_u)
+    be.bernoulli(d_u, res, decay=decay)
+    return _give(res, u, out, "bernoulli_substep")
 
 
 # ---------------------------------------------------------------------------- Gray-Scott
@@ -300,7 +430,8 @@ def gray_scott(
     check_stability: bool = True,
     progress: bool = False,
     backend: BackendSpec = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    out: tuple[Any, Any] | None = None,
+) -> tuple[Any, Any]:
     """Advance Gray-Scott ``steps`` forward-Euler steps of ``dt`` (equations §3).
 
     ``u_t = Du Δu − u v² + F (1 − u)``, ``v_t = Dv Δv + u v² − (F + k) v``.  ``F`` and ``k``
@@ -312,20 +443,35 @@ def gray_scott(
     (and field ``F``, ``k``) hold one value per vertex and ``Δ`` is the cotangent operator
     (equations §6), one fused kernel per step; the limit is then
     ``mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L))``.
+
+    ``out``: a pair ``(u_out, v_out)`` that receives the result (module doc).
     """
+    be = get_backend(backend)
     if mesh is not None:
         _no_grid_args(dx, dy, bc)
-        gu, gv = _mesh_field(u, mesh, "u"), _mesh_field(v, mesh, "v")
+        gu, gv = _mesh_field(u, mesh, "u", be), _mesh_field(v, mesh, "v", be)
     else:
-        gu, grid = _grid_problem(u, "u", dx, dy, bc)
-        gv, _ = _grid_problem(v, "v", dx, dy, bc)
-        check.same_shape(u, v, "u", "v")  # as given: a 1-D u and a 1-row v differ
+        gu, grid = _grid_problem(u, "u", dx, dy, bc, be)
+        gv, _ = _grid_problem(v, "v", dx, dy, bc, be)
+        shape_u, shape_v = _given_shape(u), _given_shape(v)
+        if shape_u != shape_v:  # as given: a 1-D u and a 1-row v differ
+            raise ValueError(f"v has shape {shape_v} but u has shape {shape_u}; they must "
+                             "match")
     check.same_dtype(gu, gv, "u", "v")
+    if out is not None:
+        if not isinstance(out, (tuple, list)) or len(out) != 2:
+            raise TypeError(f"out must be a pair (u_out, v_out) of arrays, got "
+                            f"{type(out).__name__}")
+        _out_for(out[0], u, gu.dtype)
+        _out_for(out[1], v, gv.dtype)
+        if out[0] is out[1]:
+            raise ValueError("out holds one array twice; u_out and v_out must be two arrays")
+    outs = (None, None) if out is None else tuple(out)
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
-    F_ = check.scalar_or_field(F, "F", gu)
-    k_ = check.scalar_or_field(k, "k", gu)
+    F_ = _param(F, "F", gu)
+    k_ = _param(k, "k", gu)
     if mesh is not None:
         d = max(Du, Dv)
         limit = mesh.max_stable_dt(d) if d > 0 else math.inf
@@ -335,57 +481,47 @@ def gray_scott(
                 "mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L)); reduce dt or "
                 "pass check_stability=False"
             )
-        be = get_backend(backend)
         L = be.upload_csr(mesh.laplacian, gu.dtype)
-        cur_u, cur_v = be.upload(gu), be.upload(gv)
-        nxt_u, nxt_v = be.empty_like(cur_u), be.empty_like(cur_v)
-        d_F, d_k = _upload_optional(be, F_), _upload_optional(be, k_)
-        with _progress_bar(n, "gray-scott", progress) as bar:
-            for step in range(n):
-                be.mesh_gray_scott(L, cur_u, cur_v, nxt_u, nxt_v, Du=Du, Dv=Dv, F=d_F, k=d_k,
-                                   dt=dt)
-                cur_u, nxt_u = nxt_u, cur_u
-                cur_v, nxt_v = nxt_v, cur_v
-                bar.tick(step + 1)
-        return (_finite(cur_u.numpy(), "gray_scott", stepping=True,
-                        check_stability=check_stability),
-                _finite(cur_v.numpy(), "gray_scott", stepping=True,
-                        check_stability=check_stability))
-    limit = gray_scott_dt_limit(Du, Dv, grid.dx, grid.dy)
-    if check_stability and dt > limit:
-        raise StabilityError(
-            f"dt={dt} exceeds the forward-Euler diffusion limit {limit:.6g} = "
-            f"{_explicit_limit_formula(grid, 'max(Du, Dv)')}; reduce dt or pass "
-            "check_stability=False"
-        )
-    dx, dy, bcs = grid.dx, grid.dy, grid.bcs
-    be = get_backend(backend)
-    cur_u, cur_v = be.upload(gu), be.upload(gv)
-    nxt_u, nxt_v = be.empty_like(cur_u), be.empty_like(cur_v)
-    d_F, d_k = _upload_optional(be, F_), _upload_optional(be, k_)
-    with _progress_bar(n, "gray-scott", progress) as bar:
-        for step in range(n):
-            be.gray_scott(
-                cur_u, cur_v, nxt_u, nxt_v, Du=Du, Dv=Dv, F=d_F, k=d_k, dt=dt, dx=dx, dy=dy,
-                bc=bcs,
+
+        def kernel(cur, nxt):
+            be.mesh_gray_scott(L, *cur, *nxt, Du=Du, Dv=Dv, F=d_F, k=d_k, dt=dt)
+    else:
+        limit = gray_scott_dt_limit(Du, Dv, grid.dx, grid.dy)
+        if check_stability and dt > limit:
+            raise StabilityError(
+                f"dt={dt} exceeds the forward-Euler diffusion limit {limit:.6g} = "
+                f"{_explicit_limit_formula(grid, 'max(Du, Dv)')}; reduce dt or pass "
+                "check_stability=False"
             )
-            cur_u, nxt_u = nxt_u, cur_u
-            cur_v, nxt_v = nxt_v, cur_v
-            bar.tick(step + 1)
+
+        def kernel(cur, nxt):
+            be.gray_scott(*cur, *nxt, Du=Du, Dv=Dv, F=d_F, k=d_k, dt=dt, dx=grid.dx,
+                          dy=grid.dy, bc=grid.bcs)
+    d_F, d_k = _upload_optional(be, F_), _upload_optional(be, k_)
+    start = (_on(be, u, gu), _on(be, v, gv))
+    with _progress_bar(n, "gray-scott", progress) as bar:
+        done = [0]
+
+        def step(cur, nxt):
+            kernel(cur, nxt)
+            done[0] += 1
+            bar.tick(done[0])
+        res_u, res_v = _advance(be, start, n, step, outs)
     gs = {"stepping": True, "check_stability": check_stability}
-    return (_restore(_finite(cur_u.numpy(), "gray_scott", **gs), u),
-            _restore(_finite(cur_v.numpy(), "gray_scott", **gs), v))
+    return (_give(res_u, u, outs[0], "gray_scott", **gs),
+            _give(res_v, v, outs[1], "gray_scott", **gs))
 
 
 # ---------------------------------------------------------------------------- SpMV
-def spmv(csr: Any, x: np.ndarray, backend: BackendSpec = None) -> np.ndarray:
+def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> Any:
     """``y = A x`` on a backend for any ``scipy.sparse`` matrix or array ``A`` (any format,
     square or not): a drop-in for ``A @ x`` with a 1-D ``x``.
 
     The result has ``x``'s dtype (float32 or float64); ``A`` is cast to it.  Each row is
     summed in index order in that dtype.  ``A`` is uploaded on every call: to apply one
     operator many times, upload it once with ``backend.upload_csr`` and call
-    ``backend.spmv``.  Neither input is modified."""
+    ``backend.spmv``.  Neither input is modified.  ``x``: any array kind; ``out``: an
+    array of shape ``(n_rows,)`` and x's dtype that receives ``y`` (module doc)."""
     import scipy.sparse as sp
 
     if not sp.issparse(csr):
@@ -399,29 +535,32 @@ def spmv(csr: Any, x: np.ndarray, backend: BackendSpec = None) -> np.ndarray:
         raise TypeError(f"csr has dtype {csr.dtype}; only real matrices are supported")
     n_rows, n_cols = csr.shape
     xa = np.asarray(x) if isinstance(x, (list, tuple)) else x
-    if not isinstance(xa, np.ndarray):
-        raise TypeError(f"x must be a NumPy array, got {type(x).__name__}")
-    if xa.ndim != 1 or xa.shape[0] != n_cols:
+    try:
+        shape_x, dtype_x = interop.shape_dtype(xa)
+    except (TypeError, AttributeError):
+        raise TypeError(f"x must be a NumPy array (or any array kind: rdgpu.interop), got "
+                        f"{type(x).__name__}") from None
+    if len(shape_x) != 1 or shape_x[0] != n_cols:
         raise ValueError(
-            f"x has shape {xa.shape}; the matrix of shape {csr.shape} needs a 1-D x of length "
+            f"x has shape {shape_x}; the matrix of shape {csr.shape} needs a 1-D x of length "
             f"{n_cols}"
         )
     if n_cols == 0 or n_rows == 0:
-        if xa.dtype not in check.DTYPES:
-            raise TypeError(f"x has unsupported dtype {xa.dtype}; allowed: float32, float64")
-        return np.zeros(n_rows, dtype=xa.dtype)
-    field = check.as_field(xa, "x", ndim=(1,))
+        if dtype_x not in check.DTYPES:
+            raise TypeError(f"x has unsupported dtype {dtype_x}; allowed: float32, float64")
+        return _give_host(np.zeros(n_rows, dtype=dtype_x), xa, out)
+    be = get_backend(backend)
+    field = _host_field(xa, "x", (1,), be)
+    _out_for(out, xa, field.dtype, (n_rows,))
     m = sp.csr_matrix(csr)
     if m.nnz and not np.isfinite(m.data).all():
         bad = int(np.count_nonzero(~np.isfinite(m.data)))
         raise ValueError(f"csr contains {bad} NaN or Inf value(s); all entries must be finite")
     check.fits_dtype(m.data, field.dtype, "csr")
-    be = get_backend(backend)
     A = be.upload_csr(m, field.dtype)
-    d_x = be.upload(field)
     y = be.empty((n_rows,), field.dtype)
-    be.spmv(A, d_x, y)
-    return _finite(y.numpy(), "spmv")
+    be.spmv(A, _on(be, xa, field), y)
+    return _give(y, xa, out, "spmv", shape=(n_rows,))
 
 
 # ---------------------------------------------------------------------------- diffusion
@@ -443,7 +582,8 @@ def diffusion_step(
     tol: float | None = None,
     check_stability: bool = True,
     backend: BackendSpec = None,
-) -> np.ndarray:
+    out: Any = None,
+) -> Any:
     """Advance ``u_t = D Δu + source`` by ``steps`` steps of ``dt`` on a grid or a mesh.
 
     ``method``: ``"explicit"`` (forward Euler ``u + dt (D Δu + source)``; raises
@@ -458,21 +598,21 @@ def diffusion_step(
     :func:`laplacian` (5-point stencil, Dirichlet ghosts included).  ``mesh``: a
     :class:`rdgpu.SurfaceMesh`; ``u`` has one value per vertex; the grid arguments must stay
     at their defaults.  On a closed mesh (or a periodic/Neumann grid) every method keeps
-    ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step."""
+    ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step.  ``out``: module doc."""
     from .implicit import ImplicitDiffusion, operator_matrix
 
     method = "backward-euler" if method == "implicit" else method
     if method not in DIFFUSION_METHODS:
         raise ValueError(f"method must be one of {DIFFUSION_METHODS} (or 'implicit'), got "
                          f"{method!r}")
-    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
+    be = get_backend(backend)
+    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc, be=be)
     D = check.scalar(D, "D")
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
-    src = check.scalar_or_field(source, "source", field)
-    be = get_backend(backend)
-    cur = be.upload(field)
-    nxt = be.empty_like(cur)
+    src = _param(source, "source", field)
+    _out_for(out, u, field.dtype)
+    start = (_on(be, u, field),)
     if method == "explicit":
         if mesh is not None:
             limit = mesh.max_stable_dt(D) if D > 0 else math.inf
@@ -492,19 +632,20 @@ def diffusion_step(
                                         + D * b.reshape(field.shape)).astype(field.dtype))
         L = be.upload_csr(M, field.dtype)
         d_src = _upload_optional(be, src)
-        for _ in range(n):
-            be.mesh_diffusion(L, cur, nxt, D=D, dt=dt, source=d_src)
-            cur, nxt = nxt, cur
+
+        def step(cur, nxt):
+            be.mesh_diffusion(L, cur[0], nxt[0], D=D, dt=dt, source=d_src)
     else:
         theta = 1.0 if method == "backward-euler" else 0.5
         solver = ImplicitDiffusion(domain, D=D, dt=dt, theta=theta, backend=be,
                                    dtype=field.dtype, tol=tol)
         d_src = _upload_optional(be, src)
-        for _ in range(n):
-            solver.step(cur, nxt, source=d_src)
-            cur, nxt = nxt, cur
-    out = _finite(cur.numpy(), "diffusion_step", stepping=True, check_stability=check_stability)
-    return out if mesh is not None else _restore(out, u)
+
+        def step(cur, nxt):
+            solver.step(cur[0], nxt[0], source=d_src)
+    (res,) = _advance(be, start, n, step, (out,))
+    return _give(res, u, out, "diffusion_step", stepping=True,
+                 check_stability=check_stability)
 
 
 def allen_cahn(
@@ -521,7 +662,8 @@ def allen_cahn(
     bc: Any = "periodic",
     check_stability: bool = True,
     backend: BackendSpec = None,
-) -> np.ndarray:
+    out: Any = None,
+) -> Any:
     """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
     equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
     source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (the stepper of
@@ -531,7 +673,8 @@ def allen_cahn(
     ``mesh.max_stable_dt(1)`` on a mesh; :class:`StabilityError` above it unless
     ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
     (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
-    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``."""
+    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
+    ``out``: module doc (the state crosses the host once each way: the stepper's own)."""
     from .models import AllenCahn
 
     field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
@@ -543,7 +686,8 @@ def allen_cahn(
         )
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
-    b_ = check.scalar_or_field(b, "b", field)
+    b_ = _param(b, "b", field)
+    _out_for(out, u, field.dtype)
     if method not in AllenCahn.methods:
         raise ValueError(f"method must be one of {AllenCahn.methods}, got {method!r}")
     stepper = AllenCahn().stepper(
@@ -552,9 +696,9 @@ def allen_cahn(
     )
     stepper.set_state({"u": field})
     stepper.advance(n)
-    out = _finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
+    res = _finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
                   check_stability=check_stability)
-    return out if mesh is not None else _restore(out, u)
+    return _give_host(res.reshape(_given_shape(u)), u, out)
 
 
 # ---------------------------------------------------------------------------- SOR
@@ -573,30 +717,30 @@ def optimal_omega(shape: tuple[int, ...]) -> float:
     return 2.0 / (1.0 + math.sin(math.pi / n))
 
 
-def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc):
+def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
     """Checked SOR inputs: ``(c [ny, nx], mask uint8, omega, rhs or None, dx, dy, bcs)``."""
-    grid, domain = _grid_problem(c, "c", dx, dy, bc)
-    if isinstance(fixed, (list, tuple)):
-        fixed = np.asarray(fixed)
+    grid, domain = _grid_problem(c, "c", dx, dy, bc, be)
+    if isinstance(fixed, (list, tuple)) or interop.is_array(fixed):
+        fixed = interop.to_numpy(fixed)
     if not isinstance(fixed, np.ndarray):
         raise TypeError(f"fixed must be a NumPy boolean (or integer) mask, got "
                         f"{type(fixed).__name__}")
     if fixed.dtype != bool and fixed.dtype.kind not in "iu":
         raise TypeError(f"fixed must be a boolean mask (or integers, non-zero = fixed), got "
                         f"dtype {fixed.dtype}")
-    if fixed.shape != np.shape(c):
-        raise ValueError(f"fixed has shape {fixed.shape} but c has shape {np.shape(c)}; they "
-                         "must match")
+    if fixed.shape != _given_shape(c):
+        raise ValueError(f"fixed has shape {fixed.shape} but c has shape {_given_shape(c)}; "
+                         "they must match")
     mask = np.ascontiguousarray((fixed != 0).reshape(grid.shape), dtype=np.uint8)
     omega = check.scalar(omega, "omega", minimum=None)
     if not 0.0 < omega < 2.0:
         raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
     f = None
     if rhs is not None:
-        f = check.as_field(rhs, "rhs", ndim=(1, 2))
-        if f.shape != np.shape(c):
-            raise ValueError(f"rhs has shape {f.shape} but c has shape {np.shape(c)}; they "
-                             "must match")
+        f = _host_field(rhs, "rhs", (1, 2), None)
+        if f.shape != _given_shape(c):
+            raise ValueError(f"rhs has shape {f.shape} but c has shape {_given_shape(c)}; "
+                             "they must match")
         f = np.ascontiguousarray(f.reshape(grid.shape).astype(grid.dtype, copy=False))
     bcs = domain.bcs
     axes = (("x", grid.shape[1], bcs.x),) if domain.ndim == 1 else (
@@ -614,9 +758,10 @@ def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc):
 class _SOR:
     """Device state of one SOR problem."""
 
-    def __init__(self, be: Backend, grid, mask, f):
+    def __init__(self, be: Backend, given, grid, mask, f):
         self.be = be
-        self.c = be.upload(grid)
+        self.c = be.empty(grid.shape, grid.dtype)  # updated in place: never the caller's
+        be.copy(_on(be, given, grid), self.c)
         self.fixed = be.upload(mask)
         self.rhs = None if f is None else be.upload(f)
         self.change = be.empty((grid.shape[0],), grid.dtype)
@@ -642,14 +787,18 @@ def sor_sweep(
     dy: float | None = None,
     bc: Any = "neumann",
     backend: BackendSpec = None,
-) -> np.ndarray:
+    out: Any = None,
+) -> Any:
     """One red-black SOR sweep for ``Δc = rhs`` (red ``(i + j)`` even, then black; equations §4).
 
-    ``fixed`` is a boolean mask of Dirichlet cells that keep their value."""
-    grid, mask, omega, f, dx, dy, bcs = _sor_inputs(c, fixed, omega, rhs, dx, dy, bc)
-    state = _SOR(get_backend(backend), grid, mask, f)
+    ``fixed`` is a boolean mask of Dirichlet cells that keep their value.  ``out``: module
+    doc."""
+    be = get_backend(backend)
+    grid, mask, omega, f, dx, dy, bcs = _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be)
+    _out_for(out, c, grid.dtype)
+    state = _SOR(be, c, grid, mask, f)
     state.sweep(omega, dx, dy, bcs)
-    return _restore(state.c.numpy(), c)
+    return interop.deliver(state.c, c, _given_shape(c), out)
 
 
 def sor_solve(
@@ -664,7 +813,8 @@ def sor_solve(
     dy: float | None = None,
     bc: Any = "neumann",
     backend: BackendSpec = None,
-) -> tuple[np.ndarray, int, float]:
+    out: Any = None,
+) -> tuple[Any, int, float]:
     """Solve ``Δc = rhs`` by red-black SOR from the initial guess ``c`` (equations §4).
 
     Stops after the first sweep whose max change is below ``tol``; returns
@@ -677,17 +827,20 @@ def sor_solve(
     for the Jacobi radius ``cos(π/N)``, while it is ``<= 64 eps max|c|`` -- the solve
     stops with a ``RuntimeWarning`` that names the floor reached (``tol`` is below what the
     dtype resolves; the result is as accurate as it can be).  If ``max_sweeps`` ends the
-    solve otherwise, :class:`rdgpu.errors.ConvergenceError` is raised."""
+    solve otherwise, :class:`rdgpu.errors.ConvergenceError` is raised.  ``out``: an array
+    that receives ``c`` (module doc)."""
     from .errors import ConvergenceError
 
+    be = get_backend(backend)
     grid, mask, omega_, f, dx, dy, bcs = _sor_inputs(c, fixed, 1.0 if omega is None else omega,
-                                                     rhs, dx, dy, bc)
+                                                     rhs, dx, dy, bc, be)
+    _out_for(out, c, grid.dtype)
     omega = optimal_omega(grid.shape) if omega is None else omega_
     tol = check.scalar(tol, "tol", strict=True)
     if max_sweeps is None:
         max_sweeps = max(1000, 50 * max(grid.shape))
     max_sweeps = check.steps(max_sweeps, "max_sweeps")
-    state = _SOR(get_backend(backend), grid, mask, f)
+    state = _SOR(be, c, grid, mask, f)
     eps = float(np.finfo(grid.dtype).eps)
     # Young: the model problem's Jacobi radius cos(π/N) and the contraction at this omega
     rho_j = math.cos(math.pi / max(max(grid.shape), 2))
@@ -737,13 +890,14 @@ def sor_solve(
             RuntimeWarning,
             stacklevel=2,
         )
-    return _restore(state.c.numpy(), c), sweeps, residual
+    return interop.deliver(state.c, c, _given_shape(c), out), sweeps, residual
 
 
 # ---------------------------------------------------------------------------- level sets
-def _levelset_problem(phi: Any, dx: Any, dy: Any, dz: Any, bc: Any) -> tuple[np.ndarray, Grid]:
+def _levelset_problem(phi: Any, dx: Any, dy: Any, dz: Any, bc: Any,
+                      be: Backend | None = None) -> tuple[np.ndarray, Grid]:
     """``(field, Grid)`` of a 1-D, 2-D or (with ``dz``, default ``dx``) 3-D level-set field."""
-    field = check.as_field(phi, "phi", ndim=(1, 2, 3))
+    field = _host_field(phi, "phi", (1, 2, 3), be)
     if field.ndim < 3:
         if dz is not None:
             raise ValueError(f"dz={dz!r} given for a {field.ndim}-D phi of shape {field.shape}: "
@@ -778,16 +932,18 @@ def levelset_advance(
     bc: Any = "neumann",
     check_stability: bool = True,
     backend: BackendSpec = None,
-) -> np.ndarray:
+    out: Any = None,
+) -> Any:
     """Advance ``φ_t + F|∇φ| = 0`` by first-order upwinding (equations §5).
 
     ``φ < 0`` is inside; ``F > 0`` moves the front outward.  ``speed`` is a scalar or a
     per-cell field.  ``phi`` is ``[nx]``, ``[ny, nx]`` or ``[nz, ny, nx]`` (3-D, seed 003
     eq. 3.11: plane spacing ``dz``, default ``dx``; ``bc`` one condition or a triple
     ``(z_bc, y_bc, x_bc)``).  Raises :class:`StabilityError` if
-    ``dt · max|F| · (1/dx + 1/dy (+ 1/dz)) > 1``."""
-    grid, domain = _levelset_problem(phi, dx, dy, dz, bc)
-    F = check.scalar_or_field(speed, "speed", grid)
+    ``dt · max|F| · (1/dx + 1/dy (+ 1/dz)) > 1``.  ``out``: module doc."""
+    be = get_backend(backend)
+    grid, domain = _levelset_problem(phi, dx, dy, dz, bc, be)
+    F = _param(speed, "speed", grid)
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
@@ -800,15 +956,14 @@ def levelset_advance(
             "reduce dt or pass check_stability=False"
         )
     kw = {"dz": domain.dz} if domain.ndim == 3 else {}
-    be = get_backend(backend)
-    cur = be.upload(grid)
-    nxt = be.empty_like(cur)
+    _out_for(out, phi, grid.dtype)
     d_F = _upload_optional(be, F)
-    for _ in range(n):
-        be.levelset_step(cur, d_F, nxt, dt=dt, dx=dx, dy=dy, bc=bcs, **kw)
-        cur, nxt = nxt, cur
-    out = _finite(cur.numpy(), "levelset_advance", stepping=True, check_stability=check_stability)
-    return _restore(out, phi)
+
+    def step(cur, nxt):
+        be.levelset_step(cur[0], d_F, nxt[0], dt=dt, dx=dx, dy=dy, bc=bcs, **kw)
+    (res,) = _advance(be, (_on(be, phi, grid),), n, step, (out,))
+    return _give(res, phi, out, "levelset_advance", stepping=True,
+                 check_stability=check_stability)
 
 
 def reinitialize(
@@ -822,7 +977,8 @@ def reinitialize(
     bc: Any = "neumann",
     subcell_fix: bool = True,
     backend: BackendSpec = None,
-) -> np.ndarray:
+    out: Any = None,
+) -> Any:
     """Make ``φ`` a signed distance function without moving its zero level set (equations §5).
 
     Iterates ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with ``S = φ₀/sqrt(φ₀² + dx²)`` and pseudo-time
@@ -833,8 +989,9 @@ def reinitialize(
     ``N/2`` (``N/3``) cells.  ``subcell_fix`` (Russo & Smereka 2000) anchors the cells next
     to the front to φ₀'s own distance estimate, so the front does not drift however many
     iterations run; without it the plain Godunov scheme moves the front by a fraction of
-    a cell per ~100 steps."""
-    grid, domain = _levelset_problem(phi, dx, dy, dz, bc)
+    a cell per ~100 steps.  ``out``: module doc."""
+    be = get_backend(backend)
+    grid, domain = _levelset_problem(phi, dx, dy, dz, bc, be)
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
     formula, limit = _grid_formula(domain)
     dtau = limit if dtau is None else check.scalar(dtau, "dtau", strict=True)
@@ -842,14 +999,11 @@ def reinitialize(
         raise StabilityError(f"dtau={dtau} exceeds the CFL limit {limit:.6g} = {formula}")
     n = max(grid.shape) if iterations is None else check.steps(iterations, "iterations")
     kw = {"dz": domain.dz} if domain.ndim == 3 else {}
-    be = get_backend(backend)
-    phi0 = be.upload(grid)
-    cur = be.upload(grid)
-    nxt = be.empty_like(cur)
-    for _ in range(n):
-        be.reinit_step(
-            cur, phi0, nxt, dtau=dtau, width=dx, dx=dx, dy=dy, bc=bcs, subcell=subcell_fix,
-            **kw,
-        )
-        cur, nxt = nxt, cur
-    return _restore(cur.numpy(), phi)
+    _out_for(out, phi, grid.dtype)
+    phi0 = _on(be, phi, grid)
+
+    def step(cur, nxt):
+        be.reinit_step(cur[0], phi0, nxt[0], dtau=dtau, width=dx, dx=dx, dy=dy, bc=bcs,
+                       subcell=subcell_fix, **kw)
+    (res,) = _advance(be, (phi0,), n, step, (out,))
+    return interop.deliver(res, phi, _given_shape(phi), out)

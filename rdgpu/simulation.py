@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from . import interop
 from .domains import Grid
 from .errors import SimulationDiverged, SimulationInterrupted
 
@@ -1172,7 +1173,10 @@ class Simulation:
     init : dict
         The initial condition (default: :func:`default_init`); ignored if ``fields`` given.
     fields : dict of arrays
-        Explicit initial fields, one per species.
+        Explicit initial fields, one per species: NumPy arrays, lists, or any library's
+        arrays (:mod:`rdgpu.interop`: Warp, pyopencl, PyTorch, DLPack), read once on the
+        host (in place where the host can; ``Result`` holds NumPy arrays).  Parameter
+        fields in ``params`` may be any such array too.
     check_stability : bool
         With ``True`` the model raises :class:`~rdgpu.StabilityError` when
         ``dt > model.dt_limit(domain, params)``; with ``False`` it is asked to run anyway.
@@ -1334,8 +1338,8 @@ class Simulation:
             return dict(resolve_params(self.model, self.domain, given, seed=seed))
         out: dict[str, Any] = {}
         for k, v in {**defaults, **params}.items():
-            if isinstance(v, (list, tuple)):
-                v = np.asarray(v)
+            if isinstance(v, (list, tuple)) or interop.is_array(v):
+                v = interop.to_numpy(v)  # any library's array: read in place or one copy
             if isinstance(v, np.ndarray) and v.ndim > 0:
                 if v.dtype.kind not in "fiub":
                     raise TypeError(f"parameter {k!r} as a field must hold real numbers, "
@@ -1369,7 +1373,8 @@ class Simulation:
                              f"has {list(self.species)}")
         out = {}
         for s in self.species:
-            a = np.asarray(fields[s])
+            f = fields[s]  # any library's array (rdgpu.interop): read in place or one copy
+            a = interop.to_numpy(f) if interop.is_array(f) else np.asarray(f)
             if a.dtype.kind == "c":
                 raise TypeError(f"field {s!r} is complex ({a.dtype}); fields must be real "
                                 "(float32 or float64): pass the real part if that is meant")
