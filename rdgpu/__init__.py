@@ -59,10 +59,10 @@ def __getattr__(name: str):
         from .walkers import random_walk_dla
 
         return random_walk_dla
-    if name == "surfaces":  # rough-surface generators (seed 002), imported on first use
+    if name in ("surfaces", "interop"):  # rough surfaces (seed 002); arrays of any library
         import importlib
 
-        return importlib.import_module(".surfaces", __name__)
+        return importlib.import_module(f".{name}", __name__)
     if name == "GraphSurface":  # z = h(x, y) over a periodic grid, the metric Δ_Γ
         from .metric import GraphSurface
 
@@ -111,6 +111,7 @@ __all__ = [
     "sor_sweep",
     "spmv",
     "sweep",
+    "interop",
     "surfaces",
     "sweep_map",
     "use_backend",
