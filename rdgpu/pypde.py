@@ -41,7 +41,12 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import pde
+
+try:
+    import pde
+except ImportError as exc:  # py-pde is optional: only this module needs it
+    raise ImportError("rdgpu.pypde needs py-pde: pip install 'rdgpu[pypde]' (or py-pde "
+                      f">= 0.59); {exc}") from exc
 from pde.backends import BackendBase, backend_registry
 from pde.grids.boundaries.axis import BoundaryPeriodic
 from pde.grids.boundaries.local import DirichletBC, NeumannBC

@@ -146,6 +146,26 @@ def test_expression_with_coordinates_time_and_constants():
            start)
 
 
+def test_pypde_brusselator_example():
+    """py-pde's example ``examples/simple_pdes/pde_brusselator_expression.py`` (the
+    Brusselator as a ``PDE``: a = 1, b = 3, D = 1 and 0.1, ``UnitGrid([64, 64])``, u = a,
+    v = b/a + 0.1·normal noise, dt = 1e-3), rewritten here with a seeded noise, a
+    ``MemoryStorage`` in place of its ``PlotTracker`` and 300 of its 20000 steps."""
+    a, b = 1, 3
+    eq = pde.PDE({"u": f"1 * laplace(u) + {a} - ({b} + 1) * u + u**2 * v",
+                  "v": f"0.1 * laplace(v) + {b} * u - u**2 * v"})
+    grid = pde.UnitGrid([64, 64])
+    u = pde.ScalarField(grid, a, label="u")
+    v = b / a + 0.1 * pde.ScalarField.random_normal(grid, rng=np.random.default_rng(8))
+    start = pde.FieldCollection([u, v])
+    runs = []
+    for backend in ("numpy", "rdgpu:numpy"):
+        store = pde.MemoryStorage()
+        runs.append(_solve(eq, start, backend, 300, 1e-3, tracker=store.tracker(0.1)))
+        assert len(store) == 4
+    _agree(runs[1], runs[0], start, moved=0.02)
+
+
 # --------------------------------------------------------------------- trackers, solvers
 def test_trackers_see_the_same_data():
     grid = pde.CartesianGrid([[0, 10], [0, 10]], [16, 16], periodic=True)
