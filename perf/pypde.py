@@ -1,0 +1,126 @@
+"""Gray-Scott through py-pde's API: ``backend="numba"`` against ``backend="rdgpu:..."``.
+
+    python perf/pypde.py [--size 2048] [--backends numba rdgpu:opencl rdgpu:warp]
+                         [--numba-steps 10] [--rdgpu-steps 400] [--out perf/results]
+
+One ``pde.PDE`` (seed 001's Gray-Scott, periodic ``CartesianGrid`` of ``size²`` unit
+cells, float64, py-pde's Euler solver at a fixed ``dt = 1``) solved by each backend in the
+same process.  Per backend one ``eq.solve`` of ``3m`` steps (``m`` the steps per
+interval) with a ``CallbackTracker`` every ``m`` steps that notes the wall clock: the
+first interval holds the compilation (py-pde's numba jit, rdgpu's kernel build), the
+rate is ``2m · size²`` over the time of the last two intervals (Mcell/s; for rdgpu each
+interval includes one upload and one download, as trackers make it).  A ``DataTracker``
+keeps the state after 10 steps; every backend's is compared with the first backend's
+(max |Δ|, to round-off).  Writes
+``pypde.md`` in ``--out``.  The default size is 2048² (what the issue names, 64 MiB per
+float64 field: far beyond a 32 MiB LLC); ``--size 0`` takes the largest size of
+:func:`machine.default_sizes` for the LLC instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+try:
+    import rdgpu
+except ImportError:  # run from a source checkout without installing
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import rdgpu
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import machine  # noqa: E402 - perf/machine.py, next to this file
+import pde  # noqa: E402
+
+import rdgpu.pypde  # noqa: E402,F401 - registers backend "rdgpu"
+
+EQUATIONS = {"u": "0.16*laplace(u) - u*v**2 + 0.035*(1 - u)",
+             "v": "0.08*laplace(v) + u*v**2 - (0.035 + 0.06)*v"}
+DT = 1.0
+FIRST_STEPS = 10
+
+
+def initial_state(n: int) -> pde.FieldCollection:
+    """u = 1, v = 0, with a noisy square of u = 0.5, v = 0.25 in the middle."""
+    grid = pde.CartesianGrid([[0.0, n], [0.0, n]], [n, n], periodic=True)
+    rng = np.random.default_rng(1)
+    u, v = np.ones((n, n)), np.zeros((n, n))
+    a, b = n // 2 - n // 10, n // 2 + n // 10
+    u[a:b, a:b], v[a:b, a:b] = 0.5, 0.25
+    u += 0.05 * rng.random((n, n))
+    v += 0.05 * rng.random((n, n))
+    return pde.FieldCollection([pde.ScalarField(grid, u, label="u"),
+                                pde.ScalarField(grid, v, label="v")])
+
+
+def measure(eq: pde.PDE, state, backend: str, interval: int) -> dict:
+    """One ``eq.solve`` of ``3 · interval`` steps with a ``CallbackTracker`` every
+    ``interval`` steps (module doc)."""
+    cells = state.grid.num_cells
+    stamps: list[float] = []
+    clock = pde.CallbackTracker(lambda s, t: stamps.append(time.perf_counter()),
+                                interrupts=interval * DT)
+    early = pde.DataTracker(lambda s: s.data.copy(), interrupts=[FIRST_STEPS * DT])
+    t0 = time.perf_counter()
+    eq.solve(state, t_range=3 * interval * DT, dt=DT, tracker=[clock, early],
+             backend=backend, solver="euler", adaptive=False)
+    wall = time.perf_counter() - t0
+    return {"backend": backend, "wall_s": wall, "first_s": stamps[1] - t0,
+            "steps": 2 * interval,
+            "mcells": 2 * interval * cells / (stamps[3] - stamps[1]) / 1e6,
+            "result": early.data[-1]}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=2048)
+    parser.add_argument("--backends", nargs="+",
+                        default=["numba", "rdgpu:opencl", "rdgpu:warp"])
+    parser.add_argument("--numba-steps", type=int, default=10,
+                        help="steps per tracker interval with numba (>= 10)")
+    parser.add_argument("--rdgpu-steps", type=int, default=400,
+                        help="steps per tracker interval with rdgpu (>= 10)")
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
+    args = parser.parse_args(argv)
+    n = args.size
+    if n <= 0:
+        n = machine.default_sizes(machine.cpu_caches().llc, 16, 32)[-1]
+    eq = pde.PDE(EQUATIONS, bc="periodic")
+    state = initial_state(n)
+    rows = []
+    for name in args.backends:
+        interval = args.numba_steps if name == "numba" else args.rdgpu_steps
+        row = measure(eq, state, name, max(interval, FIRST_STEPS))
+        rows.append(row)
+        print(f"{name:14s} {row['mcells']:9.1f} Mcell/s  first call {row['first_s']:.2f} s",
+              flush=True)
+    ref = rows[0]
+    lines = [
+        "# Gray-Scott through py-pde's API: numba against rdgpu (perf/pypde.py)", "",
+        f"`python perf/pypde.py --size {n} --backends {' '.join(args.backends)} "
+        f"--numba-steps {args.numba_steps} --rdgpu-steps {args.rdgpu_steps}`; py-pde "
+        f"{pde.__version__}, rdgpu {getattr(rdgpu, '__version__', '?')}, float64, {n}² "
+        f"periodic, Euler dt = {DT}, trackers every m steps. The machine: "
+        f"{machine.cpu_caches().llc // machine.MiB} MiB LLC, "
+        "2 cores shared with other jobs (rates are indicative).", "",
+        "| backend | Mcell/s | × numba | steps timed | to the first interval (s) | "
+        f"max abs diff after {FIRST_STEPS} steps vs {ref['backend']} |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    base = next((r["mcells"] for r in rows if r["backend"] == "numba"), None)
+    for r in rows:
+        diff = float(np.abs(r["result"] - ref["result"]).max())
+        speed = f"{r['mcells'] / base:.0f}" if base else "—"
+        lines.append(f"| {r['backend']} | {r['mcells']:.1f} | {speed} | "
+                     f"{r['steps']} | {r['first_s']:.2f} | {diff:.1e} |")
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "pypde.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

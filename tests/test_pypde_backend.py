@@ -1,0 +1,254 @@
+"""rdgpu as a py-pde backend (issue 12, item 1): ``eq.solve(..., backend="rdgpu")``.
+
+Each problem is solved by py-pde itself (its ``"numpy"`` backend: the stepping loop in
+Python, the right-hand side from py-pde's own operators; ``"numba"`` for one built-in
+class, where it compiles in a few seconds) and through ``backend="rdgpu:<device>"``, with
+the same explicit Euler steps of a fixed ``dt``; the two must agree to round-off after
+hundreds of steps (1e-12 in float64, on fields of order 1 that move by order 1).
+py-pde's Dirichlet value is the value on the face (ghost ``2g − u``): the boundary cases
+use values far from the fields so that a ghost-value reading would differ by O(dt).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import backend_or_skip
+
+pde = pytest.importorskip("pde")
+
+import rdgpu.pypde  # noqa: E402
+from rdgpu.pypde import UnsupportedPDE  # noqa: E402
+
+TOL = 1e-12
+GS = {"u": "0.16*laplace(u) - u*v**2 + 0.035*(1 - u)",
+      "v": "0.08*laplace(v) + u*v**2 - (0.035 + 0.06)*v"}
+
+
+def _gs_state(grid, seed=0):
+    rng = np.random.default_rng(seed)
+    u = pde.ScalarField(grid, 1.0 - 0.5 * rng.random(grid.shape), label="u")
+    v = pde.ScalarField(grid, 0.5 * rng.random(grid.shape), label="v")
+    return pde.FieldCollection([u, v])
+
+
+def _solve(eq, state, backend, steps, dt, **kw):
+    out, info = eq.solve(state, t_range=steps * dt, dt=dt, tracker=kw.pop("tracker", None),
+                         backend=backend, ret_info=True, **kw)
+    assert info["solver"]["steps"] == steps
+    return out
+
+
+def _agree(ours, theirs, start, moved=0.05):
+    assert np.abs(theirs.data - start.data).max() > moved  # not a trivial comparison
+    np.testing.assert_allclose(ours.data, theirs.data, rtol=0, atol=TOL)
+
+
+# --------------------------------------------------------------------- Gray-Scott 1-3-D
+GS_CASES = {
+    # 1-D, Neumann (py-pde's default on a non-periodic axis)
+    "1d": (lambda: pde.CartesianGrid([[0, 40]], [50], periodic=False), "auto_periodic_neumann"),
+    # 2-D, anisotropic cells, a periodic axis and face values differing per side
+    "2d": (lambda: pde.CartesianGrid([[0, 12], [0, 15]], [16, 12], periodic=[True, False]),
+           {"x": "periodic", "y-": {"value": 0.2}, "y+": {"value": 0.9}}),
+    # 3-D, every kind: periodic, Dirichlet, and Neumann against Dirichlet on one axis
+    "3d": (lambda: pde.CartesianGrid([[0, 6], [0, 5], [1, 5]], [6, 5, 4],
+                                     periodic=[True, False, False]),
+           {"x": "periodic", "y": {"value": 0.7}, "z-": "neumann", "z+": {"value": -0.4}}),
+}
+
+
+@pytest.fixture(scope="module", params=sorted(GS_CASES))
+def gs_case(request):
+    make, bc = GS_CASES[request.param]
+    grid = make()
+    eq = pde.PDE(GS, bc=bc)
+    start = _gs_state(grid)
+    return eq, start, _solve(eq, start, "numpy", 300, 0.5)
+
+
+@pytest.mark.parametrize("device", ["numpy", "warp", "opencl"])
+def test_gray_scott_agrees_with_pypde(gs_case, device):
+    backend_or_skip(device)
+    eq, start, theirs = gs_case
+    ours = _solve(eq, start, f"rdgpu:{device}", 300, 0.5)
+    _agree(ours, theirs, start)
+
+
+# --------------------------------------------------------------------- boundary kinds
+BCS = {
+    "periodic": "periodic",
+    "neumann": {"derivative": 0},
+    "dirichlet": {"value": 1.5},
+    "dirichlet-sides": {"x-": {"value": -1.0}, "x+": {"value": 2.0},
+                        "y-": {"derivative": 0}, "y+": {"value": 0.5}},
+}
+
+
+@pytest.mark.parametrize("kind", sorted(BCS))
+def test_every_boundary_kind(kind):
+    periodic = kind == "periodic"
+    grid = pde.CartesianGrid([[0, 9], [0, 7]], [12, 10], periodic=periodic)
+    start = pde.ScalarField(grid, np.random.default_rng(1).random(grid.shape))
+    eq = pde.DiffusionPDE(0.4, bc=BCS[kind])
+    theirs = _solve(eq, start, "numpy", 400, 0.1)
+    ours = _solve(eq, start, "rdgpu:numpy", 400, 0.1)
+    _agree(ours, theirs, start)
+
+
+def test_dirichlet_is_the_face_value():
+    """The steady state of 1-D diffusion between faces held at 0 and 1 is the line
+    through the faces: ``u = x / L`` at the cell centres (a ghost-value rule would put
+    the ends at the ghosts' centres instead)."""
+    grid = pde.CartesianGrid([[0, 1]], [8])
+    eq = pde.DiffusionPDE(1.0, bc={"x-": {"value": 0.0}, "x+": {"value": 1.0}})
+    start = pde.ScalarField(grid, 0.3)
+    dt = 0.2 * (1 / 8) ** 2
+    out = _solve(eq, start, "rdgpu:numpy", 4000, dt)
+    np.testing.assert_allclose(out.data, grid.axes_coords[0], rtol=0, atol=1e-9)
+
+
+# --------------------------------------------------------------------- built-in classes
+def test_diffusion_pde_1d_mixed():
+    grid = pde.CartesianGrid([[0, 30]], [60])
+    start = pde.ScalarField(grid, np.random.default_rng(2).uniform(-0.5, 0.5, grid.shape))
+    eq = pde.DiffusionPDE(0.3, bc={"x-": {"value": 1.0}, "x+": {"derivative": 0}})
+    _agree(_solve(eq, start, "rdgpu:numpy", 300, 0.1), _solve(eq, start, "numpy", 300, 0.1),
+           start)
+
+
+def test_allen_cahn_pde_against_numba():
+    grid = pde.CartesianGrid([[0, 16], [0, 16]], [24, 24], periodic=True)
+    start = pde.ScalarField(grid, np.random.default_rng(3).uniform(-0.5, 0.5, grid.shape))
+    eq = pde.AllenCahnPDE(interface_width=0.5, mobility=1.3)
+    _agree(_solve(eq, start, "rdgpu:numpy", 300, 0.02),
+           _solve(eq, start, "numba", 300, 0.02), start)
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+def test_swift_hohenberg_pde(periodic):
+    grid = pde.CartesianGrid([[0, 20], [0, 16]], [20, 16], periodic=periodic)
+    start = pde.ScalarField(grid, np.random.default_rng(4).uniform(-0.5, 0.5, grid.shape))
+    eq = pde.SwiftHohenbergPDE(rate=0.3, kc2=1.0, delta=0.5)
+    _agree(_solve(eq, start, "rdgpu:numpy", 400, 0.01),
+           _solve(eq, start, "numpy", 400, 0.01), start)
+
+
+def test_expression_with_coordinates_time_and_constants():
+    """py-pde's ``x`` is its axis 0 from the grid's lower bound; constants may be fields."""
+    grid = pde.CartesianGrid([[2, 8], [-1, 4]], [12, 10], periodic=[False, True])
+    rng = np.random.default_rng(5)
+    k = pde.ScalarField(grid, rng.uniform(0.5, 1.5, grid.shape))
+    eq = pde.PDE({"c": "a*laplace(c) + k*sin(x)*cos(y)*c - c**3 + 0.1*t"},
+                 consts={"a": 0.4, "k": k})
+    start = pde.ScalarField(grid, rng.uniform(-0.5, 0.5, grid.shape))
+    _agree(_solve(eq, start, "rdgpu:numpy", 200, 0.02), _solve(eq, start, "numpy", 200, 0.02),
+           start)
+
+
+def test_pypde_brusselator_example():
+    """py-pde's example ``examples/simple_pdes/pde_brusselator_expression.py`` (the
+    Brusselator as a ``PDE``: a = 1, b = 3, D = 1 and 0.1, ``UnitGrid([64, 64])``, u = a,
+    v = b/a + 0.1·normal noise, dt = 1e-3), rewritten here with a seeded noise, a
+    ``MemoryStorage`` in place of its ``PlotTracker`` and 300 of its 20000 steps."""
+    a, b = 1, 3
+    eq = pde.PDE({"u": f"1 * laplace(u) + {a} - ({b} + 1) * u + u**2 * v",
+                  "v": f"0.1 * laplace(v) + {b} * u - u**2 * v"})
+    grid = pde.UnitGrid([64, 64])
+    u = pde.ScalarField(grid, a, label="u")
+    v = b / a + 0.1 * pde.ScalarField.random_normal(grid, rng=np.random.default_rng(8))
+    start = pde.FieldCollection([u, v])
+    runs = []
+    for backend in ("numpy", "rdgpu:numpy"):
+        store = pde.MemoryStorage()
+        runs.append(_solve(eq, start, backend, 300, 1e-3, tracker=store.tracker(0.1)))
+        assert len(store) == 4
+    _agree(runs[1], runs[0], start, moved=0.02)
+
+
+# --------------------------------------------------------------------- trackers, solvers
+def test_trackers_see_the_same_data():
+    grid = pde.CartesianGrid([[0, 10], [0, 10]], [16, 16], periodic=True)
+    start = pde.ScalarField(grid, np.random.default_rng(6).random(grid.shape))
+    eq = pde.DiffusionPDE(0.5)
+    runs = {}
+    for backend in ("numpy", "rdgpu:numpy"):
+        store = pde.MemoryStorage()
+        data = pde.DataTracker(lambda s: float(s.data.max()), interrupts=1.0)
+        _solve(eq, start, backend, 400, 0.025, tracker=[store.tracker(2.0), data])
+        runs[backend] = (store, data)
+    (s1, d1), (s2, d2) = runs.values()
+    assert s1.times == s2.times and len(s1.times) == 6
+    assert d1.times == d2.times and len(d1.times) == 11
+    np.testing.assert_allclose(d2.data, d1.data, rtol=0, atol=TOL)
+    for a, b in zip(s1.data, s2.data, strict=True):
+        np.testing.assert_allclose(b, a, rtol=0, atol=TOL)
+
+
+def test_controller_and_explicit_solver():
+    grid = pde.CartesianGrid([[0, 10]], [20])
+    start = pde.ScalarField(grid, np.random.default_rng(7).random(grid.shape))
+    eq = pde.DiffusionPDE(0.5, bc={"value": 0.25})
+    theirs = _solve(eq, start, "numpy", 200, 0.05)
+    solver = pde.EulerSolver(eq, backend="rdgpu:numpy")
+    ours = pde.Controller(solver, t_range=10.0, tracker=None).run(start, dt=0.05)
+    assert solver.info["steps"] == 200
+    _agree(ours, theirs, start)
+    with pytest.warns(UserWarning, match="deprecated"):
+        explicit = pde.ExplicitSolver(eq, scheme="euler", backend="rdgpu:numpy")
+    ours = pde.Controller(explicit, t_range=10.0, tracker=None).run(start, dt=0.05)
+    _agree(ours, theirs, start)
+
+
+def test_registration_and_devices():
+    assert "rdgpu" in pde.backends.registered_backends()
+    for device in ("numpy", "warp", "opencl"):
+        backend_or_skip(device)
+        assert pde.backends.get_backend(f"rdgpu:{device}").rd.name == device
+    assert isinstance(pde.backends.get_backend("rdgpu"), rdgpu.pypde.RdgpuBackend)
+
+
+# --------------------------------------------------------------------- refusals
+def _refused(eq, state, match, **kw):
+    kw.setdefault("dt", 0.01)
+    with pytest.raises(UnsupportedPDE, match=match):
+        eq.solve(state, t_range=0.1, tracker=None, backend="rdgpu:numpy", **kw)
+
+
+@pytest.fixture(scope="module")
+def cart():
+    grid = pde.CartesianGrid([[0, 4], [0, 4]], [8, 8], periodic=True)
+    return grid, pde.ScalarField(grid, 0.5)
+
+
+def test_refuses_unsupported_operators(cart):
+    _, s = cart
+    _refused(pde.PDE({"c": "gradient_squared(c)"}), s, "unknown function 'gradient_squared'")
+    _refused(pde.PDE({"c": "divergence(c)"}), s, "unknown function 'divergence'")
+
+
+def test_refuses_noise_hooks_and_other_classes(cart):
+    _, s = cart
+    _refused(pde.PDE({"c": "laplace(c)"}, noise=0.1), s, "stochastic")
+    _refused(pde.DiffusionPDE(noise=0.1), s, "noise")
+    _refused(pde.CahnHilliardPDE(), s, "CahnHilliardPDE")
+    _refused(pde.PDE({"c": "laplace(c)"}, post_step_hook=lambda d, t: None), s,
+             "post_step_hook")
+
+
+def test_refuses_grids_boundaries_and_solvers(cart):
+    grid, s = cart
+    polar = pde.PolarSymGrid(4, 8)
+    _refused(pde.DiffusionPDE(), pde.ScalarField(polar, 1.0), "PolarSymGrid")
+    box = pde.CartesianGrid([[0, 4], [0, 4]], [8, 8])
+    sb = pde.ScalarField(box, 0.5)
+    _refused(pde.DiffusionPDE(bc={"derivative": 1.0}), sb, "Neumann derivative 1.0")
+    _refused(pde.DiffusionPDE(bc={"value_expression": "sin(t)"}), sb, "ExpressionValueBC")
+    _refused(pde.DiffusionPDE(bc={"curvature": 0.0}), sb, "CurvatureBC")
+    _refused(pde.SwiftHohenbergPDE(bc={"value": 0.0}), sb, "Dirichlet")
+    _refused(pde.SwiftHohenbergPDE(bc="neumann", bc_lap={"value": 0.0}), sb, "bc_lap")
+    _refused(pde.DiffusionPDE(), s, "adaptive", dt=None)
+    _refused(pde.DiffusionPDE(), s, "RungeKuttaSolver", solver="runge-kutta",
+             adaptive=False)
+    vec = pde.VectorField(grid, 0.0)
+    _refused(pde.PDE({"c": "laplace(c)"}), vec, "VectorField")
