@@ -44,9 +44,11 @@ import numpy as np
 
 try:
     import pde
-except ImportError as exc:  # py-pde is optional: only this module needs it
-    raise ImportError("rdgpu.pypde needs py-pde: pip install 'rdgpu[pypde]' (or py-pde "
-                      f">= 0.59); {exc}") from exc
+except ImportError:  # py-pde is optional: only this module needs it
+    from ._optional import require
+
+    require("pde", "rdgpu.pypde (py-pde >= 0.59)")  # raises, naming the [pypde] extra
+    raise
 from pde.backends import BackendBase, backend_registry
 from pde.grids.boundaries.axis import BoundaryPeriodic
 from pde.grids.boundaries.local import DirichletBC, NeumannBC
