@@ -1,20 +1,25 @@
 """Gray-Scott through py-pde's API: ``backend="numba"`` against ``backend="rdgpu:..."``.
 
     python perf/pypde.py [--size 2048] [--backends numba rdgpu:opencl rdgpu:warp]
+                         [--solver euler|euler-adaptive|rk4|rkf45|adams-bashforth]
                          [--numba-steps 10] [--rdgpu-steps 400] [--out perf/results]
 
 One ``pde.PDE`` (seed 001's Gray-Scott, periodic ``CartesianGrid`` of ``size²`` unit
-cells, float64, py-pde's Euler solver at a fixed ``dt = 1``) solved by each backend in the
-same process.  Per backend one ``eq.solve`` of ``3m`` steps (``m`` the steps per
-interval) with a ``CallbackTracker`` every ``m`` steps that notes the wall clock: the
-first interval holds the compilation (py-pde's numba jit, rdgpu's kernel build), the
-rate is ``2m · size²`` over the time of the last two intervals (Mcell/s; for rdgpu each
-interval includes one upload and one download, as trackers make it).  A ``DataTracker``
-keeps the state after 10 steps; every backend's is compared with the first backend's
-(max |Δ|, to round-off).  Writes
-``pypde.md`` in ``--out``.  The default size is 2048² (what the issue names, 64 MiB per
-float64 field: far beyond a 32 MiB LLC); ``--size 0`` takes the largest size of
-:func:`machine.default_sizes` for the LLC instead.
+cells, float64) solved by each backend in the same process with one py-pde solver:
+``euler`` (fixed ``dt = 1``, the default), ``euler-adaptive`` (py-pde's default when
+``solve`` gets no ``dt``: step doubling, tolerance 1e-4), ``rk4`` (``RungeKuttaSolver`` at
+``dt = 1``), ``rkf45`` (adaptive ``RungeKuttaSolver``) or ``adams-bashforth`` (``dt = 1``).
+Per backend one ``Controller.run`` over three intervals of ``m`` steps of ``dt = 1`` (an
+adaptive solver takes the steps it needs) with a ``CallbackTracker`` at each interval
+that notes the wall clock and the solver's step count: the first interval holds the
+compilation (py-pde's numba jit, rdgpu's kernel build), the rate is the accepted steps ×
+``size²`` of the last two intervals over their time (Mcell/s; for rdgpu each interval
+includes one upload and one download, as trackers make it).  A ``DataTracker`` keeps
+the state at t = 10; every backend's is compared with the first backend's (max |Δ|, to
+round-off).  Writes ``pypde.md`` (``euler``) or ``pypde_<solver>.md`` in ``--out``.
+The default size is 2048² (what the issue names, 64 MiB per float64 field: far beyond
+a 32 MiB LLC); ``--size 0`` takes the largest size of :func:`machine.default_sizes` for
+the LLC instead.
 """
 
 from __future__ import annotations
@@ -56,21 +61,37 @@ def initial_state(n: int) -> pde.FieldCollection:
                                 pde.ScalarField(grid, v, label="v")])
 
 
-def measure(eq: pde.PDE, state, backend: str, interval: int) -> dict:
-    """One ``eq.solve`` of ``3 · interval`` steps with a ``CallbackTracker`` every
-    ``interval`` steps (module doc)."""
+#: ``--solver`` → (py-pde solver class name, adaptive)
+SOLVERS = {"euler": ("EulerSolver", False), "euler-adaptive": ("EulerSolver", True),
+           "rk4": ("RungeKuttaSolver", False), "rkf45": ("RungeKuttaSolver", True),
+           "adams-bashforth": ("AdamsBashforthSolver", False)}
+
+
+def make_solver(eq: pde.PDE, backend: str, solver: str):
+    name, adaptive = SOLVERS[solver]
+    cls = getattr(pde, name)
+    if name == "AdamsBashforthSolver":
+        return cls(eq, backend=backend)
+    return cls(eq, backend=backend, adaptive=adaptive)
+
+
+def measure(eq: pde.PDE, state, backend: str, interval: int, solver: str) -> dict:
+    """One ``Controller.run`` over ``3 · interval`` time units with a ``CallbackTracker``
+    every ``interval`` (module doc)."""
     cells = state.grid.num_cells
-    stamps: list[float] = []
-    clock = pde.CallbackTracker(lambda s, t: stamps.append(time.perf_counter()),
-                                interrupts=interval * DT)
+    stepper = make_solver(eq, backend, solver)
+    stamps: list[tuple[float, int]] = []
+    clock = pde.CallbackTracker(
+        lambda s, t: stamps.append((time.perf_counter(), stepper.info.get("steps", 0))),
+        interrupts=interval * DT)
     early = pde.DataTracker(lambda s: s.data.copy(), interrupts=[FIRST_STEPS * DT])
     t0 = time.perf_counter()
-    eq.solve(state, t_range=3 * interval * DT, dt=DT, tracker=[clock, early],
-             backend=backend, solver="euler", adaptive=False)
+    pde.Controller(stepper, t_range=3 * interval * DT, tracker=[clock, early]).run(
+        state, dt=DT)
     wall = time.perf_counter() - t0
-    return {"backend": backend, "wall_s": wall, "first_s": stamps[1] - t0,
-            "steps": 2 * interval,
-            "mcells": 2 * interval * cells / (stamps[3] - stamps[1]) / 1e6,
+    steps = stamps[3][1] - stamps[1][1]
+    return {"backend": backend, "wall_s": wall, "first_s": stamps[1][0] - t0,
+            "steps": steps, "mcells": steps * cells / (stamps[3][0] - stamps[1][0]) / 1e6,
             "result": early.data[-1]}
 
 
@@ -79,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=int, default=2048)
     parser.add_argument("--backends", nargs="+",
                         default=["numba", "rdgpu:opencl", "rdgpu:warp"])
+    parser.add_argument("--solver", choices=sorted(SOLVERS), default="euler")
     parser.add_argument("--numba-steps", type=int, default=10,
                         help="steps per tracker interval with numba (>= 10)")
     parser.add_argument("--rdgpu-steps", type=int, default=400,
@@ -93,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for name in args.backends:
         interval = args.numba_steps if name == "numba" else args.rdgpu_steps
-        row = measure(eq, state, name, max(interval, FIRST_STEPS))
+        row = measure(eq, state, name, max(interval, FIRST_STEPS), args.solver)
         rows.append(row)
         print(f"{name:14s} {row['mcells']:9.1f} Mcell/s  first call {row['first_s']:.2f} s",
               flush=True)
@@ -101,13 +123,15 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         "# Gray-Scott through py-pde's API: numba against rdgpu (perf/pypde.py)", "",
         f"`python perf/pypde.py --size {n} --backends {' '.join(args.backends)} "
-        f"--numba-steps {args.numba_steps} --rdgpu-steps {args.rdgpu_steps}`; py-pde "
-        f"{pde.__version__}, rdgpu {getattr(rdgpu, '__version__', '?')}, float64, {n}² "
-        f"periodic, Euler dt = {DT}, trackers every m steps. The machine: "
+        f"--solver {args.solver} --numba-steps {args.numba_steps} --rdgpu-steps "
+        f"{args.rdgpu_steps}`; py-pde {pde.__version__}, rdgpu "
+        f"{getattr(rdgpu, '__version__', '?')}, float64, {n}² periodic, solver "
+        f"{args.solver} (dt = {DT}{', initial' if SOLVERS[args.solver][1] else ''}), "
+        "trackers every m time units. The machine: "
         f"{machine.cpu_caches().llc // machine.MiB} MiB LLC, "
         "2 cores shared with other jobs (rates are indicative).", "",
         "| backend | Mcell/s | × numba | steps timed | to the first interval (s) | "
-        f"max abs diff after {FIRST_STEPS} steps vs {ref['backend']} |",
+        f"max abs diff at t = {FIRST_STEPS * DT:g} vs {ref['backend']} |",
         "|---|---:|---:|---:|---:|---:|",
     ]
     base = next((r["mcells"] for r in rows if r["backend"] == "numba"), None)
@@ -117,7 +141,8 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"| {r['backend']} | {r['mcells']:.1f} | {speed} | "
                      f"{r['steps']} | {r['first_s']:.2f} | {diff:.1e} |")
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "pypde.md").write_text("\n".join(lines) + "\n")
+    name = "pypde.md" if args.solver == "euler" else f"pypde_{args.solver}.md"
+    (args.out / name).write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     return 0
 

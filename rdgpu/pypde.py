@@ -53,9 +53,10 @@ from pde.backends import BackendBase, backend_registry
 from pde.grids.boundaries.axis import BoundaryPeriodic
 from pde.grids.boundaries.local import DirichletBC, NeumannBC
 
-from . import dispatch
+from . import dispatch, pypde_steppers
 from .domains import Grid
 from .models import equations as eq
+from .models.device_rhs import DeviceRHS
 from .models.model import define_model
 
 __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
@@ -341,23 +342,62 @@ class RdgpuBackend(BackendBase):
         out["device"] = self.rd.name
         return out
 
-    def make_pde_rhs(self, eq: Any, state: Any) -> Any:
-        raise _refuse("evaluating a right-hand side alone (the backend runs whole solves "
-                      "through a solver's stepper)")
-
-    def make_stepper(self, solver: Any, state: Any) -> Callable[[Any, float, float], float]:
-        """The stepper py-pde's controller calls between tracker times."""
-        name = type(solver).__name__
-        if name != "EulerSolver":
-            raise _refuse(f"the solver {name} (EulerSolver with a fixed dt is supported)")
-        if solver.adaptive:
-            raise _refuse("adaptive time steps (pass dt=... or adaptive=False)")
+    def _device_rhs(self, pde_obj: Any, state: Any) -> tuple[Translation, DeviceRHS]:
         data = np.asarray(state.data)
         if data.dtype not in (np.float32, np.float64):
             raise _refuse(f"state data of dtype {data.dtype} (float32 or float64)")
+        tr = translate(pde_obj, state)
+        return tr, DeviceRHS(tr.model, tr.grid, tr.params, self.rd, data.dtype)
+
+    def make_pde_rhs(self, eq: Any, state: Any) -> Callable[[np.ndarray, float], np.ndarray]:
+        """``rhs(state_data, t)``: the PDE's rate, one fused pass on the rdgpu device, as a
+        host function (NumPy in, NumPy out: each call uploads the state and downloads the
+        rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
+        :func:`make_stepper` keep their fields on the device instead."""
+        tr, rhs = self._device_rhs(eq, state)
+        x, out = rhs.empty(), rhs.empty()
+        several = isinstance(state, pde.FieldCollection)
+        field_shape = tr.grid.field_shape
+
+        def pde_rhs(state_data: np.ndarray, t: float = 0.0) -> np.ndarray:
+            data = np.asarray(state_data)
+            rhs.upload([data[i] for i in range(len(x))] if several else [data], x)
+            rhs.rate(x, out, float(t))
+            rates = [d.numpy().reshape(field_shape) for d in out]
+            return np.stack(rates) if several else rates[0]
+
+        return pde_rhs
+
+    def make_stepper(self, solver: Any, state: Any) -> Callable[[Any, float, float], float]:
+        """The stepper py-pde's controller calls between tracker times: EulerSolver
+        (fixed or adaptive ``dt``), RungeKuttaSolver (fixed or adaptive) or
+        AdamsBashforthSolver, on the device (:mod:`rdgpu.pypde_steppers`)."""
+        name = type(solver).__name__
+        if name not in pypde_steppers.SUPPORTED:
+            raise _refuse(f"the solver {name} (supported: "
+                          f"{', '.join(pypde_steppers.SUPPORTED)}; ScipySolver runs through "
+                          "make_pde_rhs)")
+        data = np.asarray(state.data)
+        if name == "EulerSolver" and not solver.adaptive:
+            return self._euler_fixed(solver, state, data.dtype)
+        tr, rhs = self._device_rhs(solver.pde, state)
+        several = isinstance(state, pde.FieldCollection)
+        stepper = pypde_steppers.make_stepper(solver, rhs, several, tr.grid.field_shape)
+        self._describe(solver, tr)
+        return stepper
+
+    def _describe(self, solver: Any, tr: Translation) -> None:
+        solver.info["rdgpu"] = {"device": self.rd.name, "grid": repr(tr.grid),
+                                "equations": dict(tr.model.equations)}
+
+    def _euler_fixed(self, solver: Any, state: Any, dtype: np.dtype
+                     ) -> Callable[[Any, float, float], float]:
+        """Fixed-step Euler: rdgpu's own forward-Euler stepper (checks ``dt``)."""
+        if dtype not in (np.float32, np.float64):
+            raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
         tr = translate(solver.pde, state)
         dt = float(solver.info["dt"])
-        st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=data.dtype,
+        st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,
                               check_stability=self.check_stability, method="euler")
         field_shape = tr.grid.field_shape
         several = isinstance(state, pde.FieldCollection)
@@ -379,8 +419,7 @@ class RdgpuBackend(BackendBase):
             solver.info["steps"] += steps
             return t_start + steps * dt
 
-        solver.info["rdgpu"] = {"device": self.rd.name, "grid": repr(tr.grid),
-                                "equations": dict(tr.model.equations)}
+        self._describe(solver, tr)
         return stepper
 
 

@@ -1,0 +1,255 @@
+"""py-pde's explicit solvers on an rdgpu device (used by :mod:`rdgpu.pypde`).
+
+The stepping loops of py-pde 0.59's ``EulerSolver`` (fixed and adaptive ``dt``),
+``RungeKuttaSolver`` (fixed: classic RK4; adaptive: Runge-Kutta-Fehlberg 4(5)) and
+``AdamsBashforthSolver`` (two-step, fixed), written again over device fields: every
+right-hand side is one fused rdgpu pass (:class:`~rdgpu.models.device_rhs.DeviceRHS`),
+every vector update one elementwise pass in py-pde's operation order, the adaptive error
+``max |·|`` one reduction whose single number is all that reaches the host per attempted
+step.  The step-size control is py-pde's own (``pde.solvers.base._make_dt_adjuster``) and
+the bookkeeping the same (``info["dt"]``, ``info["steps"]``, ``info["dt_statistics"]``),
+so the accepted steps match the ``numpy``/``numba`` backends' as long as the rates agree
+to round-off.  The fields cross to the host once per call, i.e. per tracker interval.
+
+Fixed-step Euler runs as rdgpu's own forward-Euler stepper
+(:meth:`~rdgpu.models.Model.stepper`): one fused pass per step, temporal blocking where
+it pays, and rdgpu's linear stability check of ``dt``.  The other fixed-step schemes are
+not checked (py-pde checks none).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .models.device_rhs import DeviceRHS, Field
+
+__all__ = ["SUPPORTED", "make_stepper"]
+
+#: the solvers :func:`make_stepper` runs, by class name
+SUPPORTED = ("EulerSolver", "RungeKuttaSolver", "AdamsBashforthSolver")
+
+Stepper = Callable[[Any, float, float], float]
+
+# Runge-Kutta-Fehlberg 4(5), py-pde's coefficients (formula 2, table III of Fehlberg):
+# stage c_i, its combination b_ij, the error weights r_i and the 4th-order weights c_i
+_RKF_STAGES = (
+    (0.25, "x + b21*k1"),
+    (3 / 8, "x + b31*k1 + b32*k2"),
+    (12 / 13, "x + b41*k1 + b42*k2 + b43*k3"),
+    (1.0, "x + b51*k1 + b52*k2 + b53*k3 + b54*k4"),
+    (0.5, "x + b61*k1 + b62*k2 + b63*k3 + b64*k4 + b65*k5"),
+)
+_RKF = {
+    "b21": 1 / 4, "b31": 3 / 32, "b32": 9 / 32,
+    "b41": 1932 / 2197, "b42": -7200 / 2197, "b43": 7296 / 2197,
+    "b51": 439 / 216, "b52": -8.0, "b53": 3680 / 513, "b54": -845 / 4104,
+    "b61": -8 / 27, "b62": 2.0, "b63": -3544 / 2565, "b64": 1859 / 4104, "b65": -11 / 40,
+    "r1": 1 / 360, "r3": -128 / 4275, "r4": -2197 / 75240, "r5": 1 / 50, "r6": 2 / 55,
+    "c1": 25 / 216, "c3": 1408 / 2565, "c4": 2197 / 4104, "c5": -1 / 5,
+}
+_RKF_ERROR = "r1*k1 + r3*k3 + r4*k4 + r5*k5 + r6*k6"
+_RKF_NEW = "x + c1*k1 + c3*k3 + c4*k4 + c5*k5"
+
+
+class _Fields:
+    """The state's fields on the device, ``x``, and their way to and from py-pde's
+    ``state.data`` (one species, or a FieldCollection's rows in order)."""
+
+    def __init__(self, rhs: DeviceRHS, several: bool, field_shape: tuple[int, ...]):
+        self.rhs = rhs
+        self.several = several
+        self.field_shape = field_shape
+        self.x = rhs.empty()
+
+    def _views(self, data: np.ndarray) -> list[np.ndarray]:
+        return [data[i] for i in range(len(self.x))] if self.several else [data]
+
+    def load(self, state: Any) -> None:
+        self.rhs.upload(self._views(state.data), self.x)
+
+    def store(self, state: Any) -> None:
+        for target, d in zip(self._views(state.data), self.x, strict=True):
+            target[...] = d.numpy().reshape(self.field_shape)
+
+
+def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[int, ...]
+                 ) -> Stepper:
+    """The ``stepper(state, t_start, t_end) -> t`` of a py-pde ``solver`` (one of
+    :data:`SUPPORTED`, not the fixed-step Euler, which :mod:`rdgpu.pypde` runs itself);
+    ``several``: the state is a FieldCollection; ``field_shape``: one species' data."""
+    name = type(solver).__name__
+    adaptive = bool(getattr(solver, "adaptive", False))
+    if name == "EulerSolver" and adaptive:
+        make = _euler_adaptive
+    elif name == "RungeKuttaSolver":
+        make = _rkf45_adaptive if adaptive else _rk4_fixed
+    elif name == "AdamsBashforthSolver":
+        make = _adams_bashforth
+    else:
+        raise ValueError(f"no device stepper for {name} (adaptive={adaptive})")
+    return make(solver, rhs, _Fields(rhs, several, field_shape))
+
+
+def _controls(solver: Any) -> tuple[Callable[[float, float], float], Any]:
+    """py-pde's step-size adjuster and a fresh ``dt_statistics``, as its solvers set up."""
+    from pde.solvers.base import _make_dt_adjuster
+    from pde.tools.math import OnlineStatistics
+
+    solver.info["dt_adaptive"] = True
+    solver.info["dt_statistics"] = OnlineStatistics()
+    return _make_dt_adjuster(solver.dt_min, solver.dt_max), solver.info["dt_statistics"]
+
+
+def _adaptive(solver: Any, f: _Fields, prepare: Callable[[float], None],
+              attempt: Callable[[float, float], float], accept: Callable[[float], None]
+              ) -> Stepper:
+    """py-pde's adaptive loop: ``prepare(t_start)`` once per call, then per try
+    ``attempt(t, dt)`` (the candidate step, returning its error) and, where the error is
+    within the tolerance, ``accept(t)``; py-pde's adjuster picks the next ``dt``."""
+    adjust_dt, stats = _controls(solver)
+    tolerance, dt_min = solver.tolerance, solver.dt_min
+
+    def stepper(state: Any, t_start: float, t_end: float) -> float:
+        f.load(state)
+        dt_opt = solver.info["dt"]
+        prepare(t_start)
+        steps, t = 0, t_start
+        while True:
+            dt_step = max(min(dt_opt, t_end - t), dt_min)
+            error_rel = attempt(t, dt_step) / tolerance
+            if error_rel <= 1:
+                accept(t)
+                steps += 1
+                t += dt_step
+                stats.add(dt_step)
+            if t < t_end:
+                dt_opt = adjust_dt(dt_step, error_rel)
+            else:
+                break
+        solver.info["dt"] = dt_opt
+        solver.info["steps"] += steps
+        f.store(state)
+        return t
+
+    return stepper
+
+
+def _euler_adaptive(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``EulerSolver(adaptive=True)``: step doubling, py-pde's ``adaptive_stepper`` (its
+    rate carried from one step to the next)."""
+    rate, small, scratch = rhs.empty(), rhs.empty(), rhs.empty()
+
+    def prepare(t: float) -> None:
+        rhs.rate(f.x, rate, t)
+
+    def attempt(t: float, dt: float) -> float:
+        # one step of dt against two of dt/2 (the second from the midpoint's rate)
+        half = 0.5 * dt
+        rhs.pointwise(scratch, "x + c*r", {"x": f.x, "r": rate}, {"c": half})
+        rhs.euler(scratch, small, t + half, half)
+        rhs.pointwise(scratch, "x + h*r - y", {"x": f.x, "r": rate, "y": small}, {"h": dt})
+        return rhs.max_abs(scratch)
+
+    def accept(t: float) -> None:
+        nonlocal small
+        rhs.rate(small, rate, t)  # py-pde evaluates the new rate at t, not t + dt
+        f.x, small = small, f.x
+
+    return _adaptive(solver, f, prepare, attempt, accept)
+
+
+def _rk_stage_fields(f: _Fields, ks: list[Field]) -> dict[str, Field]:
+    return {"x": f.x, **{f"k{i + 1}": k for i, k in enumerate(ks)}}
+
+
+def _rk4_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``RungeKuttaSolver`` with a fixed ``dt``: classic RK4, py-pde's ``single_step``."""
+    dt = float(solver.info["dt"])
+    ks = [rhs.empty() for _ in range(4)]
+    y, new = rhs.empty(), rhs.empty()
+
+    def stepper(state: Any, t_start: float, t_end: float) -> float:
+        nonlocal new
+        f.load(state)
+        steps = max(1, round((t_end - t_start) / dt))
+        for i in range(steps):
+            t = t_start + i * dt
+            k = _rk_stage_fields(f, ks)
+            rhs.rate(f.x, ks[0], t, dt)
+            rhs.pointwise(y, "x + 0.5*k1", k)
+            rhs.rate(y, ks[1], t + 0.5 * dt, dt)
+            rhs.pointwise(y, "x + 0.5*k2", k)
+            rhs.rate(y, ks[2], t + 0.5 * dt, dt)
+            rhs.pointwise(y, "x + k3", k)
+            rhs.rate(y, ks[3], t + dt, dt)
+            rhs.pointwise(new, "x + (k1 + 2*k2 + 2*k3 + k4)/6", k)
+            f.x, new = new, f.x
+        solver.info["steps"] += steps
+        f.store(state)
+        return t + dt
+
+    return stepper
+
+
+def _rkf45_adaptive(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``RungeKuttaSolver(adaptive=True)``: Runge-Kutta-Fehlberg 4(5) in py-pde's general
+    adaptive loop (``AdaptiveSolverBase._make_inner_stepper``)."""
+    ks = [rhs.empty() for _ in range(6)]
+    y, new = rhs.empty(), rhs.empty()
+
+    def attempt(t: float, dt: float) -> float:
+        k = _rk_stage_fields(f, ks)
+        rhs.rate(f.x, ks[0], t, dt)
+        for i, (a, combination) in enumerate(_RKF_STAGES):
+            rhs.pointwise(y, combination, k, _RKF)
+            rhs.rate(y, ks[i + 1], t + a * dt, dt)
+        rhs.pointwise(y, _RKF_ERROR, k, _RKF)
+        return rhs.max_abs(y)
+
+    def accept(t: float) -> None:
+        nonlocal new
+        rhs.pointwise(new, _RKF_NEW, _rk_stage_fields(f, ks), _RKF)
+        f.x, new = new, f.x
+
+    return _adaptive(solver, f, lambda t: None, attempt, accept)
+
+
+def _adams_bashforth(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``AdamsBashforthSolver``: the two-step scheme with py-pde's start (the previous
+    level estimated by one backward Euler extrapolation, ``x₋ = x − dt f(x, t₀)``, once
+    per solve).  Each step evaluates ``f`` at both levels, as py-pde does; an equation
+    that does not read ``t`` reuses the last step's ``f(x)`` instead (the same numbers)."""
+    dt = float(solver.info["dt"])
+    prev, new = rhs.empty(), rhs.empty()
+    r_prev, r_cur = rhs.empty(), rhs.empty()
+    autonomous = not rhs.uses_time
+    started = False
+
+    def stepper(state: Any, t_start: float, t_end: float) -> float:
+        nonlocal prev, new, r_prev, r_cur, started
+        f.load(state)
+        steps = max(1, round((t_end - t_start) / dt))
+        known = False  # whether r_prev holds f(prev) already
+        if not started:
+            rhs.rate(f.x, r_cur, t_start)
+            rhs.pointwise(prev, "x - dt*r", {"x": f.x, "r": r_cur}, {"dt": dt})
+            started = True
+        for i in range(steps):
+            t = t_start + i * dt
+            if not known:
+                rhs.rate(prev, r_prev, t - dt)
+            rhs.rate(f.x, r_cur, t)
+            rhs.pointwise(new, "x + dt*(1.5*rc - 0.5*rp)",
+                          {"x": f.x, "rc": r_cur, "rp": r_prev}, {"dt": dt})
+            # x₋ ← x, x ← new; f(x) becomes next step's f(x₋) where t does not enter
+            prev, f.x, new = f.x, new, prev
+            r_prev, r_cur = r_cur, r_prev
+            known = autonomous
+        solver.info["steps"] += steps
+        f.store(state)
+        return t + dt
+
+    return stepper
