@@ -29,7 +29,8 @@ from .models.device_rhs import DeviceRHS, Field
 __all__ = ["SUPPORTED", "make_stepper"]
 
 #: the solvers :func:`make_stepper` runs, by class name
-SUPPORTED = ("EulerSolver", "RungeKuttaSolver", "AdamsBashforthSolver")
+SUPPORTED = ("EulerSolver", "RungeKuttaSolver", "AdamsBashforthSolver", "ImplicitSolver",
+             "CrankNicolsonSolver")
 
 Stepper = Callable[[Any, float, float], float]
 
@@ -88,6 +89,10 @@ def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[
         make = _rkf45_adaptive if adaptive else _rk4_fixed
     elif name == "AdamsBashforthSolver":
         make = _adams_bashforth
+    elif name == "ImplicitSolver":
+        make = _implicit_euler
+    elif name == "CrankNicolsonSolver":
+        make = _crank_nicolson
     else:
         raise ValueError(f"no device stepper for {name} (adaptive={adaptive})")
     return make(solver, rhs, _Fields(rhs, several, field_shape))
@@ -253,3 +258,91 @@ def _adams_bashforth(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
         return t + dt
 
     return stepper
+
+
+def _fixed(solver: Any, f: _Fields, step: Callable[[float], None]) -> Stepper:
+    """py-pde's fixed-step loop (``SolverBase._make_inner_stepper``): ``step(t)`` at
+    ``t = t_start + i·dt`` for the number of steps nearest ``(t_end − t_start)/dt``."""
+    dt = float(solver.info["dt"])
+
+    def stepper(state: Any, t_start: float, t_end: float) -> float:
+        f.load(state)
+        steps = max(1, round((t_end - t_start) / dt))
+        for i in range(steps):
+            t = t_start + i * dt
+            step(t)
+        solver.info["steps"] += steps
+        f.store(state)
+        return t + dt
+
+    return stepper
+
+
+class _FixedPoint:
+    """py-pde's fixed-point iteration of an implicit step, on the device: from the first
+    estimate in ``est``, ``update(est, new)`` writes the next one until the mean square
+    change over every value is below ``maxerror²``; ``ConvergenceError`` after
+    ``maxiter`` tries.  The converged estimate becomes the state."""
+
+    def __init__(self, solver: Any, rhs: DeviceRHS, f: _Fields, what: str):
+        self.rhs, self.f, self.what = rhs, f, what
+        self.maxiter, self.maxerror2 = int(solver.maxiter), solver.maxerror ** 2
+        self.size = len(rhs.species) * int(np.prod(rhs.shape))
+        self.est, self.new, self.change = rhs.empty(), rhs.empty(), rhs.empty()
+
+    def solve(self, update: Callable[[Field, Field], None]) -> None:
+        from pde.solvers.base import ConvergenceError
+
+        rhs = self.rhs
+        for _ in range(self.maxiter):
+            update(self.est, self.new)
+            rhs.pointwise(self.change, "a - b", {"a": self.new, "b": self.est})
+            self.est, self.new = self.new, self.est
+            if rhs.sum_squares(self.change) / self.size < self.maxerror2:
+                break
+        else:
+            raise ConvergenceError(f"{self.what} step did not converge.")
+        self.f.x, self.est = self.est, self.f.x
+
+
+def _implicit_euler(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``ImplicitSolver``: backward Euler by py-pde's fixed-point iteration ``x' ← x + dt
+    f(x', t + dt)`` from the forward-Euler estimate."""
+    dt = float(solver.info["dt"])
+    it = _FixedPoint(solver, rhs, f, "Implicit Euler")
+    k = rhs.empty()
+
+    def step(t: float) -> None:
+        rhs.euler(f.x, it.est, t, dt)
+
+        def update(est: Field, new: Field) -> None:
+            rhs.rate(est, k, t + dt, dt)
+            rhs.pointwise(new, "x + k", {"x": f.x, "k": k})
+
+        it.solve(update)
+
+    return _fixed(solver, f, step)
+
+
+def _crank_nicolson(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``CrankNicolsonSolver``: py-pde's fixed-point iteration of ``x' ← α x' + (1 − α)
+    (x + dt/2 (f(x', t + dt) + f(x, t)))``, α its ``explicit_fraction``, from ``x``."""
+    dt = float(solver.info["dt"])
+    alpha = float(solver.explicit_fraction)
+    weights = {"c": dt / 2, "a": alpha, "b": 1 - alpha}
+    it = _FixedPoint(solver, rhs, f, "Crank-Nicolson")
+    rate_t, r, cn = rhs.empty(), rhs.empty(), rhs.empty()
+
+    def step(t: float) -> None:
+        rhs.rate(f.x, rate_t, t)
+
+        def update(est: Field, new: Field) -> None:
+            rhs.rate(est, r, t + dt)
+            rhs.pointwise(cn, "x + c*(r + q)", {"x": f.x, "r": r, "q": rate_t}, weights)
+            rhs.pointwise(new, "a*e + b*s", {"e": est, "s": cn}, weights)
+
+        # py-pde's first estimate is this update applied to x itself
+        update(f.x, it.est)
+        it.solve(update)
+
+    return _fixed(solver, f, step)
