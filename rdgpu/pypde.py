@@ -123,19 +123,19 @@ def _grid(grid: Any) -> tuple[tuple[int, ...], dict[str, float]]:
     return tuple(int(n) for n in grid.shape), dict(zip(names, h, strict=True))
 
 
-def _boundary_array(v: Any, shape: tuple[int, ...], what: str, where: str) -> np.ndarray:
-    """``v`` (py-pde's ``const`` or ``factor`` of one side) as a finite float64 array over
-    the boundary cells, ``shape`` (the grid's shape without the side's axis)."""
+def _boundary_array(v: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """``v`` (py-pde's ``const`` or ``factor`` of one side, named by ``what``) as a finite
+    float64 array over the boundary cells, ``shape`` (the grid's shape without the side's
+    axis)."""
     a = np.asarray(v)
     if not np.isrealobj(a) or a.dtype == object:
-        raise _refuse(f"the complex or non-numeric {what} {v!r} of the boundary condition at "
-                      f"{where} (real fields only)")
+        raise _refuse(f"the complex or non-numeric {what} {v!r} (real fields only)")
     a = np.full(shape, a.item()) if a.size == 1 else np.broadcast_to(a, shape)
     a = np.asarray(a, dtype=np.float64)
     if not np.isfinite(a).all():
         bad = np.argwhere(~np.isfinite(a))[0]
-        raise _refuse(f"the non-finite ghost-cell {what} {a[tuple(bad)]} at {where} (boundary "
-                      f"cell {tuple(int(i) for i in bad)}; finite values are supported)")
+        raise _refuse(f"the non-finite {what}: {a[tuple(bad)]} at boundary cell "
+                      f"{tuple(int(i) for i in bad)} (finite values are supported)")
     return a
 
 
@@ -189,7 +189,8 @@ def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         raise _refuse(f"the boundary condition {name} at {where} reading cell {index} (only "
                       "the edge cell is supported)")
     shape = tuple(m for i, m in enumerate(bc.grid.shape) if i != bc.axis)
-    return tuple(tuple(_boundary_array(v, shape, what, where).ravel().tolist())
+    return tuple(tuple(_boundary_array(v, shape, f"ghost-cell {what} of the boundary "
+                                       f"condition {name} at {where}").ravel().tolist())
                  for v, what in ((const, "constant"), (factor, "factor")))
 
 
