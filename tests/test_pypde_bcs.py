@@ -181,6 +181,17 @@ def test_corners_sum_every_face(ndim):
         assert abs(ours[idx] - theirs[idx]) <= REL * np.abs(theirs).max()
 
 
+def test_infinite_robin_coefficient_is_a_zero_value():
+    """py-pde turns γ = ∞ into the ghost ``−u_edge`` (value 0 on the face): a non-finite
+    input whose ghost data are finite runs, and equals Dirichlet 0."""
+    grid = _grid(2)
+    bc = {"x": {"mixed": np.inf}, "y-": {"derivative": 0.3}, "y+": {"value": 0.4}}
+    start = _field(grid, 22)
+    ours = _rdgpu_rate(pde.PDE({"c": "laplace(c)"}, bc=bc), start, "numpy")
+    _same(ours, start.laplace(bc).data)
+    _same(ours, start.laplace({**bc, "x": {"value": 0.0}}).data)
+
+
 TWO = {"u": "0.8*laplace(u) - u*v + 0.1",
        "v": "0.3*laplace(v) + u*v - 0.2*v"}
 
