@@ -16,13 +16,25 @@ naming the part it cannot run; it never falls back to another backend):
 * on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
   rdgpu's field, so ``[i, j]`` is ``[y, x]`` in 2-D; py-pde's coordinate ``x`` of axis 0
   becomes rdgpu's name for that axis, shifted by the grid's lower bound);
-* boundary conditions: periodic, zero-derivative Neumann and Dirichlet with a constant
-  value per side.  py-pde's Dirichlet value ``g`` is the value on the face (ghost
-  ``2g − u_edge``), rdgpu's the ghost's value; a Dirichlet axis therefore runs with rdgpu's
-  ghost 0 and every ``laplace(s)`` reads ``laplace(s) + (P_s − W_s s)``, two per-cell
-  fields that are zero away from the faces: per face of an edge cell ``P += 2g/h², W +=
-  1/h²`` (Dirichlet) or ``W −= 1/h²`` (Neumann on an axis that is Dirichlet elsewhere);
-  this is py-pde's Laplacian exactly (to round-off), corners included;
+* boundary conditions: periodic and every first-order condition of py-pde, i.e. each
+  side's ghost cell is ``const + factor·u_edge``: Dirichlet ``{"value": g}`` (``g`` is the
+  value on the face: ghost ``2g − u_edge``), Neumann ``{"derivative": g}`` (``g`` is the
+  derivative along the outward normal, so ``−∂u/∂x`` on a lower side: ghost ``u_edge +
+  h·g``), Mixed/Robin ``{"type": "mixed", "value": γ, "const": β}`` (``∂u/∂n + γu = β``)
+  and their ``Normal*`` spellings, with values that are numbers, arrays over the boundary
+  or expressions of the coordinates; and the expression conditions (``value_expression``,
+  ``derivative_expression``, ``mixed_expression``, ``virtual_point``) whose ghost is affine
+  in the edge value and free of ``t``.  An axis where every field's ghost is ``const +
+  u_edge`` runs with rdgpu's Neumann (ν = 1), any other with rdgpu's ghost 0 (ν = 0); every
+  ``laplace(s)`` then reads ``laplace(s) + P_s − W_s s``, two per-cell fields that are zero
+  away from the faces (and left out where zero everywhere, as on an axis that is
+  zero-derivative Neumann for every field): per face of an edge cell ``P += const/h²``,
+  ``W += (ν − factor)/h²``.  This is py-pde's Laplacian exactly (to round-off), corners
+  included.  Refused, naming the condition and the side: second-order conditions
+  (``CurvatureBC``), user conditions and ghost-cell callbacks, values linked to an external
+  array, expressions given as Python functions, depending on ``t`` or not affine in the
+  field, anti-periodic axes, non-finite ghost data, and ``laplace(laplace(s))`` where ``s``
+  needs the correction fields;
 * with py-pde's ``EulerSolver`` (``solver="euler"``, or the deprecated ``ExplicitSolver``)
   at a fixed ``dt`` — rdgpu's fused forward-Euler kernel, compiled once per ``solve``.
 
@@ -50,8 +62,15 @@ except ImportError:  # py-pde is optional: only this module needs it
     require("pde", "rdgpu.pypde (py-pde >= 0.59)")  # raises, naming the [pypde] extra
     raise
 from pde.backends import BackendBase, backend_registry
+from pde.grids.boundaries.axes import BoundariesList
 from pde.grids.boundaries.axis import BoundaryPeriodic
-from pde.grids.boundaries.local import DirichletBC, NeumannBC
+from pde.grids.boundaries.local import (
+    ConstBC1stOrderBase,
+    ConstBC2ndOrderBase,
+    ExpressionBC,
+    UserBC,
+    _PeriodicBC,
+)
 
 from . import dispatch, pypde_steppers
 from .domains import Grid
@@ -65,6 +84,9 @@ NAME = "rdgpu"
 #: rdgpu's coordinate name of each field axis, by number of dimensions
 _AXIS_NAMES = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
 _SUPPORTED = "pde.PDE, DiffusionPDE, AllenCahnPDE, SwiftHohenbergPDE"
+_BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
+        "values that are numbers, arrays or expressions of the coordinates, and value, "
+        "derivative and mixed expressions affine in the field and free of t")
 
 
 class UnsupportedPDE(NotImplementedError):
@@ -102,21 +124,75 @@ def _grid(grid: Any) -> tuple[tuple[int, ...], dict[str, float]]:
     return tuple(int(n) for n in grid.shape), dict(zip(names, h, strict=True))
 
 
-def _side(bc: Any, where: str) -> tuple[str, float]:
-    """``("dirichlet", g)`` or ``("neumann", 0)`` of one side's condition."""
-    kind = "dirichlet" if isinstance(bc, DirichletBC) else \
-        "neumann" if isinstance(bc, NeumannBC) else None
-    if kind is None or type(bc).__name__.startswith("Normal") and bc.rank > 0:
-        raise _refuse(f"the boundary condition {type(bc).__name__} at {where} (supported: "
-                      "periodic, Neumann with derivative 0, Dirichlet with a constant value)")
-    value = np.asarray(bc.value)
-    if value.ndim != 0 or not np.isrealobj(value) or not np.isfinite(value):
-        raise _refuse(f"the {kind} value {bc.value!r} at {where} (a finite constant is "
-                      "supported, not a field or an expression)")
-    if kind == "neumann" and float(value) != 0.0:
-        raise _refuse(f"the Neumann derivative {float(value)} at {where} (only 0 is "
-                      "supported)")
-    return kind, float(value)
+def _boundary_array(v: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """``v`` (py-pde's ``const`` or ``factor`` of one side, named by ``what``) as a finite
+    float64 array over the boundary cells, ``shape`` (the grid's shape without the side's
+    axis)."""
+    a = np.asarray(v)
+    if not np.isrealobj(a) or a.dtype == object:
+        raise _refuse(f"the complex or non-numeric {what} {v!r} (real fields only)")
+    a = np.full(shape, a.item()) if a.size == 1 else np.broadcast_to(a, shape)
+    a = np.asarray(a, dtype=np.float64)
+    if not np.isfinite(a).all():
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise _refuse(f"the non-finite {what}: {a[tuple(bad)]} at boundary cell "
+                      f"{tuple(int(i) for i in bad)} (finite values are supported)")
+    return a
+
+
+def _expression_ghost(bc: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(const, factor)`` of py-pde's expression condition ``bc`` (``ExpressionBC`` and its
+    value, derivative and mixed variants): its virtual point must be affine in the edge
+    value (``const`` at value 0, ``factor`` its derivative in the value) and free of ``t``."""
+    name = type(bc).__name__
+    if bc._is_func:
+        raise _refuse(f"the boundary condition {name} at {where} given as a Python function "
+                      "(a user callback; give the expression as a string)")
+    if bc.value_cell is not None:
+        raise _refuse(f"the boundary condition {name} at {where} reading the cell "
+                      f"value_cell={bc.value_cell} (only the edge cell is supported)")
+    expr = bc._func_expression
+    if expr.depends_on("t"):
+        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where} "
+                      "depends on t (time-dependent conditions are not supported)")
+    slope = expr.differentiate("value")
+    curve = slope.differentiate("value")
+    if not (curve.constant and curve.value == 0):
+        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where}: "
+                      f"its ghost value {expr.expression} is not affine in the edge value")
+    dx = float(bc.grid.discretization[bc.axis])
+    coords = np.moveaxis(bc.grid._boundary_coordinates(axis=bc.axis, upper=bc.upper), -1, 0)
+    zero = np.zeros(coords.shape[1:])
+    return expr(zero, dx, *coords, 0.0), slope(zero, dx, *coords, 0.0)
+
+
+def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """py-pde's ghost cell of one side, ``ghost = const + factor·u_edge``, as ``(const,
+    factor)``: tuples of floats over the side's boundary cells (the grid's other axes in
+    order, flattened in C order; one value in 1-D)."""
+    name = type(bc).__name__
+    if isinstance(bc, ConstBC1stOrderBase) and not isinstance(bc, _PeriodicBC):
+        if bc.value_is_linked:
+            raise _refuse(f"the boundary condition {name} at {where}: its value is linked to "
+                          "an external array that may change (give the values themselves)")
+        const, factor, index = bc.get_virtual_point_data()
+    elif isinstance(bc, ExpressionBC):
+        const, factor = _expression_ghost(bc, where)
+        index = bc._get_value_cell_index(with_ghost_cells=False)
+    else:
+        kind = "a user condition (ghost cells set by the caller)" if isinstance(bc, UserBC) \
+            else "a second-order condition" if isinstance(bc, ConstBC2ndOrderBase) else \
+            "an unknown condition"
+        raise _refuse(f"the boundary condition {name} at {where}, {kind} (supported: "
+                      f"{_BCS})")
+    n = bc.grid.shape[bc.axis]
+    if index % n != (n - 1 if bc.upper else 0):
+        raise _refuse(f"the boundary condition {name} at {where} reading cell {index} (only "
+                      "the edge cell is supported)")
+    shape = tuple(m for i, m in enumerate(bc.grid.shape) if i != bc.axis)
+    return tuple(tuple(_boundary_array(v, shape, f"ghost-cell {what} of the boundary "
+                                       f"condition {name} at {where}").ravel().tolist())
+                 for v, what in ((const, "constant"), (factor, "factor")))
 
 
 def _conditions(grid: Any, data: Any, what: str) -> list[Any]:
@@ -125,29 +201,37 @@ def _conditions(grid: Any, data: Any, what: str) -> list[Any]:
         bcs = grid.get_boundary_conditions(data)
     except Exception as exc:  # py-pde's own message says what is wrong with the data
         raise _refuse(f"the boundary conditions {data!r} of {what} ({exc})") from None
+    if not isinstance(bcs, BoundariesList):
+        raise _refuse(f"the boundary conditions of {what} as {type(bcs).__name__} (a user "
+                      f"callback that sets the ghost cells; supported: {_BCS})")
     out: list[Any] = []
     for k, axis in enumerate(bcs):
+        name = grid.axes[k]
         if isinstance(axis, BoundaryPeriodic):
+            if axis.flip_sign:
+                raise _refuse(f"the anti-periodic condition on axis {name} of {what} "
+                              f"(supported: {_BCS})")
             out.append("periodic")
             continue
-        name = grid.axes[k]
         out.append(tuple(_side(b, f"{name}{'+' if b.upper else '-'} of {what}")
                          for b in (axis.low, axis.high)))
     return out
 
 
 def _axis_bcs(per_species: dict[str, list[Any]], ndim: int) -> list[Any]:
-    """rdgpu's condition per axis: periodic, Neumann where every species is zero-Neumann
-    on both sides, else Dirichlet with ghost 0 (the faces come from the correction
-    fields)."""
-    out = []
+    """rdgpu's condition per axis: periodic; Neumann where every species' ghost is
+    ``const + u_edge`` on both sides (a Neumann condition; the derivatives, if not 0, come
+    from the correction fields); else Dirichlet with ghost 0 (the faces come from the
+    correction fields)."""
+    out: list[Any] = []
     for k in range(ndim):
         kinds = {"periodic" if c[k] == "periodic" else "pair" for c in per_species.values()}
         if len(kinds) > 1:
             raise _refuse(f"axis {k} is periodic for some fields and not for others")
         if kinds == {"periodic"}:
             out.append("periodic")
-        elif all(side[0] == "neumann" for c in per_species.values() for side in c[k]):
+        elif all(f == 1.0 for c in per_species.values() for _, factor in c[k]
+                 for f in factor):
             out.append("neumann")
         else:
             out.append(("dirichlet", 0.0))
@@ -155,25 +239,26 @@ def _axis_bcs(per_species: dict[str, list[Any]], ndim: int) -> list[Any]:
 
 
 def _corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int, ...],
-                 spacing: list[float]) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(P, W)`` of species ``s`` (module doc), or None where every axis is native."""
+                 spacing: list[float]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(P, W)`` of species ``s`` (module doc), each None where it is zero everywhere.
+
+    On an axis that rdgpu runs with the ghost ``ν·u_edge`` (ν = 1 Neumann, 0 Dirichlet
+    with ghost 0), py-pde's ghost ``const + factor·u_edge`` adds ``(const + (factor −
+    ν)·u_edge)/h²`` to the Laplacian of the edge cell: ``P += const/h²``, ``W += (ν −
+    factor)/h²``, per face."""
     P, W = np.zeros(shape), np.zeros(shape)
-    used = False
     for k, bc in enumerate(axis_bcs):
-        if not isinstance(bc, tuple):
+        if bc == "periodic":
             continue
-        used = True
+        nu = 1.0 if bc == "neumann" else 0.0
         inv = 1.0 / (spacing[k] * spacing[k])
-        for side, index in zip(conds[k], (0, shape[k] - 1), strict=True):
-            sl = [slice(None)] * len(shape)
+        face = shape[:k] + shape[k + 1:]
+        for (const, factor), index in zip(conds[k], (0, shape[k] - 1), strict=True):
+            sl: list[Any] = [slice(None)] * len(shape)
             sl[k] = index
-            kind, g = side
-            if kind == "dirichlet":
-                P[tuple(sl)] += 2.0 * g * inv
-                W[tuple(sl)] += inv
-            else:
-                W[tuple(sl)] -= inv
-    return (P, W) if used else None
+            P[tuple(sl)] += np.reshape(const, face) * inv
+            W[tuple(sl)] += (nu - np.reshape(factor, face)) * inv
+    return (P if P.any() else None), (W if W.any() else None)
 
 
 def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, Any],
@@ -285,26 +370,35 @@ def translate(pde_obj: Any, state: Any) -> Translation:
         except eq.EquationError as exc:
             raise _refuse(str(exc)) from None
         trees[s] = eq.substitute(tree, coords)
-    correct: dict[str, tuple[str, str]] = {}
+    correct: dict[str, tuple[str | None, str | None]] = {}
     for s in species:
         pw = _corrections(s, conds[s], axis_bcs, shape, h)
-        if pw is None:
+        names = tuple(None if a is None else f"{tag}_{s}"
+                      for a, tag in zip(pw, ("bcface", "bcdiag"), strict=True))
+        if names == (None, None):
             continue
-        names = (f"bcface_{s}", f"bcdiag_{s}")
         clash = [n for n in names if n in params]
         if clash:
             raise _refuse(f"the constant name(s) {clash} (used by the backend)")
-        params.update(zip(names, pw, strict=True))
+        params.update((n, a) for n, a in zip(names, pw, strict=True) if n is not None)
         correct[s] = names
-    if correct and any(o == 2 for t in trees.values() for _, o in eq.laplacians(t)):
-        raise _refuse("laplace(laplace(...)) with a Dirichlet condition (periodic and "
-                      "Neumann only)")
+    twice = sorted({n for t in trees.values() for n, o in eq.laplacians(t)
+                    if o == 2 and n in correct})
+    if twice:
+        raise _refuse(f"laplace(laplace({twice[0]})) with the boundary conditions of "
+                      f"{twice[0]!r} (a Dirichlet, Mixed or non-zero Neumann condition; "
+                      "periodic and zero-derivative Neumann only there)")
 
     def face(n: eq.Node) -> eq.Node | None:
         if isinstance(n, eq.Lap) and n.order == 1 and n.name in correct:
             p, w = correct[n.name]
-            return eq.Bin("+", n, eq.Bin("-", eq.Ref("param", p), eq.Bin(
-                "*", eq.Ref("param", w), eq.Ref("species", n.name))))
+            out: eq.Node = n
+            if p is not None:
+                out = eq.Bin("+", out, eq.Ref("param", p))
+            if w is not None:
+                out = eq.Bin("-", out, eq.Bin("*", eq.Ref("param", w),
+                                              eq.Ref("species", n.name)))
+            return out
         return None
 
     text = {s: eq.to_text(eq.substitute(trees[s], face)) for s in species}
