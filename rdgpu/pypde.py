@@ -35,16 +35,25 @@ naming the part it cannot run; it never falls back to another backend):
   array, expressions given as Python functions, depending on ``t`` or not affine in the
   field, anti-periodic axes, non-finite ghost data, and ``laplace(laplace(s))`` where ``s``
   needs the correction fields;
-* with py-pde's ``EulerSolver`` (``solver="euler"``, or the deprecated ``ExplicitSolver``)
-  at a fixed ``dt`` — rdgpu's fused forward-Euler kernel, compiled once per ``solve``.
+* with py-pde's solvers ``EulerSolver`` (``solver="euler"``; fixed ``dt``, or adaptive:
+  py-pde's default when ``solve`` gets no ``dt``), ``RungeKuttaSolver`` (RK4 at a fixed
+  ``dt``, adaptive Runge-Kutta-Fehlberg 4(5)), ``AdamsBashforthSolver``, ``ImplicitSolver``
+  and ``CrankNicolsonSolver`` (py-pde's fixed-point iterations), the deprecated
+  ``ExplicitSolver``, all on the device (:mod:`rdgpu.pypde_steppers`): each right-hand
+  side one fused pass compiled once per ``solve``, py-pde's step-size control and
+  operation order, the same accepted steps; and ``ScipySolver``, which calls
+  :meth:`RdgpuBackend.make_pde_rhs` (host arrays in and out: SciPy's integrators live on
+  the host).  ``MilsteinSolver`` and ``ExplicitMPISolver`` are refused.
 
 Data crosses between host and device only where py-pde's controller hands control back,
 i.e. at tracker times: each call of the stepper uploads ``state.data``, runs every step
-on the device and downloads the result into ``state.data``.
+on the device and downloads the result into ``state.data``.  An adaptive or implicit
+solver also reads one number per try back (the error or the change, a reduction on the
+device).
 
-rdgpu checks the linear stability limit of ``dt`` (:class:`rdgpu.StabilityError`); set
-``check_stability = False`` on the backend object (``pde.backends.get_backend("rdgpu")``)
-to run anyway.
+With a fixed-``dt`` Euler solver rdgpu checks the linear stability limit of ``dt``
+(:class:`rdgpu.StabilityError`); set ``check_stability = False`` on the backend object
+(``pde.backends.get_backend("rdgpu")``) to run anyway.
 """
 
 from __future__ import annotations

@@ -246,6 +246,6 @@ def test_refuses_grids_boundaries_and_solvers(cart):
     _refused(pde.DiffusionPDE(bc={"curvature": 0.0}), sb, "CurvatureBC")
     _refused(pde.SwiftHohenbergPDE(bc={"value": 0.0}), sb, "Dirichlet")
     _refused(pde.SwiftHohenbergPDE(bc="neumann", bc_lap={"value": 0.0}), sb, "bc_lap")
-    _refused(pde.DiffusionPDE(), s, "ImplicitSolver", solver="implicit")
+    _refused(pde.DiffusionPDE(), s, "MilsteinSolver", solver="milstein")
     vec = pde.VectorField(grid, 0.0)
     _refused(pde.PDE({"c": "laplace(c)"}), vec, "VectorField")

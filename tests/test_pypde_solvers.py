@@ -194,10 +194,71 @@ def test_pypde_simple_example_runs_unchanged(tmp_path):
     _same_run(_run(eq, start, "rdgpu", 10.0), theirs, start)
 
 
+# --------------------------------------------------------------------- implicit solvers
+IMPLICIT = {"implicit": lambda eq, b: pde.ImplicitSolver(eq, backend=b),
+            "crank-nicolson": lambda eq, b: pde.CrankNicolsonSolver(eq, backend=b),
+            "crank-nicolson-0.3": lambda eq, b: pde.CrankNicolsonSolver(
+                eq, backend=b, explicit_fraction=0.3)}
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("name", sorted(IMPLICIT))
+def test_implicit_solvers(name, device):
+    """Backward Euler and Crank-Nicolson by py-pde's fixed-point iteration, on the
+    device: the same steps and fields to round-off."""
+    backend_or_skip(device)
+    grid = pde.CartesianGrid([[0, 5], [0, 3]], [17, 9], periodic=[True, False])
+    start = pde.ScalarField(grid, np.random.default_rng(4).uniform(-1, 1, grid.shape))
+    eq = pde.PDE({"c": "0.5*laplace(c) + c - c**3"}, bc={"x": "periodic", "y": {"value": 0.2}})
+    runs = []
+    for backend in ("numpy", f"rdgpu:{device}"):
+        solver = IMPLICIT[name](eq, backend)
+        out = pde.Controller(solver, t_range=1.0, tracker=None).run(start, dt=0.01)
+        runs.append((out, solver.info))
+    _same_run(runs[1], runs[0], start)
+
+
+def test_implicit_not_converging_raises_as_pypde():
+    grid = pde.CartesianGrid([[0, 4]], [16], periodic=True)
+    start = pde.ScalarField(grid, np.random.default_rng(5).random(grid.shape))
+    eq = pde.DiffusionPDE(1.0)
+    for backend in ("numpy", "rdgpu:numpy"):
+        solver = pde.ImplicitSolver(eq, backend=backend, maxiter=3)
+        with pytest.raises(pde.solvers.ConvergenceError, match="did not converge"):
+            pde.Controller(solver, t_range=1.0, tracker=None).run(start, dt=0.5)
+
+
+def test_pypde_solver_comparison_example():
+    """py-pde's ``examples/advanced_pdes/solver_comparison.py`` (diffusion on
+    ``UnitGrid([32, 32])`` from ``random_uniform(-1, 1)``, t = 1 at dt = 1e-3 with the
+    Euler, adaptive Runge-Kutta, implicit, Crank-Nicolson, Adams-Bashforth and SciPy
+    solvers through ``Controller``), each solver with ``backend="rdgpu"``: every solution
+    equals py-pde's own to round-off (seeded field; its plot left out)."""
+    grid = pde.UnitGrid([32, 32])
+    field = pde.ScalarField.random_uniform(grid, -1, 1, rng=np.random.default_rng(0))
+    eq = pde.DiffusionPDE()
+    solvers = [lambda b: pde.EulerSolver(eq, backend=b),
+               lambda b: pde.RungeKuttaSolver(eq, adaptive=True, backend=b),
+               lambda b: pde.ImplicitSolver(eq, backend=b),
+               lambda b: pde.CrankNicolsonSolver(eq, backend=b),
+               lambda b: pde.AdamsBashforthSolver(eq, backend=b),
+               lambda b: pde.ScipySolver(eq, backend=b)]
+    for make in solvers:
+        runs = []
+        for backend in ("numpy", "rdgpu"):
+            solver = make(backend)
+            controller = pde.Controller(solver, t_range=1, tracker=None)
+            runs.append((controller.run(field, dt=1e-3), solver.info))
+            assert controller.diagnostics["solver"]["backend"]["name"].startswith(
+                backend)
+        (a, ia), (b, ib) = runs[1], runs[0]
+        assert ia["steps"] == ib["steps"]
+        np.testing.assert_allclose(a.data, b.data, rtol=0, atol=TOL)
+
+
 # --------------------------------------------------------------------- refusals
-def test_refuses_implicit_and_other_solvers(gs):
+def test_refuses_other_solvers(gs):
     eq, start = gs
-    for solver in ("implicit", "crank-nicolson"):
-        with pytest.raises(UnsupportedPDE, match="solver"):
-            eq.solve(start.copy(), t_range=0.1, dt=0.01, solver=solver,
-                     backend="rdgpu:numpy", tracker=None)
+    with pytest.raises(UnsupportedPDE, match="the solver MilsteinSolver"):
+        eq.solve(start.copy(), t_range=0.1, dt=0.01, solver="milstein",
+                 backend="rdgpu:numpy", tracker=None)

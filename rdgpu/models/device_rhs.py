@@ -10,7 +10,8 @@ which crosses to the host:
 * :meth:`DeviceRHS.euler`: ``out_s = x_s + h · f_s(x, t)``;
 * :meth:`DeviceRHS.pointwise`: ``out = expr`` elementwise, an expression of named fields
   and scalars in Python's operation order (``"x + 0.5*dt*k"``), one pass per species;
-* :meth:`DeviceRHS.max_abs`: ``max |a|`` over fields, a host float, NaN if any value is NaN.
+* :meth:`DeviceRHS.max_abs`: ``max |a|`` over fields, a host float, NaN if any value is NaN;
+  :meth:`DeviceRHS.sum_squares`: ``Σ a²`` likewise.
 
 A field is a list of device buffers, one per species, each of the stepper's shape.  The
 scalars (``h``, ``c``, ``dt``...) are kernel arguments, so a pass compiles once whatever
@@ -103,6 +104,11 @@ class DeviceRHS:
             program = Program(names, (Output("out", tree),))
             self._pointwise[key] = program
         return program
+
+    def sum_squares(self, *fields: Field) -> float:
+        """``Σ a²`` over every buffer of ``fields`` (accumulated in float64; NaN if any
+        value is NaN)."""
+        return float(sum(self.backend.sum_squares(d) for f in fields for d in f))
 
     def max_abs(self, *fields: Field) -> float:
         """``max |a|`` over every buffer of ``fields``; NaN if any value is NaN (NumPy's
