@@ -1,14 +1,17 @@
-"""py-pde's explicit solvers on an rdgpu device (used by :mod:`rdgpu.pypde`).
+"""py-pde's solvers on an rdgpu device (used by :mod:`rdgpu.pypde`).
 
 The stepping loops of py-pde 0.59's ``EulerSolver`` (fixed and adaptive ``dt``),
-``RungeKuttaSolver`` (fixed: classic RK4; adaptive: Runge-Kutta-Fehlberg 4(5)) and
-``AdamsBashforthSolver`` (two-step, fixed), written again over device fields: every
-right-hand side is one fused rdgpu pass (:class:`~rdgpu.models.device_rhs.DeviceRHS`),
-every vector update one elementwise pass in py-pde's operation order, the adaptive error
-``max |·|`` one reduction whose single number is all that reaches the host per attempted
-step.  The step-size control is py-pde's own (``pde.solvers.base._make_dt_adjuster``) and
-the bookkeeping the same (``info["dt"]``, ``info["steps"]``, ``info["dt_statistics"]``),
-so the accepted steps match the ``numpy``/``numba`` backends' as long as the rates agree
+``RungeKuttaSolver`` (fixed: classic RK4; adaptive: Runge-Kutta-Fehlberg 4(5)),
+``AdamsBashforthSolver`` (two-step, fixed), ``ImplicitSolver`` and
+``CrankNicolsonSolver`` (fixed, by fixed-point iteration), written again over device
+fields: every right-hand side is one fused rdgpu pass
+(:class:`~rdgpu.models.device_rhs.DeviceRHS`), every vector update one elementwise pass in
+py-pde's operation order, the adaptive error ``max |·|`` and the iterations' mean square
+change one reduction each, whose single number is all that reaches the host per try (the
+sum's order differs from py-pde's sequential one: its last bits may).  The step-size
+control is py-pde's own (``pde.solvers.base._make_dt_adjuster``) and the bookkeeping
+the same (``info["dt"]``, ``info["steps"]``, ``info["dt_statistics"]``), so the accepted
+steps match the ``numpy``/``numba`` backends' as long as the rates agree
 to round-off.  The fields cross to the host once per call, i.e. per tracker interval.
 
 Fixed-step Euler runs as rdgpu's own forward-Euler stepper
