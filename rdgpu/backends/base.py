@@ -168,6 +168,26 @@ class Backend(ABC):
     def synchronize(self) -> None:  # noqa: B027 - optional hook
         """Wait until every queued kernel has finished (for timing)."""
 
+    # ------------------------------------------------------------------ reductions
+    @abstractmethod
+    def max_abs(self, u: DeviceArray) -> float:
+        """``max |u|`` over every element of ``u`` (float32 or float64, any shape), as a
+        host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (kernels/reduce): exact,
+        NaN if any element is NaN, ``inf`` if any is ±inf and none NaN, subnormals count
+        (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
+        queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
+
+    def _check_max_abs(self, u: DeviceArray) -> np.dtype:
+        """Check ``max_abs``'s operand; return the unsigned integer dtype of its width
+        (the kernels compare the bit patterns of ``|u|``)."""
+        if not isinstance(u, DeviceArray) or not isinstance(u.backend, type(self)):
+            where = u.backend.name if isinstance(u, DeviceArray) else type(u).__name__
+            raise TypeError(f"max_abs takes a DeviceArray of the {self.name} backend, got "
+                            f"{where} (upload it with backend.upload first)")
+        if u.dtype not in _REAL_DTYPES:
+            raise TypeError(f"max_abs takes float32 or float64 arrays, got {u.dtype}")
+        return np.dtype(np.uint32 if u.dtype == np.float32 else np.uint64)
+
     # ------------------------------------------------------------------ grid kernels
     @abstractmethod
     def laplacian(
@@ -426,3 +446,12 @@ def _check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: 
             or dst_start + count > dst.size:
         raise ValueError(f"copy_range of {count} elements from {src_start} (of {src.size}) "
                          f"to {dst_start} (of {dst.size}) is out of range")
+
+
+def max_abs_of_partials(partials: np.ndarray, dtype: np.dtype) -> float:
+    """The host's last step of ``max_abs``: ``partials`` are the bit patterns (unsigned, of
+    ``dtype``'s width, sign bits clear) of partial maxima of ``|u|``; their unsigned max
+    is the pattern of ``max |u|`` (or of a NaN), returned as a float."""
+    if partials.size == 0:
+        return 0.0
+    return float(partials.max().view(dtype))
