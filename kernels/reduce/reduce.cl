@@ -20,6 +20,9 @@
  *     elements: coalesced), then a tree reduction in local memory `scratch` (one element
  *     per work-item; the work-group size is a power of two); partial[group] per
  *     work-group.  `chunk` is unused.
+ *
+ * -D RDGPU_REDUCE_SCALAR keeps LLVM from vectorising the row loop (perf/reduce.py measures
+ * what vectorisation is worth).
  */
 
 #if REAL_IS_DOUBLE
@@ -42,6 +45,9 @@ __kernel void max_abs_partial(__global const bits *RESTRICT u, __global bits *RE
     const long start = g * chunk;
     const long stop = (n - start < chunk) ? n : start + chunk;
     bits m = 0;
+#ifdef RDGPU_REDUCE_SCALAR
+#pragma clang loop vectorize(disable) interleave(disable)
+#endif
     for (long k = start; k < stop; ++k) {
         m = bits_max(m, u[k] & ABS_MASK);
     }

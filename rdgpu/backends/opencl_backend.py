@@ -516,32 +516,30 @@ class OpenCLBackend(Backend):
         if self.layout == "row":
             chunk = max(_REDUCE_CHUNK, -(-n // _REDUCE_MAX_PARTIALS))
             chunk = -(-chunk // 64) * 64
-            parts = -(-n // chunk)
-            group = 1
+            parts, group = -(-n // chunk), 1
         else:
             chunk = 0
             group = min(_REDUCE_GROUP, _pow2_floor(self.cl_device.max_work_group_size))
             parts = min(-(-n // group), _REDUCE_MAX_GROUPS)
-        partial, host, scratch = self._reduce_buffers(parts, bits, group)
+        partial, host, scratch = self._reduce_buffers(bits, group)
         kernel = self.kernels(u.dtype)["max_abs_partial"]
         kernel.set_args(u.handle, partial, n, chunk, scratch)
         self._cl.enqueue_nd_range_kernel(self.queue, kernel, (parts * group,), (group,))
         self._cl.enqueue_copy(self.queue, host[:parts], partial, is_blocking=True)
         return max_abs_of_partials(host[:parts], u.dtype)
 
-    def _reduce_buffers(self, parts: int, bits: np.dtype, group: int):
+    def _reduce_buffers(self, bits: np.dtype, group: int) -> tuple:
         """This thread's ``(device partials, host partials, local scratch)`` for
-        ``max_abs``, grown on demand (threads never share the partials)."""
+        ``max_abs`` (threads never share the partials; the buffers hold the most partials
+        any call writes)."""
         cache = getattr(self._local, "reduce", None)
         if cache is None:
             cache = self._local.reduce = {}
-        key = (bits, group)
-        entry = cache.get(key)
-        if entry is None or entry[1].size < parts:
-            size = max(parts, 64 if entry is None else 2 * entry[1].size)
-            host = np.empty(size, bits)
-            entry = cache[key] = (self._buffer(host.nbytes), host,
-                                  self._cl.LocalMemory(group * bits.itemsize))
+        entry = cache.get(bits)
+        if entry is None:
+            host = np.empty(max(_REDUCE_MAX_PARTIALS, _REDUCE_MAX_GROUPS), bits)
+            entry = cache[bits] = (self._buffer(host.nbytes), host,
+                                   self._cl.LocalMemory(group * bits.itemsize))
         return entry
 
     @staticmethod
