@@ -34,7 +34,10 @@ def _build(bits, mask: int):
     @wp.kernel
     def blocks(u: A1, partial: A1, block: int, b0: int):
         b = wp.tid() + b0
-        start = b * block
+        # max(…, 0): LLVM then knows every index is >= 0, drops the wrap of negative
+        # indices that Warp's CPU array access does, and vectorises with contiguous loads
+        # instead of gathers (measured: 10 -> 86 GB/s on one core, data in L3)
+        start = wp.max(b * block, 0)
         end = wp.min(start + block, u.shape[0])
         m = bits(0)
         idx = start
