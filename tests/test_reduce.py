@@ -3,7 +3,8 @@ NumPy reference ``float(np.max(np.abs(u)))``: random arrays of odd, tiny, non-sq
 multi-chunk shapes in both dtypes; NaN, ±inf and the largest value at many positions
 (first, last, vector lanes, chunk edges, peeled tails); negative extremes, -0.0, arrays
 whose only non-zeros are subnormal, empty arrays; wrong dtypes and foreign arrays; buffer
-reuse between calls and threads; the OpenCL kernel on Oclgrind."""
+reuse between calls and threads; the OpenCL kernel on Oclgrind; perf/reduce.py at tiny
+sizes (no timing is asserted)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from conftest import VARIANTS, variant_or_skip
+from conftest import VARIANTS, backend_or_skip, repo_module, variant_or_skip
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -202,3 +203,23 @@ def test_reduce_kernel_under_oclgrind():
     """Both layouts, both dtypes: no invalid access, no data race in the local-memory tree,
     results equal to the reference."""
     check_clean_under_oclgrind(["-c", OCLGRIND_WORKER], 4)
+
+
+# ---------------------------------------------------------------------------- perf/reduce.py
+def test_benchmark_script_runs_at_tiny_sizes():
+    """perf/reduce.py's rows (every backend, both dtypes, results checked by the script)
+    and its scalar-build OpenCL backend, which must leave the shared programs alone."""
+    from rdgpu.backends import opencl_backend
+
+    bench = repo_module("perf/reduce.py")
+    backends = {name: backend_or_skip(name) for name in ("opencl", "warp", "numpy")}
+    before = dict(opencl_backend._PROGRAMS)
+    backends["opencl scalar"] = bench.scalar_opencl()
+    assert opencl_backend._PROGRAMS == before
+    a = np.array([1.0, -3.0, np.finfo(np.float32).smallest_subnormal], np.float32)
+    assert backends["opencl scalar"].max_abs(backends["opencl scalar"].upload(a)) == 3.0
+    rows = bench.measure(backends, {"tiny": 0, "L2": 4096}, seconds=0.0)
+    assert len(rows) == 2 * 2 * len(backends)
+    assert all(r["us"] > 0 and r["GBps"] > 0 for r in rows)
+    text = bench.table(rows, triad=10.0)
+    assert text.count("\n") == len(rows) + 1 and "opencl scalar" in text

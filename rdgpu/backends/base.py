@@ -10,7 +10,8 @@ passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is 
 without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann y
 condition: every grid kernel then computes its 1-D formula.
 
-Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`).
+Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`);
+the reduction :meth:`Backend.max_abs` is exact instead: it returns ``max |u|`` as NumPy does.
 """
 
 from __future__ import annotations
