@@ -223,3 +223,27 @@ def test_benchmark_script_runs_at_tiny_sizes():
     assert all(r["us"] > 0 and r["GBps"] > 0 for r in rows)
     text = bench.table(rows, triad=10.0)
     assert text.count("\n") == len(rows) + 1 and "opencl scalar" in text
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
+def test_warp_pool_chunks(dtype, monkeypatch):
+    """Warp's CPU reduction over an array large enough for the thread pool (one chunk per
+    8 MiB): every chunk's blocks count, a NaN or the largest value in any chunk is found."""
+    from rdgpu.backends import warp_backend
+
+    be = backend_or_skip("warp")
+    dtype = np.dtype(dtype)
+    n = 3 * warp_backend.REDUCE_SPLIT_BYTES // dtype.itemsize + 17
+    offsets = []
+    launch = be._launch
+    monkeypatch.setattr(be, "_launch", lambda k, dim, args, key: (offsets.append(key),
+                                                                   launch(k, dim, args, key)))
+    a = np.random.default_rng(5).uniform(-1, 1, n).astype(dtype)
+    for pos in (0, n // 3 + 5, n // 2, n - 1):
+        b = a.copy()
+        b[pos] = -7.0
+        assert check(be, b) == 7.0
+        b[(pos + n // 2) % n] = np.nan
+        assert math.isnan(check(be, b))
+    if warp_backend._cpu_count() > 1:
+        assert len(set(offsets)) > 1  # the pool ran chunks at several block offsets
