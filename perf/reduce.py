@@ -16,7 +16,9 @@ all cores (``perf/machine.py``), measured in the same run outside the caches.
 
 To check that PoCL vectorises the row layout's loop, the OpenCL kernel is also timed built
 with ``-D RDGPU_REDUCE_SCALAR`` (``#pragma clang loop vectorize(disable)
-interleave(disable)``): row "opencl scalar".
+interleave(disable)``): row "opencl scalar".  (On the AMD EPYC Zen 5 of
+perf/results/reduce.md, PoCL's cached binary of the vectorised row kernel holds
+``vpmaxud``/``vpmaxuq`` on ymm registers: 8 / 4 lanes; the scalar build none.)
 """
 
 from __future__ import annotations
@@ -130,11 +132,15 @@ def main(argv: list[str] | None = None) -> int:
         f"Triad (all cores, outside the caches, {bw['triad_bytes'] / MiB:.0f} MiB): "
         f"**{bw['GBps']:.1f} GB/s** ({bw['GBps_from']}); inside the cache (a quarter of "
         f"the LLC): {bw.get('cached_opencl_GBps', bw['cached_numpy_GBps']):.0f} GB/s. "
-        "% triad = max_abs GB/s ÷ the DRAM triad, for every size (so cache-resident rows "
-        "can exceed 100).",
+        "% triad = max_abs GB/s ÷ the DRAM triad, for every size: cache-resident rows can "
+        "exceed 100, and so can DRAM rows, since the triad's bytes are counted the STREAM "
+        "way (its write-allocate reads are not: its real traffic is 4/3 of that counted) "
+        "while max_abs only reads.",
         "Per call: the reduction, the partials' copy to the host and their max "
         "(synchronous), best of repeats. GB/s = bytes of u ÷ time. `opencl scalar`: the "
-        "same kernel with LLVM's loop vectoriser off (`-D RDGPU_REDUCE_SCALAR`).",
+        "same kernel with LLVM's loop vectoriser off (`-D RDGPU_REDUCE_SCALAR`): the "
+        "ratio opencl ÷ opencl scalar is what vectorisation gives. The `tiny` rows are the "
+        "cost per call that an adaptive solver pays every attempted step.",
         f"Command: `python perf/reduce.py --seconds {args.seconds:g}"
         + (f" --scale {args.scale:g}" if args.scale != 1 else "") + "`",
         table(rows, bw["GBps"]),
