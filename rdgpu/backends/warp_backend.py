@@ -385,6 +385,9 @@ class WarpBackend(Backend):
     # ------------------------------------------------------------------ reductions
     def max_abs(self, u: DeviceArray) -> float:
         bits = self._check_max_abs(u)
+        if u.handle.device != self._dev:
+            raise ValueError(f"max_abs: the array is on Warp device {u.handle.device}, this "
+                             f"backend runs on {self._dev}; copy it there first")
         n = u.size
         if n == 0:
             return 0.0
