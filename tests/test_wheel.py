@@ -23,6 +23,8 @@ ref = rdgpu.laplacian(u, backend="numpy")
 for name in ("warp", "opencl"):
     out = rdgpu.laplacian(u, backend=name)
     assert np.allclose(out, ref, atol=1e-12), name
+    be = rdgpu.get_backend(name)
+    assert be.max_abs(be.upload(-u)) == float(np.abs(u).max()), name
     print("OK", name)
 """
 
@@ -57,4 +59,5 @@ def test_wheel_installs_and_runs_every_backend(tmp_path):
     assert lines["RDGPU_FILE"].startswith(str(env_dir))
     assert lines["KERNEL_DIR"].startswith(str(env_dir))
     assert Path(lines["KERNEL_DIR"], "gray_scott", "gray_scott.cl").is_file()
+    assert Path(lines["KERNEL_DIR"], "reduce", "reduce.cl").is_file()
     assert "OK warp" in out.stdout and "OK opencl" in out.stdout

@@ -10,11 +10,13 @@ passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is 
 without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann y
 condition: every grid kernel then computes its 1-D formula.
 
-Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`).
+Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`);
+the reduction :meth:`Backend.max_abs` is exact instead: it returns ``max |u|`` as NumPy does.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from abc import ABC, abstractmethod
 from collections import OrderedDict
@@ -49,7 +51,7 @@ class DeviceArray:
 
     @property
     def size(self) -> int:
-        return int(np.prod(self.shape))
+        return math.prod(self.shape)  # (np.prod takes microseconds)
 
     @property
     def nbytes(self) -> int:
@@ -167,6 +169,26 @@ class Backend(ABC):
 
     def synchronize(self) -> None:  # noqa: B027 - optional hook
         """Wait until every queued kernel has finished (for timing)."""
+
+    # ------------------------------------------------------------------ reductions
+    @abstractmethod
+    def max_abs(self, u: DeviceArray) -> float:
+        """``max |u|`` over every element of ``u`` (float32 or float64, any shape), as a
+        host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (kernels/reduce): exact,
+        NaN if any element is NaN, ``inf`` if any is ±inf and none NaN, subnormals count
+        (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
+        queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
+
+    def _check_max_abs(self, u: DeviceArray) -> np.dtype:
+        """Check ``max_abs``'s operand; return the unsigned integer dtype of its width
+        (the kernels compare the bit patterns of ``|u|``)."""
+        if not isinstance(u, DeviceArray) or not isinstance(u.backend, type(self)):
+            where = u.backend.name if isinstance(u, DeviceArray) else type(u).__name__
+            raise TypeError(f"max_abs takes a DeviceArray of the {self.name} backend, got "
+                            f"{where} (upload it with backend.upload first)")
+        if u.dtype not in _REAL_DTYPES:
+            raise TypeError(f"max_abs takes float32 or float64 arrays, got {u.dtype}")
+        return np.dtype(np.uint32 if u.dtype == np.float32 else np.uint64)
 
     # ------------------------------------------------------------------ grid kernels
     @abstractmethod
@@ -426,3 +448,12 @@ def _check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: 
             or dst_start + count > dst.size:
         raise ValueError(f"copy_range of {count} elements from {src_start} (of {src.size}) "
                          f"to {dst_start} (of {dst.size}) is out of range")
+
+
+def max_abs_of_partials(partials: np.ndarray, dtype: np.dtype) -> float:
+    """The host's last step of ``max_abs``: ``partials`` are the bit patterns (unsigned, of
+    ``dtype``'s width, sign bits clear) of partial maxima of ``|u|``; their unsigned max
+    is the pattern of ``max |u|`` (or of a NaN), returned as a float."""
+    if partials.size <= 1:  # (np.max costs microseconds: the solver calls this every step)
+        return float(partials[0].view(dtype)) if partials.size else 0.0
+    return float(partials.max().view(dtype))

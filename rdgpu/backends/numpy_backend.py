@@ -39,6 +39,7 @@ class NumpyBackend(Backend):
         self._mesh = load_module("mesh", "reference.py")
         self._walk = load_module("walkers", "reference.py")
         self._metric = load_module("metric", "reference.py")
+        self._reduce = load_module("reduce", "reference.py")
 
     # memory
     def upload(self, a: np.ndarray) -> DeviceArray:
@@ -59,6 +60,11 @@ class NumpyBackend(Backend):
         _check_range(src, src_start, dst, dst_start, count)
         dst.handle.reshape(-1)[dst_start:dst_start + count] = \
             src.handle.reshape(-1)[src_start:src_start + count]
+
+    # reductions
+    def max_abs(self, u: DeviceArray) -> float:
+        self._check_max_abs(u)
+        return self._reduce.max_abs(u.handle)
 
     # kernels
     def laplacian(self, u, out, *, dx, dy, bc: GridBC, stencil):

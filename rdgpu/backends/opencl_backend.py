@@ -38,10 +38,11 @@ import numpy as np
 from ..boundary import GridBC
 from ..errors import BackendUnavailableError
 from ..kernel_files import load_module, read_source
-from .base import Backend, DeviceArray, FieldOrScalar, _check_range
+from .base import Backend, DeviceArray, FieldOrScalar, _check_range, max_abs_of_partials
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
-_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric")
+_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric",
+             "reduce")
 # Argument types of every kernel (must match the .cl signatures): B = buffer, i = int32,
 # l = int64, r = the real type.  Declaring them lets PyOpenCL pack scalars fast (untyped
 # scalar arguments cost ~15 us each on PoCL).
@@ -74,6 +75,7 @@ _KERNEL_ARGS = {
     "mesh_diffusion_s": "BBBBBBiirrr",
     "mesh_diffusion_f": "BBBBBBiirrr",
     "csr_sor_colour": "BBBBBBBBiirr",
+    "max_abs_partial": "BBllB",  # u, partial; n, chunk; __local scratch
 }
 _GS_NAMES = {
     (False, False): "gray_scott_ss",
@@ -89,6 +91,13 @@ _BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
 # unit at most (fewer, longer work-items: PoCL costs about a microsecond per work-group)
 _CSR_MIN_BLOCK = 512
 _CSR_ITEMS_PER_CU = 32
+# max_abs: elements per work-item in the row layout at least (a multiple of 64: whole
+# vectors), and partials at most (longer chunks beyond that); the strided layout's
+# work-group size and number of work-groups (partials) at most
+_REDUCE_CHUNK = 1 << 16
+_REDUCE_MAX_PARTIALS = 4096
+_REDUCE_GROUP = 256
+_REDUCE_MAX_GROUPS = 1024
 _MAX_CELLS = 2**31 - 1  # the grid kernels index with 32-bit ints
 
 # (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
@@ -496,6 +505,42 @@ class OpenCLBackend(Backend):
         kernel.set_args(u.handle, out.handle, n, chunk, d, t(1) - d)
         gsize = (-(-items // group) * group,)
         self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
+
+    # ------------------------------------------------------------------ reductions
+    def max_abs(self, u: DeviceArray) -> float:
+        bits = self._check_max_abs(u)
+        self._check_real(u.dtype)
+        n = u.size
+        if n == 0:
+            return 0.0
+        if self.layout == "row":
+            chunk = max(_REDUCE_CHUNK, -(-n // _REDUCE_MAX_PARTIALS))
+            chunk = -(-chunk // 64) * 64
+            parts, group = -(-n // chunk), 1
+        else:
+            chunk = 0
+            group = min(_REDUCE_GROUP, _pow2_floor(self.cl_device.max_work_group_size))
+            parts = min(-(-n // group), _REDUCE_MAX_GROUPS)
+        partial, host, scratch = self._reduce_buffers(bits, group)
+        kernel = self.kernels(u.dtype)["max_abs_partial"]
+        kernel.set_args(u.handle, partial, n, chunk, scratch)
+        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (parts * group,), (group,))
+        self._cl.enqueue_copy(self.queue, host[:parts], partial, is_blocking=True)
+        return max_abs_of_partials(host[:parts], u.dtype)
+
+    def _reduce_buffers(self, bits: np.dtype, group: int) -> tuple:
+        """This thread's ``(device partials, host partials, local scratch)`` for
+        ``max_abs`` (threads never share the partials; the buffers hold the most partials
+        any call writes)."""
+        cache = getattr(self._local, "reduce", None)
+        if cache is None:
+            cache = self._local.reduce = {}
+        entry = cache.get(bits)
+        if entry is None:
+            host = np.empty(max(_REDUCE_MAX_PARTIALS, _REDUCE_MAX_GROUPS), bits)
+            entry = cache[bits] = (self._buffer(host.nbytes), host,
+                                   self._cl.LocalMemory(group * bits.itemsize))
+        return entry
 
     @staticmethod
     def _field_or_scalar(f: FieldOrScalar, u: DeviceArray, what: str):
