@@ -33,22 +33,29 @@ from .errors import StabilityError
 BackendSpec = str | Backend | None
 
 
-def _finite(out: np.ndarray, what: str, *, stepping: bool = False,
-            check_stability: bool = True) -> np.ndarray:
+def _finite(out: np.ndarray | DeviceArray, what: str, *, stepping: bool = False,
+            check_stability: bool = True) -> np.ndarray | DeviceArray:
     """``out``, unless finite inputs produced NaN or Inf (an overflow of the dtype, or a run
     that diverged): that is an error, never a silent result (not checked when the caller
-    turned the stability check off)."""
-    if check_stability and not np.isfinite(out).all():
-        bad = int(np.count_nonzero(~np.isfinite(out)))
-        cause = ("the run diverged (the reaction or the time step is too large for these "
-                 "values); reduce dt, or pass check_stability=False to get the raw result"
-                 if stepping else
-                 f"the values overflow {out.dtype} (largest {np.finfo(out.dtype).max:.3g}); "
-                 + ("use float64 or rescale the input" if out.dtype == np.float32
-                    else "rescale the input"))
-        raise FloatingPointError(f"{what} produced {bad} NaN/Inf value(s) from finite "
-                                 f"inputs: {cause}")
-    return out
+    turned the stability check off).  A DeviceArray (a result that stays on its device) is
+    checked by one reduction there."""
+    if not check_stability:
+        return out
+    if isinstance(out, DeviceArray):
+        if math.isfinite(out.backend.max_abs(out)):
+            return out
+        bad = "NaN/Inf value(s)"
+    elif np.isfinite(out).all():
+        return out
+    else:
+        bad = f"{int(np.count_nonzero(~np.isfinite(out)))} NaN/Inf value(s)"
+    cause = ("the run diverged (the reaction or the time step is too large for these "
+             "values); reduce dt, or pass check_stability=False to get the raw result"
+             if stepping else
+             f"the values overflow {out.dtype} (largest {np.finfo(out.dtype).max:.3g}); "
+             + ("use float64 or rescale the input" if out.dtype == np.float32
+                else "rescale the input"))
+    raise FloatingPointError(f"{what} produced {bad} from finite inputs: {cause}")
 
 
 def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceArray:
@@ -57,7 +64,13 @@ def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceA
 
 class _Unread(np.ndarray):
     """A zero-strided stand-in of the shape and dtype of an array that stays on its device
-    (its values are not read: that would be the copy the caller avoids)."""
+    (its values are not read: that would be the copy the caller avoids; :func:`_on` checks
+    them there); ``what`` is the argument's name."""
+
+    what = "the array"
+
+    def __array_finalize__(self, obj: Any) -> None:  # views keep the name
+        self.what = getattr(obj, "what", "the array")
 
 
 def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> np.ndarray:
@@ -84,15 +97,23 @@ def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) ->
             raise ValueError(f"{name} must be {allowed}, got shape {shape}")
         if 0 in shape:
             raise ValueError(f"{name} is empty (shape {shape}); every axis needs a cell")
-        return np.broadcast_to(np.zeros((), dtype), shape).view(_Unread)
+        unread = np.broadcast_to(np.zeros((), dtype), shape).view(_Unread)
+        unread.what = name
+        return unread
     return check.as_field(view if view is not None else interop.to_numpy(u), name, ndim=ndim)
 
 
 def _on(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
     """The checked ``field`` of the caller's ``given`` array on ``be``: ``given``'s own
-    memory where it lives there and the checks made no copy, else one upload."""
-    return interop.to_device(given, None if isinstance(field, _Unread) else field, be,
-                             field.shape)
+    memory where it lives there and the checks made no copy, else one upload.  An
+    :class:`_Unread` array (resident on ``be``, unseen by the host) is checked for NaN and
+    Inf here, by one reduction on the device."""
+    unread = isinstance(field, _Unread)
+    d = interop.to_device(given, None if unread else field, be, field.shape)
+    if unread and not math.isfinite(be.max_abs(d)):
+        raise ValueError(f"{field.what} contains NaN or Inf value(s); all values must be "
+                         "finite")
+    return d
 
 
 def _given_shape(x: Any) -> tuple[int, ...]:

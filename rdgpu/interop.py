@@ -19,8 +19,9 @@ host-memory array (NumPy, a CPU DLPack array, a Warp CPU array) on the numpy bac
 a Warp CPU backend.  Everything else makes one copy through the host.
 
 Value checks (finite, no subnormals) read host memory in place; a device-only array
-(Warp CUDA, pyopencl, CUDA DLPack) is checked for shape and dtype only when it stays on
-its device, since reading its values would mean the copy this module avoids.
+(Warp CUDA, pyopencl, CUDA DLPack) that stays on its device is checked for finiteness by
+one reduction there (:meth:`~rdgpu.backends.base.Backend.max_abs`, one number back to the
+host): its values are not copied, and its subnormals are not flushed.
 """
 
 from __future__ import annotations
@@ -275,13 +276,16 @@ def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = N
     which is returned.  ``result`` must be a buffer of the call's own (never the input's
     memory): a Warp or pyopencl result on its own device is handed over as it is.
     ``check(host_array)`` runs on the result wherever the host sees it (in place, or the
-    copy a host-side result needs); a result that stays on a device is not read."""
+    copy a host-side result needs); a result that stays on a device is handed to ``check``
+    as the DeviceArray itself, unread (a check there reduces it on the device)."""
     be = result.backend
     view = _result_view(result)
     if check is not None and view is not None:
         check(view)
     if out is not None:
         if resident(out, be):
+            if check is not None and view is None:
+                check(result)
             target = wrap(out, be, result.shape)
             if not overlaps(target, result):
                 be.copy(result, target)
@@ -290,6 +294,10 @@ def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = N
         fill(out, _read(result, view, check).reshape(shape))
         return out
     kind = kind_of(like)
+    stays = (kind == "warp" and be.name == "warp" and _warp_device_matches(like, be)) or \
+        (kind == "pyopencl" and be.name == "opencl" and _same_opencl_context(like, be))
+    if stays and check is not None and view is None:
+        check(result)
     if kind == "warp" and be.name == "warp" and _warp_device_matches(like, be):
         h = result.handle
         return h if tuple(h.shape) == tuple(shape) else h.reshape(tuple(shape))

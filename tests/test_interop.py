@@ -229,6 +229,42 @@ def test_arrays_of_another_device_make_one_copy_and_come_back_as_their_kind():
     assert np.array_equal(got.numpy(), rdgpu.laplacian(u, backend=be))
 
 
+@pytest.mark.parametrize("where", [0, 37, -1])
+@pytest.mark.parametrize("bad", [np.nan, -np.inf])
+def test_device_resident_inputs_are_checked_on_the_device(monkeypatch, where, bad):
+    """A pyopencl input that stays on the device is still refused for NaN/Inf: one
+    reduction there, no copy to the host."""
+    be = backend_or_skip("opencl")
+    cla = pytest.importorskip("pyopencl.array")
+    u, v = _fields(dtype=np.float32)
+    u.flat[where] = bad
+    du, dv = cla.to_device(be.queue, u), cla.to_device(be.queue, v)
+    _forbid(monkeypatch, be, "upload", "download")
+    with pytest.raises(ValueError, match="u contains NaN or Inf"):
+        rdgpu.gray_scott(du, dv, steps=1, backend=be, **GS)
+    with pytest.raises(ValueError, match="u contains NaN or Inf"):
+        rdgpu.laplacian(du, backend=be)
+
+
+def test_device_resident_results_are_checked_on_the_device(monkeypatch):
+    """A result that stays on the device (a pyopencl array back, or a resident ``out``)
+    and overflowed is an error, found by one reduction there."""
+    be = backend_or_skip("opencl")
+    cla = pytest.importorskip("pyopencl.array")
+    big = np.full((9, 13), 3e38, np.float32)
+    big[::2] = -3e38  # the Laplacian of this checkerboard of rows overflows float32
+    du = cla.to_device(be.queue, big)
+    _forbid(monkeypatch, be, "upload", "download")
+    with pytest.raises(FloatingPointError, match="overflow float32"):
+        rdgpu.laplacian(du, backend=be)
+    out = cla.empty(be.queue, big.shape, np.float32)
+    with pytest.raises(FloatingPointError, match="overflow float32"):
+        rdgpu.laplacian(du, backend=be, out=out)
+    monkeypatch.undo()
+    with pytest.raises(FloatingPointError, match="overflow float32"):
+        rdgpu.laplacian(big, backend=be)  # the same check on the host
+
+
 def test_pyopencl_buffer_alone_is_refused_with_the_fix():
     be = backend_or_skip("opencl")
     cl = pytest.importorskip("pyopencl")
