@@ -194,6 +194,20 @@ def test_pypde_simple_example_runs_unchanged(tmp_path):
     _same_run(_run(eq, start, "rdgpu", 10.0), theirs, start)
 
 
+@pytest.mark.filterwarnings("ignore:Deprecated format for boundary conditions")
+def test_pypde_boundary_conditions_example():
+    """py-pde's ``examples/boundary_conditions.py`` (diffusion on ``UnitGrid([16, 16],
+    periodic=[False, True])``, a Neumann flux ``{"derivative": 0.1}`` on the left and a
+    face value ``{"value": "sin(y)"}`` on the right, t = 10 at dt = 0.005), with
+    ``backend="rdgpu"``: py-pde's result to round-off (seeded field; its plot left out)."""
+    grid = pde.UnitGrid([16, 16], periodic=[False, True])
+    state = pde.ScalarField.random_uniform(grid, 0.2, 0.3, rng=np.random.default_rng(0))
+    bc_x = [{"derivative": 0.1}, {"value": "sin(y)"}]
+    eq = pde.DiffusionPDE(bc=[bc_x, "periodic"])  # the example's (deprecated) list spelling
+    runs = [_run(eq, state, backend, 10.0, dt=0.005) for backend in ("rdgpu", "numpy")]
+    _same_run(*runs, state, moved=0.5)
+
+
 # --------------------------------------------------------------------- implicit solvers
 IMPLICIT = {"implicit": lambda eq, b: pde.ImplicitSolver(eq, backend=b),
             "crank-nicolson": lambda eq, b: pde.CrankNicolsonSolver(eq, backend=b),
