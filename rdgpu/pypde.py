@@ -445,19 +445,19 @@ class RdgpuBackend(BackendBase):
         out["device"] = self.rd.name
         return out
 
-    def _device_rhs(self, pde_obj: Any, state: Any) -> tuple[Translation, DeviceRHS]:
-        data = np.asarray(state.data)
-        if data.dtype not in (np.float32, np.float64):
-            raise _refuse(f"state data of dtype {data.dtype} (float32 or float64)")
-        tr = translate(pde_obj, state)
-        return tr, DeviceRHS(tr.model, tr.grid, tr.params, self.rd, data.dtype)
+    def _device_rhs(self, tr: Translation, dtype: Any, check_dt: float | None = None
+                    ) -> DeviceRHS:
+        if np.dtype(dtype) not in (np.float32, np.float64):
+            raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
+        return DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt)
 
     def make_pde_rhs(self, eq: Any, state: Any) -> Callable[[np.ndarray, float], np.ndarray]:
         """``rhs(state_data, t)``: the PDE's rate, one fused pass on the rdgpu device, as a
         host function (NumPy in, NumPy out: each call uploads the state and downloads the
         rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
         :func:`make_stepper` keep their fields on the device instead."""
-        tr, rhs = self._device_rhs(eq, state)
+        tr = translate(eq, state)
+        rhs = self._device_rhs(tr, np.asarray(state.data).dtype)
         x, out = rhs.empty(), rhs.empty()
         several = isinstance(state, pde.FieldCollection)
         field_shape = tr.grid.field_shape
@@ -472,18 +472,20 @@ class RdgpuBackend(BackendBase):
         return pde_rhs
 
     def make_stepper(self, solver: Any, state: Any) -> Callable[[Any, float, float], float]:
-        """The stepper py-pde's controller calls between tracker times: EulerSolver
-        (fixed or adaptive ``dt``), RungeKuttaSolver (fixed or adaptive) or
-        AdamsBashforthSolver, on the device (:mod:`rdgpu.pypde_steppers`)."""
+        """The stepper py-pde's controller calls between tracker times, for any solver of
+        :data:`rdgpu.pypde_steppers.SUPPORTED`, on the device."""
         name = type(solver).__name__
         if name not in pypde_steppers.SUPPORTED:
             raise _refuse(f"the solver {name} (supported: "
                           f"{', '.join(pypde_steppers.SUPPORTED)}; ScipySolver runs through "
                           "make_pde_rhs)")
         data = np.asarray(state.data)
-        if name == "EulerSolver" and not solver.adaptive:
-            return self._euler_fixed(solver, state, data.dtype)
-        tr, rhs = self._device_rhs(solver.pde, state)
+        tr = translate(solver.pde, state)
+        if name == "EulerSolver" and not solver.adaptive and not tr.uses_time:
+            return self._euler_fixed(solver, state, tr, data.dtype)
+        fixed_euler = name == "EulerSolver" and not solver.adaptive
+        rhs = self._device_rhs(tr, data.dtype, float(solver.info["dt"])
+                               if fixed_euler and self.check_stability else None)
         several = isinstance(state, pde.FieldCollection)
         stepper = pypde_steppers.make_stepper(solver, rhs, several, tr.grid.field_shape)
         self._describe(solver, tr)
@@ -493,12 +495,14 @@ class RdgpuBackend(BackendBase):
         solver.info["rdgpu"] = {"device": self.rd.name, "grid": repr(tr.grid),
                                 "equations": dict(tr.model.equations)}
 
-    def _euler_fixed(self, solver: Any, state: Any, dtype: np.dtype
+    def _euler_fixed(self, solver: Any, state: Any, tr: Translation, dtype: np.dtype
                      ) -> Callable[[Any, float, float], float]:
-        """Fixed-step Euler: rdgpu's own forward-Euler stepper (checks ``dt``)."""
+        """Fixed-step Euler of an equation that does not read ``t``: rdgpu's own
+        forward-Euler stepper (temporal blocking where it pays; checks ``dt``).  One that
+        reads ``t`` runs py-pde's loop over :class:`DeviceRHS` (the same fused pass at
+        py-pde's times ``t_start + i·dt``)."""
         if dtype not in (np.float32, np.float64):
             raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
-        tr = translate(solver.pde, state)
         dt = float(solver.info["dt"])
         st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,
                               check_stability=self.check_stability, method="euler")
@@ -507,13 +511,9 @@ class RdgpuBackend(BackendBase):
 
         def stepper(state: Any, t_start: float, t_end: float) -> float:
             steps = max(1, round((t_end - t_start) / dt))
-            start = t_start / dt
-            if tr.uses_time and abs(start - round(start)) > 1e-9 * max(1.0, abs(start)):
-                raise _refuse(f"a time-dependent equation from t={t_start}, not a multiple "
-                              f"of dt={dt}")
             values = state.data
             fields = {s: values[i] if several else values for i, s in enumerate(tr.species)}
-            st.set_state(fields, steps=round(start))
+            st.set_state(fields)
             st.advance(steps)
             out = st.get_state()
             for i, s in enumerate(tr.species):

@@ -14,10 +14,11 @@ the same (``info["dt"]``, ``info["steps"]``, ``info["dt_statistics"]``), so the 
 steps match the ``numpy``/``numba`` backends' as long as the rates agree
 to round-off.  The fields cross to the host once per call, i.e. per tracker interval.
 
-Fixed-step Euler runs as rdgpu's own forward-Euler stepper
-(:meth:`~rdgpu.models.Model.stepper`): one fused pass per step, temporal blocking where
-it pays, and rdgpu's linear stability check of ``dt``.  The other fixed-step schemes are
-not checked (py-pde checks none).
+Fixed-step Euler of an equation that does not read ``t`` runs as rdgpu's own
+forward-Euler stepper (:meth:`~rdgpu.models.Model.stepper`, in :mod:`rdgpu.pypde`): one
+fused pass per step, temporal blocking where it pays; with ``t`` it runs here, the same
+pass at py-pde's times ``t_start + i·dt``.  Both check ``dt`` against rdgpu's linear
+stability limit; the other fixed-step schemes are not checked (py-pde checks none).
 """
 
 from __future__ import annotations
@@ -82,12 +83,13 @@ class _Fields:
 def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[int, ...]
                  ) -> Stepper:
     """The ``stepper(state, t_start, t_end) -> t`` of a py-pde ``solver`` (one of
-    :data:`SUPPORTED`, not the fixed-step Euler, which :mod:`rdgpu.pypde` runs itself);
+    :data:`SUPPORTED`; :mod:`rdgpu.pypde` runs fixed-step Euler of an equation that does
+    not read ``t`` as rdgpu's own stepper instead);
     ``several``: the state is a FieldCollection; ``field_shape``: one species' data."""
     name = type(solver).__name__
     adaptive = bool(getattr(solver, "adaptive", False))
-    if name == "EulerSolver" and adaptive:
-        make = _euler_adaptive
+    if name == "EulerSolver":
+        make = _euler_adaptive if adaptive else _euler_fixed
     elif name == "RungeKuttaSolver":
         make = _rkf45_adaptive if adaptive else _rk4_fixed
     elif name == "AdamsBashforthSolver":
@@ -167,6 +169,19 @@ def _euler_adaptive(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
         f.x, small = small, f.x
 
     return _adaptive(solver, f, prepare, attempt, accept)
+
+
+def _euler_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
+    """``EulerSolver`` at a fixed ``dt``, one fused pass per step at py-pde's times."""
+    dt = float(solver.info["dt"])
+    new = rhs.empty()
+
+    def step(t: float) -> None:
+        nonlocal new
+        rhs.euler(f.x, new, t, dt)
+        f.x, new = new, f.x
+
+    return _fixed(solver, f, step)
 
 
 def _rk_stage_fields(f: _Fields, ks: list[Field]) -> dict[str, Field]:

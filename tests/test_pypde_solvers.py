@@ -20,6 +20,7 @@ from conftest import backend_or_skip
 
 pde = pytest.importorskip("pde")
 
+import rdgpu  # noqa: E402
 from rdgpu.pypde import UnsupportedPDE  # noqa: E402
 
 TOL = 1e-12
@@ -106,6 +107,21 @@ def test_adaptive_euler_nan_shrinks_the_step_then_fails():
             _run(eq, start, backend, 10.0)
         messages.append(str(err.value))
     assert messages[0] == messages[1]
+
+
+def test_fixed_euler_time_dependent_from_any_start():
+    """A forcing in ``t`` at a fixed ``dt`` from a start that is no multiple of ``dt``:
+    py-pde's times ``t_start + i·dt``; an unstable ``dt`` is still refused."""
+    grid = pde.CartesianGrid([[0, 3]], [23])
+    start = pde.ScalarField(grid, np.random.default_rng(6).random(grid.shape))
+    eq = pde.PDE({"c": "0.3*laplace(c) + sin(3*t)*(1 - c)"})
+    kw = {"dt": 0.01, "adaptive": False}
+    for device in DEVICES:
+        backend_or_skip(device)
+        _same_run(_run(eq, start, f"rdgpu:{device}", (0.055, 2.055), **kw),
+                  _run(eq, start, "numpy", (0.055, 2.055), **kw), start)
+    with pytest.raises(rdgpu.StabilityError):
+        _run(eq, start, "rdgpu:numpy", 1.0, dt=0.1, adaptive=False)
 
 
 # --------------------------------------------------------------------- Runge-Kutta, AB2

@@ -37,13 +37,17 @@ Field = list[DeviceArray]
 
 class DeviceRHS:
     """``model``'s right-hand side on ``domain`` with ``params``, on ``backend`` in
-    ``dtype`` (module doc).  ``species``, ``shape`` (each buffer's) and :meth:`empty`
-    describe the fields it works on."""
+    ``dtype`` (module doc); ``check_dt``: a forward-Euler step to check against the
+    model's linear stability limit (:class:`rdgpu.StabilityError`), None for none.
+    ``species``, ``shape`` (each buffer's) and :meth:`empty` describe the fields it works on."""
 
     def __init__(self, model: Any, domain: Any, params: Mapping[str, Any], backend: Backend,
-                 dtype: Any):
-        self.stepper = model.stepper(domain, params, dt=1.0, backend=backend, dtype=dtype,
-                                     check_stability=False, method="euler", block_steps=1)
+                 dtype: Any, check_dt: float | None = None):
+        # check_dt: a forward-Euler step the caller will take, checked against the model's
+        # linear stability limit (rdgpu.StabilityError); None checks nothing
+        self.stepper = model.stepper(domain, params, dt=check_dt or 1.0, backend=backend,
+                                     dtype=dtype, check_stability=check_dt is not None,
+                                     method="euler", block_steps=1)
         st = self.stepper
         self.species: tuple[str, ...] = st.species
         self.shape: tuple[int, ...] = st.shape
