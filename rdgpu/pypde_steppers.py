@@ -55,6 +55,7 @@ _RKF = {
     "r1": 1 / 360, "r3": -128 / 4275, "r4": -2197 / 75240, "r5": 1 / 50, "r6": 2 / 55,
     "c1": 25 / 216, "c3": 1408 / 2565, "c4": 2197 / 4104, "c5": -1 / 5,
 }
+_RK4_STAGES = ((0.5, "x + 0.5*k1"), (0.5, "x + 0.5*k2"), (1.0, "x + k3"))
 _RKF_ERROR = "r1*k1 + r3*k3 + r4*k4 + r5*k5 + r6*k6"
 _RKF_NEW = "x + c1*k1 + c3*k3 + c4*k4 + c5*k5"
 
@@ -150,18 +151,18 @@ def _adaptive(solver: Any, f: _Fields, prepare: Callable[[float], None],
 def _euler_adaptive(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     """``EulerSolver(adaptive=True)``: step doubling, py-pde's ``adaptive_stepper`` (its
     rate carried from one step to the next)."""
-    rate, small, scratch = rhs.empty(), rhs.empty(), rhs.empty()
+    rate, small, error = rhs.empty(), rhs.empty(), rhs.empty()
 
     def prepare(t: float) -> None:
         rhs.rate(f.x, rate, t)
 
     def attempt(t: float, dt: float) -> float:
-        # one step of dt against two of dt/2 (the second from the midpoint's rate)
+        # one step of dt against two of dt/2, the second from the midpoint y = x + (dt/2) r
+        # with its rate F (one pass: y is not stored); the error is their difference
         half = 0.5 * dt
-        rhs.pointwise(scratch, "x + c*r", {"x": f.x, "r": rate}, {"c": half})
-        rhs.euler(scratch, small, t + half, half)
-        rhs.pointwise(scratch, "x + h*r - y", {"x": f.x, "r": rate, "y": small}, {"h": dt})
-        return rhs.max_abs(scratch)
+        rhs.stage([small, error], "x + c*r", {"x": f.x, "r": rate},
+                  ["Y + c*F", "x + h*r - (Y + c*F)"], t + half, {"c": half, "h": dt})
+        return rhs.max_abs(error)
 
     def accept(t: float) -> None:
         nonlocal small
@@ -192,7 +193,7 @@ def _rk4_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     """``RungeKuttaSolver`` with a fixed ``dt``: classic RK4, py-pde's ``single_step``."""
     dt = float(solver.info["dt"])
     ks = [rhs.empty() for _ in range(4)]
-    y, new = rhs.empty(), rhs.empty()
+    new = rhs.empty()
 
     def stepper(state: Any, t_start: float, t_end: float) -> float:
         nonlocal new
@@ -202,12 +203,8 @@ def _rk4_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
             t = t_start + i * dt
             k = _rk_stage_fields(f, ks)
             rhs.rate(f.x, ks[0], t, dt)
-            rhs.pointwise(y, "x + 0.5*k1", k)
-            rhs.rate(y, ks[1], t + 0.5 * dt, dt)
-            rhs.pointwise(y, "x + 0.5*k2", k)
-            rhs.rate(y, ks[2], t + 0.5 * dt, dt)
-            rhs.pointwise(y, "x + k3", k)
-            rhs.rate(y, ks[3], t + dt, dt)
+            for i, (a, y_of) in enumerate(_RK4_STAGES):
+                rhs.stage([ks[i + 1]], y_of, k, ["c*F"], t + a * dt, {"c": dt})
             rhs.pointwise(new, "x + (k1 + 2*k2 + 2*k3 + k4)/6", k)
             f.x, new = new, f.x
         solver.info["steps"] += steps
@@ -226,9 +223,8 @@ def _rkf45_adaptive(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     def attempt(t: float, dt: float) -> float:
         k = _rk_stage_fields(f, ks)
         rhs.rate(f.x, ks[0], t, dt)
-        for i, (a, combination) in enumerate(_RKF_STAGES):
-            rhs.pointwise(y, combination, k, _RKF)
-            rhs.rate(y, ks[i + 1], t + a * dt, dt)
+        for i, (a, y_of) in enumerate(_RKF_STAGES):
+            rhs.stage([ks[i + 1]], y_of, k, ["c*F"], t + a * dt, {**_RKF, "c": dt})
         rhs.pointwise(y, _RKF_ERROR, k, _RKF)
         return rhs.max_abs(y)
 
@@ -298,9 +294,10 @@ def _fixed(solver: Any, f: _Fields, step: Callable[[float], None]) -> Stepper:
 
 class _FixedPoint:
     """py-pde's fixed-point iteration of an implicit step, on the device: from the first
-    estimate in ``est``, ``update(est, new)`` writes the next one until the mean square
-    change over every value is below ``maxerror²``; ``ConvergenceError`` after
-    ``maxiter`` tries.  The converged estimate becomes the state."""
+    estimate in ``est``, ``update(est, new, change)`` writes the next one and its change
+    ``new − est`` until the mean square change over every value is below ``maxerror²``;
+    ``ConvergenceError`` after ``maxiter`` tries.  The converged estimate becomes the
+    state."""
 
     def __init__(self, solver: Any, rhs: DeviceRHS, f: _Fields, what: str):
         self.rhs, self.f, self.what = rhs, f, what
@@ -308,13 +305,12 @@ class _FixedPoint:
         self.size = len(rhs.species) * int(np.prod(rhs.shape))
         self.est, self.new, self.change = rhs.empty(), rhs.empty(), rhs.empty()
 
-    def solve(self, update: Callable[[Field, Field], None]) -> None:
+    def solve(self, update: Callable[[Field, Field, Field], None]) -> None:
         from pde.solvers.base import ConvergenceError
 
         rhs = self.rhs
         for _ in range(self.maxiter):
-            update(self.est, self.new)
-            rhs.pointwise(self.change, "a - b", {"a": self.new, "b": self.est})
+            update(self.est, self.new, self.change)  # the next estimate, and new − est
             self.est, self.new = self.new, self.est
             if rhs.sum_squares(self.change) / self.size < self.maxerror2:
                 break
@@ -328,14 +324,13 @@ def _implicit_euler(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     f(x', t + dt)`` from the forward-Euler estimate."""
     dt = float(solver.info["dt"])
     it = _FixedPoint(solver, rhs, f, "Implicit Euler")
-    k = rhs.empty()
 
     def step(t: float) -> None:
         rhs.euler(f.x, it.est, t, dt)
 
-        def update(est: Field, new: Field) -> None:
-            rhs.rate(est, k, t + dt, dt)
-            rhs.pointwise(new, "x + k", {"x": f.x, "k": k})
+        def update(est: Field, new: Field, change: Field) -> None:
+            rhs.stage([new, change], "e", {"e": est, "x": f.x},
+                      ["x + c*F", "x + c*F - e"], t + dt, {"c": dt})
 
         it.solve(update)
 
@@ -349,18 +344,18 @@ def _crank_nicolson(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     alpha = float(solver.explicit_fraction)
     weights = {"c": dt / 2, "a": alpha, "b": 1 - alpha}
     it = _FixedPoint(solver, rhs, f, "Crank-Nicolson")
-    rate_t, r, cn = rhs.empty(), rhs.empty(), rhs.empty()
+    rate_t, first_change = rhs.empty(), rhs.empty()
+    update_of = "a*Y + b*(x + c*(F + q))"
 
     def step(t: float) -> None:
         rhs.rate(f.x, rate_t, t)
 
-        def update(est: Field, new: Field) -> None:
-            rhs.rate(est, r, t + dt)
-            rhs.pointwise(cn, "x + c*(r + q)", {"x": f.x, "r": r, "q": rate_t}, weights)
-            rhs.pointwise(new, "a*e + b*s", {"e": est, "s": cn}, weights)
+        def update(est: Field, new: Field, change: Field) -> None:
+            rhs.stage([new, change], "e", {"e": est, "x": f.x, "q": rate_t},
+                      [update_of, f"{update_of} - Y"], t + dt, weights)
 
         # py-pde's first estimate is this update applied to x itself
-        update(f.x, it.est)
+        update(f.x, it.est, first_change)
         it.solve(update)
 
     return _fixed(solver, f, step)

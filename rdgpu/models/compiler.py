@@ -90,11 +90,13 @@ class Program:
     cache: dict = field(default_factory=dict, repr=False)
 
     def refs(self, kind: str) -> tuple[str, ...]:
-        """The names of ``Ref``s of ``kind`` the outputs use, sorted (cached)."""
+        """The names of ``Ref``s of ``kind`` the outputs and derived fields use, sorted
+        (cached)."""
         key = ("refs", kind)
         found = self.cache.get(key)
         if found is None:
-            found = tuple(sorted({n.name for o in self.outputs for n in walk(o.expr)
+            exprs = [o.expr for o in self.outputs] + [e for _, e in self.derived]
+            found = tuple(sorted({n.name for e in exprs for n in walk(e)
                                   if isinstance(n, Ref) and n.kind == kind}))
             self.cache[key] = found
         return found

@@ -5,17 +5,26 @@
 parameters and lowers bilaplacians) and offers fused passes over device buffers, none of
 which crosses to the host:
 
-* :meth:`DeviceRHS.rate`: ``out_s = c · f_s(x, t)``, every species in one pass (``c = 1``:
-  the rate itself; ``c = h``: a Runge-Kutta stage ``k = h f``);
-* :meth:`DeviceRHS.euler`: ``out_s = x_s + h · f_s(x, t)``;
+* :meth:`DeviceRHS.stage`: one pass that evaluates ``f`` at a stage state ``y`` given as a
+  pointwise expression of fields (``"x + 0.5*k1"``) and writes expressions of ``F =
+  f(y, t)``, ``Y = y`` and the fields (``"h*F"``, ``"Y + c*F"``, ``"x + h*r - (Y +
+  c*F)"``).  ``y`` is never stored: the pass evaluates it at each cell and at each
+  neighbour its Laplacians read (a derived field of :class:`~rdgpu.models.compiler.
+  Program`), the same value bit for bit as a stored one.  A model with a bilaplacian
+  stores ``y`` first (its pre-pass reads it);
+* :meth:`DeviceRHS.rate` (``out = c·f(x, t)``) and :meth:`DeviceRHS.euler` (``out = x +
+  h·f(x, t)``), the two simplest stages;
 * :meth:`DeviceRHS.pointwise`: ``out = expr`` elementwise, an expression of named fields
   and scalars in Python's operation order (``"x + 0.5*dt*k"``), one pass per species;
 * :meth:`DeviceRHS.max_abs`: ``max |a|`` over fields, a host float, NaN if any value is NaN;
   :meth:`DeviceRHS.sum_squares`: ``Σ a²`` likewise.
 
-A field is a list of device buffers, one per species, each of the stepper's shape.  The
-scalars (``h``, ``c``, ``dt``...) are kernel arguments, so a pass compiles once whatever
-values it runs with: an adaptive solver changes its step without recompiling.
+A field is a list of device buffers, one per species, each of the stepper's shape.
+Expressions are evaluated in Python's operation order, fully parenthesised, without
+contraction, so they round as NumPy does.  The scalars (``h``, ``c``, ``dt``...) are
+kernel arguments: a pass compiles once whatever values it runs with, and an adaptive solver
+changes its step without recompiling.  No output is clamped (models' ``bounds`` do not
+apply).
 """
 
 from __future__ import annotations
@@ -53,14 +62,10 @@ class DeviceRHS:
         self.shape: tuple[int, ...] = st.shape
         self.dtype = st.dtype
         self.backend = st.backend
-        aux = () if st._pre is None else tuple(o.name for o in st._pre.outputs)
-        h = eq.Ref("builtin", "_h")
-        self._rate = Program(self.species + aux,
-                             tuple(Output(s, eq.Bin("*", h, st.rates[s])) for s in self.species),
-                             frozenset(aux))
-        self._pointwise: dict[tuple, Program] = {}
+        self._programs: dict[tuple, Program] = {}
         #: whether ``f`` reads ``t`` (directly or through a parameter expression of ``t``)
-        self.uses_time = bool(self._rate.refs("time"))
+        self.uses_time = any(eq.names(tree, "time") for tree in st.rates.values())
+        self._y: Field | None = None  # where a bilaplacian's stage state is stored
 
     def empty(self) -> Field:
         """A new field (uninitialised buffers)."""
@@ -75,11 +80,94 @@ class DeviceRHS:
 
     def rate(self, x: Field, out: Field, t: float, c: float = 1.0) -> None:
         """``out = c · f(x, t)`` (``out`` must not be ``x``: the pass reads neighbours)."""
-        self.stepper._eval(self._rate, x, out, t, h=c)
+        self.stage([out], "x", {"x": x}, ["c*F"], t, {"c": c})
 
     def euler(self, x: Field, out: Field, t: float, h: float) -> None:
         """``out = x + h · f(x, t)`` (``out`` must not be ``x``)."""
-        self.stepper._eval(self.stepper._euler, x, out, t, h=h)
+        self.stage([out], "x", {"x": x}, ["Y + h*F"], t, {"h": h})
+
+    def stage(self, outs: Sequence[Field], state: str, fields: Mapping[str, Field],
+              outputs: Sequence[str], t: float,
+              scalars: Mapping[str, float] | None = None) -> None:
+        """One pass (module doc): per species ``s`` and cell, ``y_s = state`` over the named
+        ``fields`` and ``scalars``, then ``outs[k]_s = outputs[k]`` with ``F`` the rate
+        ``f_s(y, t)`` and ``Y`` the state ``y_s``.  No ``outs`` buffer may be one of the
+        ``fields`` (the pass reads neighbours)."""
+        scalars = dict(scalars or {})
+        names = tuple(fields)
+        st = self.stepper
+        args = {f"_{k}": float(v) for k, v in scalars.items()}
+        flat_outs = [b for out in outs for b in out]
+        if st._pre is None:
+            program = self._stage_program(state, names, tuple(scalars), tuple(outputs))
+            ins = [b for n in names for b in fields[n]]
+            launch(program, st.target, ins, flat_outs, st._dev, args, t)
+            return
+        # a bilaplacian: y stored, its Laplacian by the pre-pass, then the stage on it
+        if state in fields:
+            y = fields[state]
+        else:
+            if self._y is None:
+                self._y = self.empty()
+            y = self._y
+            self.pointwise(y, state, fields, scalars)
+        launch(st._pre, st.target, y, st._aux, st._dev, {}, t)
+        program = self._stage_program(None, names, tuple(scalars), tuple(outputs))
+        ins = [*y, *st._aux, *(b for n in names for b in fields[n])]
+        launch(program, st.target, ins, flat_outs, st._dev, args, t)
+
+    def _stage_program(self, state: str | None, names: tuple[str, ...],
+                       scalars: tuple[str, ...], outputs: tuple[str, ...]) -> Program:
+        """The program of :meth:`stage`; ``state`` None: ``y`` is an input (stored)."""
+        key = ("stage", state, names, scalars, outputs)
+        program = self._programs.get(key)
+        if program is not None:
+            return program
+        st = self.stepper
+        species = self.species
+        # y_s: a derived field, or the input named s (read by the pre-pass's outputs too)
+        y = {s: (f"_y__{s}" if state is not None else s) for s in species}
+
+        def per_species(s: str):
+            def fn(n: eq.Node) -> eq.Node | None:
+                if isinstance(n, eq.Ref) and n.kind == "param":
+                    return eq.Ref("builtin", f"_{n.name}")
+                if isinstance(n, eq.Ref) and n.kind == "species":
+                    return eq.Ref("species", f"{n.name}__{s}")
+                return None
+            return fn
+
+        def on_y(n: eq.Node) -> eq.Node | None:
+            if isinstance(n, eq.Ref) and n.kind == "species":
+                return eq.Ref("species", y[n.name])
+            if isinstance(n, eq.Lap) and n.name in y:
+                return eq.Lap(y[n.name], n.order)
+            return None
+
+        rates = {s: eq.substitute(st.rates[s], on_y) for s in species}
+        derived: tuple[tuple[str, eq.Node], ...] = ()
+        if state is not None:
+            tree = eq.parse(state, species=names, params=scalars, laplace=False,
+                            what="stage state")
+            derived = tuple((y[s], eq.substitute(tree, per_species(s))) for s in species)
+        outs = []
+        for k, text in enumerate(outputs):
+            tree = eq.parse(text, species=(*names, "F", "Y"), params=scalars, laplace=False,
+                            what="stage output")
+            for s in species:
+                def fill(n: eq.Node, s: str = s) -> eq.Node | None:
+                    if isinstance(n, eq.Ref) and n.kind == "species" and n.name == "F":
+                        return rates[s]
+                    if isinstance(n, eq.Ref) and n.kind == "species" and n.name == "Y":
+                        return eq.Ref("species", y[s])
+                    return per_species(s)(n)
+                outs.append(Output(f"o{k}__{s}", eq.substitute(tree, fill)))
+        aux = () if st._pre is None else tuple(o.name for o in st._pre.outputs)
+        inputs = (() if state is not None else (*species, *aux)) + tuple(
+            f"{n}__{s}" for n in names for s in species)
+        program = Program(inputs, tuple(outs), frozenset(aux), derived)
+        self._programs[key] = program
+        return program
 
     def pointwise(self, out: Field, expr: str, fields: Mapping[str, Field],
                   scalars: Mapping[str, float] | None = None) -> None:
@@ -98,15 +186,15 @@ class DeviceRHS:
 
     def _pointwise_program(self, expr: str, names: tuple[str, ...],
                            scalars: tuple[str, ...]) -> Program:
-        key = (expr, names, scalars)
-        program = self._pointwise.get(key)
+        key = ("pointwise", expr, names, scalars)
+        program = self._programs.get(key)
         if program is None:
             tree = eq.parse(expr, species=names, params=scalars, laplace=False,
                             what="pointwise expression")
             tree = eq.substitute(tree, lambda n: eq.Ref("builtin", f"_{n.name}")
                                  if isinstance(n, eq.Ref) and n.kind == "param" else None)
             program = Program(names, (Output("out", tree),))
-            self._pointwise[key] = program
+            self._programs[key] = program
         return program
 
     def sum_squares(self, *fields: Field) -> float:
