@@ -73,3 +73,104 @@ __kernel void max_abs_partial(__global const bits *RESTRICT u, __global bits *RE
     }
 #endif
 }
+
+/* Sum of squares (Backend.sum_squares): partial sums of u[k]^2, in double for both real
+ * types (a float squared in double is exact); the host adds the partials in double.
+ *
+ *   Order (fixed by this code, not by the compiler; FP_CONTRACT is OFF, see common.cl):
+ *   ROW_LAYOUT = 1: work-item g sums its chunk [start, stop) in 8 lanes of a double8:
+ *     lane j takes the elements start + j, start + j + 8, ... in increasing order (the
+ *     tail's last < 8 elements go to lanes 0, 1, ... likewise); then the lanes are
+ *     combined as a tree, lane j += lane j + w for w = 4, 2, 1, and lane 0 is partial[g].
+ *     The lanes are independent chains held in vector registers (one accumulator cannot
+ *     be vectorised without reassociating; a private array of 8 accumulators stays on
+ *     the stack in PoCL, measured 2x slower).
+ *   ROW_LAYOUT = 0: a grid-stride loop (work-item t of T sums t, t + T, ... in order),
+ *     then the local-memory tree (scratch[l] += scratch[l + w], w = group/2, ..., 1);
+ *     partial[group] per work-group.
+ *
+ * NaN and inf propagate (inf^2 = inf, inf + NaN = NaN); a float64 square or sum beyond
+ * DBL_MAX is inf.  Subnormals: under -cl-denorms-are-zero a subnormal input may be read
+ * as 0, and a square below DBL_MIN (|u| < 1.5e-154) may be flushed to 0; either changes
+ * the sum by less than n * 1.4e-76 in float32, n * DBL_MIN in float64.
+ *
+ * Doubles are needed on the device; where it has none (no cl_khr_fp64) the kernel is an
+ * empty stub of the same signature, so the rest of the program still builds, and the host
+ * refuses the call (OpenCLBackend.sum_squares).  -D RDGPU_REDUCE_SCALAR makes the row
+ * loop one sequential accumulator, not vectorised (perf/reduce.py measures the lanes).
+ */
+
+#if defined(cl_khr_fp64) || defined(__opencl_c_fp64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+
+/* x^2 in double: exact for a float x, one rounding for a double x */
+INLINE double square_d(const real x)
+{
+    const double d = (double)x;
+    return d * d;
+}
+
+__kernel void sum_squares_partial(__global const real *RESTRICT u,
+                                  __global double *RESTRICT partial, const long n,
+                                  const long chunk, __local double *scratch)
+{
+#if ROW_LAYOUT
+    const long g = (long)get_global_id(0);
+    const long start = g * chunk;
+    const long stop = (n - start < chunk) ? n : start + chunk;
+    long k = start;
+#ifdef RDGPU_REDUCE_SCALAR
+    double s = 0.0;
+#pragma clang loop vectorize(disable) interleave(disable)
+    for (; k < stop; ++k) {
+        s += square_d(u[k]);
+    }
+    partial[g] = s;
+#else
+    double8 acc = (double8)(0.0);
+    for (; k + 8 <= stop; k += 8) {
+        const double8 x = convert_double8(vload8(0, u + k));
+        acc += x * x;
+    }
+    double tail[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}; /* fewer than 8 left */
+    for (int j = 0; j < 7; ++j) {
+        if (k + j < stop) {
+            tail[j] = square_d(u[k + j]);
+        }
+    }
+    acc += vload8(0, tail); /* (+0.0 leaves a lane as it is: lanes are never -0.0) */
+    const double4 fold4 = acc.lo + acc.hi;
+    const double2 fold2 = fold4.lo + fold4.hi;
+    partial[g] = fold2.lo + fold2.hi;
+#endif
+#else
+    const size_t lid = get_local_id(0);
+    const size_t group = get_local_size(0);
+    const long stride = (long)get_global_size(0);
+    double s = 0.0;
+    for (long k = (long)get_global_id(0); k < n; k += stride) {
+        s += square_d(u[k]);
+    }
+    scratch[lid] = s;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (size_t width = group / 2; width > 0; width /= 2) {
+        if (lid < width) {
+            scratch[lid] += scratch[lid + width];
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (lid == 0) {
+        partial[get_group_id(0)] = scratch[0];
+    }
+#endif
+}
+
+#else /* no fp64 on this device: a stub (never launched; the host raises first) */
+
+__kernel void sum_squares_partial(__global const real *RESTRICT u,
+                                  __global ulong *RESTRICT partial, const long n,
+                                  const long chunk, __local ulong *scratch)
+{
+}
+
+#endif

@@ -1,6 +1,7 @@
-"""Warp kernels of the max-|u| reduction (``Backend.max_abs``); the maths of ``reference.py``.
+"""Warp kernels of the reductions ``Backend.max_abs`` and ``Backend.sum_squares``; the
+maths of ``reference.py``.
 
-Like ``reduce.cl``, the kernels compare IEEE bit patterns: the array is viewed as unsigned
+max_abs.  Like ``reduce.cl``, the kernels compare IEEE bit patterns: the array is viewed as unsigned
 integers of its width (``uint32`` for float32, ``uint64`` for float64), the sign bit is
 masked off, and the unsigned max of the masked patterns is the pattern of ``max |u|``
 (0 < subnormals < normals < inf < NaN as unsigned integers), or a NaN if any element is
@@ -19,10 +20,32 @@ takes the max of the partials:
   the array, once over the first pass's partials, so few come back to the host.
 
 ``KERNELS[np.dtype]`` is ``(bits dtype, blocks, strided)``.
+
+sum_squares.  Partial sums of ``u²`` in float64 for both dtypes (a float32 square is exact
+in float64); the host adds the partials in float64.  The order is fixed by this code:
+
+* ``blocks`` (CPU): thread ``b`` sums its block in 8 accumulators, lane ``j`` taking the
+  elements ``start + j, start + j + 8, …`` in increasing order (the last < 8 elements go
+  to lanes 0, 1, … likewise), then combines the lanes as a tree, lane ``j`` += lane
+  ``j + w`` for ``w = 4, 2, 1`` -- the order of ``reduce.cl``'s row layout.  The lanes are
+  independent chains that the CPU overlaps (one float64 accumulator would wait on each
+  add's latency: it cannot be vectorised without reassociating);
+* ``strided`` (CUDA): thread ``t`` of ``T`` sums ``t, t + T, …`` in order; the backend
+  launches it over the array, then ``total`` (the same loop over float64 values, not
+  squared) over the first pass's partials, so few partials come back to the host.
+
+These kernels run with FTZ/DAZ on (``ftz_begin``, as the other families): a subnormal
+float32 input may be read as 0 and a float64 square below the smallest normal flushed,
+changes below ``n·1.4e-76`` and ``n·2.3e-308``.  NaN and inf propagate; a float64 sum
+beyond the largest double is inf.
+
+``SUM_SQUARES[np.dtype]`` is ``(blocks, strided)``; ``TOTAL`` the second pass.
 """
 
 import numpy as np
 import warp as wp
+
+from rdgpu._kernels.warp_common import ftz_begin, ftz_end
 
 wp.set_module_options({"enable_backward": False})
 
@@ -64,3 +87,93 @@ KERNELS = {
     np.dtype(np.float32): (np.dtype(np.uint32), *_build(wp.uint32, 0x7FFFFFFF)),
     np.dtype(np.float64): (np.dtype(np.uint64), *_build(wp.uint64, 0x7FFFFFFFFFFFFFFF)),
 }
+
+
+F64 = wp.array(dtype=wp.float64)
+
+
+def _build_sum_squares(real):
+    A1 = wp.array(dtype=real)
+
+    @wp.func
+    def sq(x: real) -> wp.float64:
+        d = wp.float64(x)
+        return d * d
+
+    @wp.kernel
+    def blocks(u: A1, partial: F64, block: int, b0: int):
+        saved = ftz_begin()
+        b = wp.tid() + b0
+        start = wp.max(b * block, 0)  # (>= 0: contiguous loads, as max_abs's blocks)
+        end = start + wp.min(block, u.shape[0] - start)
+        s0 = wp.float64(0.0)
+        s1 = wp.float64(0.0)
+        s2 = wp.float64(0.0)
+        s3 = wp.float64(0.0)
+        s4 = wp.float64(0.0)
+        s5 = wp.float64(0.0)
+        s6 = wp.float64(0.0)
+        s7 = wp.float64(0.0)
+        k = start
+        while k + 8 <= end:
+            s0 = s0 + sq(u[k])
+            s1 = s1 + sq(u[k + 1])
+            s2 = s2 + sq(u[k + 2])
+            s3 = s3 + sq(u[k + 3])
+            s4 = s4 + sq(u[k + 4])
+            s5 = s5 + sq(u[k + 5])
+            s6 = s6 + sq(u[k + 6])
+            s7 = s7 + sq(u[k + 7])
+            k += 8
+        # the tail, fewer than 8 elements: lanes 0, 1, ... in order
+        if k < end:
+            s0 = s0 + sq(u[k])
+        if k + 1 < end:
+            s1 = s1 + sq(u[k + 1])
+        if k + 2 < end:
+            s2 = s2 + sq(u[k + 2])
+        if k + 3 < end:
+            s3 = s3 + sq(u[k + 3])
+        if k + 4 < end:
+            s4 = s4 + sq(u[k + 4])
+        if k + 5 < end:
+            s5 = s5 + sq(u[k + 5])
+        if k + 6 < end:
+            s6 = s6 + sq(u[k + 6])
+        partial[b] = ((s0 + s4) + (s2 + s6)) + ((s1 + s5) + (s3 + s7))
+        ftz_end(saved)
+
+    @wp.kernel
+    def strided(u: A1, partial: F64):
+        saved = ftz_begin()
+        t = wp.tid()
+        stride = partial.shape[0]
+        s = wp.float64(0.0)
+        idx = t
+        while idx < u.shape[0]:
+            s = s + sq(u[idx])
+            idx += stride
+        partial[t] = s
+        ftz_end(saved)
+
+    return blocks, strided
+
+
+@wp.kernel
+def total(x: F64, partial: F64):
+    """Second pass of the strided shape: thread ``t`` of ``T`` sums ``x[t], x[t + T], …``."""
+    t = wp.tid()
+    stride = partial.shape[0]
+    s = wp.float64(0.0)
+    idx = t
+    while idx < x.shape[0]:
+        s = s + x[idx]
+        idx += stride
+    partial[t] = s
+
+
+SUM_SQUARES = {
+    np.dtype(np.float32): _build_sum_squares(wp.float32),
+    np.dtype(np.float64): _build_sum_squares(wp.float64),
+}
+TOTAL = total
