@@ -390,7 +390,7 @@ class WarpBackend(Backend):
         if u.size == 0:
             return 0.0
         _, blocks, strided = self._family("reduce").KERNELS[u.dtype]
-        partial = self._reduce(u, self._bits(u, bits), blocks, strided, strided, bits)
+        partial = self._reduce(u, [self._bits(u, bits)], blocks, strided, strided, bits)
         return max_abs_of_partials(partial.numpy(), u.dtype)
 
     def sum_squares(self, u: DeviceArray) -> float:
@@ -400,24 +400,39 @@ class WarpBackend(Backend):
             return 0.0
         family = self._family("reduce")
         blocks, strided = family.SUM_SQUARES[u.dtype]
-        partial = self._reduce(u, self._flat(u), blocks, strided, family.TOTAL,
-                               np.dtype(np.float64))
+        flat = self._flat(u)
+        inputs = [flat] if self._cells else [flat, self._vec8(u)]
+        partial = self._reduce(u, inputs, blocks, strided, family.TOTAL, np.dtype(np.float64))
         return sum_of_partials(partial.numpy())
+
+    def _vec8(self, d: DeviceArray):
+        """A cached view of a float device array's first ``8·(size // 8)`` elements as
+        vectors of 8 (the CPU sum_squares kernel loads one per iteration)."""
+        flat = self._flat(d)
+        view = d.meta.get("warp_vec8")
+        if view is None or view._ref is not flat:
+            wp = self._wp
+            whole = flat[: d.size // 8 * 8].reshape((d.size // 8, 8))
+            view = whole.view(wp.types.vector(8, wp.dtype_from_numpy(d.dtype)))
+            view._ref = flat
+            d.meta["warp_vec8"] = view
+        return view
 
     def _check_device(self, u: DeviceArray, what: str) -> None:
         if u.handle.device != self._dev:
             raise ValueError(f"{what}: the array is on Warp device {u.handle.device}, this "
                              f"backend runs on {self._dev}; copy it there first")
 
-    def _reduce(self, u: DeviceArray, data, blocks, strided, second, partial_dtype: np.dtype):
-        """Launch a reduction over the (non-empty) ``u`` read as the flat array ``data``;
-        return its partials of ``partial_dtype`` (this thread's buffer: read it before
-        the next call).  CPU: ``blocks``; CUDA: ``strided``, then ``second`` over its
-        partials when there are more than ``REDUCE_THREADS_2``."""
+    def _reduce(self, u: DeviceArray, inputs: list, blocks, strided, second,
+                partial_dtype: np.dtype):
+        """Launch a reduction over the (non-empty) ``u``; return its partials of
+        ``partial_dtype`` (this thread's buffer: read it before the next call).  CPU:
+        ``blocks(*inputs, partial, block, b0)``; CUDA: ``strided(inputs[0], partial)``,
+        then ``second`` over its partials when there are more than ``REDUCE_THREADS_2``."""
         n = u.size
         if self._cells:
             partial = self._partials(0, min(n, REDUCE_THREADS), partial_dtype)
-            self._launch(strided, partial.shape[0], [data, partial], 0)
+            self._launch(strided, partial.shape[0], [inputs[0], partial], 0)
             if partial.shape[0] > REDUCE_THREADS_2:
                 data, partial = partial, self._partials(1, REDUCE_THREADS_2, partial_dtype)
                 self._launch(second, partial.shape[0], [data, partial], 0)
@@ -427,7 +442,7 @@ class WarpBackend(Backend):
         # one chunk per 8 MiB of data (measured on 2 cores, float32: at 1 MiB one
         # thread 16 us, split 67 us; even at 8 MiB; split faster from 16 MiB)
         work = u.nbytes // REDUCE_SPLIT_BYTES * CHUNK_MIN_CELLS
-        self._run_split(blocks, partial.shape[0], work, [data, partial, REDUCE_BLOCK])
+        self._run_split(blocks, partial.shape[0], work, [*inputs, partial, REDUCE_BLOCK])
         return partial
 
     def _bits(self, d: DeviceArray, bits: np.dtype):
