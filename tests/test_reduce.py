@@ -229,8 +229,11 @@ def test_benchmark_script_runs_at_tiny_sizes():
     assert opencl_backend._PROGRAMS == before
     a = np.array([1.0, -3.0, np.finfo(np.float32).smallest_subnormal], np.float32)
     assert backends["opencl scalar"].max_abs(backends["opencl scalar"].upload(a)) == 3.0
+    # one sequential accumulator: 1 + 9 + (a subnormal's square, or 0 under DAZ) rounds to 10
+    assert backends["opencl scalar"].sum_squares(backends["opencl scalar"].upload(a)) == 10.0
     rows = bench.measure(backends, {"tiny": 0, "L2": 4096}, seconds=0.0)
-    assert len(rows) == 2 * 2 * len(backends)
+    assert len(rows) == 2 * 2 * 2 * len(backends)  # sizes, dtypes, ops, backends
+    assert {r["op"] for r in rows} == {"max_abs", "sum_squares"}
     assert all(r["us"] > 0 and r["GBps"] > 0 for r in rows)
     text = bench.table(rows, triad=10.0)
     assert text.count("\n") == len(rows) + 1 and "opencl scalar" in text
