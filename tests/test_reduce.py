@@ -12,8 +12,8 @@ sizes (no timing is asserted).
 exactly rounded float64 squares (``sum_squares_error_bound``, derived, not tuned), and
 the same bits on every repeat; the same shapes, lengths across every tail, chunk and pass
 edge, NaN and ±inf at many positions, overflow, ±0, all-subnormal arrays (0 or the exact
-value), empty arrays, wrong dtypes and foreign arrays, threads, the OpenCL kernel on
-Oclgrind."""
+value), empty arrays, wrong dtypes and foreign arrays (the tests shared with max_abs, over
+``OPS``), an fp64-less OpenCL device, threads, the OpenCL kernel on Oclgrind."""
 
 from __future__ import annotations
 
@@ -43,6 +43,8 @@ LONG = 600_001
 POSITIONS = [0, 1, 3, 7, 8, 15, 16, 31, 63, 64, 65_535, 65_536, 65_537, 131_072,
              262_143, 262_144, 262_145, 300_000, LONG - 17, LONG - 2, LONG - 1]
 DTYPES = [np.float32, np.float64]
+#: the reductions, as Backend method names
+OPS = ["max_abs", "sum_squares"]
 
 
 def same(got: float, want: float) -> bool:
@@ -73,13 +75,16 @@ def check(be, a: np.ndarray) -> float:
     return got
 
 
+@pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
 @pytest.mark.parametrize("shape", SHAPES, ids=str)
-def test_random_shapes(be, shape, dtype):
+def test_random_shapes(be, op, shape, dtype):
+    """max_abs bit for bit, sum_squares within its bound and repeatable (``check_ss``)."""
     rng = np.random.default_rng(hash(str(shape)) % 2**32)
     a = (rng.standard_normal(shape) * 10.0 ** rng.integers(-30, 30)).astype(dtype)
-    check(be, a)
-    check(be, -np.abs(a))  # the extreme is negative
+    checker = check if op == "max_abs" else check_ss
+    checker(be, a)
+    checker(be, -np.abs(a))  # the extreme is negative
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
@@ -131,24 +136,28 @@ def test_extremes_zeros_and_subnormals(be, dtype):
     assert check(be, lone) == float(fi.smallest_subnormal) > 0
 
 
+@pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("shape", [0, (0,), (3, 0), (0, 4, 5)], ids=str)
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
-def test_empty_is_zero(be, shape, dtype):
-    assert be.max_abs(be.upload(np.zeros(shape, dtype))) == 0.0
+def test_empty_is_zero(be, op, shape, dtype):
+    got = getattr(be, op)(be.upload(np.zeros(shape, dtype)))
+    assert got == 0.0 and isinstance(got, float)
 
 
+@pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("dtype", [np.int32, np.float16, np.int64, np.uint8])
-def test_wrong_dtype_raises(be, dtype):
-    with pytest.raises(TypeError, match=r"max_abs takes float32 or float64 arrays, got"):
-        be.max_abs(be.upload(np.ones((3, 4), dtype)))
+def test_wrong_dtype_raises(be, op, dtype):
+    with pytest.raises(TypeError, match=rf"{op} takes float32 or float64 arrays, got"):
+        getattr(be, op)(be.upload(np.ones((3, 4), dtype)))
 
 
-def test_foreign_array_raises(be):
+@pytest.mark.parametrize("op", OPS)
+def test_foreign_array_raises(be, op):
     other = variant_or_skip("numpy" if be.name != "numpy" else "warp")
-    with pytest.raises(TypeError, match=f"DeviceArray of the {be.name} backend"):
-        be.max_abs(other.upload(np.ones(4, np.float32)))
+    with pytest.raises(TypeError, match=f"{op} takes a DeviceArray of the {be.name} backend"):
+        getattr(be, op)(other.upload(np.ones(4, np.float32)))
     with pytest.raises(TypeError, match="upload it"):
-        be.max_abs(np.ones(4, np.float32))
+        getattr(be, op)(np.ones(4, np.float32))
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
@@ -291,15 +300,6 @@ def check_ss(be, a: np.ndarray) -> float:
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
-@pytest.mark.parametrize("shape", SHAPES, ids=str)
-def test_sum_squares_random_shapes(be, shape, dtype):
-    rng = np.random.default_rng(hash(str(shape)) % 2**32)
-    a = (rng.standard_normal(shape) * 10.0 ** rng.integers(-30, 30)).astype(dtype)
-    check_ss(be, a)
-    check_ss(be, np.float64(3.0).astype(dtype) * a)  # (a different set of squares)
-
-
-@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
 def test_sum_squares_lengths(be, noise, dtype):
     """Every tail length (0..7 past whole vectors of 8) and lengths around the chunk,
     block and pass edges, up to LONG; the sum grows with n (squares are non-negative)."""
@@ -383,27 +383,6 @@ def test_sum_squares_all_subnormal(be, dtype):
     exact = REDUCE.sum_squares_exact(sub)
     assert (exact > 0) == (dtype == np.float32)
     assert be.sum_squares(be.upload(sub)) in (0.0, exact)
-
-
-@pytest.mark.parametrize("shape", [0, (0,), (3, 0), (0, 4, 5)], ids=str)
-@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
-def test_sum_squares_empty_is_zero(be, shape, dtype):
-    got = be.sum_squares(be.upload(np.zeros(shape, dtype)))
-    assert got == 0.0 and isinstance(got, float)
-
-
-@pytest.mark.parametrize("dtype", [np.int32, np.float16, np.int64, np.uint8])
-def test_sum_squares_wrong_dtype_raises(be, dtype):
-    with pytest.raises(TypeError, match=r"sum_squares takes float32 or float64 arrays, got"):
-        be.sum_squares(be.upload(np.ones((3, 4), dtype)))
-
-
-def test_sum_squares_foreign_array_raises(be):
-    other = variant_or_skip("numpy" if be.name != "numpy" else "warp")
-    with pytest.raises(TypeError, match=f"sum_squares takes a DeviceArray of the {be.name}"):
-        be.sum_squares(other.upload(np.ones(4, np.float32)))
-    with pytest.raises(TypeError, match="upload it"):
-        be.sum_squares(np.ones(4, np.float32))
 
 
 def test_sum_squares_needs_fp64_on_opencl(monkeypatch):

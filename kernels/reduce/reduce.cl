@@ -37,6 +37,35 @@ typedef uint bits;
  * the loop from vectorising) */
 INLINE bits bits_max(bits a, bits b) { return (b > a) ? b : a; }
 
+INLINE bits abs_bits(bits x) { return x & ABS_MASK; }
+
+/* The strided layout (ROW_LAYOUT = 0) of a reduction kernel with arguments u, partial, n,
+ * scratch: work-item t of T folds ITEM(u[t]), ITEM(u[t + T]), ... into an accumulator of
+ * type T_ACC (from 0) with COMBINE, in order; then the work-group's tree in local memory,
+ * scratch[l] = COMBINE(scratch[l], scratch[l + w]) for w = group/2, ..., 1 (the group
+ * size is a power of two); partial[group id] = scratch[0]. */
+#define STRIDED_REDUCE(T_ACC, ITEM, COMBINE)                                                 \
+    do {                                                                                     \
+        const size_t lid = get_local_id(0);                                                  \
+        const size_t group = get_local_size(0);                                              \
+        const long stride = (long)get_global_size(0);                                        \
+        T_ACC acc_ = 0;                                                                      \
+        for (long k = (long)get_global_id(0); k < n; k += stride) {                          \
+            acc_ = COMBINE(acc_, ITEM(u[k]));                                                \
+        }                                                                                    \
+        scratch[lid] = acc_;                                                                 \
+        barrier(CLK_LOCAL_MEM_FENCE);                                                        \
+        for (size_t width = group / 2; width > 0; width /= 2) {                              \
+            if (lid < width) {                                                               \
+                scratch[lid] = COMBINE(scratch[lid], scratch[lid + width]);                  \
+            }                                                                                \
+            barrier(CLK_LOCAL_MEM_FENCE);                                                    \
+        }                                                                                    \
+        if (lid == 0) {                                                                      \
+            partial[get_group_id(0)] = scratch[0];                                           \
+        }                                                                                    \
+    } while (0)
+
 __kernel void max_abs_partial(__global const bits *RESTRICT u, __global bits *RESTRICT partial,
                               const long n, const long chunk, __local bits *scratch)
 {
@@ -53,24 +82,7 @@ __kernel void max_abs_partial(__global const bits *RESTRICT u, __global bits *RE
     }
     partial[g] = m;
 #else
-    const size_t lid = get_local_id(0);
-    const size_t group = get_local_size(0);
-    const long stride = (long)get_global_size(0);
-    bits m = 0;
-    for (long k = (long)get_global_id(0); k < n; k += stride) {
-        m = bits_max(m, u[k] & ABS_MASK);
-    }
-    scratch[lid] = m;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (size_t width = group / 2; width > 0; width /= 2) {
-        if (lid < width) {
-            scratch[lid] = bits_max(scratch[lid], scratch[lid + width]);
-        }
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (lid == 0) {
-        partial[get_group_id(0)] = scratch[0];
-    }
+    STRIDED_REDUCE(bits, abs_bits, bits_max);
 #endif
 }
 
@@ -110,6 +122,8 @@ INLINE double square_d(const real x)
     return d * d;
 }
 
+INLINE double add_d(double a, double b) { return a + b; }
+
 __kernel void sum_squares_partial(__global const real *RESTRICT u,
                                   __global double *RESTRICT partial, const long n,
                                   const long chunk, __local double *scratch)
@@ -144,24 +158,7 @@ __kernel void sum_squares_partial(__global const real *RESTRICT u,
     partial[g] = fold2.lo + fold2.hi;
 #endif
 #else
-    const size_t lid = get_local_id(0);
-    const size_t group = get_local_size(0);
-    const long stride = (long)get_global_size(0);
-    double s = 0.0;
-    for (long k = (long)get_global_id(0); k < n; k += stride) {
-        s += square_d(u[k]);
-    }
-    scratch[lid] = s;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (size_t width = group / 2; width > 0; width /= 2) {
-        if (lid < width) {
-            scratch[lid] += scratch[lid + width];
-        }
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (lid == 0) {
-        partial[get_group_id(0)] = scratch[0];
-    }
+    STRIDED_REDUCE(double, square_d, add_d);
 #endif
 }
 
