@@ -18,8 +18,8 @@ all cores (``perf/machine.py``), measured in the same run outside the caches.
 
 To check that PoCL vectorises the row layout's loop, the OpenCL kernels are also timed
 built with ``-D RDGPU_REDUCE_SCALAR`` (``#pragma clang loop vectorize(disable)
-interleave(disable)``; for sum_squares one sequential float64 accumulator instead of the 8
-lanes of a ``double8``): row "opencl scalar".  (On the AMD EPYC Zen 5 of
+interleave(disable)``; for sum_squares one sequential float64 accumulator instead of the 16
+lanes of a ``double16``): row "opencl scalar".  (On the AMD EPYC Zen 5 of
 perf/results/reduce.md, PoCL's cached binary of the vectorised max_abs row kernel holds
 ``vpmaxud``/``vpmaxuq`` on ymm registers: 8 / 4 lanes; its sum_squares holds
 ``vcvtps2pd``/``vmulpd``/``vaddpd`` on zmm registers; the scalar builds neither.)
@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
         "Per call: the reduction, the partials' copy to the host and their max or float64 "
         "sum (synchronous), best of repeats. GB/s = bytes of u ÷ time. `opencl scalar`: "
         "the same kernels with LLVM's loop vectoriser off (`-D RDGPU_REDUCE_SCALAR`; "
-        "sum_squares with one sequential accumulator instead of 8 lanes): the ratio "
+        "sum_squares with one sequential accumulator instead of 16 lanes): the ratio "
         "opencl ÷ opencl scalar is what vectorisation gives. The `tiny` rows are the cost "
         "per call that an adaptive solver pays every attempted step (max_abs) and an "
         "implicit one every fixed-point iteration (sum_squares).",

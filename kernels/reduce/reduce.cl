@@ -90,13 +90,14 @@ __kernel void max_abs_partial(__global const bits *RESTRICT u, __global bits *RE
  * types (a float squared in double is exact); the host adds the partials in double.
  *
  *   Order (fixed by this code, not by the compiler; FP_CONTRACT is OFF, see common.cl):
- *   ROW_LAYOUT = 1: work-item g sums its chunk [start, stop) in 8 lanes of a double8:
- *     lane j takes the elements start + j, start + j + 8, ... in increasing order (the
- *     tail's last < 8 elements go to lanes 0, 1, ... likewise); then the lanes are
- *     combined as a tree, lane j += lane j + w for w = 4, 2, 1, and lane 0 is partial[g].
- *     The lanes are independent chains held in vector registers (one accumulator cannot
- *     be vectorised without reassociating; a private array of 8 accumulators stays on
- *     the stack in PoCL, measured 2x slower).
+ *   ROW_LAYOUT = 1: work-item g sums its chunk [start, stop) in 16 lanes of a double16:
+ *     lane j takes the elements start + j, start + j + 16, ... in increasing order (the
+ *     tail's last < 16 elements go to lanes 0, 1, ... likewise); then the lanes are
+ *     combined as a tree, lane j += lane j + w for w = 8, 4, 2, 1, and lane 0 is
+ *     partial[g].  The lanes are independent chains held in vector registers: two zmm
+ *     accumulators on AVX-512, so two adds overlap (one accumulator cannot be vectorised
+ *     without reassociating; a private array of 8 accumulators stayed on the stack in
+ *     PoCL, measured 2x slower than a double8, which 16 lanes beat in cache).
  *   ROW_LAYOUT = 0: a grid-stride loop (work-item t of T sums t, t + T, ... in order),
  *     then the local-memory tree (scratch[l] += scratch[l + w], w = group/2, ..., 1);
  *     partial[group] per work-group.
@@ -141,19 +142,20 @@ __kernel void sum_squares_partial(__global const real *RESTRICT u,
     }
     partial[g] = s;
 #else
-    double8 acc = (double8)(0.0);
-    for (; k + 8 <= stop; k += 8) {
-        const double8 x = convert_double8(vload8(0, u + k));
+    double16 acc = (double16)(0.0);
+    for (; k + 16 <= stop; k += 16) {
+        const double16 x = convert_double16(vload16(0, u + k));
         acc += x * x;
     }
-    double tail[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}; /* fewer than 8 left */
-    for (int j = 0; j < 7; ++j) {
+    double tail[16] = {0.0}; /* fewer than 16 left */
+    for (int j = 0; j < 15; ++j) {
         if (k + j < stop) {
             tail[j] = square_d(u[k + j]);
         }
     }
-    acc += vload8(0, tail); /* (+0.0 leaves a lane as it is: lanes are never -0.0) */
-    const double4 fold4 = acc.lo + acc.hi;
+    acc += vload16(0, tail); /* (+0.0 leaves a lane as it is: lanes are never -0.0) */
+    const double8 fold8 = acc.lo + acc.hi;
+    const double4 fold4 = fold8.lo + fold8.hi;
     const double2 fold2 = fold4.lo + fold4.hi;
     partial[g] = fold2.lo + fold2.hi;
 #endif

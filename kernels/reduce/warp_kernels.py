@@ -24,13 +24,14 @@ takes the max of the partials:
 sum_squares.  Partial sums of ``u²`` in float64 for both dtypes (a float32 square is exact
 in float64); the host adds the partials in float64.  The order is fixed by this code:
 
-* ``blocks`` (CPU): thread ``b`` sums its block in 8 accumulators, lane ``j`` taking the
-  elements ``start + j, start + j + 8, …`` in increasing order (the last < 8 elements go
-  to lanes 0, 1, … likewise), then combines the lanes as a tree, lane ``j`` += lane
-  ``j + w`` for ``w = 4, 2, 1`` -- the order of ``reduce.cl``'s row layout, so the two
-  give the same bits.  The lanes are a vector of 8 doubles fed from ``u8``, ``u`` viewed
-  as vectors of 8: LLVM vectorises the loop (one float64 accumulator cannot be without
-  reassociating; 8 scalar ones indexed ``u[k + j]`` compiled to gathers, 4 GB/s);
+* ``blocks`` (CPU): thread ``b`` sums its block in 16 accumulators, lane ``j`` taking the
+  elements ``start + j, start + j + 16, …`` in increasing order (the last < 16 elements
+  go to lanes 0, 1, … likewise), then combines the lanes as a tree, lane ``j`` += lane
+  ``j + w`` for ``w = 8, 4, 2, 1`` -- the order of ``reduce.cl``'s row layout, so the two
+  give the same bits.  The lanes are a vector of 16 doubles fed from ``u16``, ``u``
+  viewed as vectors of 16: LLVM vectorises the loop into two zmm chains (one float64
+  accumulator cannot be without reassociating; 8 scalar ones indexed ``u[k + j]``
+  compiled to gathers, 4 GB/s);
 * ``strided`` (CUDA): thread ``t`` of ``T`` sums ``t, t + T, …`` in order; the backend
   launches it over the array, then ``total`` (the same loop over float64 values, not
   squared) over the first pass's partials, so few partials come back to the host.
@@ -94,8 +95,9 @@ F64 = wp.array(dtype=wp.float64)
 
 def _build_sum_squares(real):
     A1 = wp.array(dtype=real)
-    A8 = wp.array(dtype=wp.types.vector(8, real))
-    lanes = wp.types.vector(8, wp.float64)
+    A16 = wp.array(dtype=wp.types.vector(16, real))
+    lanes = wp.types.vector(16, wp.float64)
+    fold = wp.types.vector(8, wp.float64)
 
     @wp.func
     def sq(x: real) -> wp.float64:
@@ -103,25 +105,28 @@ def _build_sum_squares(real):
         return d * d
 
     @wp.kernel
-    def blocks(u: A1, u8: A8, partial: F64, block: int, b0: int):
-        # u8: u's first 8·(n // 8) elements as vectors of 8 (one contiguous load per
+    def blocks(u: A1, u16: A16, partial: F64, block: int, b0: int):
+        # u16: u's first 16·(n // 16) elements as vectors of 16 (one contiguous load per
         # iteration: LLVM then vectorises; indexing u at k, k + 1, … made it gather)
         saved = ftz_begin()
         b = wp.tid() + b0
         start = wp.max(b * block, 0)  # (>= 0: contiguous loads, as max_abs's blocks)
         end = start + wp.min(block, u.shape[0] - start)
         acc = lanes()
-        m = start // 8  # (block is a multiple of 8)
-        while m < end // 8:
-            x = lanes(u8[m])
+        m = start // 16  # (block is a multiple of 16)
+        while m < end // 16:
+            x = lanes(u16[m])
             acc = acc + wp.cw_mul(x, x)
             m += 1
-        k = (end // 8) * 8  # the tail, fewer than 8 elements: lanes 0, 1, ... in order
-        for j in range(7):
+        k = (end // 16) * 16  # the tail, fewer than 16 elements: lanes 0, 1, ... in order
+        for j in range(15):
             if k + j < end:
                 acc[j] = acc[j] + sq(u[k + j])
-        half = (acc[0] + acc[4], acc[1] + acc[5], acc[2] + acc[6], acc[3] + acc[7])
-        partial[b] = (half[0] + half[2]) + (half[1] + half[3])
+        f8 = fold()
+        for j in range(8):
+            f8[j] = acc[j] + acc[j + 8]
+        f4 = (f8[0] + f8[4], f8[1] + f8[5], f8[2] + f8[6], f8[3] + f8[7])
+        partial[b] = (f4[0] + f4[2]) + (f4[1] + f4[3])
         ftz_end(saved)
 
     @wp.kernel

@@ -57,6 +57,7 @@ BLOCK = 4096
 ROW_BLOCK = 256
 #: max_abs, sum_squares: elements per thread on the CPU (one partial each); threads of the
 #: CUDA shape's first pass over the array, and of its second pass over the first's partials
+#: (REDUCE_BLOCK: a multiple of 16, the vectors sum_squares loads)
 REDUCE_BLOCK = 1 << 16
 REDUCE_THREADS = 1 << 18
 REDUCE_THREADS_2 = 1 << 10
@@ -401,21 +402,21 @@ class WarpBackend(Backend):
         family = self._family("reduce")
         blocks, strided = family.SUM_SQUARES[u.dtype]
         flat = self._flat(u)
-        inputs = [flat] if self._cells else [flat, self._vec8(u)]
+        inputs = [flat] if self._cells else [flat, self._vec16(u)]
         partial = self._reduce(u, inputs, blocks, strided, family.TOTAL, np.dtype(np.float64))
         return sum_of_partials(partial.numpy())
 
-    def _vec8(self, d: DeviceArray):
-        """A cached view of a float device array's first ``8·(size // 8)`` elements as
-        vectors of 8 (the CPU sum_squares kernel loads one per iteration)."""
+    def _vec16(self, d: DeviceArray):
+        """A cached view of a float device array's first ``16·(size // 16)`` elements as
+        vectors of 16 (the CPU sum_squares kernel loads one per iteration)."""
         flat = self._flat(d)
-        view = d.meta.get("warp_vec8")
+        view = d.meta.get("warp_vec16")
         if view is None or view._ref is not flat:
             wp = self._wp
-            whole = flat[: d.size // 8 * 8].reshape((d.size // 8, 8))
-            view = whole.view(wp.types.vector(8, wp.dtype_from_numpy(d.dtype)))
+            whole = flat[: d.size // 16 * 16].reshape((d.size // 16, 16))
+            view = whole.view(wp.types.vector(16, wp.dtype_from_numpy(d.dtype)))
             view._ref = flat
-            d.meta["warp_vec8"] = view
+            d.meta["warp_vec16"] = view
         return view
 
     def _check_device(self, u: DeviceArray, what: str) -> None:
