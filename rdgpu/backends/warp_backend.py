@@ -410,14 +410,13 @@ class WarpBackend(Backend):
         """A cached view of a float device array's first ``16·(size // 16)`` elements as
         vectors of 16 (the CPU sum_squares kernel loads one per iteration)."""
         flat = self._flat(d)
-        view = d.meta.get("warp_vec16")
-        if view is None or view._ref is not flat:
+        cached = d.meta.get("warp_vec16")  # (the flat view it was made from, the view)
+        if cached is None or cached[0] is not flat:
             wp = self._wp
             whole = flat[: d.size // 16 * 16].reshape((d.size // 16, 16))
-            view = whole.view(wp.types.vector(16, wp.dtype_from_numpy(d.dtype)))
-            view._ref = flat
-            d.meta["warp_vec16"] = view
-        return view
+            cached = (flat, whole.view(wp.types.vector(16, wp.dtype_from_numpy(d.dtype))))
+            d.meta["warp_vec16"] = cached
+        return cached[1]
 
     def _check_device(self, u: DeviceArray, what: str) -> None:
         if u.handle.device != self._dev:
