@@ -11,7 +11,8 @@ without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann
 condition: every grid kernel then computes its 1-D formula.
 
 Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`);
-the reduction :meth:`Backend.max_abs` is exact instead: it returns ``max |u|`` as NumPy does.
+the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as NumPy gives it),
+:meth:`Backend.sum_squares` sums in float64.
 """
 
 from __future__ import annotations
@@ -179,16 +180,34 @@ class Backend(ABC):
         (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
         queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
 
+    @abstractmethod
+    def sum_squares(self, u: DeviceArray) -> float:
+        """``Σ u²`` over every element of ``u`` (float32 or float64, any shape), as a host
+        float (kernels/reduce), for mean-square convergence tests.  Accumulated in float64
+        for both dtypes (a float32 square is exact in float64): the device sums chunks in
+        a fixed order (see ``kernels/reduce``), the host adds the partials in float64, so
+        the result differs from NumPy's ``np.sum(u.astype(np.float64) ** 2)`` by rounding
+        only (relative ``(n − 1)·2⁻⁵³`` at most, plus one rounding per float64 square) and
+        is the same bits for the same array on the same backend.  NaN if any element is
+        NaN, ``inf`` if any is ±inf and none NaN (or a float64 sum overflows).  Subnormal
+        inputs may be read as 0 (FTZ/DAZ), and float64 squares below the smallest normal
+        may be flushed: a change far below any convergence tolerance.  An empty array
+        gives 0.0.  Waits for the queued kernels.  Other dtypes raise ``TypeError``."""
+
     def _check_max_abs(self, u: DeviceArray) -> np.dtype:
         """Check ``max_abs``'s operand; return the unsigned integer dtype of its width
         (the kernels compare the bit patterns of ``|u|``)."""
+        self._check_reduce(u, "max_abs")
+        return np.dtype(np.uint32 if u.dtype == np.float32 else np.uint64)
+
+    def _check_reduce(self, u: DeviceArray, what: str) -> None:
+        """A reduction's operand is a float32 or float64 DeviceArray of this backend."""
         if not isinstance(u, DeviceArray) or not isinstance(u.backend, type(self)):
             where = u.backend.name if isinstance(u, DeviceArray) else type(u).__name__
-            raise TypeError(f"max_abs takes a DeviceArray of the {self.name} backend, got "
+            raise TypeError(f"{what} takes a DeviceArray of the {self.name} backend, got "
                             f"{where} (upload it with backend.upload first)")
         if u.dtype not in _REAL_DTYPES:
-            raise TypeError(f"max_abs takes float32 or float64 arrays, got {u.dtype}")
-        return np.dtype(np.uint32 if u.dtype == np.float32 else np.uint64)
+            raise TypeError(f"{what} takes float32 or float64 arrays, got {u.dtype}")
 
     # ------------------------------------------------------------------ grid kernels
     @abstractmethod
@@ -457,3 +476,12 @@ def max_abs_of_partials(partials: np.ndarray, dtype: np.dtype) -> float:
     if partials.size <= 1:  # (np.max costs microseconds: the solver calls this every step)
         return float(partials[0].view(dtype)) if partials.size else 0.0
     return float(partials.max().view(dtype))
+
+
+def sum_of_partials(partials: np.ndarray) -> float:
+    """The host's last step of ``sum_squares``: the float64 sum of the partial sums, in
+    NumPy's pairwise order (fixed for a given count, so a result is reproducible)."""
+    if partials.size <= 1:  # (np.sum costs microseconds: a solver calls this every iteration)
+        return float(partials[0]) if partials.size else 0.0
+    with np.errstate(over="ignore"):  # a float64 overflow is inf, as on the device
+        return float(np.sum(partials, dtype=np.float64))

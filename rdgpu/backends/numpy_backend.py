@@ -66,6 +66,10 @@ class NumpyBackend(Backend):
         self._check_max_abs(u)
         return self._reduce.max_abs(u.handle)
 
+    def sum_squares(self, u: DeviceArray) -> float:
+        self._check_reduce(u, "sum_squares")
+        return self._reduce.sum_squares(u.handle)
+
     # kernels
     def laplacian(self, u, out, *, dx, dy, bc: GridBC, stencil):
         out.handle[...] = self._lap.laplacian(u.handle, dx, dy, bc, stencil)

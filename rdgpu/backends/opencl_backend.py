@@ -38,7 +38,14 @@ import numpy as np
 from ..boundary import GridBC
 from ..errors import BackendUnavailableError
 from ..kernel_files import load_module, read_source
-from .base import Backend, DeviceArray, FieldOrScalar, _check_range, max_abs_of_partials
+from .base import (
+    Backend,
+    DeviceArray,
+    FieldOrScalar,
+    _check_range,
+    max_abs_of_partials,
+    sum_of_partials,
+)
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
 _FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric",
@@ -76,6 +83,7 @@ _KERNEL_ARGS = {
     "mesh_diffusion_f": "BBBBBBiirrr",
     "csr_sor_colour": "BBBBBBBBiirr",
     "max_abs_partial": "BBllB",  # u, partial; n, chunk; __local scratch
+    "sum_squares_partial": "BBllB",  # u, partial (double); n, chunk; __local scratch
 }
 _GS_NAMES = {
     (False, False): "gray_scott_ss",
@@ -91,7 +99,7 @@ _BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
 # unit at most (fewer, longer work-items: PoCL costs about a microsecond per work-group)
 _CSR_MIN_BLOCK = 512
 _CSR_ITEMS_PER_CU = 32
-# max_abs: elements per work-item in the row layout at least (a multiple of 64: whole
+# max_abs, sum_squares: elements per work-item in the row layout at least (a multiple of 64: whole
 # vectors), and partials at most (longer chunks beyond that); the strided layout's
 # work-group size and number of work-groups (partials) at most
 _REDUCE_CHUNK = 1 << 16
@@ -510,9 +518,26 @@ class OpenCLBackend(Backend):
     def max_abs(self, u: DeviceArray) -> float:
         bits = self._check_max_abs(u)
         self._check_real(u.dtype)
-        n = u.size
-        if n == 0:
+        if u.size == 0:
             return 0.0
+        host = self._reduce(u, "max_abs_partial", bits)
+        return max_abs_of_partials(host, u.dtype)
+
+    def sum_squares(self, u: DeviceArray) -> float:
+        self._check_reduce(u, "sum_squares")
+        self._check_real(u.dtype)
+        if not self.fp64:
+            raise BackendUnavailableError(
+                f"sum_squares accumulates in float64, and OpenCL device {self.device} has no "
+                "float64 support (cl_khr_fp64); use a device with fp64 or another backend")
+        if u.size == 0:
+            return 0.0
+        return sum_of_partials(self._reduce(u, "sum_squares_partial", np.dtype(np.float64)))
+
+    def _reduce(self, u: DeviceArray, name: str, partial_dtype: np.dtype) -> np.ndarray:
+        """Run the reduction kernel ``name`` over the (non-empty) ``u``; return its partials
+        (a view of this thread's host buffer: use it before the next call)."""
+        n = u.size
         if self.layout == "row":
             chunk = max(_REDUCE_CHUNK, -(-n // _REDUCE_MAX_PARTIALS))
             chunk = -(-chunk // 64) * 64
@@ -521,25 +546,25 @@ class OpenCLBackend(Backend):
             chunk = 0
             group = min(_REDUCE_GROUP, _pow2_floor(self.cl_device.max_work_group_size))
             parts = min(-(-n // group), _REDUCE_MAX_GROUPS)
-        partial, host, scratch = self._reduce_buffers(bits, group)
-        kernel = self.kernels(u.dtype)["max_abs_partial"]
+        partial, host, scratch = self._reduce_buffers(partial_dtype, group)
+        kernel = self.kernels(u.dtype)[name]
         kernel.set_args(u.handle, partial, n, chunk, scratch)
         self._cl.enqueue_nd_range_kernel(self.queue, kernel, (parts * group,), (group,))
         self._cl.enqueue_copy(self.queue, host[:parts], partial, is_blocking=True)
-        return max_abs_of_partials(host[:parts], u.dtype)
+        return host[:parts]
 
-    def _reduce_buffers(self, bits: np.dtype, group: int) -> tuple:
-        """This thread's ``(device partials, host partials, local scratch)`` for
-        ``max_abs`` (threads never share the partials; the buffers hold the most partials
-        any call writes)."""
+    def _reduce_buffers(self, dtype: np.dtype, group: int) -> tuple:
+        """This thread's ``(device partials, host partials, local scratch)`` of ``dtype``
+        for the reductions (threads never share the partials; the buffers hold the most
+        partials any call writes)."""
         cache = getattr(self._local, "reduce", None)
         if cache is None:
             cache = self._local.reduce = {}
-        entry = cache.get(bits)
+        entry = cache.get(dtype)
         if entry is None:
-            host = np.empty(max(_REDUCE_MAX_PARTIALS, _REDUCE_MAX_GROUPS), bits)
-            entry = cache[bits] = (self._buffer(host.nbytes), host,
-                                   self._cl.LocalMemory(group * bits.itemsize))
+            host = np.empty(max(_REDUCE_MAX_PARTIALS, _REDUCE_MAX_GROUPS), dtype)
+            entry = cache[dtype] = (self._buffer(host.nbytes), host,
+                                    self._cl.LocalMemory(group * dtype.itemsize))
         return entry
 
     @staticmethod

@@ -45,6 +45,7 @@ from .base import (
     FieldOrScalar,
     _check_range,
     max_abs_of_partials,
+    sum_of_partials,
 )
 
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
@@ -54,12 +55,13 @@ CHUNK_MIN_CELLS = 1 << 15
 BLOCK = 4096
 #: matrix rows per thread of the CSR kernels on the CPU
 ROW_BLOCK = 256
-#: max_abs: elements per thread on the CPU (one partial each); threads of the CUDA shape's
-#: first pass over the array, and of its second pass over the first pass's partials
+#: max_abs, sum_squares: elements per thread on the CPU (one partial each); threads of the
+#: CUDA shape's first pass over the array, and of its second pass over the first's partials
+#: (REDUCE_BLOCK: a multiple of 16, the vectors sum_squares loads)
 REDUCE_BLOCK = 1 << 16
 REDUCE_THREADS = 1 << 18
 REDUCE_THREADS_2 = 1 << 10
-#: max_abs on the CPU: bytes per row chunk run side by side (at least)
+#: max_abs, sum_squares on the CPU: bytes per row chunk run side by side (at least)
 REDUCE_SPLIT_BYTES = 8 << 20
 
 _REAL = (np.dtype(np.float32), np.dtype(np.float64))
@@ -385,28 +387,63 @@ class WarpBackend(Backend):
     # ------------------------------------------------------------------ reductions
     def max_abs(self, u: DeviceArray) -> float:
         bits = self._check_max_abs(u)
-        if u.handle.device != self._dev:
-            raise ValueError(f"max_abs: the array is on Warp device {u.handle.device}, this "
-                             f"backend runs on {self._dev}; copy it there first")
-        n = u.size
-        if n == 0:
+        self._check_device(u, "max_abs")
+        if u.size == 0:
             return 0.0
         _, blocks, strided = self._family("reduce").KERNELS[u.dtype]
-        data = self._bits(u, bits)
-        if self._cells:
-            partial = self._partials(0, min(n, REDUCE_THREADS), bits)
-            self._launch(strided, partial.shape[0], [data, partial], 0)
-            if partial.shape[0] > REDUCE_THREADS_2:
-                data, partial = partial, self._partials(1, REDUCE_THREADS_2, bits)
-                self._launch(strided, partial.shape[0], [data, partial], 0)
-        else:
-            partial = self._partials(0, -(-n // REDUCE_BLOCK), bits)
-            # one thread streams tens of GB/s, a hand-off to the pool costs tens of us:
-            # one chunk per 8 MiB of data (measured on 2 cores, float32: at 1 MiB one
-            # thread 16 us, split 67 us; even at 8 MiB; split faster from 16 MiB)
-            work = u.nbytes // REDUCE_SPLIT_BYTES * CHUNK_MIN_CELLS
-            self._run_split(blocks, partial.shape[0], work, [data, partial, REDUCE_BLOCK])
+        partial = self._reduce(u, [self._bits(u, bits)], blocks, strided, strided, bits)
         return max_abs_of_partials(partial.numpy(), u.dtype)
+
+    def sum_squares(self, u: DeviceArray) -> float:
+        self._check_reduce(u, "sum_squares")
+        self._check_device(u, "sum_squares")
+        if u.size == 0:
+            return 0.0
+        family = self._family("reduce")
+        blocks, strided = family.SUM_SQUARES[u.dtype]
+        flat = self._flat(u)
+        inputs = [flat] if self._cells else [flat, self._vec16(u)]
+        partial = self._reduce(u, inputs, blocks, strided, family.TOTAL, np.dtype(np.float64))
+        return sum_of_partials(partial.numpy())
+
+    def _vec16(self, d: DeviceArray):
+        """A cached view of a float device array's first ``16·(size // 16)`` elements as
+        vectors of 16 (the CPU sum_squares kernel loads one per iteration)."""
+        flat = self._flat(d)
+        cached = d.meta.get("warp_vec16")  # (the flat view it was made from, the view)
+        if cached is None or cached[0] is not flat:
+            wp = self._wp
+            whole = flat[: d.size // 16 * 16].reshape((d.size // 16, 16))
+            cached = (flat, whole.view(wp.types.vector(16, wp.dtype_from_numpy(d.dtype))))
+            d.meta["warp_vec16"] = cached
+        return cached[1]
+
+    def _check_device(self, u: DeviceArray, what: str) -> None:
+        if u.handle.device != self._dev:
+            raise ValueError(f"{what}: the array is on Warp device {u.handle.device}, this "
+                             f"backend runs on {self._dev}; copy it there first")
+
+    def _reduce(self, u: DeviceArray, inputs: list, blocks, strided, second,
+                partial_dtype: np.dtype):
+        """Launch a reduction over the (non-empty) ``u``; return its partials of
+        ``partial_dtype`` (this thread's buffer: read it before the next call).  CPU:
+        ``blocks(*inputs, partial, block, b0)``; CUDA: ``strided(inputs[0], partial)``,
+        then ``second`` over its partials when there are more than ``REDUCE_THREADS_2``."""
+        n = u.size
+        if self._cells:
+            partial = self._partials(0, min(n, REDUCE_THREADS), partial_dtype)
+            self._launch(strided, partial.shape[0], [inputs[0], partial], 0)
+            if partial.shape[0] > REDUCE_THREADS_2:
+                data, partial = partial, self._partials(1, REDUCE_THREADS_2, partial_dtype)
+                self._launch(second, partial.shape[0], [data, partial], 0)
+            return partial
+        partial = self._partials(0, -(-n // REDUCE_BLOCK), partial_dtype)
+        # one thread streams tens of GB/s, a hand-off to the pool costs tens of us:
+        # one chunk per 8 MiB of data (measured on 2 cores, float32: at 1 MiB one
+        # thread 16 us, split 67 us; even at 8 MiB; split faster from 16 MiB)
+        work = u.nbytes // REDUCE_SPLIT_BYTES * CHUNK_MIN_CELLS
+        self._run_split(blocks, partial.shape[0], work, [*inputs, partial, REDUCE_BLOCK])
+        return partial
 
     def _bits(self, d: DeviceArray, bits: np.dtype):
         """A cached flat view of a float device array as unsigned integers of its width."""
@@ -418,9 +455,10 @@ class WarpBackend(Backend):
         return view
 
     def _partials(self, slot: int, size: int, bits: np.dtype):
-        """This thread's partial-max buffer ``slot`` of ``size`` elements (the strided
-        kernel reads its thread count from the buffer's length, so the length is exact);
-        a few sizes are kept per thread (an array's size recurs from call to call)."""
+        """This thread's partials buffer ``slot`` of ``size`` elements of ``bits`` (a
+        reduction's partial dtype; the strided kernels read their thread count from the
+        buffer's length, so the length is exact); a few sizes are kept per thread (an
+        array's size recurs from call to call)."""
         try:
             cache = self._local.partials
         except AttributeError:
