@@ -25,6 +25,7 @@ for name in ("warp", "opencl"):
     assert np.allclose(out, ref, atol=1e-12), name
     be = rdgpu.get_backend(name)
     assert be.max_abs(be.upload(-u)) == float(np.abs(u).max()), name
+    assert np.isclose(be.sum_squares(be.upload(u)), float(np.sum(u * u)), rtol=1e-14), name
     print("OK", name)
 """
 
