@@ -83,6 +83,24 @@ def row_base(row: int, nx: int) -> int:
 
 
 @wp.func
+def same(x: Any):
+    """``x`` itself (a scalar parameter's stand-in for :func:`flat`)."""
+    return x
+
+
+@wp.func
+def flat_field_at(f: wp.array(dtype=Any), k: int):
+    """Per-cell parameter, flat view at flat index ``k``."""
+    return f[k]
+
+
+@wp.func
+def flat_scalar_at(f: Any, k: int):
+    """Uniform parameter (same signature as :func:`flat_field_at`)."""
+    return f
+
+
+@wp.func
 def field_at(f: wp.array2d(dtype=Any), i: int, j: int):
     """Per-cell parameter."""
     return f[i, j]
