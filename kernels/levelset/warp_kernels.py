@@ -3,7 +3,9 @@
 
 Two launch shapes share the ``@wp.func`` cell formulas: ``rows`` (one thread per row,
 ``i = tid + row0``, branch-free interior columns, edge columns peeled; the CPU shape) and
-``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).
+``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).  On 2-D grids the
+interior cells read flat views at row base + column, so LLVM vectorises the row loop with
+contiguous loads (``warp_common``).
 
 ``STEP[(np.dtype, speed_is_field)]`` and ``REINIT[(np.dtype, subcell)]`` are
 ``(rows, cells)``; ``STEP3`` and ``REINIT3`` the same on a 3-D grid ``[nz, ny, nx]``
@@ -20,10 +22,15 @@ from rdgpu._kernels.warp_common import (
     DIRICHLET,
     PERIODIC,
     field_at,
+    flat,
+    flat_field_at,
+    flat_scalar_at,
     flush,
     ftz_begin,
     ftz_end,
     ghost,
+    row_base,
+    same,
     scalar_at,
 )
 
@@ -84,9 +91,13 @@ def _subcell(dtype):
 
 
 def _build_step(dtype, speed_field):
+    A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
     ST = A2 if speed_field else dtype
     s_at = field_at if speed_field else scalar_at
+    ST1 = A1 if speed_field else dtype  # the interior cells' flat view, or the scalar
+    s_at1 = flat_field_at if speed_field else flat_scalar_at
+    s_view = flat if speed_field else same
     zero = dtype(0.0)
     upwind = _gradients(dtype)
 
@@ -98,11 +109,14 @@ def _build_step(dtype, speed_field):
         gp, gm = upwind(c, w, e, s, n, ix, iy)
         return flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
 
+    # an interior cell of flat views; r, rs, rn: the flat indices of the first cells of its
+    # row and of the rows south and north
     @wp.func
-    def direct(phi: A2, speed: ST, out: A2, i: int, j: int, dt: dtype, ix: dtype, iy: dtype):
-        out[i, j] = advance(
-            phi[i, j], phi[i, j - 1], phi[i, j + 1], phi[i - 1, j], phi[i + 1, j],
-            s_at(speed, i, j), dt, ix, iy,
+    def direct(phi: A1, speed: ST1, out: A1, r: int, rs: int, rn: int, j: int, dt: dtype,
+               ix: dtype, iy: dtype):
+        out[r + j] = advance(
+            phi[r + j], phi[r + j - 1], phi[r + j + 1], phi[rs + j], phi[rn + j],
+            s_at1(speed, r + j), dt, ix, iy,
         )
 
     @wp.func
@@ -131,9 +145,15 @@ def _build_step(dtype, speed_field):
         nx = phi.shape[1]
         if i > 0 and i < ny - 1:
             edge(phi, speed, out, i, 0, dt, ix, iy, yk, yv, xk, xv)
+            pf = flat(phi)
+            sf = s_view(speed)
+            of = flat(out)
+            r = row_base(i, nx)
+            rs = row_base(i - 1, nx)
+            rn = row_base(i + 1, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                direct(phi, speed, out, i, j, dt, ix, iy)
+                direct(pf, sf, of, r, rs, rn, j, dt, ix, iy)
                 j += 1
             if nx > 1:
                 edge(phi, speed, out, i, nx - 1, dt, ix, iy, yk, yv, xk, xv)
@@ -148,8 +168,10 @@ def _build_step(dtype, speed_field):
         yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         i, j = wp.tid()
-        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < phi.shape[1] - 1:
-            direct(phi, speed, out, i, j, dt, ix, iy)
+        nx = phi.shape[1]
+        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < nx - 1:
+            direct(flat(phi), s_view(speed), flat(out), i * nx, (i - 1) * nx, (i + 1) * nx, j,
+                   dt, ix, iy)
         else:
             edge(phi, speed, out, i, j, dt, ix, iy, yk, yv, xk, xv)
 
@@ -157,6 +179,7 @@ def _build_step(dtype, speed_field):
 
 
 def _build_reinit(dtype, subcell):
+    A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
     zero = dtype(0.0)
     upwind = _gradients(dtype)
@@ -182,14 +205,15 @@ def _build_reinit(dtype, subcell):
                 res = relax(c, p0, g, crel)
         return flush(res)
 
+    # an interior cell of flat views at row bases r, rs, rn (as the step's)
     @wp.func
     def direct(
-        phi: A2, phi0: A2, out: A2, i: int, j: int,
+        phi: A1, phi0: A1, out: A1, r: int, rs: int, rn: int, j: int,
         dtau: dtype, w2: dtype, ix: dtype, iy: dtype, hx: dtype, hy: dtype, crel: dtype,
     ):
-        out[i, j] = advance(
-            phi[i, j], phi[i, j - 1], phi[i, j + 1], phi[i - 1, j], phi[i + 1, j],
-            phi0[i, j], phi0[i, j - 1], phi0[i, j + 1], phi0[i - 1, j], phi0[i + 1, j],
+        out[r + j] = advance(
+            phi[r + j], phi[r + j - 1], phi[r + j + 1], phi[rs + j], phi[rn + j],
+            phi0[r + j], phi0[r + j - 1], phi0[r + j + 1], phi0[rs + j], phi0[rn + j],
             dtau, w2, ix, iy, hx, hy, crel,
         )
 
@@ -226,9 +250,15 @@ def _build_reinit(dtype, subcell):
         nx = phi.shape[1]
         if i > 0 and i < ny - 1:
             edge(phi, phi0, out, i, 0, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
+            pf = flat(phi)
+            p0f = flat(phi0)
+            of = flat(out)
+            r = row_base(i, nx)
+            rs = row_base(i - 1, nx)
+            rn = row_base(i + 1, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                direct(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel)
+                direct(pf, p0f, of, r, rs, rn, j, dtau, w2, ix, iy, hx, hy, crel)
                 j += 1
             if nx > 1:
                 edge(phi, phi0, out, i, nx - 1, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
@@ -244,8 +274,10 @@ def _build_reinit(dtype, subcell):
         yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         i, j = wp.tid()
-        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < phi.shape[1] - 1:
-            direct(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel)
+        nx = phi.shape[1]
+        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < nx - 1:
+            direct(flat(phi), flat(phi0), flat(out), i * nx, (i - 1) * nx, (i + 1) * nx, j,
+                   dtau, w2, ix, iy, hx, hy, crel)
         else:
             edge(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
 
