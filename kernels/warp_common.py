@@ -83,6 +83,13 @@ def row_base(row: int, nx: int) -> int:
 
 
 @wp.func
+def row_bases(i: int, nx: int):
+    """``row_base`` of rows ``i``, ``i - 1`` and ``i + 1`` (an interior row's own and its
+    south and north neighbours)."""
+    return row_base(i, nx), row_base(i - 1, nx), row_base(i + 1, nx)
+
+
+@wp.func
 def same(x: Any):
     """``x`` itself (a scalar parameter's stand-in for :func:`flat`)."""
     return x
@@ -98,6 +105,18 @@ def flat_field_at(f: wp.array(dtype=Any), k: int):
 def flat_scalar_at(f: Any, k: int):
     """Uniform parameter (same signature as :func:`flat_field_at`)."""
     return f
+
+
+def param_kit(dtype, is_field: bool, ndim: int = 2):
+    """What the kernels need of a parameter that is either a field (an ``ndim``-D array of
+    the grid's shape) or a uniform scalar of ``dtype``: ``(type, load, flat type, flat
+    load, view)`` -- the kernel argument's type, ``load(p, i, j)`` (2-D), the type the flat
+    interior cell functions take, ``flat_load(p, k)`` at flat index ``k``, and ``view(p)``
+    turning the kernel argument into that flat form (:func:`flat`, or the scalar itself)."""
+    if is_field:
+        return (wp.array(dtype=dtype, ndim=ndim), field_at, wp.array(dtype=dtype),
+                flat_field_at, flat)
+    return dtype, scalar_at, dtype, flat_scalar_at, same
 
 
 @wp.func

@@ -14,19 +14,7 @@ Both outputs are flushed of subnormals; ``rows`` runs with FTZ/DAZ on (see ``war
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import (
-    field_at,
-    flat,
-    flat_field_at,
-    flat_scalar_at,
-    flush,
-    ftz_begin,
-    ftz_end,
-    ghost,
-    row_base,
-    same,
-    scalar_at,
-)
+from rdgpu._kernels.warp_common import flat, flush, ftz_begin, ftz_end, ghost, param_kit, row_bases
 
 wp.set_module_options({"enable_backward": False})
 
@@ -34,17 +22,8 @@ wp.set_module_options({"enable_backward": False})
 def _build(dtype, f_field, k_field):
     A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
-    FT = A2 if f_field else dtype
-    KT = A2 if k_field else dtype
-    f_at = field_at if f_field else scalar_at
-    k_at = field_at if k_field else scalar_at
-    # the interior cells' views: flat arrays, or the scalar itself
-    FT1 = A1 if f_field else dtype
-    KT1 = A1 if k_field else dtype
-    f_at1 = flat_field_at if f_field else flat_scalar_at
-    k_at1 = flat_field_at if k_field else flat_scalar_at
-    f_view = flat if f_field else same
-    k_view = flat if k_field else same
+    FT, f_at, FT1, f_at1, f_view = param_kit(dtype, f_field)
+    KT, k_at, KT1, k_at1, k_view = param_kit(dtype, k_field)
     one = dtype(1.0)
     two = dtype(2.0)
 
@@ -116,14 +95,10 @@ def _build(dtype, f_field, k_field):
             vf = flat(v)
             uof = flat(uo)
             vof = flat(vo)
-            Ff = f_view(F)
-            kf = k_view(k)
-            r = row_base(i, nx)
-            rs = row_base(i - 1, nx)
-            rn = row_base(i + 1, nx)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                direct(uf, vf, uof, vof, r, rs, rn, j, Ff, kf, cx, cy, Du, Dv, h)
+                direct(uf, vf, uof, vof, r, rs, rn, j, f_view(F), k_view(k), cx, cy, Du, Dv, h)
                 j += 1
             if nx > 1:
                 edge(u, v, uo, vo, i, nx - 1, F, k, cx, cy, Du, Dv, h, yk, yv, xk, xv)

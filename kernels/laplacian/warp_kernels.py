@@ -14,7 +14,7 @@ subnormals; ``rows`` runs with FTZ/DAZ on (see ``warp_common``).
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import flat, flush, ftz_begin, ftz_end, ghost, row_base
+from rdgpu._kernels.warp_common import flat, flush, ftz_begin, ftz_end, ghost, row_bases
 
 wp.set_module_options({"enable_backward": False})
 
@@ -103,9 +103,7 @@ def _build(dtype, stencil):
             edge(u, out, i, 0, cx, cy, yk, yv, xk, xv)
             uf = flat(u)
             of = flat(out)
-            r = row_base(i, nx)
-            rs = row_base(i - 1, nx)
-            rn = row_base(i + 1, nx)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
                 direct(uf, of, r, rs, rn, j, cx, cy)

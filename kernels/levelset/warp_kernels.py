@@ -21,17 +21,14 @@ import warp as wp
 from rdgpu._kernels.warp_common import (
     DIRICHLET,
     PERIODIC,
-    field_at,
     flat,
-    flat_field_at,
-    flat_scalar_at,
     flush,
     ftz_begin,
     ftz_end,
     ghost,
+    param_kit,
     row_base,
-    same,
-    scalar_at,
+    row_bases,
 )
 
 wp.set_module_options({"enable_backward": False})
@@ -93,11 +90,7 @@ def _subcell(dtype):
 def _build_step(dtype, speed_field):
     A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
-    ST = A2 if speed_field else dtype
-    s_at = field_at if speed_field else scalar_at
-    ST1 = A1 if speed_field else dtype  # the interior cells' flat view, or the scalar
-    s_at1 = flat_field_at if speed_field else flat_scalar_at
-    s_view = flat if speed_field else same
+    ST, s_at, ST1, s_at1, s_view = param_kit(dtype, speed_field)
     zero = dtype(0.0)
     upwind = _gradients(dtype)
 
@@ -148,9 +141,7 @@ def _build_step(dtype, speed_field):
             pf = flat(phi)
             sf = s_view(speed)
             of = flat(out)
-            r = row_base(i, nx)
-            rs = row_base(i - 1, nx)
-            rn = row_base(i + 1, nx)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
                 direct(pf, sf, of, r, rs, rn, j, dt, ix, iy)
@@ -253,9 +244,7 @@ def _build_reinit(dtype, subcell):
             pf = flat(phi)
             p0f = flat(phi0)
             of = flat(out)
-            r = row_base(i, nx)
-            rs = row_base(i - 1, nx)
-            rn = row_base(i + 1, nx)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
                 direct(pf, p0f, of, r, rs, rn, j, dtau, w2, ix, iy, hx, hy, crel)
@@ -450,10 +439,7 @@ def _grad3(dtype, nb):
 def _build_step3(dtype, speed_field):
     A1 = wp.array(dtype=dtype)
     A3 = wp.array3d(dtype=dtype)
-    ST = A3 if speed_field else dtype
-    ST1 = A1 if speed_field else dtype  # its flat view, or the scalar
-    s_at1 = flat_field_at if speed_field else flat_scalar_at
-    s_view = flat if speed_field else same
+    ST, _, ST1, s_at1, s_view = param_kit(dtype, speed_field, ndim=3)
     zero = dtype(0.0)
 
     def make(nb):
