@@ -61,6 +61,8 @@ REDUCE_THREADS = 1 << 18
 REDUCE_THREADS_2 = 1 << 10
 #: max_abs on the CPU: bytes per row chunk run side by side (at least)
 REDUCE_SPLIT_BYTES = 8 << 20
+#: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
+MAX_CELLS = 2**31 - 1
 
 _REAL = (np.dtype(np.float32), np.dtype(np.float64))
 
@@ -107,6 +109,15 @@ def _quiet(wp):
             setattr(config, name, value)
         if "quiet" not in saved:
             del config.quiet
+
+
+def check_cells(n: int, shape: tuple[int, ...]) -> None:
+    """Refuse a grid launch over more than :data:`MAX_CELLS` cells (``shape``: for the
+    message)."""
+    if n > MAX_CELLS:
+        dims = "x".join(str(d) for d in shape)
+        raise ValueError(f"a grid of {dims} = {n} cells is too large for the Warp kernels: "
+                         f"they index with 32-bit ints, at most {MAX_CELLS} cells")
 
 
 def _cpu_count() -> int:
@@ -241,6 +252,7 @@ class WarpBackend(Backend):
     def _run_grid(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a ``(rows, cells)`` kernel pair over a ``[ny, nx]`` grid."""
         ny, nx = shape
+        check_cells(ny * nx, shape)
         if ny == 0 or nx == 0:
             return
         rows, cells = kernels
@@ -347,6 +359,7 @@ class WarpBackend(Backend):
                          out: DeviceArray) -> None:
         nm = self._check_metric(u, coefficients, out)
         ny, nx = u.shape[-2:]
+        check_cells(nm * ny * nx, (nm, ny, nx))
         if nm * ny * nx == 0:
             return
         rows, cells = self._family("metric").KERNELS[u.dtype]
@@ -521,6 +534,7 @@ class WarpBackend(Backend):
     def _run_grid3(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a 3-D ``(rows, cells)`` kernel pair over a ``[nz, ny, nx]`` grid."""
         nz, ny, nx = shape
+        check_cells(nz * ny * nx, shape)
         if nz * ny * nx == 0:
             return
         rows, cells = kernels

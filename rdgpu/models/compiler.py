@@ -956,7 +956,7 @@ def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
 
 
 def _launch_warp(program, target, bufs, fields, member):
-    from ..backends.warp_backend import ROW_BLOCK
+    from ..backends.warp_backend import ROW_BLOCK, check_cells
 
     be = target.backend
     key = ("warp", str(be._dev), target.kind, fields, member, target.dtype.char)
@@ -981,6 +981,7 @@ def _launch_warp(program, target, bufs, fields, member):
         return
     d = target.domain
     nz, ny, nx = d.shape3
+    check_cells(nm * nz * ny * nx, (nm, nz, ny, nx))
     if nx == 0:
         return
     t = target.dtype.type
