@@ -3,9 +3,11 @@
 Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
 
 * on a CPU device, ``rows``: one Warp thread per row with a serial inner loop over the
-  columns.  Warp runs a CPU launch as one serial loop on one core and releases the GIL
-  while it runs, so a large grid is cut into ``os.cpu_count()`` row chunks launched at
-  the same time from a thread pool (one chunk in the calling thread);
+  columns, which indexes flat views of the arrays so that LLVM vectorises it (see
+  ``kernels/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
+  a CPU launch as one serial loop on one core and releases the GIL while it runs, so a
+  large grid is cut into ``os.cpu_count()`` row chunks launched at the same time from a
+  thread pool (one chunk in the calling thread);
 * on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
 
 Subnormals are flushed (docs/equations.md, :mod:`rdgpu.fpenv`): every kernel flushes what it writes,
