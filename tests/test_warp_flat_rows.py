@@ -14,6 +14,7 @@ pytest.importorskip("warp")
 
 import rdgpu  # noqa: E402
 from rdgpu.backends.warp_backend import MAX_CELLS, WarpBackend, check_cells  # noqa: E402
+from rdgpu.boundary import parse_bc  # noqa: E402
 from rdgpu.domains import Grid  # noqa: E402
 from rdgpu.metric import GraphSurface  # noqa: E402
 from rdgpu.models.library import MODELS  # noqa: E402
@@ -66,6 +67,13 @@ def test_grid_families(shapes_of_launch, shape, bc, dtype):
         same_bits(lambda be, s=subcell: rdgpu.reinitialize(
             phi, dx=0.9, dy=0.6, iterations=2, bc=bc, subcell_fix=s, backend=be),
             shapes_of_launch)
+    parsed = parse_bc(bc)
+    if not any(a.kind == 0 and n % 2 for a, n in zip((parsed.y, parsed.x), shape, strict=True)):
+        fixed = np.random.default_rng(12).random(shape) < 0.2  # (odd periodic axes: refused)
+        for rhs in (None, field):
+            same_bits(lambda be, rhs=rhs: rdgpu.sor_sweep(
+                u, fixed, omega=1.7, rhs=rhs, dx=0.5, dy=0.7, bc=bc, backend=be),
+                shapes_of_launch)
 
 
 @pytest.mark.parametrize("shape", [(1, 1, 5), (3, 4, 5), (6, 7, 41)], ids=str)
