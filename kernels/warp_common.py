@@ -55,6 +55,70 @@ def ghost(
     return val
 
 
+# ------------------------------------------------------------------ flat row loops
+# Warp's CPU array access has two costs LLVM's loop vectoriser cannot see through: the
+# strides of a 2-D/3-D argument are runtime values (so a row loop reads with gathers), and a
+# negative index wraps (``i += shape``), which stays in the loop until LLVM can prove the
+# index >= 0 (then the loop stays scalar or gathers).  The CPU row loops therefore index a
+# flat view (:func:`flat`, its stride a compile-time constant) at ``row_base + column``,
+# every term provably >= 0 (:func:`row_base`): the loops vectorise with contiguous loads.
+@wp.func
+def flat(a: wp.array2d(dtype=Any)):
+    """A 1-D view of the C-contiguous 2-D array ``a``: element ``[i, j]`` is ``[i·nx + j]``.
+    (rdgpu's device arrays are always C-contiguous.)"""
+    return wp.array(ptr=a.ptr, shape=(a.shape[0] * a.shape[1],), dtype=a.dtype)
+
+
+@wp.func
+def flat(a: wp.array3d(dtype=Any)):  # noqa: F811 - the 3-D overload
+    """A 1-D view of the C-contiguous 3-D array ``a``."""
+    return wp.array(ptr=a.ptr, shape=(a.shape[0] * a.shape[1] * a.shape[2],), dtype=a.dtype)
+
+
+@wp.func
+def row_base(row: int, nx: int) -> int:
+    """``row·nx``, the flat index of the row's first cell, which LLVM knows is >= 0
+    (``max(…, 0)``; ``row`` is never negative), so it drops the negative-index wrap."""
+    return wp.max(row * nx, 0)
+
+
+@wp.func
+def row_bases(i: int, nx: int):
+    """``row_base`` of rows ``i``, ``i - 1`` and ``i + 1`` (an interior row's own and its
+    south and north neighbours)."""
+    return row_base(i, nx), row_base(i - 1, nx), row_base(i + 1, nx)
+
+
+@wp.func
+def same(x: Any):
+    """``x`` itself (a scalar parameter's stand-in for :func:`flat`)."""
+    return x
+
+
+@wp.func
+def flat_field_at(f: wp.array(dtype=Any), k: int):
+    """Per-cell parameter, flat view at flat index ``k``."""
+    return f[k]
+
+
+@wp.func
+def flat_scalar_at(f: Any, k: int):
+    """Uniform parameter (same signature as :func:`flat_field_at`)."""
+    return f
+
+
+def param_kit(dtype, is_field: bool, ndim: int = 2):
+    """What the kernels need of a parameter that is either a field (an ``ndim``-D array of
+    the grid's shape) or a uniform scalar of ``dtype``: ``(type, load, flat type, flat
+    load, view)`` -- the kernel argument's type, ``load(p, i, j)`` (2-D), the type the flat
+    interior cell functions take, ``flat_load(p, k)`` at flat index ``k``, and ``view(p)``
+    turning the kernel argument into that flat form (:func:`flat`, or the scalar itself)."""
+    if is_field:
+        return (wp.array(dtype=dtype, ndim=ndim), field_at, wp.array(dtype=dtype),
+                flat_field_at, flat)
+    return dtype, scalar_at, dtype, flat_scalar_at, same
+
+
 @wp.func
 def field_at(f: wp.array2d(dtype=Any), i: int, j: int):
     """Per-cell parameter."""

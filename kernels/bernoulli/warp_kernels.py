@@ -26,7 +26,9 @@ def _build(dtype):
     @wp.kernel
     def blocks(u: A1, out: A1, d: dtype, omd: dtype, block: int, b0: int):
         saved = ftz_begin()
-        start = (wp.tid() + b0) * block
+        # max(…, 0): LLVM then knows every index is >= 0, drops the wrap of negative
+        # indices that Warp's CPU array access does, and vectorises the loop
+        start = wp.max((wp.tid() + b0) * block, 0)
         end = wp.min(start + block, u.shape[0])
         idx = start
         while idx < end:

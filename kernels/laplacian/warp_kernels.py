@@ -4,7 +4,8 @@ Every kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
 
 * ``rows`` -- one thread per row (``i = tid + row0``), an inner loop over the columns with
   branch-free interior cells and the two edge columns peeled (CPU: fast serial loops,
-  launched as row chunks from several host threads);
+  launched as row chunks from several host threads; the interior cells read flat views at
+  row base + column, so LLVM vectorises the loop with contiguous loads: ``warp_common``);
 * ``cells`` -- one thread per cell, ``dim = (ny, nx)`` (CUDA).
 
 ``KERNELS[(np.dtype, stencil)]`` is ``(rows, cells)``.  Every output is flushed of
@@ -13,12 +14,13 @@ subnormals; ``rows`` runs with FTZ/DAZ on (see ``warp_common``).
 
 import numpy as np
 import warp as wp
-from rdgpu._kernels.warp_common import flush, ftz_begin, ftz_end, ghost
+from rdgpu._kernels.warp_common import flat, flush, ftz_begin, ftz_end, ghost, row_bases
 
 wp.set_module_options({"enable_backward": False})
 
 
 def _build(dtype, stencil):
+    A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
     two = dtype(2.0)
     four = dtype(4.0)
@@ -39,9 +41,11 @@ def _build(dtype, stencil):
 
     if stencil == 5:
 
+        # direct: an interior cell of flat views; r, rs, rn: the flat indices of the first
+        # cells of its row and of the rows south and north
         @wp.func
-        def direct(u: A2, out: A2, i: int, j: int, cx: dtype, cy: dtype):
-            out[i, j] = lap5(u[i, j], u[i, j - 1], u[i, j + 1], u[i - 1, j], u[i + 1, j], cx, cy)
+        def direct(u: A1, out: A1, r: int, rs: int, rn: int, j: int, cx: dtype, cy: dtype):
+            out[r + j] = lap5(u[r + j], u[r + j - 1], u[r + j + 1], u[rs + j], u[rn + j], cx, cy)
 
         @wp.func
         def edge(
@@ -61,10 +65,10 @@ def _build(dtype, stencil):
     else:
 
         @wp.func
-        def direct(u: A2, out: A2, i: int, j: int, cx: dtype, cy: dtype):
-            out[i, j] = lap9(
-                u[i, j], u[i, j - 1], u[i, j + 1], u[i - 1, j], u[i + 1, j],
-                u[i - 1, j - 1], u[i - 1, j + 1], u[i + 1, j - 1], u[i + 1, j + 1], cx,
+        def direct(u: A1, out: A1, r: int, rs: int, rn: int, j: int, cx: dtype, cy: dtype):
+            out[r + j] = lap9(
+                u[r + j], u[r + j - 1], u[r + j + 1], u[rs + j], u[rn + j],
+                u[rs + j - 1], u[rs + j + 1], u[rn + j - 1], u[rn + j + 1], cx,
             )
 
         @wp.func
@@ -97,9 +101,12 @@ def _build(dtype, stencil):
         nx = u.shape[1]
         if i > 0 and i < ny - 1:
             edge(u, out, i, 0, cx, cy, yk, yv, xk, xv)
+            uf = flat(u)
+            of = flat(out)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                direct(u, out, i, j, cx, cy)
+                direct(uf, of, r, rs, rn, j, cx, cy)
                 j += 1
             if nx > 1:
                 edge(u, out, i, nx - 1, cx, cy, yk, yv, xk, xv)
@@ -111,8 +118,9 @@ def _build(dtype, stencil):
     @wp.kernel
     def cells(u: A2, out: A2, cx: dtype, cy: dtype, yk: int, yv: dtype, xk: int, xv: dtype):
         i, j = wp.tid()
-        if i > 0 and i < u.shape[0] - 1 and j > 0 and j < u.shape[1] - 1:
-            direct(u, out, i, j, cx, cy)
+        nx = u.shape[1]
+        if i > 0 and i < u.shape[0] - 1 and j > 0 and j < nx - 1:
+            direct(flat(u), flat(out), i * nx, (i - 1) * nx, (i + 1) * nx, j, cx, cy)
         else:
             edge(u, out, i, j, cx, cy, yk, yv, xk, xv)
 

@@ -3,7 +3,9 @@
 
 Two launch shapes share the ``@wp.func`` cell formulas: ``rows`` (one thread per row,
 ``i = tid + row0``, branch-free interior columns, edge columns peeled; the CPU shape) and
-``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).
+``cells`` (one thread per cell, ``dim = (ny, nx)``; the CUDA shape).  On 2-D grids the
+interior cells read flat views at row base + column, so LLVM vectorises the row loop with
+contiguous loads (``warp_common``).
 
 ``STEP[(np.dtype, speed_is_field)]`` and ``REINIT[(np.dtype, subcell)]`` are
 ``(rows, cells)``; ``STEP3`` and ``REINIT3`` the same on a 3-D grid ``[nz, ny, nx]``
@@ -19,12 +21,14 @@ import warp as wp
 from rdgpu._kernels.warp_common import (
     DIRICHLET,
     PERIODIC,
-    field_at,
+    flat,
     flush,
     ftz_begin,
     ftz_end,
     ghost,
-    scalar_at,
+    param_kit,
+    row_base,
+    row_bases,
 )
 
 wp.set_module_options({"enable_backward": False})
@@ -84,9 +88,9 @@ def _subcell(dtype):
 
 
 def _build_step(dtype, speed_field):
+    A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
-    ST = A2 if speed_field else dtype
-    s_at = field_at if speed_field else scalar_at
+    ST, s_at, ST1, s_at1, s_view = param_kit(dtype, speed_field)
     zero = dtype(0.0)
     upwind = _gradients(dtype)
 
@@ -98,11 +102,14 @@ def _build_step(dtype, speed_field):
         gp, gm = upwind(c, w, e, s, n, ix, iy)
         return flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
 
+    # an interior cell of flat views; r, rs, rn: the flat indices of the first cells of its
+    # row and of the rows south and north
     @wp.func
-    def direct(phi: A2, speed: ST, out: A2, i: int, j: int, dt: dtype, ix: dtype, iy: dtype):
-        out[i, j] = advance(
-            phi[i, j], phi[i, j - 1], phi[i, j + 1], phi[i - 1, j], phi[i + 1, j],
-            s_at(speed, i, j), dt, ix, iy,
+    def direct(phi: A1, speed: ST1, out: A1, r: int, rs: int, rn: int, j: int, dt: dtype,
+               ix: dtype, iy: dtype):
+        out[r + j] = advance(
+            phi[r + j], phi[r + j - 1], phi[r + j + 1], phi[rs + j], phi[rn + j],
+            s_at1(speed, r + j), dt, ix, iy,
         )
 
     @wp.func
@@ -131,9 +138,13 @@ def _build_step(dtype, speed_field):
         nx = phi.shape[1]
         if i > 0 and i < ny - 1:
             edge(phi, speed, out, i, 0, dt, ix, iy, yk, yv, xk, xv)
+            pf = flat(phi)
+            sf = s_view(speed)
+            of = flat(out)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                direct(phi, speed, out, i, j, dt, ix, iy)
+                direct(pf, sf, of, r, rs, rn, j, dt, ix, iy)
                 j += 1
             if nx > 1:
                 edge(phi, speed, out, i, nx - 1, dt, ix, iy, yk, yv, xk, xv)
@@ -148,8 +159,10 @@ def _build_step(dtype, speed_field):
         yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         i, j = wp.tid()
-        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < phi.shape[1] - 1:
-            direct(phi, speed, out, i, j, dt, ix, iy)
+        nx = phi.shape[1]
+        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < nx - 1:
+            direct(flat(phi), s_view(speed), flat(out), i * nx, (i - 1) * nx, (i + 1) * nx, j,
+                   dt, ix, iy)
         else:
             edge(phi, speed, out, i, j, dt, ix, iy, yk, yv, xk, xv)
 
@@ -157,6 +170,7 @@ def _build_step(dtype, speed_field):
 
 
 def _build_reinit(dtype, subcell):
+    A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
     zero = dtype(0.0)
     upwind = _gradients(dtype)
@@ -182,14 +196,15 @@ def _build_reinit(dtype, subcell):
                 res = relax(c, p0, g, crel)
         return flush(res)
 
+    # an interior cell of flat views at row bases r, rs, rn (as the step's)
     @wp.func
     def direct(
-        phi: A2, phi0: A2, out: A2, i: int, j: int,
+        phi: A1, phi0: A1, out: A1, r: int, rs: int, rn: int, j: int,
         dtau: dtype, w2: dtype, ix: dtype, iy: dtype, hx: dtype, hy: dtype, crel: dtype,
     ):
-        out[i, j] = advance(
-            phi[i, j], phi[i, j - 1], phi[i, j + 1], phi[i - 1, j], phi[i + 1, j],
-            phi0[i, j], phi0[i, j - 1], phi0[i, j + 1], phi0[i - 1, j], phi0[i + 1, j],
+        out[r + j] = advance(
+            phi[r + j], phi[r + j - 1], phi[r + j + 1], phi[rs + j], phi[rn + j],
+            phi0[r + j], phi0[r + j - 1], phi0[r + j + 1], phi0[rs + j], phi0[rn + j],
             dtau, w2, ix, iy, hx, hy, crel,
         )
 
@@ -226,9 +241,13 @@ def _build_reinit(dtype, subcell):
         nx = phi.shape[1]
         if i > 0 and i < ny - 1:
             edge(phi, phi0, out, i, 0, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
+            pf = flat(phi)
+            p0f = flat(phi0)
+            of = flat(out)
+            r, rs, rn = row_bases(i, nx)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                direct(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel)
+                direct(pf, p0f, of, r, rs, rn, j, dtau, w2, ix, iy, hx, hy, crel)
                 j += 1
             if nx > 1:
                 edge(phi, phi0, out, i, nx - 1, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
@@ -244,8 +263,10 @@ def _build_reinit(dtype, subcell):
         yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         i, j = wp.tid()
-        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < phi.shape[1] - 1:
-            direct(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel)
+        nx = phi.shape[1]
+        if i > 0 and i < phi.shape[0] - 1 and j > 0 and j < nx - 1:
+            direct(flat(phi), flat(phi0), flat(out), i * nx, (i - 1) * nx, (i + 1) * nx, j,
+                   dtau, w2, ix, iy, hx, hy, crel)
         else:
             edge(phi, phi0, out, i, j, dtau, w2, ix, iy, hx, hy, crel, yk, yv, xk, xv)
 
@@ -253,16 +274,59 @@ def _build_reinit(dtype, subcell):
 
 
 # ------------------------------------------------------------------ 3-D grids
+# Cells read flat views of the arrays (``warp_common.flat``): a row's cells at the flat
+# index of its first cell plus the column, so the CPU row loop vectorises (module doc).
+# A cell is addressed by a :class:`Row3` (where its row lies, for the ghost rule) and the
+# flat indices ``rc, rs, rn, rb, rt`` of the first cells of its row and of the
+# face-neighbour rows (``rs``, ``rn``: ``i ∓ 1``; ``rb``, ``rt``: ``k ∓ 1``; clamped into
+# the grid, read by interior rows only; each provably >= 0, ``row_base``).
+@wp.struct
+class Row3:
+    """A row of a 3-D grid ``[nz, ny, nx]``: its plane ``k``, its row ``i``, the shape."""
+
+    k: int
+    i: int
+    nz: int
+    ny: int
+    nx: int
+
+
+@wp.func
+def row_of(u: wp.array3d(dtype=Any), k: int, i: int) -> Row3:
+    """The :class:`Row3` of row ``i`` of plane ``k`` of ``u``."""
+    p = Row3()
+    p.k = k
+    p.i = i
+    p.nz = u.shape[0]
+    p.ny = u.shape[1]
+    p.nx = u.shape[2]
+    return p
+
+
+@wp.func
+def bases(p: Row3):
+    """``(rc, rs, rn, rb, rt)`` of row ``p`` (the comment above)."""
+    nz = p.nz
+    ny = p.ny
+    nx = p.nx
+    k = p.k
+    i = p.i
+    return (row_base(k * ny + i, nx), row_base(k * ny + wp.max(i - 1, 0), nx),
+            row_base(k * ny + wp.min(i + 1, ny - 1), nx),
+            row_base(wp.max(k - 1, 0) * ny + i, nx), row_base(wp.min(k + 1, nz - 1) * ny + i, nx))
+
+
 @wp.func
 def ghost3(
-    u: wp.array3d(dtype=Any), k: int, i: int, j: int, zk: int, zv: Any, yk: int, yv: Any,
-    xk: int, xv: Any,
+    u: wp.array(dtype=Any), p: Row3, k: int, i: int, j: int, zk: int, zv: Any, yk: int,
+    yv: Any, xk: int, xv: Any,
 ):  # -> u.dtype
-    """``u[k, i, j]`` for a face neighbour of a cell (at most one index one step outside
-    the grid): periodic wraps, Neumann clamps, Dirichlet gives the axis' value."""
-    nz = u.shape[0]
-    ny = u.shape[1]
-    nx = u.shape[2]
+    """Cell ``(k, i, j)`` of the flat view ``u`` for a face neighbour of a cell (at most
+    one index one step outside the grid): periodic wraps, Neumann clamps, Dirichlet gives
+    the axis' value."""
+    nz = p.nz
+    ny = p.ny
+    nx = p.nx
     kk = wp.clamp(k, 0, nz - 1)
     ii = wp.clamp(i, 0, ny - 1)
     jj = wp.clamp(j, 0, nx - 1)
@@ -272,7 +336,7 @@ def ghost3(
         ii = (i + ny) % ny
     if xk == PERIODIC:
         jj = (j + nx) % nx
-    val = u[kk, ii, jj]
+    val = u[(kk * ny + ii) * nx + jj]
     if (k < 0 or k >= nz) and zk == DIRICHLET:
         val = zv
     if (i < 0 or i >= ny) and yk == DIRICHLET:
@@ -283,29 +347,19 @@ def ghost3(
 
 
 @wp.func
-def field_at3(f: wp.array3d(dtype=Any), k: int, i: int, j: int):
-    """Per-cell parameter of a 3-D grid."""
-    return f[k, i, j]
-
-
-@wp.func
-def scalar_at3(f: Any, k: int, i: int, j: int):
-    """Uniform parameter (same signature as :func:`field_at3`)."""
-    return f
-
-
-@wp.func
-def nb_in(u: wp.array3d(dtype=Any), k: int, i: int, j: int, dk: int, di: int, dj: int,
+def nb_in(u: wp.array(dtype=Any), p: Row3, base: int, j: int, dk: int, di: int, dj: int,
           zk: int, zv: Any, yk: int, yv: Any, xk: int, xv: Any):  # -> u.dtype
-    """The face neighbour ``u[k + dk, i + di, j + dj]`` of an interior cell: a plain load."""
-    return u[k + dk, i + di, j + dj]
+    """The face neighbour ``(k + dk, i + di, j + dj)`` of interior cell ``j`` of row ``p``,
+    whose row starts at flat index ``base``: a plain load.  (The caller picks ``base``:
+    a select among the rows here keeps LLVM from vectorising the loop.)"""
+    return u[base + j + dj]
 
 
 @wp.func
-def nb_edge(u: wp.array3d(dtype=Any), k: int, i: int, j: int, dk: int, di: int, dj: int,
+def nb_edge(u: wp.array(dtype=Any), p: Row3, base: int, j: int, dk: int, di: int, dj: int,
             zk: int, zv: Any, yk: int, yv: Any, xk: int, xv: Any):  # -> u.dtype
-    """The face neighbour ``u[k + dk, i + di, j + dj]`` by the ghost rule."""
-    return ghost3(u, k + dk, i + di, j + dj, zk, zv, yk, yv, xk, xv)
+    """The face neighbour ``(k + dk, i + di, j + dj)`` of cell ``j`` by the ghost rule."""
+    return ghost3(u, p, p.k + dk, p.i + di, j + dj, zk, zv, yk, yv, xk, xv)
 
 
 @wp.func
@@ -360,21 +414,22 @@ def _gradients3(dtype):
 
 
 def _grad3(dtype, nb):
-    """``(∇⁺, ∇⁻)`` at cell ``(k, i, j)`` (value ``c``) of ``phi``, the neighbours loaded
-    by ``nb``."""
+    """``(∇⁺, ∇⁻)`` at cell ``j`` of row ``p`` (value ``c``, row bases ``rc`` … ``rt``) of
+    the flat ``phi``, the neighbours loaded by ``nb``."""
     upwind3 = _gradients3(dtype)
 
     @wp.func
-    def grad(phi: wp.array3d(dtype=dtype), c: dtype, k: int, i: int, j: int, ix: dtype,
-             iy: dtype, iz: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype):
+    def grad(phi: wp.array(dtype=dtype), c: dtype, p: Row3, rc: int, rs: int, rn: int,
+             rb: int, rt: int, j: int, ix: dtype, iy: dtype, iz: dtype, zk: int, zv: dtype,
+             yk: int, yv: dtype, xk: int, xv: dtype):
         return upwind3(
             c,
-            nb(phi, k, i, j, 0, 0, -1, zk, zv, yk, yv, xk, xv),
-            nb(phi, k, i, j, 0, 0, 1, zk, zv, yk, yv, xk, xv),
-            nb(phi, k, i, j, 0, -1, 0, zk, zv, yk, yv, xk, xv),
-            nb(phi, k, i, j, 0, 1, 0, zk, zv, yk, yv, xk, xv),
-            nb(phi, k, i, j, -1, 0, 0, zk, zv, yk, yv, xk, xv),
-            nb(phi, k, i, j, 1, 0, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, p, rc, j, 0, 0, -1, zk, zv, yk, yv, xk, xv),
+            nb(phi, p, rc, j, 0, 0, 1, zk, zv, yk, yv, xk, xv),
+            nb(phi, p, rs, j, 0, -1, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, p, rn, j, 0, 1, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, p, rb, j, -1, 0, 0, zk, zv, yk, yv, xk, xv),
+            nb(phi, p, rt, j, 1, 0, 0, zk, zv, yk, yv, xk, xv),
             ix, iy, iz,
         )
 
@@ -382,9 +437,9 @@ def _grad3(dtype, nb):
 
 
 def _build_step3(dtype, speed_field):
+    A1 = wp.array(dtype=dtype)
     A3 = wp.array3d(dtype=dtype)
-    ST = A3 if speed_field else dtype
-    s_at = field_at3 if speed_field else scalar_at3
+    ST, _, ST1, s_at1, s_view = param_kit(dtype, speed_field, ndim=3)
     zero = dtype(0.0)
 
     def make(nb):
@@ -393,13 +448,14 @@ def _build_step3(dtype, speed_field):
 
         @wp.func
         def at(
-            phi: A3, speed: ST, out: A3, k: int, i: int, j: int, dt: dtype, ix: dtype,
-            iy: dtype, iz: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
+            phi: A1, speed: ST1, out: A1, p: Row3, rc: int, rs: int, rn: int, rb: int, rt: int,
+            j: int, dt: dtype, ix: dtype, iy: dtype, iz: dtype, zk: int, zv: dtype, yk: int,
+            yv: dtype, xk: int, xv: dtype,
         ):
-            c = phi[k, i, j]
-            gp, gm = grad(phi, c, k, i, j, ix, iy, iz, zk, zv, yk, yv, xk, xv)
-            f = s_at(speed, k, i, j)
-            out[k, i, j] = flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
+            c = phi[rc + j]
+            gp, gm = grad(phi, c, p, rc, rs, rn, rb, rt, j, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            f = s_at1(speed, rc + j)
+            out[rc + j] = flush(c - dt * (wp.max(f, zero) * gp + wp.min(f, zero) * gm))
 
         return at
 
@@ -414,16 +470,23 @@ def _build_step3(dtype, speed_field):
         saved = ftz_begin()
         k, i, inner = row3(phi, wp.tid() + row0)
         nx = phi.shape[2]
+        p = row_of(phi, k, i)
+        rc, rs, rn, rb, rt = bases(p)
+        pf = flat(phi)
+        sf = s_view(speed)
+        of = flat(out)
         if inner and nx > 2:
-            at_edge(phi, speed, out, k, i, 0, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            at_edge(pf, sf, of, p, rc, rs, rn, rb, rt, 0, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:  # a while loop: LLVM strength-reduces it, a range() it does not
-                at_in(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+                at_in(pf, sf, of, p, rc, rs, rn, rb, rt, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
                 j += 1
-            at_edge(phi, speed, out, k, i, nx - 1, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            at_edge(pf, sf, of, p, rc, rs, rn, rb, rt, nx - 1, dt, ix, iy, iz, zk, zv, yk, yv,
+                    xk, xv)
         else:
             for j in range(nx):
-                at_edge(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+                at_edge(pf, sf, of, p, rc, rs, rn, rb, rt, j, dt, ix, iy, iz, zk, zv, yk, yv,
+                        xk, xv)
         ftz_end(saved)
 
     @wp.kernel
@@ -432,15 +495,20 @@ def _build_step3(dtype, speed_field):
         zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         k, i, j = wp.tid()
+        p = row_of(phi, k, i)
+        rc, rs, rn, rb, rt = bases(p)
         if inner3(phi, k, i, j):
-            at_in(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            at_in(flat(phi), s_view(speed), flat(out), p, rc, rs, rn, rb, rt, j, dt, ix, iy, iz,
+                  zk, zv, yk, yv, xk, xv)
         else:
-            at_edge(phi, speed, out, k, i, j, dt, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            at_edge(flat(phi), s_view(speed), flat(out), p, rc, rs, rn, rb, rt, j, dt, ix, iy, iz,
+                    zk, zv, yk, yv, xk, xv)
 
     return rows, cells
 
 
 def _build_reinit3(dtype, subcell):
+    A1 = wp.array(dtype=dtype)
     A3 = wp.array3d(dtype=dtype)
     zero = dtype(0.0)
     xy_max, relax = _subcell(dtype)
@@ -451,22 +519,23 @@ def _build_reinit3(dtype, subcell):
 
         @wp.func
         def at(
-            phi: A3, phi0: A3, out: A3, k: int, i: int, j: int, dtau: dtype, w2: dtype,
-            ix: dtype, iy: dtype, iz: dtype, hx: dtype, hy: dtype, hz: dtype, crel: dtype,
-            zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
+            phi: A1, phi0: A1, out: A1, p: Row3, rc: int, rs: int, rn: int, rb: int, rt: int,
+            j: int, dtau: dtype, w2: dtype, ix: dtype, iy: dtype, iz: dtype, hx: dtype,
+            hy: dtype, hz: dtype, crel: dtype, zk: int, zv: dtype, yk: int, yv: dtype, xk: int,
+            xv: dtype,
         ):
-            c = phi[k, i, j]
-            p0 = phi0[k, i, j]
-            gp, gm = grad(phi, c, k, i, j, ix, iy, iz, zk, zv, yk, yv, xk, xv)
+            c = phi[rc + j]
+            p0 = phi0[rc + j]
+            gp, gm = grad(phi, c, p, rc, rs, rn, rb, rt, j, ix, iy, iz, zk, zv, yk, yv, xk, xv)
             sign = p0 / wp.sqrt(p0 * p0 + w2)
             res = c - dtau * (wp.max(sign, zero) * gp + wp.min(sign, zero) * gm - sign)
             if wp.static(subcell):
-                w0 = nb(phi0, k, i, j, 0, 0, -1, zk, zv, yk, yv, xk, xv)
-                e0 = nb(phi0, k, i, j, 0, 0, 1, zk, zv, yk, yv, xk, xv)
-                s0 = nb(phi0, k, i, j, 0, -1, 0, zk, zv, yk, yv, xk, xv)
-                n0 = nb(phi0, k, i, j, 0, 1, 0, zk, zv, yk, yv, xk, xv)
-                b0 = nb(phi0, k, i, j, -1, 0, 0, zk, zv, yk, yv, xk, xv)
-                t0 = nb(phi0, k, i, j, 1, 0, 0, zk, zv, yk, yv, xk, xv)
+                w0 = nb(phi0, p, rc, j, 0, 0, -1, zk, zv, yk, yv, xk, xv)
+                e0 = nb(phi0, p, rc, j, 0, 0, 1, zk, zv, yk, yv, xk, xv)
+                s0 = nb(phi0, p, rs, j, 0, -1, 0, zk, zv, yk, yv, xk, xv)
+                n0 = nb(phi0, p, rn, j, 0, 1, 0, zk, zv, yk, yv, xk, xv)
+                b0 = nb(phi0, p, rb, j, -1, 0, 0, zk, zv, yk, yv, xk, xv)
+                t0 = nb(phi0, p, rt, j, 1, 0, 0, zk, zv, yk, yv, xk, xv)
                 front = p0 * w0 < zero or p0 * e0 < zero or p0 * s0 < zero or p0 * n0 < zero
                 if front or p0 * b0 < zero or p0 * t0 < zero or p0 == zero:
                     gx = (e0 - w0) * hx
@@ -476,7 +545,7 @@ def _build_reinit3(dtype, subcell):
                     g = wp.max(g, wp.abs((t0 - p0) * iz))
                     g = wp.max(g, wp.abs((p0 - b0) * iz))
                     res = relax(c, p0, g, crel)
-            out[k, i, j] = flush(res)
+            out[rc + j] = flush(res)
 
         return at
 
@@ -492,20 +561,25 @@ def _build_reinit3(dtype, subcell):
         saved = ftz_begin()
         k, i, inner = row3(phi, wp.tid() + row0)
         nx = phi.shape[2]
+        p = row_of(phi, k, i)
+        rc, rs, rn, rb, rt = bases(p)
+        pf = flat(phi)
+        p0f = flat(phi0)
+        of = flat(out)
         if inner and nx > 2:
-            at_edge(phi, phi0, out, k, i, 0, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+            at_edge(pf, p0f, of, p, rc, rs, rn, rb, rt, 0, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
                     zk, zv, yk, yv, xk, xv)
             j = int(1)  # noqa: UP018 - Warp needs a typed variable to mutate in a loop
             while j < nx - 1:
-                at_in(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
+                at_in(pf, p0f, of, p, rc, rs, rn, rb, rt, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
                       zk, zv, yk, yv, xk, xv)
                 j += 1
-            at_edge(phi, phi0, out, k, i, nx - 1, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
-                    zk, zv, yk, yv, xk, xv)
+            at_edge(pf, p0f, of, p, rc, rs, rn, rb, rt, nx - 1, dtau, w2, ix, iy, iz, hx, hy, hz,
+                    crel, zk, zv, yk, yv, xk, xv)
         else:
             for j in range(nx):
-                at_edge(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
-                        zk, zv, yk, yv, xk, xv)
+                at_edge(pf, p0f, of, p, rc, rs, rn, rb, rt, j, dtau, w2, ix, iy, iz, hx, hy, hz,
+                        crel, zk, zv, yk, yv, xk, xv)
         ftz_end(saved)
 
     @wp.kernel
@@ -515,12 +589,14 @@ def _build_reinit3(dtype, subcell):
         zk: int, zv: dtype, yk: int, yv: dtype, xk: int, xv: dtype,
     ):
         k, i, j = wp.tid()
+        p = row_of(phi, k, i)
+        rc, rs, rn, rb, rt = bases(p)
         if inner3(phi, k, i, j):
-            at_in(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
-                  zk, zv, yk, yv, xk, xv)
+            at_in(flat(phi), flat(phi0), flat(out), p, rc, rs, rn, rb, rt, j, dtau, w2, ix, iy,
+                  iz, hx, hy, hz, crel, zk, zv, yk, yv, xk, xv)
         else:
-            at_edge(phi, phi0, out, k, i, j, dtau, w2, ix, iy, iz, hx, hy, hz, crel,
-                    zk, zv, yk, yv, xk, xv)
+            at_edge(flat(phi), flat(phi0), flat(out), p, rc, rs, rn, rb, rt, j, dtau, w2, ix, iy,
+                    iz, hx, hy, hz, crel, zk, zv, yk, yv, xk, xv)
 
     return rows, cells
 

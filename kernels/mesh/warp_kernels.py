@@ -21,10 +21,10 @@ value written is flushed of subnormals; the ``blocks`` kernels run with FTZ/DAZ 
 ``warp_common``).
 """
 
-from typing import Any
-
 import numpy as np
 import warp as wp
+from rdgpu._kernels.warp_common import flat_field_at as field_at  # per-vertex parameter
+from rdgpu._kernels.warp_common import flat_scalar_at as scalar_at
 from rdgpu._kernels.warp_common import flush, ftz_begin, ftz_end
 
 wp.set_module_options({"enable_backward": False})
@@ -35,17 +35,6 @@ I1 = wp.array(dtype=wp.int32)
 #: the values are CSR offsets and indices < 2**31, so the mask never changes them
 NONNEG = wp.constant(0x7FFFFFFF)
 
-
-@wp.func
-def field_at(f: wp.array(dtype=Any), i: int):
-    """Per-vertex parameter."""
-    return f[i]
-
-
-@wp.func
-def scalar_at(f: Any, i: int):
-    """Uniform parameter (same signature as :func:`field_at`)."""
-    return f
 
 
 def _build(dtype):

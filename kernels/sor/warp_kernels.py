@@ -7,7 +7,10 @@ launch shapes share one ``@wp.func``:
 
 * ``rows`` -- one thread per row (``i = tid + row0``): the row's cells of the colour in a
   serial loop (interior stride-2 loop branch-free but for the ``fixed`` test, edge columns
-  peeled), then ``row_change[i]`` is written (colour 0) or max-ed (colour 1); the CPU shape;
+  peeled; it reads flat views at row base + column, every index provably >= 0, which drops
+  Warp's negative-index wrap -- see ``warp_common``), then ``row_change[i]`` is written
+  (colour 0) or max-ed (colour 1); the CPU shape.  The loop stays scalar: the row's
+  NaN-aware max of the changes is not a reduction LLVM vectorises;
 * ``cells`` -- one thread per cell, ``dim = (ny, nx)``; cells of the other colour return at
   once and the change goes through ``wp.atomic_max`` (the caller zeroes ``row_change``
   before colour 0); the CUDA shape.
@@ -24,23 +27,25 @@ kernels take a scalar ``f = 0`` (``gs − wf·0`` is ``gs`` exactly).
 import numpy as np
 import warp as wp
 from rdgpu._kernels.warp_common import (
-    field_at,
+    flat,
     flush,
     ftz_begin,
     ftz_end,
     ghost,
     nanmax,
-    scalar_at,
+    param_kit,
+    row_bases,
 )
 
 wp.set_module_options({"enable_backward": False})
 
 
 def _build(dtype, rhs_field):
+    A1 = wp.array(dtype=dtype)
     A2 = wp.array2d(dtype=dtype)
+    M1 = wp.array(dtype=wp.uint8)
     M2 = wp.array2d(dtype=wp.uint8)
-    RT = A2 if rhs_field else dtype
-    f_at = field_at if rhs_field else scalar_at
+    RT, f_at, RT1, f_at1, f_view = param_kit(dtype, rhs_field)
     zero = dtype(0.0)
 
     @wp.func
@@ -53,25 +58,28 @@ def _build(dtype, rhs_field):
         return flush(one_m_om * c + om * gs)
 
     @wp.func
-    def store(cc: A2, fixed: M2, i: int, j: int, old: dtype, new: dtype) -> dtype:
-        """Write the update unless the cell is held; return ``|Δc|`` (0 when held)."""
+    def store(cc: A1, fixed: M1, k: int, old: dtype, new: dtype) -> dtype:
+        """Write the update of the cell at flat index ``k`` of the flat views unless the
+        cell is held; return ``|Δc|`` (0 when held)."""
         d = zero
-        if fixed[i, j] == wp.uint8(0):
-            cc[i, j] = new
+        if fixed[k] == wp.uint8(0):
+            cc[k] = new
             d = flush(wp.abs(new - old))
         return d
 
+    # an interior cell of flat views; r, rs, rn: the flat indices of the first cells of its
+    # row and of the rows south and north
     @wp.func
     def direct(
-        cc: A2, fixed: M2, rhs: RT, i: int, j: int,
+        cc: A1, fixed: M1, rhs: RT1, r: int, rs: int, rn: int, j: int,
         wx: dtype, wy: dtype, wf: dtype, om: dtype, one_m_om: dtype,
     ) -> dtype:
-        old = cc[i, j]
+        old = cc[r + j]
         new = relax(
-            old, cc[i, j - 1], cc[i, j + 1], cc[i - 1, j], cc[i + 1, j], f_at(rhs, i, j),
+            old, cc[r + j - 1], cc[r + j + 1], cc[rs + j], cc[rn + j], f_at1(rhs, r + j),
             wx, wy, wf, om, one_m_om,
         )
-        return store(cc, fixed, i, j, old, new)
+        return store(cc, fixed, r + j, old, new)
 
     @wp.func
     def edge(
@@ -89,7 +97,7 @@ def _build(dtype, rhs_field):
             f_at(rhs, i, j),
             wx, wy, wf, om, one_m_om,
         )
-        return store(cc, fixed, i, j, old, new)
+        return store(flat(cc), flat(fixed), i * cc.shape[1] + j, old, new)
 
     @wp.kernel
     def rows(
@@ -101,16 +109,21 @@ def _build(dtype, rhs_field):
         i = wp.tid() + row0
         ny = cc.shape[0]
         nx = cc.shape[1]
-        j = (color + i) % 2  # first column of the colour: (i + j) % 2 == color
+        # the first column of the colour, (i + j) % 2 == color; & 1 (not % 2): LLVM then
+        # knows it is 0 or 1, so that the interior loop's indices are >= 0 (no wrap)
+        j = (color + i) & 1
         m = zero
         if i > 0 and i < ny - 1:
             if j == 0:
                 d0 = edge(cc, fixed, rhs, i, 0, wx, wy, wf, om, one_m_om,
                           yk, yv, xk, xv)
                 m = nanmax(m, d0)
-                j = 2
+            j = 2 - j  # the first interior column of the colour: 1 or 2
+            cf = flat(cc)
+            ff = flat(fixed)
+            r, rs, rn = row_bases(i, nx)
             while j < nx - 1:
-                d1 = direct(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om)
+                d1 = direct(cf, ff, f_view(rhs), r, rs, rn, j, wx, wy, wf, om, one_m_om)
                 m = nanmax(m, d1)
                 j += 2
             if j == nx - 1 and j > 0:
@@ -139,8 +152,10 @@ def _build(dtype, rhs_field):
         if (i + j) % 2 != color:
             return
         d = zero
-        if i > 0 and i < cc.shape[0] - 1 and j > 0 and j < cc.shape[1] - 1:
-            d = direct(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om)
+        nx = cc.shape[1]
+        if i > 0 and i < cc.shape[0] - 1 and j > 0 and j < nx - 1:
+            d = direct(flat(cc), flat(fixed), f_view(rhs), i * nx, (i - 1) * nx, (i + 1) * nx,
+                       j, wx, wy, wf, om, one_m_om)
         else:
             d = edge(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om,
                      yk, yv, xk, xv)

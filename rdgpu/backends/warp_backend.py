@@ -3,9 +3,11 @@
 Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
 
 * on a CPU device, ``rows``: one Warp thread per row with a serial inner loop over the
-  columns.  Warp runs a CPU launch as one serial loop on one core and releases the GIL
-  while it runs, so a large grid is cut into ``os.cpu_count()`` row chunks launched at
-  the same time from a thread pool (one chunk in the calling thread);
+  columns, which indexes flat views of the arrays so that LLVM vectorises it (see
+  ``kernels/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
+  a CPU launch as one serial loop on one core and releases the GIL while it runs, so a
+  large grid is cut into ``os.cpu_count()`` row chunks launched at the same time from a
+  thread pool (one chunk in the calling thread);
 * on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
 
 Subnormals are flushed (docs/equations.md, :mod:`rdgpu.fpenv`): every kernel flushes what it writes,
@@ -63,6 +65,8 @@ REDUCE_THREADS = 1 << 18
 REDUCE_THREADS_2 = 1 << 10
 #: max_abs, sum_squares on the CPU: bytes per row chunk run side by side (at least)
 REDUCE_SPLIT_BYTES = 8 << 20
+#: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
+MAX_CELLS = 2**31 - 1
 
 _REAL = (np.dtype(np.float32), np.dtype(np.float64))
 
@@ -109,6 +113,15 @@ def _quiet(wp):
             setattr(config, name, value)
         if "quiet" not in saved:
             del config.quiet
+
+
+def check_cells(n: int, shape: tuple[int, ...]) -> None:
+    """Refuse a grid launch over more than :data:`MAX_CELLS` cells (``shape``: for the
+    message)."""
+    if n > MAX_CELLS:
+        dims = "x".join(str(d) for d in shape)
+        raise ValueError(f"a grid of {dims} = {n} cells is too large for the Warp kernels: "
+                         f"they index with 32-bit ints, at most {MAX_CELLS} cells")
 
 
 def _cpu_count() -> int:
@@ -243,6 +256,7 @@ class WarpBackend(Backend):
     def _run_grid(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a ``(rows, cells)`` kernel pair over a ``[ny, nx]`` grid."""
         ny, nx = shape
+        check_cells(ny * nx, shape)
         if ny == 0 or nx == 0:
             return
         rows, cells = kernels
@@ -349,6 +363,7 @@ class WarpBackend(Backend):
                          out: DeviceArray) -> None:
         nm = self._check_metric(u, coefficients, out)
         ny, nx = u.shape[-2:]
+        check_cells(nm * ny * nx, (nm, ny, nx))
         if nm * ny * nx == 0:
             return
         rows, cells = self._family("metric").KERNELS[u.dtype]
@@ -559,6 +574,7 @@ class WarpBackend(Backend):
     def _run_grid3(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a 3-D ``(rows, cells)`` kernel pair over a ``[nz, ny, nx]`` grid."""
         nz, ny, nx = shape
+        check_cells(nz * ny * nx, shape)
         if nz * ny * nx == 0:
             return
         rows, cells = kernels

@@ -808,20 +808,24 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
     kdecl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else
                       f"{nm}: A" if k == "member" else f"{nm}: real" for k, nm in sig)
     member_loads = [f"p_{nm[3:]} = {nm}[m_]" for k, nm in sig if k == "member"]
+    buffers = [nm for k, nm in sig if k in ("in", "out", "field")]
     if kind == "mesh":  # the vertex function reads the member's numbers itself
         decl, names = kdecl, ", ".join(nm for _, nm in sig)
-    else:  # the row's numbers are read by the kernel and passed to the cell functions
-        decl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else
+    else:  # the row's numbers are read by the kernel and passed to the cell functions, and
+        # so are flat views of the grid buffers (the cells index them at row base + column)
+        decl = ", ".join(f"{nm}: A" if k in ("in", "out", "field") else
                          f"p_{nm[3:]}: real" if k == "member" else f"{nm}: real"
                          for k, nm in sig)
-        names = ", ".join(f"p_{nm[3:]}" if k == "member" else nm for k, nm in sig)
+        names = ", ".join(f"p_{nm[3:]}" if k == "member" else
+                          f"{nm}_1d" if k in ("in", "out", "field") else nm for k, nm in sig)
     coords = program.refs("coord")
     stencil = program.stencil_inputs
 
     def cell_body(interior: bool) -> list[str]:
         """The cell's statements; ``interior``: no ghost can occur (no selects).  Grid
-        buffers are 2-D views ``[row, column]`` (rows: nz·ny), mesh buffers 1-D."""
-        at = "k_" if kind == "mesh" else "r, j"
+        buffers are flat views indexed ``row base + column`` (``r``, ``rs``, …: the flat
+        indices of the first cells of the rows), mesh buffers 1-D."""
+        at = "k_" if kind == "mesh" else "r + j"
         body = list(member_loads) if kind == "mesh" else []
         for p in program.refs("param"):
             if p in fields:
@@ -853,7 +857,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
             for pos in _stencil_positions(kind):
                 (dz, dy, dx), rule = _POSITIONS[pos]
                 row = _ROWS[(dz, dy)]
-                index = f"{'r' if row == 'r' else 'r' + row}, {col[dx]}"
+                index = f"{'r' if row == 'r' else 'r' + row} + {col[dx]}"
                 for s in stencil:
                     v = value(s, lambda i, index=index: f"in_{i}[{index}]")
                     if not interior:
@@ -861,10 +865,10 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                             g = "real(0.0)" if s in program.zero_ghost else f"g{axis}"
                             v = f"wp.where({flags[flag]}, {g}, {v})"
                     body.append(f"q{pos}_{s} = {v}")
-            if kind == "grid2metric" and stencil:  # in-member rows: the coefficients' rows
+            if kind == "grid2metric" and stencil:  # the coefficients' rows (one member's)
                 body += ["mc_ = r % me_w.shape[0]", "ms_ = rs % me_w.shape[0]"]
             body += _metric_loads(kind, stencil,
-                                  lambda a, r, dx: f"{a}[m{r}_, {col[dx]}]")
+                                  lambda a, r, dx: f"{a}[m{r}_ + {col[dx]}]")
             for s in stencil:
                 lap = _laplacian_text(kind, s, lambda v: f"real({v}.0)", "flush")
                 body.append(f"L_{s} = {lap}")
@@ -894,6 +898,8 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         + text.replace("@DECL@", decl + coord_decl).replace("@NAMES@", names + coord_names)
         .replace("@KDECL@", kdecl + coord_decl)
         .replace("@ROW@", "\n".join("    " + r for r in member_loads)
+                 if kind != "mesh" else "")
+        .replace("@FLAT@", "\n".join(f"    {nm}_1d = flat({nm})" for nm in buffers)
                  if kind != "mesh" else "")
         .replace("@BODY@", "\n".join("    " + b for b in body))
         .replace("@INTERIOR@", "\n".join("    " + b for b in inner))
@@ -952,7 +958,7 @@ def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
 
 
 def _launch_warp(program, target, bufs, fields, member):
-    from ..backends.warp_backend import ROW_BLOCK
+    from ..backends.warp_backend import ROW_BLOCK, check_cells
 
     be = target.backend
     key = ("warp", str(be._dev), target.kind, fields, member, target.dtype.char)
@@ -977,6 +983,7 @@ def _launch_warp(program, target, bufs, fields, member):
         return
     d = target.domain
     nz, ny, nx = d.shape3
+    check_cells(nm * nz * ny * nx, (nm, nz, ny, nx))
     if nx == 0:
         return
     t = target.dtype.type
@@ -999,8 +1006,8 @@ def _handle(a: DeviceArray) -> Any:
 
 
 def _warp_rows(a: DeviceArray) -> Any:
-    """A cached ``[rows, nx]`` 2-D view of a grid's Warp array (rows = nz·ny): 2-D indexing
-    runs the row loops about 1.5× faster than flat indexing on the CPU."""
+    """A cached ``[rows, nx]`` 2-D view of a grid's Warp array (rows = nz·ny); the kernels
+    index flat views of it (``warp_common.flat``)."""
     h = a.handle
     if h.ndim == 2:
         return h
