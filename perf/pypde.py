@@ -1,14 +1,16 @@
 """Gray-Scott through py-pde's API: ``backend="numba"`` against ``backend="rdgpu:..."``.
 
     python perf/pypde.py [--size 2048] [--backends numba rdgpu:opencl rdgpu:warp]
-                         [--solver euler|euler-adaptive|rk4|rkf45|adams-bashforth]
+                         [--solver euler|euler-adaptive|rk4|rkf45|adams-bashforth|
+                                   implicit|crank-nicolson]
                          [--numba-steps 10] [--rdgpu-steps 400] [--out perf/results]
 
 One ``pde.PDE`` (seed 001's Gray-Scott, periodic ``CartesianGrid`` of ``size²`` unit
 cells, float64) solved by each backend in the same process with one py-pde solver:
 ``euler`` (fixed ``dt = 1``, the default), ``euler-adaptive`` (py-pde's default when
 ``solve`` gets no ``dt``: step doubling, tolerance 1e-4), ``rk4`` (``RungeKuttaSolver`` at
-``dt = 1``), ``rkf45`` (adaptive ``RungeKuttaSolver``) or ``adams-bashforth`` (``dt = 1``).
+``dt = 1``), ``rkf45`` (adaptive ``RungeKuttaSolver``), ``adams-bashforth``, ``implicit``
+or ``crank-nicolson`` (``dt = 1``; the last two py-pde's fixed-point iterations).
 Per backend one ``Controller.run`` over three intervals of ``m`` steps of ``dt = 1`` (an
 adaptive solver takes the steps it needs) with a ``CallbackTracker`` at each interval
 that notes the wall clock and the solver's step count: the first interval holds the
@@ -64,18 +66,20 @@ def initial_state(n: int) -> pde.FieldCollection:
 #: ``--solver`` → (py-pde solver class name, adaptive)
 SOLVERS = {"euler": ("EulerSolver", False), "euler-adaptive": ("EulerSolver", True),
            "rk4": ("RungeKuttaSolver", False), "rkf45": ("RungeKuttaSolver", True),
-           "adams-bashforth": ("AdamsBashforthSolver", False)}
+           "adams-bashforth": ("AdamsBashforthSolver", False),
+           "implicit": ("ImplicitSolver", False), "crank-nicolson": ("CrankNicolsonSolver", False)}
 
 
 def make_solver(eq: pde.PDE, backend: str, solver: str):
     name, adaptive = SOLVERS[solver]
     cls = getattr(pde, name)
-    if name == "AdamsBashforthSolver":
+    if name in ("AdamsBashforthSolver", "ImplicitSolver", "CrankNicolsonSolver"):
         return cls(eq, backend=backend)
     return cls(eq, backend=backend, adaptive=adaptive)
 
 
-def measure(eq: pde.PDE, state, backend: str, interval: int, solver: str) -> dict:
+def measure(eq: pde.PDE, state, backend: str, interval: int, solver: str,
+            dt: float = DT) -> dict:
     """One ``Controller.run`` over ``3 · interval`` time units with a ``CallbackTracker``
     every ``interval`` (module doc)."""
     cells = state.grid.num_cells
@@ -83,11 +87,11 @@ def measure(eq: pde.PDE, state, backend: str, interval: int, solver: str) -> dic
     stamps: list[tuple[float, int]] = []
     clock = pde.CallbackTracker(
         lambda s, t: stamps.append((time.perf_counter(), stepper.info.get("steps", 0))),
-        interrupts=interval * DT)
-    early = pde.DataTracker(lambda s: s.data.copy(), interrupts=[FIRST_STEPS * DT])
+        interrupts=interval * dt)
+    early = pde.DataTracker(lambda s: s.data.copy(), interrupts=[FIRST_STEPS * dt])
     t0 = time.perf_counter()
-    pde.Controller(stepper, t_range=3 * interval * DT, tracker=[clock, early]).run(
-        state, dt=DT)
+    pde.Controller(stepper, t_range=3 * interval * dt, tracker=[clock, early]).run(
+        state, dt=dt)
     wall = time.perf_counter() - t0
     steps = stamps[3][1] - stamps[1][1]
     return {"backend": backend, "wall_s": wall, "first_s": stamps[1][0] - t0,
@@ -101,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--backends", nargs="+",
                         default=["numba", "rdgpu:opencl", "rdgpu:warp"])
     parser.add_argument("--solver", choices=sorted(SOLVERS), default="euler")
+    parser.add_argument("--dt", type=float, default=DT,
+                        help="the (initial) time step; py-pde's fixed-point iterations "
+                             "converge for dt < 1/(8·0.16) only")
     parser.add_argument("--numba-steps", type=int, default=10,
                         help="steps per tracker interval with numba (>= 10)")
     parser.add_argument("--rdgpu-steps", type=int, default=400,
@@ -115,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for name in args.backends:
         interval = args.numba_steps if name == "numba" else args.rdgpu_steps
-        row = measure(eq, state, name, max(interval, FIRST_STEPS), args.solver)
+        row = measure(eq, state, name, max(interval, FIRST_STEPS), args.solver, args.dt)
         rows.append(row)
         print(f"{name:14s} {row['mcells']:9.1f} Mcell/s  first call {row['first_s']:.2f} s",
               flush=True)
@@ -123,15 +130,15 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         "# Gray-Scott through py-pde's API: numba against rdgpu (perf/pypde.py)", "",
         f"`python perf/pypde.py --size {n} --backends {' '.join(args.backends)} "
-        f"--solver {args.solver} --numba-steps {args.numba_steps} --rdgpu-steps "
+        f"--solver {args.solver} --dt {args.dt:g} --numba-steps {args.numba_steps} --rdgpu-steps "
         f"{args.rdgpu_steps}`; py-pde {pde.__version__}, rdgpu "
         f"{getattr(rdgpu, '__version__', '?')}, float64, {n}² periodic, solver "
-        f"{args.solver} (dt = {DT}{', initial' if SOLVERS[args.solver][1] else ''}), "
+        f"{args.solver} (dt = {args.dt}{', initial' if SOLVERS[args.solver][1] else ''}), "
         "trackers every m time units. The machine: "
         f"{machine.cpu_caches().llc // machine.MiB} MiB LLC, "
         "2 cores shared with other jobs (rates are indicative).", "",
         "| backend | Mcell/s | × numba | steps timed | to the first interval (s) | "
-        f"max abs diff at t = {FIRST_STEPS * DT:g} vs {ref['backend']} |",
+        f"max abs diff at t = {FIRST_STEPS * args.dt:g} vs {ref['backend']} |",
         "|---|---:|---:|---:|---:|---:|",
     ]
     base = next((r["mcells"] for r in rows if r["backend"] == "numba"), None)
