@@ -10,9 +10,10 @@ naming the part it cannot run; it never falls back to another backend):
 
 * ``pde.PDE`` expression equations (rdgpu's equation language, :mod:`rdgpu.models.
   equations`: arithmetic, ``exp log sqrt sin cos tan tanh abs min max``, ``laplace(s)``,
-  ``laplace(laplace(s))``, the coordinates and ``t``) with number or array constants, and
-  the built-in ``DiffusionPDE``, ``AllenCahnPDE`` and ``SwiftHohenbergPDE``; no noise,
-  no post-step hook, real fields only;
+  ``laplace(laplace(s))``, the coordinates and ``t``) with number or array constants
+  (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
+  ``SwiftHohenbergPDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
+  real fields only;
 * on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
   rdgpu's field, so ``[i, j]`` is ``[y, x]`` in 2-D; py-pde's coordinate ``x`` of axis 0
   becomes rdgpu's name for that axis, shifted by the grid's lower bound);
@@ -92,7 +93,8 @@ __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 NAME = "rdgpu"
 #: rdgpu's coordinate name of each field axis, by number of dimensions
 _AXIS_NAMES = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
-_SUPPORTED = "pde.PDE, DiffusionPDE, AllenCahnPDE, SwiftHohenbergPDE"
+_SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
+              "SwiftHohenbergPDE, WavePDE, KleinGordonPDE")
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
         "derivative and mixed expressions affine in the field and free of t")
@@ -289,6 +291,14 @@ def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, 
                       " + delta*c**2) - c**3"},
                 {"rate": float(pde_obj.rate), "kc2": float(pde_obj.kc2),
                  "delta": float(pde_obj.delta)}, {"c": pde_obj.bc}, pde_obj.bc_lap)
+    if isinstance(pde_obj, (pde.KleinGordonPDE, pde.WavePDE)):
+        # u_t = v, v_t = c² Δu (− μ² u): the Laplacian of u only, under pde_obj.bc
+        mass = float(getattr(pde_obj, "mass", 0.0))
+        v_rate = "speed2*laplace(u)" + (" - mass2*u" if mass != 0 else "")
+        consts = {"speed2": float(pde_obj.speed) ** 2}
+        if mass != 0:
+            consts["mass2"] = mass ** 2
+        return {"u": "v", "v": v_rate}, consts, {"u": pde_obj.bc, "v": pde_obj.bc}, None
     raise _refuse(f"the PDE class {cls} (supported: {_SUPPORTED})")
 
 

@@ -239,6 +239,27 @@ def test_pypde_boundary_conditions_example():
     _same_run(*runs, state, moved=0.5)
 
 
+# --------------------------------------------------------------------- more PDE classes
+@pytest.mark.parametrize("device", DEVICES)
+def test_wave_klein_gordon_and_reaction_diffusion_classes(device):
+    """py-pde's ``WavePDE`` and ``KleinGordonPDE`` (u_t = v, v_t = c²Δu − μ²u, the
+    condition on u) and ``ReactionDiffusionPDE`` (a ``PDE``), adaptive and RK4."""
+    backend_or_skip(device)
+    grid = pde.CartesianGrid([[0, 6], [0, 4]], [19, 13], periodic=[True, False])
+    rng = np.random.default_rng(9)
+    u = pde.ScalarField(grid, rng.uniform(-1, 1, grid.shape))
+    bc = {"x": "periodic", "y": {"value": 0.1}}
+    for eq in (pde.WavePDE(speed=0.7, bc=bc), pde.KleinGordonPDE(speed=0.7, mass=0.6, bc=bc)):
+        start = eq.get_initial_condition(u)
+        for kw in ({}, {"solver": "runge-kutta", "dt": 0.02}):
+            _same_run(_run(eq, start, f"rdgpu:{device}", 2.0, **kw),
+                      _run(eq, start, "numpy", 2.0, **kw), start)
+    rd = pde.ReactionDiffusionPDE(["a", "b"], [0.3, 0.1], ["a - a**3 - b", "0.5*(a - b)"],
+                                  bc=bc)
+    start = pde.FieldCollection([u, pde.ScalarField(grid, rng.uniform(0, 0.5, grid.shape))])
+    _same_run(_run(rd, start, f"rdgpu:{device}", 2.0), _run(rd, start, "numpy", 2.0), start)
+
+
 # --------------------------------------------------------------------- implicit solvers
 IMPLICIT = {"implicit": lambda eq, b: pde.ImplicitSolver(eq, backend=b),
             "crank-nicolson": lambda eq, b: pde.CrankNicolsonSolver(eq, backend=b),
