@@ -87,6 +87,7 @@ from .domains import Grid
 from .models import equations as eq
 from .models.device_rhs import DeviceRHS
 from .models.model import define_model
+from .pypde_steppers import species_views
 
 __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 
@@ -455,11 +456,12 @@ class RdgpuBackend(BackendBase):
         out["device"] = self.rd.name
         return out
 
-    def _device_rhs(self, tr: Translation, dtype: Any, check_dt: float | None = None
-                    ) -> DeviceRHS:
-        if np.dtype(dtype) not in (np.float32, np.float64):
+    @staticmethod
+    def _dtype(state: Any) -> np.dtype:
+        dtype = np.asarray(state.data).dtype
+        if dtype not in (np.float32, np.float64):
             raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
-        return DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt)
+        return dtype
 
     def make_pde_rhs(self, eq: Any, state: Any) -> Callable[[np.ndarray, float], np.ndarray]:
         """``rhs(state_data, t)``: the PDE's rate, one fused pass on the rdgpu device, as a
@@ -467,14 +469,13 @@ class RdgpuBackend(BackendBase):
         rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
         :func:`make_stepper` keep their fields on the device instead."""
         tr = translate(eq, state)
-        rhs = self._device_rhs(tr, np.asarray(state.data).dtype)
+        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state))
         x, out = rhs.empty(), rhs.empty()
         several = isinstance(state, pde.FieldCollection)
         field_shape = tr.grid.field_shape
 
         def pde_rhs(state_data: np.ndarray, t: float = 0.0) -> np.ndarray:
-            data = np.asarray(state_data)
-            rhs.upload([data[i] for i in range(len(x))] if several else [data], x)
+            rhs.upload(species_views(np.asarray(state_data), len(x), several), x)
             rhs.rate(x, out, float(t))
             rates = [d.numpy().reshape(field_shape) for d in out]
             return np.stack(rates) if several else rates[0]
@@ -489,13 +490,13 @@ class RdgpuBackend(BackendBase):
             raise _refuse(f"the solver {name} (supported: "
                           f"{', '.join(pypde_steppers.SUPPORTED)}; ScipySolver runs through "
                           "make_pde_rhs)")
-        data = np.asarray(state.data)
+        dtype = self._dtype(state)
         tr = translate(solver.pde, state)
-        if name == "EulerSolver" and not solver.adaptive and not tr.uses_time:
-            return self._euler_fixed(solver, state, tr, data.dtype)
         fixed_euler = name == "EulerSolver" and not solver.adaptive
-        rhs = self._device_rhs(tr, data.dtype, float(solver.info["dt"])
-                               if fixed_euler and self.check_stability else None)
+        if fixed_euler and not tr.uses_time:
+            return self._model_stepper(solver, state, tr, dtype)
+        check_dt = float(solver.info["dt"]) if fixed_euler and self.check_stability else None
+        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt)
         several = isinstance(state, pde.FieldCollection)
         stepper = pypde_steppers.make_stepper(solver, rhs, several, tr.grid.field_shape)
         self._describe(solver, tr)
@@ -505,14 +506,12 @@ class RdgpuBackend(BackendBase):
         solver.info["rdgpu"] = {"device": self.rd.name, "grid": repr(tr.grid),
                                 "equations": dict(tr.model.equations)}
 
-    def _euler_fixed(self, solver: Any, state: Any, tr: Translation, dtype: np.dtype
-                     ) -> Callable[[Any, float, float], float]:
+    def _model_stepper(self, solver: Any, state: Any, tr: Translation, dtype: np.dtype
+                       ) -> Callable[[Any, float, float], float]:
         """Fixed-step Euler of an equation that does not read ``t``: rdgpu's own
-        forward-Euler stepper (temporal blocking where it pays; checks ``dt``).  One that
-        reads ``t`` runs py-pde's loop over :class:`DeviceRHS` (the same fused pass at
-        py-pde's times ``t_start + i·dt``)."""
-        if dtype not in (np.float32, np.float64):
-            raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
+        forward-Euler stepper (temporal blocking where it pays; checks ``dt``).  (With
+        ``t`` it runs in :mod:`rdgpu.pypde_steppers`, at py-pde's times ``t_start +
+        i·dt``.)"""
         dt = float(solver.info["dt"])
         st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,
                               check_stability=self.check_stability, method="euler")
@@ -521,13 +520,11 @@ class RdgpuBackend(BackendBase):
 
         def stepper(state: Any, t_start: float, t_end: float) -> float:
             steps = max(1, round((t_end - t_start) / dt))
-            values = state.data
-            fields = {s: values[i] if several else values for i, s in enumerate(tr.species)}
-            st.set_state(fields)
+            views = species_views(state.data, len(tr.species), several)
+            st.set_state(dict(zip(tr.species, views, strict=True)))
             st.advance(steps)
             out = st.get_state()
-            for i, s in enumerate(tr.species):
-                target = values[i] if several else values
+            for s, target in zip(tr.species, views, strict=True):
                 target[...] = out[s].reshape(field_shape)
             solver.info["steps"] += steps
             return t_start + steps * dt

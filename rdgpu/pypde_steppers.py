@@ -32,9 +32,6 @@ from .models.device_rhs import DeviceRHS, Field
 
 __all__ = ["SUPPORTED", "make_stepper"]
 
-#: the solvers :func:`make_stepper` runs, by class name
-SUPPORTED = ("EulerSolver", "RungeKuttaSolver", "AdamsBashforthSolver", "ImplicitSolver",
-             "CrankNicolsonSolver")
 
 Stepper = Callable[[Any, float, float], float]
 
@@ -70,15 +67,19 @@ class _Fields:
         self.field_shape = field_shape
         self.x = rhs.empty()
 
-    def _views(self, data: np.ndarray) -> list[np.ndarray]:
-        return [data[i] for i in range(len(self.x))] if self.several else [data]
-
     def load(self, state: Any) -> None:
-        self.rhs.upload(self._views(state.data), self.x)
+        self.rhs.upload(species_views(state.data, len(self.x), self.several), self.x)
 
     def store(self, state: Any) -> None:
-        for target, d in zip(self._views(state.data), self.x, strict=True):
+        views = species_views(state.data, len(self.x), self.several)
+        for target, d in zip(views, self.x, strict=True):
             target[...] = d.numpy().reshape(self.field_shape)
+
+
+def species_views(data: np.ndarray, count: int, several: bool) -> list[np.ndarray]:
+    """py-pde's ``state.data`` as one view per species: a FieldCollection's rows (``several``)
+    or the single field's data."""
+    return [data[i] for i in range(count)] if several else [data]
 
 
 def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[int, ...]
@@ -89,17 +90,8 @@ def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[
     ``several``: the state is a FieldCollection; ``field_shape``: one species' data."""
     name = type(solver).__name__
     adaptive = bool(getattr(solver, "adaptive", False))
-    if name == "EulerSolver":
-        make = _euler_adaptive if adaptive else _euler_fixed
-    elif name == "RungeKuttaSolver":
-        make = _rkf45_adaptive if adaptive else _rk4_fixed
-    elif name == "AdamsBashforthSolver":
-        make = _adams_bashforth
-    elif name == "ImplicitSolver":
-        make = _implicit_euler
-    elif name == "CrankNicolsonSolver":
-        make = _crank_nicolson
-    else:
+    make = _MAKERS.get((name, adaptive))
+    if make is None:
         raise ValueError(f"no device stepper for {name} (adaptive={adaptive})")
     return make(solver, rhs, _Fields(rhs, several, field_shape))
 
@@ -195,23 +187,16 @@ def _rk4_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     ks = [rhs.empty() for _ in range(4)]
     new = rhs.empty()
 
-    def stepper(state: Any, t_start: float, t_end: float) -> float:
+    def step(t: float) -> None:
         nonlocal new
-        f.load(state)
-        steps = max(1, round((t_end - t_start) / dt))
-        for i in range(steps):
-            t = t_start + i * dt
-            k = _rk_stage_fields(f, ks)
-            rhs.rate(f.x, ks[0], t, dt)
-            for i, (a, y_of) in enumerate(_RK4_STAGES):
-                rhs.stage([ks[i + 1]], y_of, k, ["c*F"], t + a * dt, {"c": dt})
-            rhs.pointwise(new, "x + (k1 + 2*k2 + 2*k3 + k4)/6", k)
-            f.x, new = new, f.x
-        solver.info["steps"] += steps
-        f.store(state)
-        return t + dt
+        k = _rk_stage_fields(f, ks)
+        rhs.rate(f.x, ks[0], t, dt)
+        for i, (a, y_of) in enumerate(_RK4_STAGES):
+            rhs.stage([ks[i + 1]], y_of, k, ["c*F"], t + a * dt, {"c": dt})
+        rhs.pointwise(new, "x + (k1 + 2*k2 + 2*k3 + k4)/6", k)
+        f.x, new = new, f.x
 
-    return stepper
+    return _fixed(solver, f, step)
 
 
 def _rkf45_adaptive(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
@@ -246,41 +231,42 @@ def _adams_bashforth(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     r_prev, r_cur = rhs.empty(), rhs.empty()
     autonomous = not rhs.uses_time
     started = False
+    known = False  # whether r_prev holds f(prev) already
 
-    def stepper(state: Any, t_start: float, t_end: float) -> float:
-        nonlocal prev, new, r_prev, r_cur, started
-        f.load(state)
-        steps = max(1, round((t_end - t_start) / dt))
-        known = False  # whether r_prev holds f(prev) already
+    def prepare(t_start: float) -> None:
+        nonlocal started, known
+        known = False
         if not started:
             rhs.rate(f.x, r_cur, t_start)
             rhs.pointwise(prev, "x - dt*r", {"x": f.x, "r": r_cur}, {"dt": dt})
             started = True
-        for i in range(steps):
-            t = t_start + i * dt
-            if not known:
-                rhs.rate(prev, r_prev, t - dt)
-            rhs.rate(f.x, r_cur, t)
-            rhs.pointwise(new, "x + dt*(1.5*rc - 0.5*rp)",
-                          {"x": f.x, "rc": r_cur, "rp": r_prev}, {"dt": dt})
-            # x₋ ← x, x ← new; f(x) becomes next step's f(x₋) where t does not enter
-            prev, f.x, new = f.x, new, prev
-            r_prev, r_cur = r_cur, r_prev
-            known = autonomous
-        solver.info["steps"] += steps
-        f.store(state)
-        return t + dt
 
-    return stepper
+    def step(t: float) -> None:
+        nonlocal prev, new, r_prev, r_cur, known
+        if not known:
+            rhs.rate(prev, r_prev, t - dt)
+        rhs.rate(f.x, r_cur, t)
+        rhs.pointwise(new, "x + dt*(1.5*rc - 0.5*rp)",
+                      {"x": f.x, "rc": r_cur, "rp": r_prev}, {"dt": dt})
+        # x₋ ← x, x ← new; f(x) becomes next step's f(x₋) where t does not enter
+        prev, f.x, new = f.x, new, prev
+        r_prev, r_cur = r_cur, r_prev
+        known = autonomous
+
+    return _fixed(solver, f, step, prepare)
 
 
-def _fixed(solver: Any, f: _Fields, step: Callable[[float], None]) -> Stepper:
-    """py-pde's fixed-step loop (``SolverBase._make_inner_stepper``): ``step(t)`` at
-    ``t = t_start + i·dt`` for the number of steps nearest ``(t_end − t_start)/dt``."""
+def _fixed(solver: Any, f: _Fields, step: Callable[[float], None],
+           prepare: Callable[[float], None] | None = None) -> Stepper:
+    """py-pde's fixed-step loop (``SolverBase._make_inner_stepper``): ``prepare(t_start)``
+    once per call, then ``step(t)`` at ``t = t_start + i·dt`` for the number of steps
+    nearest ``(t_end − t_start)/dt``."""
     dt = float(solver.info["dt"])
 
     def stepper(state: Any, t_start: float, t_end: float) -> float:
         f.load(state)
+        if prepare is not None:
+            prepare(t_start)
         steps = max(1, round((t_end - t_start) / dt))
         for i in range(steps):
             t = t_start + i * dt
@@ -344,7 +330,7 @@ def _crank_nicolson(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     alpha = float(solver.explicit_fraction)
     weights = {"c": dt / 2, "a": alpha, "b": 1 - alpha}
     it = _FixedPoint(solver, rhs, f, "Crank-Nicolson")
-    rate_t, first_change = rhs.empty(), rhs.empty()
+    rate_t = rhs.empty()
     update_of = "a*Y + b*(x + c*(F + q))"
 
     def step(t: float) -> None:
@@ -354,8 +340,19 @@ def _crank_nicolson(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
             rhs.stage([new, change], "e", {"e": est, "x": f.x, "q": rate_t},
                       [update_of, f"{update_of} - Y"], t + dt, weights)
 
-        # py-pde's first estimate is this update applied to x itself
-        update(f.x, it.est, first_change)
+        # py-pde's first estimate is this update applied to x itself (its change unused)
+        update(f.x, it.est, it.change)
         it.solve(update)
 
     return _fixed(solver, f, step)
+
+
+#: the device stepper of each (py-pde solver class, adaptive)
+_MAKERS: dict[tuple[str, bool], Callable[[Any, DeviceRHS, _Fields], Stepper]] = {
+    ("EulerSolver", False): _euler_fixed, ("EulerSolver", True): _euler_adaptive,
+    ("RungeKuttaSolver", False): _rk4_fixed, ("RungeKuttaSolver", True): _rkf45_adaptive,
+    ("AdamsBashforthSolver", False): _adams_bashforth,
+    ("ImplicitSolver", False): _implicit_euler, ("CrankNicolsonSolver", False): _crank_nicolson,
+}
+#: the solvers :func:`make_stepper` runs, by class name
+SUPPORTED = tuple(dict.fromkeys(name for name, _ in _MAKERS))

@@ -31,7 +31,6 @@ apply).
 
 from __future__ import annotations
 
-import ast
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -53,6 +52,14 @@ _DERIVED_FIELDS = 2
 Field = list[DeviceArray]
 
 
+def _as_builtin(n: eq.Node) -> eq.Node | None:
+    """A scalar of :meth:`DeviceRHS.stage`/:meth:`~DeviceRHS.pointwise` (parsed as a
+    parameter) as the kernel argument ``_<name>``."""
+    if isinstance(n, eq.Ref) and n.kind == "param":
+        return eq.Ref("builtin", f"_{n.name}")
+    return None
+
+
 class DeviceRHS:
     """``model``'s right-hand side on ``domain`` with ``params``, on ``backend`` in
     ``dtype`` (module doc); ``check_dt``: a forward-Euler step to check against the
@@ -72,6 +79,7 @@ class DeviceRHS:
         self.dtype = st.dtype
         self.backend = st.backend
         self._programs: dict[tuple, Program] = {}
+        self._read_sets: dict[tuple, frozenset[str]] = {}
         #: whether ``f`` reads ``t`` (directly or through a parameter expression of ``t``)
         self.uses_time = any(eq.names(tree, "time") for tree in st.rates.values())
         self._y: Field | None = None  # where a bilaplacian's stage state is stored
@@ -106,7 +114,7 @@ class DeviceRHS:
         st = self.stepper
         args = {f"_{k}": float(v) for k, v in scalars.items()}
         flat_outs = [b for out in outs for b in out]
-        reads = self._reads(state, tuple(fields))
+        reads = self._reads(state, tuple(fields), tuple(scalars))
         derive = st._pre is None and len(reads) <= _DERIVED_FIELDS
         if not derive and state not in fields:  # y stored first (module doc)
             if self._y is None:
@@ -115,7 +123,7 @@ class DeviceRHS:
             state, fields, reads = "_stored", {**fields, "_stored": self._y}, {"_stored"}
         # only the fields the pass reads are its inputs (each input is loaded at each cell)
         for text in outputs:
-            reads = reads | self._reads(text, tuple(fields))
+            reads = reads | self._reads(text, tuple(fields), tuple(scalars))
         fields = {n: f for n, f in fields.items() if n in reads}
         names = tuple(fields)
         if st._pre is None:
@@ -130,15 +138,15 @@ class DeviceRHS:
         ins = [*y, *st._aux, *(b for n in names for b in fields[n])]
         launch(program, st.target, ins, flat_outs, st._dev, args, t)
 
-    def _reads(self, state: str, names: tuple[str, ...]) -> frozenset[str]:
-        """The fields among ``names`` that the expression ``state`` reads (cached)."""
-        key = ("reads", state, names)
-        found = self._programs.get(key)
+    def _reads(self, expr: str, names: tuple[str, ...], scalars: tuple[str, ...]
+               ) -> frozenset[str]:
+        """The fields among ``names`` that ``expr`` reads (``F`` and ``Y`` allowed too)."""
+        key = (expr, names, scalars)
+        found = self._read_sets.get(key)
         if found is None:
-            used = {n.id for n in ast.walk(ast.parse(state.strip(), mode="eval"))
-                    if isinstance(n, ast.Name)}
-            found = frozenset(used & set(names))
-            self._programs[key] = found
+            tree = eq.parse(expr, species=(*names, "F", "Y"), params=scalars, laplace=False,
+                            what="stage expression")
+            found = self._read_sets[key] = frozenset(eq.names(tree, "species") & set(names))
         return found
 
     def _stage_program(self, state: str | None, names: tuple[str, ...],
@@ -155,11 +163,9 @@ class DeviceRHS:
 
         def per_species(s: str):
             def fn(n: eq.Node) -> eq.Node | None:
-                if isinstance(n, eq.Ref) and n.kind == "param":
-                    return eq.Ref("builtin", f"_{n.name}")
                 if isinstance(n, eq.Ref) and n.kind == "species":
                     return eq.Ref("species", f"{n.name}__{s}")
-                return None
+                return _as_builtin(n)
             return fn
 
         def on_y(n: eq.Node) -> eq.Node | None:
@@ -202,7 +208,7 @@ class DeviceRHS:
         arguments: new values compile nothing).  Elementwise: ``out`` may be one of the
         fields."""
         scalars = dict(scalars or {})
-        reads = self._reads(expr, tuple(fields))
+        reads = self._reads(expr, tuple(fields), tuple(scalars))
         names = tuple(n for n in fields if n in reads)
         program = self._pointwise_program(expr, names, tuple(scalars))
         args = {f"_{k}": float(v) for k, v in scalars.items()}
@@ -217,8 +223,7 @@ class DeviceRHS:
         if program is None:
             tree = eq.parse(expr, species=names, params=scalars, laplace=False,
                             what="pointwise expression")
-            tree = eq.substitute(tree, lambda n: eq.Ref("builtin", f"_{n.name}")
-                                 if isinstance(n, eq.Ref) and n.kind == "param" else None)
+            tree = eq.substitute(tree, _as_builtin)
             program = Program(names, (Output("out", tree),))
             self._programs[key] = program
         return program
