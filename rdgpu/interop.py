@@ -282,10 +282,13 @@ def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = N
     view = _result_view(result)
     if check is not None and view is not None:
         check(view)
+
+    def stays() -> None:  # the result stays on its device: checked there, unread
+        if check is not None and view is None:
+            check(result)
     if out is not None:
         if resident(out, be):
-            if check is not None and view is None:
-                check(result)
+            stays()
             target = wrap(out, be, result.shape)
             if not overlaps(target, result):
                 be.copy(result, target)
@@ -294,16 +297,14 @@ def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = N
         fill(out, _read(result, view, check).reshape(shape))
         return out
     kind = kind_of(like)
-    stays = (kind == "warp" and be.name == "warp" and _warp_device_matches(like, be)) or \
-        (kind == "pyopencl" and be.name == "opencl" and _same_opencl_context(like, be))
-    if stays and check is not None and view is None:
-        check(result)
     if kind == "warp" and be.name == "warp" and _warp_device_matches(like, be):
+        stays()
         h = result.handle
         return h if tuple(h.shape) == tuple(shape) else h.reshape(tuple(shape))
     if kind == "pyopencl" and be.name == "opencl" and _same_opencl_context(like, be):
         import pyopencl.array as cla
 
+        stays()
         return cla.Array(be.queue, tuple(shape), result.dtype, data=result.handle)
     return from_numpy(_read(result, view, check).reshape(shape), like)
 
