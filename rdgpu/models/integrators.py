@@ -492,16 +492,15 @@ class ModelStepper(FieldStepper):
     def _eval(self, program: Program, ins: list[DeviceArray], outs: list[DeviceArray],
               time: float, extra: list[DeviceArray] = (), a: float = 0.0,
               b: float = 1.0, prepass: tuple[Program | None, list] | None = None,
-              tp: float = 0.0, h: float | None = None) -> None:
+              tp: float = 0.0) -> None:
         """One pass of ``program`` (inputs: ``ins``, the pre-pass results, ``extra``),
-        after its bilaplacian pre-pass (``prepass``: default the explicit program's);
-        ``h``: the builtin ``_h`` (default the stepper's ``dt``)."""
+        after its bilaplacian pre-pass (``prepass``: default the explicit program's)."""
         pre, aux = (self._pre, self._aux) if prepass is None else prepass
         if pre is not None:
             src = dict(zip(program.inputs, [*ins, *aux, *extra], strict=True))
             launch(pre, self.target, [src[s] for s in pre.inputs], aux, self._dev, {}, time)
         launch(program, self.target, [*ins, *aux, *extra], outs, self._dev,
-               {"_h": self.dt if h is None else h, "_a": a, "_b": b, "_tp": tp}, time)
+               {"_h": self.dt, "_a": a, "_b": b, "_tp": tp}, time)
 
     def _step(self) -> None:
         t0, h = self.time, self.dt
