@@ -19,7 +19,8 @@ takes the max of the partials:
   reads ``t, t + T, t + 2T, …`` (coalesced).  Launched twice by the backend: once over
   the array, once over the first pass's partials, so few come back to the host.
 
-``KERNELS[np.dtype]`` is ``(bits dtype, blocks, strided)``.
+``MAX_ABS[np.dtype]`` is ``(blocks, strided)`` (over the array viewed as the unsigned
+integers of its width, ``Backend._check_max_abs``).
 
 sum_squares.  Partial sums of ``u²`` in float64 for both dtypes (a float32 square is exact
 in float64); the host adds the partials in float64.  The order is fixed by this code:
@@ -51,7 +52,7 @@ from rdgpu._kernels.warp_common import ftz_begin, ftz_end
 wp.set_module_options({"enable_backward": False})
 
 
-def _build(bits, mask: int):
+def _build_max_abs(bits, mask: int):
     A1 = wp.array(dtype=bits)
     abs_mask = bits(mask)
 
@@ -84,9 +85,9 @@ def _build(bits, mask: int):
     return blocks, strided
 
 
-KERNELS = {
-    np.dtype(np.float32): (np.dtype(np.uint32), *_build(wp.uint32, 0x7FFFFFFF)),
-    np.dtype(np.float64): (np.dtype(np.uint64), *_build(wp.uint64, 0x7FFFFFFFFFFFFFFF)),
+MAX_ABS = {
+    np.dtype(np.float32): _build_max_abs(wp.uint32, 0x7FFFFFFF),
+    np.dtype(np.float64): _build_max_abs(wp.uint64, 0x7FFFFFFFFFFFFFFF),
 }
 
 

@@ -405,7 +405,7 @@ class WarpBackend(Backend):
         self._check_device(u, "max_abs")
         if u.size == 0:
             return 0.0
-        _, blocks, strided = self._family("reduce").KERNELS[u.dtype]
+        blocks, strided = self._family("reduce").MAX_ABS[u.dtype]
         partial = self._reduce(u, [self._bits(u, bits)], blocks, strided, strided, bits)
         return max_abs_of_partials(partial.numpy(), u.dtype)
 
