@@ -26,7 +26,12 @@ from .api import (
     spmv,
 )
 from .dispatch import available_backends, get_backend, set_backend, use_backend
-from .errors import BackendUnavailableError, ConvergenceError, StabilityError
+from .errors import (
+    BackendUnavailableError,
+    ConvergenceError,
+    ResourceLimitError,
+    StabilityError,
+)
 from .implicit import ImplicitDiffusion
 
 __version__ = "0.1.0"
@@ -86,6 +91,7 @@ __all__ = [
     "ImplicitDiffusion",
     "MissingExtraError",
     "RDFront",
+    "ResourceLimitError",
     "StabilityError",
     "Simulation",
     "SurfaceMesh",

@@ -31,6 +31,8 @@ from pathlib import Path
 from typing import Any
 
 from ._optional import MissingExtraError, check, require
+from .errors import ResourceLimitError
+from .resources import check_fields
 
 DEFAULT_SIZE = (256, 256)
 #: steps of a model that has no default run length of its own
@@ -447,35 +449,14 @@ def _check_options(args: argparse.Namespace) -> None:
                              f"{', '.join(close or ['viridis', 'magma', 'gray', 'RdBu'])}")
 
 
-def _memory_limit() -> int | None:
-    try:
-        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def _bytes(n: float) -> str:
-    for unit in ("bytes", "KB", "MB", "GB", "TB", "PB"):
-        if n < 1000 or unit == "PB":
-            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.3g} {unit}"
-        n /= 1000.0
-    return f"{n:.3g} PB"  # pragma: no cover
-
-
 def _check_memory(what: str, cells: int, n_species: int, itemsize: int, snapshots: int = 0,
                   frame_pixels: int = 0) -> None:
-    """Refuse a run whose fields cannot fit in this machine's memory: ``n_species`` fields
-    of ``cells`` points, about 4 copies each (the stepper's buffers, the checked state,
-    the downloaded result) plus the float64 initial fields and ``snapshots`` snapshots,
-    and the movie's frames."""
-    need = cells * n_species * (itemsize * (4 + snapshots) + 16) + frame_pixels * 3 * snapshots
-    have = _memory_limit()
-    if have is not None and need > have:
-        parts = f"{n_species} field(s) of {cells:,} points in {itemsize * 8}-bit floats"
-        if snapshots:
-            parts += f", {snapshots} snapshots"
-        raise UsageError(f"{what} needs about {_bytes(need)} of memory ({parts}); this "
-                         f"machine has {_bytes(have)}")
+    """The shared estimate (``rdgpu.resources.check_fields``), as a usage error."""
+    try:
+        check_fields(what, cells, n_species, itemsize, snapshots=snapshots,
+                     frame_pixels=frame_pixels)
+    except ResourceLimitError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _picture_size(shape: tuple[int, ...], k: int) -> tuple[int, int]:

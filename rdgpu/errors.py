@@ -10,6 +10,12 @@ class StabilityError(ValueError):
     """
 
 
+class ResourceLimitError(ValueError):
+    """A request too large for this machine, refused from an estimate before any work
+    (``rdgpu.resources.check_memory``); the message says how much it needs and how much
+    there is."""
+
+
 class BackendUnavailableError(RuntimeError):
     """A requested backend (or device) cannot be used; the message says what is missing."""
 
