@@ -33,12 +33,11 @@ import math
 import numbers
 import os
 import signal
-import socket
-import tempfile
 import threading
 import time as _time
 import warnings
 from collections.abc import Mapping
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,6 +47,17 @@ import numpy as np
 from . import interop
 from .domains import Grid
 from .errors import SimulationDiverged, SimulationInterrupted
+from .files import (  # noqa: F401 - the file helpers, kept importable from here
+    CheckpointLock,
+    _host_tag,
+    _pid_alive,
+    _suppress,
+    _temp_prefix,
+    _umask,
+    check_writable,
+    remove_stale_temporaries,
+)
+from .files import atomic_savez as _atomic_savez
 
 __all__ = [
     "DEFAULT_BOUND",
@@ -765,121 +775,6 @@ def _bad(a: np.ndarray, bound: float) -> tuple[bool, str]:
     return False, ""
 
 
-def _host_tag() -> str:
-    """This machine's name as it goes into temporary file names (no dots or separators)."""
-    name = socket.gethostname() or "host"
-    return "".join(c if c.isalnum() or c in "-_" else "-" for c in name)[:64] or "host"
-
-
-def _temp_prefix(path: Path) -> str:
-    """Temporary files of ``path`` are ``.NAME.HOST.PID.RANDOM.tmp`` beside it: the writer's
-    machine and process id say whether the writer is still alive (see
-    :func:`remove_stale_temporaries`)."""
-    return f".{path.name}.{_host_tag()}.{os.getpid()}."
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # e.g. EPERM: a process of another user holds that id
-        return True
-    return True
-
-
-#: temporary files without a writer's id (written by rdgpu before 0.1.1) count as stale
-#: when untouched for this long
-_LEGACY_TEMP_AGE = 3600.0
-
-
-def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
-    """Delete the temporary files that killed writers of ``path`` left beside it; returns
-    them.
-
-    Only temporaries of this very file are considered (``.NAME.*.tmp`` in its folder), and
-    of those only the ones whose writer -- named by machine and process id in the file
-    name -- is a process of this machine that no longer runs; a live writer's file, or
-    another machine's, is left alone.  Temporaries without a writer's id (the naming of
-    earlier versions) are removed when untouched for an hour."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    head = f".{path.name}."
-    host = _host_tag()
-    removed: list[Path] = []
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return removed
-    for name in names:
-        if not (name.startswith(head) and name.endswith(".tmp")):
-            continue
-        middle = name[len(head):-len(".tmp")]
-        parts = middle.rsplit(".", 2)
-        tmp = folder / name
-        if len(parts) == 3 and parts[1].isdigit():
-            if parts[0] != host or _pid_alive(int(parts[1])):
-                continue
-        elif "." in middle:  # another file's temporary (NAME.something) or not ours
-            continue
-        else:
-            try:
-                if _time.time() - tmp.stat().st_mtime < _LEGACY_TEMP_AGE:
-                    continue
-            except OSError:
-                continue
-        try:
-            if tmp.is_file() and not tmp.is_symlink():
-                tmp.unlink()
-                removed.append(tmp)
-        except OSError:
-            pass
-    return removed
-
-
-def _atomic_savez(path: Path, arrays: dict[str, np.ndarray], compressed: bool = False) -> None:
-    """Write an NPZ atomically: temporary file in the same folder, fsync, os.replace."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=_temp_prefix(path), suffix=".tmp")
-    try:
-        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
-        with os.fdopen(fd, "wb") as fh:
-            (np.savez_compressed if compressed else np.savez)(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with _suppress():
-            os.unlink(tmp)
-        raise
-    with _suppress():  # make the rename itself durable
-        dfd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(dfd)
-        finally:
-            os.close(dfd)
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-class _suppress:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, et, ev, tb):
-        return et is not None and issubclass(et, OSError)
-
-
 def _json_str(obj: Any) -> np.ndarray:
     return np.array(json.dumps(obj, default=_json_default))
 
@@ -1490,47 +1385,17 @@ class Simulation:
                "check_every": None, "checkpoint_every": None}
         arrays = self._checkpoint_arrays(self.host_state(history=True), run,
                                          {s: [] for s in self.species}, [])
-        _atomic_savez(Path(path), arrays)
+        _atomic_savez(Path(path), arrays, what="the checkpoint")
         return Path(path)
 
     @staticmethod
     def read_checkpoint(path: str | os.PathLike) -> tuple[dict, dict[str, np.ndarray]]:
         """``(meta, arrays)`` of a checkpoint file; a ``ValueError`` saying what is wrong
         with a file that is missing, empty, truncated, corrupt or not a checkpoint."""
-        path = Path(path)
+        from .npzread import read_archive
+
         name = repr(str(path))
-        if not path.exists():
-            raise ValueError(f"checkpoint {name} does not exist")
-        if not path.is_file():
-            raise ValueError(f"checkpoint {name} is not a file")
-        size = path.stat().st_size
-        if size == 0:
-            raise ValueError(f"checkpoint {name} is empty (0 bytes): not a readable rdgpu "
-                             "checkpoint")
-        try:
-            z = np.load(path, allow_pickle=False)
-        except Exception as exc:  # noqa: BLE001 - zipfile, zlib, numpy: many ways to fail
-            raise ValueError(f"{name} is not a readable rdgpu checkpoint ({size} bytes; "
-                             f"truncated or corrupt? {_why(exc)})") from None
-        if not hasattr(z, "files"):
-            raise ValueError(f"{name} is not a readable rdgpu checkpoint (a single array, "
-                             "not an NPZ archive)")
-        try:
-            with z:
-                arrays = {k: z[k] for k in z.files}
-        except Exception as exc:  # noqa: BLE001
-            raise ValueError(f"{name} is not a readable rdgpu checkpoint ({size} bytes; "
-                             f"truncated or corrupt? {_why(exc)})") from None
-        if "meta" not in arrays:
-            raise ValueError(f"{name} is not a readable rdgpu checkpoint (an NPZ file without "
-                             "rdgpu's metadata)")
-        try:
-            meta = json.loads(str(arrays.pop("meta")))
-        except ValueError:
-            meta = None
-        if not isinstance(meta, dict):
-            raise ValueError(f"{name} is not a readable rdgpu checkpoint (its metadata is "
-                             "not valid JSON)")
+        meta, arrays = read_archive(path, "checkpoint")  # sizes checked before unpacking
         if meta.get("format") != _CHECKPOINT_FORMAT:
             raise ValueError(f"{name} has checkpoint format {meta.get('format')}, "
                              f"expected {_CHECKPOINT_FORMAT}")
@@ -1685,6 +1550,8 @@ class Simulation:
                                                                         "checkpoint_every")
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise TypeError(f"checkpoint must be a path, got {type(checkpoint).__name__}")
+        if checkpoint is not None:  # before any step: a device, a folder, "" are refused
+            check_writable(checkpoint, "checkpoint")
         if resume is not None:
             if not isinstance(resume, (str, os.PathLike)):
                 raise TypeError(f"resume must be a path, got {type(resume).__name__}")
@@ -1723,7 +1590,8 @@ class Simulation:
             remove_stale_temporaries(checkpoint)
         run_info = {"start": start, "target": target, "snapshot_every": snapshot_every,
                     "check_every": check_every, "checkpoint_every": checkpoint_every}
-        return _Runner(self, run_info, snaps, snap_steps, checkpoint, progress).go()
+        with CheckpointLock(checkpoint) if checkpoint is not None else nullcontext():
+            return _Runner(self, run_info, snaps, snap_steps, checkpoint, progress).go()
 
 
 class _DeferSigint:
@@ -1902,7 +1770,7 @@ class _Runner:
     def write_checkpoint(self, state: dict[str, np.ndarray]) -> None:
         self.flush()
         arrays = self.sim._checkpoint_arrays(state, self.run, self.snaps, self.snap_steps)
-        _atomic_savez(self.checkpoint, arrays)
+        _atomic_savez(self.checkpoint, arrays, what="the checkpoint")
 
     def result(self, fields: dict[str, np.ndarray], diverged: str | None = None) -> Result:
         sim = self.sim
