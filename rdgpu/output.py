@@ -12,6 +12,10 @@
   device, the dtype and the package versions.
 * :func:`write_outputs` -- all of the above for a :class:`~rdgpu.simulation.Result`, by
   file extension (what the command line uses).
+
+Every writer takes the path first (:mod:`rdgpu.writers`), writes atomically and refuses
+a path that is not a regular file (:mod:`rdgpu.files`); a field uniform to round-off is
+drawn in one flat colour (:func:`rdgpu.images.flat_field`).
 """
 
 from __future__ import annotations
@@ -27,8 +31,11 @@ from typing import Any
 import numpy as np
 
 from ._optional import available, check, require
+from .datafile import load_npz, save_npz
 from .domains import Grid
-from .images import to_rgb
+from .files import atomic_path, check_writable, writing
+from .images import flat_field, to_rgb
+from .writers import check_fps, earlier_order, write_image
 
 __all__ = [
     "MESH_FORMATS",
@@ -53,7 +60,6 @@ MOVIE_FORMATS = (".gif", ".mp4")
 MESH_FORMATS = (".vtk", ".vtp", ".vtu", ".ply", ".msh", ".xdmf", ".inp")
 #: how a field on a 3-D grid is pictured (see :func:`save_png`)
 VIEWS_3D = ("auto", "isosurface", "slices")
-_NPZ_FORMAT = 1
 
 PathLike = str | os.PathLike
 
@@ -340,27 +346,21 @@ def render_mesh(
     ``"iso"``, ...), a ``[position, focal_point, viewup]`` triple, or a dict with any of
     ``position``, ``focal_point``, ``viewup``, ``azimuth``, ``elevation``, ``roll``
     (degrees, added to the isometric view) and ``zoom``."""
-    field = np.asarray(field, dtype=np.float64).ravel()
+    field, vmin, vmax = flat_field(np.asarray(field, dtype=np.float64).ravel(), vmin, vmax)
     options = _render_options(field, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
                               window_size=window_size, background=background,
                               show_edges=show_edges, scalar_bar=scalar_bar, smooth=smooth)
     return _render_frames(mesh, field[None, :], options)[0]
 
 
-def render_mesh_png(mesh: Any, field: np.ndarray, path: PathLike, *, cmap: str = "viridis",
+def render_mesh_png(path: PathLike, field: np.ndarray, mesh: Any, *, cmap: str = "viridis",
                     camera: Any = None, **kwargs: Any) -> Path:
-    """Write :func:`render_mesh` of ``field`` on ``mesh`` to the PNG ``path``."""
-    iio = require("imageio.v3", "writing PNG pictures")
-    img = render_mesh(mesh, field, cmap=cmap, camera=camera, **kwargs)
-    path = _prepare(path)
-    iio.imwrite(path, img)
-    return path
-
-
-def _prepare(path: PathLike) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path
+    """Write :func:`render_mesh` of ``field`` on ``mesh`` to the PNG ``path`` (the earlier
+    order ``(mesh, field, path)`` works, deprecated)."""
+    if earlier_order("render_mesh_png", path, "render_mesh_png(path, field, mesh)"):
+        path, mesh = mesh, path
+    path = check_writable(path, "the picture")
+    return write_image(path, render_mesh(mesh, field, cmap=cmap, camera=camera, **kwargs))
 
 
 # ---------------------------------------------------------------------- 3-D grid fields
@@ -410,6 +410,7 @@ def slices_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = No
     a = np.asarray(field, dtype=np.float64)
     if a.ndim != 3:
         raise ValueError(f"slices need a 3-D field [nz, ny, nx], got shape {a.shape}")
+    a, vmin, vmax = flat_field(a, vmin, vmax)
     lo, hi = _limits(a, vmin, vmax)
     nz, ny, nx = a.shape
     panels = [a[nz // 2], a[:, ny // 2, :], a[:, :, nx // 2]]
@@ -449,7 +450,7 @@ def render_volume(
     field's range); the surface takes the colour map's colour at ``level``, inside the
     grid's grey outline.  ``camera`` as in :func:`render_mesh` (default: the isometric
     view).  Rendered in a child process (see :func:`_render`)."""
-    frames = _volume_frames(np.asarray(field)[None], grid)
+    frames, vmin, vmax = flat_field(_volume_frames(np.asarray(field)[None], grid), vmin, vmax)
     lo, hi = _limits(frames, vmin, vmax)
     return _render_volume(frames, grid, _iso_level(level, lo, hi), cmap=cmap, clim=(lo, hi),
                           camera=camera, window_size=window_size, background=background)[0]
@@ -531,23 +532,22 @@ def save_png(
     (default) -- the isosurface, except the slices where it would show nothing or cannot be
     drawn: pyvista missing, a side of fewer than 2 cells, a field that does not reach the
     level (e.g. uniform), or a failed rendering (with a ``RuntimeWarning``)."""
+    path = check_writable(path, "the picture")
+    field, vmin, vmax = flat_field(np.asarray(field), vmin, vmax)
     if _is_volume(field, domain):
         frames = _volume_frames(np.asarray(field)[None], domain)
         lo, hi = _limits(frames, vmin, vmax)
-        iio = require("imageio.v3", "writing PNG pictures")
-        img = _volume_images(frames, domain, view=view, level=level, cmap=cmap, lo=lo, hi=hi,
-                             scale=scale, camera=camera, window_size=window_size)[0]
-        path = _prepare(path)
-        iio.imwrite(path, img)
-        return path
+        return write_image(path, _volume_images(
+            frames, domain, view=view, level=level, cmap=cmap, lo=lo, hi=hi, scale=scale,
+            camera=camera, window_size=window_size)[0])
     if isinstance(domain, Grid) and domain.ndim == 1:
-        return _save_line_plot(_prepare(path), np.asarray(field).ravel(), domain, vmin, vmax)
+        return _save_line_plot(path, np.asarray(field).ravel(), domain, vmin, vmax)
     if _is_mesh(domain):
-        return render_mesh_png(domain, field, path, cmap=cmap, camera=camera, vmin=vmin,
+        return render_mesh_png(path, field, domain, cmap=cmap, camera=camera, vmin=vmin,
                                vmax=vmax, window_size=window_size)
     from .images import save_png as _save
 
-    return _save(_prepare(path), _grid_field(field, domain), cmap=cmap, vmin=vmin, vmax=vmax,
+    return _save(path, _grid_field(field, domain), cmap=cmap, vmin=vmin, vmax=vmax,
                  scale=scale)
 
 
@@ -567,8 +567,11 @@ def _save_line_plot(path: Path, field: np.ndarray, grid: Grid, vmin: float | Non
     ax.set_xlabel("x")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        with atomic_path(path, "the picture") as tmp:
+            fig.savefig(tmp, format="png")
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -600,15 +603,15 @@ def save_movie(
     renderer and one camera for all frames; ``"auto"`` takes the isosurface when some frame
     reaches the level) with one colour scale (``vmin``/``vmax``, default the range over
     all frames).  MP4 needs ``imageio-ffmpeg`` (H.264, frames padded to even sizes)."""
-    path = Path(path)
+    path = check_writable(path, "the movie")
     ext = path.suffix.lower()
     if ext not in MOVIE_FORMATS:
         raise ValueError(f"a movie must be {' or '.join(MOVIE_FORMATS)}, got {str(path)!r}")
+    fps = check_fps(fps)
     data = np.asarray(frames)
     if data.ndim < 2 or data.shape[0] == 0:
         raise ValueError("a movie needs at least one frame (take snapshots: snapshot_every)")
-    if fps <= 0:
-        raise ValueError(f"fps must be > 0, got {fps}")
+    data, vmin, vmax = flat_field(data, vmin, vmax)
     lo, hi = _limits(data, vmin, vmax)
     if _is_mesh(domain):
         options = _render_options(data, cmap=cmap, camera=camera, vmin=lo, vmax=hi,
@@ -625,14 +628,15 @@ def save_movie(
             if scale > 1:
                 rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
             images.append(rgb)
-    path = _prepare(path)
     if ext == ".gif":
         iio = require("imageio.v3", "writing GIF movies")
-        iio.imwrite(path, np.stack(images), extension=".gif", duration=1000.0 / fps, loop=0)
-    else:
-        require("imageio_ffmpeg", "writing MP4 movies")
-        iio2 = require("imageio.v2", "writing MP4 movies")
-        with iio2.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264",
+        with atomic_path(path, "the movie") as tmp:
+            iio.imwrite(tmp, np.stack(images), extension=".gif", duration=1000.0 / fps, loop=0)
+        return path
+    require("imageio_ffmpeg", "writing MP4 movies")
+    iio2 = require("imageio.v2", "writing MP4 movies")
+    with atomic_path(path, "the movie") as tmp:
+        with iio2.get_writer(tmp, format="FFMPEG", mode="I", fps=fps, codec="libx264",
                              pixelformat="yuv420p", macro_block_size=1, quality=8) as w:
             for img in images:
                 w.append_data(_even(img))
@@ -640,110 +644,28 @@ def save_movie(
 
 
 # ------------------------------------------------------------------------ mesh files
-def save_mesh(mesh: Any, path: PathLike, fields: Mapping[str, np.ndarray] | None = None) -> Path:
+def save_mesh(path: PathLike, mesh: Any, fields: Mapping[str, np.ndarray] | None = None) -> Path:
     """Write ``mesh`` with per-vertex ``fields`` attached (:data:`MESH_FORMATS`; see
-    ``SurfaceMesh.save``)."""
+    ``SurfaceMesh.save``), atomically except XDMF (whose data goes to a ``.h5`` beside
+    it).  The earlier order ``(mesh, path, fields)`` works, deprecated."""
+    if earlier_order("save_mesh", path, "save_mesh(path, mesh, fields)"):
+        path, mesh = mesh, path
+    path = check_writable(path, "the mesh file")
     if not _is_mesh(mesh):
         raise ValueError("mesh files (VTK, PLY, gmsh...) need a mesh domain; use save_npz or "
                          "save_png for a grid")
-    path = Path(path)
     if path.suffix.lower() not in MESH_FORMATS:
         raise ValueError(f"a mesh file with fields must be one of {', '.join(MESH_FORMATS)}, "
                          f"got {str(path)!r}")
-    mesh.save(_prepare(path), {k: np.asarray(v) for k, v in (fields or {}).items()})
+    arrays = {k: np.asarray(v) for k, v in (fields or {}).items()}
+    if path.suffix.lower() == ".xdmf":
+        with writing(path, "the mesh file"):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            mesh.save(path, arrays)
+        return path
+    with atomic_path(path, "the mesh file") as tmp:
+        mesh.save(tmp, arrays)
     return path
-
-
-# ---------------------------------------------------------------------------- NPZ
-def save_npz(result: Any, path: PathLike) -> Path:
-    """One data file for a run: ``final_<s>`` and ``snapshots_<s>`` per species, ``times``,
-    ``snapshot_steps``, ``param_<name>`` for field-valued parameters, ``mesh_vertices`` and
-    ``mesh_faces`` on a mesh, ``surface_height`` on a graph surface, and JSON strings
-    ``meta`` (everything else: model, step, time, dt, dtype, seed, init, domain, wall time,
-    divergence message), ``params``, ``backend``, ``device`` and ``versions``.  Written
-    atomically (temporary file, fsync, rename)."""
-    from .simulation import _atomic_savez, _json_str, _split_params, domain_arrays
-
-    scalars, fields = _split_params(result.params)
-    meta = {
-        "format": _NPZ_FORMAT,
-        "model": result.model,
-        "species": list(result.fields),
-        "step": int(result.step),
-        "time": float(result.time),
-        "dt": float(result.dt),
-        "dtype": result.dtype,
-        "seed": result.seed,
-        "init": result.init,
-        "domain": result.domain_info,
-        "param_fields": sorted(fields),
-        "wall_seconds": float(result.wall_seconds),
-        "diverged": result.diverged,
-        "members": getattr(result, "members", None),
-        "diverged_members": {str(m): w for m, w in
-                             sorted(getattr(result, "diverged_members", {}).items())},
-    }
-    arrays: dict[str, np.ndarray] = {
-        "meta": _json_str(meta),
-        "params": _json_str(scalars),
-        "backend": np.array(result.backend),
-        "device": np.array(result.device),
-        "versions": _json_str(result.versions),
-        "times": np.asarray(result.times, dtype=np.float64),
-        "snapshot_steps": np.asarray(result.snapshot_steps, dtype=np.int64),
-    }
-    for s, a in result.fields.items():
-        arrays[f"final_{s}"] = np.asarray(a)
-        arrays[f"snapshots_{s}"] = np.asarray(result.snapshots[s])
-    for k, a in fields.items():
-        arrays[f"param_{k}"] = a
-    arrays.update(domain_arrays(result.domain))
-    path = Path(path)
-    if path.suffix.lower() != ".npz":
-        raise ValueError(f"the data file must end in .npz, got {str(path)!r}")
-    _atomic_savez(path, arrays, compressed=True)
-    return path
-
-
-def load_npz(path: PathLike) -> Any:
-    """Read a :func:`save_npz` file back into a :class:`~rdgpu.simulation.Result`."""
-    from .simulation import Result, _domain_from_description
-
-    path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-        meta = json.loads(str(arrays["meta"]))
-    except (OSError, ValueError, KeyError) as exc:
-        raise ValueError(f"{str(path)!r} is not an rdgpu data file ({exc})") from None
-    params = json.loads(str(arrays["params"]))
-    for k in meta["param_fields"]:
-        params[k] = arrays[f"param_{k}"]
-    species = meta["species"]
-    domain = _domain_from_description(meta["domain"], arrays)
-    return Result(
-        model=meta["model"],
-        fields={s: arrays[f"final_{s}"] for s in species},
-        snapshots={s: arrays[f"snapshots_{s}"] for s in species},
-        times=arrays["times"],
-        snapshot_steps=arrays["snapshot_steps"],
-        step=meta["step"],
-        time=meta["time"],
-        dt=meta["dt"],
-        params=params,
-        domain=domain,
-        domain_info=meta["domain"],
-        backend=str(arrays["backend"]),
-        device=str(arrays["device"]),
-        dtype=meta["dtype"],
-        seed=meta["seed"],
-        init=meta["init"],
-        versions=json.loads(str(arrays["versions"])),
-        wall_seconds=meta["wall_seconds"],
-        diverged=meta["diverged"],
-        members=meta.get("members"),
-        diverged_members={int(m): w for m, w in (meta.get("diverged_members") or {}).items()},
-    )
 
 
 # ----------------------------------------------------------------------- ensembles
@@ -823,6 +745,13 @@ def write_outputs(
     name = species[0] if field is None else field
     if name not in result.fields:
         raise ValueError(f"no field {name!r}; the model has {species}")
+    datas = [] if data is None else [data] if isinstance(data, (str, os.PathLike)) else data
+    for p, what in [(png, "the picture"), (movie, "the movie"), *((d, "the data file")
+                                                                  for d in datas)]:
+        if p is not None:  # every path and the frame rate checked before anything is written
+            check_writable(p, what)
+    if movie is not None:
+        check_fps(fps)
     written: list[Path] = []
     if getattr(result, "members", None) is not None:
         kw = {"cmap": cmap, "scale": scale, "camera": camera, "vmin": vmin, "vmax": vmax,
@@ -840,9 +769,9 @@ def write_outputs(
         for p in [data] if isinstance(data, (str, os.PathLike)) else data:
             ext = Path(p).suffix.lower()
             if ext == ".npz":
-                written.append(save_npz(result, p))
+                written.append(save_npz(p, result))
             elif ext in MESH_FORMATS:
-                written.append(save_mesh(result.domain, p, result.fields))
+                written.append(save_mesh(p, result.domain, result.fields))
             else:
                 raise ValueError(f"a data file must be .npz or a mesh file "
                                  f"({', '.join(MESH_FORMATS)}), got {str(p)!r}")
@@ -873,9 +802,9 @@ def _wrap_closed(a: Any) -> np.ndarray:
 
 
 def render_surface(
-    surface: Any,
-    field: np.ndarray,
     path: PathLike,
+    field: np.ndarray,
+    surface: Any,
     *,
     cmap: str = "viridis",
     warp_scale: float = 1.0,
@@ -889,8 +818,13 @@ def render_surface(
     surface ``z = warp_scale · h`` of the :class:`~rdgpu.metric.GraphSurface` ``surface``:
     the field as point data of :func:`surface_mesh`, rendered as a mesh is
     (:func:`render_mesh`: pyvista, off-screen in a child process, smooth shading).
-    ``camera`` as in :func:`render_mesh`; ``vmin``/``vmax`` fix the colour scale."""
+    ``camera`` as in :func:`render_mesh`; ``vmin``/``vmax`` fix the colour scale.  The
+    earlier order ``(surface, field, path)`` works, deprecated."""
     from .metric import GraphSurface
+
+    if earlier_order("render_surface", path, "render_surface(path, field, surface)"):
+        path, surface = surface, path
+    path = check_writable(path, "the picture")
 
     if not isinstance(surface, GraphSurface):
         raise TypeError(f"render_surface draws on an rdgpu.metric.GraphSurface, got "
@@ -902,12 +836,9 @@ def render_surface(
     scale = float(warp_scale)
     if not math.isfinite(scale):
         raise ValueError(f"warp_scale must be a finite number, got {warp_scale!r}")
+    f, vmin, vmax = flat_field(f, vmin, vmax)
     options = _render_options(f, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
                               window_size=window_size, background=background)
     vertices, faces = surface_mesh(surface, scale)
     arrays = {"vertices": vertices, "faces": faces, "frames": _wrap_closed(f).reshape(1, -1)}
-    iio = require("imageio.v3", "writing PNG pictures")
-    img = _render(arrays, {**options, "kind": "mesh"})[0]
-    path = _prepare(path)
-    iio.imwrite(path, img)
-    return path
+    return write_image(path, _render(arrays, {**options, "kind": "mesh"})[0])

@@ -38,7 +38,7 @@ def files(tmp_path_factory):
     with np.load(good) as z:  # a checkpoint whose field arrays were dropped
         keep = {k: z[k] for k in z.files if not k.startswith("field__")}
     np.savez(d / "nofields.npz", **keep)
-    save_npz(res, d / "data.npz")  # a --data file, not a checkpoint
+    save_npz(d / "data.npz", res)  # a --data file, not a checkpoint
     (d / "garbage.obj").write_text("this is not\na mesh\n")
     (d / "badindex.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n")
     return d

@@ -94,7 +94,7 @@ def test_movie_errors(grid_result, tmp_path):
 
 
 def test_npz_round_trip(grid_result, tmp_path):
-    p = output.save_npz(grid_result, tmp_path / "run.npz")
+    p = output.save_npz(tmp_path / "run.npz", grid_result)
     with np.load(p, allow_pickle=False) as z:
         keys = set(z.files)
         versions = z["versions"].item()
@@ -110,11 +110,11 @@ def test_npz_round_trip(grid_result, tmp_path):
         np.testing.assert_array_equal(back.fields[s], grid_result.fields[s])
         np.testing.assert_array_equal(back.snapshots[s], grid_result.snapshots[s])
     with pytest.raises(ValueError, match="must end in .npz"):
-        output.save_npz(grid_result, tmp_path / "run.dat")
+        output.save_npz(tmp_path / "run.dat", grid_result)
 
 
 def test_npz_of_a_mesh_run(mesh_result, tmp_path):
-    back = output.load_npz(output.save_npz(mesh_result, tmp_path / "mesh.npz"))
+    back = output.load_npz(output.save_npz(tmp_path / "mesh.npz", mesh_result))
     np.testing.assert_array_equal(back.domain.faces, mesh_result.domain.faces)
     np.testing.assert_array_equal(back.params["c"], mesh_result.params["c"])
     np.testing.assert_array_equal(back.snapshots["u"], mesh_result.snapshots["u"])
@@ -191,7 +191,7 @@ def test_a_flat_mesh_is_seen_from_above(tmp_path, pyvista):
     """A planar mesh (here a disc) is drawn face on by default: its picture is round."""
     disc = rdgpu.SurfaceMesh.disc(radius=1.0, rings=12)
     field = disc.vertices[:, 0]
-    p = output.render_mesh_png(disc, field, tmp_path / "disc.png", window_size=(200, 200))
+    p = output.render_mesh_png(tmp_path / "disc.png", field, disc, window_size=(200, 200))
     img = iio.imread(p)[..., :3].astype(int)
     rows, cols = np.nonzero(img.sum(axis=2) < 3 * 250)
     height, width = np.ptp(rows) + 1, np.ptp(cols) + 1
