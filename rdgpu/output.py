@@ -35,12 +35,14 @@ from .datafile import load_npz, save_npz
 from .domains import Grid
 from .files import atomic_path, check_writable, writing
 from .images import flat_field, to_rgb
-from .writers import check_fps, earlier_order, write_image
+from .writers import FPS_RANGE, check_fps, earlier_order, write_image
 
 __all__ = [
+    "FPS_RANGE",
     "MESH_FORMATS",
     "MOVIE_FORMATS",
     "VIEWS_3D",
+    "check_fps",
     "load_npz",
     "render_mesh",
     "render_mesh_png",
