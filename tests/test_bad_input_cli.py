@@ -50,7 +50,8 @@ BAD = [
     ([*GS, "--param", "=1"], 2, "--param needs NAME=VALUE"),
     ([*GS, "--param", "F=abc"], 2, "unknown name 'abc'"),
     ([*GS, "--param", "F=nan"], 2, "--param F: value must be finite"),
-    ([*GS, "--param", "Q=1"], 2, "--param Q: model gray-scott has parameters Du, Dv, F, k"),
+    ([*GS, "--param", "Q=1"], 2, "--param Q: model gray-scott has parameters Du, Dv, F, k (set one with --param "
+     "NAME=VALUE)"),
     ([*GS, "--param", "Du=-1", "--size", "8"], 2, "diffusion coefficients must be finite and >= 0"),
     (["run", "allen-cahn", "--param", "eps=0", "--size", "8"], 2, "eps must be > 0"),
     ([*GS, "--steps", "-3"], 2, "argument --steps: expected a number >= 0, got -3"),
@@ -97,6 +98,44 @@ BAD = [
     ([*SMALL, "--checkpoint-every", "10"], 2, "--checkpoint-every needs --checkpoint"),
     ([*SMALL, "--checkpoint", "run.npz", "--data", "run.npz"], 2,
      "--data run.npz is also the --checkpoint file"),
+    ([*SMALL, "--fps", "1e9", "--movie", "m.gif"], 2,
+     "argument --fps: expected a frame rate from 0.01 to 100 frames a second, got '1e9'"),
+    ([*SMALL, "--fps", "1e-9", "--movie", "m.gif"], 2, "argument --fps: expected a frame "
+     "rate from 0.01 to 100"),
+    # issue 19: parts of specs, huge or impossible values
+    ([*SMALL, "--block-steps", "1000000000"], 2,
+     "argument --block-steps: expected a whole number from 1 (off) to 512, got 1000000000"),
+    ([*SMALL, "--block-steps", "0"], 2, "argument --block-steps: expected a whole number"),
+    ([*SMALL, "--height", "waves:0.1:5:-1"], 2,
+     "argument --height: 'waves:0.1:5:-1': SEED must be a whole number >= 0, got '-1'"),
+    ([*SMALL, "--height", "waves:1e308:5"], 2,
+     "argument --height: 'waves:1e308:5': AMPLITUDE must be a number from 0 to 1e+06"),
+    ([*SMALL, "--height", "heat:0.1:-2"], 2, "STEPS must be a whole number >= 0, got '-2'"),
+    ([*GS, "--mesh", "sphere", "--roughen", "0.1:3:-1"], 2,
+     "argument --roughen: '0.1:3:-1': SEED must be a whole number >= 0, got '-1'"),
+    ([*GS, "--mesh", "sphere", "--roughen", "nan"], 2, "AMPLITUDE must be a number"),
+    ([*SMALL, "--param", "F=1/0"], 2, "--param F=1/0: division by zero"),
+    ([*SMALL, "--init", "blob"], 2, "argument --init: expected square[:SIZE]"),
+    ([*SMALL, "--init", "spots:2.7"], 2, "COUNT must be a whole number >= 1, got '2.7'"),
+    ([*SMALL, "--init", "square:0.1,w=1"], 2, "--init: model gray-scott has fields u, v"),
+    ([*SMALL, "--init", "square:0.1,u=x"], 2, "argument --init: 'square:0.1,u=x': u=x"),
+    ([*SMALL, "--bc", "sticky"], 2, "argument --bc: expected periodic, neumann or "
+     "dirichlet:VALUE"),
+    ([*SMALL, "--bc", "neumann/neumann/neumann"], 2,
+     "--bc neumann/neumann/neumann: a 2-D grid takes one condition or 2 (y/x)"),
+    ([*SMALL, "--dx", "1", "--length", "4"], 2, "argument --length: not allowed with "
+     "argument --dx"),
+    ([*SMALL, "--dx", "0"], 2, "argument --dx: expected a positive number"),
+    ([*GS, "--mesh", "sphere", "--dx", "2"], 2, "--dx is for a grid"),
+    ([*GS, "--mesh", "sphere", "--bc", "neumann"], 2, "--bc is for a grid"),
+    ([*SMALL, "--radius", "2"], 2, "--radius is for a generated mesh"),
+    ([*GS, "--mesh", "sphere:99"], 2, "--mesh sphere:99: LEVEL must be a whole number "
+     "from 0 to 10"),
+    ([*GS, "--mesh", "plane:3"], 2, "--mesh plane:3: only sphere, icosphere, uv-sphere, "
+     "torus and disc take a LEVEL"),
+    ([*GS, "--mesh", "sphere", "--radius", "-1"], 2, "argument --radius: expected a "
+     "positive number"),
+    (["run", "gs-seed001-spots", "--equation", "u=-u"], 2, "'gs-seed001-spots' is a preset"),
     # resume
     ([*GS, "--resume", "no-such-checkpoint.npz"], 2, "checkpoint 'no-such-checkpoint.npz' does "
      "not exist"),
@@ -113,6 +152,7 @@ BAD = [
     (["run", "brusselator", "--resume", "{ck.npz}"], 2, "is a run of 'gray-scott'"),
     # other commands
     (["presets", "no-such-model"], 2, "unknown model 'no-such-model'"),
+    (["presets", ""], 2, "MODEL is empty: name a model ('rdgpu models') or leave it out"),
     (["backends", "--require", "cuda"], 2, "argument --require: invalid choice: 'cuda'"),
     (["frobnicate"], 2, "invalid choice: 'frobnicate'"),
     # a run that fails: exit status 1
