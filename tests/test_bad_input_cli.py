@@ -91,7 +91,7 @@ BAD = [
     ([*SMALL, "--scale", "0"], 2, "argument --scale: expected a whole number >= 1, got 0"),
     ([*SMALL, "--scale", "100000"], 2,
      "--scale 100000 makes a 1600000x1600000-pixel picture of this 16x16 grid"),
-    ([*SMALL, "--fps", "0", "--movie", "m.gif"], 2, "argument --fps: expected a positive"),
+    ([*SMALL, "--fps", "0", "--movie", "m.gif"], 2, "argument --fps: expected a frame rate"),
     ([*SMALL, "--range", "1:0"], 2, "argument --range: expected finite LO < HI"),
     ([*SMALL, "--range", "dark"], 2, "argument --range: expected LO:HI"),
     ([*SMALL, "--movie", "m.gif", "--snapshot-every", "0"], 2, "--movie needs snapshots"),
