@@ -252,8 +252,16 @@ def _height_file(text: str) -> Any:
 def _roughen(text: str) -> dict:
     """``--roughen AMPLITUDE[:STEPS[:SEED]]``."""
     parts = text.split(":")
+    form = "expected AMPLITUDE[:STEPS[:SEED]], e.g. 0.05:15:3"
     if not 1 <= len(parts) <= 3:
-        raise Bad(f"{text!r}: expected AMPLITUDE[:STEPS[:SEED]], e.g. 0.05:15:3")
+        raise Bad(f"{text!r}: {form}")
+    try:
+        return _roughen_parts(text, parts)
+    except Bad as exc:
+        raise Bad(f"{exc} ({form})") from None
+
+
+def _roughen_parts(text: str, parts: list[str]) -> Given:
     return Given(text, amplitude=_number_part(text, "AMPLITUDE", parts[0], 0.0, MAX_HEIGHT),
                  filter_steps=_whole_part(text, "STEPS", parts[1]) if len(parts) > 1 else 15,
                  seed=_whole_part(text, "SEED", parts[2]) if len(parts) > 2 else 0)

@@ -50,8 +50,8 @@ BAD = [
     ([*GS, "--param", "=1"], 2, "--param needs NAME=VALUE"),
     ([*GS, "--param", "F=abc"], 2, "unknown name 'abc'"),
     ([*GS, "--param", "F=nan"], 2, "--param F: value must be finite"),
-    ([*GS, "--param", "Q=1"], 2, "--param Q: model gray-scott has parameters Du, Dv, F, k (set one with --param "
-     "NAME=VALUE)"),
+    ([*GS, "--param", "Q=1"], 2,
+     "--param Q: model gray-scott has parameters Du, Dv, F, k (set one with --param NAME=VALUE)"),
     ([*GS, "--param", "Du=-1", "--size", "8"], 2, "diffusion coefficients must be finite and >= 0"),
     (["run", "allen-cahn", "--param", "eps=0", "--size", "8"], 2, "eps must be > 0"),
     ([*GS, "--steps", "-3"], 2, "argument --steps: expected a number >= 0, got -3"),
