@@ -467,6 +467,8 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
         given = [f"--param {k}={v}" for k, v in args.param or [] if isinstance(v, str)]
         raise UsageError(f"{' '.join(given) or 'a parameter'}: {_arithmetic(exc)}") from None
     except (ValueError, TypeError) as exc:
+        if fields is not None and "field" in str(exc):
+            raise UsageError(f"--init {args.init['path']}: {exc}") from None
         if "parameter" not in str(exc) and "equation" not in str(exc):
             raise
         raise UsageError(_cli_words(str(exc))) from None

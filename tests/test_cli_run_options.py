@@ -203,3 +203,18 @@ def test_a_failed_checkpoint_write_exits_1_and_keeps_the_last_good_state(capsys,
 def test_an_unreadable_input_is_bad_input_not_a_failed_run(capsys, tmp_path):
     code, _, err = cli(capsys, *GS, "--init", tmp_path / "missing.npz")
     assert code == 2 and "--init" in err and "missing.npz" in err, err
+    run_data(capsys, tmp_path, *GS)
+    code, _, err = cli(capsys, *GS, "--size", "10", "--init", tmp_path / "d.npz")
+    assert code == 2 and "--init" in err and "must have shape (10, 10)" in err, err
+
+
+def test_an_io_failure_inside_a_command_exits_1(capsys, monkeypatch):
+    """D: an OSError that escapes a command is a failed run (1), not bad input (2)."""
+    import rdgpu.cli as cli_module
+
+    def broken(args):
+        raise OSError(errno.EACCES, "Permission denied", "some/file")
+
+    monkeypatch.setattr(cli_module, "_cmd_models", broken)
+    code, _, err = cli(capsys, "models")
+    assert code == 1 and "some/file" in err and "Permission denied" in err, err
