@@ -218,3 +218,10 @@ def test_an_io_failure_inside_a_command_exits_1(capsys, monkeypatch):
     monkeypatch.setattr(cli_module, "_cmd_models", broken)
     code, _, err = cli(capsys, "models")
     assert code == 1 and "some/file" in err and "Permission denied" in err, err
+
+
+def test_growth_models_refuse_the_new_options(capsys):
+    for option, value in (("--init", "spots:3"), ("--bc", "neumann"), ("--dx", "2"),
+                          ("--radius", "2")):
+        code, _, err = cli(capsys, "run", "dla", "--size", "16", "--steps", "2", option, value)
+        assert code == 2 and f"{option} does not apply" in err, err
