@@ -220,6 +220,9 @@ def _check_output(option: str, path: str) -> None:
         raise UsageError(f"{option} {path}: the folder {str(folder)!r} is not writable")
     if p.is_dir():
         raise UsageError(f"{option} {path} is a folder; give a file name")
+    if p.exists() and not p.is_file():
+        raise UsageError(f"{option} {path} exists and is not a regular file (a device, a "
+                         "pipe or a socket); give a file name")
     if p.exists() and not os.access(p, os.W_OK):
         raise UsageError(f"{option} {path} exists and is not writable")
 
@@ -415,7 +418,7 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
                              f"{', '.join(model.defaults)} (set one with --param "
                              "NAME=VALUE)")
         params[name] = value
-    from .cli_domain import domain_spec, init_for
+    from .cli_domain import check_block_memory, domain_spec, init_for
 
     domain = domain_spec(args, preset, model, DEFAULT_SIZE)
     init, fields = init_for(args, model, params)
@@ -452,6 +455,7 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
             raise UsageError(f"--block-steps: model {model.name} has no blocked kernel; "
                              "only the models defined by equations have")
         options["block_steps"] = args.block_steps
+        check_block_memory(args.block_steps, domain, len(model.species), itemsize)
     try:
         sim = Simulation(
             model, domain, params,

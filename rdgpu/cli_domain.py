@@ -217,3 +217,25 @@ def _fields_from(path: str, species: tuple[str, ...]) -> dict:
             raise _usage(f"--init {path}: field {s!r} must hold finite real numbers")
     return fields
 
+
+
+def check_block_memory(k: int | None, spec: dict, n_species: int, itemsize: int) -> None:
+    """--block-steps K: the scratch rows of the blocked passes (``K - 1`` levels of 3 rows
+    per species for each work-item, two per core; :mod:`rdgpu.models.blocking`) through the
+    shared memory estimate."""
+    import os
+
+    from .errors import ResourceLimitError
+    from .resources import check_memory
+
+    if not k or k < 2 or "grid" not in spec:
+        return
+    g = spec["grid"]
+    nx = int(g) if isinstance(g, int) else int(g[-1])
+    items = 2 * (os.cpu_count() or 1)
+    need = (k - 1) * n_species * 3 * nx * itemsize * items
+    try:
+        check_memory(f"--block-steps {k}", need, f"scratch rows of {items} work-items on "
+                     f"rows of {nx} cells")
+    except ResourceLimitError as exc:
+        raise _usage(str(exc)) from None

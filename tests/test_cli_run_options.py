@@ -225,3 +225,12 @@ def test_growth_models_refuse_the_new_options(capsys):
                           ("--radius", "2")):
         code, _, err = cli(capsys, "run", "dla", "--size", "16", "--steps", "2", option, value)
         assert code == 2 and f"{option} does not apply" in err, err
+
+
+def test_block_steps_scratch_is_checked_against_memory(capsys, monkeypatch):
+    """C: --block-steps 1000000000 failed with INVALID_BUFFER_SIZE; past the range it is
+    refused by argparse, within it the scratch goes through the shared memory estimate."""
+    monkeypatch.setenv("RDGPU_MEMORY_LIMIT", "1M")
+    code, _, err = cli(capsys, "run", "m", "--equation", "u=0.1*laplace(u) - u", "--size",
+                       "8x4096", "--steps", "1", "--block-steps", "512", "--quiet")
+    assert code == 2 and "--block-steps 512 needs about" in err and "scratch rows" in err, err
