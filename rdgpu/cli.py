@@ -5,6 +5,8 @@
     rdgpu run gray-scott --steps 50000 --checkpoint run.npz     # killed? then:
     rdgpu run gray-scott --resume run.npz --out final.png
     rdgpu run MODEL --size 32x48x64 --out blob.png   # 3-D: planes x rows x columns
+    rdgpu run gray-scott --init spots:20 --bc neumann --length 128   # where it starts
+    rdgpu run allen-cahn --mesh sphere:5 --radius 10
     rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 --size 128 \
         --steps 10000 --out map.png --data map.zarr      # a parameter map, on Dask
     rdgpu presets
@@ -12,7 +14,10 @@
     rdgpu backends
 
 Every option is checked before the run starts.  Bad input gives one line
-``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1.
+``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1 --
+also a file that cannot be written then (a full disk, a permission): the message names it
+and the other outputs are still written.  With ``--resume`` the checkpoint's model and
+settings win; an option that would change them is refused (:mod:`rdgpu.cli_resume`).
 A simulation that diverges writes its outputs from the last good state and exits with
 status 1; one interrupted by Ctrl-C writes them from the state where it stopped (and a
 checkpoint there, with ``--checkpoint``) and exits with status 130.  ``RDGPU_DEBUG=1``
@@ -685,7 +690,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("model", metavar="MODEL", nargs="?",
                      help="model name ('rdgpu models'), or a preset name ('rdgpu presets'); "
-                     "with --equation, the new model's name (default 'custom'); the growth "
+                     "with --equation, the new model's name (default 'custom'; not a preset's "
+                     "name); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
                      "geometry=seed001|radial; --steps: growth steps / particles); "
                      "seed003-front, a level-set front driven by seed 003's Turing spots")
