@@ -425,7 +425,7 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     from .cli_domain import check_block_memory, domain_spec, init_for
 
     domain = domain_spec(args, preset, model, DEFAULT_SIZE)
-    init, fields = init_for(args, model, params)
+    init, fields = init_for(args, model, params, domain)
     dtype = args.dtype or "float32"
     itemsize = 4 if dtype == "float32" else 8
     members = getattr(args, "members", None)

@@ -7,6 +7,7 @@ before anything is built."""
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
@@ -149,12 +150,25 @@ def check_init_file(args: argparse.Namespace) -> None:
                          f"--init {spec['path']} is not a file")
 
 
-def init_for(args: argparse.Namespace, model: Any, params: dict) -> tuple[Any, Any]:
+#: --init spots:COUNT on a mesh (whose size is not known before it is built): at most this
+MAX_SPOTS = 100_000
+
+
+def init_for(args: argparse.Namespace, model: Any, params: dict, domain: dict | None = None,
+             ) -> tuple[Any, Any]:
     """``(init, fields)`` of --init for ``model``: ``(None, None)`` without --init (the
-    preset's or the model's default), an init dict, or fields read from a file."""
+    preset's or the model's default), an init dict, or fields read from a file.  With the
+    ``domain`` spec, a spot count past the grid's cells is refused."""
     spec = getattr(args, "init", None)
     if spec is None:
         return None, None
+    if spec["kind"] == "spots" and spec["number"] is not None:
+        g = (domain or {}).get("grid")
+        most = MAX_SPOTS if g is None else (int(g) ** 2 if isinstance(g, int)
+                                            else math.prod(int(n) for n in g))
+        if spec["number"] > most:
+            raise _usage(f"--init {spec['text']}: at most {most} spots ("
+                         + ("one a cell" if g is not None else "on a mesh") + ")")
     species = tuple(model.species)
     if spec["kind"] == "file":
         return None, _fields_from(spec["path"], species)

@@ -118,6 +118,8 @@ BAD = [
     ([*GS, "--mesh", "sphere", "--roughen", "nan"], 2, "AMPLITUDE must be a number"),
     ([*SMALL, "--param", "F=1/0"], 2, "--param F=1/0: division by zero"),
     ([*SMALL, "--init", "blob"], 2, "argument --init: expected square[:SIZE]"),
+    ([*SMALL, "--init", "spots:1000000000"], 2,
+     "--init spots:1000000000: at most 256 spots (one a cell)"),
     ([*SMALL, "--init", "spots:2.7"], 2, "COUNT must be a whole number >= 1, got '2.7'"),
     ([*SMALL, "--init", "square:0.1,w=1"], 2, "--init: model gray-scott has fields u, v"),
     ([*SMALL, "--init", "square:0.1,u=x"], 2, "argument --init: 'square:0.1,u=x': u=x"),
