@@ -36,7 +36,13 @@ def checkpoint_model(meta: dict) -> Any:
     defined by equations, even one named like a built-in), else None (the built-in)."""
     if "equations" not in meta:
         return None
-    from .models import EquationError, define_model
+    from .models import MODELS, EquationError, define_model
+
+    builtin = getattr(MODELS.get(meta["model"]), "equations", None)
+    if isinstance(builtin, dict) and {s: _squeeze(str(e)) for s, e in builtin.items()} == \
+            {s: _squeeze(str(e)) for s, e in meta["equations"].items()} and \
+            meta.get("defaults") in (None, dict(MODELS[meta["model"]].defaults)):
+        return None  # the built-in itself (its colour range and display kept)
 
     try:
         return define_model(meta["model"], meta["equations"], meta.get("defaults") or {},

@@ -120,3 +120,19 @@ def test_resume_accepts_the_checkpoints_own_values(capsys, checkpoints, tmp_path
     code, _, err = cli(capsys, "run", model, "--resume", checkpoints[name], *argv,
                        "--data", tmp_path / "r.npz", "--quiet")
     assert code == 0, err
+
+
+def test_a_checkpoint_recording_a_builtins_own_equations_resumes_the_builtin():
+    """Recorded equations that are the built-in's own (should a checkpoint record them for
+    every model) keep the built-in, with its colour range; other equations rebuild."""
+    from rdgpu.cli_resume import checkpoint_model
+    from rdgpu.models import MODELS
+
+    gs = MODELS["gray-scott"]
+    meta = {"model": "gray-scott", "equations": dict(gs.equations),
+            "defaults": dict(gs.defaults)}
+    assert checkpoint_model(meta) is None
+    assert checkpoint_model({"model": "gray-scott"}) is None
+    other = checkpoint_model({**meta, "equations": {"u": "-0.5*u", "v": "-0.5*v"},
+                              "defaults": {}})
+    assert other is not gs and other.name == "gray-scott"
