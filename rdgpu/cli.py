@@ -5,6 +5,8 @@
     rdgpu run gray-scott --steps 50000 --checkpoint run.npz     # killed? then:
     rdgpu run gray-scott --resume run.npz --out final.png
     rdgpu run MODEL --size 32x48x64 --out blob.png   # 3-D: planes x rows x columns
+    rdgpu run gray-scott --init spots:20 --bc neumann --length 128   # where it starts
+    rdgpu run allen-cahn --mesh sphere:5 --radius 10
     rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 --size 128 \
         --steps 10000 --out map.png --data map.zarr      # a parameter map, on Dask
     rdgpu presets
@@ -12,7 +14,10 @@
     rdgpu backends
 
 Every option is checked before the run starts.  Bad input gives one line
-``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1.
+``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1 --
+also a file that cannot be written then (a full disk, a permission): the message names it
+and the other outputs are still written.  With ``--resume`` the checkpoint's model and
+settings win; an option that would change them is refused (:mod:`rdgpu.cli_resume`).
 A simulation that diverges writes its outputs from the last good state and exits with
 status 1; one interrupted by Ctrl-C writes them from the state where it stopped (and a
 checkpoint there, with ``--checkpoint``) and exits with status 130.  ``RDGPU_DEBUG=1``
@@ -31,8 +36,26 @@ from pathlib import Path
 from typing import Any
 
 from ._optional import MissingExtraError, check, require
+from .cli_options import (
+    _at_least_1,
+    _block_steps,
+    _colour_range,
+    _equation,
+    _finite_float,
+    _fps,
+    _height,
+    _param,
+    _positive_float,
+    _positive_int,
+    _roughen,
+    _seed,
+    _size,
+    add_domain_options,
+)
 from .errors import ResourceLimitError
 from .resources import check_fields
+
+__all__ = ["build_parser", "main", "_size"]
 
 DEFAULT_SIZE = (256, 256)
 #: steps of a model that has no default run length of its own
@@ -45,8 +68,6 @@ EXIT_INTERRUPTED = 130
 #: the largest picture (pixels) and side (pixels) that --scale may ask for
 MAX_PICTURE_PIXELS = 2**28
 MAX_PICTURE_SIDE = 65_000
-#: a displayed field whose range is below this fraction of its scale is "uniform"
-UNIFORM_FRACTION = 0.05
 
 
 class UsageError(ValueError):
@@ -60,132 +81,6 @@ class _Parser(argparse.ArgumentParser):
         command = self.prog.split(" ", 1)[1] if " " in self.prog else ""
         hint = f"'rdgpu {command} --help'" if command else "'rdgpu --help'"
         self.exit(EXIT_BAD_INPUT, f"rdgpu: error: {message} (see {hint})\n")
-
-
-# ------------------------------------------------------------------------ argument types
-_SIZE_FORMS = ("256 or 256x128 (rows x columns), or 32x48x64 (planes x rows x columns) "
-               "for a 3-D grid")
-
-
-def _size(text: str) -> tuple[int, ...]:
-    """``--size``: ``N`` is an N x N grid, ``NxM`` a 2-D grid of N rows (y) and M columns
-    (x), ``NxMxK`` a 3-D grid of N planes (z), M rows and K columns: the order of
-    :class:`~rdgpu.domains.Grid`'s shape, ``(ny, nx)`` or ``(nz, ny, nx)``."""
-    try:
-        parts = [int(p) for p in text.lower().split("x")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"size must look like {_SIZE_FORMS}, got {text!r}") from None
-    if len(parts) == 1:
-        parts *= 2
-    if len(parts) not in (2, 3) or min(parts) < 1:
-        raise argparse.ArgumentTypeError(
-            f"size must look like {_SIZE_FORMS}, got {text!r}")
-    return tuple(parts)
-
-
-def _param(text: str) -> tuple[str, float | str]:
-    """``NAME=VALUE``: a number, or an expression of x, y, z, t, Lx, Ly, Lz, pi and the
-    other parameters (checked when the model is built)."""
-    name, sep, value = text.partition("=")
-    name, value = name.strip(), value.strip()
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"--param needs NAME=VALUE, got {text!r}")
-    if not value:
-        raise argparse.ArgumentTypeError(f"--param {name}: no value after '='")
-    try:
-        v = float(value)
-    except ValueError:
-        return name, value  # an expression
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"--param {name}: value must be finite")
-    return name, v
-
-
-def _sweep_param(text: str) -> tuple[str, Any]:
-    """``--param`` of ``rdgpu sweep``: ``NAME=START:STOP:N``, ``NAME=A,B,C`` or
-    ``NAME=VALUE`` (see :func:`rdgpu.sweep.parse_axis`)."""
-    import importlib
-
-    # the parser lives in rdgpu.sweep, which needs no optional package to import
-    parse_axis = importlib.import_module("rdgpu.sweep").parse_axis
-    try:
-        return parse_axis(text)
-    except (TypeError, ValueError) as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def _equation(text: str) -> tuple[str, str]:
-    """``SPECIES=RIGHT-HAND SIDE`` of ``--equation``."""
-    name, sep, rhs = text.partition("=")
-    name, rhs = name.strip(), rhs.strip()
-    if not sep or not name or not rhs:
-        raise argparse.ArgumentTypeError(
-            f"--equation needs SPECIES=EXPRESSION, e.g. 'u=Du*laplace(u) - u*v**2 + "
-            f"F*(1 - u)', got {text!r}")
-    return name, rhs
-
-
-def _positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {n}")
-    return n
-
-
-def _at_least_1(text: str) -> int:
-    n = _positive_int(text)
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {n}")
-    return n
-
-
-def _seed(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") \
-            from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {n}")
-    return n
-
-
-def _colour_range(text: str) -> tuple[float, ...]:
-    if text.strip().lower() == "auto":
-        return ()
-    parts = text.split(":")
-    try:
-        lo, hi = (float(p) for p in parts)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected LO:HI (e.g. --range=-1:1) or auto, got {text!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise argparse.ArgumentTypeError(f"expected finite LO < HI, got {text!r}")
-    return lo, hi
-
-
-def _finite_float(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(x):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return x
-
-
-def _positive_float(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return x
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -207,6 +102,16 @@ def _presets() -> dict:
 
 def _model_name(model: Any) -> str:
     return model if isinstance(model, str) else model.name
+
+
+def _presets_of(model: Any) -> list:
+    """The presets of ``model`` (the very model: a user model named like a built-in has
+    none)."""
+    from .models import MODELS
+
+    if MODELS.get(model.name) is not model:
+        return []
+    return [p for p in _presets().values() if _model_name(p.model) == model.name]
 
 
 def _describe_domain(domain: Any) -> str:
@@ -248,97 +153,6 @@ def _display_field(model: Any, preset: Any, requested: str | None) -> str:
     return "v" if model.name == "gray-scott" else species[0]
 
 
-def _domain_spec(args: argparse.Namespace, preset: Any, model: Any) -> Any:
-    base = dict(preset.domain) if preset is not None else dict(
-        getattr(model, "default_domain", None) or {
-            "grid": DEFAULT_SIZE, "dx": float(getattr(model, "spacing", 1.0)),
-            "bc": "periodic"})
-    if args.size is not None:
-        keep = {k: base[k] for k in ("dx", "dy", "dz", "bc") if "grid" in base and k in base}
-        if len(args.size) == 3:
-            keep["bc"] = _bc_for_3d(keep.get("bc", "periodic"))
-        elif len(args.size) == 2 and "dz" in keep:
-            del keep["dz"]
-        return _surface_options(args, {"grid": args.size, **keep})
-    if args.mesh is not None:
-        if "mesh" not in base or str(base["mesh"]) != args.mesh:
-            from .simulation import _MESH_GENERATORS
-
-            if args.mesh.lower() not in _MESH_GENERATORS and not Path(args.mesh).exists():
-                raise UsageError(f"--mesh {args.mesh!r}: no such file (or use sphere, torus "
-                                 "or disc)")
-            base = {"mesh": args.mesh}
-    return _surface_options(args, base)
-
-
-def _surface_options(args: argparse.Namespace, spec: dict) -> dict:
-    """``--height`` on a grid, ``--roughen`` on a mesh."""
-    height = getattr(args, "height", None)
-    rough = getattr(args, "roughen", None)
-    if height is not None:
-        if "grid" not in spec:
-            raise UsageError("--height needs a 2-D grid (--size NxM); for a mesh use --roughen")
-        spec = {**spec, "height": height}
-    if rough is not None:
-        if "mesh" not in spec:
-            raise UsageError("--roughen needs a mesh (--mesh); for a grid use --height")
-        spec = {**spec, "roughen": rough}
-    return spec
-
-
-def _height(text: str) -> Any:
-    """``--height``: ``waves:A:M[xN][:SEED]``, ``heat:A:STEPS[:SEED]`` or ``FILE.npy``."""
-    kind, _, rest = text.partition(":")
-    parts = rest.split(":") if rest else []
-    try:
-        if kind == "waves" and len(parts) in (2, 3):
-            freq = tuple(int(f) for f in parts[1].lower().split("x"))
-            if len(freq) not in (1, 2):
-                raise ValueError
-            return {"kind": "random-waves", "amplitude": float(parts[0]),
-                    "max_frequency": list(freq) if len(freq) == 2 else freq[0],
-                    "seed": int(parts[2]) if len(parts) == 3 else 0}
-        if kind == "heat" and len(parts) in (2, 3):
-            return {"kind": "heat-filtered", "amplitude": float(parts[0]),
-                    "filter_steps": int(parts[1]),
-                    "seed": int(parts[2]) if len(parts) == 3 else 0}
-    except ValueError:
-        pass
-    else:
-        if kind not in ("waves", "heat") and text.endswith(".npy"):
-            if not Path(text).is_file():
-                raise argparse.ArgumentTypeError(f"no such file: {text}")
-            import numpy as np
-
-            return np.load(text)
-    raise argparse.ArgumentTypeError(
-        f"{text!r}: expected waves:AMPLITUDE:M[xN][:SEED] (e.g. waves:0.5:5x15), "
-        "heat:AMPLITUDE:STEPS[:SEED] (e.g. heat:0.5:15) or FILE.npy")
-
-
-def _roughen(text: str) -> dict:
-    """``--roughen AMPLITUDE[:STEPS[:SEED]]``."""
-    parts = text.split(":")
-    try:
-        if not 1 <= len(parts) <= 3:
-            raise ValueError
-        out = {"amplitude": float(parts[0]), "filter_steps": int(parts[1]) if len(parts) > 1
-               else 15, "seed": int(parts[2]) if len(parts) > 2 else 0}
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"{text!r}: expected AMPLITUDE[:STEPS[:SEED]], e.g. 0.05:15:3") from None
-    return out
-
-
-def _bc_for_3d(bc: Any) -> Any:
-    """The boundary condition of a 3-D ``--size`` from a 2-D default: a pair
-    ``(y_bc, x_bc)`` becomes ``(y_bc, y_bc, x_bc)`` (z takes the rows' condition); one
-    condition or a triple stays as it is."""
-    from .boundary import _is_pair
-
-    return (bc[0], bc[0], bc[1]) if _is_pair(bc) else bc
-
-
 def _say(args: argparse.Namespace, text: str) -> None:
     if not args.quiet:
         print(text, file=sys.stderr)
@@ -371,6 +185,9 @@ def _cmd_models(args: argparse.Namespace) -> int:
 
 def _cmd_presets(args: argparse.Namespace) -> int:
     presets = _presets()
+    if args.model is not None and not args.model.strip():
+        raise UsageError("MODEL is empty: name a model ('rdgpu models') or leave it out to "
+                         "list every preset")
     if args.model:
         _models_known = _models()
         if args.model not in _models_known:
@@ -407,6 +224,9 @@ def _check_output(option: str, path: str) -> None:
         raise UsageError(f"{option} {path}: the folder {str(folder)!r} is not writable")
     if p.is_dir():
         raise UsageError(f"{option} {path} is a folder; give a file name")
+    if p.exists() and not p.is_file():
+        raise UsageError(f"{option} {path} exists and is not a regular file (a device, a "
+                         "pipe or a socket); give a file name")
     if p.exists() and not os.access(p, os.W_OK):
         raise UsageError(f"{option} {path} exists and is not writable")
 
@@ -440,6 +260,9 @@ def _check_options(args: argparse.Namespace) -> None:
         raise UsageError("--checkpoint-every needs --checkpoint PATH (or --resume)")
     if args.movie and args.snapshot_every == 0:
         raise UsageError("--movie needs snapshots: --snapshot-every must be > 0")
+    from .cli_domain import check_init_file
+
+    check_init_file(args)
     if args.cmap is not None:
         colormaps = require("matplotlib", "--cmap (a Matplotlib colour map)").colormaps
         if args.cmap not in colormaps:
@@ -555,75 +378,15 @@ def _grid_text(shape: Any) -> str:
     return "x".join(str(int(n)) for n in shape)
 
 
-def _resume_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str]:
-    """The options given with --resume whose values differ from the checkpoint's."""
-    out = []
-    dom = meta["domain"]
-    theirs_domain = (f"a {_grid_text(dom['shape'])} grid" if dom.get("kind") == "grid" else
-                     f"mesh {(dom.get('source') or {}).get('mesh', '(from a file)')}")
-    if args.preset is not None and args.preset != meta.get("preset"):
-        out.append(f"--preset cannot change a resumed run (the checkpoint {path} is of "
-                   f"preset {meta.get('preset')!r}, --preset says {args.preset!r})")
-    if args.size is not None and (dom.get("kind") != "grid"
-                                  or list(dom["shape"]) != list(args.size)):
-        out.append(f"--size cannot change a resumed run (the checkpoint {path} is of "
-                   f"{theirs_domain}, --size says {_grid_text(args.size)})")
-    if args.mesh is not None:
-        source = (dom.get("source") or {}).get("mesh")
-        if dom.get("kind") != "mesh" or source is None or str(source) != args.mesh:
-            out.append(f"--mesh cannot change a resumed run (the checkpoint {path} is of "
-                       f"{theirs_domain}, --mesh says {args.mesh})")
-    if args.dt is not None and not math.isclose(args.dt, meta["dt"], rel_tol=1e-12):
-        out.append(f"--dt cannot change a resumed run (the checkpoint {path} has "
-                   f"dt={meta['dt']:g}, --dt says {args.dt:g})")
-    if args.dtype is not None and args.dtype != meta["dtype"]:
-        out.append(f"--dtype cannot change a resumed run (the checkpoint {path} is "
-                   f"{meta['dtype']}, --dtype says {args.dtype})")
-    if args.seed is not None and args.seed != meta["seed"]:
-        out.append(f"--seed cannot change a resumed run (the checkpoint {path} has seed "
-                   f"{meta['seed']}, --seed says {args.seed})")
-    for name, value in args.param or []:
-        theirs = meta["params"].get(name)
-        if name in meta.get("param_fields", []):
-            out.append(f"--param {name} cannot change a resumed run (in the checkpoint "
-                       f"{path} it is a field)")
-        elif isinstance(value, str) or not isinstance(theirs, (int, float)) \
-                or not math.isclose(value, theirs, rel_tol=1e-12):
-            if isinstance(value, str) and value == theirs:
-                continue
-            known = theirs if theirs is not None else "not a parameter of the model"
-            out.append(f"--param {name} cannot change a resumed run (the checkpoint {path} "
-                       f"has {name}={known}, --param says {value})")
-    return out
-
-
 def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     """The Simulation, its preset (or None) and the run() keyword arguments."""
     from .errors import StabilityError
     from .simulation import Simulation
 
     if args.resume is not None:
-        meta, _ = Simulation.read_checkpoint(args.resume)
-        if args.model is not None and args.model not in (meta["model"], meta.get("preset")):
-            raise UsageError(f"checkpoint {args.resume} is a run of {meta['model']!r}, "
-                             f"not {args.model!r}")
-        conflicts = _resume_conflicts(args, meta, args.resume)
-        if conflicts:
-            raise UsageError("; ".join(conflicts) + ": leave them out (a resumed run takes "
-                             "them from its checkpoint)")
-        sim = Simulation.resume(args.resume, backend=args.backend,
-                                check_stability=False if args.no_stability_check else None)
-        preset = _presets().get(meta.get("preset") or "")
-        kwargs = {"steps": args.steps, "checkpoint": args.checkpoint}
-        for key in ("snapshot_every", "check_every", "checkpoint_every"):
-            if getattr(args, key) is not None:
-                kwargs[key] = getattr(args, key)
-        run = sim._resume_run or {}
-        steps = (run.get("target", sim.step) - run.get("start", sim.step) if args.steps is None
-                 else args.steps)
-        every = kwargs.get("snapshot_every", run.get("snapshot_every")) or 0
-        return sim, preset, {**kwargs, "_total": steps, "_snapshot_every": every,
-                             "_target": run.get("start", sim.step) + steps}
+        from .cli_resume import build_resumed
+
+        return build_resumed(args, _presets())
 
     models, presets = _models(), _presets()
     preset = None
@@ -656,9 +419,13 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     for name, value in args.param or []:
         if name not in model.defaults:
             raise UsageError(f"--param {name}: model {model_name} has parameters "
-                             f"{', '.join(model.defaults)}")
+                             f"{', '.join(model.defaults)} (set one with --param "
+                             "NAME=VALUE)")
         params[name] = value
-    domain = _domain_spec(args, preset, model)
+    from .cli_domain import check_block_memory, domain_spec, init_for
+
+    domain = domain_spec(args, preset, model, DEFAULT_SIZE)
+    init, fields = init_for(args, model, params, domain)
     dtype = args.dtype or "float32"
     itemsize = 4 if dtype == "float32" else 8
     members = getattr(args, "members", None)
@@ -692,17 +459,24 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
             raise UsageError(f"--block-steps: model {model.name} has no blocked kernel; "
                              "only the models defined by equations have")
         options["block_steps"] = args.block_steps
+        check_block_memory(args.block_steps, domain, len(model.species), itemsize)
     try:
         sim = Simulation(
             model, domain, params,
             dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
             backend=args.backend, dtype=dtype, seed=seed,
-            init=getattr(preset, "init", None), check_stability=not args.no_stability_check,
-            options=options or None, members=members,
+            init=init if init is not None else getattr(preset, "init", None), fields=fields,
+            check_stability=not args.no_stability_check, options=options or None,
+            members=members,
         )
     except StabilityError as exc:
         raise UsageError(_cli_words(str(exc))) from None
+    except ArithmeticError as exc:  # e.g. --param F=1/0
+        given = [f"--param {k}={v}" for k, v in args.param or [] if isinstance(v, str)]
+        raise UsageError(f"{' '.join(given) or 'a parameter'}: {_arithmetic(exc)}") from None
     except (ValueError, TypeError) as exc:
+        if fields is not None and "field" in str(exc):
+            raise UsageError(f"--init {args.init['path']}: {exc}") from None
         if "parameter" not in str(exc) and "equation" not in str(exc):
             raise
         raise UsageError(_cli_words(str(exc))) from None
@@ -729,6 +503,10 @@ def _equation_model(args: argparse.Namespace) -> Any:
 
     if args.preset is not None:
         raise UsageError("--preset and --equation cannot be combined: a preset names its model")
+    if args.model in _presets():
+        raise UsageError(f"{args.model!r} is a preset, and with --equation MODEL is the new "
+                         "model's name: choose another name (a preset names its own model; "
+                         "--preset and --equation cannot be combined)")
     equations: dict[str, str] = {}
     for species, rhs in args.equation:
         if species in equations:
@@ -739,7 +517,17 @@ def _equation_model(args: argparse.Namespace) -> Any:
         return define_model(args.model or "custom", equations, params,
                             description="defined on the command line")
     except (EquationError, ValueError) as exc:
-        raise UsageError(_cli_words(str(exc))) from None
+        text = _cli_words(str(exc))
+        unknown = re.search(r"uses the unknown name '(\w+)'", text)
+        if unknown:
+            text += f" (a parameter needs a value: --param {unknown.group(1)}=VALUE)"
+        raise UsageError(text) from None
+
+
+def _arithmetic(exc: ArithmeticError) -> str:
+    if isinstance(exc, ZeroDivisionError):
+        return "division by zero"
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _colour_limits(args: argparse.Namespace, model: Any, field: str) -> tuple[float, float] | None:
@@ -751,27 +539,18 @@ def _colour_limits(args: argparse.Namespace, model: Any, field: str) -> tuple[fl
     return None if known is None else (float(known[0]), float(known[1]))
 
 
-def _uniform_warning(result: Any, model: Any, field: str) -> str | None:
-    """A warning when the pictured field has (nearly) no structure left."""
-    import numpy as np
-
-    f = np.asarray(result.fields[field], dtype=np.float64)
-    if f.size == 0 or not np.isfinite(f).all():
-        return None
-    lo, hi = float(f.min()), float(f.max())
-    known = (getattr(model, "value_range", None) or {}).get(field)
-    scale = float(known[1] - known[0]) if known else max(abs(lo), abs(hi))
-    if scale > 0 and hi - lo > UNIFORM_FRACTION * scale:
-        return None
-    return (f"the field is uniform ({field} ∈ [{lo:.4g}, {hi:.4g}]) at step {result.step}: "
-            "no pattern formed; try other parameters, more steps, or a preset "
-            f"('rdgpu presets {model.name}')")
-
-
 def _cmd_run(args: argparse.Namespace) -> int:
     from .cli_growth import is_growth, run_growth
+    from .cli_outputs import (
+        default_png,
+        io_message,
+        result_of,
+        slices_note,
+        uniform_warning,
+        write_each,
+    )
     from .errors import SimulationDiverged, SimulationInterrupted
-    from .output import MESH_FORMATS, write_outputs
+    from .output import MESH_FORMATS
 
     if is_growth(args):  # dla, random-walk-dla: growth models, not reaction-diffusion
         _check_extras(args, is_mesh=False)
@@ -801,8 +580,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     limits = _colour_limits(args, sim.model, field)
     out = args.out
     if out is None and not args.movie and not args.data:
-        out = f"{(preset.name if preset is not None else sim.model.name).replace('-', '_')}.png"
+        out = default_png(preset.name if preset is not None else sim.model.name)
         _check_output("--out", out)
+    note = slices_note(args, sim.domain, pictures=bool(out or args.movie))
+    if note:
+        print(f"rdgpu: note: {note}", file=sys.stderr)
     steps_note = "" if kwargs.get("steps") is None else f"{kwargs['steps']} steps, "
     params = ", ".join(f"{k}={v:.4g}" for k, v in sim.params.items()
                        if isinstance(v, (int, float)))
@@ -822,16 +604,29 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except SimulationInterrupted as exc:
         result, stopped = exc.result, exc
         status = EXIT_INTERRUPTED
+    except OSError as exc:  # a checkpoint that could not be written: a failed run
+        result, status = result_of(sim, exc), EXIT_FAILED
+        ckpt = kwargs.get("checkpoint") or args.resume
+        print(f"rdgpu: error: {io_message(exc, ckpt)}"
+              + (f"; the outputs are from step {result.step}, the last good state"
+                 if result is not None else ""), file=sys.stderr)
     seconds = time.perf_counter() - start
-    written = []
+    written, failed = [], []
     if result is not None:
-        written = write_outputs(result, png=out, movie=args.movie, data=args.data, field=field,
-                                cmap=args.cmap or "viridis", scale=scale, fps=args.fps,
-                                vmin=None if limits is None else limits[0],
-                                vmax=None if limits is None else limits[1],
-                                view=args.view or "auto", level=args.level)
+        outputs = [("png", out)] if out else []
+        outputs += [("movie", args.movie)] if args.movie else []
+        outputs += [("data", d) for d in args.data or []]
+        written, failed = write_each(result, outputs, dict(
+            field=field, cmap=args.cmap or "viridis", scale=scale, fps=args.fps,
+            vmin=None if limits is None else limits[0],
+            vmax=None if limits is None else limits[1], view=args.view or "auto",
+            level=args.level))
     for path in written:
         _say(args, f"wrote {path}")
+    for text in failed:
+        print(f"rdgpu: error: {text}", file=sys.stderr)
+    if failed and status == 0:
+        status = EXIT_FAILED
     if stopped is not None:
         ckpt = stopped.checkpoint or kwargs.get("checkpoint") or args.resume
         what = ", ".join(str(p) for p in written) if written else "nothing"
@@ -844,7 +639,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return status
     for _, what in sorted(result.diverged_members.items()):
         print(f"rdgpu: warning: {_cli_words(what)}", file=sys.stderr)
-    warning = _uniform_warning(result, sim.model, field) if status == 0 else None
+    warning = uniform_warning(result, sim.model, field, bool(_presets_of(sim.model))) \
+        if status == 0 else None
     if warning:
         print(f"rdgpu: warning: {warning}", file=sys.stderr)
     n_points = int(result.fields[field].size)
@@ -854,83 +650,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return status
 
 
-def _cmd_sweep(args: argparse.Namespace) -> int:
-    """``rdgpu sweep``: the Cartesian product of the --param axes, as ensembles in Dask
-    tasks; a mosaic PNG and/or a zarr/netCDF Dataset."""
-    models = _models()
-    if args.model not in models:
-        raise UsageError(f"unknown model {args.model!r}; models: {', '.join(models)}")
-    model = models[args.model]
-    params: dict[str, Any] = {}
-    for name, values in args.param or []:
-        if name not in model.defaults:
-            raise UsageError(f"--param {name}: model {args.model} has parameters "
-                             f"{', '.join(model.defaults)}")
-        if name in params:
-            raise UsageError(f"--param {name} is given twice")
-        params[name] = values
-    if not any(not isinstance(v, float) for v in params.values()):
-        raise UsageError("nothing to sweep: give a --param several values, e.g. "
-                         "--param F=0.01:0.08:16 (START:STOP:N) or --param F=0.02,0.03")
-    if args.out and Path(args.out).suffix.lower() != ".png":
-        raise UsageError(f"--out must end in .png, got {args.out!r}")
-    if args.data and Path(args.data).suffix.lower() not in (".zarr", ".nc"):
-        raise UsageError(f"--data must end in .zarr (streamed, resumable) or .nc (netCDF, "
-                         f"written at the end), got {args.data!r}")
-    out = args.out
-    if out is None and not args.data:
-        out = f"{args.model.replace('-', '_')}_sweep.png"
-    for option, path in (("--out", out), ("--data", args.data)):
-        if path and not (option == "--data" and Path(path).is_dir()):
-            _check_output(option, path)  # an existing .zarr folder is a sweep to resume
-    if args.species is not None and args.species not in model.species:
-        raise UsageError(f"--species {args.species!r}: model {args.model} has fields "
-                         f"{', '.join(model.species)}")
-    if args.workers is not None and args.scheduler not in (None, "local"):
-        raise UsageError("--workers sets the size of the local cluster: it needs "
-                         "--scheduler local (the default)")
-    try:
-        import importlib
-
-        sweep_module = importlib.import_module("rdgpu.sweep")
-        sweep_module._need("xarray", "dask", "distributed")
-        if out:
-            check("matplotlib", "drawing the sweep's map (--data alone needs no picture)")
-    except ImportError as exc:
-        print(f"rdgpu: error: {exc}", file=sys.stderr)
-        return EXIT_FAILED
-    size = args.size or (128, 128)
-    shape = (size, size) if isinstance(size, int) else size
-    swept = {k: v for k, v in params.items() if not isinstance(v, float)}
-    n = math.prod(len(v) for v in swept.values())
-    axes = " x ".join(f"{k}: {len(v)}" for k, v in swept.items())
-    _say(args, f"{args.model}: {n} members ({axes}) on a {_grid_text(shape)} grid, "
-               f"{args.steps} steps, scheduler {args.scheduler or 'local'}")
-    start = time.perf_counter()
-    try:
-        ds = sweep_module.sweep(
-            args.model, params, size=shape, steps=args.steps, dt=args.dt,
-            dtype=args.dtype or "float32", backend=args.backend, seed=args.seed or 0,
-            batch=args.batch, store=args.data, scheduler=args.scheduler or "local",
-            workers=args.workers, progress=not args.quiet)
-    except KeyboardInterrupt:
-        kept = (f"the finished batches are in {args.data}: run the same command again to go "
-                "on from there" if args.data and args.data.lower().endswith(".zarr")
-                else "nothing written (give --data PATH.zarr to keep finished batches)")
-        print(f"rdgpu: interrupted; {kept}", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    seconds = time.perf_counter() - start
-    if args.data:
-        _say(args, f"wrote {args.data}")
-    if out:
-        sweep_module.sweep_map(ds, out, species=args.species)
-        _say(args, f"wrote {out}")
-    counts = {c: int((ds["pattern"].values == c).sum()) for c in sweep_module.PATTERN_CLASSES}
-    _say(args, "patterns: " + ", ".join(f"{c} {k}" for c, k in counts.items() if k)
-         + f" ({seconds:.1f} s)")
-    return 0
-
-
 def _add_engine_options(group: Any, seed_note: str) -> None:
     """--seed, --backend and --dtype (of `rdgpu run` and `rdgpu sweep`)."""
     group.add_argument("--seed", type=_seed, help="random seed of the initial condition"
@@ -938,53 +657,6 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
     group.add_argument("--backend", help="numpy, warp, opencl or auto, optionally "
                        "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
     group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
-
-
-def _add_sweep_parser(sub: Any) -> None:
-    sw = sub.add_parser(
-        "sweep", help="run a model over a grid of parameter values: a map and a Dataset",
-        description="Run MODEL at every point of the Cartesian product of the swept\n"
-        "parameters, in batches of ensemble members that run as Dask tasks (a local\n"
-        "cluster by default). Writes a mosaic of the final fields laid out on the\n"
-        "parameter axes (the first swept parameter along x, the second along y) and an\n"
-        "xarray Dataset (dims: the swept parameters, then y, x; the final fields and each\n"
-        "member's pattern class). A .zarr --data store fills as batches finish; run the\n"
-        "same command again to resume a stopped sweep. Needs the dask extra:\n"
-        '  pip install "rdgpu[dask]"',
-        epilog="examples:\n"
-        "  rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 \\\n"
-        "      --size 128 --steps 10000 --out map.png --data map.zarr\n"
-        "  rdgpu sweep gray-scott --param F=0.02,0.03,0.04 --param k=0.06 --out row.png\n"
-        "  rdgpu sweep gray-scott --param F=0.01:0.08:16 --param k=0.03:0.07:16 \\\n"
-        "      --scheduler tcp://host:8786 --data map.zarr",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    sw.add_argument("model", metavar="MODEL", help="model name ('rdgpu models')")
-    sw.add_argument("--param", type=_sweep_param, action="append", metavar="NAME=VALUES",
-                    help="START:STOP:N (N values, inclusive), A,B,C (a list) or VALUE "
-                    "(fixed); repeatable, at least one swept")
-    sw.add_argument("--size", type=_size, metavar="NxM", help="grid of each member "
-                    "(default 128x128, periodic)")
-    sw.add_argument("--steps", type=_positive_int, default=DEFAULT_STEPS, metavar="N",
-                    help=f"time steps of every member (default {DEFAULT_STEPS})")
-    sw.add_argument("--dt", type=_positive_float, help="time step (default: the smallest "
-                    "default of all the members)")
-    _add_engine_options(sw, ", the same for every member")
-    sw.add_argument("--out", metavar="PATH.png", help="the parameter map (default "
-                    "MODEL_sweep.png if no --data)")
-    sw.add_argument("--data", metavar="PATH.zarr|PATH.nc", help="the Dataset: zarr "
-                    "(streamed, resumable) or netCDF (written at the end)")
-    sw.add_argument("--species", help="the field pictured (default: the one classified, "
-                    "as the model's presets do: v for Gray-Scott)")
-    sw.add_argument("--scheduler", metavar="local|serial|tcp://HOST:PORT",
-                    help="where the batches run: local (a Dask LocalCluster, default), "
-                    "serial (this process, no Dask) or a Dask scheduler's address")
-    sw.add_argument("--workers", type=_at_least_1, metavar="N", help="processes of the "
-                    "local cluster (default: one per core)")
-    sw.add_argument("--batch", type=_at_least_1, metavar="N", help="members per batch "
-                    "(default: about 4 batches per worker, within 256 MiB)")
-    sw.add_argument("--quiet", action="store_true", help="no progress bar or messages")
-    sw.set_defaults(func=_cmd_sweep)
 
 
 # ---------------------------------------------------------------------------- parser
@@ -1018,7 +690,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("model", metavar="MODEL", nargs="?",
                      help="model name ('rdgpu models'), or a preset name ('rdgpu presets'); "
-                     "with --equation, the new model's name (default 'custom'); the growth "
+                     "with --equation, the new model's name (default 'custom'; not a preset's "
+                     "name); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
                      "geometry=seed001|radial; --steps: growth steps / particles); "
                      "seed003-front, a level-set front driven by seed 003's Turing spots")
@@ -1029,8 +702,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="grid of N rows x M columns (256 means 256x256), or NxMxK: a "
                        "3-D grid of N planes (z) x M rows (y) x K columns (x); a preset's "
                        "or model's (y, x) boundary conditions give z the rows' condition")
-    where.add_argument("--mesh", metavar="FILE|sphere|torus|disc",
-                       help="run on a triangle mesh: a generator or a mesh file")
+    where.add_argument("--mesh", metavar="FILE|NAME[:LEVEL]",
+                       help="run on a triangle mesh: a mesh file or a generator: sphere "
+                       "(= icosphere), uv-sphere, torus, disc, plane, height-field; "
+                       "sphere:LEVEL sets the subdivisions (default 4: 2562 vertices), "
+                       "disc:RINGS, torus:N (N x N/2 vertices), uv-sphere:N the resolution")
+    add_domain_options(what)
     what.add_argument("--height", type=_height, metavar="SPEC",
                       help="run on the rough surface z = h(x, y) over the (periodic) grid: "
                       "'waves:AMPLITUDE:M[xN][:SEED]' (random waves up to frequency M "
@@ -1060,7 +737,7 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
                       "heun, rk3, imex, imex-cn, bdf2 (Allen-Cahn: explicit, implicit, "
                       "crank-nicolson)")
-    what.add_argument("--block-steps", type=int, metavar="K", help="temporal blocking: "
+    what.add_argument("--block-steps", type=_block_steps, metavar="K", help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "
                       "K single steps (default: automatic, on for 2-D grids larger than the "
                       "last-level cache; 1: off)")
@@ -1072,8 +749,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="run even if dt is past the stability limit")
     outs = run.add_argument_group("outputs")
     outs.add_argument("--out", metavar="PATH.png", help="PNG of the final field (the media "
-                      "extra; a mesh is rendered with pyvista: the mesh extra too); default "
-                      "MODEL.png if no other output is given")
+                      "extra; a mesh is rendered with pyvista: the mesh extra too); if no "
+                      "other output is given, NAME.png in the current folder, NAME the "
+                      "preset's or model's name with _ for every run of other characters "
+                      "than letters and digits (gray-scott: gray_scott.png)")
     outs.add_argument("--movie", metavar="PATH.gif|mp4", help="movie of the snapshots (the "
                       "media extra)")
     outs.add_argument("--data", action="append", metavar="PATH",
@@ -1095,7 +774,8 @@ def build_parser() -> argparse.ArgumentParser:
     outs.add_argument("--level", type=_finite_float, metavar="VALUE",
                       help="the isosurface's value (3-D grids; default: the middle of the "
                       "colour range)")
-    outs.add_argument("--fps", type=_positive_float, default=10.0, help="movie frame rate")
+    outs.add_argument("--fps", type=_fps, default=10.0, help="movie frame rate, 0.01 to 100 "
+                      "(default 10)")
     outs.add_argument("--snapshot-every", type=_positive_int, metavar="N",
                       help="keep a snapshot every N steps (default: the preset's; with "
                       "--movie about 100 frames)")
@@ -1113,7 +793,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--quiet", action="store_true", help="no progress bar or messages")
     run.set_defaults(func=_cmd_run)
 
-    _add_sweep_parser(sub)
+    from .cli_sweep import add_sweep_parser
+
+    add_sweep_parser(sub)
 
     presets = sub.add_parser("presets", help="list the presets: source and expected pattern",
                              description="List every preset with its model, domain, source "
@@ -1169,11 +851,13 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"rdgpu: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
         return EXIT_FAILED
-    except OSError as exc:
+    except OSError as exc:  # reading inputs is checked first: this is a failed run
         if debug:
             raise
-        print(f"rdgpu: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        from .cli_outputs import io_message
+
+        print(f"rdgpu: error: {io_message(exc)}", file=sys.stderr)
+        return EXIT_FAILED
     except ImportError as exc:  # an optional package: the message names its extra
         if debug:
             raise

@@ -72,8 +72,10 @@ def _unsupported(args: argparse.Namespace, usage: type[Exception]) -> None:
         ("--preset", args.preset), ("--mesh", args.mesh), ("--movie", args.movie),
         ("--dt", args.dt), ("--method", args.method), ("--stencil", args.stencil),
         ("--members", getattr(args, "members", None)), ("--checkpoint", args.checkpoint),
-        ("--resume", args.resume), ("--block-steps", getattr(args, "block_steps", None)))
-        if value]
+        ("--resume", args.resume), ("--block-steps", getattr(args, "block_steps", None)),
+        *((f"--{o.replace('_', '-')}", getattr(args, o, None))
+          for o in ("init", "bc", "dx", "length", "radius", "height", "roughen")))
+        if value is not None and value is not False]
     if given:
         raise usage(f"{args.model} is a growth model: {', '.join(given)} "
                     f"{'does' if len(given) == 1 else 'do'} not apply; "
@@ -169,9 +171,9 @@ def _front(args: argparse.Namespace, params: dict, steps: int, say,
 
 
 def _write(args: argparse.Namespace, say, picture, arrays: dict, settings: dict) -> None:
-    """``--out`` by ``picture(path)`` (default ``MODEL.png`` when neither ``--out`` nor
-    ``--data`` is given) and each ``--data`` NPZ with ``arrays`` and the JSON
-    ``settings``; says what it wrote."""
+    """``--out`` by ``picture(path)`` (default ``MODEL.png`` with ``_`` for ``-``, e.g.
+    ``random_walk_dla.png``, when neither ``--out`` nor ``--data`` is given) and each
+    ``--data`` NPZ with ``arrays`` and the JSON ``settings``; says what it wrote."""
     out = args.out
     if out is None and not args.data:
         out = f"{args.model.replace('-', '_')}.png"

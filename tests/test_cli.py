@@ -159,7 +159,8 @@ def test_errors_exit_2_without_traceback_in_a_subprocess(tmp_path):
                           cwd=tmp_path, timeout=120)
     assert proc.returncode == 2
     lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("rdgpu")]
-    assert lines == ["rdgpu: error: --param nope: model gray-scott has parameters Du, Dv, F, k"]
+    assert lines == ["rdgpu: error: --param nope: model gray-scott has parameters Du, Dv, F, k "
+                     "(set one with --param NAME=VALUE)"]
     assert "Traceback" not in proc.stderr
 
 
