@@ -53,6 +53,7 @@ from .cli_options import (
     add_domain_options,
 )
 from .errors import ResourceLimitError
+from .files import check_writable
 from .resources import check_fields
 
 __all__ = ["build_parser", "main", "_size"]
@@ -229,6 +230,10 @@ def _check_output(option: str, path: str) -> None:
                          "pipe or a socket); give a file name")
     if p.exists() and not os.access(p, os.W_OK):
         raise UsageError(f"{option} {path} exists and is not writable")
+    try:  # the writers' own check too (a NUL byte, a name too long for the file system)
+        check_writable(path, option)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _check_options(args: argparse.Namespace) -> None:

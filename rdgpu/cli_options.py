@@ -15,9 +15,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-#: --fps: a GIF frame lasts a whole number of hundredths of a second, at least one
-#: (100 frames a second) and at most 655.35 s; 0.01 frames a second is 100 s a frame
-FPS_RANGE = (0.01, 100.0)
+from .writers import FPS_RANGE, check_fps
+
 #: --block-steps: a pass recomputes 2 (K - 1) halo rows around each band of 512 rows
 #: (rdgpu.models.blocking.ROWS), so K past that recomputes more than it advances
 MAX_BLOCK_STEPS = 512
@@ -167,14 +166,17 @@ def _positive_float(text: str) -> float:
 
 
 def _fps(text: str) -> float:
-    lo, hi = FPS_RANGE
+    """--fps: the movie writers' own check (``rdgpu.writers.check_fps``), before the run."""
     try:
         x = float(text)
     except ValueError:
         x = math.nan
-    if not lo <= x <= hi:
-        raise Bad(f"expected a frame rate from {lo:g} to {hi:g} frames a second, got {text!r}")
-    return x
+    try:
+        return check_fps(x)
+    except ValueError:
+        lo, hi = FPS_RANGE
+        raise Bad(f"expected a frame rate from {lo:g} to {hi:g} frames a second, got "
+                  f"{text!r}") from None
 
 
 def _block_steps(text: str) -> int:

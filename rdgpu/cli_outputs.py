@@ -10,9 +10,12 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+import warnings
 from typing import Any
 
 import numpy as np
+
+from .images import FlatFieldWarning
 
 #: a displayed field whose range is below this fraction of its scale is "uniform"
 UNIFORM_FRACTION = 0.05
@@ -100,9 +103,18 @@ def write_each(result: Any, outputs: list[tuple[str, Any]], options: dict,
             failed.append(f"--movie {path}: not written (the run kept no snapshots)")
             continue
         try:
-            written += write_outputs(result, **{kind: path}, **options)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", FlatFieldWarning)
+                written += write_outputs(result, **{kind: path}, **options)
         except OSError as exc:
             failed.append(io_message(exc, path))
+            continue
+        for w in caught:  # a picture drawn flat: said once, as a note, in the CLI's words
+            if issubclass(w.category, FlatFieldWarning):
+                text = str(w.message).replace("give vmin/vmax", "give --range LO:HI")
+                print(f"rdgpu: note: {path}: {text}", file=sys.stderr)
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return written, failed
 
 
