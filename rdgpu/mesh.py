@@ -326,8 +326,10 @@ def greedy_colouring(
     used. Fully vectorised; about O(log n) rounds. Pass ``symmetric=True`` when the pattern
     is known to be symmetric to skip symmetrisation.
     """
-    M = sp.csr_matrix(matrix)
-    if M.ndim != 2 or M.shape[0] != M.shape[1]:
+    from .csr import checked_csr
+
+    M = checked_csr(matrix, "matrix", values=False)  # indices in range before they are used
+    if M.shape[0] != M.shape[1]:
         raise ValueError(f"greedy_colouring needs a square matrix, got shape {M.shape}")
     n = M.shape[0]
     if n == 0:
