@@ -57,6 +57,11 @@ class DegenerateMeshError(ValueError):
     it (often ``repair=True``)."""
 
 
+class MeshFileError(DegenerateMeshError):
+    """A mesh file that cannot be read as a triangle mesh (``rdgpu.mesh_io``): the message
+    names the file (and the line, where there is one) and what is wrong with it."""
+
+
 # ----------------------------------------------------------------------------------------
 # validation / repair
 # ----------------------------------------------------------------------------------------
@@ -1143,4 +1148,10 @@ class SurfaceMesh:
         return cls(V, _grid_faces(nx, ny))
 
 
-from .mesh_io import MeshFileError, load_with_fields  # noqa: E402  (mesh_io needs SurfaceMesh)
+def load_with_fields(
+    path: PathLike, *, repair: bool = False
+) -> tuple[SurfaceMesh, dict[str, np.ndarray]]:
+    """A mesh file and its per-vertex fields: see :func:`rdgpu.mesh_io.load_with_fields`."""
+    from .mesh_io import load_with_fields as load
+
+    return load(path, repair=repair)

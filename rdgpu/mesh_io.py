@@ -12,6 +12,7 @@ returns is checked as a mesh with the file named.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, NoReturn
@@ -20,7 +21,7 @@ import numpy as np
 
 from ._optional import check as _check_extra
 from ._optional import require as _require
-from .mesh import DegenerateMeshError, SurfaceMesh, _merge_exact_duplicates
+from .mesh import DegenerateMeshError, MeshFileError, SurfaceMesh, _merge_exact_duplicates
 
 __all__ = ["MeshFileError", "load_with_fields", "save_mesh"]
 
@@ -30,11 +31,6 @@ _PYVISTA_FORMATS = (".vtk", ".vtp", ".vtu")
 _HDF5_TYPES = ("xdmf", "cgns", "h5m", "hmf", "med")
 
 PathLike = str | os.PathLike[str]
-
-
-class MeshFileError(DegenerateMeshError):
-    """A mesh file that cannot be read as a triangle mesh: the message names the file (and
-    the line, where there is one) and what is wrong with it."""
 
 
 # ----------------------------------------------------------------------------------------
@@ -83,10 +79,51 @@ def _obj_index(token: str, here: int, where: str) -> int:
     return i - 1
 
 
+_OBJ_FACE = re.compile(rb"(?m)^f +([^\r\n]*)")
+_OBJ_VERTEX = re.compile(rb"(?m)^v +([^\r\n]*)")
+#: v/f lines that trimesh skips without a word (indented, a tab after the keyword)
+_OBJ_SKIPPED = re.compile(rb"(?m)^([ \t]+[vf][ \t]|[vf]\t)")
+_OBJ_CORNER_TAIL = re.compile(rb"/[^\s]*")  # the texture/normal part of ``i/t/n``
+
+
+def _token_counts(bodies: list[bytes]) -> np.ndarray:
+    """The number of whitespace-separated words on each of ``bodies`` (vectorised)."""
+    blob = np.frombuffer(b"\n".join(bodies) + b"\n", dtype=np.uint8)
+    newline = blob == 10
+    blank = newline | (blob == 32) | (blob == 9) | (blob == 13) | (blob == 11) | (blob == 12)
+    start = ~blank
+    start[1:] &= blank[:-1]
+    line = np.cumsum(newline, dtype=np.int32) - newline
+    return np.bincount(line[start], minlength=len(bodies))
+
+
 def _scan_obj(path: Path) -> None:
-    """Check every ``v`` and ``f`` line of an OBJ file: a vertex has 3 numeric coordinates,
-    a face at least 3 vertex indices, each naming a vertex of the file; the file has
-    vertices and faces.  trimesh drops a bad face line without a word."""
+    """Check the ``v`` and ``f`` lines of an OBJ file before trimesh reads it (trimesh drops a
+    truncated face line such as ``f 2 4`` without a word and takes index 0 as the last
+    vertex): a vertex has 3 coordinates, a face at least 3 vertex indices, each naming a
+    vertex of the file; the file has vertices and faces.  A quick vectorised pass; on any
+    doubt :func:`_scan_obj_exactly` goes line by line and names the bad line."""
+    data = path.read_bytes()
+    faces = _OBJ_FACE.findall(data)
+    vertices = _OBJ_VERTEX.findall(data)
+    n_vertices = len(vertices)
+    if n_vertices and faces and not _OBJ_SKIPPED.search(data) \
+            and _token_counts(vertices).min() >= 3 \
+            and _token_counts(faces).min() >= 3:
+        heads = _OBJ_CORNER_TAIL.sub(b"", b" ".join(faces))
+        if b"#" not in heads and b"-" not in heads:  # comments, relative indices: exactly
+            try:
+                idx = np.array(heads.split()).astype(np.int64)
+            except (ValueError, OverflowError):
+                idx = None
+            if idx is not None and idx.min() >= 1 and idx.max() <= n_vertices:
+                return
+    _scan_obj_exactly(path)
+
+
+def _scan_obj_exactly(path: Path) -> None:
+    """Check every ``v`` and ``f`` line of an OBJ file, one by one, and raise the error
+    naming the first bad line (slow: run when :func:`_scan_obj` found a fault)."""
     n_vertices = n_faces = 0
     ahead: tuple[str, int] | None = None  # the first face naming a vertex not yet read
     with open(path, encoding="utf-8", errors="replace") as fh:
@@ -95,6 +132,13 @@ def _scan_obj(path: Path) -> None:
             if not words or words[0] not in ("v", "f"):
                 continue
             where = f"mesh file '{path}', line {number} ({line.strip()[:60]!r})"
+            if not line.startswith(("v ", "f ")):
+                raise MeshFileError(f"{where}: an indented '{words[0]}' line, or a tab after "
+                                    f"'{words[0]}', which the OBJ reader (trimesh) skips; "
+                                    f"start the line with '{words[0]} ' (one space)")
+            if "#" in line:
+                raise MeshFileError(f"{where}: a comment after the data, which the OBJ reader "
+                                    "(trimesh) cannot read; put comments on lines of their own")
             if words[0] == "v":
                 if len(words) < 4:
                     raise MeshFileError(f"{where}: a vertex needs 3 coordinates 'v x y z', "
@@ -385,6 +429,8 @@ def _reader_failed(path: Path, ext: str, exc: BaseException) -> NoReturn:
         except ValueError:  # not one of rdgpu's optional packages
             raise MeshFileError(f"reading mesh file '{path}' needs the Python package "
                                 f"{exc.name!r}: pip install {exc.name}") from None
+    if ext == ".obj":  # name the bad line where there is one (a coordinate not a number)
+        _scan_obj_exactly(path)
     text = str(exc).strip().splitlines()
     why = f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
     if isinstance(exc, SystemExit):  # meshio exits when no reader of the extension fits

@@ -56,6 +56,12 @@ OBJ_CASES = [
     ("vertex-word", "vword.obj", "v 0 0 0\nv 1 0 0\nv 0 one 0\nf 1 2 3\n",
      r"line 3 .*the coordinate 'one' is not a number"),
     ("empty", "empty.obj", "", r"empty\.obj' is empty"),
+    # lines trimesh would skip or fail on without saying which
+    ("indented-face", "indent.obj", SQUARE + "f 1 2 3\n  f 2 4 3\n",
+     r"line 6 \('f 2 4 3'\): an indented 'f' line, or a tab after 'f', which the OBJ reader"),
+    ("tab-face", "tab.obj", SQUARE + "f 1 2 3\nf\t2\t4\t3\n", r"line 6 .*a tab after 'f'"),
+    ("comment-after-face", "comment.obj", TRIANGLE + "f 1 2 3 # one\n",
+     r"line 4 .*a comment after the data"),
 ]
 
 
@@ -82,6 +88,8 @@ def test_good_obj_forms_still_load(tmp_path):
     assert SurfaceMesh.load(relative).n_faces == 1
     forward = _write(tmp_path, "f.obj", "v 0 0 0\nf 1 2 3\nv 1 0 0\nv 0 1 0\n")
     assert SurfaceMesh.load(forward).n_faces == 1
+    commented = _write(tmp_path, "c.obj", "# a triangle\n" + TRIANGLE + "f 1 2 3\n# end\n")
+    assert SurfaceMesh.load(commented).n_faces == 1
 
 
 # ------------------------------------------------------------------------ PLY files
