@@ -237,6 +237,26 @@ def test_xdmf_without_h5py_names_the_mesh_extra(tmp_path, monkeypatch):
     assert not list(tmp_path.iterdir())  # refused before anything was written
 
 
+XDMF_WITH_HDF5 = """<?xml version="1.0"?>
+<Xdmf Version="3.0"><Domain><Grid Name="Grid">
+<Geometry GeometryType="XYZ"><DataItem DataType="Float" Dimensions="3 3" Format="HDF"
+ Precision="8">a.h5:/data0</DataItem></Geometry>
+<Topology TopologyType="Triangle" NumberOfElements="1" NodesPerElement="3"><DataItem
+ DataType="Int" Dimensions="1 3" Format="HDF" Precision="8">a.h5:/data1</DataItem></Topology>
+</Grid></Domain></Xdmf>
+"""
+
+
+def test_reading_hdf5_xdmf_without_h5py_names_the_mesh_extra(tmp_path, monkeypatch):
+    """meshio imports h5py only when it meets HDF5 data: that import error is the extra's."""
+    pytest.importorskip("meshio")
+    monkeypatch.setitem(sys.modules, "h5py", None)
+    path = _write(tmp_path, "a.xdmf", XDMF_WITH_HDF5)
+    with pytest.raises(MissingExtraError, match=r'reading \.xdmf files needs h5py: pip '
+                                                r'install "rdgpu\[mesh\]"'):
+        SurfaceMesh.load(path)
+
+
 def test_xdmf_round_trip_with_h5py(tmp_path):
     pytest.importorskip("meshio")
     pytest.importorskip("h5py")
