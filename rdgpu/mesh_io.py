@@ -170,6 +170,45 @@ def _scan_obj_exactly(path: Path) -> None:
                             f"{n_vertices} vertices of the file")
 
 
+def _scan_off(path: Path) -> None:
+    """Check an OFF file's counts and face lines (trimesh drops a face of fewer than 3
+    vertices, a face line cut short and missing face lines without a word)."""
+    rows: list[tuple[int, list[str]]] = []
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for number, line in enumerate(fh, 1):
+            words = line.partition("#")[0].split()
+            if words:
+                rows.append((number, words))
+    if not rows or not rows[0][1][0].endswith("OFF"):
+        raise MeshFileError(f"mesh file '{path}' does not start with 'OFF'")
+    head = rows[0][1][1:] or (rows[1][1] if len(rows) > 1 else [])
+    first = 1 if rows[0][1][1:] else 2
+    try:
+        n_vertices, n_faces = int(head[0]), int(head[1])
+    except (IndexError, ValueError):
+        raise MeshFileError(f"mesh file '{path}': the OFF header needs the counts "
+                            f"'vertices faces edges', got {' '.join(head)!r}") from None
+    faces = rows[first + n_vertices:first + n_vertices + n_faces]
+    if len(rows) < first + n_vertices or len(faces) < n_faces:
+        raise MeshFileError(f"mesh file '{path}' declares {n_vertices} vertices and {n_faces} "
+                            f"faces but ends after {max(len(rows) - first, 0)} data lines (a "
+                            "truncated file?)")
+    for number, words in faces:
+        where = f"mesh file '{path}', line {number} ({' '.join(words)[:60]!r})"
+        try:
+            k, idx = int(words[0]), [int(w) for w in words[1:]]
+        except ValueError:
+            raise MeshFileError(f"{where}: a face line holds whole numbers 'k i1 ... ik'") \
+                from None
+        if k < 3 or len(idx) < k:
+            raise MeshFileError(f"{where}: a face needs at least 3 vertex indices and as many "
+                                f"as its count {k}; this one has {len(idx)}")
+        bad = [i for i in idx[:k] if not 0 <= i < n_vertices]
+        if bad:
+            raise MeshFileError(f"{where}: vertex index {bad[0]} is outside 0..{n_vertices - 1} "
+                                f"(the file declares {n_vertices} vertices)")
+
+
 # ----------------------------------------------------------------------------------------
 # readers
 # ----------------------------------------------------------------------------------------
@@ -404,6 +443,8 @@ def _read_arrays(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, dict[str
     trimesh = _require("trimesh", f"reading {ext} files")
     if ext == ".obj":
         _scan_obj(path)
+    elif ext == ".off":
+        _scan_off(path)
     tm = trimesh.load(str(path), force="mesh", process=False)
     V, F = np.asarray(tm.vertices, dtype=np.float64), np.asarray(tm.faces)
     if ext == ".ply":

@@ -37,13 +37,15 @@ def _amount(n: int) -> str:
     return f"{n:,}" if n < 10**15 else f"{float(n):.3g}"
 
 
-def check_mesh_size(what: str, n_vertices: int, n_faces: int | None = None) -> None:
+def check_mesh_size(what: str, n_vertices: int, n_faces: int | None = None, *,
+                    at_least: bool = False) -> None:
     """Refuse ``what`` (e.g. ``"SurfaceMesh.icosphere(99)"``), a mesh of ``n_vertices``
     vertices (and ``n_faces`` faces, when more than two per vertex), when it cannot fit in
-    this machine's memory: :class:`rdgpu.ResourceLimitError`, before any allocation."""
+    this machine's memory: :class:`rdgpu.ResourceLimitError`, before any allocation.
+    ``at_least``: the counts are a lower bound (the message says so)."""
     n_vertices = int(n_vertices)
     size = max(n_vertices, (int(n_faces) + 1) // 2 if n_faces is not None else 0)
-    detail = f"{_amount(n_vertices)} vertices"
+    detail = ("at least " if at_least else "") + f"{_amount(n_vertices)} vertices"
     if n_faces is not None:
         detail += f", {_amount(int(n_faces))} faces"
     check_memory(what, BYTES_PER_VERTEX * size, f"{detail}, about {BYTES_PER_VERTEX} bytes "

@@ -92,6 +92,26 @@ def test_good_obj_forms_still_load(tmp_path):
     assert SurfaceMesh.load(commented).n_faces == 1
 
 
+# ------------------------------------------------------------------------ OFF files
+OFF_TRIANGLE = "OFF\n3 {faces} 0\n0 0 0\n1 0 0\n0 1 0\n"
+
+
+@pytest.mark.parametrize("text, fragment", [
+    (OFF_TRIANGLE.format(faces=1) + "2 0 1\n", r"line 6 \('2 0 1'\): a face needs at least 3"),
+    (OFF_TRIANGLE.format(faces=1) + "3 0 1\n", r"line 6 .*as its count 3; this one has 2"),
+    (OFF_TRIANGLE.format(faces=2) + "3 0 1 2\n", r"declares 3 vertices and 2 faces but ends"),
+    (OFF_TRIANGLE.format(faces=1) + "3 0 1 7\n", r"vertex index 7 is outside 0..2"),
+    ("COFF\nthree 1 0\n", "the OFF header needs the counts"),
+], ids=["short-face", "cut-face", "missing-face", "index-past-end", "bad-header"])
+def test_a_bad_off_file_is_named(tmp_path, text, fragment):
+    path = _write(tmp_path, "bad.off", text)
+    with pytest.raises(MeshFileError, match=fragment):
+        SurfaceMesh.load(path)
+    good = _write(tmp_path, "good.off", "OFF 3 1 0\n# a comment\n0 0 0\n1 0 0\n0 1 0\n"
+                                        "3 0 1 2 # one\n")
+    assert SurfaceMesh.load(good).n_faces == 1
+
+
 # ------------------------------------------------------------------------ PLY files
 PLY_HEADER = ("ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
               "property float z\nproperty float q\nelement face 1\n"
