@@ -16,7 +16,7 @@ from types import ModuleType
 
 #: the optional modules (top-level import names) of each extra of ``pyproject.toml``
 EXTRAS: dict[str, tuple[str, ...]] = {
-    "mesh": ("trimesh", "pyvista", "meshio"),
+    "mesh": ("trimesh", "pyvista", "meshio", "h5py"),
     "media": ("imageio", "imageio_ffmpeg", "matplotlib"),
     "dask": ("dask", "distributed", "xarray", "zarr"),
     "pypde": ("pde",),

@@ -543,18 +543,10 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
     operator many times, upload it once with ``backend.upload_csr`` and call
     ``backend.spmv``.  Neither input is modified.  ``x``: any array kind; ``out``: an
     array of shape ``(n_rows,)`` and x's dtype that receives ``y`` (module doc)."""
-    import scipy.sparse as sp
+    from .csr import checked_csr
 
-    if not sp.issparse(csr):
-        raise TypeError(
-            f"csr must be a scipy.sparse matrix or array, got {type(csr).__name__} (convert a "
-            "dense array with scipy.sparse.csr_matrix(a))"
-        )
-    if len(csr.shape) != 2:
-        raise ValueError(f"csr must be 2-D, got shape {csr.shape}")
-    if csr.dtype.kind not in "biuf":
-        raise TypeError(f"csr has dtype {csr.dtype}; only real matrices are supported")
-    n_rows, n_cols = csr.shape
+    m = checked_csr(csr, "csr")  # type, real finite values, structure (indices in range)
+    n_rows, n_cols = m.shape
     xa = np.asarray(x) if isinstance(x, (list, tuple)) else x
     try:
         shape_x, dtype_x = interop.shape_dtype(xa)
@@ -563,7 +555,7 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
                         f"{type(x).__name__}") from None
     if len(shape_x) != 1 or shape_x[0] != n_cols:
         raise ValueError(
-            f"x has shape {shape_x}; the matrix of shape {csr.shape} needs a 1-D x of length "
+            f"x has shape {shape_x}; the matrix of shape {m.shape} needs a 1-D x of length "
             f"{n_cols}"
         )
     if n_cols == 0 or n_rows == 0:
@@ -573,12 +565,7 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
     be = get_backend(backend)
     field = _host_field(xa, "x", (1,), be)
     _out_for(out, xa, field.dtype, (n_rows,))
-    m = sp.csr_matrix(csr)
-    if m.nnz and not np.isfinite(m.data).all():
-        bad = int(np.count_nonzero(~np.isfinite(m.data)))
-        raise ValueError(f"csr contains {bad} NaN or Inf value(s); all entries must be finite")
-    check.fits_dtype(m.data, field.dtype, "csr")
-    A = be.upload_csr(m, field.dtype)
+    A = be.upload_csr(m, field.dtype, name="csr")  # refuses values the dtype cannot hold
     y = be.empty((n_rows,), field.dtype)
     be.spmv(A, _on(be, xa, field), y)
     return _give(y, xa, out, "spmv", shape=(n_rows,))

@@ -29,16 +29,17 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from functools import cached_property
-from pathlib import Path
-from typing import Any, Literal, NoReturn
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
 
 from ._optional import require as _require
+from .mesh_size import check_mesh_size, count
 
 __all__ = [
     "DegenerateMeshError",
+    "MeshFileError",
     "SurfaceMesh",
     "greedy_colouring",
     "load_with_fields",
@@ -48,15 +49,17 @@ __all__ = [
 #: ``2·area <= ZERO_AREA_RTOL · (longest edge)²`` (its smallest angle is below ~1e-12 rad).
 ZERO_AREA_RTOL = 1e-12
 
-_TRIMESH_FORMATS = (".obj", ".ply", ".stl", ".off")
-_PYVISTA_FORMATS = (".vtk", ".vtp", ".vtu")
-
 PathLike = str | os.PathLike[str]
 
 
 class DegenerateMeshError(ValueError):
     """The input is not a valid triangle mesh; the message says what is wrong and how to fix
     it (often ``repair=True``)."""
+
+
+class MeshFileError(DegenerateMeshError):
+    """A mesh file that cannot be read as a triangle mesh (``rdgpu.mesh_io``): the message
+    names the file (and the line, where there is one) and what is wrong with it."""
 
 
 # ----------------------------------------------------------------------------------------
@@ -72,11 +75,16 @@ def _examples(idx: np.ndarray, k: int = 5) -> str:
 
 def _as_vertices(vertices: Any) -> np.ndarray:
     try:
-        V = np.array(vertices, dtype=np.float64, copy=True)
+        raw = np.asarray(vertices)
     except (TypeError, ValueError) as exc:
         raise DegenerateMeshError(
             f"vertices must be an (n, 3) array of real numbers: {exc}"
         ) from None
+    if raw.dtype.kind not in "iuf":  # complex, bool, str, object: never cast silently
+        raise TypeError(f"vertices must be an (n, 3) array of real numbers, got dtype "
+                        f"{raw.dtype}" + (" (take .real yourself if the imaginary parts "
+                                          "are 0)" if raw.dtype.kind == "c" else ""))
+    V = np.array(raw, dtype=np.float64, copy=True)
     if V.ndim != 2 or V.shape[1] != 3:
         raise DegenerateMeshError(
             f"vertices must have shape (n, 3), got {V.shape}; 2-D points need a z column"
@@ -326,8 +334,10 @@ def greedy_colouring(
     used. Fully vectorised; about O(log n) rounds. Pass ``symmetric=True`` when the pattern
     is known to be symmetric to skip symmetrisation.
     """
-    M = sp.csr_matrix(matrix)
-    if M.ndim != 2 or M.shape[0] != M.shape[1]:
+    from .csr import checked_csr
+
+    M = checked_csr(matrix, "matrix", values=False)  # indices in range before they are used
+    if M.shape[0] != M.shape[1]:
         raise ValueError(f"greedy_colouring needs a square matrix, got shape {M.shape}")
     n = M.shape[0]
     if n == 0:
@@ -409,11 +419,11 @@ def _grid_faces(nx: int, ny: int) -> np.ndarray:
     ).astype(np.int64)
 
 
-def _check_grid_size(nx: int, ny: int) -> None:
-    if int(nx) != nx or int(ny) != ny or nx < 2 or ny < 2:
-        raise ValueError(
-            f"nx and ny are vertex counts per side and must be ints >= 2, got nx={nx}, ny={ny}"
-        )
+def _check_grid_size(nx: int, ny: int, what: str) -> tuple[int, int]:
+    """``nx, ny`` vertex counts per side, whole numbers >= 2, whose mesh fits in memory."""
+    nx, ny = count(nx, "nx", 2), count(ny, "ny", 2)
+    check_mesh_size(f"SurfaceMesh.{what}(nx={nx}, ny={ny})", nx * ny, 2 * (nx - 1) * (ny - 1))
+    return nx, ny
 
 
 def _as_period(period: Any) -> tuple[float, float] | None:
@@ -505,6 +515,7 @@ class SurfaceMesh:
     ) -> None:
         V = _as_vertices(vertices)
         F = _as_faces(faces, V.shape[0])
+        check_mesh_size("a SurfaceMesh", V.shape[0], F.shape[0])  # its operators' memory
         period = _as_period(period)
         n0, m0 = V.shape[0], F.shape[0]
         repairs: list[str] = []
@@ -811,6 +822,8 @@ class SurfaceMesh:
     def from_pyvista(cls, pd: Any, *, repair: bool = False) -> SurfaceMesh:
         """From a pyvista ``PolyData`` (any other dataset has its surface extracted);
         polygons and strips are triangulated, lines and points ignored."""
+        from .mesh_io import _pyvista_arrays
+
         pv = _require("pyvista", "SurfaceMesh.from_pyvista")
         return cls(*_pyvista_arrays(pv, pd), repair=repair)
 
@@ -821,6 +834,8 @@ class SurfaceMesh:
         blocks (points, lines, volume cells) are ignored. 2-D points get ``z = 0``. A mesh
         with no triangles or quads is refused. Its ``point_data`` is not kept here; use
         :func:`load_with_fields` (files) or read ``mesh.point_data`` yourself."""
+        from .mesh_io import _meshio_arrays
+
         V, F, _ = _meshio_arrays(mesh)
         return cls(V, F, repair=repair)
 
@@ -839,8 +854,12 @@ class SurfaceMesh:
         :meth:`from_meshio` for the cells taken).
 
         Vertex order is kept. STL stores a triangle soup, so its bitwise-identical vertices
-        are always merged. Use :func:`load_with_fields` to get per-vertex data too.
+        are always merged. Use :func:`load_with_fields` to get per-vertex data too.  A file
+        that cannot be used (missing, a folder, a truncated face line, an index past the
+        vertices, ...) raises :class:`MeshFileError` naming the file and what is wrong.
         """
+        from .mesh_io import load_with_fields
+
         return load_with_fields(path, repair=repair)[0]
 
     def unwrapped(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -923,33 +942,12 @@ class SurfaceMesh:
         goes through :meth:`to_meshio`, fields as point data (``.msh`` is written as gmsh
         4.1 binary, not ANSYS); ``file_format`` (a meshio format name such as ``"gmsh22"``)
         always writes through meshio in that format.
-        A periodic mesh is written unwrapped (:meth:`unwrapped`); the period is not stored."""
-        path = Path(path)
-        ext = path.suffix.lower()
-        V, F, flds = self._export(fields)
-        if file_format is not None or _is_meshio_only(path):
-            meshio = _require("meshio", f"writing {ext or path.name} files")
-            if file_format is None and ext == ".msh":  # meshio would pick ANSYS first
-                file_format = "gmsh"
-            meshio.write(str(path), self.to_meshio(fields), file_format=file_format)
-        elif ext in _PYVISTA_FORMATS:
-            pd = self.to_pyvista(fields)
-            if ext == ".vtu":
-                pd = pd.cast_to_unstructured_grid()
-            pd.save(str(path), binary=True)
-        elif ext == ".ply":
-            _write_ply(path, V, F, flds)
-        elif ext in (".obj", ".off", ".stl"):
-            if flds:
-                raise ValueError(
-                    f"{ext} files cannot hold per-vertex fields; save as .vtk, .vtp or .ply"
-                )
-            if ext == ".stl":
-                self.to_trimesh().export(str(path))
-            else:
-                _write_text_mesh(path, ext, V, F)
-        else:
-            _unsupported(path)
+        A periodic mesh is written unwrapped (:meth:`unwrapped`); the period is not stored.
+        HDF5-based formats (``.xdmf``, ``.med``, ...) need h5py, in the ``mesh`` extra.
+        A folder, or a file in a folder that does not exist, is refused before writing."""
+        from .mesh_io import save_mesh
+
+        save_mesh(self, path, fields, file_format=file_format)
 
     def roughen(
         self,
@@ -978,11 +976,11 @@ class SurfaceMesh:
         circles), so the triangles are near-equilateral; ``1 + 3·rings·(rings + 1)``
         vertices, ``6·rings²`` faces, counter-clockwise (normal +z), and a boundary polygon
         of ``6·rings`` edges whose area tends to ``π·radius²``."""
-        if isinstance(rings, bool) or int(rings) != rings or rings < 1:
-            raise ValueError(f"rings must be an int >= 1, got {rings!r}")
+        rings = count(rings, "rings", 1)
         if not (np.isfinite(radius) and radius > 0):
             raise ValueError(f"radius must be positive and finite, got {radius}")
-        rings = int(rings)
+        check_mesh_size(f"SurfaceMesh.disc(rings={rings})", 1 + 3 * rings * (rings + 1),
+                        6 * rings * rings)
         k = np.repeat(np.arange(1, rings + 1), 6 * np.arange(1, rings + 1))
         start = 1 + 3 * k * (k - 1)  # index of ring k's first vertex
         theta = 2 * np.pi * (np.arange(k.size) + 1 - start) / (6 * k)
@@ -1008,9 +1006,11 @@ class SurfaceMesh:
         every triangle in four), vertices projected onto the sphere (trimesh). It has
         ``10·4^s + 2`` vertices; ``s = 8`` gives 655 362."""
         trimesh = _require("trimesh", "SurfaceMesh.icosphere")
-        if int(subdivisions) != subdivisions or subdivisions < 0:
-            raise ValueError(f"subdivisions must be an int >= 0, got {subdivisions}")
-        tm = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=float(radius))
+        subdivisions = count(subdivisions, "subdivisions", 0)
+        grow = 4 ** min(subdivisions, 200)  # past 200 the count is absurd: say "at least"
+        check_mesh_size(f"SurfaceMesh.icosphere({subdivisions})", 10 * grow + 2, 20 * grow,
+                        at_least=subdivisions > 200)
+        tm = trimesh.creation.icosphere(subdivisions=subdivisions, radius=float(radius))
         return cls(np.asarray(tm.vertices), np.asarray(tm.faces))
 
     @classmethod
@@ -1022,8 +1022,9 @@ class SurfaceMesh:
 
         (Written here rather than via ``trimesh.creation.uv_sphere``, whose ``count`` is
         rounded up to even and whose longitude count is doubled.)"""
-        if n_lat < 2 or n_lon < 3:
-            raise ValueError(f"need n_lat >= 2 and n_lon >= 3, got {n_lat}, {n_lon}")
+        n_lat, n_lon = count(n_lat, "n_lat", 2), count(n_lon, "n_lon", 3)
+        check_mesh_size(f"SurfaceMesh.uv_sphere({n_lat}, {n_lon})", n_lat * n_lon - n_lon + 2,
+                        2 * n_lon * (n_lat - 1))
         theta = np.pi * np.arange(1, n_lat) / n_lat  # polar angle of the rings
         phi = 2 * np.pi * np.arange(n_lon) / n_lon
         th, ph = np.meshgrid(theta, phi, indexing="ij")
@@ -1053,9 +1054,10 @@ class SurfaceMesh:
         trimesh = _require("trimesh", "SurfaceMesh.torus")
         if not 0 < r < R:
             raise ValueError(f"need 0 < r < R, got R={R}, r={r}")
-        if n_major < 3 or n_minor < 3:
-            raise ValueError(f"need n_major, n_minor >= 3, got {n_major}, {n_minor}")
-        tm = trimesh.creation.torus(float(R), float(r), int(n_major), int(n_minor))
+        n_major, n_minor = count(n_major, "n_major", 3), count(n_minor, "n_minor", 3)
+        check_mesh_size(f"SurfaceMesh.torus(n_major={n_major}, n_minor={n_minor})",
+                        n_major * n_minor, 2 * n_major * n_minor)
+        tm = trimesh.creation.torus(float(R), float(r), n_major, n_minor)
         return cls(np.asarray(tm.vertices), np.asarray(tm.faces))
 
     @classmethod
@@ -1076,7 +1078,7 @@ class SurfaceMesh:
         ``0 <= jitter < 0.25``, which provably keeps every triangle positively oriented
         (the signed area is multilinear in the offsets; its minimum over the offset box is
         positive exactly for jitter < 1/4)."""
-        _check_grid_size(nx, ny)
+        nx, ny = _check_grid_size(nx, ny, "jittered_plane")
         if not 0 <= jitter < 0.25:
             raise ValueError(f"jitter must be in [0, 0.25), got {jitter}")
         hx, hy = width / (nx - 1), height / (ny - 1)
@@ -1122,7 +1124,7 @@ class SurfaceMesh:
         with ``(M, N) = frequency`` (an int means M = N): a periodic surface whose roughness
         grows with ``amplitude`` and the frequency cut-offs.
         """
-        _check_grid_size(nx, ny)
+        nx, ny = _check_grid_size(nx, ny, "height_field")
         x, y = np.meshgrid(np.linspace(0.0, size, nx), np.linspace(0.0, size, ny), indexing="xy")
         if func is not None:
             z = np.broadcast_to(np.asarray(func(x, y), dtype=np.float64), x.shape)
@@ -1147,224 +1149,10 @@ class SurfaceMesh:
         return cls(V, _grid_faces(nx, ny))
 
 
-# ----------------------------------------------------------------------------------------
-# I/O helpers
-# ----------------------------------------------------------------------------------------
-
-
-def _pyvista_surface(pv: Any, ds: Any) -> Any:
-    """A PolyData for any pyvista dataset; an all-triangle UnstructuredGrid keeps its point
-    order and point data, anything else has its surface extracted."""
-    if isinstance(ds, pv.PolyData):
-        return ds
-    if (
-        isinstance(ds, pv.UnstructuredGrid)
-        and ds.n_cells > 0
-        and np.all(np.asarray(ds.celltypes) == int(pv.CellType.TRIANGLE))
-    ):
-        pd = pv.PolyData(np.asarray(ds.points), np.asarray(ds.cells))
-        for name in ds.point_data.keys():
-            pd.point_data[name] = np.asarray(ds.point_data[name])
-        return pd
-    try:
-        return ds.extract_surface(algorithm="dataset_surface")
-    except TypeError:  # older pyvista has no `algorithm` keyword
-        return ds.extract_surface()
-
-
-def _pyvista_arrays(pv: Any, pd: Any) -> tuple[np.ndarray, np.ndarray]:
-    pd = _pyvista_surface(pv, pd)
-    if np.asarray(pd.faces).size == 0 and np.asarray(pd.strips).size == 0:
-        raise DegenerateMeshError("the pyvista dataset has no polygons or triangle strips")
-    if not pd.is_all_triangles:
-        pd = pd.triangulate()
-    faces = np.asarray(pd.faces).reshape(-1, 4)
-    if not (faces[:, 0] == 3).all():
-        raise DegenerateMeshError("pyvista triangulation left non-triangle faces")
-    return np.asarray(pd.points, dtype=np.float64), faces[:, 1:].astype(np.int64)
-
-
-def _meshio_extensions() -> tuple[str, ...]:
-    """The file extensions meshio knows (empty when meshio is not installed)."""
-    try:
-        import meshio
-    except ImportError:
-        return ()
-    return tuple(sorted(meshio.extension_to_filetypes))
-
-
-def _is_meshio_only(path: Path) -> bool:
-    """Whether ``path`` is a format the trimesh/pyvista loaders do not handle but meshio
-    does (``.msh``, ``.xdmf``, ``.med``, ``.vol.gz``, ...)."""
-    if path.suffix.lower() in _PYVISTA_FORMATS + _TRIMESH_FORMATS:
-        return False
-    name = path.name.lower()
-    return any(name.endswith(e) for e in _meshio_extensions())
-
-
-def _unsupported(path: Path) -> NoReturn:
-    ours = ", ".join(_PYVISTA_FORMATS + _TRIMESH_FORMATS)
-    more = _meshio_extensions()
-    extra = (f"; through meshio also {', '.join(more)}" if more
-             else "; pip install meshio for .msh, .xdmf, .med, .inp and more")
-    raise ValueError(f"unsupported mesh format {path.suffix.lower() or path.name!r}; "
-                     f"use one of {ours}{extra}")
-
-
-def _meshio_arrays(m: Any) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """``(V, F, point fields)`` of a ``meshio.Mesh``: triangles, quads split in two
-    (``(a, b, c)``, ``(a, c, d)``), 2-D points padded with ``z = 0``; point data whose first
-    axis is the points (meshio's own ``gmsh:*`` bookkeeping arrays left out)."""
-    if not (hasattr(m, "points") and hasattr(m, "cells")):
-        raise TypeError(f"expected a meshio.Mesh, got {type(m).__name__}")
-    P = np.asarray(m.points, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] not in (2, 3):
-        raise DegenerateMeshError(f"meshio points must be (n, 2) or (n, 3), got {P.shape}")
-    if P.shape[1] == 2:
-        P = np.column_stack([P, np.zeros(len(P))])
-    tris = []
-    for block in m.cells:
-        data = np.asarray(block.data, dtype=np.int64)
-        if block.type == "triangle":
-            tris.append(data)
-        elif block.type == "quad":
-            tris += [data[:, [0, 1, 2]], data[:, [0, 2, 3]]]
-    if not tris:
-        kinds = sorted({b.type for b in m.cells}) or ["none"]
-        raise DegenerateMeshError(
-            f"the meshio mesh has no triangle or quad cells (cell types: {', '.join(kinds)}); "
-            "a SurfaceMesh needs a triangle (or quad) surface: extract the boundary surface "
-            "of a volume mesh first, and convert higher-order cells to linear ones"
-        )
-    fields = {
-        str(k): np.array(a)
-        for k, a in m.point_data.items()
-        if not str(k).startswith("gmsh:") and np.ndim(a) in (1, 2) and len(a) == len(P)
-    }
-    return P, np.concatenate(tris), fields
-
-
-def _write_text_mesh(path: Path, ext: str, V: np.ndarray, F: np.ndarray) -> None:
-    with open(path, "w", encoding="ascii") as fh:
-        if ext == ".obj":
-            fh.write("# written by rdgpu.mesh\n")
-            np.savetxt(fh, V, fmt="v %.17g %.17g %.17g")
-            np.savetxt(fh, F + 1, fmt="f %d %d %d")
-        else:  # .off
-            fh.write(f"OFF\n{len(V)} {len(F)} 0\n")
-            np.savetxt(fh, V, fmt="%.17g %.17g %.17g")
-            np.savetxt(fh, F, fmt="3 %d %d %d")
-
-
-def _ply_type(a: np.ndarray) -> tuple[str, str]:
-    if a.dtype == np.bool_:
-        return "uchar", "u1"
-    if (
-        np.issubdtype(a.dtype, np.integer)
-        and a.size
-        and (a.min() >= np.iinfo(np.int32).min and a.max() <= np.iinfo(np.int32).max)
-    ):
-        return "int", "<i4"
-    if a.dtype == np.float32:
-        return "float", "<f4"
-    return "double", "<f8"
-
-
-def _write_ply(path: Path, V: np.ndarray, F: np.ndarray, fields: dict[str, np.ndarray]) -> None:
-    cols: list[tuple[str, np.ndarray]] = [("x", V[:, 0]), ("y", V[:, 1]), ("z", V[:, 2])]
-    for name, a in fields.items():
-        if not name.isidentifier():
-            raise ValueError(f"PLY property names must be identifiers, got {name!r}")
-        if a.ndim == 1:
-            cols.append((name, a))
-        else:
-            cols += [(f"{name}_{k}", a[:, k]) for k in range(a.shape[1])]
-    header = [
-        "ply",
-        "format binary_little_endian 1.0",
-        "comment written by rdgpu.mesh",
-        f"element vertex {len(V)}",
-    ]
-    dtype = []
-    for name, a in cols:
-        t, code = _ply_type(a)
-        header.append(f"property {t} {name}")
-        dtype.append((name, code))
-    header += [f"element face {len(F)}", "property list uchar int vertex_indices", "end_header"]
-    vrec = np.empty(len(V), dtype=dtype)
-    for name, a in cols:
-        vrec[name] = a
-    frec = np.empty(len(F), dtype=[("n", "u1"), ("i", "<i4", (3,))])
-    frec["n"] = 3
-    frec["i"] = F
-    with open(path, "wb") as fh:
-        fh.write(("\n".join(header) + "\n").encode("ascii"))
-        fh.write(vrec.tobytes())
-        fh.write(frec.tobytes())
-
-
-def _regroup_ply_fields(raw: Any) -> dict[str, np.ndarray]:
-    names = [nm for nm in raw.dtype.names if nm not in ("x", "y", "z")]
-    out: dict[str, np.ndarray] = {}
-    i = 0
-    while i < len(names):
-        nm = names[i]
-        base, _, idx = nm.rpartition("_")
-        if base and idx == "0":
-            k = 0
-            while i + k < len(names) and names[i + k] == f"{base}_{k}":
-                k += 1
-            if k >= 2:
-                out[base] = np.stack([np.asarray(raw[f"{base}_{q}"]) for q in range(k)], axis=1)
-                i += k
-                continue
-        out[nm] = np.array(raw[nm])
-        i += 1
-    return out
-
-
 def load_with_fields(
     path: PathLike, *, repair: bool = False
 ) -> tuple[SurfaceMesh, dict[str, np.ndarray]]:
-    """Read a mesh and its per-vertex fields: VTK/VTP/VTU point data (pyvista), the extra
-    vertex properties of a PLY file (``name_0..name_{k-1}`` regrouped into an (n, k) array)
-    or, for the formats only meshio reads (``.msh``, ``.xdmf``, ...), meshio's point data.
-    OBJ, OFF and STL give no fields. If ``repair`` changed the vertex numbering the fields
-    are renumbered with ``mesh.vertex_map`` (for merged duplicates the last copy wins)."""
-    path = Path(path)
-    ext = path.suffix.lower()
-    fields: dict[str, np.ndarray] = {}
-    if _is_meshio_only(path):
-        meshio = _require("meshio", f"reading {ext or path.name} files")
-        V, F, fields = _meshio_arrays(meshio.read(str(path)))
-    elif ext in _PYVISTA_FORMATS:
-        pv = _require("pyvista", f"reading {ext} files")
-        src = _pyvista_surface(pv, pv.read(str(path)))
-        V, F = _pyvista_arrays(pv, src)
-        n_in = src.n_points
-        for name in src.point_data.keys():
-            a = np.array(src.point_data[name])
-            if a.shape[:1] == (n_in,) and name != "vtkOriginalPointIds":
-                fields[name] = a
-    elif ext in _TRIMESH_FORMATS:
-        trimesh = _require("trimesh", f"reading {ext} files")
-        tm = trimesh.load(str(path), force="mesh", process=False)
-        V, F = np.asarray(tm.vertices, dtype=np.float64), np.asarray(tm.faces, dtype=np.int64)
-        if ext == ".stl":
-            V, F = _merge_exact_duplicates(V, F)
-        elif ext == ".ply":
-            raw = tm.metadata.get("_ply_raw", {}).get("vertex", {}).get("data")
-            if raw is not None and raw.dtype.names and len(raw) == len(V):
-                fields = _regroup_ply_fields(raw)
-    else:
-        _unsupported(path)
-    mesh = SurfaceMesh(V, F, repair=repair)
-    if mesh.repairs and fields:
-        keep = mesh.vertex_map >= 0
-        renum: dict[str, np.ndarray] = {}
-        for name, a in fields.items():
-            b = np.zeros((mesh.n_vertices,) + a.shape[1:], dtype=a.dtype)
-            b[mesh.vertex_map[keep]] = a[keep]
-            renum[name] = b
-        fields = renum
-    return mesh, fields
+    """A mesh file and its per-vertex fields: see :func:`rdgpu.mesh_io.load_with_fields`."""
+    from .mesh_io import load_with_fields as load
+
+    return load(path, repair=repair)

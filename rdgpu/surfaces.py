@@ -27,6 +27,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import factorized
 
 from .mesh import SurfaceMesh, _face_cross, _grid_faces
+from .mesh_size import check_mesh_size
 
 __all__ = ["graph_mesh", "heat_filtered", "random_waves", "roughen", "vertex_normals"]
 
@@ -281,10 +282,14 @@ def graph_mesh(h: Any, dx: float = 1.0, dy: float | None = None) -> SurfaceMesh:
     quantity use minimum-image edges. For flat ``h`` its cotangent Laplacian is exactly
     the periodic 5-point Laplacian and its area is ``Lx·Ly``.
     """
-    h = np.asarray(h, dtype=np.float64)
+    h = np.asarray(h)
+    if h.dtype.kind not in "iuf":  # complex, bool, str: never cast silently
+        raise TypeError(f"h must be an array of real heights, got dtype {h.dtype}")
+    h = h.astype(np.float64, copy=False)
     if h.ndim != 2:
         raise ValueError(f"h must be a 2-D array h[ny, nx], got shape {h.shape}")
     ny, nx = _grid_shape(h.shape)
+    check_mesh_size(f"graph_mesh of a {ny}x{nx} height array", ny * nx, 2 * ny * nx)
     if not np.all(np.isfinite(h)):
         raise ValueError("h has NaN or infinite values; heights must be finite")
     dx, dy = _spacings(dx, dy)

@@ -130,3 +130,45 @@ def spacing_fits(dx: float, dy: float, dtype: np.dtype) -> None:
                 f"(largest {np.dtype(dtype)} {limit:.3g}); use float64 or a larger spacing "
                 "(rescale lengths, e.g. measure in cells)"
             )
+
+
+def csr_structure(indptr: Any, indices: Any, data: Any, shape: tuple[int, int],
+                  name: str, *, rows: str = "rows", columns: str = "columns") -> None:
+    """The stored arrays of a CSR matrix ``name`` of ``shape`` (rows, columns) are sound, so
+    that no kernel reads or writes outside them: ``indptr`` and ``indices`` are 1-D integer
+    arrays, ``indptr`` has ``rows + 1`` entries, starts at 0, never decreases and ends at the
+    number of stored entries, which ``indices`` and ``data`` both hold, and every column
+    index lies in ``0..columns-1``.  Raises ``TypeError``/``ValueError`` naming the array
+    and its first bad position.  (For CSC pass the transposed shape and swap the words
+    ``rows``/``columns`` used in the messages.)"""
+    n_rows, n_cols = (int(s) for s in shape)
+    arrays = {"indptr": np.asarray(indptr), "indices": np.asarray(indices)}
+    for part, a in arrays.items():
+        if a.dtype.kind not in "iu" or a.ndim != 1:
+            raise TypeError(f"{name}.{part} must be a 1-D integer array, got a {a.ndim}-D "
+                            f"array of dtype {a.dtype}")
+    ptr, idx = arrays["indptr"], arrays["indices"]
+    values = np.asarray(data)
+    if ptr.size != n_rows + 1:
+        raise ValueError(f"{name}.indptr has {ptr.size} entries; a matrix of {n_rows} {rows} "
+                         f"needs {n_rows + 1} (one more than the {rows})")
+    if ptr[0] != 0:
+        raise ValueError(f"{name}.indptr[0] = {int(ptr[0])}; it must be 0")
+    drop = np.flatnonzero(ptr[1:] < ptr[:-1])
+    if drop.size:
+        i = int(drop[0]) + 1
+        raise ValueError(f"{name}.indptr decreases at position {i} ({int(ptr[i - 1])} then "
+                         f"{int(ptr[i])}); it must never decrease")
+    nnz = int(ptr[-1])
+    if idx.size != nnz or values.shape[:1] != (nnz,):
+        raise ValueError(f"{name}.indptr ends at {nnz}, but {name}.indices has {idx.size} "
+                         f"entries and {name}.data {values.shape[0] if values.ndim else 0}; "
+                         "all three must give the same number of stored entries")
+    if nnz:
+        bad = np.flatnonzero((idx < 0) | (idx >= n_cols))
+        if bad.size:
+            k = int(bad[0])
+            row = int(np.searchsorted(ptr, k, side="right")) - 1
+            raise ValueError(f"{name}.indices[{k}] = {int(idx[k])} ({rows[:-1]} {row}) is outside "
+                             f"the {n_cols} {columns}; every {columns[:-1]} index must lie in "
+                             f"0..{n_cols - 1}")

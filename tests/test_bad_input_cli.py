@@ -72,9 +72,9 @@ BAD = [
     ([*GS, "--dtype", "float16"], 2, "argument --dtype: invalid choice: 'float16'"),
     ([*GS, "--mesh", "no-such-file.obj"], 2, "--mesh 'no-such-file.obj': no such file"),
     ([*GS, "--mesh", "{garbage.obj}", "--steps", "1"], 2,
-     "garbage.obj' is not a usable triangle mesh: a triangle mesh needs at least 3 vertices"),
+     "garbage.obj' has 1 faces but no vertices ('v x y z' lines)"),
     ([*GS, "--mesh", "{badindex.obj}", "--steps", "1"], 2,
-     "badindex.obj' is not a usable triangle mesh: index 6 is out of bounds"),
+     "badindex.obj', line 4 ('f 1 2 7'): vertex index 7 is past the 3 vertices"),
     # outputs
     ([*SMALL, "--field", "w"], 2, "--field 'w': model gray-scott has fields u, v"),
     ([*SMALL, "--out", "x.jpg"], 2, "--out must end in .png, got 'x.jpg'"),

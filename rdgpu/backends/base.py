@@ -122,21 +122,25 @@ class Backend(ABC):
         out[dst_start:dst_start + count] = src.numpy().reshape(-1)[src_start:src_start + count]
         self.copy(self.upload(out.reshape(dst.shape)), dst)
 
-    def upload_csr(self, matrix: Any, dtype: np.dtype) -> DeviceCSR:
-        """Upload a ``scipy.sparse`` matrix (any format) as a :class:`DeviceCSR` of ``dtype``."""
-        import scipy.sparse as sp
+    def upload_csr(self, matrix: Any, dtype: np.dtype, *, name: str = "matrix") -> DeviceCSR:
+        """Upload a ``scipy.sparse`` matrix (any format) as a :class:`DeviceCSR` of ``dtype``.
 
-        m = sp.csr_matrix(matrix)
-        if not m.has_canonical_format:  # sorted, no duplicates: fix a copy, never the input
-            m = m.copy()
-            m.sum_duplicates()
-            m.sort_indices()
+        Its structure is checked first (:func:`rdgpu.csr.checked_csr`: indices in range,
+        ``indptr`` sound, finite real values that ``dtype`` can hold), so that no kernel
+        reads outside the arrays; errors name the matrix as ``name``."""
+        from ..csr import checked_csr
+        from ..validation import fits_dtype
+
+        m = checked_csr(matrix, name)  # canonical: sorted, no duplicates; input untouched
+        dtype = np.dtype(dtype)
+        if dtype not in _REAL_DTYPES:
+            raise TypeError(f"upload_csr: dtype must be float32 or float64, got {dtype}")
+        fits_dtype(m.data, dtype, name)
         n_rows, n_cols = m.shape
         if max(n_rows, n_cols, m.nnz) >= 2**31:
             raise ValueError(
-                f"matrix too large for int32 CSR indices: shape {m.shape}, nnz {m.nnz}"
+                f"{name} too large for int32 CSR indices: shape {m.shape}, nnz {m.nnz}"
             )
-        dtype = np.dtype(dtype)
         return DeviceCSR(
             indptr=self.upload(m.indptr.astype(np.int32)),
             indices=self.upload(m.indices.astype(np.int32)),
