@@ -225,15 +225,12 @@ def _check_output(option: str, path: str) -> None:
         raise UsageError(f"{option} {path}: the folder {str(folder)!r} is not writable")
     if p.is_dir():
         raise UsageError(f"{option} {path} is a folder; give a file name")
-    if p.exists() and not p.is_file():
-        raise UsageError(f"{option} {path} exists and is not a regular file (a device, a "
-                         "pipe or a socket); give a file name")
-    if p.exists() and not os.access(p, os.W_OK):
-        raise UsageError(f"{option} {path} exists and is not writable")
-    try:  # the writers' own check too (a NUL byte, a name too long for the file system)
+    try:  # the writers' own check: never a device, a pipe or a socket; no NUL byte
         check_writable(path, option)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    if p.exists() and not os.access(p, os.W_OK):
+        raise UsageError(f"{option} {path} exists and is not writable")
 
 
 def _check_options(args: argparse.Namespace) -> None:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ._optional import check as _check_extra
 from ._optional import require as _require
+from .files import check_writable
 from .mesh import DegenerateMeshError, MeshFileError, SurfaceMesh, _merge_exact_duplicates
 
 __all__ = ["MeshFileError", "load_with_fields", "save_mesh"]
@@ -51,10 +52,9 @@ def _check_readable(path: Path) -> None:
 
 
 def _check_writable(path: Path) -> None:
-    if path.exists() and not path.is_file():
-        what = "a folder" if path.is_dir() else "not a regular file"
-        raise ValueError(f"cannot write the mesh to '{path}': it is {what}; give the name of "
-                         "a file")
+    """The writers' shared check (never a device, a pipe or a folder), and a folder that
+    exists: a mesh file is written where it is asked for."""
+    check_writable(path, "the mesh file")
     if not path.parent.is_dir():
         raise ValueError(f"cannot write the mesh to '{path}': the folder '{path.parent}' does "
                          "not exist")

@@ -88,7 +88,7 @@ BAD = [
     ([*SMALL, "--checkpoint", "no-such-folder/c.npz"], 2, "does not exist"),
     ([*SMALL, "--out", "{a-folder.png}"], 2, "is a folder; give a file name"),
     ([*SMALL, "--checkpoint", "/dev/null"], 2,
-     "--checkpoint /dev/null exists and is not a regular file"),
+     "--checkpoint '/dev/null' exists and is a character device, not a regular file"),
     ([*SMALL, "--cmap", "nosuchmap"], 2, "--cmap 'nosuchmap' is not a Matplotlib colour map"),
     ([*SMALL, "--scale", "0"], 2, "argument --scale: expected a whole number >= 1, got 0"),
     ([*SMALL, "--scale", "100000"], 2,

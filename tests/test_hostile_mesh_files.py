@@ -176,7 +176,7 @@ def test_a_folder_or_a_missing_path_is_named(tmp_path):
         SurfaceMesh.load(tmp_path / "folder.obj")
     with pytest.raises(MeshFileError, match=r"missing\.ply' does not exist"):
         SurfaceMesh.load(tmp_path / "missing.ply")
-    with pytest.raises(ValueError, match="it is a folder; give the name of a file"):
+    with pytest.raises(ValueError, match=r"folder\.obj. is a folder; give a file name"):
         SurfaceMesh.icosphere(1).save(tmp_path / "folder.obj")
     with pytest.raises(ValueError, match="the folder .*nowhere' does not exist"):
         SurfaceMesh.icosphere(1).save(tmp_path / "nowhere" / "a.obj")
