@@ -1076,7 +1076,10 @@ def _presets_of(model: Any) -> list:
 def default_init(model: Any, params: Mapping[str, Any] | None = None) -> dict:
     """The initial condition of a model run without one: the model's ``default_init``,
     else :data:`FALLBACK_INITS`, else its first preset's, else its homogeneous steady state
-    (``model.steady_guess(params)``) plus noise 0.05, else zero plus noise 0.05."""
+    (``model.steady_guess(params)``) plus noise 0.05, else the start that
+    :func:`rdgpu.models.steady_state.steady_start` derives from the model's steady states
+    (found numerically from its reaction terms; a model defined by equations), else zero
+    plus noise 0.05."""
     init = getattr(model, "default_init", None) or FALLBACK_INITS.get(model.name)
     if init:
         return dict(init)
@@ -1092,7 +1095,10 @@ def default_init(model: Any, params: Mapping[str, Any] | None = None) -> dict:
         if x is not None:
             values = {sp: float(v) for sp, v in zip(model.species, x, strict=True)}
             return {"kind": "uniform", "values": values, "noise": 0.05}
-    return {"kind": "uniform", "values": 0.0, "noise": 0.05}
+    from .models.steady_state import steady_start
+
+    found = steady_start(model, {**model.defaults, **dict(params or {})})
+    return found or {"kind": "uniform", "values": 0.0, "noise": 0.05}
 
 
 def _dt_limit(model: Any, domain: Any, params: Mapping[str, Any],
