@@ -90,3 +90,24 @@ def test_classify_pattern_default_threshold_sees_a_gray_scott_pattern():
     # fields around 0 (Allen-Cahn's phases) classify as before
     y, x = np.mgrid[:48, :48]
     assert classify_pattern(np.sin(2 * np.pi * 3 * x / 48), grid) == "stripes"
+
+
+@pytest.mark.slow
+def test_a_square_seed_on_a_mesh_spans_fifteen_edges():
+    """gray-scott --mesh sphere/disc/torus ended uniform: 0.1 of the bounding box is under 3
+    mean edges there (the defaults make an edge play a cell's part) and the seed died."""
+    from rdgpu.mesh import SurfaceMesh
+    from rdgpu.models import MODELS
+    from rdgpu.models.steady_state import MESH_SEED_EDGES
+
+    mesh = SurfaceMesh.icosphere(4)
+    init = default_init(MODELS["gray-scott"], {}, mesh)
+    assert init["kind"] == "square"
+    assert init["size"] * 2.0 == pytest.approx(MESH_SEED_EDGES * mesh.mean_edge_length)
+    # user models too, and grids keep the square of 0.1
+    gs = rdgpu.define_model("my-gs", GS, GS_PARAMS)
+    assert default_init(gs, {}, mesh)["size"] == init["size"]
+    assert default_init(gs, {}, Grid((64, 64)))["size"] == 0.1
+    small = SurfaceMesh.icosphere(2)  # the Simulation passes its domain on
+    sim = Simulation("gray-scott", small, dt=1.0, backend="numpy")
+    assert sim.init["size"] == default_init(MODELS["gray-scott"], {}, small)["size"] > 0.1

@@ -32,12 +32,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SteadyState", "steady_states", "steady_start"]
+__all__ = ["SteadyState", "fit_to_domain", "steady_states", "steady_start"]
 
 #: squared wavenumbers at which the growth rate is sampled (``q² = 0`` apart)
 _Q2 = np.logspace(-5, 3, 161)
 #: the square's side, a fraction of each side of the domain (as the Gray-Scott default)
 SQUARE_SIZE = 0.1
+#: on a mesh a square seed spans at least this many mean edge lengths (a grid's 0.1 of 256
+#: cells is 25; 0.1 of a sphere of 2562 vertices is under 3 edges, and the seed dies; 10
+#: edges was enough on the sphere and the disc, not on the torus)
+MESH_SEED_EDGES = 15.0
 #: noise: this fraction of the start state's largest value (at least this much absolute)
 NOISE = 0.05
 
@@ -195,3 +199,18 @@ def steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
             "inside": {s: float(v) for s, v in zip(species, inside, strict=True)},
             "size": SQUARE_SIZE, "noise": _noise(base.values)}
 
+
+
+def fit_to_domain(init: dict, domain: Any) -> dict:
+    """``init`` with a ``"square"`` seed widened on a mesh to at least
+    :data:`MESH_SEED_EDGES` mean edge lengths (the model's defaults are scaled so that a
+    mesh's mean edge plays a grid cell's part, and a seed a few edges wide dies out)."""
+    if domain is None or init.get("kind") != "square" or not hasattr(domain, "mean_edge_length"):
+        return init
+    V = np.asarray(domain.vertices, dtype=np.float64)
+    extent = float((V.max(axis=0) - V.min(axis=0)).max())
+    if not extent > 0:
+        return init
+    size = float(init.get("size", SQUARE_SIZE))
+    need = MESH_SEED_EDGES * float(domain.mean_edge_length) / extent
+    return {**init, "size": min(1.0, max(size, need))} if need > size else init
