@@ -111,3 +111,11 @@ def test_a_square_seed_on_a_mesh_spans_fifteen_edges():
     small = SurfaceMesh.icosphere(2)  # the Simulation passes its domain on
     sim = Simulation("gray-scott", small, dt=1.0, backend="numpy")
     assert sim.init["size"] == default_init(MODELS["gray-scott"], {}, small)["size"] > 0.1
+
+
+def test_a_state_outside_the_bounds_is_not_a_start():
+    # u' = u (1 - u) (u + 1): states -1, 0, 1; with u >= 0 the start is 0 or 1 only
+    m = rdgpu.define_model("cubic", {"u": "0.1*laplace(u) + u*(1 - u)*(u + 1)"}, {},
+                           bounds={"u": (0.0, None)})
+    values = sorted(s.values[0] for s in steady_states(m, {}))
+    assert values == pytest.approx([0.0, 1.0])

@@ -109,6 +109,16 @@ def _jacobian(f, x: np.ndarray) -> np.ndarray:
     return J
 
 
+def _within(model: Any, x: np.ndarray) -> bool:
+    """``x`` inside the model's ``bounds`` (a state the clamps would move is none)."""
+    bounds = getattr(model, "bounds", None) or {}
+    for s, v in zip(model.species, x, strict=True):
+        lo, hi = bounds.get(s, (None, None))
+        if (lo is not None and v < lo) or (hi is not None and v > hi):
+            return False
+    return True
+
+
 def steady_states(model: Any, params: Mapping[str, Any]) -> list[SteadyState]:
     """The homogeneous steady states of ``model`` with ``params`` (module doc), each with
     its stability; found in a fixed order (the same list every call)."""
@@ -128,7 +138,8 @@ def steady_states(model: Any, params: Mapping[str, Any]) -> list[SteadyState]:
                 sol = root(f, x0, method="hybr", options={"maxfev": 400})
                 x = np.asarray(sol.x, dtype=np.float64)
                 fx = f(x)
-        except (ArithmeticError, ValueError, TypeError, np.linalg.LinAlgError):
+        except (ArithmeticError, ValueError, TypeError, RecursionError,
+                np.linalg.LinAlgError):
             continue
         scale = 1.0 + float(np.abs(x).max())
         if not (np.isfinite(x).all() and np.isfinite(fx).all()):
@@ -136,6 +147,8 @@ def steady_states(model: Any, params: Mapping[str, Any]) -> list[SteadyState]:
         if float(np.abs(fx).max()) > 1e-9 * scale or float(np.abs(x).max()) > 1e6:
             continue
         x = np.where(np.abs(x) < 1e-12 * scale, 0.0, x)
+        if not _within(model, x):
+            continue
         if any(np.abs(x - y).max() <= 1e-6 * scale for y in found):
             continue
         found.append(x)
@@ -199,7 +212,7 @@ def steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
 def _steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
     try:
         states = steady_states(model, params)
-    except (ArithmeticError, ValueError, TypeError):
+    except (ArithmeticError, ValueError, TypeError, RecursionError):
         return None
     if not states:
         return None
