@@ -339,7 +339,7 @@ def phase_components(
 def classify_pattern(
     field: Any,
     domain: Any = None,
-    threshold: float | None = 0.0,
+    threshold: float | None = None,
     *,
     connected: float = 0.9,
     elongated: float = 6.0,
@@ -354,8 +354,11 @@ def classify_pattern(
     """``"spots"``, ``"inverted-spots"``, ``"stripes"`` or ``"uniform"`` (and, when asked
     for, ``"mixed"`` and ``"diverged"``).
 
-    The field splits into a high phase (``> threshold``; ``threshold=None``: the midrange)
-    and a low phase; their connected regions are found on the domain's graph
+    The field splits into a high phase (``> threshold``; ``threshold=None``, the default:
+    the midrange ``(min + max)/2``, which splits any pattern whatever its offset -- a
+    Gray-Scott ``u`` lies in (0, 1], an Allen-Cahn ``u`` around 0; give ``threshold=0.0``
+    for a field whose phases are its signs) and a low phase; their connected regions are
+    found on the domain's graph
     (4-neighbours on a grid, wrapped across periodic boundaries; mesh edges on a
     :class:`~rdgpu.mesh.SurfaceMesh`; ``domain=None``: a non-periodic grid).  Components
     smaller than ``min_size`` points are ignored.  A phase is *connected* when its largest
@@ -364,7 +367,8 @@ def classify_pattern(
     twice its width; a round island gives 2 to 3.5).
 
     * ``uniform``: a phase is absent, or (``threshold=None``) the field's range is below
-      ``max(rtol · max|field|, atol)``;
+      ``max(rtol · max|field|, atol)`` (round-off of a uniform field is ~1e-7 of it in
+      float32, far below ``rtol = 1e-3``; the midrange would split round-off into phases);
     * ``spots``: the high phase is connected and the low phase is not, and most of the low
       phase (by area) lies in compact islands — isolated islands of low values in a sea of
       high ones;

@@ -474,6 +474,7 @@ class ImplicitDiffusion:
         self.last_residual = math.nan
         self.last_floor = False
         self.last_converged = True
+        self.last_nonfinite = False
         self.total_sweeps = 0
 
     def __repr__(self) -> str:
@@ -693,14 +694,20 @@ class ImplicitDiffusion:
             wider = ", or float64" if self.dtype == np.float32 else ""
             warnings.warn(
                 f"implicit diffusion ({self._describe()}): tol={tol:.3g} is below the "
-                f"{self.dtype} round-off floor of this system: SOR's changes stalled at "
-                f"{low:.3g} after {sweeps} sweeps, an error of about {estimate:.3g}; "
-                f"the step is as accurate as {self.dtype} allows (use tol >= "
-                f"{2 * estimate:.2g}{wider})",
+                f"{self.dtype} round-off floor of this system at max|u| = {umax:.3g}: "
+                f"SOR's changes stalled at {low:.3g} after {sweeps} sweeps, an error of "
+                f"about {estimate:.3g}; the step is as accurate as {self.dtype} allows "
+                f"(use tol >= {2 * estimate:.2g}{wider}; where max|u| is far above the "
+                "field's scale, the run is diverging: reduce dt)",
                 RuntimeWarning,
                 stacklevel=3,
             )
         return sweeps
+
+    @staticmethod
+    def _finite(d: DeviceArray) -> bool:
+        with np.errstate(invalid="ignore"):
+            return bool(np.isfinite(d.numpy()).all())
 
     def _finish(self, sweeps: int, m: float, estimate: float, converged: bool) -> None:
         self.last_sweeps = sweeps
@@ -723,7 +730,9 @@ class ImplicitDiffusion:
         """``out`` = one θ-step of ``u_t = D Δu + source`` from ``u`` (``source`` a number
         or a DeviceArray of the field's shape; ``out`` may be ``u``).  Returns the sweeps;
         raises :class:`~rdgpu.errors.ConvergenceError` (``out`` untouched) if the solve
-        does not converge."""
+        does not converge.  A non-finite ``u`` or source (a diverging run) gives a
+        non-finite ``out`` without solving (0 sweeps, ``last_nonfinite`` True), as an
+        explicit step would: the run's divergence check reports it."""
         self._check(u, "u")
         self._check(out, "out")
         be = self.backend
@@ -733,7 +742,19 @@ class ImplicitDiffusion:
         if np.any(self._closed):
             self._add(self._x, np.where(self._closed, target, 0.0))
         umax = float(np.max(np.abs(u.numpy()))) if self.n else 0.0
-        sweeps = self.solve(self._g, self._x, target=target, umax=umax)
+        self.last_nonfinite = False
+        try:
+            sweeps = self.solve(self._g, self._x, target=target, umax=umax)
+        except FloatingPointError:
+            if math.isfinite(umax) and self._finite(self._g):
+                raise  # finite input that overflowed the solve
+            # a non-finite state or source (a diverging explicit part): the step's result is
+            # non-finite, as an explicit step's is, for the caller's divergence check to
+            # report (Simulation: the step, the field, the cause, the last good state)
+            be.copy(self._g, self._x)
+            self._finish(0, math.nan, math.nan, False)
+            self.last_nonfinite = True
+            sweeps = 0
         be.mesh_diffusion(self._zero, u, self._tmp, D=0.0, dt=1.0, source=self._x)
         be.copy(self._tmp, _reshaped(out, self.shape))
         return sweeps

@@ -968,16 +968,23 @@ def _presets_of(model: Any) -> list:
     return [p for p in PRESETS.values() if _model_name(p.model) == model.name]
 
 
-def default_init(model: Any, params: Mapping[str, Any] | None = None) -> dict:
+def default_init(model: Any, params: Mapping[str, Any] | None = None,
+                 domain: Any = None) -> dict:
     """The initial condition of a model run without one: the model's ``default_init``,
     else :data:`FALLBACK_INITS`, else its first preset's, else its homogeneous steady state
-    (``model.steady_guess(params)``) plus noise 0.05, else zero plus noise 0.05."""
+    (``model.steady_guess(params)``) plus noise 0.05, else the start that
+    :func:`rdgpu.models.steady_state.steady_start` derives from the model's steady states
+    (found numerically from its reaction terms; a model defined by equations), else zero
+    plus noise 0.05.  On a mesh (``domain``) a square seed spans at least 15 mean edge
+    lengths (:func:`rdgpu.models.steady_state.fit_to_domain`)."""
+    from .models.steady_state import fit_to_domain
+
     init = getattr(model, "default_init", None) or FALLBACK_INITS.get(model.name)
     if init:
-        return dict(init)
+        return fit_to_domain(dict(init), domain)
     for p in _presets_of(model):
         if p.init:
-            return dict(p.init)
+            return fit_to_domain(dict(p.init), domain)
     guess = getattr(model, "steady_guess", None)
     if callable(guess):
         try:
@@ -987,7 +994,11 @@ def default_init(model: Any, params: Mapping[str, Any] | None = None) -> dict:
         if x is not None:
             values = {sp: float(v) for sp, v in zip(model.species, x, strict=True)}
             return {"kind": "uniform", "values": values, "noise": 0.05}
-    return {"kind": "uniform", "values": 0.0, "noise": 0.05}
+    from .models.steady_state import steady_start
+
+    found = steady_start(model, {**model.defaults, **dict(params or {})})
+    return fit_to_domain(found, domain) if found else {"kind": "uniform", "values": 0.0,
+                                                        "noise": 0.05}
 
 
 def _dt_limit(model: Any, domain: Any, params: Mapping[str, Any],
@@ -1167,7 +1178,7 @@ class Simulation:
         elif init is not None:
             self.init = dict(init)
         else:  # one initial condition, or one per member where the defaults differ
-            inits = [default_init(self.model, p) for p in each]
+            inits = [default_init(self.model, p, self.domain) for p in each]
             self.init = inits[0] if all(i == inits[0] for i in inits) else inits
         self.preset: Any = None
         kwargs = dict(self.options)
