@@ -418,7 +418,9 @@ def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
     if args.size is not None and args.mesh is not None:
         raise UsageError("give --size (a grid) or --mesh, not both")
     params = dict(preset.params or {}) if preset is not None else {}
-    for name, value in args.param or []:
+    # a model defined by --equation has the --param values as its defaults (so that on a
+    # mesh its diffusion coefficients are scaled like a built-in's); a built-in's are given
+    for name, value in [] if defined is not None else args.param or []:
         if name not in model.defaults:
             raise UsageError(f"--param {name}: model {model_name} has parameters "
                              f"{', '.join(model.defaults)} (set one with --param "
