@@ -710,7 +710,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run on a triangle mesh: a mesh file or a generator: sphere "
                        "(= icosphere), uv-sphere, torus, disc, plane, height-field; "
                        "sphere:LEVEL sets the subdivisions (default 4: 2562 vertices), "
-                       "disc:RINGS, torus:N (N x N/2 vertices), uv-sphere:N the resolution")
+                       "disc:RINGS, torus:N (N x N/2 vertices), uv-sphere:N the resolution. "
+                       "Defaults fit the mesh, a mean edge playing a grid cell's part: each "
+                       "species' diffusion coefficient that is a parameter left at its default "
+                       "(for a model given by --equation, its --param values are its defaults) "
+                       "is multiplied by (mean edge / the model's spacing)^2, dt and the run "
+                       "length follow, and a square seed spans at least 15 mean edges; a "
+                       "--param given to a built-in model, and a coefficient written as a "
+                       "number, are used as written")
     add_domain_options(what)
     what.add_argument("--height", type=_height, metavar="SPEC",
                       help="run on the rough surface z = h(x, y) over the (periodic) grid: "
