@@ -271,11 +271,8 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
     if grid.bcs.x.kind != PERIODIC or grid.bcs.y.kind != PERIODIC:
         raise ValueError(f"a graph surface (height=) is periodic on both axes; got bc={bc!r}, "
                          "allowed: 'periodic'")
-    try:
-        h = np.asarray(interop.to_numpy(height), dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"height must be an array of real numbers, got "
-                        f"{type(height).__name__}") from exc
+    h = check.real_array(interop.to_numpy(height) if interop.is_array(height) else height,
+                         "height").astype(np.float64, copy=False)  # no text, bool, complex
     if h.shape != field.shape:
         raise ValueError(f"height has shape {h.shape}; it must have u's shape {field.shape} "
                          "(one height per cell)")
@@ -354,6 +351,8 @@ def gray_scott(
     ``out``: a pair ``(u_out, v_out)`` that receives the result (module doc).
     """
     be = get_backend(backend)
+    check_stability, progress = (check.flag(check_stability, "check_stability"),
+                                 check.flag(progress, "progress"))
     if mesh is not None:
         _no_grid_args(dx, dy, bc)
         gu, gv = _mesh_field(u, mesh, "u", be), _mesh_field(v, mesh, "v", be)
@@ -517,6 +516,11 @@ def diffusion_step(
     D = check.scalar(D, "D")
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
+    check_stability = check.flag(check_stability, "check_stability")
+    if tol is not None and method == "explicit":
+        raise ValueError(f"tol={tol!r} given with method='explicit', which solves nothing; "
+                         "tol applies to 'backward-euler' and 'crank-nicolson'")
+    tol = None if tol is None else check.scalar(tol, "tol", strict=True)
     src = _param(source, "source", field)
     _out_for(out, u, field.dtype)
     start = (_on(be, u, field),)
@@ -584,8 +588,9 @@ def allen_cahn(
     ``out``: module doc (the state crosses the host once each way: the stepper's own)."""
     from .models import AllenCahn
 
-    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
+    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
     eps = check.scalar(eps, "eps", strict=True)
+    check_stability = check.flag(check_stability, "check_stability")
     if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
         raise ValueError(
             f"eps={eps:g} is too small for {field.dtype}: the reaction term (u³ − u + b)/eps² "
@@ -799,6 +804,7 @@ def levelset_advance(
     F = _param(speed, "speed", grid)
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
+    check_stability = check.flag(check_stability, "check_stability")
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
     limit = levelset_dt_limit(float(np.max(np.abs(F))), dx, dy, domain.dz)
     if check_stability and dt > limit:
@@ -851,6 +857,7 @@ def reinitialize(
     if dtau > limit:
         raise StabilityError(f"dtau={dtau} exceeds the CFL limit {limit:.6g} = {formula}")
     n = max(grid.shape) if iterations is None else check.steps(iterations, "iterations")
+    subcell_fix = check.flag(subcell_fix, "subcell_fix")
     kw = {"dz": domain.dz} if domain.ndim == 3 else {}
     _out_for(out, phi, grid.dtype)
     phi0 = _on(be, phi, grid)
