@@ -48,9 +48,10 @@ WALKER_BYTES, CELL_BYTES, RING_BYTES = 160, 15, 40
 
 
 def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, batch):
-    if not isinstance(shape, (tuple, list)) or len(shape) != 2:
+    if not isinstance(shape, (tuple, list)) or len(shape) != 2 or not all(
+            isinstance(s, (int, np.integer)) and not isinstance(s, bool) for s in shape):
         raise ValueError(f"shape must be two integers (ny, nx), got {shape!r}")
-    ny, nx = (check.whole(s, "shape", minimum=1) for s in shape)
+    ny, nx = (int(s) for s in shape)
     if not isinstance(geometry, str) or geometry not in GEOMETRIES:
         raise ValueError(f"geometry must be one of {GEOMETRIES}, got {geometry!r}")
     margin = check.whole(margin, "margin", minimum=1)
