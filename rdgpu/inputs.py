@@ -87,9 +87,15 @@ def _given_shape(x: Any) -> tuple[int, ...]:
 
 
 def _param(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
-    """``check.scalar_or_field`` for a number or an array of any kind (read on the host)."""
-    return check.scalar_or_field(interop.to_numpy(x) if interop.is_array(x) else x, name,
-                                 like)
+    """``check.scalar_or_field`` for a number or an array of any kind (read on the host,
+    after its size is found to be ``like``'s: no copy of a device array of another size)."""
+    if interop.is_array(x) and not isinstance(x, np.ndarray):
+        shape = interop.shape_dtype(x)[0]
+        if shape and math.prod(shape) != like.size:
+            raise ValueError(f"{name} has shape {shape}; it must be a scalar or match "
+                             f"{like.shape}")
+        x = interop.to_numpy(x)
+    return check.scalar_or_field(x, name, like)
 
 
 def _check_mesh(mesh: Any) -> Any:

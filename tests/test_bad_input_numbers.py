@@ -137,6 +137,8 @@ CASES = [
      "height is a NumPy masked array"),
     ("phi-masked", lambda be: rdgpu.reinitialize(masked(ONES), backend=be), TypeError,
      "phi is a NumPy masked array"),
+    ("out-masked", lambda be: rdgpu.laplacian(G, out=masked(G.copy()), backend=be), TypeError,
+     "out is a NumPy masked array"),
     # ---- flags are bools
     ("check-stability-text", lambda be: rdgpu.gray_scott(G, G, **GS, check_stability="no",
                                                          backend=be),
