@@ -21,12 +21,15 @@ from typing import Any
 import numpy as np
 
 from .fpenv import flush_subnormals
-from .resources import check_fields
+from .resources import check_fields, field_bytes
 
 DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 
 #: elements per block of a value check (NaN/Inf, subnormals) of a large array
 CHECK_BLOCK = 1 << 22
+#: an array whose estimate is below this many bytes is not checked against the machine's
+#: memory (reading the limit costs more than such a call's own work)
+UNCHECKED_BYTES = 1 << 26
 
 
 def _shown(x: Any) -> str:
@@ -217,9 +220,9 @@ def check_size(shape: tuple[int, ...], dtype: Any, name: str, *, backend: Any = 
             f"{name} has {cells:,} cells (shape {tuple(shape)}): too many for the "
             f"{backend.name} kernels, which index with 32-bit ints (at most {limit:,} cells); "
             "use a smaller grid or the numpy backend")
-    if memory:
-        check_fields(f"{name} of shape {tuple(shape)}", cells, 1, np.dtype(dtype).itemsize,
-                     copies=copies)
+    itemsize = np.dtype(dtype).itemsize
+    if memory and field_bytes(cells, 1, itemsize, copies=copies) > UNCHECKED_BYTES:
+        check_fields(f"{name} of shape {tuple(shape)}", cells, 1, itemsize, copies=copies)
 
 
 def field_header(a: Any, name: str, ndim: tuple[int, ...]) -> np.ndarray:
