@@ -361,8 +361,14 @@ def test_front_snapshots_refused_from_the_estimate(monkeypatch):
     with pytest.raises(ResourceLimitError, match="front_growth with 1,000,000,000,000 snapshots"):
         front.run(10**12, snapshot_every=1)
     assert front.steps_done == 0
-    with pytest.raises(TypeError, match="radius must be a real number, got bool"):
-        RDFront(sim, radius=True)
+    for kwargs, fragment in ((dict(radius=True), "radius must be a real number, got bool"),
+                             (dict(beta_scale="1"), "beta_scale must be a real number, got str"),
+                             (dict(a0=0.5j), "a0 must be a real number, got complex"),
+                             (dict(reinit_every=2.5), "reinit_every must be an integer, got float"),
+                             (dict(substep="yes"), "substep must be True or False"),
+                             (dict(phi0=masked(np.ones((64, 64)))), "phi0 is a NumPy masked")):
+        with pytest.raises(TypeError, match=fragment):
+            RDFront(sim, **kwargs)
     with pytest.raises(TypeError, match="steps must be an integer, got float 2.5"):
         rdgpu.front_growth(preset="turing-seed003-spots", steps=2.5, backend="numpy")
 
