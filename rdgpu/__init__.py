@@ -64,7 +64,7 @@ def __getattr__(name: str):
         from .walkers import random_walk_dla
 
         return random_walk_dla
-    if name in ("surfaces", "interop"):  # rough surfaces (seed 002); arrays of any library
+    if name in _LAZY_MODULES:  # submodules as attributes: rdgpu.output, rdgpu.analysis...
         import importlib
 
         return importlib.import_module(f".{name}", __name__)
@@ -83,6 +83,17 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'rdgpu' has no attribute {name!r}")
 
 
+#: submodules reachable as attributes without an import of their own (imported on first
+#: use; none imports an optional package at import time)
+_LAZY_MODULES = ("analysis", "fronts", "interop", "output", "surfaces")
+
+
+def __dir__() -> list[str]:
+    """What ``import rdgpu`` offers, the names imported on first use included (tab
+    completion, ``dir(rdgpu)``)."""
+    return sorted(set(globals()) | set(__all__) | set(_LAZY_MODULES))
+
+
 __all__ = [
     "BackendUnavailableError",
     "ConvergenceError",
@@ -96,6 +107,7 @@ __all__ = [
     "Simulation",
     "SurfaceMesh",
     "allen_cahn",
+    "analysis",
     "available_backends",
     "bernoulli_substep",
     "define_model",
@@ -103,6 +115,7 @@ __all__ = [
     "dla",
     "dla_image",
     "front_growth",
+    "fronts",
     "get_backend",
     "gray_scott",
     "gray_scott_dt_limit",
@@ -110,6 +123,7 @@ __all__ = [
     "levelset_advance",
     "levelset_dt_limit",
     "optimal_omega",
+    "output",
     "random_walk_dla",
     "reinitialize",
     "set_backend",

@@ -29,6 +29,18 @@ from .boundary import PERIODIC
 from .dispatch import get_backend
 from .domains import Grid
 from .errors import StabilityError
+from .inputs import (  # the input checks (kind, size, then values) of every function here
+    _given_shape,
+    _grid_or_mesh,
+    _grid_problem,
+    _host_field,
+    _levelset_problem,
+    _mesh_field,
+    _no_grid_args,
+    _on,
+    _param,
+    _sor_inputs,
+)
 
 BackendSpec = str | Backend | None
 
@@ -60,71 +72,6 @@ def _finite(out: np.ndarray | DeviceArray, what: str, *, stepping: bool = False,
 
 def _upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceArray:
     return backend.upload(x) if isinstance(x, np.ndarray) else x
-
-
-class _Unread(np.ndarray):
-    """A zero-strided stand-in of the shape and dtype of an array that stays on its device
-    (its values are not read: that would be the copy the caller avoids; :func:`_on` checks
-    them there); ``what`` is the argument's name."""
-
-    what = "the array"
-
-    def __array_finalize__(self, obj: Any) -> None:  # views keep the name
-        self.what = getattr(obj, "what", "the array")
-
-
-def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> np.ndarray:
-    """``check.as_field`` for an array of any kind: read in place where the host can (one
-    copy for a device array elsewhere); an array resident on ``be`` that the host cannot
-    see is checked for dtype, rank and size only, and given as an :class:`_Unread`."""
-    try:
-        kind = interop.kind_of(u)
-    except interop.NotAnArray:
-        return check.as_field(u, name, ndim=ndim)  # its message: what is allowed
-    except TypeError as exc:
-        raise TypeError(f"{name}: {exc}") from None
-    if kind == "list" and not isinstance(u, (list, tuple)):
-        u = np.asarray(u)
-    if kind in ("numpy", "list"):
-        return check.as_field(u, name, ndim=ndim)
-    view = interop.host_view(u)
-    if view is None and be is not None and interop.resident(u, be):
-        shape, dtype = interop.shape_dtype(u)
-        if dtype not in check.DTYPES:
-            raise TypeError(f"{name} has unsupported dtype {dtype}; allowed: float32, float64")
-        if len(shape) not in ndim:
-            allowed = " or ".join(f"{d}-D" for d in ndim)
-            raise ValueError(f"{name} must be {allowed}, got shape {shape}")
-        if 0 in shape:
-            raise ValueError(f"{name} is empty (shape {shape}); every axis needs a cell")
-        unread = np.broadcast_to(np.zeros((), dtype), shape).view(_Unread)
-        unread.what = name
-        return unread
-    return check.as_field(view if view is not None else interop.to_numpy(u), name, ndim=ndim)
-
-
-def _on(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
-    """The checked ``field`` of the caller's ``given`` array on ``be``: ``given``'s own
-    memory where it lives there and the checks made no copy, else one upload.  An
-    :class:`_Unread` array (resident on ``be``, unseen by the host) is checked for NaN and
-    Inf here, by one reduction on the device."""
-    unread = isinstance(field, _Unread)
-    d = interop.to_device(given, None if unread else field, be, field.shape)
-    if unread and not math.isfinite(be.max_abs(d)):
-        raise ValueError(f"{field.what} contains NaN or Inf value(s); all values must be "
-                         "finite")
-    return d
-
-
-def _given_shape(x: Any) -> tuple[int, ...]:
-    """The shape of the caller's array of any kind (a list's as NumPy reads it)."""
-    return interop.shape_dtype(x)[0] if interop.is_array(x) else np.shape(x)
-
-
-def _param(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
-    """``check.scalar_or_field`` for a number or an array of any kind (read on the host)."""
-    return check.scalar_or_field(interop.to_numpy(x) if interop.is_array(x) else x, name,
-                                 like)
 
 
 def _out_for(out: Any, given: Any, dtype: np.dtype, shape: Any = None) -> None:
@@ -191,67 +138,6 @@ def _advance(be: Backend, start: tuple[DeviceArray, ...], n: int, step: Any,
         step(cur, nxt)
         cur = nxt
     return cur
-
-
-def _check_mesh(mesh: Any) -> Any:
-    from .mesh import SurfaceMesh
-
-    if not isinstance(mesh, SurfaceMesh):
-        raise TypeError(f"mesh must be an rdgpu.SurfaceMesh, got {type(mesh).__name__}")
-    return mesh
-
-
-def _mesh_field(u: Any, mesh: Any, name: str, be: Backend | None = None) -> np.ndarray:
-    """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite
-    (``be``: see :func:`_host_field`)."""
-    n = _check_mesh(mesh).n_vertices
-    shape = _given_shape(u)
-    if len(shape) != 1 or shape[0] != n:
-        raise ValueError(
-            f"{name} has shape {shape}; on a mesh of {n} vertices it must be a 1-D array of "
-            f"{n} values (one per vertex, in the order of mesh.vertices)"
-        )
-    return _host_field(u, name, (1,), be)
-
-
-def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
-    """With ``mesh=``, the grid arguments must keep their defaults."""
-    given = [name for name, value, default in (("dx", dx, 1.0), ("dy", dy, None),
-                                               ("bc", bc, "periodic"), ("stencil", stencil, 5))
-             if not (value is default or (isinstance(value, (int, float, str))
-                                         and not isinstance(value, bool) and value == default))]
-    if given:
-        raise ValueError(
-            f"{', '.join(given)} given together with mesh=: a mesh carries its own geometry "
-            "(its boundary, if open, is zero-flux), so the grid arguments dx, dy, bc and "
-            "stencil do not apply"
-        )
-
-
-def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
-                  be: Backend | None = None) -> tuple[np.ndarray, Grid]:
-    """``(field [ny, nx], Grid)`` of a 1-D ``u[nx]`` or 2-D ``u[ny, nx]`` grid field
-    (``be``: see :func:`_host_field`)."""
-    field = _host_field(u, name, (1, 2), be)
-    dx, dy = check.spacing(dx, dy)
-    if field.ndim == 1:
-        if dy != dx:
-            raise ValueError(f"dy={dy} given for the 1-D array {name}: a 1-D problem has only "
-                             "the x axis (spacing dx); leave dy out")
-        grid = Grid(field.shape, dx=dx, bc=bc)
-    else:
-        grid = Grid(field.shape, dx=dx, dy=dy, bc=bc)
-    check.spacing_fits(grid.dx, grid.dy, field.dtype)
-    return field.reshape(grid.shape), grid
-
-
-def _grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u",
-                  be: Backend | None = None):
-    """``(field, domain)``: a per-vertex field and the mesh, or a grid field and its Grid."""
-    if mesh is not None:
-        _no_grid_args(dx, dy, bc)
-        return _mesh_field(u, mesh, name, be), mesh
-    return _grid_problem(u, name, dx, dy, bc, be)
 
 
 class _progress_bar:
@@ -385,11 +271,8 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
     if grid.bcs.x.kind != PERIODIC or grid.bcs.y.kind != PERIODIC:
         raise ValueError(f"a graph surface (height=) is periodic on both axes; got bc={bc!r}, "
                          "allowed: 'periodic'")
-    try:
-        h = np.asarray(interop.to_numpy(height), dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"height must be an array of real numbers, got "
-                        f"{type(height).__name__}") from exc
+    h = check.real_array(interop.to_numpy(height) if interop.is_array(height) else height,
+                         "height").astype(np.float64, copy=False)  # no text, bool, complex
     if h.shape != field.shape:
         raise ValueError(f"height has shape {h.shape}; it must have u's shape {field.shape} "
                          "(one height per cell)")
@@ -468,6 +351,8 @@ def gray_scott(
     ``out``: a pair ``(u_out, v_out)`` that receives the result (module doc).
     """
     be = get_backend(backend)
+    check_stability, progress = (check.flag(check_stability, "check_stability"),
+                                 check.flag(progress, "progress"))
     if mesh is not None:
         _no_grid_args(dx, dy, bc)
         gu, gv = _mesh_field(u, mesh, "u", be), _mesh_field(v, mesh, "v", be)
@@ -618,6 +503,11 @@ def diffusion_step(
     D = check.scalar(D, "D")
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
+    check_stability = check.flag(check_stability, "check_stability")
+    if tol is not None and method == "explicit":
+        raise ValueError(f"tol={tol!r} given with method='explicit', which solves nothing; "
+                         "tol applies to 'backward-euler' and 'crank-nicolson'")
+    tol = None if tol is None else check.scalar(tol, "tol", strict=True)
     src = _param(source, "source", field)
     _out_for(out, u, field.dtype)
     start = (_on(be, u, field),)
@@ -685,8 +575,9 @@ def allen_cahn(
     ``out``: module doc (the state crosses the host once each way: the stepper's own)."""
     from .models import AllenCahn
 
-    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc)
+    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
     eps = check.scalar(eps, "eps", strict=True)
+    check_stability = check.flag(check_stability, "check_stability")
     if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
         raise ValueError(
             f"eps={eps:g} is too small for {field.dtype}: the reaction term (u³ − u + b)/eps² "
@@ -723,44 +614,6 @@ def optimal_omega(shape: tuple[int, ...]) -> float:
                          f"shape), got {shape!r}")
     n = max(max(sizes), 2)
     return 2.0 / (1.0 + math.sin(math.pi / n))
-
-
-def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
-    """Checked SOR inputs: ``(c [ny, nx], mask uint8, omega, rhs or None, dx, dy, bcs)``."""
-    grid, domain = _grid_problem(c, "c", dx, dy, bc, be)
-    if isinstance(fixed, (list, tuple)) or interop.is_array(fixed):
-        fixed = interop.to_numpy(fixed)
-    if not isinstance(fixed, np.ndarray):
-        raise TypeError(f"fixed must be a NumPy boolean (or integer) mask, got "
-                        f"{type(fixed).__name__}")
-    if fixed.dtype != bool and fixed.dtype.kind not in "iu":
-        raise TypeError(f"fixed must be a boolean mask (or integers, non-zero = fixed), got "
-                        f"dtype {fixed.dtype}")
-    if fixed.shape != _given_shape(c):
-        raise ValueError(f"fixed has shape {fixed.shape} but c has shape {_given_shape(c)}; "
-                         "they must match")
-    mask = np.ascontiguousarray((fixed != 0).reshape(grid.shape), dtype=np.uint8)
-    omega = check.scalar(omega, "omega", minimum=None)
-    if not 0.0 < omega < 2.0:
-        raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
-    f = None
-    if rhs is not None:
-        f = _host_field(rhs, "rhs", (1, 2), None)
-        if f.shape != _given_shape(c):
-            raise ValueError(f"rhs has shape {f.shape} but c has shape {_given_shape(c)}; "
-                             "they must match")
-        f = np.ascontiguousarray(f.reshape(grid.shape).astype(grid.dtype, copy=False))
-    bcs = domain.bcs
-    axes = (("x", grid.shape[1], bcs.x),) if domain.ndim == 1 else (
-        ("y", grid.shape[0], bcs.y), ("x", grid.shape[1], bcs.x))
-    for name, n, axis_bc in axes:
-        if axis_bc.kind == PERIODIC and n % 2 == 1:
-            raise ValueError(
-                f"red-black SOR needs an even size along a periodic axis, but the {name} axis "
-                f"has {n} cells; use an even size or a 'neumann'/('dirichlet', g) boundary on "
-                "that axis"
-            )
-    return grid, mask, omega, f, domain.dx, domain.dy, domain.bcs
 
 
 class _SOR:
@@ -902,22 +755,6 @@ def sor_solve(
 
 
 # ---------------------------------------------------------------------------- level sets
-def _levelset_problem(phi: Any, dx: Any, dy: Any, dz: Any, bc: Any,
-                      be: Backend | None = None) -> tuple[np.ndarray, Grid]:
-    """``(field, Grid)`` of a 1-D, 2-D or (with ``dz``, default ``dx``) 3-D level-set field."""
-    field = _host_field(phi, "phi", (1, 2, 3), be)
-    if field.ndim < 3:
-        if dz is not None:
-            raise ValueError(f"dz={dz!r} given for a {field.ndim}-D phi of shape {field.shape}: "
-                             "only a 3-D phi [nz, ny, nx] has a z axis; leave dz out")
-        return _grid_problem(field, "phi", dx, dy, bc)
-    dx, dy = check.spacing(dx, dy)
-    grid = Grid(field.shape, dx=dx, dy=dy, dz=dz, bc=bc)
-    check.spacing_fits(grid.dx, grid.dy, field.dtype)
-    check.spacing_fits(grid.dz, grid.dz, field.dtype)
-    return field, grid
-
-
 def _grid_formula(domain: Grid) -> tuple[str, float]:
     """``(text, value)`` of ``1/(1/dx + 1/dy (+ 1/dz))`` for ``domain``."""
     if domain.ndim == 1:
@@ -954,6 +791,7 @@ def levelset_advance(
     F = _param(speed, "speed", grid)
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
+    check_stability = check.flag(check_stability, "check_stability")
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
     limit = levelset_dt_limit(float(np.max(np.abs(F))), dx, dy, domain.dz)
     if check_stability and dt > limit:
@@ -1006,6 +844,7 @@ def reinitialize(
     if dtau > limit:
         raise StabilityError(f"dtau={dtau} exceeds the CFL limit {limit:.6g} = {formula}")
     n = max(grid.shape) if iterations is None else check.steps(iterations, "iterations")
+    subcell_fix = check.flag(subcell_fix, "subcell_fix")
     kw = {"dz": domain.dz} if domain.ndim == 3 else {}
     _out_for(out, phi, grid.dtype)
     phi0 = _on(be, phi, grid)

@@ -82,13 +82,9 @@ def _parse_axis(spec: Any) -> AxisBC:
         and isinstance(spec[0], str)
         and spec[0].lower() == "dirichlet"
     ):
-        try:
-            value = float(spec[1])
-        except (TypeError, ValueError):
-            raise ValueError(f"Dirichlet value must be a number, got {spec[1]!r}") from None
-        if value != value or value in (float("inf"), float("-inf")):
-            raise ValueError(f"Dirichlet value must be finite, got {value}")
-        return AxisBC(DIRICHLET, value)
+        from .validation import scalar  # the number rule: no bool, text or complex
+
+        return AxisBC(DIRICHLET, scalar(spec[1], "Dirichlet value", minimum=None))
     raise ValueError(f"unknown boundary condition {spec!r}; allowed: {ALLOWED}")
 
 

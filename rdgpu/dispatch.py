@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import re
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -25,6 +26,10 @@ from .errors import BackendUnavailableError
 
 BACKEND_NAMES = ("numpy", "warp", "opencl")
 _ALLOWED = "'numpy', 'warp', 'opencl' or 'auto' (optionally 'NAME:DEVICE')"
+#: the devices each backend takes after its ':'
+_DEVICES = {"warp": "'warp:cpu', 'warp:cuda' or 'warp:cuda:N'",
+            "opencl": "'opencl:P:D' (platform:device indices) or 'opencl:NAME' (part of a "
+                      "platform or device name)"}
 
 _instances: dict[tuple[str, str | None], Backend] = {}
 # constructing a backend (Warp's init, an OpenCL context) happens once, under this lock;
@@ -51,12 +56,29 @@ class BackendInfo:
         return f"{self.name:7s} unavailable  {self.reason}"
 
 
+_WARP_DEVICE = re.compile(r"cpu|cuda(:\d+)?")
+
+
 def _split(spec: str) -> tuple[str, str | None]:
-    name, _, device = spec.strip().partition(":")
-    name = name.lower()
+    """``(name, device or None)`` of a backend spec; a malformed spec is a ValueError that
+    says what is allowed: an unknown name, an empty device (``"opencl:"``), a device for a
+    backend that takes none (``"numpy:gpu"``, ``"auto:0"``), a Warp device that is not
+    ``cpu``, ``cuda`` or ``cuda:N``."""
+    name, colon, device = spec.strip().partition(":")
+    name, device = name.strip().lower(), device.strip()
     if name not in (*BACKEND_NAMES, "auto"):
         raise ValueError(f"unknown backend {spec!r}; allowed: {_ALLOWED}")
-    return name, (device or None)
+    if colon and name in ("numpy", "auto"):
+        what = ("the numpy backend runs on this CPU" if name == "numpy"
+                else "'auto' picks the backend and its device")
+        raise ValueError(f"backend {spec!r}: {what} and takes no device; use {name!r}")
+    if colon and not device:
+        raise ValueError(f"backend {spec!r} has an empty device after ':'; name a device "
+                         f"({_DEVICES[name]}) or leave out the ':'")
+    if device and name == "warp" and not _WARP_DEVICE.fullmatch(device.lower()):
+        raise ValueError(f"backend {spec!r}: unknown Warp device {device!r}; allowed: "
+                         f"{_DEVICES['warp']}")
+    return name, ((device.lower() if name == "warp" else device) or None)
 
 
 def _construct(name: str, device: str | None) -> Backend:

@@ -26,12 +26,14 @@ from typing import Any
 
 import numpy as np
 
+from . import validation as check
 from ._optional import require
 from .api import BackendSpec, optimal_omega
 from .boundary import GridBC
 from .dispatch import get_backend
 from .domains import Grid
 from .errors import ConvergenceError
+from .resources import check_fields
 
 GEOMETRIES = ("seed001", "radial")
 #: the radial geometry's outer circle (c = 1 on and outside it), as a fraction of min(shape)
@@ -39,6 +41,9 @@ RADIUS_FRACTION = 0.45
 _EMPTY, _OBJECT, _HELD = 0, 1, 2
 #: weights are at most 2^40 each and their int64 sum must not overflow
 MAX_CELLS = 2**22
+#: per-cell arrays of a growth, counted in fields of the dtype for the memory estimate
+#: (c and its start, the states, arrival steps, int64 weights, the set-up's float64 arrays)
+FIELDS = 8
 
 
 @dataclass
@@ -78,12 +83,10 @@ class DLAResult:
 
 
 def _check_shape(shape: Any, geometry: str) -> tuple[int, int]:
-    try:
-        ny, nx = (int(n) for n in shape)
-        ok = all(not isinstance(n, bool) and int(n) == n for n in shape)
-    except (TypeError, ValueError):
-        ok = False
-    if not ok or ny < 8 or nx < 8:
+    if not isinstance(shape, (tuple, list)) or len(shape) != 2:
+        raise ValueError(f"shape must be two integers (ny, nx), each >= 8, got {shape!r}")
+    ny, nx = (check.whole(n, "shape", floats=True) for n in shape)
+    if ny < 8 or nx < 8:
         raise ValueError(f"shape must be two integers (ny, nx), each >= 8, got {shape!r}")
     if ny * nx > MAX_CELLS:
         raise ValueError(f"shape {ny}x{nx} has {ny * nx} cells; the exact int64 weight sums "
@@ -164,33 +167,31 @@ def dla(
     start saves.
     ``dtype``: of the field and SOR, ``"float64"`` or ``"float32"``.
     """
-    if geometry not in GEOMETRIES:
+    if not isinstance(geometry, str) or geometry not in GEOMETRIES:
         raise ValueError(f"unknown geometry {geometry!r}; allowed: {', '.join(GEOMETRIES)}")
     ny, nx = _check_shape(shape, geometry)
-    if isinstance(eta, bool) or not isinstance(eta, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(eta) or eta < 0:
-        raise ValueError(f"eta must be a finite number >= 0, got {eta!r}")
-    eta = float(eta)
-    for name, value in (("steps", steps), ("k", k), ("seed", seed)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    if k < 1:
-        raise ValueError(f"k must be >= 1 (cells joining per growth step), got {k}")
+    eta = check.scalar(eta, "eta")
+    steps, seed = check.whole(steps, "steps"), check.whole(seed, "seed")
+    k = check.whole(k, "k", minimum=1)  # cells joining per growth step
+    tol = check.scalar(tol, "tol", strict=True)
+    omega = optimal_omega((ny, nx)) if omega is None else check.scalar(omega, "omega")
+    if not 0.0 < omega < 2.0:
+        raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
+    try:
+        dt = np.dtype(dtype)
+    except TypeError:
+        dt = None
+    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
+    max_sweeps = (max(1000, 50 * max(ny, nx)) if max_sweeps is None
+                  else check.whole(max_sweeps, "max_sweeps", minimum=1))
+    warm_start = check.flag(warm_start, "warm_start")
+    check_fields(f"dla on a {ny}x{nx} grid", ny * nx, FIELDS, dt.itemsize, copies=2)
     state, c0, source, center, bc, wrap = _setup((ny, nx), geometry)
     free = int(np.count_nonzero(state == _EMPTY))
     if steps * k > free:
         raise ValueError(f"steps * k = {steps * k} exceeds the {free} empty cells of a "
                          f"{ny}x{nx} '{geometry}' grid; allowed: steps * k <= {free}")
-    tol = float(tol)
-    if not (math.isfinite(tol) and tol > 0):
-        raise ValueError(f"tol must be a finite number > 0, got {tol!r}")
-    omega = optimal_omega((ny, nx)) if omega is None else float(omega)
-    if not 0.0 < omega < 2.0:
-        raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
-    dt = np.dtype(dtype)
-    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
-        raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
-    max_sweeps = max(1000, 50 * max(ny, nx)) if max_sweeps is None else int(max_sweeps)
 
     be = get_backend(backend)
     grower = _Grower(be, state, c0.astype(dt), bc, wrap, omega, tol, max_sweeps, source)
@@ -292,6 +293,7 @@ def dla_image(result: DLAResult, path: str | Path, cmap: str = "viridis",
     iio = require("imageio.v3", "writing PNG pictures")
     colormaps = require("matplotlib", "colouring pictures").colormaps
 
+    scale = check.whole(scale, "scale", minimum=1)
     arrival = np.asarray(result.arrival)
     top = max(int(arrival.max()), 1)
     rgba = colormaps[cmap](np.clip(arrival / top, 0.0, 1.0), bytes=True)[..., :3]

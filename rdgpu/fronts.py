@@ -35,6 +35,7 @@ from .api import laplacian, levelset_dt_limit
 from .boundary import PERIODIC, GridBC, parse_bc
 from .domains import Grid
 from .errors import StabilityError
+from .resources import check_fields
 
 SPEEDS = ("laplace", "offset")
 
@@ -131,10 +132,10 @@ class RDFront:
                              + (" as an ensemble" if sim.members is not None else ""))
         species = tuple(sim.species)
         name = species[0] if field is None else field
-        if name not in species:
+        if not isinstance(name, str) or name not in species:
             raise ValueError(f"unknown field {name!r}: model {sim.model.name!r} has the "
                              f"species {', '.join(map(repr, species))}")
-        if speed not in SPEEDS:
+        if not isinstance(speed, str) or speed not in SPEEDS:
             raise ValueError(f"speed must be one of {SPEEDS} (β = Δa or β = a − a0), "
                              f"got {speed!r}")
         self.sim, self.grid, self.field, self.speed = sim, grid, name, speed
@@ -142,10 +143,12 @@ class RDFront:
         self.beta_scale = check.scalar(beta_scale, "beta_scale", minimum=None)
         self.reinit_every = check.steps(reinit_every, "reinit_every")
         self.reinit_iterations = check.steps(reinit_iterations, "reinit_iterations")
-        self.substep = bool(substep)
+        self.substep = check.flag(substep, "substep")
         self._bcs = _front_bc(grid)
+        if radius is not None:
+            radius = check.scalar(radius, "radius", strict=True)
         phi = (circle_phi(grid, radius) if phi0 is None
-               else check.as_field(phi0, "phi0", ndim=(2,)))
+               else check.as_field(phi0, "phi0", ndim=(2,), backend=sim.stepper.backend))
         if phi.shape != grid.shape:
             raise ValueError(f"phi0 has shape {phi.shape}; the grid's is {grid.shape}")
         be = sim.stepper.backend
@@ -231,6 +234,10 @@ class RDFront:
         """``steps`` driver steps; φ is kept every ``snapshot_every`` steps (0: none)."""
         steps = check.steps(steps)
         every = check.steps(snapshot_every, "snapshot_every")
+        if every:  # the snapshots of φ kept: the shared estimate, before the run
+            check_fields(f"front_growth with {steps // every:,} snapshots",
+                         math.prod(self.grid.shape), 1, np.dtype(self.sim.dtype).itemsize,
+                         copies=2, snapshots=steps // every)
         snaps, at = [], []
         for _ in range(steps):
             self.step()
@@ -281,6 +288,9 @@ def front_growth(
     a :class:`FrontResult`."""
     from .simulation import Simulation
 
+    check.steps(steps)
+    warm = check.steps(warmup, "warmup")
+    check.steps(snapshot_every, "snapshot_every")
     if preset is not None:
         if model is not None:
             raise ValueError("give a model or a preset, not both")
@@ -294,7 +304,6 @@ def front_growth(
     front = RDFront(sim, field=field, speed=speed, a0=a0, beta_scale=beta_scale,
                     reinit_every=reinit_every, reinit_iterations=reinit_iterations,
                     phi0=phi0, radius=radius, substep=substep)
-    warm = check.steps(warmup, "warmup")
     sim.stepper.advance(warm)
     sim.step += warm
     return front.run(steps, snapshot_every=snapshot_every)

@@ -241,6 +241,9 @@ def to_device(x: Any, checked: np.ndarray | None, be: Backend,
 
 # ---------------------------------------------------------------------------- results
 def _writable_kind(out: Any) -> str:
+    if isinstance(out, np.ma.MaskedArray):  # its mask would be left as it was
+        raise TypeError("out is a NumPy masked array: rdgpu would write its data and ignore "
+                        "its mask; pass a plain array (e.g. out.data)")
     try:
         kind = kind_of(out)
     except TypeError:

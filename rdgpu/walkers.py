@@ -13,8 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import validation as check
 from .dispatch import get_backend
 from .kernel_files import load_module
+from .resources import check_memory
 
 GEOMETRIES = ("radial", "seed001")
 #: why a run stopped: every particle added, the launch line/circle reached the grid edge,
@@ -38,15 +40,21 @@ class WalkDLAResult:
     settings: dict = field(default_factory=dict)
 
 
+#: host bytes per walker at the release (Philox counters and their temporaries, the
+#: positions) and per cell (the uint8 grid and int32 arrival steps, on the host and on the
+#: device, the result's mask); the ring table's set-up needs about RING_BYTES per cell of
+#: the square around its largest ring
+WALKER_BYTES, CELL_BYTES, RING_BYTES = 160, 15, 40
+
+
 def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, batch):
     if not isinstance(shape, (tuple, list)) or len(shape) != 2 or not all(
             isinstance(s, (int, np.integer)) and not isinstance(s, bool) for s in shape):
         raise ValueError(f"shape must be two integers (ny, nx), got {shape!r}")
     ny, nx = (int(s) for s in shape)
-    if geometry not in GEOMETRIES:
+    if not isinstance(geometry, str) or geometry not in GEOMETRIES:
         raise ValueError(f"geometry must be one of {GEOMETRIES}, got {geometry!r}")
-    if not isinstance(margin, (int, np.integer)) or margin < 1:
-        raise ValueError(f"margin must be an integer >= 1 (cells), got {margin!r}")
+    margin = check.whole(margin, "margin", minimum=1)
     if geometry == "radial":
         limit = min(ny // 2, nx // 2, ny - 1 - ny // 2, nx - 1 - nx // 2)
     else:
@@ -57,18 +65,27 @@ def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, bat
             f"margin {margin}: each side needs at least {2 * margin + 3} cells "
             f"({margin + 2} rows for seed001), and fewer than 2**31 cells in all")
     capacity = ny * nx - (nx if geometry == "seed001" else 1)
-    if not isinstance(particles, (int, np.integer)) or not 1 <= particles <= capacity:
+    try:
+        check.whole(particles, "particles", minimum=1, maximum=capacity)
+    except ValueError:
         raise ValueError(f"particles must be an integer from 1 to {capacity} (the empty "
-                         f"cells of a {ny}x{nx} grid), got {particles!r}")
-    if not (isinstance(sticking, (int, float)) and 0.0 < sticking <= 1.0):
-        raise ValueError(f"sticking must be a probability in (0, 1], got {sticking!r}")
-    if walkers is not None and (not isinstance(walkers, (int, np.integer))
-                                or not 1 <= walkers < 2**31):
-        raise ValueError(f"walkers must be a positive integer (or None), got {walkers!r}")
+                         f"cells of a {ny}x{nx} grid), got {particles!r}") from None
+    sticking = check.scalar(sticking, "sticking", strict=True, maximum=1.0)
+    if walkers is not None:
+        check.whole(walkers, "walkers", minimum=1, maximum=2**31 - 1)
     for name, v in (("max_steps", max_steps), ("batch", batch)):
-        if not isinstance(v, (int, np.integer)) or not 1 <= v < 2**31:
-            raise ValueError(f"{name} must be an integer from 1 to 2**31 - 1, got {v!r}")
+        check.whole(v, name, minimum=1, maximum=2**31 - 1)
     return ny, nx, limit
+
+
+def _check_memory(ny: int, nx: int, n_walk: int, ring: int) -> None:
+    """The shared memory estimate (:func:`rdgpu.resources.check_memory`) of a run, before
+    anything is allocated."""
+    side = 2 * ring + 3
+    need = n_walk * WALKER_BYTES + ny * nx * CELL_BYTES + side * side * RING_BYTES
+    check_memory(f"random_walk_dla with {n_walk:,} walkers on a {ny}x{nx} grid", need,
+                 f"{n_walk:,} walkers x {WALKER_BYTES} bytes, {ny * nx:,} cells x "
+                 f"{CELL_BYTES} bytes, the release ring table")
 
 
 def random_walk_dla(
@@ -98,11 +115,11 @@ def random_walk_dla(
     after ``max_steps``."""
     ny, nx, limit = _check(shape, particles, sticking, geometry, walkers, max_steps, margin,
                            batch)
-    if not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
+    seed = check.whole(seed, "seed", maximum=2**64 - 1)
+    n_walk = int(walkers) if walkers is not None else min(int(particles), 256)
+    _check_memory(ny, nx, n_walk, limit + 1 if geometry == "radial" else 0)
     ref = load_module("walkers", "reference.py")
     be = get_backend(backend)
-    n_walk = int(walkers) if walkers is not None else min(int(particles), 256)
     geo = ref.RADIAL if geometry == "radial" else ref.SEED001
     key = ref.key_of(int(seed))
     ring_start, ring_ij = ref.ring_table(limit + 1 if geo == ref.RADIAL else 0)

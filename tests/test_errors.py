@@ -99,14 +99,15 @@ def test_unstable_time_step():
 
 
 @pytest.mark.parametrize(
-    "bc, match",
-    [("reflective", "unknown boundary condition 'reflective'"),
-     ("dirichlet", r"needs a value: use \('dirichlet', g\)"),
-     (("dirichlet", "x"), "Dirichlet value must be a number"),
-     (("dirichlet", float("nan")), "Dirichlet value must be finite")],
+    "bc, exc, match",
+    [("reflective", ValueError, "unknown boundary condition 'reflective'"),
+     ("dirichlet", ValueError, r"needs a value: use \('dirichlet', g\)"),
+     (("dirichlet", "x"), TypeError, "Dirichlet value must be a real number, got str"),
+     (("dirichlet", True), TypeError, "Dirichlet value must be a real number, got bool"),
+     (("dirichlet", float("nan")), ValueError, "Dirichlet value must be finite")],
 )
-def test_bad_boundary_condition(bc, match):
-    with pytest.raises(ValueError, match=match):
+def test_bad_boundary_condition(bc, exc, match):
+    with pytest.raises(exc, match=match):
         rdgpu.laplacian(GOOD, bc=bc, backend="numpy")
 
 

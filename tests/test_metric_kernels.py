@@ -174,7 +174,7 @@ H = np.zeros((6, 8))
     (dict(mesh="a mesh"), ValueError, "height= and mesh= given together"),
     (dict(height=np.zeros((8, 6))), ValueError, r"height has shape \(8, 6\).*\(6, 8\)"),
     (dict(height=np.full((6, 8), np.nan)), ValueError, "height contains 48 NaN"),
-    (dict(height=[["a"] * 8] * 6), TypeError, "height must be an array of real numbers"),
+    (dict(height=[["a"] * 8] * 6), TypeError, "height has unsupported dtype <U1"),
     (dict(u=np.zeros(8)), ValueError, "u must be a 2-D array.*got a 1-D array"),
     (dict(u=np.zeros((2, 6, 8))), ValueError, "u must be a 2-D array.*got a 3-D array"),
     (dict(u=np.where(U == 0, np.nan, U)), ValueError, "u contains 48 NaN"),

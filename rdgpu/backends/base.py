@@ -92,6 +92,21 @@ class Backend(ABC):
     #: human-readable device description, e.g. "cpu" or "pthread-AMD EPYC (PoCL 3.0)"
     device: str = ""
 
+    #: elements of one array at most (kernels that index with 32-bit ints), None: no limit
+    max_cells: int | None = None
+
+    def check_cells(self, shape: tuple[int, ...], what: str = "an array") -> None:
+        """Refuse an array of ``shape`` over :attr:`max_cells` elements, before any
+        allocation (a :class:`rdgpu.ResourceLimitError`)."""
+        n = math.prod(int(s) for s in shape)
+        if self.max_cells is not None and n > self.max_cells:
+            from ..errors import ResourceLimitError
+
+            dims = "x".join(str(int(s)) for s in shape)
+            raise ResourceLimitError(
+                f"{what} of {dims} = {n:,} cells is too large for the {self.name} kernels: "
+                f"they index with 32-bit ints, at most {self.max_cells:,} cells")
+
     # ------------------------------------------------------------------ memory
     @abstractmethod
     def upload(self, a: np.ndarray) -> DeviceArray:

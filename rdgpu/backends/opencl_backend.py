@@ -271,6 +271,7 @@ class OpenCLBackend(Backend):
     """
 
     name = "opencl"
+    max_cells = _MAX_CELLS
 
     def __init__(
         self, device: str | None = None, *, layout: str | None = None, col_stride: int | None = None
@@ -395,6 +396,7 @@ class OpenCLBackend(Backend):
             raise TypeError(f"cannot put an object array on an OpenCL device ({dtype})")
 
     def upload(self, a: np.ndarray) -> DeviceArray:
+        self.check_cells(np.shape(a))  # before the contiguous copy and the upload
         a = np.ascontiguousarray(a)
         self._check_alloc_dtype(a.dtype)
         return DeviceArray(self, self._buffer(a.nbytes, a), tuple(a.shape), a.dtype)
@@ -411,6 +413,7 @@ class OpenCLBackend(Backend):
         dtype = np.dtype(dtype)
         self._check_alloc_dtype(dtype)
         shape = tuple(int(s) for s in shape)
+        self.check_cells(shape)
         nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
         return DeviceArray(self, self._buffer(nbytes), shape, dtype)
 

@@ -150,6 +150,7 @@ class WarpBackend(Backend):
     thread pool of its own for row chunks."""
 
     name = "warp"
+    max_cells = MAX_CELLS
 
     def __init__(self, device: str = "cpu", *, launch: str = "auto"):
         """``launch`` picks the kernels' launch shape: ``"auto"`` (row loops on a CPU
@@ -311,6 +312,7 @@ class WarpBackend(Backend):
 
     # ------------------------------------------------------------------ memory
     def upload(self, a: np.ndarray) -> DeviceArray:
+        self.check_cells(np.shape(a))  # before the contiguous copy and the upload
         a = np.ascontiguousarray(a)
         wp = self._wp
         handle = wp.array(a, dtype=wp.dtype_from_numpy(a.dtype), device=self._dev, copy=True)
@@ -326,6 +328,7 @@ class WarpBackend(Backend):
         stores to, and uninitialised memory may hold NaN (one memset per allocation)."""
         dtype = np.dtype(dtype)
         shape = tuple(int(s) for s in shape)
+        self.check_cells(shape)
         wp = self._wp
         handle = wp.zeros(shape, dtype=wp.dtype_from_numpy(dtype), device=self._dev)
         return DeviceArray(self, handle, shape, dtype)
