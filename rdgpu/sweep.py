@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ._optional import require
+from .sweep_store import SETTINGS_ATTR, open_store, stored_batch
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
 
@@ -38,8 +39,6 @@ PATTERN_CLASSES = ("uniform", "spots", "inverted-spots", "stripes", "mixed", "di
 MIXED_SHARE = 0.25
 #: memory (bytes) that one batch's fields may take, for the default batch size
 BATCH_MEMORY = 256 * 2**20
-#: the attribute of a sweep store that holds its settings (JSON)
-SETTINGS_ATTR = "rdgpu_sweep"
 _AXIS_FORMS = ("NAME=START:STOP:N (N values from START to STOP, inclusive), "
                "NAME=A,B,C (a list) or NAME=VALUE (fixed)")
 _SPACE_DIMS = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
@@ -241,46 +240,6 @@ def _attrs(settings: dict) -> dict:
     return out
 
 
-def _open_or_create(path: Path, template: Any, settings: dict) -> Any:
-    """The zarr group of a sweep store: created from ``template`` if absent; if present,
-    checked to hold the same sweep."""
-    zarr, = _need("zarr")
-    if path.exists():
-        try:
-            group = zarr.open_group(str(path), mode="r+")
-        except Exception as exc:  # noqa: BLE001 - any unreadable store
-            raise ValueError(f"{path} exists and is not a zarr store ({exc}); remove it or "
-                             "choose another path") from None
-        text = group.attrs.get(SETTINGS_ATTR)
-        if text is None:
-            raise ValueError(f"{path} exists and is not an rdgpu sweep store; remove it or "
-                             "choose another path")
-        old = json.loads(text)
-        if old != settings:
-            keys = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
-            diff = "; ".join(f"{k}: {old.get(k)!r} there, {settings.get(k)!r} now"
-                             for k in keys)
-            raise ValueError(f"cannot resume into {path}: it holds a sweep with other "
-                             f"settings ({diff}); remove it or choose another path")
-        return group
-    template.to_zarr(str(path), mode="w-", compute=False, consolidated=False)
-    group = zarr.open_group(str(path), mode="r+")
-    group["pattern"][...] = -1  # (its fill value is 0: "uniform")
-    return group
-
-
-def _stored_batch(path: Path) -> int | None:
-    """The batch size of the sweep stored at ``path`` (None: no readable sweep there)."""
-    if not path.is_dir():
-        return None
-    try:
-        zarr, = _need("zarr")
-        return int(json.loads(zarr.open_group(str(path), mode="r").attrs[SETTINGS_ATTR])
-                   ["batch"])
-    except Exception:  # noqa: BLE001 - not a sweep store: _open_or_create says why
-        return None
-
-
 def _decode(ds: Any) -> Any:
     """``pattern`` codes → class names (``""``: not run yet); ``done`` dropped."""
     if ds["pattern"].dtype.kind in "UO":  # decoded already
@@ -299,7 +258,9 @@ def open_sweep(path: str | os.PathLike) -> Any:
     xr, = _need("xarray")
     kind = _store_kind(path)
     if kind == "zarr":
-        ds = xr.open_zarr(str(path), consolidated=False).load()
+        from .sweep_store import load_store
+
+        ds = load_store(xr, Path(path), PATTERN_CLASSES.index("diverged"))
     else:
         with xr.open_dataset(str(path)) as f:
             ds = f.load()
@@ -467,7 +428,7 @@ def sweep(
     n_members = math.prod(a.size for a in axes.values())
     space = tuple(grid.field_shape)
     if batch is None and kind == "zarr":  # resuming: the store's batches
-        batch = _stored_batch(Path(store))
+        batch = stored_batch(Path(store))
     client, close = None, _nothing
     try:
         if batch is None:  # about 4 batches a worker: ask the cluster how many it has
@@ -498,8 +459,8 @@ def sweep(
                "classify": classify}
         dx = {"x": grid.dx, "y": grid.dy or grid.dx, "z": grid.dz}
         template = _template(xr, da, settings, axes, space, dx, species, n_batches)
-        group = _open_or_create(Path(store), template, settings) if kind == "zarr" else None
-        result = _Collector(template, group, axes, species, batch)
+        group = open_store(Path(store), template, settings) if kind == "zarr" else None
+        result = _Collector(template, group, axes, species, batch, store)
         todo = [b for b in range(n_batches) if not result.done(b)]
         if todo and client is None:  # no cluster is started for a finished sweep
             client, close = _client(scheduler, workers, len(todo))
@@ -518,7 +479,7 @@ class _Collector:
     """Where finished batches go: the zarr group, or arrays in memory."""
 
     def __init__(self, template: Any, group: Any, axes: dict[str, np.ndarray],
-                 species: Sequence[str], batch: int) -> None:
+                 species: Sequence[str], batch: int, store: Any = None) -> None:
         self.template, self.group, self.species, self.batch = template, group, species, batch
         self.counts = tuple(a.size for a in axes.values())
         self.n = math.prod(self.counts)
@@ -528,8 +489,12 @@ class _Collector:
                            for s in species}
             self.pattern = np.full(self.counts, -1, dtype=np.int8)
             self.flags = np.zeros(template["done"].shape, dtype=bool)
-        else:
-            self.flags = np.asarray(group["done"][:], dtype=bool)
+        else:  # the flags as stored, each checked against the batch's data
+            from .sweep_store import read_done, verify_done
+
+            self.flags = verify_done(group, Path(store), read_done(group, Path(store)),
+                                     self.members, self.counts, tuple(species),
+                                     PATTERN_CLASSES.index("diverged"), len(PATTERN_CLASSES))
 
     def members(self, b: int) -> range:
         return range(b * self.batch, min((b + 1) * self.batch, self.n))
