@@ -11,7 +11,8 @@ batches of members; each batch is one ensemble run (``Simulation(..., members=B)
 one Dask task.  With a ``.zarr`` store the results stream into it as batches finish, and a
 sweep run again with the same settings skips the batches already there.
 
-Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarray, zarr).
+Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarray, zarr;
+matplotlib for the map).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ._optional import require
+from .resources import check_memory
 from .sweep_store import SETTINGS_ATTR, open_store, stored_batch
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
@@ -79,6 +81,8 @@ def axis_values(name: str, value: Any) -> np.ndarray | float:
                 raise ValueError(f"{what}: N in {text!r} must be a whole number") from None
             if n < 1:
                 raise ValueError(f"{what}: N in {text!r} must be at least 1")
+            check_memory(f"parameter {name}: {n:,} values", 64 * n,
+                         "the values, and the sweep's settings that list them")
             return np.linspace(start, stop, n) if n > 1 else start
         if "," in text:
             return axis_values(name, [_number(p, what) for p in text.split(",")])
@@ -120,7 +124,12 @@ def _default_domain(model: Any, size: Any) -> dict:
     spec = {k: base[k] for k in ("dx", "dy", "dz", "bc") if "grid" in base and k in base}
     spec.setdefault("dx", float(getattr(model, "spacing", 1.0)))
     spec.setdefault("bc", "periodic")
-    shape = (int(size),) * 2 if np.ndim(size) == 0 else tuple(int(n) for n in size)
+    from .simulation import _whole
+
+    shape = ((_whole(size, "size", 1),) * 2 if isinstance(size, (str, bytes)) or
+             np.ndim(size) == 0 else tuple(_whole(n, "size", 1) for n in size))
+    if not 1 <= len(shape) <= 3:
+        raise ValueError(f"size must be N or 1 to 3 whole numbers, got {size!r}")
     if len(shape) != 3:
         spec.pop("dz", None)
     if len(shape) == 1:
@@ -377,7 +386,15 @@ def sweep(
     xr, da = _need("xarray", "dask.array")
     from .dispatch import get_backend
     from .domains import Grid
-    from .simulation import _lookup_model, _model_definition, build_domain, describe_domain
+    from .simulation import (
+        _lookup_model,
+        _model_definition,
+        _whole,
+        build_domain,
+        describe_domain,
+    )
+    from .sweep_store import check_sweep_memory
+    from .validation import scalar
 
     kind = _store_kind(store)
     _check_scheduler(scheduler)
@@ -400,15 +417,19 @@ def sweep(
     if not axes:
         raise ValueError("nothing to sweep: give at least one parameter several values, "
                          "e.g. {'F': '0.01:0.08:16'}")
-    steps = int(steps)
-    if steps < 0:
-        raise ValueError(f"steps must be >= 0, got {steps}")
-    for what, n in (("batch", batch), ("workers", workers)):
-        if n is not None and (isinstance(n, bool) or int(n) != n or n < 1):
-            raise ValueError(f"{what} must be a whole number >= 1, got {n!r}")
+    steps, seed = _whole(steps, "steps", 0), _whole(seed, "seed", 0)
+    batch, workers = (None if n is None else _whole(n, what, 1)
+                      for n, what in ((batch, "batch"), (workers, "workers")))
+    if dt is not None:
+        if isinstance(dt, (bool, np.bool_)):
+            raise TypeError(f"dt must be a real number > 0, got {dt!r} (a bool)")
+        dt = scalar(dt, "dt", minimum=0.0, strict=True)
     grid = build_domain(domain if domain is not None else _default_domain(mdl, size))
     if not isinstance(grid, Grid):
         raise ValueError("a sweep runs on a grid (size= or a grid domain), not a mesh")
+    n_members = math.prod(a.size for a in axes.values())
+    check_sweep_memory(n_members, tuple(grid.field_shape), len(mdl.species),
+                       np.dtype(dtype).itemsize, batch, BATCH_MEMORY, store)
     clash = [k for k in axes if k in _SPACE_DIMS[3] or k in ("batch", "pattern")
              or k in mdl.species]
     if clash:
@@ -425,7 +446,6 @@ def sweep(
     dtype = str(np.dtype(dtype))
     definition = _model_definition(mdl)
     desc = describe_domain(grid)
-    n_members = math.prod(a.size for a in axes.values())
     space = tuple(grid.field_shape)
     if batch is None and kind == "zarr":  # resuming: the store's batches
         batch = stored_batch(Path(store))

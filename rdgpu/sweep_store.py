@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SweepStoreWarning", "load_store", "open_store", "read_done", "stored_batch",
-           "verify_done"]
+__all__ = ["SweepStoreWarning", "check_sweep_memory", "load_store", "open_store",
+           "read_done", "stored_batch", "verify_done"]
 
 #: the attribute of a sweep store that holds its settings (JSON)
 SETTINGS_ATTR = "rdgpu_sweep"
@@ -214,3 +214,27 @@ def load_store(xr: Any, path: Path, diverged: int) -> Any:
                              f"member(s) have no data for {s!r} (a chunk was deleted); "
                              f"{rerun}")
     return ds
+
+
+def check_sweep_memory(n_members: int, space: tuple[int, ...], n_species: int,
+                       itemsize: int, batch: int | None, batch_memory: int,
+                       store: Any) -> None:
+    """Refuse a sweep whose results cannot be held (:func:`rdgpu.resources.check_memory`),
+    before any work: the result Dataset (every member's fields, held in memory at the end,
+    and as large in the store, uncompressed) and one batch at work."""
+    from .resources import check_memory, field_bytes, format_bytes
+
+    cells = int(np.prod(space, dtype=object))
+    member = cells * n_species * itemsize
+    dataset = n_members * (member + 80)  # + the class: code, index and name
+    if batch is None:  # the default: within batch_memory (about 6 copies of each field)
+        batch = max(1, min(n_members, batch_memory // max(1, member * 6)))
+    working = field_bytes(batch * cells, n_species, itemsize, copies=6)
+    where = f"the store {store} as large on disk, uncompressed" if store is not None \
+        else "no store"
+    check_memory(
+        f"a sweep of {n_members:,} members of {'x'.join(map(str, space))}",
+        dataset + working,
+        f"the result Dataset {format_bytes(dataset)} held in memory ({n_species} species in "
+        f"{itemsize * 8}-bit floats), {where}; one batch of {batch:,} members "
+        f"{format_bytes(working)}")
