@@ -77,8 +77,19 @@ def _positive(value: Any, name: str, allowed: str, *, finite: bool = True) -> fl
 def check_solver(solver: Any) -> None:
     """The solver's settings that rdgpu's steppers use, before any step: ``dt`` (the step,
     or the first step of an adaptive solver), ``tolerance``, ``dt_min`` and ``dt_max`` of
-    an adaptive one."""
+    an adaptive one, ``maxiter``, ``maxerror`` and ``explicit_fraction`` of the implicit
+    ones."""
     _positive(solver.info.get("dt"), "dt", "a finite number > 0 (the time step)")
+    if hasattr(solver, "maxiter"):  # ImplicitSolver, CrankNicolsonSolver
+        n = solver.maxiter
+        if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
+            raise ValueError(f"maxiter must be a whole number >= 1, got {n!r}")
+        _positive(solver.maxerror, "maxerror",
+                  "a finite number > 0 (the fixed-point iteration's bound)")
+    if hasattr(solver, "explicit_fraction"):  # CrankNicolsonSolver
+        a = solver.explicit_fraction
+        if isinstance(a, bool) or not isinstance(a, numbers.Real) or not 0 <= a <= 1:
+            raise ValueError(f"explicit_fraction must be a number from 0 to 1, got {a!r}")
     if not getattr(solver, "adaptive", False):
         return
     _positive(solver.tolerance, "tolerance",

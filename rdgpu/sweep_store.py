@@ -235,6 +235,6 @@ def check_sweep_memory(n_members: int, space: tuple[int, ...], n_species: int,
     check_memory(
         f"a sweep of {n_members:,} members of {'x'.join(map(str, space))}",
         dataset + working,
-        f"the result Dataset {format_bytes(dataset)} held in memory ({n_species} species in "
-        f"{itemsize * 8}-bit floats), {where}; one batch of {batch:,} members "
+        f"the result Dataset: {format_bytes(dataset)} held in memory, {n_species} species "
+        f"in {itemsize * 8}-bit floats; {where}; one batch of {batch:,} members: "
         f"{format_bytes(working)}")

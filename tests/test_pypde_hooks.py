@@ -160,3 +160,16 @@ def test_dt_limits_must_be_ordered(state):
     solver.dt_min, solver.dt_max = 1.0, 0.1
     with pytest.raises(ValueError, match=r"dt_min.*dt_max"):
         solver.make_stepper(state.copy(), dt=0.01)
+
+
+@pytest.mark.parametrize("solver, kw, match", [
+    ("implicit", {"maxiter": 0}, "maxiter"),
+    ("implicit", {"maxiter": 2.5}, "maxiter"),
+    ("implicit", {"maxerror": 0.0}, "maxerror"),
+    ("implicit", {"maxerror": math.nan}, "maxerror"),
+    ("crank-nicolson", {"explicit_fraction": 1.5}, "explicit_fraction"),
+    ("crank-nicolson", {"explicit_fraction": math.nan}, "explicit_fraction"),
+])
+def test_implicit_solver_settings(state, solver, kw, match):
+    with pytest.raises(ValueError, match=match):
+        _solve(pde.PDE({"c": "laplace(c)"}), state, "rdgpu:numpy", solver=solver, **kw)
