@@ -368,11 +368,11 @@ def sweep(
     ``store``: a ``.zarr`` path is created up front (every array, one member per chunk,
     and ``done`` per batch) and each batch is written as it finishes, from this process
     only; running the same sweep again (on any scheduler; ``batch`` defaults to the
-    store's) skips the batches marked done, and a store made with other settings is
-    refused.  A ``.nc`` path (netCDF) is written once at the end:
-    no streaming, no resume.  ``progress``: a tqdm bar counting batches.
-    ``on_batch(b)``: called after batch ``b`` is stored (an exception from it stops the
-    sweep; the batches stored so far stay).
+    store's) skips the batches marked done (their data checked first:
+    :mod:`rdgpu.sweep_store`), and a store made with other settings is refused.
+    A ``.nc`` path (netCDF) is written once at the end: no streaming, no resume.
+    ``progress``: a tqdm bar counting batches.  ``on_batch(b)``: called after batch ``b``
+    is stored (an exception from it stops the sweep; the batches stored so far stay).
 
     The Dataset: dims the swept parameters, then the space dims (``y, x``; cell centres);
     a variable per species (the final fields, NaN where a member diverged), ``pattern``
