@@ -20,6 +20,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import numbers
 import os
 import sys
 import types
@@ -87,15 +88,18 @@ def axis_values(name: str, value: Any) -> np.ndarray | float:
         if "," in text:
             return axis_values(name, [_number(p, what) for p in text.split(",")])
         return _number(text, what)
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{what}: expected numbers, got {value!r}")
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
     if np.ndim(value) == 0:
-        try:
-            return _number(str(float(value)), what)
-        except (TypeError, ValueError):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
             raise TypeError(f"{what}: expected a number, a list of numbers or text "
-                            f"({_AXIS_FORMS}), got {value!r}") from None
-    arr = np.asarray(value, dtype=np.float64)
+                            f"({_AXIS_FORMS}), got {type(value).__name__} {value!r}")
+        return _number(str(float(value)), what)
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":  # text, bools, complex, mixed: never read as numbers
+        raise TypeError(f"{what}: a swept parameter's values must be real numbers, got "
+                        f"{value!r}")
+    arr = arr.astype(np.float64)
     if arr.ndim != 1 or arr.size == 0:
         raise ValueError(f"{what}: a swept parameter is a 1-D list of values, got shape "
                          f"{arr.shape}")

@@ -10,6 +10,7 @@ import time
 from importlib.util import find_spec
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tomllib
 
@@ -47,6 +48,24 @@ OK = {"steps": 1, "size": 8, "backend": "numpy", "scheduler": "serial", "progres
 def test_bad_arguments(change, error, match):
     with pytest.raises(error, match=match):
         rdgpu.sweep("gray-scott", P, **{**OK, **change})
+
+
+@pytest.mark.parametrize("value", [b"0.03", ["0.03", "0.04"], [True, False], [0.03, "x"],
+                                   np.complex128(0.03 + 1j), [0.03 + 0j, 0.04 + 0j],
+                                   {"a": 1}, None])
+def test_parameter_values_must_be_numbers(value):
+    from rdgpu.sweep import axis_values
+
+    with pytest.raises(TypeError, match="parameter F"):
+        axis_values("F", value)
+
+
+def test_parameter_values_that_are_numbers():
+    from rdgpu.sweep import axis_values
+
+    assert axis_values("F", np.float32(0.5)) == 0.5
+    assert axis_values("F", np.array(2)) == 2.0
+    assert list(axis_values("F", np.array([1, 2], dtype=np.int64))) == [1.0, 2.0]
 
 
 @needs_dask
