@@ -150,3 +150,18 @@ def test_missing_matplotlib_names_an_extra_that_brings_it(monkeypatch, tmp_path)
     extra = info.value.extra
     assert f'rdgpu[{extra}]' in str(info.value)
     assert "matplotlib" in _extra(extra)
+
+
+def test_cli_missing_matplotlib_names_the_extra(capsys, tmp_path, monkeypatch):
+    from rdgpu.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setattr("rdgpu._optional.available", lambda m: m.partition(".")[0]
+                        != "matplotlib")
+    assert main(["sweep", "gray-scott", "--param", "F=0.03,0.04", "--steps", "1",
+                 "--out", "map.png"]) == 1
+    err = capsys.readouterr().err
+    extra = re.search(r'pip install "rdgpu\[(\w+)\]"', err).group(1)
+    assert "matplotlib" in err and "matplotlib" in _extra(extra)
+    assert not (tmp_path / "map.png").exists()
