@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tomllib
 
 import rdgpu
 from rdgpu.errors import ResourceLimitError
@@ -104,6 +103,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _extra(name: str) -> set[str]:
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        tomllib = pytest.importorskip("tomli")
     with open(ROOT / "pyproject.toml", "rb") as f:
         reqs = tomllib.load(f)["project"]["optional-dependencies"][name]
     out = set()
