@@ -13,7 +13,9 @@ naming the part it cannot run; it never falls back to another backend):
   ``laplace(laplace(s))``, the coordinates and ``t``) with number or array constants
   (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
   ``SwiftHohenbergPDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
-  real fields only;
+  real fields only, and no subclass replacing what py-pde's solvers call besides the
+  equations (``make_post_step_hook``, ``evolution_rate``, the noise:
+  :mod:`rdgpu.pypde_checks`);
 * on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
   rdgpu's field, so ``[i, j]`` is ``[y, x]`` in 2-D; py-pde's coordinate ``x`` of axis 0
   becomes rdgpu's name for that axis, shifted by the grid's lower bound);
@@ -87,6 +89,7 @@ from .domains import Grid
 from .models import equations as eq
 from .models.device_rhs import DeviceRHS
 from .models.model import define_model
+from .pypde_checks import check_overrides, check_solver
 from .pypde_steppers import species_views
 
 __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
@@ -271,6 +274,12 @@ def _corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int
             P[tuple(sl)] += np.reshape(const, face) * inv
             W[tuple(sl)] += (nu - np.reshape(factor, face)) * inv
     return (P if P.any() else None), (W if W.any() else None)
+
+
+def _classes() -> tuple[type, ...]:
+    """The PDE classes rdgpu runs (a subclass runs as its nearest one of these)."""
+    return (pde.PDE, pde.DiffusionPDE, pde.AllenCahnPDE, pde.SwiftHohenbergPDE,
+            pde.WavePDE, pde.KleinGordonPDE)
 
 
 def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, Any],
@@ -468,6 +477,7 @@ class RdgpuBackend(BackendBase):
         host function (NumPy in, NumPy out: each call uploads the state and downloads the
         rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
         :func:`make_stepper` keep their fields on the device instead."""
+        check_overrides(eq, _classes(), hook=False)  # ScipySolver calls no post-step hook
         tr = translate(eq, state)
         rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state))
         x, out = rhs.empty(), rhs.empty()
@@ -490,6 +500,9 @@ class RdgpuBackend(BackendBase):
             raise _refuse(f"the solver {name} (supported: "
                           f"{', '.join(pypde_steppers.SUPPORTED)}; ScipySolver runs through "
                           "make_pde_rhs)")
+        check_solver(solver)
+        check_overrides(solver.pde, _classes(),
+                        hook=bool(getattr(solver, "_use_post_step_hook", True)))
         dtype = self._dtype(state)
         tr = translate(solver.pde, state)
         fixed_euler = name == "EulerSolver" and not solver.adaptive

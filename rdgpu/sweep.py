@@ -11,7 +11,8 @@ batches of members; each batch is one ensemble run (``Simulation(..., members=B)
 one Dask task.  With a ``.zarr`` store the results stream into it as batches finish, and a
 sweep run again with the same settings skips the batches already there.
 
-Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarray, zarr).
+Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarray, zarr;
+matplotlib for the map).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import numbers
 import os
 import sys
 import types
@@ -29,6 +31,8 @@ from typing import Any
 import numpy as np
 
 from ._optional import require
+from .resources import check_memory
+from .sweep_store import SETTINGS_ATTR, open_store, stored_batch
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
 
@@ -38,8 +42,6 @@ PATTERN_CLASSES = ("uniform", "spots", "inverted-spots", "stripes", "mixed", "di
 MIXED_SHARE = 0.25
 #: memory (bytes) that one batch's fields may take, for the default batch size
 BATCH_MEMORY = 256 * 2**20
-#: the attribute of a sweep store that holds its settings (JSON)
-SETTINGS_ATTR = "rdgpu_sweep"
 _AXIS_FORMS = ("NAME=START:STOP:N (N values from START to STOP, inclusive), "
                "NAME=A,B,C (a list) or NAME=VALUE (fixed)")
 _SPACE_DIMS = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
@@ -80,19 +82,24 @@ def axis_values(name: str, value: Any) -> np.ndarray | float:
                 raise ValueError(f"{what}: N in {text!r} must be a whole number") from None
             if n < 1:
                 raise ValueError(f"{what}: N in {text!r} must be at least 1")
+            check_memory(f"parameter {name}: {n:,} values", 64 * n,
+                         "the values, and the sweep's settings that list them")
             return np.linspace(start, stop, n) if n > 1 else start
         if "," in text:
             return axis_values(name, [_number(p, what) for p in text.split(",")])
         return _number(text, what)
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{what}: expected numbers, got {value!r}")
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
     if np.ndim(value) == 0:
-        try:
-            return _number(str(float(value)), what)
-        except (TypeError, ValueError):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
             raise TypeError(f"{what}: expected a number, a list of numbers or text "
-                            f"({_AXIS_FORMS}), got {value!r}") from None
-    arr = np.asarray(value, dtype=np.float64)
+                            f"({_AXIS_FORMS}), got {type(value).__name__} {value!r}")
+        return _number(str(float(value)), what)
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":  # text, bools, complex, mixed: never read as numbers
+        raise TypeError(f"{what}: a swept parameter's values must be real numbers, got "
+                        f"{value!r}")
+    arr = arr.astype(np.float64)
     if arr.ndim != 1 or arr.size == 0:
         raise ValueError(f"{what}: a swept parameter is a 1-D list of values, got shape "
                          f"{arr.shape}")
@@ -121,7 +128,12 @@ def _default_domain(model: Any, size: Any) -> dict:
     spec = {k: base[k] for k in ("dx", "dy", "dz", "bc") if "grid" in base and k in base}
     spec.setdefault("dx", float(getattr(model, "spacing", 1.0)))
     spec.setdefault("bc", "periodic")
-    shape = (int(size),) * 2 if np.ndim(size) == 0 else tuple(int(n) for n in size)
+    from .simulation import _whole
+
+    shape = ((_whole(size, "size", 1),) * 2 if isinstance(size, (str, bytes)) or
+             np.ndim(size) == 0 else tuple(_whole(n, "size", 1) for n in size))
+    if not 1 <= len(shape) <= 3:
+        raise ValueError(f"size must be N or 1 to 3 whole numbers, got {size!r}")
     if len(shape) != 3:
         spec.pop("dz", None)
     if len(shape) == 1:
@@ -241,46 +253,6 @@ def _attrs(settings: dict) -> dict:
     return out
 
 
-def _open_or_create(path: Path, template: Any, settings: dict) -> Any:
-    """The zarr group of a sweep store: created from ``template`` if absent; if present,
-    checked to hold the same sweep."""
-    zarr, = _need("zarr")
-    if path.exists():
-        try:
-            group = zarr.open_group(str(path), mode="r+")
-        except Exception as exc:  # noqa: BLE001 - any unreadable store
-            raise ValueError(f"{path} exists and is not a zarr store ({exc}); remove it or "
-                             "choose another path") from None
-        text = group.attrs.get(SETTINGS_ATTR)
-        if text is None:
-            raise ValueError(f"{path} exists and is not an rdgpu sweep store; remove it or "
-                             "choose another path")
-        old = json.loads(text)
-        if old != settings:
-            keys = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
-            diff = "; ".join(f"{k}: {old.get(k)!r} there, {settings.get(k)!r} now"
-                             for k in keys)
-            raise ValueError(f"cannot resume into {path}: it holds a sweep with other "
-                             f"settings ({diff}); remove it or choose another path")
-        return group
-    template.to_zarr(str(path), mode="w-", compute=False, consolidated=False)
-    group = zarr.open_group(str(path), mode="r+")
-    group["pattern"][...] = -1  # (its fill value is 0: "uniform")
-    return group
-
-
-def _stored_batch(path: Path) -> int | None:
-    """The batch size of the sweep stored at ``path`` (None: no readable sweep there)."""
-    if not path.is_dir():
-        return None
-    try:
-        zarr, = _need("zarr")
-        return int(json.loads(zarr.open_group(str(path), mode="r").attrs[SETTINGS_ATTR])
-                   ["batch"])
-    except Exception:  # noqa: BLE001 - not a sweep store: _open_or_create says why
-        return None
-
-
 def _decode(ds: Any) -> Any:
     """``pattern`` codes → class names (``""``: not run yet); ``done`` dropped."""
     if ds["pattern"].dtype.kind in "UO":  # decoded already
@@ -299,7 +271,9 @@ def open_sweep(path: str | os.PathLike) -> Any:
     xr, = _need("xarray")
     kind = _store_kind(path)
     if kind == "zarr":
-        ds = xr.open_zarr(str(path), consolidated=False).load()
+        from .sweep_store import load_store
+
+        ds = load_store(xr, Path(path), PATTERN_CLASSES.index("diverged"))
     else:
         with xr.open_dataset(str(path)) as f:
             ds = f.load()
@@ -398,11 +372,11 @@ def sweep(
     ``store``: a ``.zarr`` path is created up front (every array, one member per chunk,
     and ``done`` per batch) and each batch is written as it finishes, from this process
     only; running the same sweep again (on any scheduler; ``batch`` defaults to the
-    store's) skips the batches marked done, and a store made with other settings is
-    refused.  A ``.nc`` path (netCDF) is written once at the end:
-    no streaming, no resume.  ``progress``: a tqdm bar counting batches.
-    ``on_batch(b)``: called after batch ``b`` is stored (an exception from it stops the
-    sweep; the batches stored so far stay).
+    store's) skips the batches marked done (their data checked first:
+    :mod:`rdgpu.sweep_store`), and a store made with other settings is refused.
+    A ``.nc`` path (netCDF) is written once at the end: no streaming, no resume.
+    ``progress``: a tqdm bar counting batches.  ``on_batch(b)``: called after batch ``b``
+    is stored (an exception from it stops the sweep; the batches stored so far stay).
 
     The Dataset: dims the swept parameters, then the space dims (``y, x``; cell centres);
     a variable per species (the final fields, NaN where a member diverged), ``pattern``
@@ -416,7 +390,15 @@ def sweep(
     xr, da = _need("xarray", "dask.array")
     from .dispatch import get_backend
     from .domains import Grid
-    from .simulation import _lookup_model, _model_definition, build_domain, describe_domain
+    from .simulation import (
+        _lookup_model,
+        _model_definition,
+        _whole,
+        build_domain,
+        describe_domain,
+    )
+    from .sweep_store import check_sweep_memory
+    from .validation import scalar
 
     kind = _store_kind(store)
     _check_scheduler(scheduler)
@@ -439,15 +421,19 @@ def sweep(
     if not axes:
         raise ValueError("nothing to sweep: give at least one parameter several values, "
                          "e.g. {'F': '0.01:0.08:16'}")
-    steps = int(steps)
-    if steps < 0:
-        raise ValueError(f"steps must be >= 0, got {steps}")
-    for what, n in (("batch", batch), ("workers", workers)):
-        if n is not None and (isinstance(n, bool) or int(n) != n or n < 1):
-            raise ValueError(f"{what} must be a whole number >= 1, got {n!r}")
+    steps, seed = _whole(steps, "steps", 0), _whole(seed, "seed", 0)
+    batch, workers = (None if n is None else _whole(n, what, 1)
+                      for n, what in ((batch, "batch"), (workers, "workers")))
+    if dt is not None:
+        if isinstance(dt, (bool, np.bool_)):
+            raise TypeError(f"dt must be a real number > 0, got {dt!r} (a bool)")
+        dt = scalar(dt, "dt", minimum=0.0, strict=True)
     grid = build_domain(domain if domain is not None else _default_domain(mdl, size))
     if not isinstance(grid, Grid):
         raise ValueError("a sweep runs on a grid (size= or a grid domain), not a mesh")
+    n_members = math.prod(a.size for a in axes.values())
+    check_sweep_memory(n_members, tuple(grid.field_shape), len(mdl.species),
+                       np.dtype(dtype).itemsize, batch, BATCH_MEMORY, store)
     clash = [k for k in axes if k in _SPACE_DIMS[3] or k in ("batch", "pattern")
              or k in mdl.species]
     if clash:
@@ -464,10 +450,9 @@ def sweep(
     dtype = str(np.dtype(dtype))
     definition = _model_definition(mdl)
     desc = describe_domain(grid)
-    n_members = math.prod(a.size for a in axes.values())
     space = tuple(grid.field_shape)
     if batch is None and kind == "zarr":  # resuming: the store's batches
-        batch = _stored_batch(Path(store))
+        batch = stored_batch(Path(store))
     client, close = None, _nothing
     try:
         if batch is None:  # about 4 batches a worker: ask the cluster how many it has
@@ -498,8 +483,8 @@ def sweep(
                "classify": classify}
         dx = {"x": grid.dx, "y": grid.dy or grid.dx, "z": grid.dz}
         template = _template(xr, da, settings, axes, space, dx, species, n_batches)
-        group = _open_or_create(Path(store), template, settings) if kind == "zarr" else None
-        result = _Collector(template, group, axes, species, batch)
+        group = open_store(Path(store), template, settings) if kind == "zarr" else None
+        result = _Collector(template, group, axes, species, batch, store)
         todo = [b for b in range(n_batches) if not result.done(b)]
         if todo and client is None:  # no cluster is started for a finished sweep
             client, close = _client(scheduler, workers, len(todo))
@@ -518,7 +503,7 @@ class _Collector:
     """Where finished batches go: the zarr group, or arrays in memory."""
 
     def __init__(self, template: Any, group: Any, axes: dict[str, np.ndarray],
-                 species: Sequence[str], batch: int) -> None:
+                 species: Sequence[str], batch: int, store: Any = None) -> None:
         self.template, self.group, self.species, self.batch = template, group, species, batch
         self.counts = tuple(a.size for a in axes.values())
         self.n = math.prod(self.counts)
@@ -528,8 +513,12 @@ class _Collector:
                            for s in species}
             self.pattern = np.full(self.counts, -1, dtype=np.int8)
             self.flags = np.zeros(template["done"].shape, dtype=bool)
-        else:
-            self.flags = np.asarray(group["done"][:], dtype=bool)
+        else:  # the flags as stored, each checked against the batch's data
+            from .sweep_store import read_done, verify_done
+
+            self.flags = verify_done(group, Path(store), read_done(group, Path(store)),
+                                     self.members, self.counts, tuple(species),
+                                     PATTERN_CLASSES.index("diverged"), len(PATTERN_CLASSES))
 
     def members(self, b: int) -> range:
         return range(b * self.batch, min((b + 1) * self.batch, self.n))
