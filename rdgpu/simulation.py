@@ -48,6 +48,22 @@ import numpy as np
 from . import interop
 from .domains import Grid
 from .errors import SimulationDiverged, SimulationInterrupted
+from .output_paths import check_output_path
+from .sim_checks import (
+    MAX_STEPS,
+    check_checkpoint_run,
+    check_options,
+    check_run_memory,
+    check_simulation_memory,
+    checkpoint_model,
+    grid_shape,
+    init_spec,
+    real,
+    refuse_other_model,
+    spots_count,
+    unit_fractions,
+)
+from .sim_checks import whole as _whole
 
 __all__ = [
     "DEFAULT_BOUND",
@@ -150,8 +166,9 @@ def build_domain(spec: Any) -> Any:
     spec = dict(spec)
     if "grid" in spec:
         shape = spec.pop("grid")
-        if isinstance(shape, (int, np.integer)):
-            shape = (int(shape), int(shape))
+        if isinstance(shape, numbers.Real) and not isinstance(shape, (bool, np.bool_)):
+            shape = (shape, shape)
+        shape = grid_shape(shape)
         allowed = {"dx", "dy", "dz", "bc", "height"}
         unknown = set(spec) - allowed
         if unknown:
@@ -160,7 +177,7 @@ def build_domain(spec: Any) -> Any:
             )
         if "height" in spec:
             return _graph_surface(shape, spec)
-        return Grid(tuple(int(n) for n in shape), dx=float(spec.get("dx", 1.0)),
+        return Grid(shape, dx=spec.get("dx", 1.0),
                     dy=spec.get("dy"), dz=spec.get("dz"), bc=spec.get("bc", "periodic"))
     if "mesh" in spec:
         name = spec.pop("mesh")
@@ -395,33 +412,7 @@ def _per_species(value: Any, species: tuple[str, ...], what: str, default: float
 
 
 def _number(x: Any, what: str) -> float:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        raise ValueError(f"init {what} must be a number, got {x!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"init {what} must be finite, got {x!r}")
-    return v
-
-
-def _whole(value: Any, name: str, minimum: int = 0) -> int:
-    """``value`` as an int >= ``minimum``: an int (not a bool) or a float with a whole value
-    (``1e4``); anything else is a TypeError/ValueError naming ``name``."""
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a whole number >= {minimum}, got {value!r} (a bool)")
-    if isinstance(value, numbers.Integral):
-        n = int(value)
-    elif isinstance(value, numbers.Real):
-        x = float(value)
-        if not (math.isfinite(x) and x.is_integer()):
-            raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
-        n = int(x)
-    else:
-        raise TypeError(f"{name} must be a whole number >= {minimum}, got "
-                        f"{type(value).__name__} {value!r}")
-    if n < minimum:
-        raise ValueError(f"{name} must be a whole number >= {minimum}, got {n}")
-    return n
+    return real(x, f"init {what}")
 
 
 def _extent(domain: Any) -> float:
@@ -489,6 +480,7 @@ def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
         mask = np.zeros(domain.shape, dtype=bool)
         box = []
         fractions = _centre(center, len(domain.shape), "square")
+        unit_fractions(fractions, "init square center")
         for n, c in zip(domain.shape, fractions, strict=True):
             half, mid = max(1, round(size * n / 2)), int(c * n)
             box.append(slice(max(mid - half, 0), mid + half))
@@ -607,7 +599,7 @@ def initial_state(
     order: positions, patch values, then noise species by species.
     """
     species = tuple(species)
-    init = dict(init or {"kind": "uniform"})
+    init = init_spec(init)
     kind = init.pop("kind", "uniform")
     if kind not in _INIT_KEYS:
         raise ValueError(f"unknown init kind {kind!r}; allowed: {', '.join(INIT_KINDS)}")
@@ -627,9 +619,7 @@ def initial_state(
             mask = _square_mask(domain, _number(init.get("size", 0.1), "size"),
                                 init.get("center"))
         else:
-            count = int(init.get("count", 10))
-            if count < 1:
-                raise ValueError(f"init spots count must be >= 1, got {count}")
+            count = spots_count(init.get("count", 10), math.prod(shape))
             radius = _number(init.get("radius", 3), "radius")
             if radius <= 0:
                 raise ValueError(f"init spots radius must be > 0, got {radius}")
@@ -937,6 +927,7 @@ def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -
     if missing:
         raise ValueError(f"{name} is not a usable rdgpu checkpoint: its run settings lack "
                          f"{missing}")
+    check_checkpoint_run(name, meta)
     species = meta["species"]
     needed = [f"field__{s}" for s in species] + [f"snap__{s}" for s in species]
     needed += ["snap_steps"] + [f"param__{k}" for k in meta["param_fields"]]
@@ -991,6 +982,10 @@ def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -
 # -------------------------------------------------------------------------- the driver
 def _lookup_model(model: Any) -> Any:
     if not isinstance(model, str):
+        if not (hasattr(model, "stepper") and hasattr(model, "species")):
+            raise TypeError(f"model must be a model name (see rdgpu.models.MODELS) or a Model "
+                            f"(rdgpu.define_model, rdgpu.stepping.Model), got "
+                            f"{type(model).__name__} {model!r:.60}")
         return model
     try:
         from .models import MODELS
@@ -1020,8 +1015,21 @@ def _model_definition(model: Any) -> dict:
     return {"equations": dict(equations), "defaults": plain}
 
 
+def _model_record(model: Any) -> dict:
+    """What a checkpoint keeps of a model defined by its equations: the definition, and
+    what else changes a run (its bounds, the method used where none is named)."""
+    out = _model_definition(model)
+    if out:
+        out["bounds"] = {k: list(v) for k, v in (getattr(model, "bounds", None) or {}).items()}
+        out["default_method"] = getattr(model, "default_method", "euler")
+    return out
+
+
 def _lookup_preset(preset: Any) -> Any:
     if not isinstance(preset, str):
+        if not (hasattr(preset, "model") and hasattr(preset, "domain")):
+            raise TypeError(f"preset must be a preset name (see rdgpu.models.PRESETS) or a "
+                            f"Preset, got {type(preset).__name__} {preset!r:.60}")
         return preset
     try:
         from .models import PRESETS
@@ -1231,6 +1239,9 @@ class Simulation:
             raise ValueError(f"dtype must be float32 or float64, got {dtype!r}") from None
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
+        # refused from the shared estimate before anything is made for the members/cells
+        check_simulation_memory(self.field_shape, len(self.species), self.dtype.itemsize,
+                                self.members)
         if self.members is not None and isinstance(seed, (list, tuple, np.ndarray)):
             from .models.ensemble import member_seeds
 
@@ -1238,9 +1249,7 @@ class Simulation:
                 _whole(k, "seed") for k in member_seeds(seed, self.members)]
         else:
             self.seed = _whole(seed, "seed")
-        if options is not None and not isinstance(options, Mapping):
-            raise TypeError(f"options must be a dict, got {type(options).__name__}")
-        self.options = dict(options or {})
+        self.options = check_options(self.model, options)
         if params is not None and not isinstance(params, Mapping):
             raise TypeError(f"params must be a dict of parameter values, got "
                             f"{type(params).__name__} {params!r}")
@@ -1270,7 +1279,7 @@ class Simulation:
         if fields is not None:
             self.init = None
         elif init is not None:
-            self.init = dict(init)
+            self.init = init_spec(init)
         else:  # one initial condition, or one per member where the defaults differ
             inits = [default_init(self.model, p) for p in each]
             self.init = inits[0] if all(i == inits[0] for i in inits) else inits
@@ -1283,14 +1292,14 @@ class Simulation:
             kwargs["check_stability"] = False
         if self.members is not None:
             kwargs["members"] = self.members
-        self.stepper = self.model.stepper(self.domain, dict(self.params), dt=self.dt,
-                                          backend=self.backend, dtype=self.dtype, **kwargs)
-        if fields is not None:
+        if fields is not None:  # checked before the stepper's programs are built
             start = self._check_fields(fields)
         elif self.members is None:
             start = initial_state(self.init, self.domain, self.species, self.seed, self.dtype)
         else:
             start = self._member_states()
+        self.stepper = self.model.stepper(self.domain, dict(self.params), dt=self.dt,
+                                          backend=self.backend, dtype=self.dtype, **kwargs)
         self.stepper.set_state(start)
         #: ensemble members frozen after diverging: member -> what happened
         self.frozen: dict[int, str] = {}
@@ -1351,6 +1360,9 @@ class Simulation:
                     raise ValueError(f"parameter field {k!r} contains NaN or Inf")
                 out[k] = np.ascontiguousarray(v, dtype=np.float64)
             else:
+                if isinstance(v, (bool, np.bool_, bytes)):
+                    raise TypeError(f"parameter {k!r} must be a number, a field, a field spec "
+                                    f"or an expression string, got {type(v).__name__} {v!r}")
                 try:
                     out[k] = float(v)
                 except (TypeError, ValueError):
@@ -1463,7 +1475,7 @@ class Simulation:
             "preset": getattr(self.preset, "name", None),
             "members": self.members,
             "frozen": {str(m): what for m, what in sorted(self.frozen.items())},
-            **_model_definition(self.model),
+            **_model_record(self.model),
         }
 
     def _checkpoint_arrays(self, state: Mapping[str, np.ndarray], run: dict,
@@ -1547,16 +1559,10 @@ class Simulation:
         (:func:`remove_stale_temporaries`)."""
         remove_stale_temporaries(path)
         meta, arrays = cls.read_checkpoint(path)
-        if model is None and "equations" in meta:
-            from .models import MODELS, define_model
-
-            if meta["model"] not in MODELS:  # a model defined by its equations
-                model = define_model(meta["model"], meta["equations"],
-                                     meta.get("defaults") or {})
-        model = _lookup_model(meta["model"] if model is None else model)
-        if model.name != meta["model"]:
-            raise ValueError(f"checkpoint {str(path)!r} is of model {meta['model']!r}, "
-                             f"not {model.name!r}")
+        # a model defined by equations is rebuilt from them, whatever its name (a built-in's
+        # too); a model passed here must be the checkpoint's
+        model = checkpoint_model(meta, None if model is None else _lookup_model(model), path)
+        model = _lookup_model(meta["model"]) if model is None else model
         params = dict(meta["params"])
         for k in meta["param_fields"]:
             params[k] = arrays[f"param__{k}"]
@@ -1595,9 +1601,7 @@ class Simulation:
         remove_stale_temporaries(path)
         meta, arrays = self.read_checkpoint(path)
         name = repr(str(path))
-        if meta["model"] != self.model.name:
-            raise ValueError(f"checkpoint {name} is of model {meta['model']!r}, "
-                             f"not {self.model.name!r}")
+        refuse_other_model(meta, self.model, path)
         if meta.get("members") != self.members:
             raise ValueError(f"checkpoint {name} has members={meta.get('members')}, this "
                              f"simulation members={self.members}")
@@ -1677,14 +1681,14 @@ class Simulation:
         faces).  After :meth:`resume`, ``run()`` does the same.
         """
         if steps is not None:
-            steps = _whole(steps, "steps")
+            steps = _whole(steps, "steps", 0, MAX_STEPS)
         snapshot_every = None if snapshot_every is None else _whole(snapshot_every,
                                                                     "snapshot_every")
         check_every = None if check_every is None else _whole(check_every, "check_every")
         checkpoint_every = None if checkpoint_every is None else _whole(checkpoint_every,
                                                                         "checkpoint_every")
-        if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
-            raise TypeError(f"checkpoint must be a path, got {type(checkpoint).__name__}")
+        if checkpoint is not None:  # a path that cannot be written fails now, not later
+            checkpoint = check_output_path(checkpoint, "checkpoint", make_folders=True)
         if resume is not None:
             if not isinstance(resume, (str, os.PathLike)):
                 raise TypeError(f"resume must be a path, got {type(resume).__name__}")
@@ -1719,7 +1723,13 @@ class Simulation:
         if checkpoint is not None and not checkpoint_every:
             checkpoint_every = DEFAULT_CHECKPOINT_EVERY
         checkpoint_every = int(checkpoint_every or 0) if checkpoint is not None else 0
+        if target > MAX_STEPS:
+            raise ValueError(f"steps: a run to step {target} is past the largest step "
+                             f"{MAX_STEPS} (2**53)")
+        check_run_memory(target - self.step, snapshot_every, len(snap_steps), self.field_shape,
+                         len(self.species), self.dtype.itemsize)
         if checkpoint is not None:
+            checkpoint = check_output_path(checkpoint, "checkpoint", make_folders=True)
             remove_stale_temporaries(checkpoint)
         run_info = {"start": start, "target": target, "snapshot_every": snapshot_every,
                     "check_every": check_every, "checkpoint_every": checkpoint_every}

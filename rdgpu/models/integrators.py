@@ -253,6 +253,9 @@ class ModelStepper(FieldStepper):
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None):
+        from ..sim_checks import check_tol
+
+        tol = check_tol(method, tol)  # a positive number, and only for an implicit method
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         self.method = method
