@@ -48,7 +48,7 @@ def whole(value: Any, name: str, minimum: int = 0, maximum: int | None = None) -
     """``value`` as an int >= ``minimum`` (and <= ``maximum``): an int (not a bool) or a
     float with a whole value (``1e4``) that a float holds exactly; anything else is a
     TypeError/ValueError naming ``name``."""
-    what = f"a whole number >= {minimum}" + ("" if maximum is None else f" and <= {maximum}")
+    what = f"a whole number >= {minimum}"
     if isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be {what}, got {value!r} (a bool)")
     if isinstance(value, numbers.Integral):
@@ -63,8 +63,10 @@ def whole(value: Any, name: str, minimum: int = 0, maximum: int | None = None) -
         n = int(x)
     else:
         raise TypeError(f"{name} must be {what}, got {type(value).__name__} {value!r}")
-    if n < minimum or (maximum is not None and n > maximum):
+    if n < minimum:
         raise ValueError(f"{name} must be {what}, got {n}")
+    if maximum is not None and n > maximum:
+        raise ValueError(f"{name} must be {what} and <= {maximum}, got {n}")
     return n
 
 
@@ -249,11 +251,10 @@ def check_run_memory(steps: int, snapshot_every: int, have: int, field_shape: tu
     steps of ``steps``, the last always) cannot fit, before the first step."""
     if not snapshot_every:
         return
-    snapshots = int(steps) // int(snapshot_every) + 2 + int(have)
+    snapshots = int(steps) // int(snapshot_every) + 2 + int(have)  # as the CLI counts them
     cells = math.prod(int(n) for n in field_shape)
-    # the snapshots are held twice at the end (the list and the stacked result)
     check_fields(f"this run ({steps:,} steps, a snapshot every {snapshot_every:,})", cells,
-                 n_species, itemsize, snapshots=2 * snapshots)
+                 n_species, itemsize, snapshots=snapshots)
 
 
 # --------------------------------------------------------------------------- checkpoints

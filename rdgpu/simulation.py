@@ -619,7 +619,8 @@ def initial_state(
             mask = _square_mask(domain, _number(init.get("size", 0.1), "size"),
                                 init.get("center"))
         else:
-            count = spots_count(init.get("count", 10), math.prod(shape))
+            # at most one spot per point when a count is given (the default draws 10)
+            count = spots_count(init["count"], math.prod(shape)) if "count" in init else 10
             radius = _number(init.get("radius", 3), "radius")
             if radius <= 0:
                 raise ValueError(f"init spots radius must be > 0, got {radius}")

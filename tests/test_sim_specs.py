@@ -302,3 +302,32 @@ def test_the_same_user_model_passed_explicitly_resumes(user_checkpoint):
     s = Simulation.resume(user_checkpoint, model=_impostor())
     assert s.model.equations == DECAY
     assert _user_sim().run(20, resume=user_checkpoint, progress=False).step == 20
+
+
+# ---------------------------------------------------------------- the same, from the CLI
+def test_the_cli_checks_outputs_with_the_same_function(tmp_path, monkeypatch, capsys):
+    from rdgpu.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    pipe = _fifo(tmp_path)
+    argv = ["run", "gray-scott", "--size", "8", "--steps", "2", "--backend", "numpy"]
+    assert main([*argv, "--checkpoint", str(pipe)]) == 2
+    assert "exists and is not a regular file" in capsys.readouterr().err
+    assert main([*argv, "--data", "x" * 240 + ".npz"]) == 2
+    assert "temporary file" in capsys.readouterr().err
+
+
+def test_the_cli_resumes_a_user_model_with_a_builtin_name_as_itself(tmp_path, monkeypatch):
+    from rdgpu.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    base = ["run", "gray-scott", "--equation", "u=-0.5*u", "--equation", "v=-0.5*v",
+            "--size", "8", "--dt", "0.1", "--backend", "numpy", "--quiet"]
+    assert main([*base, "--steps", "20", "--checkpoint", "ck.npz", "--data", "a.npz"]) == 0
+    assert main(["run", "gray-scott", "--resume", "ck.npz", "--steps", "40", "--backend",
+                 "numpy", "--quiet", "--data", "b.npz"]) == 0
+    assert main([*base, "--steps", "40", "--data", "c.npz"]) == 0  # uninterrupted
+    with np.load(tmp_path / "b.npz") as b, np.load(tmp_path / "c.npz") as c:
+        assert json.loads(str(b["meta"]))["step"] == 40
+        for s in ("u", "v"):
+            np.testing.assert_array_equal(b[f"final_{s}"], c[f"final_{s}"])
