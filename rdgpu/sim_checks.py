@@ -358,8 +358,11 @@ def checkpoint_model(meta: Mapping[str, Any], model: Any, path: Any) -> Any:
                     options["bounds"] = {k: tuple(v) for k, v in meta["bounds"].items()}
                 if isinstance(meta.get("default_method"), str):
                     options["default_method"] = meta["default_method"]
-                return define_model(meta["model"], meta["equations"],
-                                    meta.get("defaults") or {}, **options)
+                # a default the checkpoint could not keep (None): any number does, every
+                # parameter's value is in the checkpoint
+                defaults = {k: (0.0 if v is None else v)
+                            for k, v in (meta.get("defaults") or {}).items()}
+                return define_model(meta["model"], meta["equations"], defaults, **options)
             except Exception as exc:  # noqa: BLE001 - parser errors of a damaged record
                 raise ValueError(f"checkpoint {str(path)!r}: its model {meta['model']!r} "
                                  f"cannot be rebuilt from its equations ({exc})") from None

@@ -1016,10 +1016,26 @@ def _model_definition(model: Any) -> dict:
     return {"equations": dict(equations), "defaults": plain}
 
 
+def _builtin(name: str) -> Any:
+    try:
+        from .models import MODELS
+    except ImportError:  # pragma: no cover
+        return None
+    return MODELS.get(name)
+
+
 def _model_record(model: Any) -> dict:
     """What a checkpoint keeps of a model defined by its equations: the definition, and
     what else changes a run (its bounds, the method used where none is named)."""
     out = _model_definition(model)
+    equations = getattr(model, "equations", None)
+    if not out and isinstance(equations, dict) and _model_name(model) and \
+            getattr(_builtin(model.name), "equations", None) is not equations:
+        # defaults that are not plain numbers or text (arrays) are not kept: the checkpoint
+        # holds every parameter's value, so the rebuilt model needs only their names
+        out = {"equations": dict(equations),
+               "defaults": {k: (v if isinstance(v, (int, float, str)) else None)
+                            for k, v in (getattr(model, "defaults", None) or {}).items()}}
     if out:
         out["bounds"] = {k: list(v) for k, v in (getattr(model, "bounds", None) or {}).items()}
         out["default_method"] = getattr(model, "default_method", "euler")

@@ -331,3 +331,18 @@ def test_the_cli_resumes_a_user_model_with_a_builtin_name_as_itself(tmp_path, mo
         assert json.loads(str(b["meta"]))["step"] == 40
         for s in ("u", "v"):
             np.testing.assert_array_equal(b[f"final_{s}"], c[f"final_{s}"])
+
+
+def test_a_user_model_with_a_field_spec_default_resumes_as_itself(tmp_path):
+    """Defaults the checkpoint cannot keep as numbers (a field spec) still leave the
+    equations in it, so the resumed model is the user's, not the built-in of its name."""
+    model = models.define_model("gray-scott", DECAY, {
+        "Du": 0.16, "Dv": 0.08, "F": {"kind": "random", "low": 0.01, "high": 0.05},
+        "k": 0.06})
+    ck = tmp_path / "spec.npz"
+    ref = sim(model=model, dt=0.1).run(40, progress=False)
+    sim(model=model, dt=0.1).run(20, checkpoint=ck, progress=False)
+    resumed = Simulation.resume(ck)
+    assert resumed.model.equations == DECAY
+    res = resumed.run(40, progress=False)
+    np.testing.assert_array_equal(res.fields["v"], ref.fields["v"])
