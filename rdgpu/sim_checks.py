@@ -21,7 +21,9 @@ from .resources import check_fields
 
 __all__ = [
     "FIELD_SPEC_KEYS",
+    "GRID_KINDS",
     "MAX_STEPS",
+    "check_checkpoint",
     "check_checkpoint_run",
     "check_options",
     "check_run_memory",
@@ -30,7 +32,9 @@ __all__ = [
     "field_spec",
     "grid_shape",
     "init_spec",
+    "model_definition",
     "model_differences",
+    "model_record",
     "real",
     "refuse_other_model",
     "spots_count",
@@ -288,6 +292,126 @@ def check_checkpoint_run(name: str, meta: Mapping[str, Any]) -> None:
                          f"checkpoint's step {step}")
     if step > run["target"]:
         raise ValueError(f"{bad} its step {step} is past its run's target {run['target']}")
+
+
+#: the description kinds of grids (fields ``[ny, nx]``...; keys shape, dx, dy, bc)
+GRID_KINDS = ("grid", "graph-surface")
+
+_META_KEYS = {"model": str, "species": list, "step": int, "dt": (int, float),
+              "dtype": str, "seed": (int, list), "params": dict, "param_fields": list,
+              "domain": dict, "run": dict}
+_RUN_KEYS = ("start", "target", "snapshot_every", "check_every", "checkpoint_every")
+
+
+def check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -> None:
+    """A ValueError naming the first thing missing or inconsistent in a checkpoint."""
+    if "run" not in meta and "wall_seconds" in meta:
+        raise ValueError(f"{name} is an rdgpu data file (--data), not a checkpoint "
+                         "(--checkpoint)")
+    for key, kind in _META_KEYS.items():
+        if not isinstance(meta.get(key), kind) or isinstance(meta.get(key), bool):
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its metadata has no "
+                             f"valid {key!r}")
+    missing = [k for k in _RUN_KEYS if k not in meta["run"]]
+    if missing:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its run settings lack "
+                         f"{missing}")
+    check_checkpoint_run(name, meta)
+    species = meta["species"]
+    needed = [f"field__{s}" for s in species] + [f"snap__{s}" for s in species]
+    needed += ["snap_steps"] + [f"param__{k}" for k in meta["param_fields"]]
+    kind = meta["domain"].get("kind")
+    if kind == "mesh":
+        needed += ["mesh_vertices", "mesh_faces"]
+    elif kind in GRID_KINDS:
+        needed += ["surface_height"] if kind == "graph-surface" else []
+        keys = ("shape", "dx", "dy", "bc")
+        if isinstance(meta["domain"].get("shape"), list) and len(meta["domain"]["shape"]) == 3:
+            keys += ("dz",)
+        if not all(k in meta["domain"] for k in keys):
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its grid "
+                             "description is incomplete")
+    else:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: unknown domain kind "
+                         f"{kind!r}")
+    absent = [k for k in needed if k not in arrays]
+    if absent:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: arrays {absent} are "
+                         "missing")
+    shapes = {np.shape(arrays[f"field__{s}"]) for s in species}
+    if len(shapes) != 1:
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its fields have "
+                         f"different shapes {sorted(shapes)}")
+    shape = shapes.pop()
+    members = meta.get("members")
+    if members is not None:  # an ensemble: [members, *domain shape]
+        if not shape or shape[0] != members:
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
+                             f"{shape} for an ensemble of {members} members")
+        shape = shape[1:]
+    if kind in GRID_KINDS and list(shape) != list(meta["domain"]["shape"]):
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
+                         f"{shape} on a grid of {meta['domain']['shape']}")
+    if kind == "mesh" and shape != (len(arrays["mesh_vertices"]),):
+        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
+                         f"{shape} on a mesh of {len(arrays['mesh_vertices'])} vertices")
+    for s in species:
+        f = arrays[f"field__{s}"]
+        if f.dtype.kind != "f":
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: field {s!r} has "
+                             f"dtype {f.dtype}")
+        if not np.isfinite(f).all():
+            raise ValueError(f"{name} holds a field {s!r} with NaN or Inf values; rdgpu "
+                             "writes checkpoints only from checked states")
+        if len(arrays[f"snap__{s}"]) != len(arrays["snap_steps"]):
+            raise ValueError(f"{name} is not a usable rdgpu checkpoint: {len(arrays['snap_steps'])}"
+                             f" snapshot steps but {len(arrays[f'snap__{s}'])} snapshots of {s!r}")
+
+
+
+def model_definition(model: Any) -> dict:
+    """A checkpoint's record of a model defined by its equations (not a built-in): enough
+    to rebuild it on resume."""
+    equations = getattr(model, "equations", None)
+    defaults = getattr(model, "defaults", None)
+    if not isinstance(equations, dict):
+        return {}
+    try:
+        from .models import MODELS
+    except ImportError:  # pragma: no cover
+        return {}
+    if MODELS.get(model.name) is model:
+        return {}
+    plain = {k: v for k, v in (defaults or {}).items() if isinstance(v, (int, float, str))}
+    if len(plain) != len(defaults or {}):
+        return {}
+    return {"equations": dict(equations), "defaults": plain}
+
+
+def _builtin(name: str) -> Any:
+    try:
+        from .models import MODELS
+    except ImportError:  # pragma: no cover
+        return None
+    return MODELS.get(name)
+
+
+def model_record(model: Any) -> dict:
+    """What a checkpoint keeps of a model defined by its equations: the definition, and
+    what else changes a run (its bounds, the method used where none is named)."""
+    out = model_definition(model)
+    equations = getattr(model, "equations", None)
+    if not out and isinstance(equations, dict) and \
+            getattr(_builtin(model.name), "equations", None) is not equations:
+        # defaults that are not plain numbers or text (arrays) are not kept: the checkpoint
+        # holds every parameter's value, so the rebuilt model needs only their names
+        out = {"equations": dict(equations),
+               "defaults": {k: (v if isinstance(v, (int, float, str)) else None)
+                            for k, v in (getattr(model, "defaults", None) or {}).items()}}
+    if out:
+        out["bounds"] = {k: list(v) for k, v in (getattr(model, "bounds", None) or {}).items()}
+        out["default_method"] = getattr(model, "default_method", "euler")
+    return out
 
 
 def _reference_equations(meta: Mapping[str, Any]) -> tuple[dict | None, str]:

@@ -50,8 +50,8 @@ from .domains import Grid
 from .errors import SimulationDiverged, SimulationInterrupted
 from .output_paths import check_output_path
 from .sim_checks import (
+    GRID_KINDS,
     MAX_STEPS,
-    check_checkpoint_run,
     check_options,
     check_run_memory,
     check_simulation_memory,
@@ -63,6 +63,9 @@ from .sim_checks import (
     spots_count,
     unit_fractions,
 )
+from .sim_checks import check_checkpoint as _check_checkpoint
+from .sim_checks import model_definition as _model_definition  # noqa: F401 - sweep uses it
+from .sim_checks import model_record as _model_record
 from .sim_checks import whole as _whole
 
 __all__ = [
@@ -343,7 +346,6 @@ def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) ->
 
 
 #: the description kinds of grids (fields ``[ny, nx]``...; keys shape, dx, dy, bc)
-GRID_KINDS = ("grid", "graph-surface")
 
 
 def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain: Any) -> list[str]:
@@ -909,77 +911,6 @@ def _why(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text.splitlines()[0]}" if text else type(exc).__name__
 
 
-_META_KEYS = {"model": str, "species": list, "step": int, "dt": (int, float),
-              "dtype": str, "seed": (int, list), "params": dict, "param_fields": list,
-              "domain": dict, "run": dict}
-_RUN_KEYS = ("start", "target", "snapshot_every", "check_every", "checkpoint_every")
-
-
-def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -> None:
-    """A ValueError naming the first thing missing or inconsistent in a checkpoint."""
-    if "run" not in meta and "wall_seconds" in meta:
-        raise ValueError(f"{name} is an rdgpu data file (--data), not a checkpoint "
-                         "(--checkpoint)")
-    for key, kind in _META_KEYS.items():
-        if not isinstance(meta.get(key), kind) or isinstance(meta.get(key), bool):
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its metadata has no "
-                             f"valid {key!r}")
-    missing = [k for k in _RUN_KEYS if k not in meta["run"]]
-    if missing:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its run settings lack "
-                         f"{missing}")
-    check_checkpoint_run(name, meta)
-    species = meta["species"]
-    needed = [f"field__{s}" for s in species] + [f"snap__{s}" for s in species]
-    needed += ["snap_steps"] + [f"param__{k}" for k in meta["param_fields"]]
-    kind = meta["domain"].get("kind")
-    if kind == "mesh":
-        needed += ["mesh_vertices", "mesh_faces"]
-    elif kind in GRID_KINDS:
-        needed += ["surface_height"] if kind == "graph-surface" else []
-        keys = ("shape", "dx", "dy", "bc")
-        if isinstance(meta["domain"].get("shape"), list) and len(meta["domain"]["shape"]) == 3:
-            keys += ("dz",)
-        if not all(k in meta["domain"] for k in keys):
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its grid "
-                             "description is incomplete")
-    else:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: unknown domain kind "
-                         f"{kind!r}")
-    absent = [k for k in needed if k not in arrays]
-    if absent:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: arrays {absent} are "
-                         "missing")
-    shapes = {np.shape(arrays[f"field__{s}"]) for s in species}
-    if len(shapes) != 1:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its fields have "
-                         f"different shapes {sorted(shapes)}")
-    shape = shapes.pop()
-    members = meta.get("members")
-    if members is not None:  # an ensemble: [members, *domain shape]
-        if not shape or shape[0] != members:
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
-                             f"{shape} for an ensemble of {members} members")
-        shape = shape[1:]
-    if kind in GRID_KINDS and list(shape) != list(meta["domain"]["shape"]):
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
-                         f"{shape} on a grid of {meta['domain']['shape']}")
-    if kind == "mesh" and shape != (len(arrays["mesh_vertices"]),):
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
-                         f"{shape} on a mesh of {len(arrays['mesh_vertices'])} vertices")
-    for s in species:
-        f = arrays[f"field__{s}"]
-        if f.dtype.kind != "f":
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: field {s!r} has "
-                             f"dtype {f.dtype}")
-        if not np.isfinite(f).all():
-            raise ValueError(f"{name} holds a field {s!r} with NaN or Inf values; rdgpu "
-                             "writes checkpoints only from checked states")
-        if len(arrays[f"snap__{s}"]) != len(arrays["snap_steps"]):
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: {len(arrays['snap_steps'])}"
-                             f" snapshot steps but {len(arrays[f'snap__{s}'])} snapshots of {s!r}")
-
-
 # -------------------------------------------------------------------------- the driver
 def _lookup_model(model: Any) -> Any:
     if not isinstance(model, str):
@@ -995,51 +926,6 @@ def _lookup_model(model: Any) -> Any:
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}; available: {', '.join(sorted(MODELS))}")
     return MODELS[model]
-
-
-def _model_definition(model: Any) -> dict:
-    """A checkpoint's record of a model defined by its equations (not a built-in): enough
-    to rebuild it on resume."""
-    equations = getattr(model, "equations", None)
-    defaults = getattr(model, "defaults", None)
-    if not isinstance(equations, dict):
-        return {}
-    try:
-        from .models import MODELS
-    except ImportError:  # pragma: no cover
-        return {}
-    if MODELS.get(model.name) is model:
-        return {}
-    plain = {k: v for k, v in (defaults or {}).items() if isinstance(v, (int, float, str))}
-    if len(plain) != len(defaults or {}):
-        return {}
-    return {"equations": dict(equations), "defaults": plain}
-
-
-def _builtin(name: str) -> Any:
-    try:
-        from .models import MODELS
-    except ImportError:  # pragma: no cover
-        return None
-    return MODELS.get(name)
-
-
-def _model_record(model: Any) -> dict:
-    """What a checkpoint keeps of a model defined by its equations: the definition, and
-    what else changes a run (its bounds, the method used where none is named)."""
-    out = _model_definition(model)
-    equations = getattr(model, "equations", None)
-    if not out and isinstance(equations, dict) and _model_name(model) and \
-            getattr(_builtin(model.name), "equations", None) is not equations:
-        # defaults that are not plain numbers or text (arrays) are not kept: the checkpoint
-        # holds every parameter's value, so the rebuilt model needs only their names
-        out = {"equations": dict(equations),
-               "defaults": {k: (v if isinstance(v, (int, float, str)) else None)
-                            for k, v in (getattr(model, "defaults", None) or {}).items()}}
-    if out:
-        out["bounds"] = {k: list(v) for k, v in (getattr(model, "bounds", None) or {}).items()}
-        out["default_method"] = getattr(model, "default_method", "euler")
-    return out
 
 
 def _lookup_preset(preset: Any) -> Any:
