@@ -1456,8 +1456,12 @@ class Simulation:
     def resume(cls, path: str | os.PathLike, *, model: Any = None, backend: Any = None,
                check_stability: bool | None = None) -> Simulation:
         """A simulation rebuilt from a checkpoint, at its step.  ``run()`` (no ``steps``)
-        then finishes the interrupted run with its settings.  ``model`` is needed only for
-        a model not in ``rdgpu.models.MODELS``; ``backend`` defaults to the checkpoint's.
+        then finishes the interrupted run with its settings.  A model defined by equations
+        is rebuilt from the equations the checkpoint holds, whatever its name (a built-in's
+        too); ``model`` is needed only for a model of Python code not in
+        ``rdgpu.models.MODELS``, and one passed must be the checkpoint's (name, species,
+        equations, bounds: a ValueError says what differs); ``backend`` defaults to the
+        checkpoint's.
         Temporary files of killed writers of the checkpoint are removed
         (:func:`remove_stale_temporaries`)."""
         remove_stale_temporaries(path)

@@ -346,3 +346,18 @@ def test_a_user_model_with_a_field_spec_default_resumes_as_itself(tmp_path):
     assert resumed.model.equations == DECAY
     res = resumed.run(40, progress=False)
     np.testing.assert_array_equal(res.fields["v"], ref.fields["v"])
+
+
+def test_the_model_layer_checks_specs_and_tol_itself():
+    """The checks sit where the values are used (param_field, the model stepper), so the
+    model layer called directly refuses the same specs."""
+    gs = models.MODELS["gray-scott"]
+    grid = Grid((8, 8))
+    with pytest.raises(ValueError, match=r"parameter 'F'.*needs 'high'"):
+        models.resolve_params(gs, grid, {"F": {"kind": "random", "low": 0.01}})
+    with pytest.raises(ValueError, match=r"unknown key\(s\) \['bogus'\]"):
+        models.param_field({**RANDOM, "bogus": 1}, grid, np.random.default_rng(0))
+    with pytest.raises(ValueError, match=r"tol must be a positive number"):
+        gs.stepper(grid, dt=1.0, backend="numpy", method="imex", tol=-1)
+    with pytest.raises(ValueError, match=r"method 'heun' is explicit"):
+        gs.stepper(grid, dt=1.0, backend="numpy", method="heun", tol=1e-6)
