@@ -220,9 +220,11 @@ def check_options(model: Any, options: Any) -> dict[str, Any]:
     return dict(options)
 
 
-def check_tol(method: Any, tol: Any) -> float | None:
-    """The implicit solves' tolerance: ``None``, or a positive finite number; an explicit
-    method does not use one (a ``tol`` given to it is refused, not ignored)."""
+def check_tol(method: Any, tol: Any, *, unused_ok: bool = False) -> float | None:
+    """The implicit solves' tolerance: ``None``, or a positive finite number, whatever the
+    method; an explicit method does not use one, and a ``tol`` given to it is refused
+    unless ``unused_ok`` (the model layer's ``stepper(tol=...)``, documented as the IMEX
+    solves' accuracy, lets scripts pass one tolerance to every method)."""
     if tol is None:
         return None
     value = real(tol, "tol")
@@ -230,7 +232,7 @@ def check_tol(method: Any, tol: Any) -> float | None:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     from .models.integrators import EXPLICIT
 
-    if method in EXPLICIT:
+    if method in EXPLICIT and not unused_ok:
         raise ValueError(f"tol={tol!r} is the accuracy of implicit solves; method {method!r} "
                          f"is explicit and does not use it (leave tol out, or use an IMEX "
                          "method: 'imex', 'imex-cn', 'bdf2')")

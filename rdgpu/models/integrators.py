@@ -255,7 +255,8 @@ class ModelStepper(FieldStepper):
                  block_steps: int | None = None):
         from ..sim_checks import check_tol
 
-        tol = check_tol(method, tol)  # a positive number, and only for an implicit method
+        # a positive number for every method (explicit ones do not use it)
+        tol = check_tol(method, tol, unused_ok=True)
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         self.method = method
