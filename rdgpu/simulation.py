@@ -1566,8 +1566,10 @@ class Simulation:
         good state in ``exc.result`` and the simulation left at that state.
         ``checkpoint``: path of a checkpoint written atomically at multiples of
         ``checkpoint_every`` (default 1000) and at the end; every state written is checked
-        first, so a checkpoint never holds a diverged state.  Temporary files that killed
-        writers of that checkpoint left behind are removed (see
+        first, so a checkpoint never holds a diverged state; a path that cannot be written
+        (:func:`rdgpu.output_paths.check_output_path`) is refused before the first step, as
+        are steps past 2**53 and snapshots that cannot fit in memory.  Temporary files that
+        killed writers of that checkpoint left behind are removed (see
         :func:`remove_stale_temporaries`).  ``progress``: a tqdm bar on stderr for runs
         lasting more than a second.
 
