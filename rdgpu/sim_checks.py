@@ -208,6 +208,10 @@ def check_options(model: Any, options: Any) -> dict[str, Any]:
         params = inspect.signature(model.stepper).parameters
     except (TypeError, ValueError, AttributeError):
         return dict(options)
+    own = sorted(set(options) & _OWN)
+    if own:
+        raise ValueError(f"option(s) {own} are Simulation's own arguments, not options of the "
+                         f"stepper: pass them as Simulation(..., {own[0]}=...)")
     if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
         allowed = sorted(set(params) - _OWN)
         unknown = sorted(set(options) - set(allowed))

@@ -79,6 +79,7 @@ RANDOM = {"kind": "random", "low": 0.01, "high": 0.05}
     ({"options": {"method": "euler", "tol": 1e-6}}, ValueError,
      r"tol.*method 'euler'.*explicit.*does not use"),
     ({"options": {1: 2}}, TypeError, r"option names"),
+    ({"options": {"dt": 0.5}}, ValueError, r"\['dt'\] are Simulation's own arguments"),
     # models and presets
     ({"model": None}, TypeError, r"model must be a model name.*or a Model.*NoneType"),
     ({"model": 5}, TypeError, r"model must be .*int"),
