@@ -456,7 +456,7 @@ def model_differences(meta: Mapping[str, Any], model: Any) -> list[str]:
         return out
     for s in model.species:
         a, b = str(theirs.get(s, "")).strip(), str(mine.get(s, "")).strip()
-        if a != b:
+        if "".join(a.split()) != "".join(b.split()):
             out.append(f"the equation of {s!r} is {a!r} in {source}, {b!r} here")
     if "defaults" in meta and set(meta["defaults"]) != set(getattr(model, "defaults", {})):
         out.append(f"parameters {sorted(meta['defaults'])} in the checkpoint, "
@@ -473,13 +473,31 @@ def model_differences(meta: Mapping[str, Any], model: Any) -> list[str]:
     return out
 
 
+def _squeezed(equations: Mapping[str, Any]) -> dict[str, str]:
+    return {s: "".join(str(e).split()) for s, e in equations.items()}
+
+
+def _is_builtin_record(meta: Mapping[str, Any]) -> bool:
+    """Whether a checkpoint's recorded model is the built-in of its name: the same
+    equations (spaces aside), parameters, bounds and default method -- then the built-in
+    itself is resumed (its display range and hooks kept)."""
+    builtin = _builtin(meta.get("model"))
+    equations = getattr(builtin, "equations", None)
+    if not isinstance(equations, Mapping) or \
+            _squeezed(equations) != _squeezed(meta["equations"]):
+        return False
+    if dict(meta.get("defaults") or {}) != dict(builtin.defaults):
+        return False
+    return not model_differences(meta, builtin)
+
+
 def checkpoint_model(meta: Mapping[str, Any], model: Any, path: Any) -> Any:
     """The model to resume a checkpoint with: the checkpoint's own equations always win
     (a model defined by equations is rebuilt from them, whatever its name, even a
     built-in's); a ``model`` passed explicitly must be the checkpoint's (a ValueError
     says what differs)."""
     if model is None:
-        if isinstance(meta.get("equations"), Mapping):
+        if isinstance(meta.get("equations"), Mapping) and not _is_builtin_record(meta):
             from .models import define_model
 
             try:

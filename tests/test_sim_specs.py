@@ -350,3 +350,15 @@ def test_the_model_layer_checks_specs_and_tol_itself():
         gs.stepper(grid, dt=1.0, backend="numpy", method="imex", tol=-1)
     with pytest.raises(ValueError, match=r"tol must be a positive number"):
         gs.stepper(grid, dt=1.0, backend="numpy", method="heun", tol=-1)
+
+
+def test_recorded_equations_equal_to_the_builtins_resume_the_builtin(tmp_path):
+    """A user model that is the built-in in all but identity (same equations, spacing
+    aside, same defaults) resumes as the built-in itself, its display range kept."""
+    gs = models.MODELS["gray-scott"]
+    twin = models.define_model("gray-scott", {s: e.replace("*", " * ")
+                                              for s, e in gs.equations.items()},
+                               dict(gs.defaults))
+    ck = tmp_path / "twin.npz"
+    sim(model=twin).run(20, checkpoint=ck, progress=False)
+    assert Simulation.resume(ck).model is gs
