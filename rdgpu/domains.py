@@ -33,16 +33,10 @@ class Grid:
     ndim: int = field(init=False, default=2)
 
     def __post_init__(self) -> None:
+        from .sim_checks import grid_shape
         from .validation import scalar
 
-        try:
-            shape = tuple(int(n) for n in self.shape)
-        except (TypeError, ValueError):
-            raise TypeError(f"grid shape must be (nx,), (ny, nx) or (nz, ny, nx) integers, "
-                            f"got {self.shape!r}") from None
-        if len(shape) not in (1, 2, 3) or any(n < 1 for n in shape):
-            raise ValueError(f"grid shape must be (nx,), (ny, nx) or (nz, ny, nx) with every "
-                             f"size >= 1, got {self.shape!r}")
+        shape = grid_shape(self.shape)  # whole numbers: no string, bool or fraction
         dx = scalar(self.dx, "dx", strict=True)
         dz = math.inf
         if len(shape) == 1:

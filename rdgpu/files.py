@@ -90,6 +90,11 @@ def check_writable(path: Any, what: str) -> Path:
     if len(os.fsencode(p.name)) > _name_max(folder):
         raise ValueError(f"{what} {text!r}: the file name is {len(os.fsencode(p.name))} bytes "
                          f"long; this file system allows at most {_name_max(folder)}")
+    temp = len(os.fsencode(_temp_prefix(p))) + 8 + len(".tmp")  # mkstemp's name beside it
+    if temp > _name_max(folder):
+        raise ValueError(f"{what} {text!r}: the file name is {len(os.fsencode(p.name))} bytes "
+                         f"long; the temporary file written beside it needs {temp} and this "
+                         f"file system allows at most {_name_max(folder)}: give a shorter name")
     try:
         mode = os.stat(p).st_mode
     except FileNotFoundError:

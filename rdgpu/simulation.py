@@ -58,6 +58,24 @@ from .files import (  # noqa: F401 - the file helpers, kept importable from here
     remove_stale_temporaries,
 )
 from .files import atomic_savez as _atomic_savez
+from .sim_checks import (
+    GRID_KINDS,
+    MAX_STEPS,
+    check_options,
+    check_run_memory,
+    check_simulation_memory,
+    checkpoint_model,
+    grid_shape,
+    init_spec,
+    real,
+    refuse_other_model,
+    spots_count,
+    unit_fractions,
+)
+from .sim_checks import check_checkpoint as _check_checkpoint
+from .sim_checks import model_definition as _model_definition  # noqa: F401 - sweep uses it
+from .sim_checks import model_record as _model_record
+from .sim_checks import whole as _whole
 
 __all__ = [
     "DEFAULT_BOUND",
@@ -160,8 +178,9 @@ def build_domain(spec: Any) -> Any:
     spec = dict(spec)
     if "grid" in spec:
         shape = spec.pop("grid")
-        if isinstance(shape, (int, np.integer)):
-            shape = (int(shape), int(shape))
+        if isinstance(shape, numbers.Real) and not isinstance(shape, (bool, np.bool_)):
+            shape = (shape, shape)
+        shape = grid_shape(shape)
         allowed = {"dx", "dy", "dz", "bc", "height"}
         unknown = set(spec) - allowed
         if unknown:
@@ -170,7 +189,7 @@ def build_domain(spec: Any) -> Any:
             )
         if "height" in spec:
             return _graph_surface(shape, spec)
-        return Grid(tuple(int(n) for n in shape), dx=float(spec.get("dx", 1.0)),
+        return Grid(shape, dx=spec.get("dx", 1.0),
                     dy=spec.get("dy"), dz=spec.get("dz"), bc=spec.get("bc", "periodic"))
     if "mesh" in spec:
         name = spec.pop("mesh")
@@ -336,7 +355,6 @@ def _domain_from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) ->
 
 
 #: the description kinds of grids (fields ``[ny, nx]``...; keys shape, dx, dy, bc)
-GRID_KINDS = ("grid", "graph-surface")
 
 
 def _domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain: Any) -> list[str]:
@@ -405,33 +423,7 @@ def _per_species(value: Any, species: tuple[str, ...], what: str, default: float
 
 
 def _number(x: Any, what: str) -> float:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        raise ValueError(f"init {what} must be a number, got {x!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"init {what} must be finite, got {x!r}")
-    return v
-
-
-def _whole(value: Any, name: str, minimum: int = 0) -> int:
-    """``value`` as an int >= ``minimum``: an int (not a bool) or a float with a whole value
-    (``1e4``); anything else is a TypeError/ValueError naming ``name``."""
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a whole number >= {minimum}, got {value!r} (a bool)")
-    if isinstance(value, numbers.Integral):
-        n = int(value)
-    elif isinstance(value, numbers.Real):
-        x = float(value)
-        if not (math.isfinite(x) and x.is_integer()):
-            raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
-        n = int(x)
-    else:
-        raise TypeError(f"{name} must be a whole number >= {minimum}, got "
-                        f"{type(value).__name__} {value!r}")
-    if n < minimum:
-        raise ValueError(f"{name} must be a whole number >= {minimum}, got {n}")
-    return n
+    return real(x, f"init {what}")
 
 
 def _extent(domain: Any) -> float:
@@ -499,6 +491,7 @@ def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
         mask = np.zeros(domain.shape, dtype=bool)
         box = []
         fractions = _centre(center, len(domain.shape), "square")
+        unit_fractions(fractions, "init square center")
         for n, c in zip(domain.shape, fractions, strict=True):
             half, mid = max(1, round(size * n / 2)), int(c * n)
             box.append(slice(max(mid - half, 0), mid + half))
@@ -617,7 +610,7 @@ def initial_state(
     order: positions, patch values, then noise species by species.
     """
     species = tuple(species)
-    init = dict(init or {"kind": "uniform"})
+    init = init_spec(init)
     kind = init.pop("kind", "uniform")
     if kind not in _INIT_KEYS:
         raise ValueError(f"unknown init kind {kind!r}; allowed: {', '.join(INIT_KINDS)}")
@@ -637,9 +630,8 @@ def initial_state(
             mask = _square_mask(domain, _number(init.get("size", 0.1), "size"),
                                 init.get("center"))
         else:
-            count = int(init.get("count", 10))
-            if count < 1:
-                raise ValueError(f"init spots count must be >= 1, got {count}")
+            # at most one spot per point when a count is given (the default draws 10)
+            count = spots_count(init["count"], math.prod(shape)) if "count" in init else 10
             radius = _number(init.get("radius", 3), "radius")
             if radius <= 0:
                 raise ValueError(f"init spots radius must be > 0, got {radius}")
@@ -813,79 +805,13 @@ def _why(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text.splitlines()[0]}" if text else type(exc).__name__
 
 
-_META_KEYS = {"model": str, "species": list, "step": int, "dt": (int, float),
-              "dtype": str, "seed": (int, list), "params": dict, "param_fields": list,
-              "domain": dict, "run": dict}
-_RUN_KEYS = ("start", "target", "snapshot_every", "check_every", "checkpoint_every")
-
-
-def _check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) -> None:
-    """A ValueError naming the first thing missing or inconsistent in a checkpoint."""
-    if "run" not in meta and "wall_seconds" in meta:
-        raise ValueError(f"{name} is an rdgpu data file (--data), not a checkpoint "
-                         "(--checkpoint)")
-    for key, kind in _META_KEYS.items():
-        if not isinstance(meta.get(key), kind) or isinstance(meta.get(key), bool):
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its metadata has no "
-                             f"valid {key!r}")
-    missing = [k for k in _RUN_KEYS if k not in meta["run"]]
-    if missing:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its run settings lack "
-                         f"{missing}")
-    species = meta["species"]
-    needed = [f"field__{s}" for s in species] + [f"snap__{s}" for s in species]
-    needed += ["snap_steps"] + [f"param__{k}" for k in meta["param_fields"]]
-    kind = meta["domain"].get("kind")
-    if kind == "mesh":
-        needed += ["mesh_vertices", "mesh_faces"]
-    elif kind in GRID_KINDS:
-        needed += ["surface_height"] if kind == "graph-surface" else []
-        keys = ("shape", "dx", "dy", "bc")
-        if isinstance(meta["domain"].get("shape"), list) and len(meta["domain"]["shape"]) == 3:
-            keys += ("dz",)
-        if not all(k in meta["domain"] for k in keys):
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: its grid "
-                             "description is incomplete")
-    else:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: unknown domain kind "
-                         f"{kind!r}")
-    absent = [k for k in needed if k not in arrays]
-    if absent:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: arrays {absent} are "
-                         "missing")
-    shapes = {np.shape(arrays[f"field__{s}"]) for s in species}
-    if len(shapes) != 1:
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: its fields have "
-                         f"different shapes {sorted(shapes)}")
-    shape = shapes.pop()
-    members = meta.get("members")
-    if members is not None:  # an ensemble: [members, *domain shape]
-        if not shape or shape[0] != members:
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
-                             f"{shape} for an ensemble of {members} members")
-        shape = shape[1:]
-    if kind in GRID_KINDS and list(shape) != list(meta["domain"]["shape"]):
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
-                         f"{shape} on a grid of {meta['domain']['shape']}")
-    if kind == "mesh" and shape != (len(arrays["mesh_vertices"]),):
-        raise ValueError(f"{name} is not a usable rdgpu checkpoint: fields of shape "
-                         f"{shape} on a mesh of {len(arrays['mesh_vertices'])} vertices")
-    for s in species:
-        f = arrays[f"field__{s}"]
-        if f.dtype.kind != "f":
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: field {s!r} has "
-                             f"dtype {f.dtype}")
-        if not np.isfinite(f).all():
-            raise ValueError(f"{name} holds a field {s!r} with NaN or Inf values; rdgpu "
-                             "writes checkpoints only from checked states")
-        if len(arrays[f"snap__{s}"]) != len(arrays["snap_steps"]):
-            raise ValueError(f"{name} is not a usable rdgpu checkpoint: {len(arrays['snap_steps'])}"
-                             f" snapshot steps but {len(arrays[f'snap__{s}'])} snapshots of {s!r}")
-
-
 # -------------------------------------------------------------------------- the driver
 def _lookup_model(model: Any) -> Any:
     if not isinstance(model, str):
+        if not (hasattr(model, "stepper") and hasattr(model, "species")):
+            raise TypeError(f"model must be a model name (see rdgpu.models.MODELS) or a Model "
+                            f"(rdgpu.define_model, rdgpu.stepping.Model), got "
+                            f"{type(model).__name__} {model!r:.60}")
         return model
     try:
         from .models import MODELS
@@ -896,27 +822,11 @@ def _lookup_model(model: Any) -> Any:
     return MODELS[model]
 
 
-def _model_definition(model: Any) -> dict:
-    """A checkpoint's record of a model defined by its equations (not a built-in): enough
-    to rebuild it on resume."""
-    equations = getattr(model, "equations", None)
-    defaults = getattr(model, "defaults", None)
-    if not isinstance(equations, dict):
-        return {}
-    try:
-        from .models import MODELS
-    except ImportError:  # pragma: no cover
-        return {}
-    if MODELS.get(model.name) is model:
-        return {}
-    plain = {k: v for k, v in (defaults or {}).items() if isinstance(v, (int, float, str))}
-    if len(plain) != len(defaults or {}):
-        return {}
-    return {"equations": dict(equations), "defaults": plain}
-
-
 def _lookup_preset(preset: Any) -> Any:
     if not isinstance(preset, str):
+        if not (hasattr(preset, "model") and hasattr(preset, "domain")):
+            raise TypeError(f"preset must be a preset name (see rdgpu.models.PRESETS) or a "
+                            f"Preset, got {type(preset).__name__} {preset!r:.60}")
         return preset
     try:
         from .models import PRESETS
@@ -1137,6 +1047,9 @@ class Simulation:
             raise ValueError(f"dtype must be float32 or float64, got {dtype!r}") from None
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
+        # refused from the shared estimate before anything is made for the members/cells
+        check_simulation_memory(self.field_shape, len(self.species), self.dtype.itemsize,
+                                self.members)
         if self.members is not None and isinstance(seed, (list, tuple, np.ndarray)):
             from .models.ensemble import member_seeds
 
@@ -1144,9 +1057,7 @@ class Simulation:
                 _whole(k, "seed") for k in member_seeds(seed, self.members)]
         else:
             self.seed = _whole(seed, "seed")
-        if options is not None and not isinstance(options, Mapping):
-            raise TypeError(f"options must be a dict, got {type(options).__name__}")
-        self.options = dict(options or {})
+        self.options = check_options(self.model, options)
         if params is not None and not isinstance(params, Mapping):
             raise TypeError(f"params must be a dict of parameter values, got "
                             f"{type(params).__name__} {params!r}")
@@ -1176,7 +1087,7 @@ class Simulation:
         if fields is not None:
             self.init = None
         elif init is not None:
-            self.init = dict(init)
+            self.init = init_spec(init)
         else:  # one initial condition, or one per member where the defaults differ
             inits = [default_init(self.model, p, self.domain) for p in each]
             self.init = inits[0] if all(i == inits[0] for i in inits) else inits
@@ -1189,14 +1100,14 @@ class Simulation:
             kwargs["check_stability"] = False
         if self.members is not None:
             kwargs["members"] = self.members
-        self.stepper = self.model.stepper(self.domain, dict(self.params), dt=self.dt,
-                                          backend=self.backend, dtype=self.dtype, **kwargs)
-        if fields is not None:
+        if fields is not None:  # checked before the stepper's programs are built
             start = self._check_fields(fields)
         elif self.members is None:
             start = initial_state(self.init, self.domain, self.species, self.seed, self.dtype)
         else:
             start = self._member_states()
+        self.stepper = self.model.stepper(self.domain, dict(self.params), dt=self.dt,
+                                          backend=self.backend, dtype=self.dtype, **kwargs)
         self.stepper.set_state(start)
         #: ensemble members frozen after diverging: member -> what happened
         self.frozen: dict[int, str] = {}
@@ -1257,6 +1168,9 @@ class Simulation:
                     raise ValueError(f"parameter field {k!r} contains NaN or Inf")
                 out[k] = np.ascontiguousarray(v, dtype=np.float64)
             else:
+                if isinstance(v, (bool, np.bool_, bytes)):
+                    raise TypeError(f"parameter {k!r} must be a number, a field, a field spec "
+                                    f"or an expression string, got {type(v).__name__} {v!r}")
                 try:
                     out[k] = float(v)
                 except (TypeError, ValueError):
@@ -1369,7 +1283,7 @@ class Simulation:
             "preset": getattr(self.preset, "name", None),
             "members": self.members,
             "frozen": {str(m): what for m, what in sorted(self.frozen.items())},
-            **_model_definition(self.model),
+            **_model_record(self.model),
         }
 
     def _checkpoint_arrays(self, state: Mapping[str, np.ndarray], run: dict,
@@ -1417,22 +1331,20 @@ class Simulation:
     def resume(cls, path: str | os.PathLike, *, model: Any = None, backend: Any = None,
                check_stability: bool | None = None) -> Simulation:
         """A simulation rebuilt from a checkpoint, at its step.  ``run()`` (no ``steps``)
-        then finishes the interrupted run with its settings.  ``model`` is needed only for
-        a model not in ``rdgpu.models.MODELS``; ``backend`` defaults to the checkpoint's.
+        then finishes the interrupted run with its settings.  A model defined by equations
+        is rebuilt from the equations the checkpoint holds, whatever its name (a built-in's
+        too); ``model`` is needed only for a model of Python code not in
+        ``rdgpu.models.MODELS``, and one passed must be the checkpoint's (name, species,
+        equations, bounds: a ValueError says what differs); ``backend`` defaults to the
+        checkpoint's.
         Temporary files of killed writers of the checkpoint are removed
         (:func:`remove_stale_temporaries`)."""
         remove_stale_temporaries(path)
         meta, arrays = cls.read_checkpoint(path)
-        if model is None and "equations" in meta:
-            from .models import MODELS, define_model
-
-            if meta["model"] not in MODELS:  # a model defined by its equations
-                model = define_model(meta["model"], meta["equations"],
-                                     meta.get("defaults") or {})
-        model = _lookup_model(meta["model"] if model is None else model)
-        if model.name != meta["model"]:
-            raise ValueError(f"checkpoint {str(path)!r} is of model {meta['model']!r}, "
-                             f"not {model.name!r}")
+        # a model defined by equations is rebuilt from them, whatever its name (a built-in's
+        # too); a model passed here must be the checkpoint's
+        model = checkpoint_model(meta, None if model is None else _lookup_model(model), path)
+        model = _lookup_model(meta["model"]) if model is None else model
         params = dict(meta["params"])
         for k in meta["param_fields"]:
             params[k] = arrays[f"param__{k}"]
@@ -1471,9 +1383,7 @@ class Simulation:
         remove_stale_temporaries(path)
         meta, arrays = self.read_checkpoint(path)
         name = repr(str(path))
-        if meta["model"] != self.model.name:
-            raise ValueError(f"checkpoint {name} is of model {meta['model']!r}, "
-                             f"not {self.model.name!r}")
+        refuse_other_model(meta, self.model, path)
         if meta.get("members") != self.members:
             raise ValueError(f"checkpoint {name} has members={meta.get('members')}, this "
                              f"simulation members={self.members}")
@@ -1531,8 +1441,10 @@ class Simulation:
         good state in ``exc.result`` and the simulation left at that state.
         ``checkpoint``: path of a checkpoint written atomically at multiples of
         ``checkpoint_every`` (default 1000) and at the end; every state written is checked
-        first, so a checkpoint never holds a diverged state.  Temporary files that killed
-        writers of that checkpoint left behind are removed (see
+        first, so a checkpoint never holds a diverged state; a path that cannot be written
+        (:func:`rdgpu.files.check_writable`) is refused before the first step, as
+        are steps past 2**53 and snapshots that cannot fit in memory.  Temporary files that
+        killed writers of that checkpoint left behind are removed (see
         :func:`remove_stale_temporaries`).  ``progress``: a tqdm bar on stderr for runs
         lasting more than a second.
 
@@ -1553,7 +1465,7 @@ class Simulation:
         faces).  After :meth:`resume`, ``run()`` does the same.
         """
         if steps is not None:
-            steps = _whole(steps, "steps")
+            steps = _whole(steps, "steps", 0, MAX_STEPS)
         snapshot_every = None if snapshot_every is None else _whole(snapshot_every,
                                                                     "snapshot_every")
         check_every = None if check_every is None else _whole(check_every, "check_every")
@@ -1597,7 +1509,13 @@ class Simulation:
         if checkpoint is not None and not checkpoint_every:
             checkpoint_every = DEFAULT_CHECKPOINT_EVERY
         checkpoint_every = int(checkpoint_every or 0) if checkpoint is not None else 0
+        if target > MAX_STEPS:
+            raise ValueError(f"steps: a run to step {target} is past the largest step "
+                             f"{MAX_STEPS} (2**53)")
+        check_run_memory(target - self.step, snapshot_every, len(snap_steps), self.field_shape,
+                         len(self.species), self.dtype.itemsize)
         if checkpoint is not None:
+            check_writable(checkpoint, "checkpoint")
             remove_stale_temporaries(checkpoint)
         run_info = {"start": start, "target": target, "snapshot_every": snapshot_every,
                     "check_every": check_every, "checkpoint_every": checkpoint_every}

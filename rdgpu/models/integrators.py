@@ -253,6 +253,10 @@ class ModelStepper(FieldStepper):
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None):
+        from ..sim_checks import check_tol
+
+        # a positive number for every method (explicit ones do not use it)
+        tol = check_tol(method, tol, unused_ok=True)
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         self.method = method

@@ -110,29 +110,31 @@ def _physical_coordinates(domain: Any) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------- parameters
-def param_field(spec: Mapping[str, Any], domain: Any, rng: np.random.Generator) -> np.ndarray:
+def param_field(spec: Mapping[str, Any], domain: Any, rng: np.random.Generator,
+                name: str | None = None) -> np.ndarray:
     """A float64 parameter field over ``domain`` from a spec:
 
     * ``{"kind": "random", "low": a, "high": b}`` — independent uniform values per cell;
     * ``{"kind": "sine", "mean": m, "amplitude": A, "axis": "x", "periods": 1}`` —
       ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
     * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
+
+    The spec is checked first (:func:`rdgpu.sim_checks.field_spec`: every key known, the
+    required ones given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes
+    into the messages.
     """
-    kind = spec.get("kind")
+    from ..sim_checks import field_spec
+
+    spec = field_spec(spec, name)
+    kind = spec["kind"]
     shape = domain_shape(domain)
     if kind == "random":
-        return rng.uniform(float(spec["low"]), float(spec["high"]), size=shape)
+        return rng.uniform(spec["low"], spec["high"], size=shape)
+    s = _coordinates(domain, spec["axis"])
     if kind == "sine":
-        s = _coordinates(domain, spec.get("axis", "x"))
-        periods = float(spec.get("periods", 1.0))
-        return float(spec["mean"]) + float(spec["amplitude"]) * np.sin(2 * np.pi * periods * s)
-    if kind == "linear":
-        s = _coordinates(domain, spec.get("axis", "x"))
-        a, b = float(spec["start"]), float(spec["stop"])
-        return a + (b - a) * s
-    raise ValueError(
-        f"unknown parameter field kind {kind!r}; allowed: 'random', 'sine', 'linear'"
-    )
+        return spec["mean"] + spec["amplitude"] * np.sin(2 * np.pi * spec["periods"] * s)
+    a, b = spec["start"], spec["stop"]
+    return a + (b - a) * s
 
 
 def _field(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
@@ -175,7 +177,7 @@ def resolve_params(
             exprs[name] = value
             continue
         if isinstance(value, Mapping):
-            value = param_field(value, domain, rng)
+            value = param_field(value, domain, rng, name)
         if isinstance(value, DeviceArray):
             value = value.numpy()
         if np.ndim(value) == 0:
