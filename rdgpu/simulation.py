@@ -211,9 +211,13 @@ def _roughened(mesh: Any, options: Any) -> Any:
         raise ValueError(f"bad roughen options {dict(options)}: {exc}") from None
 
 
+_MESH_FILE_HINT = ("OBJ, PLY, STL, OFF or VTK with triangle faces; repair=True mends "
+                   "duplicate or unused vertices")
+
+
 def _mesh_from(name: Any, spec: dict) -> Any:
     """A mesh from a generator name or a file path (:func:`build_domain`)."""
-    from .mesh import SurfaceMesh
+    from .mesh import MeshFileError, SurfaceMesh
 
     if not isinstance(name, (str, os.PathLike)):
         raise ValueError(f"mesh must be a generator name or a file path, got {name!r}")
@@ -234,11 +238,12 @@ def _mesh_from(name: Any, spec: dict) -> Any:
         raise ValueError(f"mesh file {str(name)!r} is not a file")
     try:
         return SurfaceMesh.load(path, repair=bool(spec.pop("repair", False)))
+    except MeshFileError as exc:  # it names the file and what is wrong with it already
+        raise MeshFileError(f"{exc} ({_MESH_FILE_HINT})") from None
     except Exception as exc:  # noqa: BLE001 - readers fail in many ways on bad files
         why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ValueError(f"mesh file {str(name)!r} is not a usable triangle mesh: {why} "
-                         "(OBJ, PLY, STL, OFF or VTK with triangle faces; "
-                         "repair=True mends duplicate or unused vertices)") from None
+                         f"({_MESH_FILE_HINT})") from None
 
 
 def _graph_surface(shape: Any, spec: Mapping) -> Any:

@@ -210,7 +210,7 @@ def _rdgpu(*argv, cwd):
     ([*SMALL, "--cmap", "nosuchmap"], "--cmap 'nosuchmap' is not a Matplotlib colour map"),
     ([*SMALL, "--scale", "100000"], "--scale 100000 makes a 1600000x1600000-pixel picture"),
     ([*GS, "--size", "100000"], "needs about 640 GB of memory"),
-    ([*GS, "--mesh", "{garbage.obj}"], "garbage.obj' is not a usable triangle mesh"),
+    ([*GS, "--mesh", "{garbage.obj}"], "garbage.obj' has 1 faces but no vertices"),
     ([*GS, "--seed", "-1"], "argument --seed: expected a whole number >= 0"),
     ([*GS, "--dt", "5", "--size", "8"], "or use --no-stability-check"),
 ])

@@ -116,9 +116,9 @@ def test_bad_simulation_arguments(kwargs, error, match):
 
 
 @pytest.mark.parametrize("name, match", [
-    ("garbage.obj", r"mesh file '.*garbage\.obj' is not a usable triangle mesh: mesh file "
-                    r"'.*garbage\.obj' has no vertices"),
-    ("badindex.obj", r"mesh file '.*badindex\.obj' is not a usable triangle mesh: .*line 4 "
+    ("garbage.obj", r"^mesh file '.*garbage\.obj' has no vertices .*: it is not an OBJ "
+                    r"triangle mesh \(OBJ, PLY"),
+    ("badindex.obj", r"^mesh file '.*badindex\.obj', line 4 "
                      r"\('f 1 2 7'\): vertex index 7 is past the 3 vertices"),
 ])
 def test_a_bad_mesh_file_is_named(files, name, match):
