@@ -263,9 +263,14 @@ def check_stencil(domain: Any, stencil: str) -> None:
 
 
 def literal(v: float, dtype: np.dtype):
-    """A literal rounded to the dtype, subnormals flushed to 0."""
+    """A literal rounded to the dtype, subnormals flushed to 0; one the dtype cannot hold
+    is refused (:func:`rdgpu.models.ranges.check_fits` names where it is, earlier)."""
     t = np.dtype(dtype).type
-    return t(flush_subnormals(np.asarray(v, dtype=t)))
+    with np.errstate(over="ignore"):
+        out = t(flush_subnormals(np.asarray(v, dtype=t)))
+    if math.isfinite(v) and not np.isfinite(out):
+        raise ValueError(f"the number {v:g} does not fit {np.dtype(dtype).name}")
+    return out
 
 
 # ---------------------------------------------------------------------------- NumPy

@@ -46,6 +46,7 @@ from ..dispatch import get_backend
 from ..domains import Grid
 from ..errors import StabilityError
 from . import equations as eq
+from .ranges import check_bounds, check_fits
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
 
@@ -227,7 +228,8 @@ def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str,
         if np.ndim(value) == 0:
             v = float(value)
             if not math.isfinite(v):
-                raise ValueError(f"parameter {name!r} = {text!r} is {v}")
+                raise ValueError(f"parameter {name!r} = {text!r} is {v} (a division by zero, "
+                                 "a function outside its domain or an overflow)")
             out[name] = v
         else:
             out[name] = _field(name, np.broadcast_to(value, domain_shape(domain)),
@@ -326,11 +328,7 @@ class Model:
             for s in self.species
         }
         self.linear = {s: eq.linear_parts(t) for s, t in self.trees.items()}
-        self.bounds = {s: tuple(None if b is None else float(b) for b in v)
-                       for s, v in dict(bounds or {}).items()}
-        unknown = set(self.bounds) - set(self.species)
-        if unknown:
-            raise ValueError(f"bounds for unknown species {sorted(unknown)}")
+        self.bounds = check_bounds(bounds, self.species)
         self.description = description or "; ".join(
             f"{s}_t = {self.equations[s]}" for s in self.species)
         self.source = source
@@ -379,14 +377,21 @@ class Model:
                         **{L: np.float64(1.0) for L in eq.LENGTHS},
                         **{p: np.float64(np.mean(merged[p])) for p in
                            eq.names(tree, "param")}}))
+                if not math.isfinite(v) and not any(
+                        isinstance(n, eq.Ref) and n.kind != "param" for n in eq.walk(tree)):
+                    # a constant (an expression of x or t is checked where it is evaluated)
+                    raise ValueError(f"parameter {k!r} = {merged[k]!r} is {v} (a division by "
+                                     "zero, a function outside its domain or an overflow)")
             elif isinstance(v, Mapping):
                 spec = v
                 v = (float(spec.get("mean", 0.0)) if spec.get("kind") == "sine" else
                      0.5 * (float(spec.get("low", spec.get("start", 0.0)))
                             + float(spec.get("high", spec.get("stop", 0.0)))))
             elif isinstance(v, eq.Node):
-                v = eq.evaluate(v, {"x": 0.0, "y": 0.0, "z": 0.0, "t": 0.0,
-                                    **{L: 1.0 for L in eq.LENGTHS}})
+                with np.errstate(all="ignore"):
+                    v = eq.evaluate(v, {"x": np.float64(0.0), "y": np.float64(0.0),
+                                        "z": np.float64(0.0), "t": np.float64(0.0),
+                                        **{L: np.float64(1.0) for L in eq.LENGTHS}})
             out[k] = v
         return out
 
@@ -418,7 +423,8 @@ class Model:
         env = {}
         for k, v in merged.items():
             a = np.asarray(v, dtype=np.float64)
-            env[k] = float(a.ravel()[np.argmax(np.abs(a.ravel()))]) if a.ndim else float(a)
+            # NumPy scalars: a coefficient D/k with k = 0 is inf, not a ZeroDivisionError
+            env[k] = a.ravel()[np.argmax(np.abs(a.ravel()))] if a.ndim else a[()]
         D, B = np.zeros((n, n)), np.zeros((n, n))
         for i, s in enumerate(self.species):
             lin = self.linear[s]
@@ -426,7 +432,8 @@ class Model:
                 return None
             for target, coeffs in ((D, lin.diffusion), (B, lin.bilaplacian)):
                 for r, c in coeffs.items():
-                    target[i, self.species.index(r)] = float(eq.evaluate(c, env))
+                    with np.errstate(all="ignore"):
+                        target[i, self.species.index(r)] = float(eq.evaluate(c, env))
         return D, B
 
     def diffusion_coefficients(self, params: Mapping[str, Any] | None = None) -> list[float]:
@@ -551,6 +558,7 @@ class Model:
             p = stack_members(each, shape)
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
+        check_fits(self, p, dtype)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
                             method, tol=tol, stencil=stencil, members=members,
                             block_steps=block_steps)
