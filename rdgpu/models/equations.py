@@ -9,8 +9,9 @@ Allowed (checked with :mod:`ast`; anything else raises :class:`EquationError` na
 token and listing what is allowed):
 
 * ``+ - * /``, ``**`` (an integer exponent of at most :data:`MAX_EXPANDED_POWER` in size
-  becomes repeated multiplication, ``u**3 → (u*u)*u``, ``u**-2 → 1/(u*u)``; any other
-  exponent is ``pow``), unary ``-``/``+``, parentheses;
+  becomes repeated multiplication, ``u**3 → (u*u)*u``, ``u**-2 → 1/(u*u)``, while the
+  expansion has at most :data:`MAX_EXPANDED_NODES` nodes; any other exponent is ``pow``),
+  unary ``-``/``+``, parentheses;
 * numbers (every literal is a real number of the fields' dtype: ``1/2`` is 0.5);
 * names: the species, the parameters, the cell-centre (grid) or vertex (mesh) coordinates
   ``x``, ``y``, ``z``, the time ``t``, the domain's extents ``Lx``, ``Ly``, ``Lz`` and the
@@ -19,6 +20,10 @@ token and listing what is allowed):
   ``numpy.minimum``);
 * ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion) and the
   bilaplacian ``laplace(laplace(s))``.
+
+Nothing else: a character outside the language (``#``, a newline...) is refused, naming
+it, as is an expression nested more than :data:`MAX_DEPTH` levels deep or of more than
+:data:`MAX_NODES` nodes, and a number too large for a float.
 
 The tree (:class:`Num`, :class:`Ref`, :class:`Lap`, :class:`Bin`, :class:`Neg`,
 :class:`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend

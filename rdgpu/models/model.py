@@ -260,8 +260,11 @@ def check_dt(dt: float, limit: float, what: str, check: bool) -> float:
 def _identifier(name: Any, what: str) -> str:
     import keyword
 
-    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+    if not isinstance(name, str) or not name.isidentifier():
         raise eq.EquationError(f"{what} {name!r} is not a valid identifier")
+    if keyword.iskeyword(name):
+        raise eq.EquationError(f"{what} {name!r} is not a valid identifier (a keyword of the "
+                               "expressions' Python syntax)")
     if not name.isascii():
         raise eq.EquationError(f"{what} {name!r} must be ASCII (it becomes a C identifier)")
     if name.startswith("_"):
@@ -556,9 +559,9 @@ class Model:
                 self._check_diffusion(q)
                 limit = min(limit, self.dt_limit(domain, q, method, stencil))
             p = stack_members(each, shape)
+        check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
-        check_fits(self, p, dtype)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
                             method, tol=tol, stencil=stencil, members=members,
                             block_steps=block_steps)
