@@ -237,6 +237,19 @@ def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str,
     return out
 
 
+def _constant_value(name: str, text: str, tree: eq.Node) -> float | None:
+    """The value of parameter ``name`` = ``text`` when ``tree`` is a constant (None when it
+    reads a name); one that is not finite is refused, naming the parameter."""
+    if any(isinstance(n, eq.Ref) for n in eq.walk(tree)):
+        return None
+    with np.errstate(all="ignore"):
+        v = float(eq.evaluate(tree, {}))
+    if not math.isfinite(v):
+        raise ValueError(f"parameter {name!r} = {text!r} is {v} (a division by zero, a "
+                         "function outside its domain or an overflow)")
+    return v
+
+
 def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
     v = params[name]
     if np.ndim(v) != 0 or isinstance(v, (str, eq.Node)):
@@ -324,6 +337,10 @@ class Model:
         clash = set(self.defaults) & set(self.species)
         if clash:
             raise eq.EquationError(f"names used both as species and parameter: {sorted(clash)}")
+        for k, v in self.defaults.items():
+            if isinstance(v, str):  # an expression: checked now, a constant evaluated
+                _constant_value(k, v, eq.parse(v, params=[p for p in self.defaults if p != k],
+                                               what=f"parameter {k!r}", laplace=False))
         self.equations = {s: str(equations[s]).strip() for s in self.species}
         self.trees = {
             s: eq.parse(self.equations[s], species=self.species, params=self.defaults,
@@ -380,11 +397,10 @@ class Model:
                         **{L: np.float64(1.0) for L in eq.LENGTHS},
                         **{p: np.float64(np.mean(merged[p])) for p in
                            eq.names(tree, "param")}}))
-                if not math.isfinite(v) and not any(
-                        isinstance(n, eq.Ref) and n.kind != "param" for n in eq.walk(tree)):
+                if not any(isinstance(n, eq.Ref) and n.kind != "param"
+                           for n in eq.walk(tree)):
                     # a constant (an expression of x or t is checked where it is evaluated)
-                    raise ValueError(f"parameter {k!r} = {merged[k]!r} is {v} (a division by "
-                                     "zero, a function outside its domain or an overflow)")
+                    _constant_value(k, merged[k], eq.Num(v))
             elif isinstance(v, Mapping):
                 spec = v
                 v = (float(spec.get("mean", 0.0)) if spec.get("kind") == "sine" else
