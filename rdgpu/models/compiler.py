@@ -516,12 +516,12 @@ def _laplacian_text(kind: str, s: str, num, flush: str = "FLUSH") -> str:
 #: the metric coefficients a cell reads: local name -> (argument, row, column offset), the
 #: row ``c`` (this cell's) or ``s`` (the south neighbour's), in the reference's notation
 _METRIC_LOADS = {
-    "ex": ("me_ex", "c", 0), "exw": ("me_ex", "c", -1), "ny": ("me_ny", "c", 0),
-    "nys": ("me_ny", "s", 0), "bx": ("me_bx", "c", 0), "bxsw": ("me_bx", "s", -1),
-    "bxs": ("me_bx", "s", 0), "bxw": ("me_bx", "c", -1), "w": ("me_w", "c", 0),
+    "ex": ("_me_ex", "c", 0), "exw": ("_me_ex", "c", -1), "ny": ("_me_ny", "c", 0),
+    "nys": ("_me_ny", "s", 0), "bx": ("_me_bx", "c", 0), "bxsw": ("_me_bx", "s", -1),
+    "bxs": ("_me_bx", "s", 0), "bxw": ("_me_bx", "c", -1), "w": ("_me_w", "c", 0),
 }
 #: the metric coefficient arguments, after the program's own (:func:`_signature`)
-_METRIC_ARGS = tuple(f"me_{k}" for k in METRIC_COEFFICIENTS)
+_METRIC_ARGS = tuple(ident("me", k) for k in METRIC_COEFFICIENTS)
 
 
 def _metric_loads(kind: str, stencil: Sequence[str], load) -> list[str]:
@@ -877,7 +877,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                             v = f"wp.where({flags[flag]}, {g}, {v})"
                     body.append(f"{ident('q' + pos, s)} = {v}")
             if kind == "grid2metric" and stencil:  # the coefficients' rows (one member's)
-                body += ["mc_ = r % me_w.shape[0]", "ms_ = rs % me_w.shape[0]"]
+                body += ["mc_ = r % _me_w.shape[0]", "ms_ = rs % _me_w.shape[0]"]
             body += _metric_loads(kind, stencil,
                                   lambda a, r, dx: f"{a}[m{r}_ + {col[dx]}]")
             for s in stencil:
