@@ -323,20 +323,15 @@ def _real(v: int | float, text: str, fail) -> float:
     except OverflowError:
         f = math.inf
     if not math.isfinite(f):
-        return _raise(fail(f"the number {shown}, which is too large (the largest real "
-                           f"number is {sys.float_info.max:.4g})"))
+        raise fail(f"the number {shown}, which is too large (the largest real number is "
+                   f"{sys.float_info.max:.4g})")
     return f
-
-
-def _raise(exc: Exception):
-    raise exc
 
 
 def size_and_depth(node: Node) -> tuple[int, int]:
     """The number of nodes of the tree written out (shared subtrees counted each time) and
     its depth, computed over the shared nodes once each."""
-    memo: dict[int, tuple[int, int]] = {}
-    keep = []
+    memo: dict[int, tuple[int, int]] = {}  # by id: every node stays alive in the tree
     stack = [(node, False)]
     while stack:
         n, done = stack.pop()
@@ -349,7 +344,6 @@ def size_and_depth(node: Node) -> tuple[int, int]:
             continue
         sizes = [memo[id(k)] for k in kids]
         memo[id(n)] = (1 + sum(s for s, _ in sizes), 1 + max((d for _, d in sizes), default=0))
-        keep.append(n)
     return memo[id(node)]
 
 
