@@ -98,6 +98,32 @@ def test_issue_reproducer_u_beside_u_1d():
             np.testing.assert_array_equal(got[s], ref[s], err_msg=f"{name} {kw} {s}")
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("backend_name", ["warp", "opencl"])
+def test_ensemble_parameters_beside_lookalikes(backend_name):
+    """Per-member parameters (read once per row or vertex into _p_F) beside a field F_1d,
+    a scalar p_F and a per-member pm_F, on an ensemble grid and mesh."""
+    be = backend_or_skip(backend_name)
+    model = define_model("m", {"u": "0.2*laplace(u) - F*u + F_1d*u_1d - p_F*pm_F",
+                               "u_1d": "0.1*laplace(u_1d) - pm_F*u_1d + c_u",
+                               "c_u": "-p_F*c_u + F*u"},
+                         {"F": 0.0, "F_1d": 0.0, "p_F": 0.25, "pm_F": 0.0})
+    for domain in (Grid((5, 6), bc=("periodic", "neumann")), SurfaceMesh.icosphere(1)):
+        shape = domain.shape if isinstance(domain, Grid) else (domain.n_vertices,)
+        rng = np.random.default_rng(5)
+        params = {"F": np.array([0.5, 0.25]), "pm_F": np.array([0.125, 0.375]),
+                  "F_1d": rng.uniform(0, 1, shape)}
+        out = []
+        for b in ("numpy", be):
+            st = model.stepper(domain, params, dt=0.02, backend=b, members=2)
+            st.set_state({s: np.random.default_rng(9).uniform(0, 1, (2, *shape))
+                          for s in model.species})
+            st.advance(3)
+            out.append(st.get_state())
+        for s in model.species:
+            np.testing.assert_array_equal(out[1][s], out[0][s], err_msg=f"{domain} {s}")
+
+
 def test_blocked_kernel_with_colliding_names():
     be = backend_or_skip("opencl")
     grid = Grid((16, 9))
