@@ -73,6 +73,8 @@ def fits(value: Any, dtype: Any) -> bool:
 def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
     """Refuse a literal of the equations, a parameter value (number, field, per-member
     values, the literals of an expression of ``t``) or a bound that ``dtype`` cannot hold."""
+    from .compiler import PerMember
+
     dtype = np.dtype(dtype)
     if dtype.kind != "f":
         return  # the binding refuses it, naming the dtypes allowed
@@ -91,7 +93,7 @@ def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
             if v is not None and not fits(v, dtype):
                 refuse(f"the {which} bound of {s!r}", v)
     for p, v in params.items():
-        if type(v).__name__ == "PerMember":  # an ensemble's per-member numbers
+        if isinstance(v, PerMember):  # an ensemble's per-member numbers
             v = v.values
         if isinstance(v, str):
             tree = eq.parse(v, params=list(params), what=f"parameter {p!r}", laplace=False)
