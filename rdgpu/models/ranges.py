@@ -93,8 +93,9 @@ def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
             if v is not None and not fits(v, dtype):
                 refuse(f"the {which} bound of {s!r}", v)
     for p, v in params.items():
+        kind = " (a field)"
         if isinstance(v, PerMember):  # an ensemble's per-member numbers
-            v = v.values
+            v, kind = v.values, " (one number per member)"
         if isinstance(v, str):
             tree = eq.parse(v, params=list(params), what=f"parameter {p!r}", laplace=False)
             for n in eq.walk(tree):
@@ -107,5 +108,5 @@ def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
         a = np.asarray(v, dtype=np.float64)
         if not fits(a, dtype):
             big = a[np.isfinite(a)]
-            refuse(f"parameter {p!r}" + ("" if a.ndim == 0 else " (a field)"),
+            refuse(f"parameter {p!r}" + ("" if a.ndim == 0 else kind),
                    float(big[np.argmax(np.abs(big))]))
