@@ -134,6 +134,49 @@ def test_blocked_kernel_with_colliding_names():
         np.testing.assert_array_equal(got[s], ref[s], err_msg=s)
 
 
+KINDS = ["grid1", "grid2", "grid3", "grid2iso", "grid3iso", "grid2metric", "mesh"]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_generated_sources_never_rebind_a_name(kind):
+    """Every kind, without compiling: no Warp function assigns to one of its arguments
+    (Warp's flat view in_u_1d = flat(in_u) replaced the argument of species u_1d) or binds
+    a generated name twice; no OpenCL kernel
+    declares a name twice or as one of its arguments."""
+    import ast
+    import re
+
+    from rdgpu.models.blocking import blocked_source
+    from rdgpu.models.compiler import opencl_source, warp_source
+
+    st = COLLIDING.stepper(Grid((4, 4)), {}, dt=0.01, backend="numpy", method="rk3")
+    fields = frozenset({"F", "F_1d", "pf_F"})
+    for program in (st._euler, st._combine):
+        for member in (frozenset(), frozenset({"p_F", "pm_F"})):
+            src = warp_source(program, kind, fields, np.float32, member)
+            for fn in ast.walk(ast.parse(src)):
+                if not isinstance(fn, ast.FunctionDef):
+                    continue
+                args = {a.arg for a in fn.args.args}
+                bound = [t.id for node in ast.walk(fn) if isinstance(node, ast.Assign)
+                         for t in node.targets if isinstance(t, ast.Name)]
+                assert not args & set(bound), (fn.name, sorted(args & set(bound)))
+                twice = {b for b in bound if bound.count(b) > 1 and b.startswith("_")}
+                assert not twice, (fn.name, twice)
+            sources = [opencl_source(program, kind, fields, np.float32, member)]
+            if kind == "grid2" and program is st._euler:
+                sources.append(blocked_source(program, kind, fields, np.float32, member))
+            for src in sources:
+                for kernel in re.split(r"\n(?=__kernel|INLINE)", src):
+                    head, _, body = kernel.partition("{")
+                    args = set(re.findall(r"(\w+)\s*(?:,|\))", head))
+                    decl = re.findall(r"(?:const real|real|__global [^*]*\*)\s*(\w+)\s*=",
+                                      body)
+                    assert not args & set(decl), sorted(args & set(decl))
+                    assert len(decl) == len(set(decl)), sorted(
+                        d for d in decl if decl.count(d) > 1)
+
+
 @pytest.mark.parametrize("name", ["_u", "__u", "_"])
 def test_leading_underscore_is_refused(name):
     with pytest.raises(EquationError, match="names starting with '_' are reserved"):
