@@ -52,8 +52,7 @@ from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
 from ..metric import GraphSurface
 from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
-from .names import flat as flat_name
-from .names import ident, split
+from .names import flat_view, ident, split
 
 __all__ = ["Output", "PerMember", "Program", "Target", "cache_dir", "launch"]
 
@@ -263,8 +262,7 @@ def check_stencil(domain: Any, stencil: str) -> None:
 
 
 def literal(v: float, dtype: np.dtype):
-    """A literal rounded to the dtype, subnormals flushed to 0; one the dtype cannot hold
-    is refused (:func:`rdgpu.models.ranges.check_fits` names where it is, earlier)."""
+    """A literal rounded to the dtype, subnormals flushed to 0; refused if it overflows."""
     t = np.dtype(dtype).type
     with np.errstate(over="ignore"):
         out = t(flush_subnormals(np.asarray(v, dtype=t)))
@@ -432,8 +430,7 @@ def _var(node: Node, fields: frozenset[str]) -> str:
 def _signature(program: Program, fields: frozenset[str],
                member: frozenset[str] = frozenset()) -> list[tuple[str, str]]:
     """Buffer/scalar arguments in order: (kind, name) with kind in in/out/field/member/
-    scalar (``member``: one number per ensemble member, read as ``_p_{name}``; every identifier:
-    :mod:`rdgpu.models.names`)."""
+    scalar (``member``: one number per member, read as ``_p_{name}``; rdgpu.models.names)."""
     args = [("in", ident("in", s)) for s in program.inputs]
     args += [("out", ident("out", o.name)) for o in program.outputs]
     params = program.refs("param")
@@ -827,7 +824,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                          f"{ident('p', split(nm)[1])}: real" if k == "member" else
                          f"{nm}: real" for k, nm in sig)
         names = ", ".join(ident("p", split(nm)[1]) if k == "member" else
-                          flat_name(nm) if k in ("in", "out", "field") else nm for k, nm in sig)
+                          flat_view(nm) if k in ("in", "out", "field") else nm for k, nm in sig)
     coords = program.refs("coord")
     stencil = program.stencil_inputs
 
@@ -910,7 +907,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@KDECL@", kdecl + coord_decl)
         .replace("@ROW@", "\n".join("    " + r for r in member_loads)
                  if kind != "mesh" else "")
-        .replace("@FLAT@", "\n".join(f"    {flat_name(nm)} = flat({nm})" for nm in buffers)
+        .replace("@FLAT@", "\n".join(f"    {flat_view(nm)} = flat({nm})" for nm in buffers)
                  if kind != "mesh" else "")
         .replace("@BODY@", "\n".join("    " + b for b in body))
         .replace("@INTERIOR@", "\n".join("    " + b for b in inner))
@@ -1091,6 +1088,3 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
         for o, buf in zip(program.outputs, outputs, strict=True):
             be.copy(be.upload(np.ascontiguousarray(res[o.name].reshape(buf.shape))), buf)
 
-
-def is_finite_literal(v: float) -> bool:
-    return math.isfinite(v)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["flat", "ident", "split"]
+__all__ = ["flat_view", "ident", "split"]
 
 _ROLE = re.compile(r"[a-z][a-z0-9]*\Z")
 
@@ -39,7 +39,7 @@ def split(identifier: str) -> tuple[str, str]:
     return role, name
 
 
-def flat(identifier: str) -> str:
+def flat_view(identifier: str) -> str:
     """The identifier of the flat view of buffer argument ``identifier`` (Warp grids):
     role ``v`` + the buffer's role (``_in_u`` → ``_vin_u``)."""
     role, name = split(identifier)
