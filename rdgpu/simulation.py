@@ -1658,6 +1658,8 @@ class _Runner:
     def diverged(self, step: int, state: dict[str, np.ndarray], species: str, what: str):
         """Find the first bad step by replaying from the last good state, leave the
         simulation there, and raise."""
+        from .models import diagnose
+
         sim = self.sim
         if self.last_good is None:  # checks were off: nothing good to go back to
             message = (f"{sim.model.name} diverged by step {step} (t={step * sim.dt:g}): "
@@ -1685,11 +1687,13 @@ class _Runner:
         for s in sim.species:
             self.snaps[s] = [self.snaps[s][i] for i in keep]
         self.snap_steps = [self.snap_steps[i] for i in keep]
-        if sim.dt > sim.dt_limit:
+        # a division by zero, log(0), an overflow of the dtype... in the equations
+        cause = diagnose.cause(sim, good, good_step, bad_field)
+        if cause is None and sim.dt > sim.dt_limit:
             cause = (f"dt={sim.dt:g} is past the stability limit {sim.dt_limit:.4g} of "
                      f"{sim.model.name} on this domain (the run had check_stability=False); "
                      f"use dt <= {sim.dt_limit:.4g}")
-        else:
+        elif cause is None:
             cause = (f"dt={sim.dt:g} is within the diffusion stability limit "
                      f"{sim.dt_limit:.4g}; check the parameters (a stiff or unbounded reaction "
                      "term, or try a smaller dt)")

@@ -1,8 +1,9 @@
 /* One pass of a model's generated program (rdgpu/models/compiler.py).  Needs common.cl.
  *
  * The compiler fills in this template per program, domain kind and dtype: @ARGS@ becomes
- * the buffers (inputs in_*, outputs out_*, parameter fields pf_*) and scalars (p_* scalar
- * parameters, b_* builtins such as the step h, b_t the time, len_* the domain extents), and
+ * the buffers (inputs _in_*, outputs _out_*, parameter fields _pf_*) and scalars (_p_*
+ * scalar parameters, _b_* builtins such as the step _h, b_t the time, len_* the domain
+ * extents; every identifier made of a name starts with _, rdgpu/models/names.py), and
  * the cell body the loads, the Laplacians and the fully parenthesised expressions with
  * exact hex-float literals.  FP_CONTRACT is OFF (common.cl): the arithmetic is the NumPy
  * reference's, operation by operation.  This program writes:

@@ -47,6 +47,7 @@ from .compiler import (
     opencl_kernel,
     opencl_program,
 )
+from .names import ident
 
 __all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "cache_sizes", "fitting_steps",
            "last_level_cache", "why_not"]
@@ -192,10 +193,12 @@ def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
                              out_index="ko_")
     select = []
     for q, s in enumerate(program.inputs):
-        select.append(f"__global const real *lin_{s} = (k == 1) ? in_{s} : src_ + {q} * ring_;")
-        select.append(f"__global real *lout_{s} = (k == steps) ? out_{s} : dst_ + {q} * ring_;")
-    rename = {f"in_{s}": f"lin_{s}" for s in program.inputs}
-    rename.update({f"out_{s}": f"lout_{s}" for s in program.inputs})
+        select.append(f"__global const real *{ident('lin', s)} = (k == 1) ? {ident('in', s)}"
+                      f" : src_ + {q} * ring_;")
+        select.append(f"__global real *{ident('lout', s)} = (k == steps) ? {ident('out', s)}"
+                      f" : dst_ + {q} * ring_;")
+    rename = {ident("in", s): ident("lin", s) for s in program.inputs}
+    rename.update({ident("out", s): ident("lout", s) for s in program.inputs})
     rename["b_t"] = "times_[k - 1]"
     call = [rename.get(nm, nm) for _, nm in _signature(program, fields, member)]
     text = read_source("model", "blocked.cl")

@@ -52,6 +52,7 @@ from ..fpenv import flush_subnormals
 from ..kernel_files import load_module, read_source
 from ..metric import GraphSurface
 from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
+from .names import flat_view, ident, split
 
 __all__ = ["Output", "PerMember", "Program", "Target", "cache_dir", "launch"]
 
@@ -261,9 +262,13 @@ def check_stencil(domain: Any, stencil: str) -> None:
 
 
 def literal(v: float, dtype: np.dtype):
-    """A literal rounded to the dtype, subnormals flushed to 0."""
+    """A literal rounded to the dtype, subnormals flushed to 0; refused if it overflows."""
     t = np.dtype(dtype).type
-    return t(flush_subnormals(np.asarray(v, dtype=t)))
+    with np.errstate(over="ignore"):
+        out = t(flush_subnormals(np.asarray(v, dtype=t)))
+    if math.isfinite(v) and not np.isfinite(out):
+        raise ValueError(f"the number {v:g} does not fit {np.dtype(dtype).name}")
+    return out
 
 
 # ---------------------------------------------------------------------------- NumPy
@@ -408,13 +413,13 @@ def _emit(node: Node, name, lit, fn) -> str:
 def _var(node: Node, fields: frozenset[str]) -> str:
     """The local variable a kernel body uses for a Ref/Lap."""
     if isinstance(node, Lap):
-        return f"L_{node.name}"
+        return ident("lap", node.name)
     if node.kind == "species":
-        return f"c_{node.name}"
+        return ident("c", node.name)
     if node.kind == "param":
-        return f"f_{node.name}" if node.name in fields else f"p_{node.name}"
+        return ident("f" if node.name in fields else "p", node.name)
     if node.kind == "builtin":
-        return f"b{node.name}"
+        return ident("b", node.name)
     if node.kind == "time":
         return "b_t"
     if node.kind == "coord":
@@ -425,14 +430,14 @@ def _var(node: Node, fields: frozenset[str]) -> str:
 def _signature(program: Program, fields: frozenset[str],
                member: frozenset[str] = frozenset()) -> list[tuple[str, str]]:
     """Buffer/scalar arguments in order: (kind, name) with kind in in/out/field/member/
-    scalar (``member``: one number per ensemble member, read as ``p_{name}``)."""
-    args = [("in", f"in_{s}") for s in program.inputs]
-    args += [("out", f"out_{o.name}") for o in program.outputs]
+    scalar (``member``: one number per member, read as ``_p_{name}``; rdgpu.models.names)."""
+    args = [("in", ident("in", s)) for s in program.inputs]
+    args += [("out", ident("out", o.name)) for o in program.outputs]
     params = program.refs("param")
-    args += [("field", f"pf_{p}") for p in params if p in fields]
-    args += [("member", f"pm_{p}") for p in params if p in member]
-    args += [("scalar", f"p_{p}") for p in params if p not in fields and p not in member]
-    args += [("scalar", f"b{b}") for b in program.refs("builtin")]
+    args += [("field", ident("pf", p)) for p in params if p in fields]
+    args += [("member", ident("pm", p)) for p in params if p in member]
+    args += [("scalar", ident("p", p)) for p in params if p not in fields and p not in member]
+    args += [("scalar", ident("b", b)) for b in program.refs("builtin")]
     args.append(("scalar", "b_t"))
     args += [("scalar", f"len_{n[1]}") for n in program.refs("length")]
     return args
@@ -470,8 +475,8 @@ def _laplacian_text(kind: str, s: str, num, flush: str = "FLUSH") -> str:
     in the reference's operation order; ``num(v)`` writes a literal, ``flush`` names the
     subnormal flush (the metric operator flushes its result, as its reference)."""
     nd = int(kind[4])
-    v = {p: f"q{p}_{s}" for p in _stencil_positions(kind)}
-    c = f"c_{s}"
+    v = {p: ident("q" + p, s) for p in _stencil_positions(kind)}
+    c = ident("c", s)
     if kind == "grid2metric":  # kernels/metric/reference.py, operation by operation
         def a(coef: str, pos: str, sign: str = "") -> str:
             return f"(m{coef}_ * ({v[pos]} - {c}))" if not sign else \
@@ -508,12 +513,12 @@ def _laplacian_text(kind: str, s: str, num, flush: str = "FLUSH") -> str:
 #: the metric coefficients a cell reads: local name -> (argument, row, column offset), the
 #: row ``c`` (this cell's) or ``s`` (the south neighbour's), in the reference's notation
 _METRIC_LOADS = {
-    "ex": ("me_ex", "c", 0), "exw": ("me_ex", "c", -1), "ny": ("me_ny", "c", 0),
-    "nys": ("me_ny", "s", 0), "bx": ("me_bx", "c", 0), "bxsw": ("me_bx", "s", -1),
-    "bxs": ("me_bx", "s", 0), "bxw": ("me_bx", "c", -1), "w": ("me_w", "c", 0),
+    "ex": ("_me_ex", "c", 0), "exw": ("_me_ex", "c", -1), "ny": ("_me_ny", "c", 0),
+    "nys": ("_me_ny", "s", 0), "bx": ("_me_bx", "c", 0), "bxsw": ("_me_bx", "s", -1),
+    "bxs": ("_me_bx", "s", 0), "bxw": ("_me_bx", "c", -1), "w": ("_me_w", "c", 0),
 }
 #: the metric coefficient arguments, after the program's own (:func:`_signature`)
-_METRIC_ARGS = tuple(f"me_{k}" for k in METRIC_COEFFICIENTS)
+_METRIC_ARGS = tuple(ident("me", k) for k in METRIC_COEFFICIENTS)
 
 
 def _metric_loads(kind: str, stencil: Sequence[str], load) -> list[str]:
@@ -577,7 +582,7 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
 
 def _member_lines(member: frozenset[str]) -> list[str]:
     """The statements reading the per-member parameters (grids: once per row)."""
-    return [f"const real p_{p} = pm_{p}[m_];" for p in sorted(member)]
+    return [f"const real {ident('p', p)} = {ident('pm', p)}[m_];" for p in sorted(member)]
 
 
 def opencl_head(program: Program) -> str:
@@ -621,14 +626,15 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
     body = _member_lines(member) if kind == "mesh" else []
     for p in program.refs("param"):
         if p in fields:
-            body.append(f"const real f_{p} = pf_{p}[{field_index}];")
+            body.append(f"const real {ident('f', p)} = {ident('pf', p)}[{field_index}];")
     if kind == "mesh":
         body += [f"const real {c}c = coord_{c}[v_];" for c in coords]
     elif "x" in coords:
         body.append("const real xc = ((real)(j) + (real)0.5) * dx;")
-    body += [f"const real c_{s} = in_{s}[k_];" for s in program.inputs]
+    body += [f"const real {ident('c', s)} = {ident('in', s)}[k_];" for s in program.inputs]
     for d, expr in program.derived:
-        body.append(f"const real c_{d} = {_emit(expr, lambda n: _var(n, fields), lit, fn)};")
+        body.append(f"const real {ident('c', d)} = "
+                    f"{_emit(expr, lambda n: _var(n, fields), lit, fn)};")
     stencil = program.stencil_inputs
 
     def at(s: str, load) -> str:
@@ -636,12 +642,12 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
 
     if kind == "mesh":
         if stencil:
-            body += [f"real L_{s} = R0;" for s in stencil]
+            body += [f"real {ident('lap', s)} = R0;" for s in stencil]
             body.append("for (int q_ = p0_; q_ < p1_; ++q_) {")
             body.append("    const real a_ = data[q_];")
             body.append("    const int j_ = indices[q_];")
-            body += [f"    L_{s} += a_ * {at(s, lambda i: f'in_{i}[moff_ + j_]')};"
-                     for s in stencil]
+            body += [f"    {ident('lap', s)} += a_ * "
+                     f"{at(s, lambda i: ident('in', i) + '[moff_ + j_]')};" for s in stencil]
             body.append("}")
     else:
         col = {-1: "cc_.w", 0: "j", 1: "cc_.e"}
@@ -656,20 +662,21 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
             def load(i, pos=pos, index=index):  # unconditional: indices are in range
                 if (pos, i) not in loaded:
                     loaded.add((pos, i))
-                    body.append(f"const real q{pos}0_{i} = in_{i}[{index}];")
-                return f"q{pos}0_{i}"
+                    body.append(f"const real {ident(f'q{pos}0', i)} = "
+                                f"{ident('in', i)}[{index}];")
+                return ident(f"q{pos}0", i)
 
             for s in stencil:
                 value = at(s, load)
                 for flag, axis in reversed(rule):
                     g = "R0" if s in program.zero_ghost else f"g{axis}"
                     value = f"({flags[flag]} ? {g} : {value})"
-                body.append(f"const real q{pos}_{s} = {value};")
+                body.append(f"const real {ident('q' + pos, s)} = {value};")
         cols = {-1: "cc_.w", 0: "j"}
         body += [f"const real {ln};" for ln in _metric_loads(
             kind, stencil, lambda a, r, dx: f"{a}[m{r}_ + {cols[dx]}]")]
         for s in stencil:
-            body.append(f"const real L_{s} = "
+            body.append(f"const real {ident('lap', s)} = "
                         f"{_laplacian_text(kind, s, lambda v: f'((real){v})')};")
     for i, o in enumerate(program.outputs):
         body.append(f"real o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)};")
@@ -678,7 +685,7 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
             body.append(f"o{i}_ = (o{i}_ < {lit(lo)}) ? {lit(lo)} : o{i}_;")
         if hi is not None:
             body.append(f"o{i}_ = (o{i}_ > {lit(hi)}) ? {lit(hi)} : o{i}_;")
-        body.append(f"out_{o.name}[{out_index}] = FLUSH(o{i}_);")
+        body.append(f"{ident('out', o.name)}[{out_index}] = FLUSH(o{i}_);")
     return decl, body
 
 
@@ -807,17 +814,17 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
     array = "A" if kind == "mesh" else "A2"
     kdecl = ", ".join(f"{nm}: {array}" if k in ("in", "out", "field") else
                       f"{nm}: A" if k == "member" else f"{nm}: real" for k, nm in sig)
-    member_loads = [f"p_{nm[3:]} = {nm}[m_]" for k, nm in sig if k == "member"]
+    member_loads = [f"{ident('p', split(nm)[1])} = {nm}[m_]" for k, nm in sig if k == "member"]
     buffers = [nm for k, nm in sig if k in ("in", "out", "field")]
     if kind == "mesh":  # the vertex function reads the member's numbers itself
         decl, names = kdecl, ", ".join(nm for _, nm in sig)
     else:  # the row's numbers are read by the kernel and passed to the cell functions, and
         # so are flat views of the grid buffers (the cells index them at row base + column)
         decl = ", ".join(f"{nm}: A" if k in ("in", "out", "field") else
-                         f"p_{nm[3:]}: real" if k == "member" else f"{nm}: real"
-                         for k, nm in sig)
-        names = ", ".join(f"p_{nm[3:]}" if k == "member" else
-                          f"{nm}_1d" if k in ("in", "out", "field") else nm for k, nm in sig)
+                         f"{ident('p', split(nm)[1])}: real" if k == "member" else
+                         f"{nm}: real" for k, nm in sig)
+        names = ", ".join(ident("p", split(nm)[1]) if k == "member" else
+                          flat_view(nm) if k in ("in", "out", "field") else nm for k, nm in sig)
     coords = program.refs("coord")
     stencil = program.stencil_inputs
 
@@ -829,26 +836,27 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         body = list(member_loads) if kind == "mesh" else []
         for p in program.refs("param"):
             if p in fields:
-                body.append(f"f_{p} = pf_{p}[{at}]")
+                body.append(f"{ident('f', p)} = {ident('pf', p)}[{at}]")
         if kind == "mesh":
             body += [f"{c}c = coord_{c}[v_]" for c in coords]
         elif "x" in coords:
             body.append("xc = (real(j) + real(0.5)) * dx")
-        body += [f"c_{s} = in_{s}[{at}]" for s in program.inputs]
+        body += [f"{ident('c', s)} = {ident('in', s)}[{at}]" for s in program.inputs]
         for d, expr in program.derived:
-            body.append(f"c_{d} = {_emit(expr, lambda n: _var(n, fields), lit, fn)}")
+            body.append(f"{ident('c', d)} = {_emit(expr, lambda n: _var(n, fields), lit, fn)}")
 
         def value(s: str, load) -> str:
             return _neighbour_value(program, s, load, fields, lit, fn)
 
         if kind == "mesh":
             if stencil:
-                body += [f"L_{s} = real(0.0)" for s in stencil]
+                body += [f"{ident('lap', s)} = real(0.0)" for s in stencil]
                 body.append("q_ = p0_")
                 body.append("while q_ < p1_:")
                 body.append("    a_ = data[q_]")
                 body.append("    j_ = indices[q_] & NONNEG")
-                body += [f"    L_{s} += a_ * {value(s, lambda i: f'in_{i}[moff_ + j_]')}"
+                body += [f"    {ident('lap', s)} += a_ * "
+                         f"{value(s, lambda i: ident('in', i) + '[moff_ + j_]')}"
                          for s in stencil]
                 body.append("    q_ += 1")
         else:
@@ -859,19 +867,19 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                 row = _ROWS[(dz, dy)]
                 index = f"{'r' if row == 'r' else 'r' + row} + {col[dx]}"
                 for s in stencil:
-                    v = value(s, lambda i, index=index: f"in_{i}[{index}]")
+                    v = value(s, lambda i, index=index: f"{ident('in', i)}[{index}]")
                     if not interior:
                         for flag, axis in reversed(rule):
                             g = "real(0.0)" if s in program.zero_ghost else f"g{axis}"
                             v = f"wp.where({flags[flag]}, {g}, {v})"
-                    body.append(f"q{pos}_{s} = {v}")
+                    body.append(f"{ident('q' + pos, s)} = {v}")
             if kind == "grid2metric" and stencil:  # the coefficients' rows (one member's)
-                body += ["mc_ = r % me_w.shape[0]", "ms_ = rs % me_w.shape[0]"]
+                body += ["mc_ = r % _me_w.shape[0]", "ms_ = rs % _me_w.shape[0]"]
             body += _metric_loads(kind, stencil,
                                   lambda a, r, dx: f"{a}[m{r}_ + {col[dx]}]")
             for s in stencil:
                 lap = _laplacian_text(kind, s, lambda v: f"real({v}.0)", "flush")
-                body.append(f"L_{s} = {lap}")
+                body.append(f"{ident('lap', s)} = {lap}")
         for i, o in enumerate(program.outputs):
             body.append(f"o{i}_ = {_emit(o.expr, lambda n: _var(n, fields), lit, fn)}")
             lo, hi = o.bounds
@@ -879,7 +887,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                 body.append(f"o{i}_ = wp.where(o{i}_ < {lit(lo)}, {lit(lo)}, o{i}_)")
             if hi is not None:
                 body.append(f"o{i}_ = wp.where(o{i}_ > {lit(hi)}, {lit(hi)}, o{i}_)")
-            body.append(f"out_{o.name}[{at}] = flush(o{i}_)")
+            body.append(f"{ident('out', o.name)}[{at}] = flush(o{i}_)")
         return body
 
     body = cell_body(False)
@@ -899,7 +907,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@KDECL@", kdecl + coord_decl)
         .replace("@ROW@", "\n".join("    " + r for r in member_loads)
                  if kind != "mesh" else "")
-        .replace("@FLAT@", "\n".join(f"    {nm}_1d = flat({nm})" for nm in buffers)
+        .replace("@FLAT@", "\n".join(f"    {flat_view(nm)} = flat({nm})" for nm in buffers)
                  if kind != "mesh" else "")
         .replace("@BODY@", "\n".join("    " + b for b in body))
         .replace("@INTERIOR@", "\n".join("    " + b for b in inner))
@@ -1080,6 +1088,3 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
         for o, buf in zip(program.outputs, outputs, strict=True):
             be.copy(be.upload(np.ascontiguousarray(res[o.name].reshape(buf.shape))), buf)
 
-
-def is_finite_literal(v: float) -> bool:
-    return math.isfinite(v)

@@ -159,12 +159,12 @@ class DeviceRHS:
         st = self.stepper
         species = self.species
         # y_s: a derived field, or the input named s (read by the pre-pass's outputs too)
-        y = {s: (f"_y__{s}" if state is not None else s) for s in species}
+        y = {s: (f"_y_{s}" if state is not None else s) for s in species}
 
         def per_species(s: str):
             def fn(n: eq.Node) -> eq.Node | None:
                 if isinstance(n, eq.Ref) and n.kind == "species":
-                    return eq.Ref("species", f"{n.name}__{s}")
+                    return eq.Ref("species", f"_{n.name}__{s}")
                 return _as_builtin(n)
             return fn
 
@@ -195,7 +195,7 @@ class DeviceRHS:
                 outs.append(Output(f"o{k}__{s}", eq.substitute(tree, fill)))
         aux = () if st._pre is None else tuple(o.name for o in st._pre.outputs)
         inputs = (() if state is not None else (*species, *aux)) + tuple(
-            f"{n}__{s}" for n in names for s in species)
+            f"_{n}__{s}" for n in names for s in species)
         program = Program(inputs, tuple(outs), frozenset(aux), derived)
         self._programs[key] = program
         return program

@@ -9,8 +9,9 @@ Allowed (checked with :mod:`ast`; anything else raises :class:`EquationError` na
 token and listing what is allowed):
 
 * ``+ - * /``, ``**`` (an integer exponent of at most :data:`MAX_EXPANDED_POWER` in size
-  becomes repeated multiplication, ``u**3 → (u*u)*u``, ``u**-2 → 1/(u*u)``; any other
-  exponent is ``pow``), unary ``-``/``+``, parentheses;
+  becomes repeated multiplication, ``u**3 → (u*u)*u``, ``u**-2 → 1/(u*u)``, while the
+  expansion has at most :data:`MAX_EXPANDED_NODES` nodes; any other exponent is ``pow``),
+  unary ``-``/``+``, parentheses;
 * numbers (every literal is a real number of the fields' dtype: ``1/2`` is 0.5);
 * names: the species, the parameters, the cell-centre (grid) or vertex (mesh) coordinates
   ``x``, ``y``, ``z``, the time ``t``, the domain's extents ``Lx``, ``Ly``, ``Lz`` and the
@@ -19,6 +20,10 @@ token and listing what is allowed):
   ``numpy.minimum``);
 * ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion) and the
   bilaplacian ``laplace(laplace(s))``.
+
+Nothing else: a character outside the language (``#``, a newline...) is refused, naming
+it, as is an expression nested more than :data:`MAX_DEPTH` levels deep or of more than
+:data:`MAX_NODES` nodes, and a number too large for a float.
 
 The tree (:class:`Num`, :class:`Ref`, :class:`Lap`, :class:`Bin`, :class:`Neg`,
 :class:`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
@@ -35,6 +40,7 @@ from __future__ import annotations
 
 import ast
 import math
+import sys
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -66,8 +72,17 @@ COORDINATES = ("x", "y", "z")
 TIME = "t"
 LENGTHS = ("Lx", "Ly", "Lz")
 CONSTANTS = {"pi": math.pi}
-#: integer powers up to this size are expanded into multiplications
+#: integer powers up to this size are expanded into multiplications...
 MAX_EXPANDED_POWER = 16
+#: ... while the expansion has at most this many nodes (past it: ``pow``)
+MAX_EXPANDED_NODES = 256
+#: the deepest nesting of an expression (a sum of n terms nests n deep): every backend
+#: emits it fully parenthesised, and Python's parser (Warp) takes 200 levels
+MAX_DEPTH = 80
+#: the most nodes of an expression (powers expanded)
+MAX_NODES = 20000
+#: the characters of the language (besides letters and digits)
+CHARACTERS = frozenset("_.,()+-*/^ \t")
 
 _OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/"}
 
@@ -199,15 +214,33 @@ def parse(
     allowed = _allowed_text(species, params)
     if not isinstance(text, str):
         raise EquationError(f"{what} must be a string, got {type(text).__name__}")
-    source = text.strip().replace("^", "**")
-    try:
-        tree = ast.parse(source, mode="eval").body
-    except SyntaxError as exc:
-        raise EquationError(f"{what} {text!r} is not a valid expression ({exc.msg}); "
-                            f"allowed: {allowed}") from None
+    source = text.strip()
+    text = text if len(text) <= 160 else f"{text[:100]}... ({len(text)} characters)"
+    bad = sorted({c for c in source
+                  if not (c.isascii() and c.isalnum()) and c not in CHARACTERS})
+    if bad:
+        raise EquationError(
+            f"{what} {text!r} uses the character(s) {', '.join(map(repr, bad))}, outside the "
+            f"language (letters, digits, spaces, _ . , ( ) + - * / ** ^); allowed: {allowed}")
+    source = source.replace("^", "**")
 
     def fail(token: str) -> EquationError:
         return EquationError(f"{what} {text!r} uses {token}; allowed: {allowed}")
+
+    deep = EquationError(f"{what} nests more than {MAX_DEPTH} levels deep (a sum of n terms "
+                         f"nests n deep); the limit is {MAX_DEPTH}: split it with parameters "
+                         "or parentheses")
+    try:
+        tree = ast.parse(source, mode="eval").body
+    except SyntaxError as exc:
+        if "nested parentheses" in str(exc.msg):
+            raise deep from None
+        raise EquationError(f"{what} {text!r} is not a valid expression ({exc.msg}); "
+                            f"allowed: {allowed}") from None
+    except (RecursionError, MemoryError):
+        raise deep from None
+    if _ast_depth(tree) > MAX_DEPTH:
+        raise deep
 
     def go(node: ast.AST) -> Node:
         if isinstance(node, ast.BinOp):
@@ -226,9 +259,9 @@ def parse(
             raise fail(f"the operator {type(node.op).__name__}")
         if isinstance(node, ast.Constant):
             v = node.value
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise fail(f"the constant {v!r} (only real numbers are allowed)")
-            return Num(float(v))
+            return Num(_real(v, ast.get_source_segment(source, node) or repr(v), fail))
         if isinstance(node, ast.Name):
             n = node.id
             if n in species:
@@ -259,7 +292,69 @@ def parse(
         token = ast.unparse(node) if hasattr(ast, "unparse") else type(node).__name__
         raise fail(f"{token!r} ({type(node).__name__} syntax)")
 
-    return go(tree)
+    out = go(tree)
+    size, depth = size_and_depth(out)
+    if size > MAX_NODES:
+        raise EquationError(f"{what} has {size} nodes (integer powers expanded); the limit "
+                            f"is {MAX_NODES}")
+    if depth > MAX_DEPTH:
+        raise deep
+    return out
+
+
+def _ast_depth(tree: ast.AST) -> int:
+    """The nesting depth of a Python syntax tree, without recursion."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        if deepest > MAX_DEPTH:  # far enough
+            return deepest
+        stack.extend((child, d + 1) for child in ast.iter_child_nodes(node)
+                     if not isinstance(child, (ast.operator, ast.unaryop, ast.expr_context)))
+    return deepest
+
+
+def _real(v: int | float, text: str, fail) -> float:
+    """A literal as a float64; too large a number is refused, naming it."""
+    shown = text if len(text) <= 20 else f"{text[:12]}... ({len(text)} digits)"
+    try:
+        f = float(v)
+    except OverflowError:
+        f = math.inf
+    if not math.isfinite(f):
+        raise fail(f"the number {shown}, which is too large (the largest real number is "
+                   f"{sys.float_info.max:.4g})")
+    return f
+
+
+def size_and_depth(node: Node) -> tuple[int, int]:
+    """The number of nodes of the tree written out (shared subtrees counted each time) and
+    its depth, computed over the shared nodes once each."""
+    memo: dict[int, tuple[int, int]] = {}  # by id: every node stays alive in the tree
+    stack = [(node, False)]
+    while stack:
+        n, done = stack.pop()
+        if id(n) in memo:
+            continue
+        kids = _children(n)
+        if not done and kids:
+            stack.append((n, True))
+            stack.extend((k, False) for k in kids if id(k) not in memo)
+            continue
+        sizes = [memo[id(k)] for k in kids]
+        memo[id(n)] = (1 + sum(s for s, _ in sizes), 1 + max((d for _, d in sizes), default=0))
+    return memo[id(node)]
+
+
+def _children(node: Node) -> tuple[Node, ...]:
+    if isinstance(node, Bin):
+        return (node.a, node.b)
+    if isinstance(node, Neg):
+        return (node.a,)
+    if isinstance(node, Call):
+        return node.args
+    return ()
 
 
 def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> Node:
@@ -279,11 +374,14 @@ def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> N
 
 
 def _power(base: Node, exponent: Node) -> Node:
-    """``base ** exponent``: repeated multiplication for small integer exponents."""
+    """``base ** exponent``: repeated multiplication for small integer exponents (while
+    the expansion has at most :data:`MAX_EXPANDED_NODES` nodes: ``((u**16)**16)**16``
+    would have 2¹² factors), else ``pow``."""
     if isinstance(exponent, Neg) and isinstance(exponent.a, Num):
         exponent = Num(-exponent.a.value)
     if isinstance(exponent, Num) and float(exponent.value).is_integer() \
-            and abs(exponent.value) <= MAX_EXPANDED_POWER:
+            and abs(exponent.value) <= MAX_EXPANDED_POWER \
+            and abs(exponent.value) * (size_and_depth(base)[0] + 1) <= MAX_EXPANDED_NODES:
         n = int(exponent.value)
         if n == 0:
             return Num(1.0)
@@ -305,7 +403,8 @@ def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
     import numpy as np
 
     lib = np if lib is None else lib
-    literal = literal or float
+    # NumPy scalars: 1/0 is inf (NaN for 0/0), as in the kernels, not a ZeroDivisionError
+    literal = literal or np.float64
 
     def go(n: Node):
         if isinstance(n, Num):

@@ -46,6 +46,7 @@ from ..dispatch import get_backend
 from ..domains import Grid
 from ..errors import StabilityError
 from . import equations as eq
+from .ranges import check_bounds, check_fits
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
 
@@ -229,12 +230,26 @@ def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str,
         if np.ndim(value) == 0:
             v = float(value)
             if not math.isfinite(v):
-                raise ValueError(f"parameter {name!r} = {text!r} is {v}")
+                raise ValueError(f"parameter {name!r} = {text!r} is {v} (a division by zero, "
+                                 "a function outside its domain or an overflow)")
             out[name] = v
         else:
             out[name] = _field(name, np.broadcast_to(value, domain_shape(domain)),
                                domain_shape(domain))
     return out
+
+
+def _constant_value(name: str, text: str, tree: eq.Node) -> float | None:
+    """The value of parameter ``name`` = ``text`` when ``tree`` is a constant (None when it
+    reads a name); one that is not finite is refused, naming the parameter."""
+    if any(isinstance(n, eq.Ref) for n in eq.walk(tree)):
+        return None
+    with np.errstate(all="ignore"):
+        v = float(eq.evaluate(tree, {}))
+    if not math.isfinite(v):
+        raise ValueError(f"parameter {name!r} = {text!r} is {v} (a division by zero, a "
+                         "function outside its domain or an overflow)")
+    return v
 
 
 def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
@@ -260,8 +275,11 @@ def check_dt(dt: float, limit: float, what: str, check: bool) -> float:
 def _identifier(name: Any, what: str) -> str:
     import keyword
 
-    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+    if not isinstance(name, str) or not name.isidentifier():
         raise eq.EquationError(f"{what} {name!r} is not a valid identifier")
+    if keyword.iskeyword(name):
+        raise eq.EquationError(f"{what} {name!r} is not a valid identifier (a keyword of the "
+                               "expressions' Python syntax)")
     if not name.isascii():
         raise eq.EquationError(f"{what} {name!r} must be ASCII (it becomes a C identifier)")
     if name.startswith("_"):
@@ -321,6 +339,10 @@ class Model:
         clash = set(self.defaults) & set(self.species)
         if clash:
             raise eq.EquationError(f"names used both as species and parameter: {sorted(clash)}")
+        for k, v in self.defaults.items():
+            if isinstance(v, str):  # an expression: checked now, a constant evaluated
+                _constant_value(k, v, eq.parse(v, params=[p for p in self.defaults if p != k],
+                                               what=f"parameter {k!r}", laplace=False))
         self.equations = {s: str(equations[s]).strip() for s in self.species}
         self.trees = {
             s: eq.parse(self.equations[s], species=self.species, params=self.defaults,
@@ -328,11 +350,7 @@ class Model:
             for s in self.species
         }
         self.linear = {s: eq.linear_parts(t) for s, t in self.trees.items()}
-        self.bounds = {s: tuple(None if b is None else float(b) for b in v)
-                       for s, v in dict(bounds or {}).items()}
-        unknown = set(self.bounds) - set(self.species)
-        if unknown:
-            raise ValueError(f"bounds for unknown species {sorted(unknown)}")
+        self.bounds = check_bounds(bounds, self.species)
         self.description = description or "; ".join(
             f"{s}_t = {self.equations[s]}" for s in self.species)
         self.source = source
@@ -381,14 +399,20 @@ class Model:
                         **{L: np.float64(1.0) for L in eq.LENGTHS},
                         **{p: np.float64(np.mean(merged[p])) for p in
                            eq.names(tree, "param")}}))
+                if not any(isinstance(n, eq.Ref) and n.kind != "param"
+                           for n in eq.walk(tree)):
+                    # a constant (an expression of x or t is checked where it is evaluated)
+                    _constant_value(k, merged[k], eq.Num(v))
             elif isinstance(v, Mapping):
                 spec = v
                 v = (float(spec.get("mean", 0.0)) if spec.get("kind") == "sine" else
                      0.5 * (float(spec.get("low", spec.get("start", 0.0)))
                             + float(spec.get("high", spec.get("stop", 0.0)))))
             elif isinstance(v, eq.Node):
-                v = eq.evaluate(v, {"x": 0.0, "y": 0.0, "z": 0.0, "t": 0.0,
-                                    **{L: 1.0 for L in eq.LENGTHS}})
+                with np.errstate(all="ignore"):
+                    v = eq.evaluate(v, {"x": np.float64(0.0), "y": np.float64(0.0),
+                                        "z": np.float64(0.0), "t": np.float64(0.0),
+                                        **{L: np.float64(1.0) for L in eq.LENGTHS}})
             out[k] = v
         return out
 
@@ -420,7 +444,8 @@ class Model:
         env = {}
         for k, v in merged.items():
             a = np.asarray(v, dtype=np.float64)
-            env[k] = float(a.ravel()[np.argmax(np.abs(a.ravel()))]) if a.ndim else float(a)
+            # NumPy scalars: a coefficient D/k with k = 0 is inf, not a ZeroDivisionError
+            env[k] = a.ravel()[np.argmax(np.abs(a.ravel()))] if a.ndim else a[()]
         D, B = np.zeros((n, n)), np.zeros((n, n))
         for i, s in enumerate(self.species):
             lin = self.linear[s]
@@ -428,7 +453,8 @@ class Model:
                 return None
             for target, coeffs in ((D, lin.diffusion), (B, lin.bilaplacian)):
                 for r, c in coeffs.items():
-                    target[i, self.species.index(r)] = float(eq.evaluate(c, env))
+                    with np.errstate(all="ignore"):
+                        target[i, self.species.index(r)] = float(eq.evaluate(c, env))
         return D, B
 
     def diffusion_coefficients(self, params: Mapping[str, Any] | None = None) -> list[float]:
@@ -551,6 +577,7 @@ class Model:
                 self._check_diffusion(q)
                 limit = min(limit, self.dt_limit(domain, q, method, stencil))
             p = stack_members(each, shape)
+        check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
         return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
