@@ -116,7 +116,7 @@ BAD = [
     ([*GS, "--mesh", "sphere", "--roughen", "0.1:3:-1"], 2,
      "argument --roughen: '0.1:3:-1': SEED must be a whole number >= 0, got '-1'"),
     ([*GS, "--mesh", "sphere", "--roughen", "nan"], 2, "AMPLITUDE must be a number"),
-    ([*SMALL, "--param", "F=1/0"], 2, "--param F=1/0: division by zero"),
+    ([*SMALL, "--param", "F=1/0"], 2, "parameter 'F' = '1/0' is inf (a division by zero"),
     ([*SMALL, "--init", "blob"], 2, "argument --init: expected square[:SIZE]"),
     ([*SMALL, "--init", "spots:1000000000"], 2,
      "--init spots:1000000000: at most 256 spots (one a cell)"),
