@@ -1555,6 +1555,10 @@ class _DeferSigint:
             signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+#: the methods whose linear spatial terms are implicit (the reaction terms stay explicit)
+_IMPLICIT_METHODS = ("imex", "imex-cn", "bdf2")
+
+
 class _Runner:
     """One ``Simulation.run`` call: the loop, device snapshot buffers, checks, checkpoints."""
 
@@ -1693,6 +1697,11 @@ class _Runner:
             cause = (f"dt={sim.dt:g} is past the stability limit {sim.dt_limit:.4g} of "
                      f"{sim.model.name} on this domain (the run had check_stability=False); "
                      f"use dt <= {sim.dt_limit:.4g}")
+        elif cause is None and getattr(sim.stepper, "method", None) in _IMPLICIT_METHODS:
+            own = default_dt(sim.model, sim.domain, sim.params, {})
+            cause = (f"method {sim.stepper.method!r} steps the diffusion implicitly (stable at "
+                     f"any dt) but the reaction terms explicitly, and they are unstable at "
+                     f"dt={sim.dt:g}; use a smaller dt (the model's default is {own:.4g})")
         elif cause is None:
             cause = (f"dt={sim.dt:g} is within the diffusion stability limit "
                      f"{sim.dt_limit:.4g}; check the parameters (a stiff or unbounded reaction "
