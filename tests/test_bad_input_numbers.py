@@ -184,7 +184,7 @@ CASES = [
     ("dla-k-bool", lambda be: rdgpu.dla((16, 16), steps=1, k=True, backend=be), TypeError,
      "k must be an integer, got bool"),
     ("dla-shape-fraction", lambda be: rdgpu.dla((16.5, 16), steps=1, backend=be), ValueError,
-     "shape must be a whole number, got 16.5"),
+     "shape must be a whole number >= 0, got 16.5"),
     ("dla-warm-start-text", lambda be: rdgpu.dla((16, 16), steps=1, warm_start="no",
                                                  backend=be),
      TypeError, "warm_start must be True or False"),
@@ -213,13 +213,31 @@ def test_scalar_takes_real_numbers_of_every_kind():
 def test_whole_takes_integers_and_refuses_fractions():
     assert check.whole(np.int32(7), "n") == 7 and check.whole(np.array(3), "n") == 3
     assert check.whole(8.0, "n", floats=True) == 8  # a whole float where floats are allowed
-    with pytest.raises(ValueError, match="n must be a whole number, got 8.7"):
+    with pytest.raises(ValueError, match="n must be a whole number >= 0, got 8.7"):
         check.whole(8.7, "n", floats=True)
     with pytest.raises(TypeError, match="n must be an integer, got float 8.0"):
         check.whole(8.0, "n")
     with pytest.raises(ValueError, match="n must be <= 5, got 6"):
         check.whole(6, "n", maximum=5)
     assert check.flag(np.True_, "f") is True
+
+
+def test_one_integer_check():
+    """``sim_checks.whole`` (Simulation, sweeps) is the shared ``validation.whole`` with
+    whole floats allowed: same rules (a 0-d array is taken, a float past 2**53 refused),
+    and ``sweep`` uses the public check, not a private one of ``simulation``."""
+    from rdgpu import sim_checks, sweep
+
+    assert sim_checks.whole(np.array(4), "steps") == 4 and sim_checks.whole(1e4, "n") == 10000
+    with pytest.raises(ValueError, match="n must be a whole number >= 0, got .*a float that large"):
+        check.whole(2.0**60, "n", floats=True)
+    with pytest.raises(ValueError, match="steps must be a whole number >= 0, got 2.5"):
+        sim_checks.whole(2.5, "steps")
+    with pytest.raises(ValueError, match="k must be a whole number >= 1 and <= 3, got 4"):
+        sim_checks.whole(4, "k", 1, 3)
+    with pytest.raises(TypeError, match="tol must be a real number, got bool True"):
+        sim_checks.real(True, "tol")
+    assert sweep.whole is sim_checks.whole and not hasattr(sweep, "_whole")
 
 
 # ---------------------------------------------------------------------------- backend specs
