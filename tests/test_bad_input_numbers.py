@@ -418,3 +418,38 @@ def test_lazy_names_are_attributes_and_listed():
                  "dla_image", "random_walk_dla", "front_growth", "GraphSurface", "fronts",
                  "analysis", "output", "interop", "surfaces"):
         assert lazy in names, lazy
+
+
+# ------------------------------------------------------------ ImplicitDiffusion, directly
+@pytest.mark.parametrize("kwargs, exc, fragment", [
+    (dict(tol=True), TypeError, "tol must be a real number, got bool True"),
+    (dict(tol="1e-5"), TypeError, "tol must be a real number, got str '1e-5'"),
+    (dict(D="1"), TypeError, "D must be a real number, got str"),
+    (dict(dt=True), TypeError, "dt must be a real number, got bool"),
+    (dict(dt=0.5 + 1j), TypeError, "dt must be a real number, got complex"),
+    (dict(theta=b"1"), TypeError, "theta must be a real number, got bytes"),
+    (dict(omega=True), TypeError, "omega must be a real number, got bool"),
+    (dict(max_sweeps=10.5), TypeError, "max_sweeps must be an integer, got float 10.5"),
+    (dict(max_sweeps=True), TypeError, "max_sweeps must be an integer, got bool"),
+    (dict(max_sweeps=0), ValueError, "max_sweeps must be >= 1, got 0"),
+    (dict(check_every="2"), TypeError, "check_every must be an integer, got str"),
+    (dict(check_every=1.5), TypeError, "check_every must be an integer, got float 1.5"),
+])
+def test_implicit_diffusion_numbers(kwargs, exc, fragment):
+    """Constructed directly, ImplicitDiffusion takes its numbers through the shared checks
+    (it used float()/int(): tol=True was 1.0, tol="1e-5" parsed, max_sweeps=10.5 cut)."""
+    from rdgpu.domains import Grid
+    from rdgpu.implicit import ImplicitDiffusion
+
+    args = {"D": 1.0, "dt": 0.1, **kwargs}
+    with pytest.raises(exc, match=fragment):
+        ImplicitDiffusion(Grid((4, 4)), backend="numpy", **args)
+
+
+def test_implicit_diffusion_source_is_a_real_number():
+    from rdgpu.domains import Grid
+    from rdgpu.implicit import ImplicitDiffusion
+
+    solver = ImplicitDiffusion(Grid((4, 4)), D=1.0, dt=0.1, backend="numpy")
+    with pytest.raises(TypeError, match="source must be a real number, got str"):
+        solver.means("1")
