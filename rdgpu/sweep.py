@@ -432,11 +432,16 @@ def sweep(
     n_members = math.prod(a.size for a in axes.values())
     check_sweep_memory(n_members, tuple(grid.field_shape), len(mdl.species),
                        np.dtype(dtype).itemsize, batch, BATCH_MEMORY, store)
-    clash = [k for k in axes if k in _SPACE_DIMS[3] or k in ("batch", "pattern")
-             or k in mdl.species]
+    own = (*_SPACE_DIMS[3], "batch", "pattern", "done")  # the Dataset's own names
+    clash = [k for k in axes if k in own or k in mdl.species]
     if clash:
         raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "
                          "dimension or variable of the Dataset)")
+    clash = [s for s in mdl.species if s in own]
+    if clash:
+        raise ValueError(f"a sweep cannot hold species {', '.join(clash)}: the Dataset "
+                         f"uses {', '.join(own)} for its own dimensions and variables; "
+                         "rename the species")
     species = tuple(mdl.species)
     classify = classify or pattern_species(mdl)
     if classify not in species:
