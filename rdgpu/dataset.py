@@ -18,9 +18,16 @@ Layout
   ``final_time``, ``seed`` (an int, or JSON for a per-member list), ``members`` (when
   set), ``diverged`` (when the run diverged),
   ``domain_kind``, ``domain`` (the JSON description of ``rdgpu.simulation.describe_domain``),
-  ``params`` (the scalar parameters as JSON), one ``param_<name>`` per scalar parameter,
+  ``params`` (the scalar parameters as JSON), ``param_fields`` (the parameter fields'
+  names as JSON), one ``param_<name>`` per scalar parameter,
   ``init`` (JSON) and ``rdgpu_version``. Every attribute is a string or a number, so
   ``Dataset.to_netcdf`` can write it.
+
+These names are a fixed layout: a species named like a coordinate, a dimension, another
+variable (``param_F`` beside a parameter field ``F``, ``height`` on a graph surface) or a
+scalar parameter ``fields`` (attribute ``param_fields``) is refused with a ``ValueError``
+naming both, never silently overwritten; :func:`rdgpu.output.save_npz` keeps such names
+apart (``final_<s>``, ``param_<k>``).
 """
 
 from __future__ import annotations
@@ -100,6 +107,11 @@ def _attrs(result: Any) -> dict[str, Any]:
         "rdgpu_version": str(result.versions.get("rdgpu", "")),
     }
     for k, v in scalars.items():
+        if f"param_{k}" in attrs:  # "param_fields": a fixed attribute, never overwritten
+            raise ValueError(f"Result.to_xarray: scalar parameter {k!r} would be the "
+                             f"attribute 'param_{k}', one of the Dataset's own (the names "
+                             "of the parameter fields); rename the parameter "
+                             "(rdgpu.output.save_npz keeps every name apart)")
         if isinstance(v, (int, float)) and not isinstance(v, bool):
             attrs[f"param_{k}"] = v
     if result.seed is not None:  # netCDF-3 holds 32-bit integers; anything else as JSON
@@ -146,13 +158,31 @@ def result_dataset(result: Any) -> Any:
         for s, final in result.fields.items():
             data[s] = ((*lead, *space), np.asarray(final))
     shape = _field_shape(result.domain)
-    for k, a in _split_params(result.params)[1].items():
+    fields = _split_params(result.params)[1]
+    _check_names(result.fields, fields, _is_surface(result.domain), coords)
+    for k, a in fields.items():
         data[f"param_{k}"] = _param_field(k, a, space, shape, members)
     if _is_surface(result.domain):
         data["height"] = (space, np.asarray(result.domain.height),
                           {"long_name": "surface height h(x, y)", "units": "length"})
-    clash = set(data) & set(coords)
-    if clash:
-        raise ValueError(f"species or parameter names {sorted(clash)} clash with the "
-                         f"Dataset's coordinate names {sorted(coords)}; rename them")
     return xr.Dataset(data, coords=coords, attrs=_attrs(result))
+
+
+def _check_names(species: Any, fields: Any, surface: bool, coords: dict[str, Any]) -> None:
+    """Refuse a species whose name is one the Dataset gives something else: a coordinate,
+    a dimension, ``param_<name>`` of a parameter field or ``height`` (they are a fixed,
+    public layout, so nothing is renamed or silently overwritten)."""
+    own = {name: "a coordinate" for name in coords}
+    for c in coords.values():
+        for dim in (c[0],) if isinstance(c[0], str) else c[0]:
+            own.setdefault(dim, "a dimension")
+    for k in fields:
+        own.setdefault(f"param_{k}", f"the variable of parameter field {k!r}")
+    if surface:
+        own.setdefault("height", "the surface height")
+    clash = sorted(s for s in species if s in own)
+    if clash:
+        which = "; ".join(f"{s!r} is {own[s]}" for s in clash)
+        raise ValueError(f"Result.to_xarray: species names {clash} clash with the Dataset's "
+                         f"own names ({which}; layout in rdgpu.dataset); rename the species "
+                         "(rdgpu.output.save_npz keeps every name apart)")

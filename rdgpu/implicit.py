@@ -76,6 +76,7 @@ from typing import Any
 
 import numpy as np
 
+from . import validation as check
 from .backends.base import Backend, DeviceArray
 from .boundary import DIRICHLET, PERIODIC
 from .dispatch import get_backend
@@ -362,7 +363,10 @@ class ImplicitDiffusion:
         self.dtype = np.dtype(dtype)
         if self.dtype not in _REALS:
             raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
-        self.D, self.dt, self.theta = float(D), float(dt), float(theta)
+        # every number through the shared checks: a bool, text or a complex value is a
+        # TypeError naming the argument, never cast by float()
+        self.D, self.dt, self.theta = (check.real_number(x, name) for x, name in
+                                       ((D, "D"), (dt, "dt"), (theta, "theta")))
         if not (math.isfinite(self.D) and self.D >= 0):
             raise ValueError(f"D must be a finite number >= 0, got {D}")
         if not (math.isfinite(self.dt) and self.dt > 0):
@@ -372,7 +376,7 @@ class ImplicitDiffusion:
                              f"got {theta}")
         if tol is None:
             tol = 1e-8 if self.dtype == np.float64 else 1e-5
-        self.tol = float(tol)
+        self.tol = check.real_number(tol, "tol")
         if not (math.isfinite(self.tol) and self.tol > 0):
             raise ValueError(f"tol must be a positive number, got {tol}")
         self.domain = domain
@@ -381,9 +385,8 @@ class ImplicitDiffusion:
         self.shape = domain.shape if isinstance(domain, Grid) else (domain.n_vertices,)
         n = M.shape[0]
         self.n = n
-        self.check_every = 1 if check_every is None else int(check_every)
-        if self.check_every < 1:
-            raise ValueError(f"check_every must be >= 1, got {check_every}")
+        self.check_every = 1 if check_every is None else check.whole(check_every,
+                                                                     "check_every", minimum=1)
 
         import scipy.sparse as sp
 
@@ -430,7 +433,7 @@ class ImplicitDiffusion:
         rho_j = 1.0 - mu
         if omega is None:
             omega = 2.0 / (1.0 + math.sqrt(max(0.0, 1.0 - rho_j * rho_j)))
-        self.omega = float(omega)
+        self.omega = check.real_number(omega, "omega")
         if not 0.0 < self.omega < 2.0:
             raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
         #: Young's asymptotic contraction of the error per sweep
@@ -438,9 +441,7 @@ class ImplicitDiffusion:
         self._window = int(min(100_000, max(8, math.ceil(3.0 / (1.0 - self.rate)))))
         if max_sweeps is None:
             max_sweeps = max(5000, math.ceil(50.0 / (1.0 - self.rate)))
-        self.max_sweeps = int(max_sweeps)
-        if self.max_sweeps < 1:
-            raise ValueError(f"max_sweeps must be >= 1, got {max_sweeps}")
+        self.max_sweeps = check.whole(max_sweeps, "max_sweeps", minimum=1)
         # the error a residual implies: ||S⁻¹||∞ <= 1 for an M-matrix (off-diagonals of
         # M >= 0); (1 + c λ₁)⁻¹ for the slowest mode (λ₁ quartered where it is estimated)
         off = M.copy()
@@ -502,9 +503,7 @@ class ImplicitDiffusion:
         if isinstance(source, DeviceArray):
             self._check(source, "source")
             return source, self._Db
-        s = float(source)
-        if not math.isfinite(s):
-            raise ValueError(f"source must be finite, got {source}")
+        s = check.real_number(source, "source")
         if self._Db is None:
             return s, None
         dev = self._source_cache.get(s)
@@ -540,7 +539,7 @@ class ImplicitDiffusion:
             s = source.numpy().reshape(-1).astype(np.float64)
             return self.dt * np.bincount(self._labels, weights=self.weights * s,
                                          minlength=self._count) / self._wsum
-        return np.full(self._count, self.dt * float(source))
+        return np.full(self._count, self.dt * check.real_number(source, "source"))
 
     def _add(self, x: DeviceArray, alpha: np.ndarray) -> None:
         """``x += alpha`` per component."""

@@ -11,12 +11,12 @@ requests are refused through the one shared estimate (:mod:`rdgpu.resources`).
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from . import validation
 from .resources import check_fields
 
 __all__ = [
@@ -50,44 +50,15 @@ MAX_STEPS = 2**53
 # ------------------------------------------------------------------------------ numbers
 def whole(value: Any, name: str, minimum: int = 0, maximum: int | None = None) -> int:
     """``value`` as an int >= ``minimum`` (and <= ``maximum``): an int (not a bool) or a
-    float with a whole value (``1e4``) that a float holds exactly; anything else is a
-    TypeError/ValueError naming ``name``."""
-    what = f"a whole number >= {minimum}"
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be {what}, got {value!r} (a bool)")
-    if isinstance(value, numbers.Integral):
-        n = int(value)
-    elif isinstance(value, numbers.Real):
-        x = float(value)
-        if not (math.isfinite(x) and x.is_integer()):
-            raise ValueError(f"{name} must be {what}, got {value!r}")
-        if abs(x) > MAX_STEPS:
-            raise ValueError(f"{name} must be {what}, got {value!r}: a float that large is "
-                             "not an exact whole number (give an int)")
-        n = int(x)
-    else:
-        raise TypeError(f"{name} must be {what}, got {type(value).__name__} {value!r}")
-    if n < minimum:
-        raise ValueError(f"{name} must be {what}, got {n}")
-    if maximum is not None and n > maximum:
-        raise ValueError(f"{name} must be {what} and <= {maximum}, got {n}")
-    return n
+    float with a whole value (``1e4``) that a float holds exactly -- the shared check
+    :func:`rdgpu.validation.whole` with ``floats=True``."""
+    return validation.whole(value, name, minimum=minimum, maximum=maximum, floats=True)
 
 
 def real(value: Any, name: str) -> float:
-    """``value`` as a finite float: a real number, not a bool, a string, bytes or a complex
-    number."""
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a real number, got {value!r} (a bool)")
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    if not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} "
-                        f"{value!r:.60}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return x
+    """``value`` as a finite float -- the shared check :func:`rdgpu.validation.real_number`
+    (no bool, text, bytes or complex number)."""
+    return validation.real_number(value, name)
 
 
 def unit_fractions(values: tuple[float, ...], name: str) -> None:

@@ -32,6 +32,7 @@ import numpy as np
 
 from ._optional import require
 from .resources import check_memory
+from .sim_checks import whole
 from .sweep_store import SETTINGS_ATTR, open_store, stored_batch
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
@@ -128,10 +129,8 @@ def _default_domain(model: Any, size: Any) -> dict:
     spec = {k: base[k] for k in ("dx", "dy", "dz", "bc") if "grid" in base and k in base}
     spec.setdefault("dx", float(getattr(model, "spacing", 1.0)))
     spec.setdefault("bc", "periodic")
-    from .simulation import _whole
-
-    shape = ((_whole(size, "size", 1),) * 2 if isinstance(size, (str, bytes)) or
-             np.ndim(size) == 0 else tuple(_whole(n, "size", 1) for n in size))
+    shape = ((whole(size, "size", 1),) * 2 if isinstance(size, (str, bytes)) or
+             np.ndim(size) == 0 else tuple(whole(n, "size", 1) for n in size))
     if not 1 <= len(shape) <= 3:
         raise ValueError(f"size must be N or 1 to 3 whole numbers, got {size!r}")
     if len(shape) != 3:
@@ -393,7 +392,6 @@ def sweep(
     from .simulation import (
         _lookup_model,
         _model_definition,
-        _whole,
         build_domain,
         describe_domain,
     )
@@ -421,8 +419,8 @@ def sweep(
     if not axes:
         raise ValueError("nothing to sweep: give at least one parameter several values, "
                          "e.g. {'F': '0.01:0.08:16'}")
-    steps, seed = _whole(steps, "steps", 0), _whole(seed, "seed", 0)
-    batch, workers = (None if n is None else _whole(n, what, 1)
+    steps, seed = whole(steps, "steps", 0), whole(seed, "seed", 0)
+    batch, workers = (None if n is None else whole(n, what, 1)
                       for n, what in ((batch, "batch"), (workers, "workers")))
     if dt is not None:
         if isinstance(dt, (bool, np.bool_)):
@@ -434,11 +432,16 @@ def sweep(
     n_members = math.prod(a.size for a in axes.values())
     check_sweep_memory(n_members, tuple(grid.field_shape), len(mdl.species),
                        np.dtype(dtype).itemsize, batch, BATCH_MEMORY, store)
-    clash = [k for k in axes if k in _SPACE_DIMS[3] or k in ("batch", "pattern")
-             or k in mdl.species]
+    own = (*_SPACE_DIMS[3], "batch", "pattern", "done")  # the Dataset's own names
+    clash = [k for k in axes if k in own or k in mdl.species]
     if clash:
         raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "
                          "dimension or variable of the Dataset)")
+    clash = [s for s in mdl.species if s in own]
+    if clash:
+        raise ValueError(f"a sweep cannot hold species {', '.join(clash)}: the Dataset "
+                         f"uses {', '.join(own)} for its own dimensions and variables; "
+                         "rename the species")
     species = tuple(mdl.species)
     classify = classify or pattern_species(mdl)
     if classify not in species:

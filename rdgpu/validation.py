@@ -30,6 +30,8 @@ CHECK_BLOCK = 1 << 22
 #: an array whose estimate is below this many bytes is not checked against the machine's
 #: memory (reading the limit costs more than such a call's own work)
 UNCHECKED_BYTES = 1 << 26
+#: beyond this a float64 no longer holds every whole number (``whole(..., floats=True)``)
+_EXACT_FLOAT = 2**53
 
 
 def _shown(x: Any) -> str:
@@ -101,13 +103,16 @@ def scalar(x: Any, name: str, *, minimum: float | None = 0.0, strict: bool = Fal
 
 def whole(n: Any, name: str, *, minimum: int | None = 0, maximum: int | None = None,
           floats: bool = False) -> int:
-    """An integer ``minimum <= n <= maximum`` as a Python int.
+    """An integer ``minimum <= n <= maximum`` as a Python int: rdgpu's one integer check
+    (:func:`rdgpu.sim_checks.whole` is this with ``floats=True``).
 
     A float is a ``TypeError`` (never truncated: ``steps=2.5`` does not run 2 steps); with
-    ``floats=True`` a float holding a whole number (``8.0``, ``1e6``) is taken and any other
-    (``8.7``) is a ``ValueError``.  Bools, text, complex values and masked arrays are a
-    ``TypeError``."""
-    what = "an integer"
+    ``floats=True`` a float holding a whole number (``8.0``, ``1e6``) that a float holds
+    exactly (at most 2**53) is taken and any other (``8.7``) is a ``ValueError``, and the
+    messages say "a whole number >= minimum".  Bools, text, complex values and masked
+    arrays are a ``TypeError``."""
+    bound = "" if minimum is None else f" >= {minimum}"
+    what = f"a whole number{bound}" if floats else "an integer"
     _not_text_or_bool(n, name, what)
     if isinstance(n, np.ndarray) and n.ndim == 0 and n.dtype.kind in "iuf":
         n = n[()]
@@ -116,18 +121,23 @@ def whole(n: Any, name: str, *, minimum: int | None = 0, maximum: int | None = N
             raise TypeError(f"{name} must be an integer, got float {n!r}: a float is never "
                             f"truncated; pass an int")
         if not (math.isfinite(n) and float(n).is_integer()):
-            raise ValueError(f"{name} must be a whole number, got {n!r}: it is never "
-                             "truncated or rounded")
+            raise ValueError(f"{name} must be {what}, got {n!r}: it is never truncated or "
+                             "rounded")
+        if abs(float(n)) > _EXACT_FLOAT:
+            raise ValueError(f"{name} must be {what}, got {n!r}: a float that large is not "
+                             "an exact whole number (give an int)")
         value = int(n)
     else:
         try:
             value = operator.index(n)
         except TypeError:
-            raise TypeError(f"{name} must be an integer, got {type(n).__name__}") from None
+            raise TypeError(f"{name} must be {what}, got {_shown(n)}") from None
+    noun = "a whole number " if floats else ""
     if minimum is not None and value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+        raise ValueError(f"{name} must be {noun}>= {minimum}, got {value}")
     if maximum is not None and value > maximum:
-        raise ValueError(f"{name} must be <= {maximum}, got {value}")
+        limit = f"{what} and <= {maximum}" if floats else f"<= {maximum}"
+        raise ValueError(f"{name} must be {limit}, got {value}")
     return value
 
 

@@ -33,7 +33,7 @@ def files(tmp_path_factory):
     (d / "truncated.npz").write_bytes(data[: len(data) // 3])
     (d / "empty.npz").write_bytes(b"")
     (d / "corrupt.npz").write_bytes(b"this is not a checkpoint\n" * 10)
-    save_npz(res, d / "data.npz")
+    save_npz(d / "data.npz", res)
     (d / "garbage.obj").write_text("garbage\nf 1 2 3\n")
     (d / "badindex.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n")
     (d / "a-folder.png").mkdir()

@@ -184,7 +184,7 @@ CASES = [
     ("dla-k-bool", lambda be: rdgpu.dla((16, 16), steps=1, k=True, backend=be), TypeError,
      "k must be an integer, got bool"),
     ("dla-shape-fraction", lambda be: rdgpu.dla((16.5, 16), steps=1, backend=be), ValueError,
-     "shape must be a whole number, got 16.5"),
+     "shape must be a whole number >= 0, got 16.5"),
     ("dla-warm-start-text", lambda be: rdgpu.dla((16, 16), steps=1, warm_start="no",
                                                  backend=be),
      TypeError, "warm_start must be True or False"),
@@ -213,13 +213,31 @@ def test_scalar_takes_real_numbers_of_every_kind():
 def test_whole_takes_integers_and_refuses_fractions():
     assert check.whole(np.int32(7), "n") == 7 and check.whole(np.array(3), "n") == 3
     assert check.whole(8.0, "n", floats=True) == 8  # a whole float where floats are allowed
-    with pytest.raises(ValueError, match="n must be a whole number, got 8.7"):
+    with pytest.raises(ValueError, match="n must be a whole number >= 0, got 8.7"):
         check.whole(8.7, "n", floats=True)
     with pytest.raises(TypeError, match="n must be an integer, got float 8.0"):
         check.whole(8.0, "n")
     with pytest.raises(ValueError, match="n must be <= 5, got 6"):
         check.whole(6, "n", maximum=5)
     assert check.flag(np.True_, "f") is True
+
+
+def test_one_integer_check():
+    """``sim_checks.whole`` (Simulation, sweeps) is the shared ``validation.whole`` with
+    whole floats allowed: same rules (a 0-d array is taken, a float past 2**53 refused),
+    and ``sweep`` uses the public check, not a private one of ``simulation``."""
+    from rdgpu import sim_checks, sweep
+
+    assert sim_checks.whole(np.array(4), "steps") == 4 and sim_checks.whole(1e4, "n") == 10000
+    with pytest.raises(ValueError, match="n must be a whole number >= 0, got .*a float that large"):
+        check.whole(2.0**60, "n", floats=True)
+    with pytest.raises(ValueError, match="steps must be a whole number >= 0, got 2.5"):
+        sim_checks.whole(2.5, "steps")
+    with pytest.raises(ValueError, match="k must be a whole number >= 1 and <= 3, got 4"):
+        sim_checks.whole(4, "k", 1, 3)
+    with pytest.raises(TypeError, match="tol must be a real number, got bool True"):
+        sim_checks.real(True, "tol")
+    assert sweep.whole is sim_checks.whole and not hasattr(sweep, "_whole")
 
 
 # ---------------------------------------------------------------------------- backend specs
@@ -400,3 +418,38 @@ def test_lazy_names_are_attributes_and_listed():
                  "dla_image", "random_walk_dla", "front_growth", "GraphSurface", "fronts",
                  "analysis", "output", "interop", "surfaces"):
         assert lazy in names, lazy
+
+
+# ------------------------------------------------------------ ImplicitDiffusion, directly
+@pytest.mark.parametrize("kwargs, exc, fragment", [
+    (dict(tol=True), TypeError, "tol must be a real number, got bool True"),
+    (dict(tol="1e-5"), TypeError, "tol must be a real number, got str '1e-5'"),
+    (dict(D="1"), TypeError, "D must be a real number, got str"),
+    (dict(dt=True), TypeError, "dt must be a real number, got bool"),
+    (dict(dt=0.5 + 1j), TypeError, "dt must be a real number, got complex"),
+    (dict(theta=b"1"), TypeError, "theta must be a real number, got bytes"),
+    (dict(omega=True), TypeError, "omega must be a real number, got bool"),
+    (dict(max_sweeps=10.5), TypeError, "max_sweeps must be an integer, got float 10.5"),
+    (dict(max_sweeps=True), TypeError, "max_sweeps must be an integer, got bool"),
+    (dict(max_sweeps=0), ValueError, "max_sweeps must be >= 1, got 0"),
+    (dict(check_every="2"), TypeError, "check_every must be an integer, got str"),
+    (dict(check_every=1.5), TypeError, "check_every must be an integer, got float 1.5"),
+])
+def test_implicit_diffusion_numbers(kwargs, exc, fragment):
+    """Constructed directly, ImplicitDiffusion takes its numbers through the shared checks
+    (it used float()/int(): tol=True was 1.0, tol="1e-5" parsed, max_sweeps=10.5 cut)."""
+    from rdgpu.domains import Grid
+    from rdgpu.implicit import ImplicitDiffusion
+
+    args = {"D": 1.0, "dt": 0.1, **kwargs}
+    with pytest.raises(exc, match=fragment):
+        ImplicitDiffusion(Grid((4, 4)), backend="numpy", **args)
+
+
+def test_implicit_diffusion_source_is_a_real_number():
+    from rdgpu.domains import Grid
+    from rdgpu.implicit import ImplicitDiffusion
+
+    solver = ImplicitDiffusion(Grid((4, 4)), D=1.0, dt=0.1, backend="numpy")
+    with pytest.raises(TypeError, match="source must be a real number, got str"):
+        solver.means("1")

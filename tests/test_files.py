@@ -454,6 +454,13 @@ def test_writers_take_the_path_first_and_the_old_order_is_deprecated(tmp_path, r
         output.save_npz(result, result)
 
 
+def test_the_suite_refuses_the_old_order(tmp_path, result):
+    """pyproject's filterwarnings makes rdgpu's deprecation an error in the tests (outside
+    pytest.warns), so no test keeps the earlier order unnoticed."""
+    with pytest.raises(DeprecationWarning, match="takes the path first"):
+        output.save_npz(result, tmp_path / "old.npz")
+
+
 def test_render_mesh_png_old_order(tmp_path, monkeypatch):
     monkeypatch.setattr(output, "render_mesh", lambda mesh, field, **kw:
                         np.full((4, 4, 3), 7, np.uint8) if isinstance(mesh, SurfaceMesh)

@@ -358,7 +358,7 @@ def test_to_xarray_from_npz_and_netcdf(tmp_path, grid_result):
     from rdgpu.output import load_npz, save_npz
 
     ds = grid_result.to_xarray()
-    back = load_npz(save_npz(grid_result, tmp_path / "run.npz")).to_xarray()
+    back = load_npz(save_npz(tmp_path / "run.npz", grid_result)).to_xarray()
     xr.testing.assert_identical(back, ds)
     engines = [e for e, mod in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf"),
                                 ("scipy", "scipy")) if importlib.util.find_spec(mod)]

@@ -273,7 +273,7 @@ def test_simulation_dict_npz_and_pictures(tmp_path):
     assert np.array_equal(sim.domain.height, h) and sim.domain.dy == 1.1
     assert sim.dt == pytest.approx(min(1.0, GS.dt_limit(sim.domain, {})))
     r = sim.run(6, progress=False)
-    back = load_npz(save_npz(r, tmp_path / "run.npz"))
+    back = load_npz(save_npz(tmp_path / "run.npz", r))
     assert back.domain == sim.domain and isinstance(back.domain, GraphSurface)
     for s in "uv":
         np.testing.assert_array_equal(back.fields[s], r.fields[s])
@@ -307,7 +307,7 @@ def test_render_surface_writes_a_picture(tmp_path):
 
     surface = _surface((16, 20), amplitude=3.0, dx=1.0, dy=1.0)
     u = np.cos(np.linspace(0, 6, 20))[None, :] * np.ones((16, 1))
-    path = render_surface(surface, u, tmp_path / "s.png", warp_scale=2.0,
+    path = render_surface(tmp_path / "s.png", u, surface, warp_scale=2.0,
                           window_size=(200, 160), camera={"elevation": 10})
     img = iio.imread(path)
     assert img.shape == (160, 200, 3)
@@ -321,9 +321,9 @@ def test_render_surface_writes_a_picture(tmp_path):
     assert grid[3, 4, 0] == 4.5 and grid[3, 4, 1] == 3.5
     assert F.shape == (2 * 16 * 20, 3) and F.max() == V.shape[0] - 1
     with pytest.raises(ValueError, match="the field has shape"):
-        render_surface(surface, u.T, tmp_path / "t.png")
+        render_surface(tmp_path / "t.png", u.T, surface)
     with pytest.raises(TypeError, match="GraphSurface"):
-        render_surface(Grid((16, 20)), u, tmp_path / "t.png")
+        render_surface(tmp_path / "t.png", u, Grid((16, 20)))
 
 
 # ---------------------------------------------------------------------------- errors

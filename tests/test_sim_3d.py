@@ -463,7 +463,7 @@ def test_slices_mp4_is_padded_to_even_sizes(tmp_path):
 
 
 def test_npz_of_a_3d_run(result3d, tmp_path):
-    back = output.load_npz(output.save_npz(result3d, tmp_path / "r.npz"))
+    back = output.load_npz(output.save_npz(tmp_path / "r.npz", result3d))
     assert back.domain == result3d.domain and back.domain.ndim == 3
     assert back.domain_info["dz"] == 1.0
     for s in ("u", "v"):

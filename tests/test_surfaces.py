@@ -386,7 +386,7 @@ def test_periodic_mesh_simulation_data_file_keeps_period(tmp_path: Path) -> None
 
     mesh = graph_mesh(random_waves((10, 12), 0.3, 2), dx=0.5)
     result = Simulation("gray-scott", mesh, None, dt=0.05, backend="numpy", seed=0).run(3)
-    back = load_npz(save_npz(result, tmp_path / "run.npz")).domain
+    back = load_npz(save_npz(tmp_path / "run.npz", result)).domain
     assert back.period == mesh.period
     np.testing.assert_array_equal(back.laplacian.toarray(), mesh.laplacian.toarray())
 
