@@ -46,6 +46,7 @@ from ..dispatch import get_backend
 from ..domains import Grid
 from ..errors import StabilityError
 from . import equations as eq
+from .mesh_lengths import fit_to_mesh, length_ratio
 from .ranges import check_bounds, check_fits
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
@@ -502,9 +503,9 @@ class Model:
         each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
         edge length)."""
         out: dict[str, Any] = {k: dict(v) for k, v in self.default_fields.items()}
-        if isinstance(domain, Grid) or not _is_mesh(domain):
+        ratio = length_ratio(self, domain)  # the rule: rdgpu.models.mesh_lengths
+        if ratio is None:
             return out
-        ratio = (float(domain.mean_edge_length) / self.spacing) ** 2
         for d in self.diffusion:
             if isinstance(d, str) and d in self.defaults and np.ndim(self.defaults[d]) == 0 \
                     and not isinstance(self.defaults[d], str):
@@ -519,7 +520,7 @@ class Model:
         sets none."""
         from .integrators import stability_limit
 
-        ops = self.linear_operators(params)
+        ops = fit_to_mesh(self, domain).linear_operators(params)
         if ops is None:
             return math.inf
         method = _method(method or self.default_method, self.methods)
@@ -580,8 +581,8 @@ class Model:
         check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
-        return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
-                            method, tol=tol, stencil=stencil, members=members,
+        return ModelStepper(fit_to_mesh(self, domain), domain, p, dt, get_backend(backend),
+                            np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
                             block_steps=block_steps)
 
 
