@@ -300,9 +300,10 @@ class Model:
     high)}`` applied after each update, e.g. ``{"v": (0, None)}``), ``steady_guess(params)
     -> [x_s]`` (the homogeneous state of interest, for :mod:`rdgpu.analysis`), and what a
     run that names nothing else uses: ``spacing`` (the grid spacing the defaults are made
-    for; on a mesh the default diffusion coefficients are scaled by ``(mean edge /
-    spacing)²``), ``default_dt`` and ``default_time`` (numbers or functions of the
-    parameters), ``value_range`` (``{species: (lo, hi)}`` for pictures),
+    for; on a mesh the default diffusion parameters and number-written Laplacians are
+    scaled by ``(mean edge / spacing)²``: :mod:`rdgpu.models.mesh_lengths`),
+    ``default_dt`` and ``default_time`` (numbers or functions of the parameters),
+    ``value_range`` (``{species: (lo, hi)}`` for pictures),
     ``default_init``, ``default_fields`` (parameters whose default in a run is a field
     spec), ``default_method``."""
 
