@@ -948,10 +948,12 @@ def default_dt(model: Any, domain: Any, params: Mapping[str, Any],
     """The time step of a run that names none: the smaller of 0.9 times the stability limit
     on ``domain`` and the model's own ``default_dt`` (a number or a function of the
     parameters: the step its reaction terms need, e.g. ``ε²/2`` for Allen-Cahn); 1 if
-    neither bounds it.  Presets' steps are not used: they belong to their own domains."""
+    neither bounds it.  Presets' steps are not used: they belong to their own domains.
+    A model's ``dt_share`` replaces the 0.9 (reaction and diffusion unstable together)."""
     limit = _dt_limit(model, domain, params, options)
     own = _model_value(model, "default_dt", params)
-    candidates = [0.9 * limit if math.isfinite(limit) and limit > 0 else math.inf,
+    share = _model_value(model, "dt_share", params) or 0.9
+    candidates = [share * limit if math.isfinite(limit) and limit > 0 else math.inf,
                   math.inf if own is None else own]
     dt = min(candidates)
     return dt if math.isfinite(dt) else 1.0

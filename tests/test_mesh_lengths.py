@@ -84,3 +84,32 @@ def test_a_given_parameter_is_used_as_given(sphere):
     sim = Simulation(gs, sphere, backend="numpy", params={"Du": 0.01})
     assert sim.params["Du"] == 0.01
     assert sim.params["Dv"] == pytest.approx(0.08 * r)
+
+
+def test_complex_ginzburg_landau_defaults_form_a_pattern_on_a_disc():
+    """Complex Ginzburg-Landau's ``laplace(u)``, ``laplace(v)`` are number-written too: on
+    the default disc (``rdgpu run complex-ginzburg-landau --mesh disc``) the run took 10⁵
+    steps of the mesh's limit; scaled, its grid step 0.16 is 0.70 of the disc's limit, where
+    Euler diverged at t = 15 (as at 0.7 on a grid): a default dt takes at most 0.65 of the
+    limit (the model's ``dt_share``)."""
+    from rdgpu.simulation import default_steps
+
+    disc = SurfaceMesh.disc()
+    sim = Simulation("complex-ginzburg-landau", disc, backend="numpy", seed=0)
+    assert sim.dt == pytest.approx(0.65 * sim.dt_limit)
+    steps = default_steps(sim.model, sim.dt, sim.params)
+    assert steps < 4000
+    sim.run(steps)
+    u = sim.state()["u"]
+    assert np.isfinite(u).all() and np.std(u) > 0.3, np.std(u)
+    assert classify_pattern(u, disc) != "uniform"
+
+
+def test_dt_share_leaves_the_unit_grid_step():
+    """On the 2-D grid of dx = 1 the model's own 0.16/(1 + b1²) stays the step."""
+    from rdgpu.simulation import default_dt
+
+    cgl = MODELS["complex-ginzburg-landau"]
+    for b1 in (0.0, 0.5, 2.0):
+        dt = default_dt(cgl, Grid((16, 16), bc="periodic"), {"b1": b1, "b3": 0.56})
+        assert dt == 0.16 / (1.0 + b1 ** 2)

@@ -305,7 +305,8 @@ class Model:
     ``default_dt`` and ``default_time`` (numbers or functions of the parameters),
     ``value_range`` (``{species: (lo, hi)}`` for pictures),
     ``default_init``, ``default_fields`` (parameters whose default in a run is a field
-    spec), ``default_method``."""
+    spec), ``default_method``, ``dt_share`` (of the stability limit a default dt may take;
+    0.9)."""
 
     methods = METHODS
 
@@ -326,6 +327,7 @@ class Model:
         default_init: Mapping[str, Any] | None = None,
         default_fields: Mapping[str, Mapping[str, Any]] | None = None,
         default_method: str = "euler",
+        dt_share: float | None = None,
     ):
         if not isinstance(name, str) or not name:
             raise ValueError(f"a model name is a non-empty string, got {name!r}")
@@ -364,6 +366,7 @@ class Model:
         self.default_init = dict(default_init) if default_init else None
         self.default_fields = {k: dict(v) for k, v in (default_fields or {}).items()}
         self.default_method = _method(default_method, self.methods)
+        self.dt_share = dt_share
 
     def __repr__(self) -> str:
         return f"<model {self.name!r}: {self.description}>"
