@@ -113,3 +113,19 @@ def test_dt_share_leaves_the_unit_grid_step():
     for b1 in (0.0, 0.5, 2.0):
         dt = default_dt(cgl, Grid((16, 16), bc="periodic"), {"b1": b1, "b3": 0.56})
         assert dt == 0.16 / (1.0 + b1 ** 2)
+
+
+def test_lengths_model_runs_the_mesh_in_the_models_lengths(sphere):
+    """``options={"lengths": "model"}``: nothing scaled (the swift-hohenberg-disc preset's
+    disc of radius 30 holds ten wavelengths 2π as written); a bad value is refused before
+    any work, naming the option."""
+    gs = MODELS["gray-scott"]
+    sim = Simulation(gs, sphere, backend="numpy", options={"lengths": "model"})
+    assert sim.params["Du"] == 0.16 and sim.stepper.model is gs
+    sim = Simulation(SH, sphere, backend="numpy", options={"lengths": "model"})
+    assert sim.stepper.model is SH
+    assert Simulation(SH, sphere, backend="numpy").stepper.model is not SH
+    preset = Simulation.from_preset("swift-hohenberg-disc", backend="numpy")
+    assert preset.stepper.model is SH
+    with pytest.raises(ValueError, match="lengths must be one of cells, model.*'edges'"):
+        Simulation(SH, sphere, backend="numpy", options={"lengths": "edges"})

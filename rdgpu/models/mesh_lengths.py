@@ -11,7 +11,9 @@ scaled as if the mesh's lengths were measured in cells:
   factors: ``-2*laplace(u)``, ``laplace(u)``, ``0.1*u*laplace(u)``) is multiplied by
   ``ratio`` and ``laplace(laplace(u))`` by ``ratio²`` (:func:`fit_to_mesh`).
 
-A parameter the caller gives is used as given; grids are untouched.  Models that fit
+A parameter the caller gives is used as given; grids are untouched.  The stepper's option
+``lengths="model"`` says the mesh is already in the model's lengths (a preset's disc of
+radius 30 for Swift-Hohenberg's wavelength 2π): nothing is scaled.  Models that fit
 themselves to the domain (Allen-Cahn: ``ε`` relative to the spacing) opt out with
 ``fits_domain_itself = True``.
 """
@@ -23,14 +25,22 @@ from typing import Any
 
 from . import equations as eq
 
-__all__ = ["length_ratio", "scale_written_laplacians", "fit_to_mesh"]
+__all__ = ["LENGTHS", "length_ratio", "scale_written_laplacians", "fit_to_mesh"]
+
+#: the stepper option ``lengths``: a mean edge is a model cell, or the mesh's own lengths
+LENGTHS = ("cells", "model")
 
 
-def length_ratio(model: Any, domain: Any) -> float | None:
-    """``(mean edge / model.spacing)²`` on a mesh; None on any other domain."""
+def length_ratio(model: Any, domain: Any, lengths: str = "cells") -> float | None:
+    """``(mean edge / model.spacing)²`` on a mesh; None on any other domain or with
+    ``lengths="model"``."""
     from ..mesh import SurfaceMesh
 
-    if not isinstance(domain, SurfaceMesh):
+    if not (isinstance(lengths, str) and lengths in LENGTHS):
+        raise ValueError(f"lengths must be one of {', '.join(LENGTHS)} (a mean edge of a mesh "
+                         f"is one model cell, or the mesh is in the model's lengths), got "
+                         f"{lengths!r}")
+    if not isinstance(domain, SurfaceMesh) or lengths == "model":
         return None
     return (float(domain.mean_edge_length) / float(model.spacing)) ** 2
 
@@ -59,14 +69,14 @@ def scale_written_laplacians(node: eq.Node, ratio: float, named: bool = False) -
     return node
 
 
-def fit_to_mesh(model: Any, domain: Any) -> Any:
+def fit_to_mesh(model: Any, domain: Any, lengths: str = "cells") -> Any:
     """``model`` itself on a grid (or where nothing changes); on a mesh a shallow copy whose
     equation trees (``trees``, ``linear``) have their number-written Laplacians scaled by
     :func:`length_ratio` (module doc).  The copy keeps the equations' text, name and
     parameters: it is what the stepper and the stability limit use, never stored."""
     if getattr(model, "fits_domain_itself", False):
         return model
-    ratio = length_ratio(model, domain)
+    ratio = length_ratio(model, domain, lengths)
     if ratio is None or ratio == 1.0:
         return model
     trees = {s: scale_written_laplacians(t, ratio) for s, t in model.trees.items()}

@@ -502,12 +502,12 @@ class Model:
         merged = {k: float(np.mean(v)) for k, v in self._merged(params).items()}
         return [float(x) for x in self._steady_guess(merged)]
 
-    def domain_defaults(self, domain: Any) -> dict[str, Any]:
+    def domain_defaults(self, domain: Any, lengths: str = "cells") -> dict[str, Any]:
         """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
         each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
         edge length)."""
         out: dict[str, Any] = {k: dict(v) for k, v in self.default_fields.items()}
-        ratio = length_ratio(self, domain)  # the rule: rdgpu.models.mesh_lengths
+        ratio = length_ratio(self, domain, lengths)  # the rule: rdgpu.models.mesh_lengths
         if ratio is None:
             return out
         for d in self.diffusion:
@@ -518,13 +518,14 @@ class Model:
 
     # ------------------------------------------------------------------ stepping
     def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
-                 method: str | None = None, stencil: str = "compact") -> float:
+                 method: str | None = None, stencil: str = "compact",
+                 lengths: str = "cells") -> float:
         """The largest stable ``dt`` of ``method`` (default: the model's
         ``default_method``) on ``domain`` (module doc); ``inf`` when the linear spatial part
         sets none."""
         from .integrators import stability_limit
 
-        ops = fit_to_mesh(self, domain).linear_operators(params)
+        ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
         if ops is None:
             return math.inf
         method = _method(method or self.default_method, self.methods)
@@ -551,6 +552,7 @@ class Model:
         stencil: str = "compact",
         members: int | None = None,
         block_steps: int | None = None,
+        lengths: str = "cells",
     ):
         """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
         ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
@@ -560,7 +562,8 @@ class Model:
         parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
         member; ``dt`` must be stable for every member.
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
-        None: automatic, 1: off).  The fields start at zero: call ``set_state``."""
+        None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
+        lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
         from .compiler import check_stencil
         from .integrators import ModelStepper
 
@@ -569,7 +572,7 @@ class Model:
         if members is None:
             p = resolve_params(self, domain, params, seed=seed)
             self._check_diffusion(p)
-            limit = self.dt_limit(domain, p, method, stencil)
+            limit = self.dt_limit(domain, p, method, stencil, lengths)
         else:
             from .ensemble import resolve_members, stack_members
 
@@ -580,12 +583,12 @@ class Model:
             limit = math.inf
             for q in {id(q): q for q in each}.values():
                 self._check_diffusion(q)
-                limit = min(limit, self.dt_limit(domain, q, method, stencil))
+                limit = min(limit, self.dt_limit(domain, q, method, stencil, lengths))
             p = stack_members(each, shape)
         check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
-        return ModelStepper(fit_to_mesh(self, domain), domain, p, dt, get_backend(backend),
+        return ModelStepper(fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
                             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
                             block_steps=block_steps)
 
