@@ -716,8 +716,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "(for a model given by --equation, its --param values are its defaults) "
                        "is multiplied by (mean edge / the model's spacing)^2, dt and the run "
                        "length follow, and a square seed spans at least 15 mean edges; a "
-                       "--param given to a built-in model, and a coefficient written as a "
-                       "number, are used as written")
+                       "Laplacian with a coefficient of numbers only (Swift-Hohenberg's "
+                       "-2*laplace(u)) is multiplied by that ratio per laplace; a --param "
+                       "given to a built-in model is used as given")
     add_domain_options(what)
     what.add_argument("--height", type=_height, metavar="SPEC",
                       help="run on the rough surface z = h(x, y) over the (periodic) grid: "

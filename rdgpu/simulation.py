@@ -933,14 +933,17 @@ def _model_value(model: Any, name: str, params: Mapping[str, Any]) -> float | No
     return value if math.isfinite(value) and value > 0 else None
 
 
-def domain_defaults(model: Any, domain: Any) -> dict[str, Any]:
+def domain_defaults(model: Any, domain: Any,
+                    options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Parameter defaults that depend on the domain (the model's optional
     ``domain_defaults(domain)``; e.g. Allen-Cahn's ε relative to the spacing): they replace
-    ``model.defaults`` where the caller gives no value."""
+    ``model.defaults`` where the caller gives no value.  ``options``: the stepper's
+    (``lengths``, rdgpu.models.mesh_lengths)."""
     hook = getattr(model, "domain_defaults", None)
     if not callable(hook):
         return {}
-    return {k: v for k, v in dict(hook(domain)).items() if k in model.defaults}
+    kwargs = {k: v for k, v in (options or {}).items() if k == "lengths" and _accepts(hook, k)}
+    return {k: v for k, v in dict(hook(domain, **kwargs)).items() if k in model.defaults}
 
 
 def default_dt(model: Any, domain: Any, params: Mapping[str, Any],
@@ -948,10 +951,12 @@ def default_dt(model: Any, domain: Any, params: Mapping[str, Any],
     """The time step of a run that names none: the smaller of 0.9 times the stability limit
     on ``domain`` and the model's own ``default_dt`` (a number or a function of the
     parameters: the step its reaction terms need, e.g. ``ε²/2`` for Allen-Cahn); 1 if
-    neither bounds it.  Presets' steps are not used: they belong to their own domains."""
+    neither bounds it.  Presets' steps are not used: they belong to their own domains.
+    A model's ``dt_share`` replaces the 0.9 (reaction and diffusion unstable together)."""
     limit = _dt_limit(model, domain, params, options)
     own = _model_value(model, "default_dt", params)
-    candidates = [0.9 * limit if math.isfinite(limit) and limit > 0 else math.inf,
+    share = _model_value(model, "dt_share", params) or 0.9
+    candidates = [share * limit if math.isfinite(limit) and limit > 0 else math.inf,
                   math.inf if own is None else own]
     dt = min(candidates)
     return dt if math.isfinite(dt) else 1.0
@@ -1145,7 +1150,7 @@ class Simulation:
         if unknown:
             raise ValueError(f"unknown parameter(s) {sorted(unknown)} for model "
                              f"{self.model.name}; known: {', '.join(defaults)}")
-        defaults.update(domain_defaults(self.model, self.domain))
+        defaults.update(domain_defaults(self.model, self.domain, self.options))
         for k, v in params.items():
             if isinstance(v, (complex, np.complexfloating)) or (
                     isinstance(v, np.ndarray) and v.dtype.kind == "c"):
@@ -1156,7 +1161,7 @@ class Simulation:
                 from .models import resolve_params
             except ImportError as exc:
                 raise ValueError(f"parameter field specs need rdgpu.models ({exc})") from None
-            given = {**domain_defaults(self.model, self.domain), **params}
+            given = {**domain_defaults(self.model, self.domain, self.options), **params}
             return dict(resolve_params(self.model, self.domain, given, seed=seed))
         out: dict[str, Any] = {}
         for k, v in {**defaults, **params}.items():

@@ -196,7 +196,7 @@ def _common_dt(model: Any, domain: Any, fixed: Mapping[str, Any],
     """The default time step that suits every member: the smallest of theirs."""
     from .simulation import default_dt, domain_defaults
 
-    base = {**model.defaults, **domain_defaults(model, domain), **fixed}
+    base = {**model.defaults, **domain_defaults(model, domain, options), **fixed}
     return min(default_dt(model, domain, {**base, **dict(zip(axes, combo, strict=True))},
                           options)
                for combo in itertools.product(*axes.values()))

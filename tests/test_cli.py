@@ -380,7 +380,8 @@ PATTERN_MODELS = sorted(models.MODELS) if hasattr(models, "MODELS") else []
 #: models whose defaults were made for meshes too (`--mesh sphere` with nothing else); the
 #: later models' mesh runs are their presets' business
 MESH_DEFAULT_MODELS = {"gray-scott", "allen-cahn", "brusselator", "fitzhugh-nagumo",
-                       "schnakenberg", "barkley", "turing"}
+                       "schnakenberg", "barkley", "turing", "swift-hohenberg",
+                       "complex-ginzburg-landau"}
 
 
 @pytest.mark.parametrize("where", [

@@ -82,6 +82,8 @@ class AllenCahn(Model):
     """
 
     methods = ("explicit", "implicit", "crank-nicolson")
+    #: ε follows the spacing (domain_defaults): the mesh rule of mesh_lengths is not applied
+    fits_domain_itself = True
     #: the default ε is this times the spacing (grid: min(dx, dy); mesh: mean edge length):
     #: interfaces pinned by the discretisation, the regime of Dascal et al. where b ≠ 0 gives
     #: spots (b < 0) or inverted spots (b > 0) that do not shrink away because they cannot

@@ -46,6 +46,7 @@ from ..dispatch import get_backend
 from ..domains import Grid
 from ..errors import StabilityError
 from . import equations as eq
+from .mesh_lengths import fit_to_mesh, length_ratio
 from .ranges import check_bounds, check_fits
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
@@ -299,11 +300,13 @@ class Model:
     high)}`` applied after each update, e.g. ``{"v": (0, None)}``), ``steady_guess(params)
     -> [x_s]`` (the homogeneous state of interest, for :mod:`rdgpu.analysis`), and what a
     run that names nothing else uses: ``spacing`` (the grid spacing the defaults are made
-    for; on a mesh the default diffusion coefficients are scaled by ``(mean edge /
-    spacing)²``), ``default_dt`` and ``default_time`` (numbers or functions of the
-    parameters), ``value_range`` (``{species: (lo, hi)}`` for pictures),
+    for; on a mesh the default diffusion parameters and number-written Laplacians are
+    scaled by ``(mean edge / spacing)²``: :mod:`rdgpu.models.mesh_lengths`),
+    ``default_dt`` and ``default_time`` (numbers or functions of the parameters),
+    ``value_range`` (``{species: (lo, hi)}`` for pictures),
     ``default_init``, ``default_fields`` (parameters whose default in a run is a field
-    spec), ``default_method``."""
+    spec), ``default_method``, ``dt_share`` (of the stability limit a default dt may take;
+    0.9)."""
 
     methods = METHODS
 
@@ -324,6 +327,7 @@ class Model:
         default_init: Mapping[str, Any] | None = None,
         default_fields: Mapping[str, Mapping[str, Any]] | None = None,
         default_method: str = "euler",
+        dt_share: float | None = None,
     ):
         if not isinstance(name, str) or not name:
             raise ValueError(f"a model name is a non-empty string, got {name!r}")
@@ -362,6 +366,7 @@ class Model:
         self.default_init = dict(default_init) if default_init else None
         self.default_fields = {k: dict(v) for k, v in (default_fields or {}).items()}
         self.default_method = _method(default_method, self.methods)
+        self.dt_share = dt_share
 
     def __repr__(self) -> str:
         return f"<model {self.name!r}: {self.description}>"
@@ -497,14 +502,14 @@ class Model:
         merged = {k: float(np.mean(v)) for k, v in self._merged(params).items()}
         return [float(x) for x in self._steady_guess(merged)]
 
-    def domain_defaults(self, domain: Any) -> dict[str, Any]:
+    def domain_defaults(self, domain: Any, lengths: str = "cells") -> dict[str, Any]:
         """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
         each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
         edge length)."""
         out: dict[str, Any] = {k: dict(v) for k, v in self.default_fields.items()}
-        if isinstance(domain, Grid) or not _is_mesh(domain):
+        ratio = length_ratio(self, domain, lengths)  # the rule: rdgpu.models.mesh_lengths
+        if ratio is None:
             return out
-        ratio = (float(domain.mean_edge_length) / self.spacing) ** 2
         for d in self.diffusion:
             if isinstance(d, str) and d in self.defaults and np.ndim(self.defaults[d]) == 0 \
                     and not isinstance(self.defaults[d], str):
@@ -513,13 +518,14 @@ class Model:
 
     # ------------------------------------------------------------------ stepping
     def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
-                 method: str | None = None, stencil: str = "compact") -> float:
+                 method: str | None = None, stencil: str = "compact",
+                 lengths: str = "cells") -> float:
         """The largest stable ``dt`` of ``method`` (default: the model's
         ``default_method``) on ``domain`` (module doc); ``inf`` when the linear spatial part
         sets none."""
         from .integrators import stability_limit
 
-        ops = self.linear_operators(params)
+        ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
         if ops is None:
             return math.inf
         method = _method(method or self.default_method, self.methods)
@@ -546,6 +552,7 @@ class Model:
         stencil: str = "compact",
         members: int | None = None,
         block_steps: int | None = None,
+        lengths: str = "cells",
     ):
         """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
         ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
@@ -555,7 +562,8 @@ class Model:
         parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
         member; ``dt`` must be stable for every member.
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
-        None: automatic, 1: off).  The fields start at zero: call ``set_state``."""
+        None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
+        lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
         from .compiler import check_stencil
         from .integrators import ModelStepper
 
@@ -564,7 +572,7 @@ class Model:
         if members is None:
             p = resolve_params(self, domain, params, seed=seed)
             self._check_diffusion(p)
-            limit = self.dt_limit(domain, p, method, stencil)
+            limit = self.dt_limit(domain, p, method, stencil, lengths)
         else:
             from .ensemble import resolve_members, stack_members
 
@@ -575,13 +583,13 @@ class Model:
             limit = math.inf
             for q in {id(q): q for q in each}.values():
                 self._check_diffusion(q)
-                limit = min(limit, self.dt_limit(domain, q, method, stencil))
+                limit = min(limit, self.dt_limit(domain, q, method, stencil, lengths))
             p = stack_members(each, shape)
         check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
-        return ModelStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
-                            method, tol=tol, stencil=stencil, members=members,
+        return ModelStepper(fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
+                            np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
                             block_steps=block_steps)
 
 

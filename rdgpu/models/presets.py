@@ -460,7 +460,9 @@ _add(Preset(
     init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
     source="Quillen 2025 §6, eq. 73, Fig. 13 (r = 0.2, γ_u = 0, a disc with the natural "
     "(Neumann) boundary)", expect="stripes", snapshot_every=50,
-    classify={"field": "u", "threshold": 0.0}, options={"method": "imex"},
+    classify={"field": "u", "threshold": 0.0},
+    # the disc is in the model's lengths (its wavelength 2π), not in cells of π/4
+    options={"method": "imex", "lengths": "model"},
     description="a disc of radius 30 (about 10 wavelengths 2π across; 7651 vertices, edges "
     "≈ 0.67, SurfaceMesh.disc) from small noise: stripes of wavelength 2π that meet the "
     "boundary at right angles, with a few defects, by t = 300",
