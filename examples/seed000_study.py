@@ -16,7 +16,7 @@ a front driven by b moves ~2|b| ε per ε²).  Every run lasts to ``T = 10 000 �
 the field is uniform) and is sampled at :data:`SAMPLES` (× ε²): pattern class
 (:func:`rdgpu.analysis.classify_pattern`, threshold 0), number of phase components
 (:func:`rdgpu.analysis.phase_components`, both phases), interface width in vertices
-(:func:`rdgpu.isometry.interface_width`) and the largest change of ``u`` since the last
+(:func:`rdgpu.analysis.isometry.interface_width`) and the largest change of ``u`` since the last
 sample.  A run's verdict:
 
 * ``uniform``: one phase is gone (u > 0 everywhere or nowhere); the time is the first
@@ -29,7 +29,7 @@ Results go to ``docs/data/seed000_study.json`` (with the wall time of every run)
 to ``docs/img/seed000_study.png``, and a markdown table to stdout.  The other parts:
 ``presets`` measures every ``ac-sphere-*`` preset (class, components, interface width at its
 steps and at 3× its steps); ``isometry`` runs seed 000's isometry experiment
-(:mod:`rdgpu.isometry`, figure ``docs/img/seed000_isometry.png``); ``spheres`` renders the
+(:mod:`rdgpu.analysis.isometry`, figure ``docs/img/seed000_isometry.png``); ``spheres`` renders the
 pinned and the resolved spot presets side by side (``docs/img/seed000_spheres.png``).
 """
 
@@ -47,9 +47,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a clone without installing
 
-from rdgpu.analysis import classify_pattern, phase_components  # noqa: E402
-from rdgpu.isometry import interface_width  # noqa: E402
-from rdgpu.mesh import SurfaceMesh  # noqa: E402
+from rdgpu.analysis.isometry import interface_width  # noqa: E402
+from rdgpu.analysis.measures import classify_pattern, phase_components  # noqa: E402
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh  # noqa: E402
 from rdgpu.models.library import MODELS  # noqa: E402
 
 RATIOS = (0.1, 0.15, 0.25, 0.5, 1.0, 2.0)
@@ -144,7 +144,7 @@ def measure_presets(names: tuple[str, ...] | None = None, factor: int = 3) -> di
     class, components and interface width at its ``steps`` and at ``factor`` × its steps,
     the largest change of u between the two, and the wall time of its steps."""
     from rdgpu.models import PRESETS
-    from rdgpu.simulation import Simulation
+    from rdgpu.simulation.driver import Simulation
 
     names = names or tuple(n for n in PRESETS if n.startswith("ac-sphere-"))
     out = {}
@@ -187,7 +187,7 @@ ISO_FIG = ROOT / "docs" / "img" / "seed000_isometry.png"
 
 def iso_tube(radius: float, n_around: int, length: float) -> SurfaceMesh:
     """The tube of :data:`ISO_TUBE`: rings ``(2π r/n) √3/2`` apart (equilateral triangles)."""
-    from rdgpu.isometry import cylinder
+    from rdgpu.analysis.isometry import cylinder
 
     dz = 2.0 * np.pi * radius / n_around * np.sqrt(3.0) / 2.0
     n_along = int(length / dz) + 1
@@ -198,7 +198,7 @@ def isometry(render: bool = True) -> dict[str, Any]:
     """Seed 000's Figs. 12/15: overlaps (same data, straight vs bent; different data,
     straight vs straight) for :data:`ISO_CASES` at :data:`ISO_ANGLES`; the figure pair of
     the first case at the first angle."""
-    from rdgpu.isometry import bend, isometry_experiment
+    from rdgpu.analysis.isometry import bend, isometry_experiment
 
     tube = iso_tube(**ISO_TUBE)
     rows = []
@@ -226,7 +226,7 @@ def iso_figure(tube: SurfaceMesh, bent: SurfaceMesh, r: dict[str, Any],
     """Straight and bent tube side by side, same initial data (smooth shading)."""
     import imageio.v3 as iio
 
-    from rdgpu.output import render_mesh
+    from rdgpu.io.output import render_mesh
 
     views = []
     for mesh, u in ((tube, r["u_straight"]), (bent, r["u_bent"])):
@@ -248,9 +248,9 @@ def spheres(names: tuple[str, ...] = ("ac-sphere-spots", "ac-sphere-resolved-spo
     the same camera (smooth shading)."""
     import imageio.v3 as iio
 
+    from rdgpu.io.output import render_mesh
     from rdgpu.models import PRESETS
-    from rdgpu.output import render_mesh
-    from rdgpu.simulation import Simulation
+    from rdgpu.simulation.driver import Simulation
 
     views = []
     for name in names:

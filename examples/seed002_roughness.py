@@ -56,10 +56,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rdgpu.analysis import spot_statistics, stripe_orientation  # noqa: E402
-from rdgpu.metric import GraphSurface  # noqa: E402
+from rdgpu.analysis.measures import spot_statistics, stripe_orientation  # noqa: E402
+from rdgpu.domains.graph_surface import GraphSurface  # noqa: E402
+from rdgpu.domains.surfaces import random_waves  # noqa: E402
 from rdgpu.models import MODELS  # noqa: E402
-from rdgpu.surfaces import random_waves  # noqa: E402
 
 SIDE = 2.0  # the parameter square [0, 2)², periodic
 PATTERNS = {  # r1, r2 and the end time of each pattern (the seed's t)
@@ -86,7 +86,7 @@ def surface_height(n: int, amplitude: float, frequency: tuple[int, int], seed: i
 def run_simulation(height: np.ndarray, params: dict[str, float], u0: np.ndarray,
                    v0: np.ndarray, steps: int, backend: str) -> np.ndarray:
     """The same run through :class:`rdgpu.Simulation` on the graph surface.  Returns u."""
-    from rdgpu.simulation import Simulation
+    from rdgpu.simulation.driver import Simulation
 
     n = height.shape[0]
     sim = Simulation("bvam", {"grid": (n, n), "dx": SIDE / n, "height": height},

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu.domains import Grid
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import MODELS, define_model, domain_shape
 
 

@@ -75,8 +75,8 @@ except ImportError:  # run from a source checkout without installing
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import machine  # noqa: E402 - perf/machine.py, next to this file
 
-from rdgpu.boundary import parse_bc  # noqa: E402
-from rdgpu.errors import BackendUnavailableError  # noqa: E402
+from rdgpu.core.errors import BackendUnavailableError  # noqa: E402
+from rdgpu.domains.boundary import parse_bc  # noqa: E402
 
 #: steps per timed call of the ensemble rows (a whole number of blocked passes)
 BURST = 16
@@ -389,7 +389,7 @@ def model_case(model, be, n: int):
     """A float32 stepper of ``model`` on an n² periodic grid (fields near its steady state
     with ±10 % noise, dt half the stability limit, capped by the model's own step) and a
     closure advancing it one step."""
-    from rdgpu.domains import Grid
+    from rdgpu.domains.grid import Grid
 
     grid = Grid((n, n), bc="periodic")
     rng = np.random.default_rng(1)
@@ -485,7 +485,7 @@ def ensemble_rows(args, backends: dict, memory: dict) -> list[dict]:
     """Gray-Scott on ``--members`` grids of ``--member-size²`` in one batch against one grid
     of the same cell count, per backend (NumPy: ``--numpy-members``); empty, with a
     message, when this rdgpu's ``Simulation`` takes no ``members=``."""
-    from rdgpu.simulation import Simulation
+    from rdgpu.simulation.driver import Simulation
 
     m = args.member_size
     rows = []
@@ -650,7 +650,7 @@ def geodesic_sphere(frequency: int):
     new vertex in the order the faces' barycentric grids reach it), ``20 f²`` faces."""
     import trimesh
 
-    from rdgpu.mesh import SurfaceMesh
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
     f = int(frequency)
     ico = trimesh.creation.icosahedron()

@@ -39,7 +39,7 @@ except ImportError:  # a source checkout without installing
 from real_states import subnormal_fraction, timed
 
 from rdgpu.models.blocking import BlockedEuler, last_level_cache
-from rdgpu.simulation import Simulation
+from rdgpu.simulation.driver import Simulation
 
 TRIAD = """
 __kernel void triad(__global float *restrict a, __global const float *restrict b,

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 import rdgpu
-from rdgpu.boundary import parse_bc
+from rdgpu.domains.boundary import parse_bc
 
 
 def _block(fn, steps: int, repeats: int, sync) -> float:
@@ -59,8 +59,8 @@ def levelset_rows(backend: str, n: int, dtype, steps: int, repeats: int) -> dict
 def driver_row(backend: str, steps: int, repeats: int) -> float:
     """ms per driver step of the seed-003 configuration (64², Turing, β = Δu, CFL
     substeps, reinit every 20 steps) after the pattern has formed."""
-    from rdgpu.fronts import SEED003_FRONT, RDFront
-    from rdgpu.simulation import Simulation
+    from rdgpu.growth.fronts import SEED003_FRONT, RDFront
+    from rdgpu.simulation.driver import Simulation
 
     sim = Simulation.from_preset(SEED003_FRONT["preset"], backend=backend, dtype="float64")
     sim.stepper.advance(SEED003_FRONT["warmup"])

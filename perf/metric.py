@@ -42,9 +42,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench  # noqa: E402 - perf/bench.py, next to this file
 import machine  # noqa: E402
 
-from rdgpu.boundary import parse_bc  # noqa: E402
-from rdgpu.kernel_files import load_module  # noqa: E402
-from rdgpu.metric import GraphSurface  # noqa: E402
+from rdgpu.domains.boundary import parse_bc  # noqa: E402
+from rdgpu.domains.graph_surface import GraphSurface  # noqa: E402
+from rdgpu.families import load_module  # noqa: E402
 
 EXACT = load_module("metric", "exact.py")
 #: the rough surface of the heat check: a few waves, max |h| about 1
@@ -164,7 +164,7 @@ GS_PARAMS = {"F": 0.035, "k": 0.060}
 
 
 def _gray_scott_domain(surface: bool, n: int):
-    from rdgpu.domains import Grid
+    from rdgpu.domains.grid import Grid
 
     if not surface:
         return Grid((n, n))
@@ -179,7 +179,7 @@ _STATES: dict = {}
 def _real_state(surface: bool, n: int) -> dict:
     """Gray-Scott 2000 steps from a central square (OpenCL when there is one)."""
     if (surface, n) not in _STATES:
-        from rdgpu.dispatch import available_backends
+        from rdgpu.backends.registry import available_backends
         from rdgpu.models import MODELS
 
         fast = "opencl" if any(b.name == "opencl" and b.available

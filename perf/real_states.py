@@ -32,7 +32,7 @@ try:
     import rdgpu  # noqa: F401
 except ImportError:  # a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from rdgpu.simulation import Simulation
+from rdgpu.simulation.driver import Simulation
 
 
 def cases(size: int) -> list[tuple[str, str, dict | None]]:

@@ -43,7 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import machine  # noqa: E402
 
 import rdgpu  # noqa: E402
-from rdgpu.kernel_files import load_module  # noqa: E402
+from rdgpu.families import load_module  # noqa: E402
 
 MiB = 1 << 20
 #: the reductions timed, as Backend method names

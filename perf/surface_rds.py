@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rdgpu.kernel_files import load_module
+from rdgpu.families import load_module
 from rdgpu.models import define_model
-from rdgpu.simulation import Simulation
+from rdgpu.simulation.driver import Simulation
 
 T = 0.5
 

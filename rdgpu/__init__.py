@@ -9,8 +9,15 @@ Pick a backend per call (``backend="opencl"``), per block (``with rdgpu.use_back
 per process (``rdgpu.set_backend("numpy")`` or ``RDGPU_BACKEND``); ``"auto"`` otherwise.
 """
 
-from ._optional import MissingExtraError
-from .api import (
+from rdgpu.backends.registry import available_backends, get_backend, set_backend, use_backend
+from rdgpu.core.errors import (
+    BackendUnavailableError,
+    ConvergenceError,
+    ResourceLimitError,
+    StabilityError,
+)
+from rdgpu.core.optional import MissingExtraError
+from rdgpu.ops.api import (
     allen_cahn,
     bernoulli_substep,
     diffusion_step,
@@ -25,67 +32,46 @@ from .api import (
     sor_sweep,
     spmv,
 )
-from .dispatch import available_backends, get_backend, set_backend, use_backend
-from .errors import (
-    BackendUnavailableError,
-    ConvergenceError,
-    ResourceLimitError,
-    StabilityError,
-)
-from .implicit import ImplicitDiffusion
+from rdgpu.ops.implicit import ImplicitDiffusion
 
 __version__ = "0.1.0"
 
 
+#: names imported on first use (their modules pull SciPy, trimesh, Dask or the model
+#: layer): public name -> (module, attribute; None for the module itself)
+_LAZY: dict[str, tuple[str, str | None]] = {
+    "SurfaceMesh": ("rdgpu.domains.mesh", "SurfaceMesh"),
+    "GraphSurface": ("rdgpu.domains.graph_surface", "GraphSurface"),
+    "sweep": ("rdgpu.runs.sweep", "sweep"),  # needs the dask extra
+    "sweep_map": ("rdgpu.runs.sweep", "sweep_map"),
+    "front_growth": ("rdgpu.growth.fronts", "front_growth"),
+    "RDFront": ("rdgpu.growth.fronts", "RDFront"),
+    "dla": ("rdgpu.growth.dla", "dla"),
+    "dla_image": ("rdgpu.growth.dla", "dla_image"),
+    "DLAResult": ("rdgpu.growth.dla", "DLAResult"),
+    "random_walk_dla": ("rdgpu.growth.walkers", "random_walk_dla"),
+    "Simulation": ("rdgpu.simulation", "Simulation"),
+    "define_model": ("rdgpu.models", "define_model"),
+    # submodules as attributes: rdgpu.output, rdgpu.analysis, ...
+    "analysis": ("rdgpu.analysis", None),
+    "fronts": ("rdgpu.growth.fronts", None),
+    "interop": ("rdgpu.backends.interop", None),
+    "output": ("rdgpu.output", None),
+    "surfaces": ("rdgpu.surfaces", None),
+}
+
+#: the submodules among them (``dir(rdgpu)``)
+_LAZY_MODULES = tuple(name for name, (_, attr) in _LAZY.items() if attr is None)
+
+
 def __getattr__(name: str):
-    # rdgpu.SurfaceMesh without importing the mesh module (SciPy, trimesh) at import time
-    if name == "SurfaceMesh":
-        from .mesh import SurfaceMesh
+    if name not in _LAZY:
+        raise AttributeError(f"module 'rdgpu' has no attribute {name!r}")
+    import importlib
 
-        return SurfaceMesh
-    if name in ("sweep", "sweep_map"):  # needs the dask extra: imported on first use
-        import importlib
-
-        module = importlib.import_module(".sweep", __name__)
-
-        return module.sweep if name == "sweep" else module.sweep_map
-    if name in ("front_growth", "RDFront"):  # level sets driven by reaction-diffusion
-        from . import fronts
-
-        return getattr(fronts, name)
-    if name in ("dla", "dla_image", "DLAResult"):  # DLA growth, imported on first use
-        import importlib
-
-        module = importlib.import_module(".dla", __name__)  # binds rdgpu.dla to the module:
-        globals()["dla"] = module.dla  # the public name is the function
-
-        return getattr(module, name)
-    if name == "random_walk_dla":  # random-walker DLA, imported on first use
-        from .walkers import random_walk_dla
-
-        return random_walk_dla
-    if name in _LAZY_MODULES:  # submodules as attributes: rdgpu.output, rdgpu.analysis...
-        import importlib
-
-        return importlib.import_module(f".{name}", __name__)
-    if name == "GraphSurface":  # z = h(x, y) over a periodic grid, the metric Δ_Γ
-        from .metric import GraphSurface
-
-        return GraphSurface
-    if name in ("define_model", "Simulation"):  # the model layer, imported on first use
-        if name == "Simulation":
-            from .simulation import Simulation
-
-            return Simulation
-        from .models import define_model
-
-        return define_model
-    raise AttributeError(f"module 'rdgpu' has no attribute {name!r}")
-
-
-#: submodules reachable as attributes without an import of their own (imported on first
-#: use; none imports an optional package at import time)
-_LAZY_MODULES = ("analysis", "fronts", "interop", "output", "surfaces")
+    module_name, attr = _LAZY[name]
+    module = importlib.import_module(module_name)
+    return module if attr is None else getattr(module, attr)
 
 
 def __dir__() -> list[str]:

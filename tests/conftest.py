@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.errors import BackendUnavailableError
-from rdgpu.kernel_files import load_module
+from rdgpu.core.errors import BackendUnavailableError
+from rdgpu.families import load_module
 
 BACKENDS = ["numpy", "warp", "opencl"]
 DTYPES = [np.float32, np.float64]
@@ -18,7 +18,7 @@ DTYPES = [np.float32, np.float64]
 
 def cli(capsys, *argv):
     """Run the ``rdgpu`` command in-process: (exit status, stdout, stderr)."""
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     try:
         code = main([str(a) for a in argv])

@@ -10,7 +10,7 @@ import numpy as np
 
 import rdgpu
 from rdgpu.backends.opencl_backend import OpenCLBackend
-from rdgpu.domains import Grid
+from rdgpu.domains.grid import Grid
 from rdgpu.models import MODELS, define_model
 
 warnings.simplefilter("ignore")

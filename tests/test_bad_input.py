@@ -11,8 +11,8 @@ import pytest
 import scipy.sparse as sp
 
 import rdgpu
-from rdgpu.domains import Grid
-from rdgpu.mesh import DegenerateMeshError
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import DegenerateMeshError
 
 G = np.zeros((4, 6))
 G32 = G.astype(np.float32)

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 import rdgpu
-from rdgpu.cli import main
-from rdgpu.output import save_npz
-from rdgpu.simulation import Simulation
+from rdgpu.cli.app import main
+from rdgpu.io.output import save_npz
+from rdgpu.simulation.driver import Simulation
 
 ROOT = Path(rdgpu.__file__).resolve().parents[1]
 GS = ["run", "gray-scott"]

@@ -1,5 +1,5 @@
 """Numbers, arrays and backend specs of the functional API, on every backend: the one
-number rule of :mod:`rdgpu.validation` (no bool, text or complex value taken as a number,
+number rule of :mod:`rdgpu.core.validation` (no bool, text or complex value taken as a number,
 no float truncated to an integer, no masked array's mask ignored), malformed backend
 specs, and requests too large refused before anything is read, copied or allocated
 (issue 19: A11, B, E5)."""
@@ -15,8 +15,8 @@ import pytest
 from conftest import BACKENDS, backend_or_skip
 
 import rdgpu
-from rdgpu import validation as check
-from rdgpu.errors import ResourceLimitError
+from rdgpu.core import validation as check
+from rdgpu.core.errors import ResourceLimitError
 
 G = np.zeros((4, 6))
 ONES = np.ones((4, 6))
@@ -226,7 +226,8 @@ def test_one_integer_check():
     """``sim_checks.whole`` (Simulation, sweeps) is the shared ``validation.whole`` with
     whole floats allowed: same rules (a 0-d array is taken, a float past 2**53 refused),
     and ``sweep`` uses the public check, not a private one of ``simulation``."""
-    from rdgpu import sim_checks, sweep
+    from rdgpu.runs import sweep
+    from rdgpu.simulation import checks as sim_checks
 
     assert sim_checks.whole(np.array(4), "steps") == 4 and sim_checks.whole(1e4, "n") == 10000
     with pytest.raises(ValueError, match="n must be a whole number >= 0, got .*a float that large"):
@@ -372,7 +373,7 @@ def test_dla_refused_from_the_estimate(name, monkeypatch):
 def test_front_snapshots_refused_from_the_estimate(monkeypatch):
     """``run(10**12, snapshot_every=1)`` of a front: refused before its first step."""
     monkeypatch.setenv("RDGPU_MEMORY_LIMIT", "1G")
-    from rdgpu.fronts import RDFront
+    from rdgpu.growth.fronts import RDFront
 
     sim = rdgpu.Simulation.from_preset("turing-seed003-spots", backend="numpy")
     front = RDFront(sim)
@@ -438,8 +439,8 @@ def test_lazy_names_are_attributes_and_listed():
 def test_implicit_diffusion_numbers(kwargs, exc, fragment):
     """Constructed directly, ImplicitDiffusion takes its numbers through the shared checks
     (it used float()/int(): tol=True was 1.0, tol="1e-5" parsed, max_sweeps=10.5 cut)."""
-    from rdgpu.domains import Grid
-    from rdgpu.implicit import ImplicitDiffusion
+    from rdgpu.domains.grid import Grid
+    from rdgpu.ops.implicit import ImplicitDiffusion
 
     args = {"D": 1.0, "dt": 0.1, **kwargs}
     with pytest.raises(exc, match=fragment):
@@ -447,8 +448,8 @@ def test_implicit_diffusion_numbers(kwargs, exc, fragment):
 
 
 def test_implicit_diffusion_source_is_a_real_number():
-    from rdgpu.domains import Grid
-    from rdgpu.implicit import ImplicitDiffusion
+    from rdgpu.domains.grid import Grid
+    from rdgpu.ops.implicit import ImplicitDiffusion
 
     solver = ImplicitDiffusion(Grid((4, 4)), D=1.0, dt=0.1, backend="numpy")
     with pytest.raises(TypeError, match="source must be a real number, got str"):

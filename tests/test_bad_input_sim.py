@@ -9,8 +9,8 @@ import zipfile
 import numpy as np
 import pytest
 
-from rdgpu.output import save_npz
-from rdgpu.simulation import Simulation
+from rdgpu.io.output import save_npz
+from rdgpu.simulation.driver import Simulation
 
 GRID = {"grid": 8}
 

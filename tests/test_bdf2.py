@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip, repo_module
 
-from rdgpu.cli import main
-from rdgpu.domains import Grid
-from rdgpu.errors import StabilityError
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.cli.app import main
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.io.output import load_npz
 from rdgpu.models import METHODS, MODELS, define_model, domain_shape
-from rdgpu.output import load_npz
-from rdgpu.simulation import Simulation
+from rdgpu.simulation.driver import Simulation
 
 GS = MODELS["gray-scott"]
 

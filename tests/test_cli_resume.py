@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from conftest import cli
 
-from rdgpu.output import load_npz
-from rdgpu.simulation import Simulation
+from rdgpu.io.output import load_npz
+from rdgpu.simulation.driver import Simulation
 
 pytest.importorskip("rdgpu.models")
 
@@ -46,7 +46,7 @@ def checkpoints(tmp_path_factory):
 
 
 def _main(*argv):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     return main([str(a) for a in argv])
 
@@ -125,7 +125,7 @@ def test_resume_accepts_the_checkpoints_own_values(capsys, checkpoints, tmp_path
 def test_a_checkpoint_recording_a_builtins_own_equations_resumes_the_builtin():
     """Recorded equations that are the built-in's own (should a checkpoint record them for
     every model) keep the built-in, with its colour range; other equations rebuild."""
-    from rdgpu.cli_resume import checkpoint_model
+    from rdgpu.cli.resume import checkpoint_model
     from rdgpu.models import MODELS
 
     gs = MODELS["gray-scott"]

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import cli
 
-from rdgpu.output import load_npz
+from rdgpu.io.output import load_npz
 
 pytest.importorskip("rdgpu.models")
 
@@ -148,8 +148,8 @@ def test_help_says_the_default_picture_name_it_writes(capsys, tmp_path, monkeypa
 
 # --------------------------------------------------------------------------- E5 3-D
 def test_3d_without_pyvista_says_it_draws_slices(capsys, tmp_path, monkeypatch):
-    import rdgpu._optional as opt
-    import rdgpu.output as output
+    import rdgpu.core.optional as opt
+    import rdgpu.io.output as output
 
     real = opt.available
     monkeypatch.setattr(opt, "available", lambda m: m != "pyvista" and real(m))
@@ -168,7 +168,7 @@ def _disk_full(path):
 
 def test_a_failed_picture_write_exits_1_and_still_writes_the_data(capsys, tmp_path,
                                                                   monkeypatch):
-    import rdgpu.output as output
+    import rdgpu.io.output as output
 
     monkeypatch.setattr(output, "save_png", lambda path, *a, **k: _disk_full(path))
     code, _, err = cli(capsys, *GS, "--out", tmp_path / "o.png", "--data", tmp_path / "d.npz")
@@ -179,7 +179,7 @@ def test_a_failed_picture_write_exits_1_and_still_writes_the_data(capsys, tmp_pa
 
 def test_a_failed_checkpoint_write_exits_1_and_keeps_the_last_good_state(capsys, tmp_path,
                                                                          monkeypatch):
-    import rdgpu.simulation as simulation
+    import rdgpu.simulation.driver as simulation
 
     real, calls = simulation._atomic_savez, []
 
@@ -210,7 +210,7 @@ def test_an_unreadable_input_is_bad_input_not_a_failed_run(capsys, tmp_path):
 
 def test_an_io_failure_inside_a_command_exits_1(capsys, monkeypatch):
     """D: an OSError that escapes a command is a failed run (1), not bad input (2)."""
-    import rdgpu.cli as cli_module
+    import rdgpu.cli.app as cli_module
 
     def broken(args):
         raise OSError(errno.EACCES, "Permission denied", "some/file")

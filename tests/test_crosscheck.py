@@ -10,7 +10,7 @@ import pytest
 from conftest import tolerance
 
 import rdgpu
-from rdgpu.boundary import parse_bc
+from rdgpu.domains.boundary import parse_bc
 
 SHAPES = [(1, 7), (7, 1), (1, 1), (2, 2), (3, 5), (5, 3), (127, 64), (64, 127)]
 EVEN_SHAPES = [(2, 2), (2, 8), (4, 6), (128, 64), (64, 130)]

@@ -7,10 +7,10 @@ import pytest
 from conftest import backend_or_skip
 
 import rdgpu
-from rdgpu.analysis import classify_pattern
-from rdgpu.domains import Grid
+from rdgpu.analysis.measures import classify_pattern
+from rdgpu.domains.grid import Grid
 from rdgpu.models.steady_state import steady_start, steady_states
-from rdgpu.simulation import Simulation, default_init
+from rdgpu.simulation.driver import Simulation, default_init
 
 GS = {"u": "Du*laplace(u) - u*v**2 + F*(1 - u)", "v": "Dv*laplace(v) + u*v**2 - (F + k)*v"}
 GS_PARAMS = {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.06}
@@ -96,7 +96,7 @@ def test_classify_pattern_default_threshold_sees_a_gray_scott_pattern():
 def test_a_square_seed_on_a_mesh_spans_fifteen_edges():
     """gray-scott --mesh sphere/disc/torus ended uniform: 0.1 of the bounding box is under 3
     mean edges there (the defaults make an edge play a cell's part) and the seed died."""
-    from rdgpu.mesh import SurfaceMesh
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
     from rdgpu.models import MODELS
     from rdgpu.models.steady_state import MESH_SEED_EDGES
 

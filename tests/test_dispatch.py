@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu import dispatch
+from rdgpu.backends import registry as dispatch
 
 
 @pytest.fixture(autouse=True)

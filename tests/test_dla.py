@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.analysis import fractal_dimension
-from rdgpu.kernel_files import load_module
+from rdgpu.analysis.measures import fractal_dimension
+from rdgpu.families import load_module
 
 BACKENDS = ["numpy", "warp", "opencl"]
 ref = load_module("dla", "reference.py")
@@ -166,7 +166,7 @@ def test_draw_frequencies_follow_the_weights():
     state[1, 1] = 1
     c = np.zeros((3, 4))
     c[1, 2], c[0, 1] = 0.8, 0.2  # two candidates with positive c; the others 0
-    grower_mod = importlib.import_module("rdgpu.dla")
+    grower_mod = importlib.import_module("rdgpu.growth.dla")
     be = rdgpu.get_backend("numpy")
     rng = np.random.default_rng(0)
     hits = 0
@@ -179,7 +179,7 @@ def test_draw_frequencies_follow_the_weights():
 
 
 def _bcs():
-    from rdgpu.domains import Grid
+    from rdgpu.domains.grid import Grid
 
     return Grid((3, 4), bc="neumann").bcs
 

@@ -17,11 +17,11 @@ import trimesh
 from conftest import backend_or_skip
 
 from rdgpu import Simulation
-from rdgpu.domains import Grid
-from rdgpu.errors import SimulationDiverged
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.core.errors import SimulationDiverged
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.io.output import ensemble_mosaic, load_npz, write_outputs
 from rdgpu.models import MODELS, define_model
-from rdgpu.output import ensemble_mosaic, load_npz, write_outputs
 
 GS = MODELS["gray-scott"]
 M = 4
@@ -323,7 +323,7 @@ def test_errors_say_what_is_allowed():
 
 
 def test_cli_members_run_an_ensemble_over_seeds(tmp_path, capsys):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     code = main(["run", "gray-scott", "--size", "16x12", "--steps", "40", "--members", "3",
                  "--seed", "5", "--backend", "opencl", "--out", str(tmp_path / "e.png"),

@@ -18,10 +18,11 @@ import pytest
 from conftest import cli
 
 import rdgpu
-from rdgpu import _optional, images, output
-from rdgpu._optional import EXTRAS, PIP_NAMES, MissingExtraError, available, check, require
-from rdgpu.domains import Grid
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.core import optional as _optional
+from rdgpu.core.optional import EXTRAS, PIP_NAMES, MissingExtraError, available, check, require
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.io import images, output
 
 ROOT = Path(__file__).resolve().parents[1]
 OPTIONAL = sorted((m, extra) for extra, modules in EXTRAS.items() for m in modules)

@@ -1,4 +1,4 @@
-"""Files rdgpu writes and reads (``rdgpu.files``, ``rdgpu.npzread``, the writers of
+"""Files rdgpu writes and reads (``rdgpu.core.files``, ``rdgpu.core.npzread``, the writers of
 ``rdgpu.output``): no device node, pipe or folder is ever replaced; a failed write names
 its file and leaves no partial file; one writer per checkpoint; damaged or hostile NPZ
 files are clear errors, checked before anything is unpacked; flat pictures of fields
@@ -21,15 +21,16 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from rdgpu import files, images, output
-from rdgpu import simulation as simmod
-from rdgpu.domains import Grid
-from rdgpu.errors import ResourceLimitError
-from rdgpu.files import CheckpointLock, FileInUseError, check_writable
-from rdgpu.images import FlatFieldWarning
-from rdgpu.mesh import SurfaceMesh
-from rdgpu.simulation import Simulation
-from rdgpu.writers import FPS_RANGE, check_fps
+from rdgpu.core import files
+from rdgpu.core.errors import ResourceLimitError
+from rdgpu.core.files import CheckpointLock, FileInUseError, check_writable
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.io import images, output
+from rdgpu.io.images import FlatFieldWarning
+from rdgpu.io.writers import FPS_RANGE, check_fps
+from rdgpu.simulation import driver as simmod
+from rdgpu.simulation.driver import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -138,7 +139,7 @@ def test_checkpoint_paths_are_checked_before_the_run(tmp_path, bad, match):
 
 
 def test_the_cli_never_replaces_a_fifo(tmp_path, capsys):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     for option in ("--checkpoint", "--data"):
         fifo = _fifo(tmp_path, f"x{option}.npz")
@@ -229,7 +230,7 @@ def test_a_second_writer_of_a_checkpoint_is_refused(tmp_path):
 _HOLDER = """
 import sys, time
 sys.path.insert(0, {root!r})
-from rdgpu.files import CheckpointLock
+from rdgpu.core.files import CheckpointLock
 with CheckpointLock({ck!r}):
     print("locked", flush=True)
     time.sleep(60)

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu import fronts
-from rdgpu.domains import Grid
-from rdgpu.errors import StabilityError
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.growth import fronts
 
 RESTING = {"kind": "uniform", "values": {"u": 1.0, "v": 0.0}}  # Gray-Scott's fixed point
 

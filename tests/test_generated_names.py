@@ -14,9 +14,9 @@ import pytest
 
 import rdgpu
 from rdgpu import Simulation, define_model
-from rdgpu.domains import Grid
-from rdgpu.metric import GraphSurface
-from rdgpu.output import load_npz, save_npz
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.grid import Grid
+from rdgpu.io.output import load_npz, save_npz
 
 needs_xarray = pytest.mark.skipif(find_spec("xarray") is None, reason="needs xarray")
 needs_dask = pytest.mark.skipif(

@@ -59,7 +59,7 @@ def test_seed003_front(capsys, tmp_path):
                        "warmup=3000", "--backend", "numpy", "--out", tmp_path / "f.png",
                        "--data", tmp_path / "f.npz", "--scale", "1")
     assert code == 0, err
-    from rdgpu.fronts import seed003_front
+    from rdgpu.growth.fronts import seed003_front
 
     ref = seed003_front(backend="opencl", steps=100, warmup=3000)
     data = np.load(tmp_path / "f.npz")

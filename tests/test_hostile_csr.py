@@ -12,8 +12,8 @@ import pytest
 import scipy.sparse as sp
 
 import rdgpu
-from rdgpu.dispatch import get_backend
-from rdgpu.mesh import greedy_colouring
+from rdgpu.backends.registry import get_backend
+from rdgpu.domains.mesh.surface_mesh import greedy_colouring
 
 BACKENDS = ["numpy", "warp", "opencl"]
 

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.domains import Grid
-from rdgpu.errors import SimulationDiverged
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.core.errors import SimulationDiverged
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.ir import equations as eq
 from rdgpu.models import EquationError, define_model
-from rdgpu.models import equations as eq
 
 # ---------------------------------------------------------------------------- A2: names
 #: user names equal to (or built like) every name the generators use: the buffers and
@@ -200,7 +200,7 @@ def test_names_of_the_language_are_refused(name, match):
 
 def test_generated_names_are_injective():
     """Every (role, buffer) pair gets its own identifier, none a user name."""
-    from rdgpu.models.names import ident
+    from rdgpu.ir.names import ident
 
     seen = {}
     roles = ["in", "out", "pf", "pm", "p", "c", "f", "lap", "qw", "qsw", "qsw0", "vin"]
@@ -416,7 +416,7 @@ def test_cli_param_division_by_zero(capsys):
 
 # ---------------------------------------------------------------------------- C: divergence
 def _diverge(eqs, params=None, dtype="float64", **kw):
-    from rdgpu.simulation import Simulation
+    from rdgpu.simulation.driver import Simulation
 
     model = define_model("bad", eqs, params or {})
     sim = Simulation(model, {"grid": (8,)}, dt=0.1, backend="numpy", dtype=dtype,

@@ -17,9 +17,14 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu._optional import MissingExtraError
-from rdgpu.mesh import DegenerateMeshError, MeshFileError, SurfaceMesh, load_with_fields
-from rdgpu.surfaces import graph_mesh
+from rdgpu.core.optional import MissingExtraError
+from rdgpu.domains.mesh.surface_mesh import (
+    DegenerateMeshError,
+    MeshFileError,
+    SurfaceMesh,
+    load_with_fields,
+)
+from rdgpu.domains.surfaces import graph_mesh
 
 pytest.importorskip("trimesh")
 

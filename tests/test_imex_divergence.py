@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.domains import Grid
-from rdgpu.errors import SimulationDiverged
-from rdgpu.implicit import ImplicitDiffusion
-from rdgpu.simulation import Simulation
+from rdgpu.core.errors import SimulationDiverged
+from rdgpu.domains.grid import Grid
+from rdgpu.ops.implicit import ImplicitDiffusion
+from rdgpu.simulation.driver import Simulation
 
 
 @pytest.mark.parametrize("name", ["numpy", "warp", "opencl"])

@@ -1,4 +1,4 @@
-"""Implicit diffusion (rdgpu.implicit) at any time step, and SOR's round-off floor.
+"""Implicit diffusion (rdgpu.ops.implicit) at any time step, and SOR's round-off floor.
 
 Backward Euler and Crank-Nicolson on grids (periodic, Neumann with dx != dy, Dirichlet) and
 meshes, float32 and float64, dt from 1e-3 to 1e6, on every backend: the step equals
@@ -21,11 +21,11 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu, spsolve
 
 import rdgpu
-from rdgpu.boundary import parse_bc
-from rdgpu.domains import Grid
-from rdgpu.implicit import ImplicitDiffusion, operator_matrix, smallest_eigenvalue
-from rdgpu.kernel_files import load_module
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.domains.boundary import parse_bc
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.families import load_module
+from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix, smallest_eigenvalue
 
 DTS = [1e-3, 1.0, 1e2, 1e4, 1e6]
 _MESHES: dict[str, SurfaceMesh] = {}
@@ -142,7 +142,7 @@ def allowed_error(domain, theta, dt, D, u, source, expect, dtype, tol) -> float:
     """The max error of the computed step against :func:`reference_step`:
 
     * ``tol``: what the solver promises (its error estimate is <= tol/2, and the true
-      residual agrees, see rdgpu.implicit);
+      residual agrees, see rdgpu.ops.implicit);
     * round-off of the working dtype (eps): the device solves ``S δ = g`` with the entries
       of ``S`` and ``K = dt D M`` rounded and ``g = K u + dt s`` evaluated in rows of ``k``
       terms, so its converged ``δ`` solves ``(S + ΔS) δ = g + Δg`` with

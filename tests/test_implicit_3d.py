@@ -1,4 +1,4 @@
-"""Implicit diffusion (rdgpu.implicit) on 3-D grids: the 7-point operator and its solve.
+"""Implicit diffusion (rdgpu.ops.implicit) on 3-D grids: the 7-point operator and its solve.
 
 * ``laplacian_matrix`` on ``(nz, ny, nx)`` equals the stencil ``(E + W − 2u)/dx² + (N + S −
   2u)/dy² + (T + B − 2u)/dz²`` applied with ghost cells from ``np.pad`` (wrap / edge /
@@ -23,10 +23,10 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu, spsolve
 
-from rdgpu.boundary import DIRICHLET, NEUMANN, PERIODIC, parse_bc
-from rdgpu.domains import Grid
-from rdgpu.implicit import ImplicitDiffusion, _colouring, operator_matrix, smallest_eigenvalue
-from rdgpu.kernel_files import load_module
+from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC, parse_bc
+from rdgpu.domains.grid import Grid
+from rdgpu.families import load_module
+from rdgpu.ops.implicit import ImplicitDiffusion, _colouring, operator_matrix, smallest_eigenvalue
 
 #: one condition of each kind, with a distinct Dirichlet value per axis (z, y, x)
 KINDS = ("periodic", "neumann", "dirichlet")

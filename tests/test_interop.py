@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu import interop
-from rdgpu.domains import Grid
-from rdgpu.simulation import Simulation
+from rdgpu.backends import interop
+from rdgpu.domains.grid import Grid
+from rdgpu.simulation.driver import Simulation
 from tests.conftest import backend_or_skip
 
 wp = pytest.importorskip("warp")

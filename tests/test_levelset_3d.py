@@ -11,8 +11,8 @@ import pytest
 from conftest import tolerance
 
 import rdgpu
-from rdgpu.boundary import parse_bc
-from rdgpu.errors import StabilityError
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.boundary import parse_bc
 
 SHAPES = [(1, 1, 1), (1, 1, 6), (5, 1, 1), (2, 3, 5), (3, 5, 2), (7, 4, 9), (9, 6, 3)]
 BCS = [

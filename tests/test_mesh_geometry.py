@@ -1,4 +1,4 @@
-"""Geometry layer of rdgpu.mesh: validation, cotangent operators, colouring, I/O (SPEC §6)."""
+"""rdgpu.domains.mesh: validation, cotangent operators, colouring, I/O (SPEC §6)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.sparse.linalg import eigsh
 
-from rdgpu.mesh import DegenerateMeshError, SurfaceMesh, greedy_colouring, load_with_fields
+from rdgpu.domains.mesh.surface_mesh import (
+    DegenerateMeshError,
+    SurfaceMesh,
+    greedy_colouring,
+    load_with_fields,
+)
 
 # ------------------------------------------------------------------------------- helpers
 

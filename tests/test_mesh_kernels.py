@@ -1,5 +1,5 @@
 """The CSR / mesh kernels (SPEC §6) on every backend against the NumPy/SciPy reference, the
-implicit diffusion solver (rdgpu.implicit) and the mesh half of the functional API.
+implicit diffusion solver (rdgpu.ops.implicit) and the mesh half of the functional API.
 
 Kernels: ``spmv``, ``mesh_gray_scott``, ``mesh_diffusion`` and ``csr_sor_colour`` on closed
 (icosphere, torus) and open (jittered plane) meshes, float32 and float64; SpMV on random
@@ -19,11 +19,11 @@ from conftest import tolerance
 from scipy.sparse.linalg import spsolve
 
 import rdgpu
-from rdgpu.domains import Grid
-from rdgpu.implicit import ImplicitDiffusion
-from rdgpu.kernel_files import load_module
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.families import load_module
 from rdgpu.models import AllenCahn
+from rdgpu.ops.implicit import ImplicitDiffusion
 
 REF = load_module("mesh", "reference.py")
 
@@ -336,7 +336,7 @@ def test_explicit_diffusion_matches_reference_on_grid(backend, dtype):
     out = rdgpu.diffusion_step(u, D=0.7, dt=0.1, steps=2, source=0.3, dx=1.0, dy=1.2, bc=bc,
                                backend=backend)
     lap = load_module("laplacian", "reference.py").laplacian
-    from rdgpu.boundary import parse_bc
+    from rdgpu.domains.boundary import parse_bc
 
     e = u.astype(np.float64)
     for _ in range(2):

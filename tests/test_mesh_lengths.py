@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from rdgpu import Simulation
-from rdgpu.analysis import classify_pattern
-from rdgpu.domains import Grid
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.analysis.measures import classify_pattern
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.ir import equations as eq
 from rdgpu.models import MODELS, define_model
-from rdgpu.models import equations as eq
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 
 SH = MODELS["swift-hohenberg"]
@@ -92,7 +92,7 @@ def test_complex_ginzburg_landau_defaults_form_a_pattern_on_a_disc():
     steps of the mesh's limit; scaled, its grid step 0.16 is 0.70 of the disc's limit, where
     Euler diverged at t = 15 (as at 0.7 on a grid): a default dt takes at most 0.65 of the
     limit (the model's ``dt_share``)."""
-    from rdgpu.simulation import default_steps
+    from rdgpu.simulation.driver import default_steps
 
     disc = SurfaceMesh.disc()
     sim = Simulation("complex-ginzburg-landau", disc, backend="numpy", seed=0)
@@ -107,7 +107,7 @@ def test_complex_ginzburg_landau_defaults_form_a_pattern_on_a_disc():
 
 def test_dt_share_leaves_the_unit_grid_step():
     """On the 2-D grid of dx = 1 the model's own 0.16/(1 + b1²) stays the step."""
-    from rdgpu.simulation import default_dt
+    from rdgpu.simulation.driver import default_dt
 
     cgl = MODELS["complex-ginzburg-landau"]
     for b1 in (0.0, 0.5, 2.0):

@@ -11,11 +11,11 @@ import json
 import numpy as np
 import pytest
 
-from rdgpu.domains import Grid
-from rdgpu.mesh import DegenerateMeshError, SurfaceMesh, load_with_fields
-from rdgpu.metric import GraphSurface
-from rdgpu.simulation import Simulation
-from rdgpu.surfaces import graph_mesh
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import DegenerateMeshError, SurfaceMesh, load_with_fields
+from rdgpu.domains.surfaces import graph_mesh
+from rdgpu.simulation.driver import Simulation
 
 meshio = pytest.importorskip("meshio")
 HAS_H5PY = importlib.util.find_spec("h5py") is not None
@@ -355,7 +355,7 @@ def test_to_xarray_graph_surface():
 
 
 def test_to_xarray_from_npz_and_netcdf(tmp_path, grid_result):
-    from rdgpu.output import load_npz, save_npz
+    from rdgpu.io.output import load_npz, save_npz
 
     ds = grid_result.to_xarray()
     back = load_npz(save_npz(tmp_path / "run.npz", grid_result)).to_xarray()
@@ -414,7 +414,7 @@ def test_cli_writes_gmsh_data_files(capsys, tmp_path):
                        "--data", tmp_path / "run.npz")
     assert code == 0, err
     mesh, fields = load_with_fields(tmp_path / "run.msh")
-    from rdgpu.output import load_npz
+    from rdgpu.io.output import load_npz
 
     result = load_npz(tmp_path / "run.npz")
     assert mesh.n_vertices == result.domain.n_vertices

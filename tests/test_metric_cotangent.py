@@ -9,8 +9,8 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from rdgpu.metric import GraphSurface
-from rdgpu.surfaces import graph_mesh, random_waves
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.surfaces import graph_mesh, random_waves
 
 L = 2.0 * np.pi
 

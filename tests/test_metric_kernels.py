@@ -10,8 +10,8 @@ import pytest
 from conftest import tolerance
 
 import rdgpu
-from rdgpu.kernel_files import load_module
-from rdgpu.metric import GraphSurface
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.families import load_module
 
 SHAPES = [(1, 1), (1, 6), (5, 1), (2, 3), (7, 5), (17, 33), (64, 48)]
 REF = load_module("metric", "reference.py")
@@ -199,5 +199,5 @@ def test_backend_method_checks_its_operands():
         be.metric_laplacian(u, coefficients[:3], be.empty_like(u))
     with pytest.raises(ValueError, match="out .* must match u"):
         be.metric_laplacian(u, coefficients, be.empty((4, 6), np.float32))
-    with pytest.raises(TypeError, match="needs an rdgpu.metric.GraphSurface"):
+    with pytest.raises(TypeError, match="needs an rdgpu.domains.graph_surface.GraphSurface"):
         be.upload_metric(np.zeros((4, 6)), np.float64)

@@ -1,4 +1,4 @@
-"""Graph surfaces ``z = h(x, y)`` (:class:`rdgpu.metric.GraphSurface`) as a domain of the
+"""Graph surfaces ``z = h(x, y)`` (:class:`rdgpu.GraphSurface`) as a domain of the
 model layer: every ``laplace`` is the metric 9-point ``Δ_Γ`` of
 ``kernels/metric/reference.py``, fused into the model kernels (compiler kind
 ``grid2metric``).
@@ -16,11 +16,11 @@ import pytest
 from conftest import backend_or_skip, variant_or_skip
 
 from rdgpu import Simulation
-from rdgpu.domains import Grid
-from rdgpu.metric import GraphSurface
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.grid import Grid
+from rdgpu.io.output import load_npz, render_surface, save_npz, save_png
 from rdgpu.models import MODELS, define_model
 from rdgpu.models.compiler import Target
-from rdgpu.output import load_npz, render_surface, save_npz, save_png
 
 GS = MODELS["gray-scott"]
 SCHNAKENBERG = MODELS["schnakenberg"]
@@ -175,7 +175,7 @@ def test_default_dt_and_checks_use_the_spectral_bound():
     assert limit == pytest.approx(2.0 / (D * surface.spectral_bound()), rel=1e-12)
     flat = HEAT.dt_limit(Grid((10, 8)), {"D": D})
     assert limit != pytest.approx(flat)
-    from rdgpu.errors import StabilityError
+    from rdgpu.core.errors import StabilityError
 
     with pytest.raises(StabilityError):
         HEAT.stepper(surface, {"D": D}, dt=1.01 * limit, backend="numpy")
@@ -205,7 +205,7 @@ def test_imex_matches_a_scipy_theta_step(be_name, method, theta):
 def test_implicit_diffusion_on_a_surface(shape, colours):
     """ImplicitDiffusion: the Δ_Γ matrix, a valid colouring (4 by parity on even sizes),
     λ₁ from the (−√g Δ_Γ, √g) pencil, backward Euler against spsolve, Σ √g u kept."""
-    from rdgpu.implicit import ImplicitDiffusion, operator_matrix, smallest_eigenvalue
+    from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix, smallest_eigenvalue
 
     surface = _surface(shape, amplitude=1.2)
     M, b = operator_matrix(surface)
@@ -221,7 +221,7 @@ def test_implicit_diffusion_on_a_surface(shape, colours):
     rows = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
     off = rows != M.indices
     assert np.all(c[rows[off]] != c[M.indices[off]])
-    from rdgpu.dispatch import get_backend
+    from rdgpu.backends.registry import get_backend
 
     be = get_backend("numpy")
     u0 = _start(HEAT, shape)["u"]
@@ -312,7 +312,7 @@ def test_render_surface_writes_a_picture(tmp_path):
     img = iio.imread(path)
     assert img.shape == (160, 200, 3)
     assert len(np.unique(img.reshape(-1, 3), axis=0)) > 100  # coloured, shaded
-    from rdgpu.output import surface_mesh
+    from rdgpu.io.output import surface_mesh
 
     V, F = surface_mesh(surface, warp_scale=2.0)
     grid = V.reshape(17, 21, 3)
@@ -365,7 +365,7 @@ def test_isotropic_stencil_and_blocking_are_refused():
 
 
 def test_fronts_refuse_a_surface():
-    from rdgpu.fronts import RDFront
+    from rdgpu.growth.fronts import RDFront
 
     sim = Simulation("gray-scott", {"grid": (8, 8), "height": np.zeros((8, 8))}, {},
                      backend="numpy")

@@ -33,9 +33,9 @@ import pytest
 from conftest import backend_or_skip
 
 import rdgpu
-from rdgpu.domains import Grid
-from rdgpu.errors import StabilityError
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import (
     MODELS,
     AllenCahn,

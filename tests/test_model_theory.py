@@ -57,17 +57,17 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.analysis import (
+from rdgpu.analysis.measures import (
     dispersion,
     dispersion_matrix,
     grid_wavenumber,
     jacobian,
     steady_state,
 )
-from rdgpu.domains import Grid
+from rdgpu.domains.grid import Grid
+from rdgpu.ir.equations import Lap
 from rdgpu.models import define_model
 from rdgpu.models.compiler import Output, Program, Target, launch
-from rdgpu.models.equations import Lap
 
 BACKENDS = ["numpy", "warp", "opencl"]
 

@@ -15,7 +15,7 @@ import pytest
 from conftest import backend_or_skip, tolerance
 
 import rdgpu
-from rdgpu.analysis import (
+from rdgpu.analysis.measures import (
     classify_pattern,
     dispersion,
     grid_wavenumber,
@@ -23,9 +23,9 @@ from rdgpu.analysis import (
     spiral_tips,
     steady_state,
 )
-from rdgpu.domains import Grid
-from rdgpu.errors import StabilityError
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import (
     MODELS,
     PRESETS,
@@ -176,7 +176,7 @@ def test_stability_and_parameter_errors():
         ac.stepper(grid, {}, dt=0.3, backend="numpy")
     with pytest.raises(ValueError, match="number"):
         ac.stepper(grid, {"eps": np.ones((8, 8))}, dt=0.1, backend="numpy")
-    # implicit diffusion (rdgpu.implicit) is unconditionally stable: no dt limit
+    # implicit diffusion (rdgpu.ops.implicit) is unconditionally stable: no dt limit
     assert ac.dt_limit(grid, method="implicit") == float("inf")
     ac.stepper(grid, {}, dt=1.0, backend="numpy", method="implicit")
 

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.analysis import (
+from rdgpu.analysis.measures import (
     classify_pattern,
     dispersion,
     grid_wavenumber,
@@ -31,11 +31,11 @@ from rdgpu.analysis import (
     phase_defects,
     spiral_tips,
 )
-from rdgpu.domains import Grid
-from rdgpu.errors import StabilityError
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.ir import equations as eq
 from rdgpu.models import MODELS, PRESETS
-from rdgpu.models import equations as eq
-from rdgpu.simulation import Simulation
+from rdgpu.simulation.driver import Simulation
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import tolerance
 
-from rdgpu.boundary import parse_bc
+from rdgpu.domains.boundary import parse_bc
 
 DX = 0.5
 N = 10  # even: periodic red-black SOR needs it

@@ -11,8 +11,8 @@ import scipy.sparse.linalg as spla
 from conftest import tolerance
 
 import rdgpu
-from rdgpu.domains import Grid
-from rdgpu.simulation import Simulation
+from rdgpu.domains.grid import Grid
+from rdgpu.simulation.driver import Simulation
 
 BCS_1D = ["periodic", "neumann", ("dirichlet", 0.7)]
 BC_IDS = ["per", "neu", "dir"]
@@ -200,7 +200,7 @@ def test_simulation_on_a_1d_grid(backend):
 def test_simulation_1d_checkpoint_and_picture(tmp_path):
     import imageio.v3 as iio
 
-    from rdgpu import output
+    from rdgpu.io import output
 
     sim = Simulation("gray-scott", {"grid": (64,)}, backend="numpy", seed=2)
     sim.run(20)

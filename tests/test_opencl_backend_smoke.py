@@ -14,9 +14,9 @@ import pytest
 
 pytest.importorskip("pyopencl")
 
-from rdgpu.boundary import parse_bc  # noqa: E402
-from rdgpu.errors import BackendUnavailableError  # noqa: E402
-from rdgpu.kernel_files import load_module  # noqa: E402
+from rdgpu.core.errors import BackendUnavailableError  # noqa: E402
+from rdgpu.domains.boundary import parse_bc  # noqa: E402
+from rdgpu.families import load_module  # noqa: E402
 
 opencl_backend = pytest.importorskip("rdgpu.backends.opencl_backend")
 OpenCLBackend = opencl_backend.OpenCLBackend
@@ -251,7 +251,7 @@ def test_unavailable_messages(monkeypatch):
 def test_default_device_skips_a_driver_that_cannot_compile(monkeypatch):
     """A driver whose compiler cannot target this CPU (PoCL 3.0 on AMD Zen 5) is passed
     over by the default choice, and naming it explicitly says why it cannot be used."""
-    from rdgpu.errors import BackendUnavailableError
+    from rdgpu.core.errors import BackendUnavailableError
 
     devices = opencl_backend.list_devices()
     first = devices[0][2]

@@ -13,10 +13,10 @@ import pytest
 from test_simulation import toy_sim
 
 import rdgpu
-from rdgpu import output
-from rdgpu.domains import Grid
-from rdgpu.mesh import SurfaceMesh, load_with_fields
-from rdgpu.simulation import Result
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh, load_with_fields
+from rdgpu.io import output
+from rdgpu.simulation.driver import Result
 
 
 @pytest.fixture(scope="module")
@@ -167,7 +167,7 @@ def test_rendering_leaves_opencl_usable(tmp_path, pyvista):
 import numpy as np, pyopencl as cl, rdgpu
 from rdgpu import output
 from rdgpu.backends.opencl_backend import probe_compiler
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.domains.mesh import SurfaceMesh
 m = SurfaceMesh.icosphere(1)
 output.render_mesh(m, m.vertices[:, 2], window_size=(64, 64))
 u = np.random.default_rng(0).random((4, 6))

@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from rdgpu.analysis import spot_statistics, stripe_orientation
-from rdgpu.domains import Grid
-from rdgpu.metric import GraphSurface
+from rdgpu.analysis.measures import spot_statistics, stripe_orientation
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.grid import Grid
 
 
 def _discs(shape, centres, radii, dx=1.0, axes=None):

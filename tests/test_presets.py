@@ -27,11 +27,11 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.analysis import classify_pattern, phase_components, spiral_tips
-from rdgpu.cli import main as cli_main
+from rdgpu.analysis.measures import classify_pattern, phase_components, spiral_tips
+from rdgpu.cli.app import main as cli_main
+from rdgpu.io.output import load_npz
 from rdgpu.models import PRESETS, AllenCahn
-from rdgpu.output import load_npz
-from rdgpu.simulation import Simulation, initial_state
+from rdgpu.simulation.driver import Simulation, initial_state
 
 BACKENDS = ["numpy", "warp", "opencl"]
 

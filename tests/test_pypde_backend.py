@@ -18,7 +18,7 @@ from conftest import backend_or_skip
 pde = pytest.importorskip("pde")
 
 import rdgpu.pypde  # noqa: E402
-from rdgpu.pypde import UnsupportedPDE  # noqa: E402
+from rdgpu.integrations.pypde.backend import UnsupportedPDE  # noqa: E402
 
 TOL = 1e-12
 GS = {"u": "0.16*laplace(u) - u*v**2 + 0.035*(1 - u)",

@@ -24,7 +24,7 @@ from conftest import backend_or_skip
 
 pde = pytest.importorskip("pde")
 
-from rdgpu.pypde import UnsupportedPDE, translate  # noqa: E402
+from rdgpu.integrations.pypde.backend import UnsupportedPDE, translate  # noqa: E402
 
 DEVICES = ["numpy", "warp", "opencl"]
 #: round-off relative to the largest value compared (operators of size ~1/h²)

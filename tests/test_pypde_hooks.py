@@ -16,7 +16,7 @@ from conftest import backend_or_skip
 pde = pytest.importorskip("pde")
 
 import rdgpu.pypde  # noqa: E402,F401  (registers the backend)
-from rdgpu.pypde import UnsupportedPDE  # noqa: E402
+from rdgpu.integrations.pypde.backend import UnsupportedPDE  # noqa: E402
 
 DEVICES = ["numpy", "warp", "opencl"]
 

@@ -21,7 +21,7 @@ from conftest import backend_or_skip
 pde = pytest.importorskip("pde")
 
 import rdgpu  # noqa: E402
-from rdgpu.pypde import UnsupportedPDE  # noqa: E402
+from rdgpu.integrations.pypde.backend import UnsupportedPDE  # noqa: E402
 
 TOL = 1e-12
 DEVICES = ["numpy", "warp", "opencl"]

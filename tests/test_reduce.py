@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 from test_oclgrind import check_clean_under_oclgrind, oclgrind_available
 
-from rdgpu.kernel_files import load_module
+from rdgpu.families import load_module
 
 REDUCE = load_module("reduce", "reference.py")
 reference = REDUCE.max_abs
@@ -200,7 +200,7 @@ OCLGRIND_WORKER = """
 import math
 import numpy as np
 from rdgpu.backends.opencl_backend import OpenCLBackend
-from rdgpu.kernel_files import load_module
+from rdgpu.families import load_module
 ref = load_module("reduce", "reference.py").max_abs
 rng = np.random.default_rng(3)
 for layout in ("row", "strided"):
@@ -387,7 +387,7 @@ def test_sum_squares_all_subnormal(be, dtype):
 
 def test_sum_squares_needs_fp64_on_opencl(monkeypatch):
     """An OpenCL device without doubles is refused at call time, with what to do."""
-    from rdgpu.errors import BackendUnavailableError
+    from rdgpu.core.errors import BackendUnavailableError
 
     be = variant_or_skip("opencl")
     d = be.upload(np.ones(4, np.float32))
@@ -459,7 +459,7 @@ import math
 from fractions import Fraction
 import numpy as np
 from rdgpu.backends.opencl_backend import OpenCLBackend
-from rdgpu.kernel_files import load_module
+from rdgpu.families import load_module
 ref = load_module("reduce", "reference.py")
 rng = np.random.default_rng(4)
 for layout in ("row", "strided"):

@@ -1,5 +1,5 @@
 """Seed 000 (Dascal, Pai & Kimmel) on meshes: pinned versus resolved spots, the resolved
-presets, the isometry experiment (rdgpu.isometry) and smooth mesh shading."""
+presets, the isometry experiment (rdgpu.analysis.isometry) and smooth mesh shading."""
 
 from __future__ import annotations
 
@@ -10,11 +10,17 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip, repo_module
 
-from rdgpu.analysis import classify_pattern, phase_components
-from rdgpu.isometry import bend, cylinder, interface_width, isometry_experiment, phase_overlap
-from rdgpu.mesh import SurfaceMesh
+from rdgpu.analysis.isometry import (
+    bend,
+    cylinder,
+    interface_width,
+    isometry_experiment,
+    phase_overlap,
+)
+from rdgpu.analysis.measures import classify_pattern, phase_components
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import PRESETS
-from rdgpu.simulation import Simulation
+from rdgpu.simulation.driver import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -145,7 +151,7 @@ def test_smooth_shading_renders_interpolated_colours():
     """A linear field on a coarse sphere: smooth shading gives a picture, with colours that
     vary inside the faces (many more distinct colours than the flat faces)."""
     pytest.importorskip("pyvista")
-    from rdgpu.output import render_mesh
+    from rdgpu.io.output import render_mesh
 
     m = SurfaceMesh.icosphere(1)
     z = np.asarray(m.vertices)[:, 2]

@@ -18,13 +18,14 @@ import numpy as np
 import pytest
 from conftest import interrupt_after
 
-from rdgpu import cli, output
-from rdgpu.boundary import NEUMANN, PERIODIC
-from rdgpu.dispatch import get_backend
-from rdgpu.domains import Grid
-from rdgpu.errors import SimulationDiverged
-from rdgpu.images import to_rgb
-from rdgpu.simulation import Simulation, describe_domain, initial_state
+from rdgpu.backends.registry import get_backend
+from rdgpu.cli import app as cli
+from rdgpu.core.errors import SimulationDiverged
+from rdgpu.domains.boundary import NEUMANN, PERIODIC
+from rdgpu.domains.grid import Grid
+from rdgpu.io import output
+from rdgpu.io.images import to_rgb
+from rdgpu.simulation.driver import Simulation, describe_domain, initial_state
 
 SHAPE = (6, 8, 10)  # (nz, ny, nx)
 

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from rdgpu import ResourceLimitError
-from rdgpu.domains import Grid
-from rdgpu.simulation import Simulation
+from rdgpu.domains.grid import Grid
+from rdgpu.simulation.driver import Simulation
 
 models = pytest.importorskip("rdgpu.models")
 
@@ -307,7 +307,7 @@ def test_the_same_user_model_passed_explicitly_resumes(user_checkpoint):
 
 # ---------------------------------------------------------------- the same, from the CLI
 def test_the_cli_resumes_a_user_model_with_a_builtin_name_as_itself(tmp_path, monkeypatch):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     base = ["run", "gray-scott", "--equation", "u=-0.5*u", "--equation", "v=-0.5*v",

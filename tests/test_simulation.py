@@ -20,12 +20,12 @@ import pytest
 from conftest import backend_or_skip, interrupt_after
 
 import rdgpu
-from rdgpu import simulation as simmod
-from rdgpu.api import gray_scott_dt_limit
-from rdgpu.domains import Grid
-from rdgpu.errors import SimulationDiverged, StabilityError
-from rdgpu.mesh import SurfaceMesh
-from rdgpu.simulation import Simulation, initial_state
+from rdgpu.core.errors import SimulationDiverged, StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.ops.api import gray_scott_dt_limit
+from rdgpu.simulation import driver as simmod
+from rdgpu.simulation.driver import Simulation, initial_state
 
 HERE = Path(__file__).resolve()
 ROOT = Path(rdgpu.__file__).resolve().parents[1]

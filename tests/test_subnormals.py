@@ -16,7 +16,7 @@ one that does not (a GPU, the reference).  With ``t`` the smallest normal number
   sums of a few ``±0.25t``-sized pieces that cancel to ``0.5t`` or less.
 
 Then: the Warp CPU kernels switch FTZ/DAZ on only inside their bodies, so the calling
-thread's floating-point state is untouched; and :mod:`rdgpu.fpenv`.
+thread's floating-point state is untouched; and :mod:`rdgpu.core.fpenv`.
 """
 
 import os
@@ -31,10 +31,10 @@ import scipy.sparse as sp
 from conftest import backend_or_skip, tolerance
 
 import rdgpu
-from rdgpu.boundary import parse_bc
-from rdgpu.domains import Grid
-from rdgpu.fpenv import flush_subnormals, smallest_normal
-from rdgpu.kernel_files import load_module
+from rdgpu.core.fpenv import flush_subnormals, smallest_normal
+from rdgpu.domains.boundary import parse_bc
+from rdgpu.domains.grid import Grid
+from rdgpu.families import load_module
 from rdgpu.models import define_model
 
 
@@ -389,7 +389,7 @@ def test_user_thread_keeps_subnormals(name):
     assert np.float64(1e-310) * np.float64(2) != 0
 
 
-# ---------------------------------------------------------------------------- rdgpu.fpenv
+# ---------------------------------------------------------------------------- rdgpu.core.fpenv
 def test_fpenv():
     assert smallest_normal(np.float32) == float(np.finfo(np.float32).tiny)
     assert smallest_normal("float64") == float(np.finfo(np.float64).tiny)

@@ -10,9 +10,9 @@ import pytest
 import scipy.linalg as sl
 import scipy.sparse as sp
 
-from rdgpu.mesh import DegenerateMeshError, SurfaceMesh
-from rdgpu.metric import GraphSurface
-from rdgpu.surfaces import graph_mesh, heat_filtered, random_waves, roughen, vertex_normals
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.mesh.surface_mesh import DegenerateMeshError, SurfaceMesh
+from rdgpu.domains.surfaces import graph_mesh, heat_filtered, random_waves, roughen, vertex_normals
 
 # ------------------------------------------------------------------------ random waves
 
@@ -381,8 +381,8 @@ def test_periodic_face_too_wide_is_rejected() -> None:
 def test_periodic_mesh_simulation_data_file_keeps_period(tmp_path: Path) -> None:
     """A run on a periodic mesh saved to .npz loads back on the same periodic mesh (the
     wrapped triangles would otherwise span the domain)."""
-    from rdgpu.output import load_npz, save_npz
-    from rdgpu.simulation import Simulation
+    from rdgpu.io.output import load_npz, save_npz
+    from rdgpu.simulation.driver import Simulation
 
     mesh = graph_mesh(random_waves((10, 12), 0.3, 2), dx=0.5)
     result = Simulation("gray-scott", mesh, None, dt=0.05, backend="numpy", seed=0).run(3)
@@ -392,7 +392,7 @@ def test_periodic_mesh_simulation_data_file_keeps_period(tmp_path: Path) -> None
 
 
 def test_periodic_mesh_is_rendered_unwrapped(monkeypatch: pytest.MonkeyPatch) -> None:
-    from rdgpu import output
+    from rdgpu.io import output
 
     seen: dict[str, np.ndarray] = {}
 

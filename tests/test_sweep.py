@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.analysis import classify_pattern
-from rdgpu.domains import Grid
-from rdgpu.simulation import Simulation
-from rdgpu.sweep import open_sweep
+from rdgpu.analysis.measures import classify_pattern
+from rdgpu.domains.grid import Grid
+from rdgpu.runs.sweep import open_sweep
+from rdgpu.simulation.driver import Simulation
 
 #: the tests of sweeps need the dask extra (CI installs it with .[test])
 needs_dask = pytest.mark.skipif(
@@ -69,7 +69,7 @@ def test_classes_of_synthetic_fields():
 
 
 def test_classes_of_a_stack_on_a_mesh():
-    from rdgpu.mesh import SurfaceMesh
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
     mesh = SurfaceMesh.icosphere(3)
     z = mesh.vertices[:, 2]
@@ -122,7 +122,7 @@ def test_classes_of_gray_scott_states(pearson_states):
 
 # ------------------------------------------------------------------------ axes
 def test_parse_axis():
-    from rdgpu.sweep import parse_axis
+    from rdgpu.runs.sweep import parse_axis
 
     name, v = parse_axis("F=0.01:0.08:8")
     assert name == "F" and np.array_equal(v, np.linspace(0.01, 0.08, 8))
@@ -229,7 +229,7 @@ def test_zarr_store_streams_and_resumes(tmp_path, serial):
                     store=store, **KW)
     # resumed elsewhere, without naming the batch size: the store's
     again = []
-    sweep_module = sys.modules["rdgpu.sweep"]
+    sweep_module = sys.modules["rdgpu.runs.sweep"]
     with pytest.MonkeyPatch.context() as mp:  # nothing left to run: no cluster is started
         mp.setattr(sweep_module, "_client", lambda *a: pytest.fail("a cluster was started"))
         assert rdgpu.sweep("gray-scott", PARAMS, scheduler="local", store=store,
@@ -341,7 +341,7 @@ def test_cli_writes_the_map_and_the_dataset(tmp_path):
     import imageio.v3 as iio
     import xarray as xr
 
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     png, store = tmp_path / "map.png", tmp_path / "map.zarr"
     code = main(["sweep", "gray-scott", "--param", "F=0.03:0.05:4", "--param",
@@ -367,7 +367,7 @@ def test_cli_writes_the_map_and_the_dataset(tmp_path):
     (["--param", "F=0.03,0.04", "--species", "w"], 2, "--species 'w'"),
 ])
 def test_cli_errors(argv, status, message, capsys, tmp_path, monkeypatch):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     assert main(["sweep", "gray-scott", *argv]) == status
@@ -376,7 +376,7 @@ def test_cli_errors(argv, status, message, capsys, tmp_path, monkeypatch):
 
 
 def test_cli_missing_dask(capsys, tmp_path, monkeypatch):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.setitem(sys.modules, "distributed", None)

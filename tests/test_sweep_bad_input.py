@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.errors import ResourceLimitError
+from rdgpu.core.errors import ResourceLimitError
 
 needs_dask = pytest.mark.skipif(
     any(find_spec(m) is None for m in ("dask", "distributed", "xarray", "zarr")),
@@ -53,14 +53,14 @@ def test_bad_arguments(change, error, match):
                                    np.complex128(0.03 + 1j), [0.03 + 0j, 0.04 + 0j],
                                    {"a": 1}, None])
 def test_parameter_values_must_be_numbers(value):
-    from rdgpu.sweep import axis_values
+    from rdgpu.runs.sweep import axis_values
 
     with pytest.raises(TypeError, match="parameter F"):
         axis_values("F", value)
 
 
 def test_parameter_values_that_are_numbers():
-    from rdgpu.sweep import axis_values
+    from rdgpu.runs.sweep import axis_values
 
     assert axis_values("F", np.float32(0.5)) == 0.5
     assert axis_values("F", np.array(2)) == 2.0
@@ -132,7 +132,7 @@ def test_readme_sweep_install_brings_the_map():
     installed = set()
     for extra in cmd.group(1).split(","):
         installed |= _extra(extra)
-    from rdgpu._optional import PIP_NAMES
+    from rdgpu.core.optional import PIP_NAMES
 
     needed = {"dask", "distributed", "xarray", "zarr", "matplotlib"}
     missing = {PIP_NAMES.get(m, m) for m in needed} - {i.split("[")[0] for i in installed}
@@ -142,7 +142,7 @@ def test_readme_sweep_install_brings_the_map():
 
 def test_missing_matplotlib_names_an_extra_that_brings_it(monkeypatch, tmp_path):
     pytest.importorskip("xarray")
-    from rdgpu._optional import MissingExtraError
+    from rdgpu.core.optional import MissingExtraError
 
     ds = rdgpu.sweep("gray-scott", P, **OK) if find_spec("zarr") else None
     if ds is None:
@@ -156,11 +156,11 @@ def test_missing_matplotlib_names_an_extra_that_brings_it(monkeypatch, tmp_path)
 
 
 def test_cli_missing_matplotlib_names_the_extra(capsys, tmp_path, monkeypatch):
-    from rdgpu.cli import main
+    from rdgpu.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.setitem(sys.modules, "matplotlib", None)
-    monkeypatch.setattr("rdgpu._optional.available", lambda m: m.partition(".")[0]
+    monkeypatch.setattr("rdgpu.core.optional.available", lambda m: m.partition(".")[0]
                         != "matplotlib")
     assert main(["sweep", "gray-scott", "--param", "F=0.03,0.04", "--steps", "1",
                  "--out", "map.png"]) == 1

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.sweep import open_sweep
-from rdgpu.sweep_store import SweepStoreWarning
+from rdgpu.runs.store import SweepStoreWarning
+from rdgpu.runs.sweep import open_sweep
 
 pytestmark = pytest.mark.skipif(
     any(find_spec(m) is None for m in ("dask", "xarray", "zarr")),

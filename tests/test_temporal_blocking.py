@@ -12,7 +12,7 @@ from conftest import backend_or_skip
 from test_oclgrind import check_clean_under_oclgrind, oclgrind_available
 
 import rdgpu
-from rdgpu.domains import Grid
+from rdgpu.domains.grid import Grid
 from rdgpu.models import MODELS, blocking, define_model
 from rdgpu.models.blocking import BlockedEuler
 
@@ -130,8 +130,8 @@ def test_simulation_option():
 
 
 def test_cli_option(capsys, tmp_path):
-    from rdgpu.cli import main
-    from rdgpu.output import load_npz
+    from rdgpu.cli.app import main
+    from rdgpu.io.output import load_npz
 
     fields = []
     for k in (1, 4):

@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse.linalg as spla
 
 import rdgpu
-from rdgpu.boundary import parse_bc
+from rdgpu.domains.boundary import parse_bc
 
 # ---------------------------------------------------------------------------- §1 Laplacian
 

@@ -35,7 +35,7 @@ import pytest
 import scipy.sparse as sp
 from conftest import backend_or_skip
 
-from rdgpu import dispatch
+from rdgpu.backends import registry as dispatch
 
 ROOT = Path(__file__).resolve().parents[1]
 WORKER = Path(__file__).with_name("thread_worker.py")

@@ -9,7 +9,7 @@ import pytest
 from conftest import backend_or_skip
 
 import rdgpu
-from rdgpu.kernel_files import load_module
+from rdgpu.families import load_module
 
 ref = load_module("walkers", "reference.py")
 

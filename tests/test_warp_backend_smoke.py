@@ -13,9 +13,9 @@ pytest.importorskip("warp")
 
 from rdgpu.backends.base import DeviceArray  # noqa: E402
 from rdgpu.backends.warp_backend import WarpBackend  # noqa: E402
-from rdgpu.boundary import parse_bc  # noqa: E402
-from rdgpu.errors import BackendUnavailableError  # noqa: E402
-from rdgpu.kernel_files import load_module  # noqa: E402
+from rdgpu.core.errors import BackendUnavailableError  # noqa: E402
+from rdgpu.domains.boundary import parse_bc  # noqa: E402
+from rdgpu.families import load_module  # noqa: E402
 
 BCS = [
     "periodic",

@@ -14,9 +14,9 @@ pytest.importorskip("warp")
 
 import rdgpu  # noqa: E402
 from rdgpu.backends.warp_backend import MAX_CELLS, WarpBackend, check_cells  # noqa: E402
-from rdgpu.boundary import parse_bc  # noqa: E402
-from rdgpu.domains import Grid  # noqa: E402
-from rdgpu.metric import GraphSurface  # noqa: E402
+from rdgpu.domains.boundary import parse_bc  # noqa: E402
+from rdgpu.domains.graph_surface import GraphSurface  # noqa: E402
+from rdgpu.domains.grid import Grid  # noqa: E402
 from rdgpu.models.library import MODELS  # noqa: E402
 
 # (ny, nx): single rows and columns, two columns (no interior), odd, and 300×257 (above the

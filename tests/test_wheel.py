@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 SCRIPT = """
 import numpy as np, rdgpu
-from rdgpu.kernel_files import kernel_dir
+from rdgpu.families import kernel_dir
 print("RDGPU_FILE", rdgpu.__file__)
 print("KERNEL_DIR", kernel_dir())
 u = np.random.default_rng(0).random((6, 9))

@@ -1,7 +1,7 @@
 """The device-array layer and the interface every backend implements.
 
 A :class:`DeviceArray` is a backend's buffer plus its shape and dtype.  The functional
-API (``rdgpu.api``) uploads its inputs once, calls backend kernels any number of times on
+API (``rdgpu.ops.api``) uploads its inputs once, calls backend kernels any number of times on
 device arrays (ping-ponging buffers between steps) and downloads once: nothing returns to
 the host between the steps of one call.
 
@@ -10,7 +10,8 @@ passes the output buffers.  Grid arrays are ``[ny, nx]``, C order, row ``i`` is 
 without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann y
 condition: every grid kernel then computes its 1-D formula.
 
-Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md, :mod:`rdgpu.fpenv`);
+Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md,
+:mod:`rdgpu.core.fpenv`);
 the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as NumPy gives it),
 :meth:`Backend.sum_squares` sums in float64.
 """
@@ -26,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..boundary import GridBC
+from rdgpu.domains.boundary import GridBC
 
 Scalar = float
 FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
@@ -100,7 +101,7 @@ class Backend(ABC):
         allocation (a :class:`rdgpu.ResourceLimitError`)."""
         n = math.prod(int(s) for s in shape)
         if self.max_cells is not None and n > self.max_cells:
-            from ..errors import ResourceLimitError
+            from rdgpu.core.errors import ResourceLimitError
 
             dims = "x".join(str(int(s)) for s in shape)
             raise ResourceLimitError(
@@ -140,11 +141,11 @@ class Backend(ABC):
     def upload_csr(self, matrix: Any, dtype: np.dtype, *, name: str = "matrix") -> DeviceCSR:
         """Upload a ``scipy.sparse`` matrix (any format) as a :class:`DeviceCSR` of ``dtype``.
 
-        Its structure is checked first (:func:`rdgpu.csr.checked_csr`: indices in range,
+        Its structure is checked first (:func:`rdgpu.core.csr.checked_csr`: indices in range,
         ``indptr`` sound, finite real values that ``dtype`` can hold), so that no kernel
         reads outside the arrays; errors name the matrix as ``name``."""
-        from ..csr import checked_csr
-        from ..validation import fits_dtype
+        from rdgpu.core.csr import checked_csr
+        from rdgpu.core.validation import fits_dtype
 
         m = checked_csr(matrix, name)  # canonical: sorted, no duplicates; input untouched
         dtype = np.dtype(dtype)
@@ -239,7 +240,7 @@ class Backend(ABC):
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
         """``out = Δ_Γ u``, the Laplace-Beltrami operator of a graph surface over a periodic
-        grid (``rdgpu.metric``; the conservative 9-point form of
+        grid (``rdgpu.domains.graph_surface``; the conservative 9-point form of
         ``kernels/metric/reference.py``, in its evaluation order).
 
         ``u``, ``out``: ``[ny, nx]``, or ``[nm, ny, nx]`` for ``nm`` members sharing one
@@ -248,14 +249,14 @@ class Backend(ABC):
         when the coefficients are those of spacings in length units."""
 
     def upload_metric(self, surface: Any, dtype: Any) -> tuple[DeviceArray, ...]:
-        """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.metric.GraphSurface`
+        """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
         rounded to ``dtype`` (subnormals flushed), on this backend.  Cached per backend for
         the last few ``(surface, dtype)`` pairs: surfaces compare by grid and height, so an
         equal surface built again reuses the upload.  Treat the arrays as read-only."""
-        from ..metric import GraphSurface
+        from rdgpu.domains.graph_surface import GraphSurface
 
         if not isinstance(surface, GraphSurface):
-            raise TypeError(f"upload_metric needs an rdgpu.metric.GraphSurface, got "
+            raise TypeError(f"upload_metric needs an rdgpu.domains.graph_surface.GraphSurface, got "
                             f"{type(surface).__name__}")
         dtype = np.dtype(dtype)
         if dtype not in _REAL_DTYPES:

@@ -1,13 +1,14 @@
-"""The NumPy backend: runs the references in ``kernels/*/reference.py`` on host arrays
-(which flush subnormal results to 0 like every kernel: docs/equations.md, :mod:`rdgpu.fpenv`)."""
+"""The NumPy backend: runs the references in ``rdgpu/families/*/reference.py`` on host arrays
+(which flush subnormal results to 0 like every kernel: docs/equations.md,
+:mod:`rdgpu.core.fpenv`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..boundary import GridBC
-from ..kernel_files import load_module
-from .base import Backend, DeviceArray, _check_range
+from rdgpu.backends.base import Backend, DeviceArray, _check_range
+from rdgpu.domains.boundary import GridBC
+from rdgpu.families import load_module
 
 
 def _value(x):

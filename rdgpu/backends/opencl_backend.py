@@ -16,7 +16,8 @@ The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment v
 ``RDGPU_OPENCL_DEVICE``.
 
 Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the values it
-writes (``FLUSH`` in ``common.cl``): subnormals are flushed (docs/equations.md, :mod:`rdgpu.fpenv`).
+writes (``FLUSH`` in ``common.cl``): subnormals are flushed (docs/equations.md,
+:mod:`rdgpu.core.fpenv`).
 
 Threads: contexts, queues and built programs are shared by every backend instance on
 one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
@@ -35,10 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..boundary import GridBC
-from ..errors import BackendUnavailableError
-from ..kernel_files import load_module, read_source
-from .base import (
+from rdgpu.backends.base import (
     Backend,
     DeviceArray,
     FieldOrScalar,
@@ -46,6 +44,9 @@ from .base import (
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.core.errors import BackendUnavailableError
+from rdgpu.domains.boundary import GridBC
+from rdgpu.families import load_module, read_source
 
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
 _FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric",

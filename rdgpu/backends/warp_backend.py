@@ -10,7 +10,8 @@ Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell form
   thread pool (one chunk in the calling thread);
 * on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
 
-Subnormals are flushed (docs/equations.md, :mod:`rdgpu.fpenv`): every kernel flushes what it writes,
+Subnormals are flushed (docs/equations.md,
+:mod:`rdgpu.core.fpenv`): every kernel flushes what it writes,
 and the CPU shapes run their bodies with the x86 FTZ/DAZ bits on, restoring each thread's
 MXCSR at the end (see ``kernels/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
 are zeroed, so ``warp.config.verify_fp`` runs clean.
@@ -37,10 +38,7 @@ from types import ModuleType
 
 import numpy as np
 
-from ..boundary import GridBC
-from ..errors import BackendUnavailableError
-from ..kernel_files import load_module
-from .base import (
+from rdgpu.backends.base import (
     Backend,
     DeviceArray,
     DeviceCSR,
@@ -49,6 +47,9 @@ from .base import (
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.core.errors import BackendUnavailableError
+from rdgpu.domains.boundary import GridBC
+from rdgpu.families import load_module
 
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
 #: thread costs tens of microseconds), larger ones in up to one chunk per core

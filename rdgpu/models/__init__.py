@@ -2,7 +2,7 @@
 
 Where things are:
 
-* :mod:`~rdgpu.models.equations` — the equation language (py-pde's ``PDE`` spelling),
+* :mod:`~rdgpu.ir.equations` — the equation language (py-pde's ``PDE`` spelling),
   parsed into a small expression tree, and its linear spatial part;
 * :mod:`~rdgpu.models.model` — :func:`define_model` / :class:`Model`: equations,
   parameters (numbers, fields, expressions of ``x, y, z, t``), stability limits;
@@ -20,11 +20,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .allen_cahn import AllenCahn, AllenCahnStepper
-from .equations import EquationError
-from .integrators import FieldStepper, ModelStepper
-from .library import MODELS
-from .model import (
+from rdgpu.ir.equations import EquationError
+from rdgpu.models.allen_cahn import AllenCahn, AllenCahnStepper
+from rdgpu.models.integrators import FieldStepper, ModelStepper
+from rdgpu.models.library import MODELS
+from rdgpu.models.model import (
     METHODS,
     Model,
     define_model,
@@ -32,7 +32,7 @@ from .model import (
     param_field,
     resolve_params,
 )
-from .presets import PRESETS, Preset, build_domain
+from rdgpu.models.presets import PRESETS, Preset, build_domain
 
 __all__ = [
     "METHODS",

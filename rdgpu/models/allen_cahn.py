@@ -1,6 +1,6 @@
 """The modified Allen-Cahn model (Dascal, Pai & Kimmel, equations §2): defined by its
 equation like every model, stepped by Strang splitting with the exact Bernoulli substep
-(:func:`rdgpu.api.bernoulli_decay`), explicit or implicit diffusion in between."""
+(:func:`rdgpu.ops.api.bernoulli_decay`), explicit or implicit diffusion in between."""
 
 from __future__ import annotations
 
@@ -10,21 +10,21 @@ from typing import Any
 
 import numpy as np
 
-from ..api import bernoulli_decay
-from ..backends.base import Backend, DeviceArray
-from ..boundary import DIRICHLET, NEUMANN, PERIODIC
-from ..dispatch import get_backend
-from ..domains import Grid
-from . import equations as eq
-from .compiler import Output, Program, Target, launch
-from .integrators import FieldStepper
-from .model import Model, _scalar_param, check_dt, domain_shape, resolve_params
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.backends.registry import get_backend
+from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
+from rdgpu.domains.grid import Grid
+from rdgpu.ir import equations as eq
+from rdgpu.models.compiler import Output, Program, Target, launch
+from rdgpu.models.integrators import FieldStepper
+from rdgpu.models.model import Model, _scalar_param, check_dt, domain_shape, resolve_params
+from rdgpu.ops.api import bernoulli_decay
 
 __all__ = ["AllenCahn", "AllenCahnStepper"]
 
 
 def _is_surface(domain: Any) -> bool:
-    from ..metric import GraphSurface
+    from rdgpu.domains.graph_surface import GraphSurface
 
     return isinstance(domain, GraphSurface)
 
@@ -76,7 +76,7 @@ class AllenCahn(Model):
     stable for ``dt ≤ dx²/4`` on a square grid (``1/(2 Σ 1/h²)`` over its axes) or
     ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"`` (backward Euler) or
     ``"crank-nicolson"``: θ-scheme diffusion solved by multicolour SOR on the device
-    (:class:`rdgpu.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
+    (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
     a number; ``b`` may be a field.  The equation itself is the model's definition (for
     :mod:`rdgpu.analysis` and py-pde); only the stepping is special.
     """
@@ -166,7 +166,7 @@ class AllenCahn(Model):
         """``J(u) = ∫ ½|∇u|² + ((u² − 1)²/4 + b u)/ε²`` (float64).
 
         Graph surface: ``½ uᵀ(−a Δ_Γ)u + Σ a_i ((u_i² − 1)²/4 + b u_i)/ε²`` with ``a`` its
-        :attr:`~rdgpu.metric.GraphSurface.area_weights` (``a Δ_Γ`` is symmetric), so
+        :attr:`~rdgpu.domains.graph_surface.GraphSurface.area_weights` (``a Δ_Γ`` is symmetric), so
         ``−∂J/∂u = a (Δ_Γ u − (u³ − u + b)/ε²)``.
         Grid: ``dx dy [½ Σ_faces (Δ_face u / h)² + Σ_cells ((u²−1)²/4 + b u)/ε²]`` with the
         faces of the 5-point stencil and its boundary conditions, so ``−∂J/∂u = dx dy
@@ -256,9 +256,9 @@ class AllenCahnStepper(FieldStepper):
 def _implicit_solver(domain, backend, dtype, dt, method):
     """The θ-step solver of ``ū_t = Δū + s``: ``(I − θ dt L) out = u + (1 − θ) dt L u +
     dt s`` with θ = 1 (backward Euler, ``method="implicit"``) or ½ (Crank-Nicolson), by
-    multicolour SOR on the device (:class:`rdgpu.implicit.ImplicitDiffusion`; red-black on
+    multicolour SOR on the device (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on
     a grid)."""
-    from ..implicit import ImplicitDiffusion
+    from rdgpu.ops.implicit import ImplicitDiffusion
 
     theta = 1.0 if method == "implicit" else 0.5
     return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)

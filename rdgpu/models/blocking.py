@@ -31,9 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.base import DeviceArray
-from ..kernel_files import read_source
-from .compiler import (
+from rdgpu.backends.base import DeviceArray
+from rdgpu.families import read_source
+from rdgpu.ir.names import ident
+from rdgpu.models.compiler import (
     PerMember,
     Program,
     Target,
@@ -47,7 +48,6 @@ from .compiler import (
     opencl_kernel,
     opencl_program,
 )
-from .names import ident
 
 __all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "cache_sizes", "fitting_steps",
            "last_level_cache", "why_not"]

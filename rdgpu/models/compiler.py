@@ -12,13 +12,13 @@ Domains (:class:`Target`):
 
 * a 1-D, 2-D or 3-D :class:`~rdgpu.domains.Grid`: the 3-, 5- or 7-point Laplacian
   ``((e + w) − 2c)/dx² + ((n + s) − 2c)/dy² + ((t + b) − 2c)/dz²`` (terms of absent axes
-  left out), ghosts by :mod:`rdgpu.boundary` (a Dirichlet ghost of a stored
+  left out), ghosts by :mod:`rdgpu.domains.boundary` (a Dirichlet ghost of a stored
   ``laplace(s)`` is 0: the bilaplacian's "simply supported" condition ``Δs = 0``).
   ``x, y, z`` are cell centres ``(j + ½) dx`` (0 along absent axes);
-* a :class:`~rdgpu.metric.GraphSurface` (kind ``grid2metric``): the periodic 9-point
+* a :class:`~rdgpu.domains.graph_surface.GraphSurface` (kind ``grid2metric``): the periodic 9-point
   ``Δ_Γ`` of ``kernels/metric/reference.py`` in its operation order, its four coefficient
   arrays ``[ny, nx]`` shared by the ensemble members (read at the in-member cell);
-* a :class:`~rdgpu.mesh.SurfaceMesh`: ``laplace(s)_i = Σ_q L_iq s_q`` over the CSR row of
+* a :class:`~rdgpu.domains.mesh.SurfaceMesh`: ``laplace(s)_i = Σ_q L_iq s_q`` over the CSR row of
   ``L = A⁻¹W`` in index order; ``x, y, z`` are the vertex coordinates.
 
 Kernel shapes follow the hand-written families: OpenCL one work-item per row (CPU: edge
@@ -46,13 +46,13 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.base import Backend, DeviceArray
-from ..domains import Grid
-from ..fpenv import flush_subnormals
-from ..kernel_files import load_module, read_source
-from ..metric import GraphSurface
-from .equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
-from .names import flat_view, ident, split
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.core.fpenv import flush_subnormals
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.grid import Grid
+from rdgpu.families import load_module, read_source
+from rdgpu.ir.equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
+from rdgpu.ir.names import flat_view, ident, split
 
 __all__ = ["Output", "PerMember", "Program", "Target", "cache_dir", "launch"]
 
@@ -430,7 +430,7 @@ def _var(node: Node, fields: frozenset[str]) -> str:
 def _signature(program: Program, fields: frozenset[str],
                member: frozenset[str] = frozenset()) -> list[tuple[str, str]]:
     """Buffer/scalar arguments in order: (kind, name) with kind in in/out/field/member/
-    scalar (``member``: one number per member, read as ``_p_{name}``; rdgpu.models.names)."""
+    scalar (``member``: one number per member, read as ``_p_{name}``; rdgpu.ir.names)."""
     args = [("in", ident("in", s)) for s in program.inputs]
     args += [("out", ident("out", o.name)) for o in program.outputs]
     params = program.refs("param")
@@ -690,7 +690,7 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
 
 
 def _to_text(node: Node) -> str:
-    from .equations import to_text
+    from rdgpu.ir.equations import to_text
 
     return to_text(node)
 
@@ -956,8 +956,8 @@ def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
             _WARP_MODULES[digest] = mod
     loaded = _WARP_LOADED.setdefault(backend, set())
     if digest not in loaded:
-        from ..backends.warp_backend import _WARP_LOCK as BACKEND_LOCK
-        from ..backends.warp_backend import _quiet
+        from rdgpu.backends.warp_backend import _WARP_LOCK as BACKEND_LOCK
+        from rdgpu.backends.warp_backend import _quiet
 
         with BACKEND_LOCK, _quiet(backend._wp):
             backend._wp.load_module(mod, device=backend._dev)
@@ -966,7 +966,7 @@ def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
 
 
 def _launch_warp(program, target, bufs, fields, member):
-    from ..backends.warp_backend import ROW_BLOCK, check_cells
+    from rdgpu.backends.warp_backend import ROW_BLOCK, check_cells
 
     be = target.backend
     key = ("warp", str(be._dev), target.kind, fields, member, target.dtype.char)

@@ -36,9 +36,9 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.base import Backend, DeviceArray
-from . import equations as eq
-from .compiler import Output, Program, launch
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.ir import equations as eq
+from rdgpu.models.compiler import Output, Program, launch
 
 __all__ = ["DeviceRHS", "Field"]
 

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from . import equations as eq
+from rdgpu.ir import equations as eq
 
 __all__ = ["cause"]
 
@@ -42,7 +42,7 @@ def _cause(sim, state, step, first):
     trees = getattr(model, "trees", None)
     if not trees:
         return None
-    from .compiler import Target
+    from rdgpu.models.compiler import Target
 
     dtype = np.dtype(sim.dtype)
     stepper = getattr(sim, "stepper", None)
@@ -104,7 +104,7 @@ def _environment(sim, state, target, t) -> dict[str, Any]:
 
 
 def _param_tree(sim, name: str) -> eq.Node:
-    from .model import expression_tree
+    from rdgpu.models.model import expression_tree
 
     return expression_tree(name, sim.params[name],
                            {k: v for k, v in sim.params.items() if k != name})
@@ -112,7 +112,7 @@ def _param_tree(sim, name: str) -> eq.Node:
 
 def _laplacians(target, env, trees) -> dict[tuple[str, int], np.ndarray]:
     """Every Laplacian the equations take, in float64, by the NumPy reference."""
-    from .compiler import Output, Program, run_numpy
+    from rdgpu.models.compiler import Output, Program, run_numpy
 
     wanted = sorted({lp for tree in trees.values() for lp in eq.laplacians(tree)})
     if not wanted:

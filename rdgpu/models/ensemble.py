@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .compiler import PerMember
+from rdgpu.models.compiler import PerMember
 
 __all__ = ["member_seeds", "resolve_members", "split_members", "stack_members"]
 

@@ -15,7 +15,7 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   explicit: ``y = x + h f(x) + (P − I) x`` in one fused pass (its expression leaves ``α Δs
   + β Δ²s`` out and adds what is left of ``(P − I)x/h``), then ``x' = P⁻¹ y``, i.e. ``P
   (x' − x) = h f(x)``, by one or two backward-Euler diffusion solves on the device
-  (multicolour SOR, :class:`rdgpu.implicit.ImplicitDiffusion`). Without a bilaplacian,
+  (multicolour SOR, :class:`rdgpu.ops.implicit.ImplicitDiffusion`). Without a bilaplacian,
   ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1) or Crank-Nicolson
   (``"imex-cn"``, θ = ½) diffusion with explicit reaction, stable far beyond the explicit
   limit. With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
@@ -34,7 +34,7 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   difference from ``α Δ`` then moves into ``N``) and ``y = x + ((x − x₋)/3 + h'(2N(x) −
   N(x₋)))``, one fused pass that reads ``x`` and the previous level ``x₋`` and evaluates
   ``N`` at both (``x₋`` at ``t − h``), then the same backward-Euler solves as ``"imex"``
-  (:class:`rdgpu.implicit.ImplicitDiffusion`, the same tolerances and sweeps).  Nothing
+  (:class:`rdgpu.ops.implicit.ImplicitDiffusion`, the same tolerances and sweeps).  Nothing
   but ``x₋`` is carried between steps: re-evaluating ``N(x₋)`` costs a second reaction
   evaluation in a pass that is memory-bound, where storing ``N`` would add a field read and
   a field write per species and make the history depend on more than the fields.  The
@@ -63,9 +63,9 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.base import Backend, DeviceArray
-from . import equations as eq
-from .compiler import Output, PerMember, Program, Target, launch
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.ir import equations as eq
+from rdgpu.models.compiler import Output, PerMember, Program, Target, launch
 
 __all__ = ["FieldStepper", "ModelStepper", "stability_limit"]
 
@@ -175,7 +175,7 @@ class FieldStepper:
 
     def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any,
                  members: int | None = None):
-        from .model import domain_shape
+        from rdgpu.models.model import domain_shape
 
         self.species = tuple(species)
         self.domain = domain
@@ -253,7 +253,7 @@ class ModelStepper(FieldStepper):
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None):
-        from ..sim_checks import check_tol
+        from rdgpu.simulation.checks import check_tol
 
         # a positive number for every method (explicit ones do not use it)
         tol = check_tol(method, tol, unused_ok=True)
@@ -270,7 +270,7 @@ class ModelStepper(FieldStepper):
         # of t are inlined into the programs
         self._dev: dict[str, Any] = {}
         inline: dict[str, eq.Node] = {}
-        from .model import expression_tree
+        from rdgpu.models.model import expression_tree
 
         for p, v in self.params.items():
             if isinstance(v, str):
@@ -291,7 +291,7 @@ class ModelStepper(FieldStepper):
             self._setup_explicit(trees)
         else:
             self._setup_imex(trees, tol, inline)
-        from .blocking import setup
+        from rdgpu.models.blocking import setup
 
         #: temporal blocking (:mod:`rdgpu.models.blocking`): None, or the passes' kernel
         self.blocked = setup(self, block_steps)
@@ -368,7 +368,7 @@ class ModelStepper(FieldStepper):
         """``(explicit, solvers)`` of an implicit step over ``h`` (module doc): per species
         the explicit rest of its right-hand side and the backward-Euler solvers of ``P``
         (shared through ``cache``, keyed by their ``a``)."""
-        from ..implicit import ImplicitDiffusion
+        from rdgpu.ops.implicit import ImplicitDiffusion
 
         merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
                       else None) for k, v in self.params.items()}

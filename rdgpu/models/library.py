@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from .allen_cahn import AllenCahn
-from .model import Model
+from rdgpu.models.allen_cahn import AllenCahn
+from rdgpu.models.model import Model
 
 __all__ = ["MODELS"]
 

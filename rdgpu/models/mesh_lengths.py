@@ -23,7 +23,7 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from . import equations as eq
+from rdgpu.ir import equations as eq
 
 __all__ = ["LENGTHS", "length_ratio", "scale_written_laplacians", "fit_to_mesh"]
 
@@ -34,7 +34,7 @@ LENGTHS = ("cells", "model")
 def length_ratio(model: Any, domain: Any, lengths: str = "cells") -> float | None:
     """``(mean edge / model.spacing)²`` on a mesh; None on any other domain or with
     ``lengths="model"``."""
-    from ..mesh import SurfaceMesh
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
     if not (isinstance(lengths, str) and lengths in LENGTHS):
         raise ValueError(f"lengths must be one of {', '.join(LENGTHS)} (a mean edge of a mesh "

@@ -7,7 +7,7 @@
         {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.06},
     )
 
-The language is :mod:`rdgpu.models.equations` (py-pde's ``PDE`` spelling); the kernels
+The language is :mod:`rdgpu.ir.equations` (py-pde's ``PDE`` spelling); the kernels
 come from :mod:`rdgpu.models.compiler`; the time integrators from
 :mod:`rdgpu.models.integrators`.  A model is accepted wherever a model name is
 (``Simulation``, presets, ``rdgpu run --equation``).
@@ -41,13 +41,13 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.base import Backend, DeviceArray
-from ..dispatch import get_backend
-from ..domains import Grid
-from ..errors import StabilityError
-from . import equations as eq
-from .mesh_lengths import fit_to_mesh, length_ratio
-from .ranges import check_bounds, check_fits
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.backends.registry import get_backend
+from rdgpu.core.errors import StabilityError
+from rdgpu.domains.grid import Grid
+from rdgpu.ir import equations as eq
+from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
+from rdgpu.models.ranges import check_bounds, check_fits
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
 
@@ -61,7 +61,7 @@ _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
 
 # ---------------------------------------------------------------------------- domains
 def _is_mesh(domain: Any) -> bool:
-    from ..mesh import SurfaceMesh
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
     return isinstance(domain, SurfaceMesh)
 
@@ -74,7 +74,7 @@ def domain_shape(domain: Any) -> tuple[int, ...]:
     if _is_mesh(domain):
         return (domain.n_vertices,)
     raise TypeError(
-        f"a domain is an rdgpu.domains.Grid or an rdgpu.mesh.SurfaceMesh, got "
+        f"a domain is an rdgpu.domains.Grid or an rdgpu.domains.mesh.SurfaceMesh, got "
         f"{type(domain).__name__}"
     )
 
@@ -103,7 +103,7 @@ def _coordinates(domain: Any, axis: str) -> np.ndarray:
 def _physical_coordinates(domain: Any) -> dict[str, Any]:
     """``x, y, z`` (float64, the kernels' cell centres or vertex coordinates) and ``Lx, Ly,
     Lz`` for evaluating parameter expressions on the host."""
-    from .compiler import Target
+    from rdgpu.models.compiler import Target
 
     t = Target(domain, None, np.dtype(np.float64))  # no backend needed for host data
     env: dict[str, Any] = {c: t.coordinate(c) for c in ("x", "y", "z")}
@@ -121,11 +121,11 @@ def param_field(spec: Mapping[str, Any], domain: Any, rng: np.random.Generator,
       ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
     * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
 
-    The spec is checked first (:func:`rdgpu.sim_checks.field_spec`: every key known, the
+    The spec is checked first (:func:`rdgpu.simulation.checks.field_spec`: every key known, the
     required ones given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes
     into the messages.
     """
-    from ..sim_checks import field_spec
+    from rdgpu.simulation.checks import field_spec
 
     spec = field_spec(spec, name)
     kind = spec["kind"]
@@ -201,7 +201,7 @@ def resolve_params(
 def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> eq.Node:
     """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
     replaced by their numbers."""
-    from .compiler import PerMember
+    from rdgpu.models.compiler import PerMember
 
     scalars = {k: v for k, v in params.items()
                if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node, PerMember))}
@@ -295,7 +295,7 @@ class Model:
     """A reaction-diffusion system ``∂s/∂t = f_s(...)`` for each species ``s``.
 
     ``equations``: species → right-hand side (the language of
-    :mod:`rdgpu.models.equations`); ``parameters``: every parameter and its default
+    :mod:`rdgpu.ir.equations`); ``parameters``: every parameter and its default
     (module doc for the kinds of value).  Optional: ``bounds`` (clamps ``{species: (low,
     high)}`` applied after each update, e.g. ``{"v": (0, None)}``), ``steady_guess(params)
     -> [x_s]`` (the homogeneous state of interest, for :mod:`rdgpu.analysis`), and what a
@@ -523,7 +523,7 @@ class Model:
         """The largest stable ``dt`` of ``method`` (default: the model's
         ``default_method``) on ``domain`` (module doc); ``inf`` when the linear spatial part
         sets none."""
-        from .integrators import stability_limit
+        from rdgpu.models.integrators import stability_limit
 
         ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
         if ops is None:
@@ -564,8 +564,8 @@ class Model:
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
         lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
-        from .compiler import check_stencil
-        from .integrators import ModelStepper
+        from rdgpu.models.compiler import check_stencil
+        from rdgpu.models.integrators import ModelStepper
 
         method = _method(method or self.default_method, self.methods)
         check_stencil(domain, stencil)
@@ -574,7 +574,7 @@ class Model:
             self._check_diffusion(p)
             limit = self.dt_limit(domain, p, method, stencil, lengths)
         else:
-            from .ensemble import resolve_members, stack_members
+            from rdgpu.models.ensemble import resolve_members, stack_members
 
             members = _members(members)
             shape = domain_shape(domain)
@@ -613,9 +613,9 @@ def _largest_mode(domain: Any, stencil: str = "compact") -> float:
     """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes
     (the isotropic stencils: the maximum of their symbol, ``16/(3h²)`` in 2-D), ``λ_max(−L)``
     on a mesh, and on a graph surface its ``Δ_Γ``'s Gershgorin bound
-    (:meth:`~rdgpu.metric.GraphSurface.spectral_bound`)."""
-    from ..metric import GraphSurface
-    from .compiler import check_stencil
+    (:meth:`~rdgpu.domains.graph_surface.GraphSurface.spectral_bound`)."""
+    from rdgpu.domains.graph_surface import GraphSurface
+    from rdgpu.models.compiler import check_stencil
 
     if isinstance(domain, GraphSurface):
         check_stencil(domain, stencil)  # the isotropic stencil is refused

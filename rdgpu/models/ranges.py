@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from . import equations as eq
+from rdgpu.ir import equations as eq
 
 __all__ = ["check_bounds", "check_fits", "fits"]
 
@@ -73,7 +73,7 @@ def fits(value: Any, dtype: Any) -> bool:
 def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
     """Refuse a literal of the equations, a parameter value (number, field, per-member
     values, the literals of an expression of ``t``) or a bound that ``dtype`` cannot hold."""
-    from .compiler import PerMember
+    from rdgpu.models.compiler import PerMember
 
     dtype = np.dtype(dtype)
     if dtype.kind != "f":

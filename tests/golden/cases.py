@@ -213,7 +213,7 @@ FUNCTIONAL: dict[str, Callable] = {
 def _sim(model: Any, domain: Any, params: Mapping | None = None, steps: int = STEPS,
          **kw: Any) -> Callable:
     def run(be: str, dt: str) -> dict:
-        from rdgpu.simulation import Simulation
+        from rdgpu.simulation.driver import Simulation
 
         d = domain() if callable(domain) else domain
         sim = Simulation(model, d, dict(params or {}), backend=be, dtype=dt, seed=3, **kw)
@@ -231,7 +231,7 @@ def _user_model() -> Any:
 
 
 def _simulation_cases() -> dict[str, Callable]:
-    from rdgpu.domains import Grid
+    from rdgpu.domains.grid import Grid
     from rdgpu.models import MODELS
 
     grid = Grid(SHAPE2, dx=1.0, dy=1.1, bc="periodic")
@@ -282,7 +282,7 @@ def _dla(be: str, dt: str) -> dict:
 
 
 def _front(be: str, dt: str) -> dict:
-    from rdgpu.domains import Grid
+    from rdgpu.domains.grid import Grid
 
     r = rdgpu.front_growth("gray-scott", Grid((21, 19), dx=0.5, bc="neumann"), dt=0.2,
                            speed="laplace", field="v", beta_scale=2.0, radius=3.0, steps=6,

@@ -1,0 +1,1 @@
+"""The bernoulli kernel family (see :mod:`rdgpu.families`)."""

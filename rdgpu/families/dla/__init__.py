@@ -1,0 +1,1 @@
+"""The dla kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The gray_scott kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The laplacian kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The levelset kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The mesh kernel family (see :mod:`rdgpu.families`)."""

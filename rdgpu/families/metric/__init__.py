@@ -1,0 +1,1 @@
+"""The metric kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The model kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The reduce kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""The sor kernel family (see :mod:`rdgpu.families`)."""

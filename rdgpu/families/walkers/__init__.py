@@ -1,0 +1,1 @@
+"""The walkers kernel family (see :mod:`rdgpu.families`)."""

@@ -1,0 +1,1 @@
+"""rdgpu inside other tools (py-pde)."""

@@ -1,0 +1,556 @@
+"""rdgpu as a py-pde backend: ``eq.solve(state, t_range=..., dt=..., backend="rdgpu")``.
+
+After ``import rdgpu.pypde`` py-pde's backend registry knows ``"rdgpu"`` (rdgpu's default
+device) and ``"rdgpu:numpy"``, ``"rdgpu:warp"``, ``"rdgpu:opencl"`` (any rdgpu backend
+spelling after the colon: ``"rdgpu:opencl:0:1"``, ``"rdgpu:warp:cpu"``).  py-pde 0.59 has
+no entry point for third-party backends, so the import is what registers it.
+
+What it runs (anything else raises :class:`UnsupportedPDE`, a ``NotImplementedError``
+naming the part it cannot run; it never falls back to another backend):
+
+* ``pde.PDE`` expression equations (rdgpu's equation language, :mod:`rdgpu.models.
+  equations`: arithmetic, ``exp log sqrt sin cos tan tanh abs min max``, ``laplace(s)``,
+  ``laplace(laplace(s))``, the coordinates and ``t``) with number or array constants
+  (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
+  ``SwiftHohenbergPDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
+  real fields only, and no subclass replacing what py-pde's solvers call besides the
+  equations (``make_post_step_hook``, ``evolution_rate``, the noise:
+  :mod:`rdgpu.integrations.pypde.checks`);
+* on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
+  rdgpu's field, so ``[i, j]`` is ``[y, x]`` in 2-D; py-pde's coordinate ``x`` of axis 0
+  becomes rdgpu's name for that axis, shifted by the grid's lower bound);
+* boundary conditions: periodic and every first-order condition of py-pde, i.e. each
+  side's ghost cell is ``const + factor·u_edge``: Dirichlet ``{"value": g}`` (``g`` is the
+  value on the face: ghost ``2g − u_edge``), Neumann ``{"derivative": g}`` (``g`` is the
+  derivative along the outward normal, so ``−∂u/∂x`` on a lower side: ghost ``u_edge +
+  h·g``), Mixed/Robin ``{"type": "mixed", "value": γ, "const": β}`` (``∂u/∂n + γu = β``)
+  and their ``Normal*`` spellings, with values that are numbers, arrays over the boundary
+  or expressions of the coordinates; and the expression conditions (``value_expression``,
+  ``derivative_expression``, ``mixed_expression``, ``virtual_point``) whose ghost is affine
+  in the edge value and free of ``t``.  An axis where every field's ghost is ``const +
+  u_edge`` runs with rdgpu's Neumann (ν = 1), any other with rdgpu's ghost 0 (ν = 0); every
+  ``laplace(s)`` then reads ``laplace(s) + P_s − W_s s``, two per-cell fields that are zero
+  away from the faces (and left out where zero everywhere, as on an axis that is
+  zero-derivative Neumann for every field): per face of an edge cell ``P += const/h²``,
+  ``W += (ν − factor)/h²``.  This is py-pde's Laplacian exactly (to round-off), corners
+  included.  Refused, naming the condition and the side: second-order conditions
+  (``CurvatureBC``), user conditions and ghost-cell callbacks, values linked to an external
+  array, expressions given as Python functions, depending on ``t`` or not affine in the
+  field, anti-periodic axes, non-finite ghost data, and ``laplace(laplace(s))`` where ``s``
+  needs the correction fields;
+* with py-pde's solvers ``EulerSolver`` (``solver="euler"``; fixed ``dt``, or adaptive:
+  py-pde's default when ``solve`` gets no ``dt``), ``RungeKuttaSolver`` (RK4 at a fixed
+  ``dt``, adaptive Runge-Kutta-Fehlberg 4(5)), ``AdamsBashforthSolver``, ``ImplicitSolver``
+  and ``CrankNicolsonSolver`` (py-pde's fixed-point iterations), the deprecated
+  ``ExplicitSolver``, all on the device (:mod:`rdgpu.integrations.pypde.steppers`): each right-hand
+  side one fused pass compiled once per ``solve``, py-pde's step-size control and
+  operation order, the same accepted steps; and ``ScipySolver``, which calls
+  :meth:`RdgpuBackend.make_pde_rhs` (host arrays in and out: SciPy's integrators live on
+  the host).  ``MilsteinSolver`` and ``ExplicitMPISolver`` are refused.
+
+Data crosses between host and device only where py-pde's controller hands control back,
+i.e. at tracker times: each call of the stepper uploads ``state.data``, runs every step
+on the device and downloads the result into ``state.data``.  An adaptive or implicit
+solver also reads one number per try back (the error or the change, a reduction on the
+device).
+
+With a fixed-``dt`` Euler solver rdgpu checks the linear stability limit of ``dt``
+(:class:`rdgpu.StabilityError`); set ``check_stability = False`` on the backend object
+(``pde.backends.get_backend("rdgpu")``) to run anyway.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+try:
+    import pde
+except ImportError:  # py-pde is optional: only this module needs it
+    from rdgpu.core.optional import require
+
+    require("pde", "rdgpu.pypde (py-pde >= 0.59)")  # raises, naming the [pypde] extra
+    raise
+from pde.backends import BackendBase, backend_registry
+from pde.grids.boundaries.axes import BoundariesList
+from pde.grids.boundaries.axis import BoundaryPeriodic
+from pde.grids.boundaries.local import (
+    ConstBC1stOrderBase,
+    ConstBC2ndOrderBase,
+    ExpressionBC,
+    UserBC,
+    _PeriodicBC,
+)
+
+from rdgpu.backends import registry as dispatch
+from rdgpu.domains.grid import Grid
+from rdgpu.integrations.pypde import steppers as pypde_steppers
+from rdgpu.integrations.pypde.checks import check_overrides, check_solver
+from rdgpu.integrations.pypde.steppers import species_views
+from rdgpu.ir import equations as eq
+from rdgpu.models.device_rhs import DeviceRHS
+from rdgpu.models.model import define_model
+
+__all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
+
+NAME = "rdgpu"
+#: rdgpu's coordinate name of each field axis, by number of dimensions
+_AXIS_NAMES = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
+_SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
+              "SwiftHohenbergPDE, WavePDE, KleinGordonPDE")
+_BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
+        "values that are numbers, arrays or expressions of the coordinates, and value, "
+        "derivative and mixed expressions affine in the field and free of t")
+
+
+class UnsupportedPDE(NotImplementedError):
+    """A py-pde problem (equation, grid, condition, solver) that the rdgpu backend does
+    not run; the message names the part."""
+
+
+def _refuse(what: str) -> UnsupportedPDE:
+    return UnsupportedPDE(f"py-pde backend 'rdgpu' cannot run this: {what}")
+
+
+# ---------------------------------------------------------------------------- translation
+class Translation:
+    """A py-pde problem as rdgpu sees it: ``grid`` (:class:`~rdgpu.domains.Grid`),
+    ``model`` (:class:`~rdgpu.models.Model`), ``params`` (numbers and per-cell float64
+    arrays) and ``species`` in the order of py-pde's state."""
+
+    def __init__(self, grid: Grid, species: tuple[str, ...], equations: dict[str, str],
+                 params: dict[str, Any]):
+        self.grid = grid
+        self.species = species
+        self.params = params
+        self.model = define_model("py-pde", equations, {k: 0.0 for k in params})
+        self.uses_time = any(eq.names(t, "time") for t in self.model.trees.values())
+
+
+def _grid(grid: Any) -> tuple[tuple[int, ...], dict[str, float]]:
+    """``(shape, spacings)`` of rdgpu's :class:`Grid` for py-pde's ``grid``."""
+    if not isinstance(grid, pde.CartesianGrid):
+        raise _refuse(f"the grid {type(grid).__name__} (only CartesianGrid is supported)")
+    if grid.num_axes not in (1, 2, 3):
+        raise _refuse(f"a {grid.num_axes}-D grid (1-D to 3-D are supported)")
+    h = [float(d) for d in grid.discretization]
+    names = {1: ("dx",), 2: ("dy", "dx"), 3: ("dz", "dy", "dx")}[grid.num_axes]
+    return tuple(int(n) for n in grid.shape), dict(zip(names, h, strict=True))
+
+
+def _boundary_array(v: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """``v`` (py-pde's ``const`` or ``factor`` of one side, named by ``what``) as a finite
+    float64 array over the boundary cells, ``shape`` (the grid's shape without the side's
+    axis)."""
+    a = np.asarray(v)
+    if not np.isrealobj(a) or a.dtype == object:
+        raise _refuse(f"the complex or non-numeric {what} {v!r} (real fields only)")
+    a = np.full(shape, a.item()) if a.size == 1 else np.broadcast_to(a, shape)
+    a = np.asarray(a, dtype=np.float64)
+    if not np.isfinite(a).all():
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise _refuse(f"the non-finite {what}: {a[tuple(bad)]} at boundary cell "
+                      f"{tuple(int(i) for i in bad)} (finite values are supported)")
+    return a
+
+
+def _expression_ghost(bc: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(const, factor)`` of py-pde's expression condition ``bc`` (``ExpressionBC`` and its
+    value, derivative and mixed variants): its virtual point must be affine in the edge
+    value (``const`` at value 0, ``factor`` its derivative in the value) and free of ``t``."""
+    name = type(bc).__name__
+    if bc._is_func:
+        raise _refuse(f"the boundary condition {name} at {where} given as a Python function "
+                      "(a user callback; give the expression as a string)")
+    if bc.value_cell is not None:
+        raise _refuse(f"the boundary condition {name} at {where} reading the cell "
+                      f"value_cell={bc.value_cell} (only the edge cell is supported)")
+    expr = bc._func_expression
+    if expr.depends_on("t"):
+        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where} "
+                      "depends on t (time-dependent conditions are not supported)")
+    slope = expr.differentiate("value")
+    curve = slope.differentiate("value")
+    if not (curve.constant and curve.value == 0):
+        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where}: "
+                      f"its ghost value {expr.expression} is not affine in the edge value")
+    dx = float(bc.grid.discretization[bc.axis])
+    coords = np.moveaxis(bc.grid._boundary_coordinates(axis=bc.axis, upper=bc.upper), -1, 0)
+    zero = np.zeros(coords.shape[1:])
+    return expr(zero, dx, *coords, 0.0), slope(zero, dx, *coords, 0.0)
+
+
+def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """py-pde's ghost cell of one side, ``ghost = const + factor·u_edge``, as ``(const,
+    factor)``: tuples of floats over the side's boundary cells (the grid's other axes in
+    order, flattened in C order; one value in 1-D)."""
+    name = type(bc).__name__
+    if isinstance(bc, ConstBC1stOrderBase) and not isinstance(bc, _PeriodicBC):
+        if bc.value_is_linked:
+            raise _refuse(f"the boundary condition {name} at {where}: its value is linked to "
+                          "an external array that may change (give the values themselves)")
+        const, factor, index = bc.get_virtual_point_data()
+    elif isinstance(bc, ExpressionBC):
+        const, factor = _expression_ghost(bc, where)
+        index = bc._get_value_cell_index(with_ghost_cells=False)
+    else:
+        kind = "a user condition (ghost cells set by the caller)" if isinstance(bc, UserBC) \
+            else "a second-order condition" if isinstance(bc, ConstBC2ndOrderBase) else \
+            "an unknown condition"
+        raise _refuse(f"the boundary condition {name} at {where}, {kind} (supported: "
+                      f"{_BCS})")
+    n = bc.grid.shape[bc.axis]
+    if index % n != (n - 1 if bc.upper else 0):
+        raise _refuse(f"the boundary condition {name} at {where} reading cell {index} (only "
+                      "the edge cell is supported)")
+    shape = tuple(m for i, m in enumerate(bc.grid.shape) if i != bc.axis)
+    return tuple(tuple(_boundary_array(v, shape, f"ghost-cell {what} of the boundary "
+                                       f"condition {name} at {where}").ravel().tolist())
+                 for v, what in ((const, "constant"), (factor, "factor")))
+
+
+def _conditions(grid: Any, data: Any, what: str) -> list[Any]:
+    """Per axis ``"periodic"`` or a pair of :func:`_side` results (low, high)."""
+    try:
+        bcs = grid.get_boundary_conditions(data)
+    except Exception as exc:  # py-pde's own message says what is wrong with the data
+        raise _refuse(f"the boundary conditions {data!r} of {what} ({exc})") from None
+    if not isinstance(bcs, BoundariesList):
+        raise _refuse(f"the boundary conditions of {what} as {type(bcs).__name__} (a user "
+                      f"callback that sets the ghost cells; supported: {_BCS})")
+    out: list[Any] = []
+    for k, axis in enumerate(bcs):
+        name = grid.axes[k]
+        if isinstance(axis, BoundaryPeriodic):
+            if axis.flip_sign:
+                raise _refuse(f"the anti-periodic condition on axis {name} of {what} "
+                              f"(supported: {_BCS})")
+            out.append("periodic")
+            continue
+        out.append(tuple(_side(b, f"{name}{'+' if b.upper else '-'} of {what}")
+                         for b in (axis.low, axis.high)))
+    return out
+
+
+def _axis_bcs(per_species: dict[str, list[Any]], ndim: int) -> list[Any]:
+    """rdgpu's condition per axis: periodic; Neumann where every species' ghost is
+    ``const + u_edge`` on both sides (a Neumann condition; the derivatives, if not 0, come
+    from the correction fields); else Dirichlet with ghost 0 (the faces come from the
+    correction fields)."""
+    out: list[Any] = []
+    for k in range(ndim):
+        kinds = {"periodic" if c[k] == "periodic" else "pair" for c in per_species.values()}
+        if len(kinds) > 1:
+            raise _refuse(f"axis {k} is periodic for some fields and not for others")
+        if kinds == {"periodic"}:
+            out.append("periodic")
+        elif all(f == 1.0 for c in per_species.values() for _, factor in c[k]
+                 for f in factor):
+            out.append("neumann")
+        else:
+            out.append(("dirichlet", 0.0))
+    return out
+
+
+def _corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int, ...],
+                 spacing: list[float]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(P, W)`` of species ``s`` (module doc), each None where it is zero everywhere.
+
+    On an axis that rdgpu runs with the ghost ``ν·u_edge`` (ν = 1 Neumann, 0 Dirichlet
+    with ghost 0), py-pde's ghost ``const + factor·u_edge`` adds ``(const + (factor −
+    ν)·u_edge)/h²`` to the Laplacian of the edge cell: ``P += const/h²``, ``W += (ν −
+    factor)/h²``, per face."""
+    P, W = np.zeros(shape), np.zeros(shape)
+    for k, bc in enumerate(axis_bcs):
+        if bc == "periodic":
+            continue
+        nu = 1.0 if bc == "neumann" else 0.0
+        inv = 1.0 / (spacing[k] * spacing[k])
+        face = shape[:k] + shape[k + 1:]
+        for (const, factor), index in zip(conds[k], (0, shape[k] - 1), strict=True):
+            sl: list[Any] = [slice(None)] * len(shape)
+            sl[k] = index
+            P[tuple(sl)] += np.reshape(const, face) * inv
+            W[tuple(sl)] += (nu - np.reshape(factor, face)) * inv
+    return (P if P.any() else None), (W if W.any() else None)
+
+
+def _classes() -> tuple[type, ...]:
+    """The PDE classes rdgpu runs (a subclass runs as its nearest one of these)."""
+    return (pde.PDE, pde.DiffusionPDE, pde.AllenCahnPDE, pde.SwiftHohenbergPDE,
+            pde.WavePDE, pde.KleinGordonPDE)
+
+
+def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, Any],
+                                    Any]:
+    """``(equations, constants, bc data per species, bc of the inner Laplacian)`` of a
+    built-in PDE class."""
+    cls = type(pde_obj).__name__
+    if getattr(pde_obj, "noise", 0):
+        raise _refuse(f"{cls} with noise={pde_obj.noise} (noise is not supported)")
+    if isinstance(pde_obj, pde.DiffusionPDE):
+        return ({"c": "diffusivity*laplace(c)"},
+                {"diffusivity": float(pde_obj.diffusivity)}, {"c": pde_obj.bc}, None)
+    if isinstance(pde_obj, pde.AllenCahnPDE):
+        return ({"c": "mobility*((interface_width*laplace(c) - c**3) + c)"},
+                {"mobility": float(pde_obj.mobility),
+                 "interface_width": float(pde_obj.interface_width)}, {"c": pde_obj.bc}, None)
+    if isinstance(pde_obj, pde.SwiftHohenbergPDE):
+        return ({"c": "((((rate - kc2**2)*c - 2*kc2*laplace(c)) - laplace(laplace(c)))"
+                      " + delta*c**2) - c**3"},
+                {"rate": float(pde_obj.rate), "kc2": float(pde_obj.kc2),
+                 "delta": float(pde_obj.delta)}, {"c": pde_obj.bc}, pde_obj.bc_lap)
+    if isinstance(pde_obj, (pde.KleinGordonPDE, pde.WavePDE)):
+        # u_t = v, v_t = c² Δu (− μ² u): the Laplacian of u only, under pde_obj.bc
+        mass = float(getattr(pde_obj, "mass", 0.0))
+        v_rate = "speed2*laplace(u)" + (" - mass2*u" if mass != 0 else "")
+        consts = {"speed2": float(pde_obj.speed) ** 2}
+        if mass != 0:
+            consts["mass2"] = mass ** 2
+        return {"u": "v", "v": v_rate}, consts, {"u": pde_obj.bc, "v": pde_obj.bc}, None
+    raise _refuse(f"the PDE class {cls} (supported: {_SUPPORTED})")
+
+
+def _expression_pde(pde_obj: Any) -> tuple[dict[str, str], dict[str, Any],
+                                           dict[str, Any]]:
+    """``(equations, constants, bc data per species)`` of a ``pde.PDE``."""
+    if pde_obj.is_sde:
+        raise _refuse(f"the noise {getattr(pde_obj, 'noise', '')!r} (stochastic equations "
+                      "are not supported)")
+    if pde_obj.complex_valued:
+        raise _refuse("complex-valued equations (real fields only)")
+    if getattr(pde_obj, "post_step_hook", None) is not None:
+        raise _refuse("a post_step_hook (it would run on the host every step)")
+    bcs = {}
+    for s in pde_obj.variables:
+        for key in (f"{s}:laplace", "*:laplace", f"{s}:*", "*:*"):
+            if key in pde_obj.bcs:
+                bcs[s] = pde_obj.bcs[key]
+                break
+    other = sorted(k for k in pde_obj.bcs if not k.endswith((":laplace", ":*")))
+    if other:
+        raise _refuse(f"boundary conditions for the operators {other} (only laplace has "
+                      "boundary conditions here)")
+    return dict(pde_obj.rhs), dict(pde_obj.consts), bcs
+
+
+def _coordinate_map(grid: Any) -> Callable[[eq.Node], eq.Node | None]:
+    """py-pde's coordinates (axis ``k`` named ``grid.axes[k]``, from its lower bound)
+    in rdgpu's names (from 0)."""
+    ours = _AXIS_NAMES[grid.num_axes]
+    table = {}
+    for k, name in enumerate(grid.axes):
+        lo = float(grid.axes_bounds[k][0])
+        ref: eq.Node = eq.Ref("coord", ours[k])
+        table[name] = ref if lo == 0.0 else eq.Bin("+", ref, eq.Num(lo))
+
+    def fn(n: eq.Node) -> eq.Node | None:
+        if isinstance(n, eq.Ref) and n.kind == "coord":
+            if n.name not in table:
+                raise _refuse(f"the coordinate {n.name!r} on a {grid.num_axes}-D grid "
+                              f"(its axes are {', '.join(grid.axes)})")
+            return table[n.name]
+        return None
+
+    return fn
+
+
+def translate(pde_obj: Any, state: Any) -> Translation:
+    """The rdgpu problem of ``pde_obj`` on ``state``'s grid, or :class:`UnsupportedPDE`."""
+    fields = list(state) if isinstance(state, pde.FieldCollection) else [state]
+    for f in fields:
+        if not isinstance(f, pde.ScalarField):
+            raise _refuse(f"a {type(f).__name__} in the state (scalar fields only)")
+    if isinstance(pde_obj, pde.PDE):
+        equations, consts, bc_data = _expression_pde(pde_obj)
+        inner = None
+    else:
+        equations, consts, bc_data, inner = _builtin(pde_obj)
+    species = tuple(equations)
+    if len(species) != len(fields):
+        raise _refuse(f"{len(fields)} field(s) in the state for the {len(species)} "
+                      f"variable(s) {species}")
+    grid = state.grid
+    shape, spacing = _grid(grid)
+    conds = {s: _conditions(grid, bc_data[s], f"{s!r}") for s in species}
+    if inner is not None:
+        lap = _conditions(grid, inner, "laplace(c) (bc_lap)")
+        if lap != conds["c"]:
+            raise _refuse(f"bc_lap {inner!r} different from bc {bc_data['c']!r}")
+    axis_bcs = _axis_bcs(conds, len(shape))
+    h = list(spacing.values())  # per axis of the field
+
+    params: dict[str, Any] = {}
+    for name, value in consts.items():
+        if isinstance(value, pde.ScalarField):
+            value = value.data
+        a = np.asarray(value)
+        if not np.isrealobj(a) or a.dtype == object:
+            raise _refuse(f"the constant {name!r} = {value!r} (numbers or real arrays of "
+                          "the grid's shape)")
+        params[name] = float(a) if a.ndim == 0 else np.asarray(a, dtype=np.float64)
+    coords = _coordinate_map(grid)
+    trees: dict[str, eq.Node] = {}
+    for s in species:
+        try:
+            tree = eq.parse(equations[s], species=species, params=params,
+                            what=f"the equation of {s!r}")
+        except eq.EquationError as exc:
+            raise _refuse(str(exc)) from None
+        trees[s] = eq.substitute(tree, coords)
+    correct: dict[str, tuple[str | None, str | None]] = {}
+    for s in species:
+        pw = _corrections(s, conds[s], axis_bcs, shape, h)
+        names = tuple(None if a is None else f"{tag}_{s}"
+                      for a, tag in zip(pw, ("bcface", "bcdiag"), strict=True))
+        if names == (None, None):
+            continue
+        clash = [n for n in names if n in params]
+        if clash:
+            raise _refuse(f"the constant name(s) {clash} (used by the backend)")
+        params.update((n, a) for n, a in zip(names, pw, strict=True) if n is not None)
+        correct[s] = names
+    twice = sorted({n for t in trees.values() for n, o in eq.laplacians(t)
+                    if o == 2 and n in correct})
+    if twice:
+        raise _refuse(f"laplace(laplace({twice[0]})) with the boundary conditions of "
+                      f"{twice[0]!r} (a Dirichlet, Mixed or non-zero Neumann condition; "
+                      "periodic and zero-derivative Neumann only there)")
+
+    def face(n: eq.Node) -> eq.Node | None:
+        if isinstance(n, eq.Lap) and n.order == 1 and n.name in correct:
+            p, w = correct[n.name]
+            out: eq.Node = n
+            if p is not None:
+                out = eq.Bin("+", out, eq.Ref("param", p))
+            if w is not None:
+                out = eq.Bin("-", out, eq.Bin("*", eq.Ref("param", w),
+                                              eq.Ref("species", n.name)))
+            return out
+        return None
+
+    text = {s: eq.to_text(eq.substitute(trees[s], face)) for s in species}
+    ours = Grid(shape, bc=axis_bcs[0] if len(shape) == 1 else tuple(axis_bcs), **spacing)
+    return Translation(ours, species, text, params)
+
+
+# ---------------------------------------------------------------------------- the backend
+class RdgpuBackend(BackendBase):
+    """py-pde backend that runs a whole ``solve`` on an rdgpu device (module doc).
+    ``device``: an rdgpu backend name (``"numpy"``, ``"warp"``, ``"opencl"``, optionally
+    ``NAME:DEVICE``); empty for rdgpu's default."""
+
+    implementation = "rdgpu"
+    copy_data = True
+    #: rdgpu's linear stability check of ``dt`` (:class:`rdgpu.StabilityError`)
+    check_stability: bool = True
+
+    def __init__(self, config: Any = None, *, name: str | None = None, device: str = ""):
+        super().__init__(config, name=name or NAME)
+        self.device = device or None
+        self.rd = dispatch.get_backend(self.device)
+
+    @classmethod
+    def from_args(cls, config: Any, args: str = "", *, name: str | None = None):
+        """``"rdgpu:DEVICE"``: ``args`` is the rdgpu backend name."""
+        return cls(config, name=name, device=args)
+
+    def __repr__(self) -> str:
+        return f"RdgpuBackend(name={self.name!r}, device={self.rd.name!r})"
+
+    @property
+    def info(self) -> dict[str, Any]:
+        out = super().info
+        out["device"] = self.rd.name
+        return out
+
+    @staticmethod
+    def _dtype(state: Any) -> np.dtype:
+        dtype = np.asarray(state.data).dtype
+        if dtype not in (np.float32, np.float64):
+            raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
+        return dtype
+
+    def make_pde_rhs(self, eq: Any, state: Any) -> Callable[[np.ndarray, float], np.ndarray]:
+        """``rhs(state_data, t)``: the PDE's rate, one fused pass on the rdgpu device, as a
+        host function (NumPy in, NumPy out: each call uploads the state and downloads the
+        rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
+        :func:`make_stepper` keep their fields on the device instead."""
+        check_overrides(eq, _classes(), hook=False)  # ScipySolver calls no post-step hook
+        tr = translate(eq, state)
+        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state))
+        x, out = rhs.empty(), rhs.empty()
+        several = isinstance(state, pde.FieldCollection)
+        field_shape = tr.grid.field_shape
+
+        def pde_rhs(state_data: np.ndarray, t: float = 0.0) -> np.ndarray:
+            rhs.upload(species_views(np.asarray(state_data), len(x), several), x)
+            rhs.rate(x, out, float(t))
+            rates = [d.numpy().reshape(field_shape) for d in out]
+            return np.stack(rates) if several else rates[0]
+
+        return pde_rhs
+
+    def make_stepper(self, solver: Any, state: Any) -> Callable[[Any, float, float], float]:
+        """The stepper py-pde's controller calls between tracker times, for any solver of
+        :data:`rdgpu.integrations.pypde.steppers.SUPPORTED`, on the device."""
+        name = type(solver).__name__
+        if name not in pypde_steppers.SUPPORTED:
+            raise _refuse(f"the solver {name} (supported: "
+                          f"{', '.join(pypde_steppers.SUPPORTED)}; ScipySolver runs through "
+                          "make_pde_rhs)")
+        check_solver(solver)
+        check_overrides(solver.pde, _classes(),
+                        hook=bool(getattr(solver, "_use_post_step_hook", True)))
+        dtype = self._dtype(state)
+        tr = translate(solver.pde, state)
+        fixed_euler = name == "EulerSolver" and not solver.adaptive
+        if fixed_euler and not tr.uses_time:
+            return self._model_stepper(solver, state, tr, dtype)
+        check_dt = float(solver.info["dt"]) if fixed_euler and self.check_stability else None
+        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt)
+        several = isinstance(state, pde.FieldCollection)
+        stepper = pypde_steppers.make_stepper(solver, rhs, several, tr.grid.field_shape)
+        self._describe(solver, tr)
+        return stepper
+
+    def _describe(self, solver: Any, tr: Translation) -> None:
+        solver.info["rdgpu"] = {"device": self.rd.name, "grid": repr(tr.grid),
+                                "equations": dict(tr.model.equations)}
+
+    def _model_stepper(self, solver: Any, state: Any, tr: Translation, dtype: np.dtype
+                       ) -> Callable[[Any, float, float], float]:
+        """Fixed-step Euler of an equation that does not read ``t``: rdgpu's own
+        forward-Euler stepper (temporal blocking where it pays; checks ``dt``).  (With
+        ``t`` it runs in :mod:`rdgpu.integrations.pypde.steppers`, at py-pde's times ``t_start +
+        i·dt``.)"""
+        dt = float(solver.info["dt"])
+        st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,
+                              check_stability=self.check_stability, method="euler")
+        field_shape = tr.grid.field_shape
+        several = isinstance(state, pde.FieldCollection)
+
+        def stepper(state: Any, t_start: float, t_end: float) -> float:
+            steps = max(1, round((t_end - t_start) / dt))
+            views = species_views(state.data, len(tr.species), several)
+            st.set_state(dict(zip(tr.species, views, strict=True)))
+            st.advance(steps)
+            out = st.get_state()
+            for s, target in zip(tr.species, views, strict=True):
+                target[...] = out[s].reshape(field_shape)
+            solver.info["steps"] += steps
+            return t_start + steps * dt
+
+        self._describe(solver, tr)
+        return stepper
+
+
+def _register() -> None:
+    if NAME not in backend_registry:
+        backend_registry.register_package(NAME, __name__, requires=["rdgpu"])
+    backend_registry.register_class(NAME, RdgpuBackend)
+
+
+_register()

@@ -1,0 +1,1 @@
+"""Files out and in: pictures, movies, meshes, NPZ data files (:mod:`rdgpu.io.output`)."""

@@ -1,0 +1,780 @@
+"""Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
+device (equations §2, §4, §6).
+
+One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
+Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest
+modes) is solved for the *increment* ``δ = out − u``:
+
+    S δ = g,    S = I − θ dt D M,    g = dt (D L u + s) = dt D M u + dt (s + D b),
+
+where ``L u = M u + b`` is the mesh's ``A⁻¹W`` (:attr:`rdgpu.domains.mesh.SurfaceMesh.laplacian`,
+``b = 0``) or the grid's 5-point operator (7-point on a 3-D grid) with its boundary
+conditions (``kernels/laplacian/reference.py::laplacian_matrix``; ``b`` carries the
+Dirichlet ghosts).
+This is the textbook system ``S out = u + (1 − θ) dt D L u + θ dt D b + dt s`` with ``u``
+and ``(1 − θ) dt D M u`` cancelled analytically: at ``dt D ≫ dx²`` those terms are
+``dt D/dx²`` times larger than ``out`` itself (Crank-Nicolson at ``dt = 1e6`` lost every
+digit to that cancellation), while ``g`` holds no ``u`` and ``δ`` is as large as ``u``.
+
+How it runs:
+
+* ``S`` and ``K = dt D M`` are assembled once on the host in float64 (SciPy) and uploaded
+  in the working dtype; ``g`` is one ``spmv`` with ``K`` plus one ``mesh_diffusion`` launch
+  (with an empty matrix: ``x + dt·source``) for the source; ``out = u + δ`` is one more;
+* the rows are coloured so that no two rows of a colour are coupled: red-black on a grid
+  (``(i + j) % 2``, ``(i + j + k) % 2`` in 3-D; where periodic odd sizes break the
+  two-colouring, a greedy colouring instead), :meth:`SurfaceMesh.colouring` (greedy) on a
+  mesh.  A sweep is one ``backend.csr_sor_colour`` launch per colour, so it equals the
+  sequential SOR sweep in colour order to round-off, on every backend;
+* **closed components** (a mesh, a periodic or Neumann grid: ``M 1 = 0``) make ``S``
+  nearly singular at large ``dt``: its constant vector has eigenvalue 1 against
+  ``1 + θ dt D λ`` for every other mode, and SOR removes a constant error only by a factor
+  ``1 − O(1/(θ dt D diag))`` per sweep.  But the solution's weighted mean is known exactly:
+  ``Σ w_i δ_i = dt Σ w_i s_i`` per connected component (``w`` the vertex areas, or 1 on a
+  grid, since ``Σ_i w_i M_ij = 0``).  Every convergence check downloads ``δ`` and adds the
+  constant that restores that mean (an exact coarse-grid correction on the constant
+  vector; the initial guess is that constant).  This conserves ``Σ w u`` to round-off and
+  leaves SOR the remaining spectrum, ``1 + θ dt D λ`` for ``λ >= λ₁`` (the smallest
+  non-zero eigenvalue of ``−M``);
+* ``ω`` (default) is Young's optimum ``2/(1 + sqrt(1 − ρ_J²))`` for the Jacobi radius
+  ``ρ_J = 1 − (1 + θ dt D λ₁)/(1 + θ dt D d)``, ``d`` the median ``|M_ii|`` (exact for
+  red-black on a uniform grid, a good estimate on a mesh); SOR then contracts by
+  ``ρ = ω − 1`` per sweep (Young's theory; ``ρ`` is also measured, below).  ``λ₁`` is
+  exact on a grid (sine series per axis), from a shift-invert Lanczos run (or a dense
+  solve) on a mesh of up to :data:`EIGSH_MAX_VERTICES` vertices, and above that estimated
+  as ``π²/diam²`` from the mesh's geodesic diameter (cached per mesh);
+* convergence: every check (every ``check_every`` sweeps at first, then spaced by the
+  predicted remaining sweeps, at most 16 apart) downloads the per-row ``|Δx|`` of the last
+  sweep, ``m = max|Δx|``.  The error estimate is the geometric tail ``E = m ρ/(1 − ρ)``
+  with ``ρ`` the larger of Young's rate and the contraction observed over the last
+  ``≈ 3/(1 − ρ)`` sweeps, never capped (a stalled solve has ``E = ∞``).  When
+  ``E <= tol/2`` the true residual ``r = g − S δ`` is computed on the device and checked
+  too: the error it implies, ``max|r| · min(k, 2/(1 + θ dt D λ₁))`` (``k = 1`` where ``S``
+  is an M-matrix, ``||S⁻¹||∞ <= 1``; the second factor is exact for the slowest mode, 2 a
+  safety factor for the ∞-norm), must be ``<= tol`` unless ``max|r|`` is at the round-off
+  level of its own evaluation, ``4 eps (||K||∞ max|u| + ||S||∞ max|δ|)``.  Only then is the
+  step converged: ``tol`` bounds the max error of ``out`` against the exact solution of the
+  same system (``spsolve``);
+* round-off floor: when the changes stop falling (no halving of ``m`` over the window) at
+  the dtype's round-off level, ``m <= 64 eps (max|δ| + max|u|)``, more sweeps cannot make
+  ``δ`` more accurate.  If the estimated error there, ``m ρ/(1 − ρ)`` with Young's ``ρ``, is
+  still above ``tol`` (e.g. float32 with a tolerance near ``eps``), the step keeps that
+  result and a ``RuntimeWarning`` names the floor reached; ``last_floor`` is set;
+* if ``max_sweeps`` ends the solve otherwise, :class:`rdgpu.core.errors.ConvergenceError` is
+  raised (``out`` is left untouched): an unconverged solve never returns a result.
+
+SOR converges for any ``0 < ω < 2``: ``S`` scaled by the vertex areas (``A − θ dt D W``)
+or the grid's ``I − θ dt D M`` is symmetric positive definite.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+import weakref
+from typing import Any
+
+import numpy as np
+
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.backends.registry import get_backend
+from rdgpu.core import validation as check
+from rdgpu.core.errors import ConvergenceError
+from rdgpu.domains.boundary import DIRICHLET, PERIODIC
+from rdgpu.domains.grid import Grid
+from rdgpu.families import load_module
+
+__all__ = ["ImplicitDiffusion", "operator_matrix", "smallest_eigenvalue"]
+
+_REALS = (np.dtype(np.float32), np.dtype(np.float64))
+
+#: meshes up to this many vertices get λ₁ from shift-invert Lanczos (a sparse LU: ~0.1 s at
+#: 10⁴ vertices, growing faster than linearly); larger ones from their geodesic diameter
+EIGSH_MAX_VERTICES = 20000
+#: at most this many sweeps between two convergence checks
+MAX_CHECK_GAP = 16
+#: the error estimate from the residual is max|r| times this over (1 + θ dt D λ₁)
+_GREEN = 2.0
+
+_MESH_SPECTRA: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _is_mesh(domain: Any) -> bool:
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+
+    return isinstance(domain, SurfaceMesh)
+
+
+def _is_surface(domain: Any) -> bool:
+    from rdgpu.domains.graph_surface import GraphSurface
+
+    return isinstance(domain, GraphSurface)
+
+
+def operator_matrix(domain: Any) -> tuple[Any, np.ndarray]:
+    """``(M, b)`` with ``L u = M u + b`` (float64) on ``domain``, acting on the flat field:
+    the mesh's ``A⁻¹W`` and ``b = 0``, a graph surface's 9-point ``Δ_Γ`` and ``b = 0``, or a
+    grid's 5-point (3-D: 7-point) matrix and Dirichlet vector."""
+    import scipy.sparse as sp
+
+    if _is_surface(domain):  # before Grid: a graph surface is a Grid subclass
+        return domain.laplacian, np.zeros(domain.n_points)
+    if isinstance(domain, Grid):
+        ref = load_module("laplacian", "reference.py")
+        dz = domain.dz if domain.ndim == 3 else None
+        M, b = ref.laplacian_matrix(domain.shape, domain.dx, domain.dy, domain.bcs, dz=dz)
+        M = sp.csr_matrix(M)
+        M.sum_duplicates()
+        M.sort_indices()
+        return M, np.asarray(b, dtype=np.float64)
+    if _is_mesh(domain):
+        return domain.laplacian, np.zeros(domain.n_vertices)
+    raise TypeError(
+        f"the domain must be an rdgpu.domains.Grid or an rdgpu.domains.mesh.SurfaceMesh, got "
+        f"{type(domain).__name__}"
+    )
+
+
+def _valid_colouring(M: Any, colour: np.ndarray) -> bool:
+    rows = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
+    off = rows != M.indices
+    return bool(np.all(colour[rows[off]] != colour[M.indices[off]]))
+
+
+def _colouring(domain: Any, M: Any) -> np.ndarray:
+    """Red-black on a grid (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``), four colours by
+    the parities of (row, column) on a graph surface (its 9-point graph), where that is a
+    valid colouring of ``M``; else greedy."""
+    from rdgpu.domains.mesh.surface_mesh import greedy_colouring
+
+    if _is_surface(domain):
+        i, j = np.indices(domain.shape)
+        colour = (2 * (i % 2) + j % 2).astype(np.int32).ravel()
+        if _valid_colouring(M, colour):
+            return colour
+        return greedy_colouring(M, symmetric=False)
+    if isinstance(domain, Grid):
+        colour = (np.indices(domain.shape).sum(axis=0) % 2).astype(np.int32).ravel()
+        if _valid_colouring(M, colour):
+            return colour
+        return greedy_colouring(M, symmetric=False)
+    colour = np.asarray(domain.colouring())
+    if not _valid_colouring(M, colour):  # pragma: no cover - the mesh colouring is proper
+        colour = greedy_colouring(M, symmetric=False)
+    return colour
+
+
+# ---------------------------------------------------------------------------- spectrum
+def _components(M: Any) -> tuple[np.ndarray, int, np.ndarray]:
+    """``(labels, count, closed)``: the connected components of ``M``'s graph and, per
+    component, whether ``M 1 = 0`` on it (no Dirichlet row: a constant null vector)."""
+    from scipy.sparse.csgraph import connected_components
+
+    n = M.shape[0]
+    if n == 0:
+        return np.zeros(0, np.int64), 0, np.zeros(0, bool)
+    count, labels = connected_components(M, directed=False)
+    scale = np.asarray(abs(M).sum(axis=1)).ravel()
+    rowsum = np.abs(np.asarray(M.sum(axis=1)).ravel())
+    open_rows = rowsum > 1e-12 * np.maximum(scale, np.finfo(float).tiny)
+    closed = np.bincount(labels, weights=open_rows, minlength=count) == 0
+    return labels.astype(np.int64), int(count), closed
+
+
+def _grid_eigenvalue(grid: Grid) -> float:
+    """The smallest eigenvalue of ``−M`` on a grid, leaving out the constant null vector
+    where no axis is Dirichlet (``inf`` if there is no other).  ``M`` is a Kronecker sum
+    of the axes' matrices (y and x; z, y and x in 3-D), whose eigenvalues are ``(4/h²)
+    sin²(·)``: periodic ``πk/n``, Neumann ``πk/(2n)`` (``k = 0..n−1``), Dirichlet
+    ``πk/(2(n + 1))`` (``k = 1..n``, the ghost holds ``g``)."""
+    axes = [(grid.shape[-2], grid.bcs.y, grid.dy), (grid.shape[-1], grid.bcs.x, grid.dx)]
+    if grid.ndim == 3:
+        axes.insert(0, (grid.shape[0], grid.bcs.z, grid.dz))
+    lows, nonzero = [], []
+    for n, axis, h in axes:
+        s = 4.0 / (h * h)
+        if axis.kind == DIRICHLET:
+            low = s * math.sin(math.pi / (2 * (n + 1))) ** 2
+            lows.append(low)
+            nonzero.append(low)
+        else:
+            arg = math.pi / n if axis.kind == PERIODIC else math.pi / (2 * n)
+            lows.append(0.0)
+            nonzero.append(s * math.sin(arg) ** 2 if n > 1 else math.inf)
+    if all(low == 0.0 for low in lows):
+        return min(nonzero)
+    return sum(lows)
+
+
+def _mesh_eigenvalue(mesh: Any, labels: np.ndarray, count: int) -> tuple[float, bool]:
+    """``(λ₁, computed)``: the smallest non-zero eigenvalue of the pencil ``(−W, A)``
+    (``computed``), or above :data:`EIGSH_MAX_VERTICES` vertices (or when Lanczos fails)
+    the estimate ``π²/diam²`` from the largest component's geodesic diameter (exact order
+    for convex shapes, not a bound).  Cached per mesh."""
+    cached = _MESH_SPECTRA.get(mesh)
+    if cached is not None:
+        return cached
+    found = _pencil_eigenvalue(mesh.weights, mesh.areas, count)
+    result = (found, True) if found is not None else (_geodesic_estimate(mesh, labels), False)
+    _MESH_SPECTRA[mesh] = result
+    return result
+
+
+def _pencil_eigenvalue(W: Any, A: np.ndarray, count: int) -> float | None:
+    """The smallest eigenvalue of the pencil ``(−W, diag(A))`` after the ``count``
+    zeros (``W`` symmetric with zero row sums, ``A > 0``): dense up to 600 unknowns,
+    shift-invert Lanczos up to :data:`EIGSH_MAX_VERTICES`; None above that or on failure."""
+    import scipy.sparse as sp
+
+    n = len(A)
+    result = None
+    if n <= count:
+        result = math.inf
+    elif n <= 600:
+        from scipy.linalg import eigh
+
+        vals = eigh(-W.toarray(), np.diag(A), eigvals_only=True)
+        result = float(vals[count])
+    elif n <= EIGSH_MAX_VERTICES and count <= 8:
+        from scipy.sparse.linalg import (
+            ArpackError,
+            ArpackNoConvergence,
+            LinearOperator,
+            eigsh,
+            splu,
+        )
+
+        # shift-invert on the symmetric C = A^-1/2 (−W) A^-1/2: (C + σ)^-1 = A^½ (−W + σA)^-1 A^½
+        sigma = 1e-6 * float(np.median(-W.diagonal() / A))
+        lu = splu(sp.csc_matrix(-W + sigma * sp.diags(A)), permc_spec="COLAMD")
+        root = np.sqrt(A)
+        op = LinearOperator((n, n), matvec=lambda v: root * lu.solve(root * np.ravel(v)),
+                            dtype=np.float64)
+        v0 = 1.0 + np.random.default_rng(0).random(n)
+        try:
+            nu = eigsh(op, k=count + 1, which="LM", tol=1e-8, v0=v0,
+                       return_eigenvectors=False)
+            lam = np.sort(1.0 / nu - sigma)
+            result = float(lam[count])
+        except (ArpackError, ArpackNoConvergence):
+            result = None
+    return result
+
+
+def _surface_eigenvalue(surface: Any) -> tuple[float, bool]:
+    """``(λ₁, exact)`` of ``−Δ_Γ`` on a graph surface: the pencil ``(−√g Δ_Γ, √g)``
+    (:func:`_pencil_eigenvalue`; one closed component), or above its size limit the flat
+    grid's ``λ₁`` scaled by the flat over the surface area (an estimate).  Cached."""
+    cached = _MESH_SPECTRA.get(surface)
+    if cached is not None:
+        return cached
+    import scipy.sparse as sp
+
+    area = surface.area_weights.ravel() / (surface.dx * surface.dy)  # √g
+    W = sp.diags(area) @ surface.laplacian
+    found = _pencil_eigenvalue(sp.csr_matrix(0.5 * (W + W.T)), area, 1)
+    if found is None:
+        flat = Grid(surface.shape, dx=surface.dx, dy=surface.dy)
+        result = (_grid_eigenvalue(flat) / float(area.mean()), False)
+    else:
+        result = (found, True)
+    _MESH_SPECTRA[surface] = result
+    return result
+
+
+def _geodesic_estimate(mesh: Any, labels: np.ndarray) -> float:
+    """``π²/d²`` with ``d`` the largest component's edge-path diameter (double sweep)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import dijkstra
+
+    n = mesh.n_vertices
+    e = np.asarray(mesh.edges)
+    V = np.asarray(mesh.vertices, dtype=np.float64)
+    length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
+    G = sp.csr_matrix((length, (e[:, 0], e[:, 1])), shape=(n, n))
+    _, first = np.unique(labels, return_index=True)
+    d0 = dijkstra(G, directed=False, indices=first, min_only=True)
+    order = np.lexsort((d0, labels))
+    last = np.r_[np.flatnonzero(np.diff(labels[order])), order.size - 1]
+    d1 = dijkstra(G, directed=False, indices=order[last], min_only=True)
+    diameter = float(np.max(d1[np.isfinite(d1)], initial=0.0))
+    return math.pi**2 / diameter**2 if diameter > 0 else math.inf
+
+
+def smallest_eigenvalue(domain: Any) -> tuple[float, bool]:
+    """``(λ₁, exact)``: the smallest eigenvalue of ``−L`` on ``domain`` that is not the
+    constant null vector of a closed component (``inf`` if there is none), and whether it
+    is exact (grid: analytic; mesh, graph surface: Lanczos) rather than an estimate."""
+    if _is_surface(domain):
+        return _surface_eigenvalue(domain)
+    if isinstance(domain, Grid):
+        return _grid_eigenvalue(domain), True
+    M, _ = operator_matrix(domain)
+    labels, count, _ = _components(M)
+    return _mesh_eigenvalue(domain, labels, count)
+
+
+def _sor_rate(omega: float, rho_j: float) -> float:
+    """Young's asymptotic SOR contraction for a consistently ordered matrix with Jacobi
+    radius ``rho_j``."""
+    opt = 2.0 / (1.0 + math.sqrt(max(0.0, 1.0 - rho_j * rho_j)))
+    if omega >= opt:
+        return omega - 1.0
+    disc = max(0.0, (omega * rho_j) ** 2 - 4.0 * (omega - 1.0))
+    return ((omega * rho_j + math.sqrt(disc)) / 2.0) ** 2
+
+
+class ImplicitDiffusion:
+    """Backward-Euler (``theta=1``) or Crank-Nicolson (``theta=0.5``) steps of
+    ``u_t = D Δu + source`` on a :class:`~rdgpu.domains.mesh.SurfaceMesh` or a
+    :class:`~rdgpu.domains.Grid`, solved on the device by multicolour SOR (module doc).
+
+    ``tol``: the accuracy of a step, the max error of ``out`` against the exact solution
+    of the θ-system (default 1e-8 in float64, 1e-5 in float32; see the module doc for how
+    it is estimated and for the round-off floor); ``omega``: the relaxation factor
+    (default: Young's optimum, see the module doc); ``max_sweeps``: cap per step (default
+    ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past which a step raises
+    :class:`~rdgpu.core.errors.ConvergenceError`; ``check_every``: sweeps between the first
+    convergence checks (default 1; later checks are spaced by the predicted remaining
+    sweeps, at most 16 apart).
+
+    After each :meth:`step`: ``last_sweeps`` (sweeps used), ``last_change`` (max ``|Δx|``
+    of the last checked sweep), ``last_error`` (the error estimate it stopped at),
+    ``last_residual`` (max of the true residual ``|g − S δ|`` where checked, else nan),
+    ``last_floor`` (stopped at the round-off floor above ``tol``, with a warning),
+    ``last_converged`` (True: a step that does not converge raises); ``total_sweeps``
+    over all steps.
+    """
+
+    def __init__(
+        self,
+        domain: Any,
+        *,
+        D: float,
+        dt: float,
+        theta: float = 1.0,
+        backend: str | Backend | None = None,
+        dtype: Any = np.float64,
+        tol: float | None = None,
+        omega: float | None = None,
+        max_sweeps: int | None = None,
+        check_every: int | None = None,
+    ):
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in _REALS:
+            raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
+        # every number through the shared checks: a bool, text or a complex value is a
+        # TypeError naming the argument, never cast by float()
+        self.D, self.dt, self.theta = (check.real_number(x, name) for x, name in
+                                       ((D, "D"), (dt, "dt"), (theta, "theta")))
+        if not (math.isfinite(self.D) and self.D >= 0):
+            raise ValueError(f"D must be a finite number >= 0, got {D}")
+        if not (math.isfinite(self.dt) and self.dt > 0):
+            raise ValueError(f"dt must be a positive number, got {dt}")
+        if not 0.0 <= self.theta <= 1.0:
+            raise ValueError(f"theta must lie in [0, 1] (1 backward Euler, 0.5 Crank-Nicolson), "
+                             f"got {theta}")
+        if tol is None:
+            tol = 1e-8 if self.dtype == np.float64 else 1e-5
+        self.tol = check.real_number(tol, "tol")
+        if not (math.isfinite(self.tol) and self.tol > 0):
+            raise ValueError(f"tol must be a positive number, got {tol}")
+        self.domain = domain
+        self.backend = get_backend(backend)
+        M, b = operator_matrix(domain)
+        self.shape = domain.shape if isinstance(domain, Grid) else (domain.n_vertices,)
+        n = M.shape[0]
+        self.n = n
+        self.check_every = 1 if check_every is None else check.whole(check_every,
+                                                                     "check_every", minimum=1)
+
+        import scipy.sparse as sp
+
+        c = self.theta * self.dt * self.D
+        #: ``K = dt D M``: ``g = K u + dt (s + D b)``
+        K = sp.csr_matrix((self.dt * self.D) * M)
+        #: the system matrix ``I − θ dt D M`` (float64, CSR, sorted, explicit diagonal)
+        S = sp.csr_matrix(sp.identity(n, format="csr") - c * M)
+        S.sum_duplicates()
+        S.sort_indices()
+        self.matrix = S
+        self.operator = M
+        self.dirichlet = b
+        diag = S.diagonal()
+        if not np.all(diag > 0):
+            raise ValueError("the implicit system has a non-positive diagonal entry; SOR "
+                             "cannot run on it")
+
+        # closed components, their weights, the spectrum SOR sees after the projection
+        self._labels, self._count, self._closed = _components(M)
+        # Σ_i w_i M_ij = 0: the vertex areas, a graph surface's √g dx dy, else 1
+        if _is_mesh(domain):
+            self.weights = np.asarray(domain.areas, dtype=np.float64)
+        elif _is_surface(domain):
+            self.weights = np.asarray(domain.area_weights, dtype=np.float64).ravel()
+        else:
+            self.weights = np.ones(n)
+        self._wsum = np.bincount(self._labels, weights=self.weights, minlength=self._count)
+        if _is_mesh(domain):
+            lam, exact = _mesh_eigenvalue(domain, self._labels, self._count)
+        else:
+            lam, exact = smallest_eigenvalue(domain)
+        #: smallest eigenvalue of −M that SOR has to resolve (constant null vectors of closed
+        #: components excluded: the projection handles them exactly)
+        self.lambda1 = lam
+        self.lambda1_exact = exact
+        d = float(np.median(np.abs(M.diagonal()))) if n else 0.0
+        if c == 0.0 or n == 0:
+            mu = 1.0
+        elif math.isinf(lam):
+            mu = 1.0  # nothing but constants: one sweep and the projection are exact
+        else:
+            mu = min(1.0, (1.0 + c * lam) / (1.0 + c * d)) if d > 0 else 1.0
+        rho_j = 1.0 - mu
+        if omega is None:
+            omega = 2.0 / (1.0 + math.sqrt(max(0.0, 1.0 - rho_j * rho_j)))
+        self.omega = check.real_number(omega, "omega")
+        if not 0.0 < self.omega < 2.0:
+            raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
+        #: Young's asymptotic contraction of the error per sweep
+        self.rate = min(_sor_rate(self.omega, rho_j), 1.0 - 1e-15)
+        self._window = int(min(100_000, max(8, math.ceil(3.0 / (1.0 - self.rate)))))
+        if max_sweeps is None:
+            max_sweeps = max(5000, math.ceil(50.0 / (1.0 - self.rate)))
+        self.max_sweeps = check.whole(max_sweeps, "max_sweeps", minimum=1)
+        # the error a residual implies: ||S⁻¹||∞ <= 1 for an M-matrix (off-diagonals of
+        # M >= 0); (1 + c λ₁)⁻¹ for the slowest mode (λ₁ quartered where it is estimated)
+        off = M.copy()
+        off.setdiag(0.0)
+        k_inf = 1.0 if (off.data >= 0).all() else math.inf
+        lam_g = lam if exact else 0.25 * lam
+        self._green = min(k_inf, _GREEN / (1.0 + c * lam_g) if c > 0 else _GREEN)
+        self._K_inf = float(abs(K).sum(axis=1).max()) if n else 0.0
+        self._S_inf = float(abs(S).sum(axis=1).max()) if n else 0.0
+
+        be = self.backend
+        self._S = be.upload_csr(S, self.dtype)
+        self._K = be.upload_csr(K, self.dtype) if K.nnz and self.dt * self.D != 0 else None
+        self._zero = be.upload_csr(sp.csr_matrix((n, n)), self.dtype)  # x + dt·source alone
+        self._Db = None
+        if np.any(b != 0.0) and self.D != 0.0:
+            self._Db = be.upload(np.ascontiguousarray((self.D * b).reshape(self.shape),
+                                                      dtype=self.dtype))
+        self.colouring = _colouring(domain, M)
+        ref = load_module("mesh", "reference.py")
+        self._rows = [be.upload(r) for r in ref.colour_rows(self.colouring) if r.size]
+        self._zeros = be.upload(np.zeros(self.shape, dtype=self.dtype))
+        self._g = be.empty(self.shape, self.dtype)
+        self._x = be.empty(self.shape, self.dtype)
+        self._tmp = be.empty(self.shape, self.dtype)
+        self._change = be.empty((n,), self.dtype)
+        self._source_cache: dict[float, DeviceArray] = {}
+        self.last_sweeps = 0
+        self.last_change = math.nan
+        self.last_error = math.nan
+        self.last_residual = math.nan
+        self.last_floor = False
+        self.last_converged = True
+        self.last_nonfinite = False
+        self.total_sweeps = 0
+
+    def __repr__(self) -> str:
+        kind = ("graph surface" if _is_surface(self.domain) else
+                "grid" if isinstance(self.domain, Grid) else "mesh")
+        return (f"ImplicitDiffusion({kind} of {self.n}, D={self.D}, dt={self.dt}, "
+                f"theta={self.theta}, colours={len(self._rows)}, omega={self.omega:.4f}, "
+                f"backend={self.backend.name})")
+
+    # ------------------------------------------------------------------ pieces
+    def _check(self, d: DeviceArray, what: str) -> None:
+        if not isinstance(d, DeviceArray):
+            raise TypeError(f"{what} must be a DeviceArray of the {self.backend.name} backend "
+                            f"(upload it with backend.upload), got {type(d).__name__}")
+        if d.backend is not self.backend:
+            raise ValueError(f"{what} is on the {d.backend.name} backend, the solver on "
+                             f"{self.backend.name}")
+        if d.size != self.n or d.dtype != self.dtype:
+            raise ValueError(f"{what} must have {self.n} elements of {self.dtype} (shape "
+                             f"{self.shape}), got {d.shape} {d.dtype}")
+
+    def _source(self, source: Any) -> tuple[Any, DeviceArray | None]:
+        """``(source for the kernel, extra field to add)``: folds ``D b`` (Dirichlet)
+        into a scalar source once per value; a field source gets ``D b`` in a second pass."""
+        if isinstance(source, DeviceArray):
+            self._check(source, "source")
+            return source, self._Db
+        s = check.real_number(source, "source")
+        if self._Db is None:
+            return s, None
+        dev = self._source_cache.get(s)
+        if dev is None:
+            if len(self._source_cache) > 8:
+                self._source_cache.clear()
+            b = (self.D * self.dirichlet + s).reshape(self.shape)
+            dev = self.backend.upload(np.ascontiguousarray(b, dtype=self.dtype))
+            self._source_cache[s] = dev
+        return dev, None
+
+    def increment_rhs(self, u: DeviceArray, out: DeviceArray, source: Any = 0.0) -> None:
+        """``out = g = dt (D L u + source) = K u + dt (source + D b)`` on the device."""
+        self._check(u, "u")
+        self._check(out, "g")
+        be = self.backend
+        s, extra = self._source(source)
+        if self._K is not None:
+            be.spmv(self._K, u, self._tmp)
+        else:
+            be.copy(self._zeros, self._tmp)
+        if extra is None:
+            be.mesh_diffusion(self._zero, self._tmp, out, D=0.0, dt=self.dt, source=s)
+            return
+        be.mesh_diffusion(self._zero, self._tmp, out, D=0.0, dt=self.dt, source=s)
+        be.mesh_diffusion(self._zero, out, self._tmp, D=0.0, dt=self.dt, source=extra)
+        be.copy(self._tmp, _reshaped(out, self.shape))
+
+    def means(self, source: Any = 0.0) -> np.ndarray:
+        """Per component, the weighted mean ``Σ w δ / Σ w`` that the increment has
+        (``dt`` times the source's; used on closed components only)."""
+        if isinstance(source, DeviceArray):
+            s = source.numpy().reshape(-1).astype(np.float64)
+            return self.dt * np.bincount(self._labels, weights=self.weights * s,
+                                         minlength=self._count) / self._wsum
+        return np.full(self._count, self.dt * check.real_number(source, "source"))
+
+    def _add(self, x: DeviceArray, alpha: np.ndarray) -> None:
+        """``x += alpha`` per component."""
+        if self._count == 1:
+            a: Any = float(alpha[0])
+        else:
+            a = self.backend.upload(np.ascontiguousarray(alpha[self._labels].reshape(
+                self.shape), dtype=self.dtype))
+        self.backend.mesh_diffusion(self._zero, x, self._tmp, D=0.0, dt=1.0, source=a)
+        self.backend.copy(self._tmp, x)
+
+    def _project(self, x: DeviceArray, target: np.ndarray) -> float:
+        """Give ``x`` the weighted mean ``target`` on every closed component (the exact
+        coarse-grid correction on the constant vectors); returns ``max|x|``."""
+        xh = x.numpy().reshape(-1).astype(np.float64)
+        means = np.bincount(self._labels, weights=self.weights * xh,
+                            minlength=self._count) / self._wsum
+        alpha = np.where(self._closed, target - means, 0.0)
+        if np.any(alpha != 0.0):
+            self._add(x, alpha)
+            xh = xh + alpha[self._labels]
+        return float(np.max(np.abs(xh))) if xh.size else 0.0
+
+    def sweep(self, x: DeviceArray, rhs: DeviceArray) -> None:
+        """One multicolour SOR sweep for ``S x = rhs`` in place (colours in order)."""
+        for rows in self._rows:
+            self.backend.csr_sor_colour(self._S, x, rhs, rows, self._change, omega=self.omega)
+
+    def residual(self, rhs: DeviceArray, x: DeviceArray) -> np.ndarray:
+        """``rhs − S x`` (flat, float64 copy of the dtype's result), computed on the device."""
+        be = self.backend
+        be.spmv(self._S, x, self._tmp)
+        r = be.empty(self.shape, self.dtype)
+        be.mesh_diffusion(self._zero, rhs, r, D=0.0, dt=-1.0, source=self._tmp)
+        return r.numpy().reshape(-1).astype(np.float64)
+
+    def _residual_ok(self, rhs: DeviceArray, x: DeviceArray, xmax: float, umax: float,
+                     allow: float) -> bool:
+        """The true residual agrees with an error <= ``allow``, or is at the round-off
+        level of its own evaluation (where it cannot tell)."""
+        r = self.residual(rhs, x)
+        if np.any(self._closed):
+            means = np.bincount(self._labels, weights=self.weights * r,
+                                minlength=self._count) / self._wsum
+            r = r - np.where(self._closed, means, 0.0)[self._labels]
+        big = float(np.max(np.abs(r))) if r.size else 0.0
+        self.last_residual = big
+        eps = float(np.finfo(self.dtype).eps)
+        noise = 4.0 * eps * (self._K_inf * umax + self._S_inf * xmax)
+        return big * self._green <= allow or big <= noise
+
+    def _observed_rate(self, history: list[tuple[int, float]]) -> float | None:
+        """The contraction per sweep of the changes over about the last window."""
+        if len(history) < 2:
+            return None
+        k, m = history[-1]
+        j = len(history) - 2
+        while j > 0 and history[j][0] > k - self._window:
+            j -= 1
+        k0, m0 = history[j]
+        if m == 0.0:
+            return 0.0
+        if m0 <= 0.0:
+            return 1.0
+        return (m / m0) ** (1.0 / (k - k0))
+
+    def solve(self, rhs: DeviceArray, x: DeviceArray, *, target: np.ndarray | None = None,
+              umax: float | None = None) -> int:
+        """Solve ``S x = rhs`` by SOR from the initial guess in ``x`` (module doc);
+        ``target``: the weighted mean of ``x`` per component (see :meth:`means`; default
+        from ``rhs``), ``umax``: ``max|u|`` for the round-off estimates (default from
+        ``rhs``).  Returns the sweeps; raises :class:`ConvergenceError` if ``max_sweeps``
+        ends it unconverged."""
+        self._check(rhs, "rhs")
+        self._check(x, "x")
+        closed = bool(np.any(self._closed))
+        if closed and target is None:
+            rh = rhs.numpy().reshape(-1).astype(np.float64)
+            target = np.bincount(self._labels, weights=self.weights * rh,
+                                 minlength=self._count) / self._wsum
+        eps = float(np.finfo(self.dtype).eps)
+        tol = self.tol
+        rate = self.rate
+        history: list[tuple[int, float]] = []
+        anchor_m, anchor_at, low = math.inf, 0, math.inf
+        sweeps, next_check, guard_from = 0, min(self.check_every, self.max_sweeps), 0
+        m = estimate = math.nan
+        self.last_residual = math.nan
+        floor = False
+        while True:
+            self.sweep(x, rhs)
+            sweeps += 1
+            if sweeps < next_check:
+                continue
+            m = float(np.max(self._change.numpy())) if self.n else 0.0
+            if not math.isfinite(m):
+                raise FloatingPointError(
+                    f"implicit diffusion: SOR produced {m} after {sweeps} sweeps (non-finite "
+                    "input or overflow)"
+                )
+            xmax = self._project(x, target) if closed else math.nan
+            history.append((sweeps, m))
+            low = min(low, m)
+            if m <= 0.5 * anchor_m:
+                anchor_m, anchor_at = m, sweeps
+            observed = self._observed_rate(history)
+            rho = rate if observed is None else max(rate, observed)
+            estimate = m * rho / (1.0 - rho) if rho < 1.0 else math.inf
+            if m == 0.0:
+                estimate = 0.0
+                break
+            if observed is not None and sweeps >= guard_from:
+                if math.isnan(xmax):
+                    xmax = float(np.max(np.abs(x.numpy())))
+                if umax is None:
+                    umax = float(np.max(np.abs(rhs.numpy()))) / max(self._K_inf, 1.0)
+                if estimate <= 0.5 * tol:
+                    if self._residual_ok(rhs, x, xmax, umax, tol):
+                        break
+                    guard_from = sweeps + self._window  # the estimate was fooled: go on
+                elif (sweeps - anchor_at >= self._window
+                      and low <= 64.0 * eps * (xmax + umax)):
+                    # the changes stopped falling at round-off level: the floor
+                    at_floor = low * rate / (1.0 - rate)
+                    if self._residual_ok(rhs, x, xmax, umax, max(tol, at_floor)):
+                        estimate = at_floor
+                        floor = at_floor > tol
+                        break
+                    guard_from = sweeps + self._window
+            if sweeps >= self.max_sweeps:
+                self._finish(sweeps, m, estimate, False)
+                more = (math.log(0.5 * tol / estimate) / math.log(rho)
+                        if 0.0 < rho < 1.0 and math.isfinite(estimate) else math.inf)
+                raise ConvergenceError(
+                    f"implicit diffusion ({self._describe()}): SOR did not reach tol="
+                    f"{tol:.3g} within max_sweeps={self.max_sweeps}: error estimate "
+                    f"{estimate:.3g} after {sweeps} sweeps (last max change {m:.3g}, "
+                    f"contraction {rho:.6f} per sweep, about {more:.0f} more sweeps needed, "
+                    f"omega={self.omega:.4f}); raise max_sweeps, raise tol, or reduce dt",
+                    sweeps=sweeps, reached=estimate, tol=tol,
+                )
+            gap = self.check_every
+            if observed is not None and math.isfinite(estimate) and 0.0 < rho < 1.0:
+                need = math.log(0.5 * tol / estimate) / math.log(rho)
+                gap = int(min(max(need / 2.0, self.check_every),
+                              max(MAX_CHECK_GAP, self.check_every)))
+            next_check = min(sweeps + gap, self.max_sweeps)
+        self._finish(sweeps, m, estimate, True)
+        self.last_floor = floor
+        if floor:
+            wider = ", or float64" if self.dtype == np.float32 else ""
+            warnings.warn(
+                f"implicit diffusion ({self._describe()}): tol={tol:.3g} is below the "
+                f"{self.dtype} round-off floor of this system at max|u| = {umax:.3g}: "
+                f"SOR's changes stalled at {low:.3g} after {sweeps} sweeps, an error of "
+                f"about {estimate:.3g}; the step is as accurate as {self.dtype} allows "
+                f"(use tol >= {2 * estimate:.2g}{wider}; where max|u| is far above the "
+                "field's scale, the run is diverging: reduce dt)",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        return sweeps
+
+    @staticmethod
+    def _finite(d: DeviceArray) -> bool:
+        with np.errstate(invalid="ignore"):
+            return bool(np.isfinite(d.numpy()).all())
+
+    def _finish(self, sweeps: int, m: float, estimate: float, converged: bool) -> None:
+        self.last_sweeps = sweeps
+        self.last_change = m
+        self.last_error = estimate
+        self.last_converged = converged
+        self.last_floor = False
+        self.total_sweeps += sweeps
+
+    def _describe(self) -> str:
+        method = {1.0: "backward Euler", 0.5: "Crank-Nicolson"}.get(self.theta,
+                                                                    f"theta={self.theta}")
+        grid = "graph surface" if _is_surface(self.domain) else "grid"
+        where = ("x".join(map(str, self.shape)) + f" {grid}" if isinstance(self.domain, Grid)
+                 else f"mesh of {self.n} vertices")
+        return f"{method}, dt={self.dt:.3g}, D={self.D:.3g}, {where}, {self.dtype}"
+
+    # ------------------------------------------------------------------ the step
+    def step(self, u: DeviceArray, out: DeviceArray, source: Any = 0.0) -> int:
+        """``out`` = one θ-step of ``u_t = D Δu + source`` from ``u`` (``source`` a number
+        or a DeviceArray of the field's shape; ``out`` may be ``u``).  Returns the sweeps;
+        raises :class:`~rdgpu.core.errors.ConvergenceError` (``out`` untouched) if the solve
+        does not converge.  A non-finite ``u`` or source (a diverging run) gives a
+        non-finite ``out`` without solving (0 sweeps, ``last_nonfinite`` True), as an
+        explicit step would: the run's divergence check reports it."""
+        self._check(u, "u")
+        self._check(out, "out")
+        be = self.backend
+        self.increment_rhs(u, self._g, source)
+        target = self.means(source)
+        be.copy(self._zeros, self._x)
+        if np.any(self._closed):
+            self._add(self._x, np.where(self._closed, target, 0.0))
+        umax = float(np.max(np.abs(u.numpy()))) if self.n else 0.0
+        self.last_nonfinite = False
+        try:
+            sweeps = self.solve(self._g, self._x, target=target, umax=umax)
+        except FloatingPointError:
+            if math.isfinite(umax) and self._finite(self._g):
+                raise  # finite input that overflowed the solve
+            # a non-finite state or source (a diverging explicit part): the step's result is
+            # non-finite, as an explicit step's is, for the caller's divergence check to
+            # report (Simulation: the step, the field, the cause, the last good state)
+            be.copy(self._g, self._x)
+            self._finish(0, math.nan, math.nan, False)
+            self.last_nonfinite = True
+            sweeps = 0
+        be.mesh_diffusion(self._zero, u, self._tmp, D=0.0, dt=1.0, source=self._x)
+        be.copy(self._tmp, _reshaped(out, self.shape))
+        return sweeps
+
+    # ------------------------------------------------------------------ host reference
+    def reference(self, u: np.ndarray, source: Any = 0.0) -> np.ndarray:
+        """The same step solved on the host in float64 by ``scipy.sparse.linalg.spsolve``
+        (for tests and checks)."""
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import spsolve
+
+        u = np.asarray(u, dtype=np.float64).ravel()
+        s = np.asarray(source, dtype=np.float64).ravel() if np.ndim(source) else float(source)
+        rhs = (u + (1.0 - self.theta) * self.D * self.dt * (self.operator @ u)
+               + self.dt * (s + self.D * self.dirichlet))
+        return np.asarray(spsolve(sp.csc_matrix(self.matrix), rhs)).reshape(self.shape)
+
+
+def _reshaped(d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
+    """The same buffer seen with another shape of the same size."""
+    if tuple(d.shape) == tuple(shape):
+        return d
+    return DeviceArray(d.backend, d.handle.reshape(shape) if d.backend.name != "opencl"
+                       else d.handle, tuple(shape), d.dtype)

@@ -1,0 +1,1 @@
+"""Many runs: parameter sweeps as Dask tasks, and their store."""

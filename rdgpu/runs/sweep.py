@@ -1,0 +1,686 @@
+"""Parameter sweeps: a model run over the Cartesian product of parameter values, as
+ensembles, in batches that are Dask tasks.
+
+    import rdgpu
+    ds = rdgpu.sweep("gray-scott", {"F": "0.01:0.08:64", "k": "0.03:0.07:64"},
+                     size=128, steps=10_000, store="map.zarr")
+    rdgpu.sweep_map(ds, "map.png")
+
+The product of the swept axes (in the order given: the first varies slowest) is cut into
+batches of members; each batch is one ensemble run (``Simulation(..., members=B)``) and
+one Dask task.  With a ``.zarr`` store the results stream into it as batches finish, and a
+sweep run again with the same settings skips the batches already there.
+
+Needs the ``dask`` extra: ``pip install "rdgpu[dask]"`` (dask[distributed], xarray, zarr;
+matplotlib for the map).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import numbers
+import os
+import sys
+import types
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rdgpu.core.optional import require
+from rdgpu.core.resources import check_memory
+from rdgpu.runs.store import SETTINGS_ATTR, open_store, stored_batch
+from rdgpu.simulation.checks import whole
+
+__all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
+
+#: the values of ``pattern`` (stored in a zarr/netCDF file as their index; -1: not run)
+PATTERN_CLASSES = ("uniform", "spots", "inverted-spots", "stripes", "mixed", "diverged")
+#: fraction for :func:`rdgpu.analysis.classify_pattern`'s ``mixed`` class in a sweep
+MIXED_SHARE = 0.25
+#: memory (bytes) that one batch's fields may take, for the default batch size
+BATCH_MEMORY = 256 * 2**20
+_AXIS_FORMS = ("NAME=START:STOP:N (N values from START to STOP, inclusive), "
+               "NAME=A,B,C (a list) or NAME=VALUE (fixed)")
+_SPACE_DIMS = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
+
+
+# ------------------------------------------------------------------------ optional extra
+def _need(*modules: str) -> list[Any]:
+    """Import the optional modules of the ``dask`` extra, or say how to get them."""
+    return [require(name, "rdgpu.sweep") for name in modules]
+
+
+# ------------------------------------------------------------------------ axes
+def _number(text: str, what: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise ValueError(f"{what}: {text!r} is not a number; use {_AXIS_FORMS}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{what}: values must be finite, got {text!r}")
+    return x
+
+
+def axis_values(name: str, value: Any) -> np.ndarray | float:
+    """The values of parameter ``name`` in a sweep: a float (fixed) or a 1-D float64 array
+    (swept).  ``value``: a number, a sequence/array of numbers, or text ``"START:STOP:N"``
+    (``np.linspace(START, STOP, N)``), ``"A,B,C"`` or ``"VALUE"``."""
+    what = f"parameter {name}"
+    if isinstance(value, str):
+        text = value.strip()
+        if ":" in text:
+            parts = text.split(":")
+            if len(parts) != 3:
+                raise ValueError(f"{what}: {text!r} must be START:STOP:N; use {_AXIS_FORMS}")
+            start, stop = (_number(p, what) for p in parts[:2])
+            try:
+                n = int(parts[2])
+            except ValueError:
+                raise ValueError(f"{what}: N in {text!r} must be a whole number") from None
+            if n < 1:
+                raise ValueError(f"{what}: N in {text!r} must be at least 1")
+            check_memory(f"parameter {name}: {n:,} values", 64 * n,
+                         "the values, and the sweep's settings that list them")
+            return np.linspace(start, stop, n) if n > 1 else start
+        if "," in text:
+            return axis_values(name, [_number(p, what) for p in text.split(",")])
+        return _number(text, what)
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
+    if np.ndim(value) == 0:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+            raise TypeError(f"{what}: expected a number, a list of numbers or text "
+                            f"({_AXIS_FORMS}), got {type(value).__name__} {value!r}")
+        return _number(str(float(value)), what)
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":  # text, bools, complex, mixed: never read as numbers
+        raise TypeError(f"{what}: a swept parameter's values must be real numbers, got "
+                        f"{value!r}")
+    arr = arr.astype(np.float64)
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{what}: a swept parameter is a 1-D list of values, got shape "
+                         f"{arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{what}: values must be finite")
+    if np.unique(arr).size != arr.size:
+        raise ValueError(f"{what}: the values repeat; give each value once")
+    return arr
+
+
+def parse_axis(text: str) -> tuple[str, np.ndarray | float]:
+    """``"NAME=START:STOP:N"``, ``"NAME=A,B,C"`` or ``"NAME=VALUE"`` → ``(name, values)``
+    (see :func:`axis_values`)."""
+    name, sep, value = text.partition("=")
+    name, value = name.strip(), value.strip()
+    if not sep or not name or not value:
+        raise ValueError(f"a sweep parameter looks like {_AXIS_FORMS}; got {text!r}")
+    return name, axis_values(name, value)
+
+
+# ------------------------------------------------------------------------ the job
+def _default_domain(model: Any, size: Any) -> dict:
+    """A grid of ``size`` (``N``, ``(ny, nx)``, ...) with the model's spacing and boundary
+    conditions (periodic unless its default domain says otherwise)."""
+    base = dict(getattr(model, "default_domain", None) or {})
+    spec = {k: base[k] for k in ("dx", "dy", "dz", "bc") if "grid" in base and k in base}
+    spec.setdefault("dx", float(getattr(model, "spacing", 1.0)))
+    spec.setdefault("bc", "periodic")
+    shape = ((whole(size, "size", 1),) * 2 if isinstance(size, (str, bytes)) or
+             np.ndim(size) == 0 else tuple(whole(n, "size", 1) for n in size))
+    if not 1 <= len(shape) <= 3:
+        raise ValueError(f"size must be N or 1 to 3 whole numbers, got {size!r}")
+    if len(shape) != 3:
+        spec.pop("dz", None)
+    if len(shape) == 1:
+        spec.pop("dy", None)
+    return {"grid": shape, **spec}
+
+
+def pattern_species(model: Any) -> str:
+    """The species whose pattern a sweep classifies and pictures by default: the one the
+    model's presets classify (Gray-Scott ``v``, Brusselator ``u``, ...), else the first."""
+    from rdgpu.models import PRESETS
+
+    for p in PRESETS.values():
+        field = (p.classify or {}).get("field")
+        if p.model == model.name and field in model.species:
+            return field
+    return model.species[0]
+
+
+def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> dict:
+    """One batch of a sweep (a pure function: the same arguments give the same bits, so a
+    re-run of a lost task changes nothing).  ``job``: the sweep's settings (see
+    :func:`sweep`); ``values``: each swept parameter's value for every member.  Returns
+    ``{"fields": {species: [B, *shape] array}, "pattern": [B] int8 codes}``."""
+    from rdgpu.analysis.measures import classify_pattern
+    from rdgpu.simulation.driver import Simulation, _accepts, _lookup_model
+
+    names = list(values)
+    count = len(values[names[0]]) if names else 1
+    kwargs = {"dt": job["dt"], "backend": job["backend"], "dtype": job["dtype"],
+              "seed": job["seed"], "init": job["init"], "options": job["options"] or None}
+    model = job["model"]
+    if isinstance(model, Mapping):  # a model defined by its equations
+        from rdgpu.models import define_model
+
+        model = define_model(job["name"], dict(model["equations"]), dict(model["defaults"]))
+    model = _lookup_model(model)
+    if _accepts(model.stepper, "members"):  # one ensemble: all members in one launch a step
+        params = {**job["fixed"], **{k: np.asarray(v, dtype=np.float64)
+                                     for k, v in values.items()}}
+        sim = Simulation(model, job["domain"], params, members=count, **kwargs)
+        res = sim.run(job["steps"], progress=False, check_every=0)
+        fields = {s: np.asarray(a) for s, a in res.fields.items()}
+        domain = sim.domain
+    else:  # a model that cannot run as an ensemble (e.g. allen-cahn): one by one
+        runs = []
+        for i in range(count):
+            params = {**job["fixed"], **{k: float(v[i]) for k, v in values.items()}}
+            sim = Simulation(model, job["domain"], params, **kwargs)
+            runs.append(sim.run(job["steps"], progress=False, check_every=0).fields)
+        fields = {s: np.stack([np.asarray(r[s]) for r in runs]) for s in runs[0]}
+        domain = sim.domain
+    labels = classify_pattern(fields[job["classify"]], domain, threshold=None,
+                              mixed=MIXED_SHARE, nonfinite="diverged", members=True)
+    codes = np.array([PATTERN_CLASSES.index(c) for c in labels], dtype=np.int8)
+    return {"fields": fields, "pattern": codes}
+
+
+def _common_dt(model: Any, domain: Any, fixed: Mapping[str, Any],
+               axes: Mapping[str, np.ndarray], options: Mapping[str, Any]) -> float:
+    """The default time step that suits every member: the smallest of theirs."""
+    from rdgpu.simulation.driver import default_dt, domain_defaults
+
+    base = {**model.defaults, **domain_defaults(model, domain, options), **fixed}
+    return min(default_dt(model, domain, {**base, **dict(zip(axes, combo, strict=True))},
+                          options)
+               for combo in itertools.product(*axes.values()))
+
+
+# ------------------------------------------------------------------------ the store
+def _store_kind(store: Any) -> str | None:
+    if store is None:
+        return None
+    suffix = Path(store).suffix.lower()
+    if suffix == ".zarr":
+        return "zarr"
+    if suffix in (".nc", ".netcdf", ".nc4"):
+        return "netcdf"
+    raise ValueError(f"store must be a path ending in .zarr (streamed, resumable) or .nc "
+                     f"(netCDF, written at the end), got {str(store)!r}")
+
+
+def _template(xr: Any, da: Any, settings: dict, axes: dict[str, np.ndarray],
+              space: tuple[int, ...], dx: dict[str, float], species: Sequence[str],
+              n_batches: int) -> Any:
+    """The sweep's Dataset with lazy empty arrays (NaN fields, pattern -1, done False),
+    chunked one member per chunk."""
+    dims = (*axes, *_SPACE_DIMS[len(space)])
+    shape = (*(a.size for a in axes.values()), *space)
+    chunks = (*(1 for _ in axes), *space)
+    data = {s: (dims, da.full(shape, np.nan, dtype=settings["dtype"], chunks=chunks))
+            for s in species}
+    data["pattern"] = (tuple(axes), da.full(shape[: len(axes)], -1, dtype=np.int8),
+                       {"flag_values": list(range(len(PATTERN_CLASSES))),
+                        "flag_meanings": " ".join(PATTERN_CLASSES),
+                        "description": "rdgpu.analysis.classify_pattern of the final "
+                        f"{settings['classify']!r} (-1: not run yet)"})
+    data["done"] = (("batch",), da.zeros(n_batches, dtype=bool))
+    coords: dict[str, Any] = {k: (k, v) for k, v in axes.items()}
+    for d, n in zip(_SPACE_DIMS[len(space)], space, strict=True):
+        coords[d] = (d, (np.arange(n) + 0.5) * dx[d], {"description": "cell centre"})
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update(_attrs(settings))
+    return ds
+
+
+def _attrs(settings: dict) -> dict:
+    """The Dataset's attributes: plain values, and the full settings as JSON."""
+    from rdgpu import __version__
+
+    out = {"model": settings["name"], "steps": settings["steps"], "dt": settings["dt"],
+           "dtype": settings["dtype"], "backend": settings["backend_name"],
+           "seed": settings["seed"], "classify": settings["classify"],
+           "rdgpu_version": __version__, SETTINGS_ATTR: json.dumps(settings, sort_keys=True)}
+    for k, v in settings["fixed"].items():
+        out[f"param_{k}"] = v
+    return out
+
+
+def _decode(ds: Any) -> Any:
+    """``pattern`` codes → class names (``""``: not run yet); ``done`` dropped."""
+    if ds["pattern"].dtype.kind in "UO":  # decoded already
+        return ds.drop_vars(["done"], errors="ignore")
+    codes = ds["pattern"].values.astype(int)
+    names = np.array([*PATTERN_CLASSES, ""], dtype=object)[codes]
+    ds = ds.drop_vars(["done"], errors="ignore")
+    ds["pattern"] = (ds["pattern"].dims, names.astype(str),
+                     {"description": ds["pattern"].attrs.get("description", "")})
+    return ds
+
+
+def open_sweep(path: str | os.PathLike) -> Any:
+    """A sweep's Dataset from its zarr or netCDF file, loaded, with ``pattern`` as class
+    names (``""`` where a batch has not run yet)."""
+    xr, = _need("xarray")
+    kind = _store_kind(path)
+    if kind == "zarr":
+        from rdgpu.runs.store import load_store
+
+        ds = load_store(xr, Path(path), PATTERN_CLASSES.index("diverged"))
+    else:
+        with xr.open_dataset(str(path)) as f:
+            ds = f.load()
+    return _decode(ds)
+
+
+# ------------------------------------------------------------------------ schedulers
+def _nothing() -> None:
+    """Nothing to close."""
+
+
+def _client(scheduler: Any, workers: int | None, n_batches: int) -> tuple[Any, Callable]:
+    """``(client, close)``: ``client`` None for an in-process run."""
+    if scheduler in (None, "serial"):
+        return None, _nothing
+    distributed, = _need("distributed")
+    if isinstance(scheduler, distributed.Client):
+        return scheduler, _nothing
+    if scheduler == "local":
+        n = workers or max(1, min(os.cpu_count() or 1, n_batches))
+        cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                           dashboard_address=None)
+        client = distributed.Client(cluster)
+
+        def close() -> None:
+            client.close()
+            cluster.close()
+
+        return client, close
+    _check_scheduler(scheduler)
+    client = distributed.Client(scheduler)  # an address
+    return client, client.close
+
+
+def _check_scheduler(scheduler: Any) -> None:
+    """Refuse what :func:`_client` cannot take (a Client passes by its class's name, so
+    that no Dask import is needed here)."""
+    if scheduler in (None, "serial", "local") or type(scheduler).__name__ == "Client" or (
+            isinstance(scheduler, str) and "://" in scheduler):
+        return
+    raise ValueError(f"scheduler must be 'local' (a LocalCluster here), 'serial' (in this "
+                     f"process), an address such as 'tcp://host:8786' or a "
+                     f"distributed.Client; got {scheduler!r}")
+
+
+def _default_batch(n_members: int, cells: int, n_species: int, itemsize: int,
+                   workers: int) -> int:
+    """Members per batch: about 4 batches per worker, at most what fits in
+    :data:`BATCH_MEMORY` (about 6 copies of each field)."""
+    fits = max(1, BATCH_MEMORY // max(1, cells * n_species * itemsize * 6))
+    return max(1, min(fits, math.ceil(n_members / (4 * max(1, workers)))))
+
+
+# ------------------------------------------------------------------------ sweep
+def sweep(
+    model: Any,
+    params: Mapping[str, Any],
+    *,
+    steps: int,
+    size: Any = 128,
+    domain: Any = None,
+    dt: float | None = None,
+    dtype: str = "float32",
+    backend: str | None = None,
+    seed: int = 0,
+    init: Mapping[str, Any] | None = None,
+    options: Mapping[str, Any] | None = None,
+    batch: int | None = None,
+    store: str | os.PathLike | None = None,
+    scheduler: Any = "local",
+    workers: int | None = None,
+    classify: str | None = None,
+    progress: bool = True,
+    on_batch: Callable[[int], None] | None = None,
+) -> Any:
+    """Run ``model`` at every point of the Cartesian product of the swept parameters and
+    return an ``xarray.Dataset``.
+
+    ``params``: parameter → a number (fixed), a list/array of values (swept) or text
+    (``"0.01:0.08:64"`` = ``np.linspace(0.01, 0.08, 64)``, ``"0.02,0.03"``, ``"0.05"``).
+    The swept axes keep their order: the first varies slowest.  ``size`` (cells, ``N`` or
+    ``(ny, nx)``; periodic, the model's spacing) or ``domain`` (a grid spec dict or
+    :class:`~rdgpu.domains.Grid`); ``steps`` of ``dt`` (default: the smallest default step
+    of all the members, so every member runs with the same ``dt``); ``dtype``,
+    ``backend``, ``seed`` (one initial condition for all members), ``init``, ``options``:
+    as :class:`~rdgpu.simulation.Simulation` takes them.
+
+    The product is cut into batches of ``batch`` members (default: about 4 batches per
+    worker, within :data:`BATCH_MEMORY`); each batch is one ensemble run and one task.
+    ``scheduler``: ``"local"`` (default: a ``distributed.LocalCluster`` of ``workers``
+    single-threaded processes, default one per core), an address ``"tcp://host:port"``, a
+    ``distributed.Client``, or ``"serial"`` (in this process, no Dask); the workers of a
+    cluster elsewhere need rdgpu installed.  A worker that dies has its batch re-run by
+    Dask; batches are pure, so the bits do not change.
+
+    ``store``: a ``.zarr`` path is created up front (every array, one member per chunk,
+    and ``done`` per batch) and each batch is written as it finishes, from this process
+    only; running the same sweep again (on any scheduler; ``batch`` defaults to the
+    store's) skips the batches marked done (their data checked first:
+    :mod:`rdgpu.runs.store`), and a store made with other settings is refused.
+    A ``.nc`` path (netCDF) is written once at the end: no streaming, no resume.
+    ``progress``: a tqdm bar counting batches.  ``on_batch(b)``: called after batch ``b``
+    is stored (an exception from it stops the sweep; the batches stored so far stay).
+
+    The Dataset: dims the swept parameters, then the space dims (``y, x``; cell centres);
+    a variable per species (the final fields, NaN where a member diverged), ``pattern``
+    (:func:`rdgpu.analysis.classify_pattern` of the species ``classify``, default
+    :func:`pattern_species`, with ``threshold=None``, ``mixed=0.25``: one of
+    :data:`PATTERN_CLASSES`); attrs ``model, steps, dt, dtype, backend, seed, classify,
+    rdgpu_version``, ``param_NAME`` for each fixed parameter and the settings as JSON.
+    Gray-Scott is classified on ``v`` as its presets are: islands of low ``v`` (Pearson's
+    δ) are ``"spots"``, islands of high ``v`` (Pearson's λ) ``"inverted-spots"``.
+    """
+    xr, da = _need("xarray", "dask.array")
+    from rdgpu.backends.registry import get_backend
+    from rdgpu.core.validation import scalar
+    from rdgpu.domains.grid import Grid
+    from rdgpu.runs.store import check_sweep_memory
+    from rdgpu.simulation.driver import (
+        _lookup_model,
+        _model_definition,
+        build_domain,
+        describe_domain,
+    )
+
+    kind = _store_kind(store)
+    _check_scheduler(scheduler)
+    mdl = _lookup_model(model)
+    if not isinstance(params, Mapping):
+        raise TypeError(f"params must be a dict of parameter → values, got "
+                        f"{type(params).__name__}")
+    unknown = [k for k in params if k not in mdl.defaults]
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {', '.join(map(repr, unknown))} of model "
+                         f"{mdl.name}; it has {', '.join(mdl.defaults)}")
+    axes: dict[str, np.ndarray] = {}
+    fixed: dict[str, float] = {}
+    for name, value in params.items():
+        v = axis_values(name, value)
+        if isinstance(v, np.ndarray):
+            axes[name] = v
+        else:
+            fixed[name] = v
+    if not axes:
+        raise ValueError("nothing to sweep: give at least one parameter several values, "
+                         "e.g. {'F': '0.01:0.08:16'}")
+    steps, seed = whole(steps, "steps", 0), whole(seed, "seed", 0)
+    batch, workers = (None if n is None else whole(n, what, 1)
+                      for n, what in ((batch, "batch"), (workers, "workers")))
+    if dt is not None:
+        if isinstance(dt, (bool, np.bool_)):
+            raise TypeError(f"dt must be a real number > 0, got {dt!r} (a bool)")
+        dt = scalar(dt, "dt", minimum=0.0, strict=True)
+    grid = build_domain(domain if domain is not None else _default_domain(mdl, size))
+    if not isinstance(grid, Grid):
+        raise ValueError("a sweep runs on a grid (size= or a grid domain), not a mesh")
+    n_members = math.prod(a.size for a in axes.values())
+    check_sweep_memory(n_members, tuple(grid.field_shape), len(mdl.species),
+                       np.dtype(dtype).itemsize, batch, BATCH_MEMORY, store)
+    own = (*_SPACE_DIMS[3], "batch", "pattern", "done")  # the Dataset's own names
+    clash = [k for k in axes if k in own or k in mdl.species]
+    if clash:
+        raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "
+                         "dimension or variable of the Dataset)")
+    clash = [s for s in mdl.species if s in own]
+    if clash:
+        raise ValueError(f"a sweep cannot hold species {', '.join(clash)}: the Dataset "
+                         f"uses {', '.join(own)} for its own dimensions and variables; "
+                         "rename the species")
+    species = tuple(mdl.species)
+    classify = classify or pattern_species(mdl)
+    if classify not in species:
+        raise ValueError(f"classify={classify!r}: model {mdl.name} has {', '.join(species)}")
+    options = dict(options or {})
+    if dt is None:
+        dt = _common_dt(mdl, grid, fixed, axes, options)
+    be = get_backend(backend)
+    dtype = str(np.dtype(dtype))
+    definition = _model_definition(mdl)
+    desc = describe_domain(grid)
+    space = tuple(grid.field_shape)
+    if batch is None and kind == "zarr":  # resuming: the store's batches
+        batch = stored_batch(Path(store))
+    client, close = None, _nothing
+    try:
+        if batch is None:  # about 4 batches a worker: ask the cluster how many it has
+            client, close = _client(scheduler, workers, n_members)
+            n_workers = 1 if client is None else len(client.scheduler_info()["workers"])
+            batch = _default_batch(n_members, math.prod(space), len(species),
+                                   np.dtype(dtype).itemsize, n_workers)
+        batch = int(batch)
+        n_batches = math.ceil(n_members / batch)
+        settings = {
+            "name": mdl.name, "model": definition or mdl.name, "axes":
+            {k: v.tolist() for k, v in axes.items()}, "fixed": fixed, "domain": desc,
+            "steps": steps, "dt": float(dt), "dtype": dtype, "seed": int(seed),
+            "init": None if init is None else json.loads(json.dumps(init)),
+            "options": json.loads(json.dumps(options)), "batch": batch,
+            "backend_name": be.name, "classify": classify, "species": list(species),
+        }
+        from rdgpu.models import MODELS
+
+        builtin = MODELS.get(mdl.name) is mdl
+        # the task names its model, or carries its equations, or (a model of Python code)
+        # the model itself, which must then pickle for a cluster
+        job = {"name": mdl.name, "model": definition or (mdl.name if builtin else mdl),
+               "domain": grid,
+               "fixed": fixed, "steps": steps, "dt": float(dt), "dtype": dtype,
+               "seed": int(seed), "init": init, "options": options,
+               "backend": backend if isinstance(backend, str) or backend is None else be.name,
+               "classify": classify}
+        dx = {"x": grid.dx, "y": grid.dy or grid.dx, "z": grid.dz}
+        template = _template(xr, da, settings, axes, space, dx, species, n_batches)
+        group = open_store(Path(store), template, settings) if kind == "zarr" else None
+        result = _Collector(template, group, axes, species, batch, store)
+        todo = [b for b in range(n_batches) if not result.done(b)]
+        if todo and client is None:  # no cluster is started for a finished sweep
+            client, close = _client(scheduler, workers, len(todo))
+        _run(client, job, result, todo, n_batches, progress, on_batch)
+    finally:
+        close()
+    if kind == "zarr":
+        return open_sweep(store)
+    ds = result.dataset()
+    if kind == "netcdf":
+        ds.to_netcdf(str(store))  # pattern as codes, as in a zarr store
+    return _decode(ds)
+
+
+class _Collector:
+    """Where finished batches go: the zarr group, or arrays in memory."""
+
+    def __init__(self, template: Any, group: Any, axes: dict[str, np.ndarray],
+                 species: Sequence[str], batch: int, store: Any = None) -> None:
+        self.template, self.group, self.species, self.batch = template, group, species, batch
+        self.counts = tuple(a.size for a in axes.values())
+        self.n = math.prod(self.counts)
+        self.values = axes
+        if group is None:
+            self.arrays = {s: np.full(template[s].shape, np.nan, dtype=template[s].dtype)
+                           for s in species}
+            self.pattern = np.full(self.counts, -1, dtype=np.int8)
+            self.flags = np.zeros(template["done"].shape, dtype=bool)
+        else:  # the flags as stored, each checked against the batch's data
+            from rdgpu.runs.store import read_done, verify_done
+
+            self.flags = verify_done(group, Path(store), read_done(group, Path(store)),
+                                     self.members, self.counts, tuple(species),
+                                     PATTERN_CLASSES.index("diverged"), len(PATTERN_CLASSES))
+
+    def members(self, b: int) -> range:
+        return range(b * self.batch, min((b + 1) * self.batch, self.n))
+
+    def batch_values(self, b: int) -> dict[str, list[float]]:
+        idx = np.unravel_index(np.asarray(self.members(b)), self.counts)
+        return {k: v[i].tolist() for (k, v), i in zip(self.values.items(), idx, strict=True)}
+
+    def done(self, b: int) -> bool:
+        return bool(self.flags[b])
+
+    def store(self, b: int, out: Mapping[str, Any]) -> None:
+        """Write batch ``b``'s fields and classes, then mark it done."""
+        pattern = np.asarray(out["pattern"], dtype=np.int8)
+        target = self.arrays if self.group is None else self.group
+        codes = self.pattern if self.group is None else self.group["pattern"]
+        for j, m in enumerate(self.members(b)):
+            idx = np.unravel_index(m, self.counts)
+            for s in self.species:
+                target[s][idx] = out["fields"][s][j]
+            codes[idx] = pattern[j]
+        if self.group is not None:
+            self.group["done"][b] = True
+        self.flags[b] = True
+
+    def dataset(self) -> Any:
+        ds = self.template.copy()
+        for s in self.species:
+            ds[s] = (ds[s].dims, self.arrays[s], ds[s].attrs)
+        ds["pattern"] = (ds["pattern"].dims, self.pattern, ds["pattern"].attrs)
+        ds["done"] = (("batch",), self.flags)
+        return ds
+
+
+def _run(client: Any, job: dict, result: _Collector, todo: list[int], n_batches: int,
+         progress: bool, on_batch: Callable[[int], None] | None) -> None:
+    """Run the batches ``todo`` (in this process, or as tasks of ``client``) and store each
+    as it finishes."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=n_batches, initial=n_batches - len(todo), unit="batch",
+               desc=f"sweep {job['name']}", disable=not progress)
+    try:
+        if client is None:
+            for b in todo:
+                result.store(b, run_batch(job, result.batch_values(b)))
+                bar.update(1)
+                if on_batch is not None:
+                    on_batch(b)
+            return
+        from distributed import as_completed
+
+        token = _token(result)
+        futures = {client.submit(run_batch, job, result.batch_values(b),
+                                 key=f"rdgpu-sweep-{token}-{b}"): b for b in todo}
+        try:
+            for fut in as_completed(futures):
+                b = futures[fut]
+                result.store(b, fut.result())
+                fut.release()
+                bar.update(1)
+                if on_batch is not None:
+                    on_batch(b)
+        except BaseException:
+            client.cancel(list(futures))
+            raise
+    finally:
+        bar.close()
+
+
+def _token(result: _Collector) -> str:
+    """A key prefix for this sweep's tasks (same settings → same keys)."""
+    import hashlib
+
+    text = json.dumps([result.template.attrs[SETTINGS_ATTR]], sort_keys=True)
+    return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+# ------------------------------------------------------------------------ the map image
+def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
+              cmap: str = "viridis", scale: int | None = None) -> Path:
+    """A PNG of the members laid out on the swept axes: the first swept parameter along x,
+    the second along y (increasing upwards; one row with one swept parameter), each
+    member's final ``species`` (default: the classified one, see :func:`pattern_species`)
+    as a tile with thin gaps, on one colour scale; the axes labelled with the parameter
+    values.  More than two swept parameters: the first value of the others is shown.
+    ``scale``: pixels per grid cell (default: a mosaic at least 1200 pixels across); NaN
+    (a diverged member) is white."""
+    matplotlib = require("matplotlib", "drawing the sweep's map")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes = [d for d in ds["pattern"].dims]
+    names = [v for v in ds.data_vars if v not in ("pattern", "done")]
+    if species is None:
+        species = ds.attrs.get("classify") if ds.attrs.get("classify") in names else names[0]
+    if species not in names:
+        raise ValueError(f"species {species!r}: the sweep has {', '.join(names)}")
+    field = ds[species].isel({d: 0 for d in axes[2:]})
+    px, py = axes[0], (axes[1] if len(axes) > 1 else None)
+    space = [d for d in field.dims if d not in axes]
+    if len(space) == 3:  # the middle plane of a 3-D grid
+        field = field.isel({space[0]: field.sizes[space[0]] // 2})
+    data = np.asarray(field.transpose(px, *([py] if py else []), ...).values,
+                      dtype=np.float64)
+    if py is None:
+        data = data[:, None]
+    if data.ndim == 3:  # 1-D grids: a strip a few pixels high
+        data = np.repeat(data[:, :, None, :], max(1, data.shape[-1] // 8), axis=2)
+    nx_, ny_, h, w = data.shape
+    gap = max(1, round(0.06 * max(h, w)))
+    mosaic = np.full((ny_ * (h + gap) - gap, nx_ * (w + gap) - gap), np.nan)
+    for i in range(nx_):
+        for j in range(ny_):
+            r = (ny_ - 1 - j) * (h + gap)  # the second axis increases upwards
+            mosaic[r: r + h, i * (w + gap): i * (w + gap) + w] = data[i, j]
+    finite = mosaic[np.isfinite(mosaic)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    scale = scale or max(1, math.ceil(1200 / max(mosaic.shape)))  # pixels per cell
+    width, height = mosaic.shape[1] * scale, mosaic.shape[0] * scale  # of the tiles, pixels
+    font = min(14.0, max(7.0, 7.0 * max(width, height) / 1100))
+    fig, ax = plt.subplots(figsize=(width / 100 + 0.2 * font, height / 100 + 0.14 * font),
+                           dpi=100)
+    colours = matplotlib.colormaps[cmap].with_extremes(bad="white")  # NaN: diverged
+    ax.imshow(np.ma.masked_invalid(mosaic), cmap=colours, vmin=lo, vmax=hi if hi > lo
+              else lo + 1, interpolation="nearest", origin="upper")
+    xs = _ticks(nx_)
+    ax.set_xticks([i * (w + gap) + (w - 1) / 2 for i in xs],
+                  [f"{float(ds[px].values[i]):.4g}" for i in xs])
+    ax.set_xlabel(px, fontsize=font * 1.2)
+    if py is not None:
+        ys = _ticks(ny_)
+        ax.set_yticks([(ny_ - 1 - j) * (h + gap) + (h - 1) / 2 for j in ys],
+                      [f"{float(ds[py].values[j]):.4g}" for j in ys])
+        ax.set_ylabel(py, fontsize=font * 1.2)
+    else:
+        ax.set_yticks([])
+    shown = "".join(f", {d} = {float(ds[d].values[0]):.4g}" for d in axes[2:])
+    ax.set_title(f"{ds.attrs.get('model', '')}: final {species} after "
+                 f"{ds.attrs.get('steps', '?')} steps{shown}", fontsize=font * 1.2)
+    ax.tick_params(labelsize=font)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def _ticks(n: int) -> list[int]:
+    """The indices of at most about 8 labelled tiles of an axis of ``n``."""
+    return list(range(0, n, max(1, math.ceil(n / 8))))
+
+
+class _CallableModule(types.ModuleType):
+    """``rdgpu.sweep(...)`` calls :func:`sweep` even after ``import rdgpu.sweep`` has made
+    ``rdgpu.sweep`` this module."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return sweep(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
