@@ -131,7 +131,7 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
                                             args.scale or 2), arrays, settings)
     dim = ""
     if grown >= 50:  # radial: mass-radius about the seed cell; seed001: box counting
-        from rdgpu.analysis.measures import fractal_dimension
+        from rdgpu.analysis import fractal_dimension
 
         radial = params["geometry"] == "radial"
         center = getattr(result, "center", None) or (size[0] // 2, size[1] // 2)
