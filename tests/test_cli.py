@@ -394,7 +394,7 @@ def test_defaults_form_a_pattern(capsys, tmp_path, model, where):
     limit and the model's reaction, the model's default run length -- a pattern, not the
     initial noise or a uniform field."""
     from rdgpu.analysis import classify_pattern
-    from rdgpu.cli.app import _display_field
+    from rdgpu.cli.run import display_field
 
     if "--mesh" in where:
         pytest.importorskip("trimesh")
@@ -405,7 +405,7 @@ def test_defaults_form_a_pattern(capsys, tmp_path, model, where):
     assert "warning" not in err
     res = load_npz(tmp_path / "d.npz")
     m = models.MODELS[model]
-    field = _display_field(m, None, None)
+    field = display_field(m, None, None)
     f = res.fields[field]
     assert classify_pattern(f, res.domain, threshold=None) != "uniform"
     known = getattr(m, "value_range", {}).get(field)
