@@ -37,7 +37,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a clone without installing
 
-from rdgpu.analysis.measures import classify_pattern, fractal_dimension, spiral_tips  # noqa: E402
+from rdgpu.analysis import classify_pattern, fractal_dimension, spiral_tips  # noqa: E402
 from rdgpu.cli.app import main as rdgpu_main  # noqa: E402
 from rdgpu.io.output import load_npz  # noqa: E402
 from rdgpu.models import PRESETS  # noqa: E402

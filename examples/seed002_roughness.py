@@ -56,7 +56,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rdgpu.analysis.measures import spot_statistics, stripe_orientation  # noqa: E402
+from rdgpu.analysis import spot_statistics, stripe_orientation  # noqa: E402
 from rdgpu.domains.graph_surface import GraphSurface  # noqa: E402
 from rdgpu.domains.surfaces import random_waves  # noqa: E402
 from rdgpu.models import MODELS  # noqa: E402

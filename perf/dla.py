@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 import rdgpu
-from rdgpu.analysis.measures import fractal_dimension
+from rdgpu.analysis import fractal_dimension
 
 
 def plain_numpy_dla(shape, eta=1.0, steps=100, seed=0, tol=1e-5, geometry="radial"):

@@ -393,8 +393,8 @@ def test_defaults_form_a_pattern(capsys, tmp_path, model, where):
     """`rdgpu run MODEL --size 64` (or `--mesh sphere`), nothing else: dt from the domain's
     limit and the model's reaction, the model's default run length -- a pattern, not the
     initial noise or a uniform field."""
-    from rdgpu.analysis.measures import classify_pattern
-    from rdgpu.cli.app import _display_field
+    from rdgpu.analysis import classify_pattern
+    from rdgpu.cli.run import display_field
 
     if "--mesh" in where:
         pytest.importorskip("trimesh")
@@ -405,7 +405,7 @@ def test_defaults_form_a_pattern(capsys, tmp_path, model, where):
     assert "warning" not in err
     res = load_npz(tmp_path / "d.npz")
     m = models.MODELS[model]
-    field = _display_field(m, None, None)
+    field = display_field(m, None, None)
     f = res.fields[field]
     assert classify_pattern(f, res.domain, threshold=None) != "uniform"
     known = getattr(m, "value_range", {}).get(field)
@@ -422,7 +422,7 @@ def test_the_help_example_on_the_sphere_gives_spots(capsys, tmp_path):
     the mesh spacing, dt and the steps follow from it, and the result is spots of u = -1
     in u = +1 -- not a field decayed to u ∈ [-0.02, 0.05]."""
     pytest.importorskip("trimesh")
-    from rdgpu.analysis.measures import classify_pattern
+    from rdgpu.analysis import classify_pattern
 
     code, _, err = cli(capsys, "run", "allen-cahn", "--mesh", "sphere", "--param", "b=-0.1",
                        "--data", tmp_path / "s.npz", "--quiet")

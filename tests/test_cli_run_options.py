@@ -210,12 +210,10 @@ def test_an_unreadable_input_is_bad_input_not_a_failed_run(capsys, tmp_path):
 
 def test_an_io_failure_inside_a_command_exits_1(capsys, monkeypatch):
     """D: an OSError that escapes a command is a failed run (1), not bad input (2)."""
-    import rdgpu.cli.app as cli_module
-
     def broken(args):
         raise OSError(errno.EACCES, "Permission denied", "some/file")
 
-    monkeypatch.setattr(cli_module, "_cmd_models", broken)
+    monkeypatch.setattr("rdgpu.cli.listing.cmd_models", broken)
     code, _, err = cli(capsys, "models")
     assert code == 1 and "some/file" in err and "Permission denied" in err, err
 

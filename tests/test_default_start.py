@@ -7,7 +7,7 @@ import pytest
 from conftest import backend_or_skip
 
 import rdgpu
-from rdgpu.analysis.measures import classify_pattern
+from rdgpu.analysis import classify_pattern
 from rdgpu.domains.grid import Grid
 from rdgpu.models.steady_state import steady_start, steady_states
 from rdgpu.simulation.driver import Simulation, default_init

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.analysis.measures import fractal_dimension
+from rdgpu.analysis import fractal_dimension
 from rdgpu.families import load_module
 
 BACKENDS = ["numpy", "warp", "opencl"]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from rdgpu import Simulation
-from rdgpu.analysis.measures import classify_pattern
+from rdgpu.analysis import classify_pattern
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.ir import equations as eq

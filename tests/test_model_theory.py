@@ -57,7 +57,7 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.analysis.measures import (
+from rdgpu.analysis import (
     dispersion,
     dispersion_matrix,
     grid_wavenumber,

@@ -15,7 +15,7 @@ import pytest
 from conftest import backend_or_skip, tolerance
 
 import rdgpu
-from rdgpu.analysis.measures import (
+from rdgpu.analysis import (
     classify_pattern,
     dispersion,
     grid_wavenumber,

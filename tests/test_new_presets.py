@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.analysis.measures import (
+from rdgpu.analysis import (
     classify_pattern,
     dispersion,
     grid_wavenumber,

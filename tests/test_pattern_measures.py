@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from rdgpu.analysis.measures import spot_statistics, stripe_orientation
+from rdgpu.analysis import spot_statistics, stripe_orientation
 from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.grid import Grid
 

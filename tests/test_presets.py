@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip
 
-from rdgpu.analysis.measures import classify_pattern, phase_components, spiral_tips
+from rdgpu.analysis import classify_pattern, phase_components, spiral_tips
 from rdgpu.cli.app import main as cli_main
 from rdgpu.io.output import load_npz
 from rdgpu.models import PRESETS, AllenCahn

@@ -17,7 +17,7 @@ from rdgpu.analysis.isometry import (
     isometry_experiment,
     phase_overlap,
 )
-from rdgpu.analysis.measures import classify_pattern, phase_components
+from rdgpu.analysis import classify_pattern, phase_components
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import PRESETS
 from rdgpu.simulation.driver import Simulation

@@ -25,6 +25,7 @@ from rdgpu.domains.boundary import NEUMANN, PERIODIC
 from rdgpu.domains.grid import Grid
 from rdgpu.io import output
 from rdgpu.io.images import to_rgb
+from rdgpu.models import MODELS
 from rdgpu.simulation.driver import Simulation, describe_domain, initial_state
 
 SHAPE = (6, 8, 10)  # (nz, ny, nx)
@@ -480,8 +481,7 @@ def toy_cli(monkeypatch, capsys):
     ``(argv...) -> (status, stderr)``."""
     model = Toy3D()
     model.default_domain = {"grid": (16, 16), "dx": 1.0, "bc": ("neumann", "periodic")}
-    monkeypatch.setattr(cli, "_models", lambda: {"toy-3d": model})
-    monkeypatch.setattr(cli, "_presets", lambda: {})
+    monkeypatch.setitem(MODELS, "toy-3d", model)
 
     def run(*argv):
         try:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import rdgpu
-from rdgpu.analysis.measures import classify_pattern
+from rdgpu.analysis import classify_pattern
 from rdgpu.domains.grid import Grid
 from rdgpu.runs.sweep import open_sweep
 from rdgpu.simulation.driver import Simulation

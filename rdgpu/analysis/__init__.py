@@ -1,5 +1,41 @@
-"""Measures of patterns and of their theory: dispersion relations, steady states,
-classification, spots, stripes, defects, spiral tips, fractal dimension."""
+"""Measures of patterns and of their theory, one module per idea:
 
-from rdgpu.analysis.measures import *  # noqa: F403 - the public measures
-from rdgpu.analysis.measures import __all__  # noqa: F401
+* :mod:`~rdgpu.analysis.linear` — steady states, the reaction Jacobian, dispersion
+  relations (linear stability of a homogeneous state);
+* :mod:`~rdgpu.analysis.patterns` — the phases' connected regions and the pattern class;
+* :mod:`~rdgpu.analysis.spots` — spot statistics and stripe orientation;
+* :mod:`~rdgpu.analysis.defects` — spiral tips and phase defects;
+* :mod:`~rdgpu.analysis.fractal` — the fractal dimension of a cluster;
+* :mod:`~rdgpu.analysis.isometry` — the isometry experiment of seed 000.
+
+Every measure is a name of this package (``rdgpu.analysis.classify_pattern``, ...).
+"""
+
+from rdgpu.analysis.defects import phase_defects, spiral_tips
+from rdgpu.analysis.fractal import FractalDimension, fractal_dimension
+from rdgpu.analysis.linear import (
+    dispersion,
+    dispersion_matrix,
+    grid_wavenumber,
+    jacobian,
+    steady_state,
+)
+from rdgpu.analysis.patterns import classify_pattern, phase_components
+from rdgpu.analysis.spots import SpotStatistics, spot_statistics, stripe_orientation
+
+__all__ = [
+    "classify_pattern",
+    "dispersion",
+    "dispersion_matrix",
+    "FractalDimension",
+    "fractal_dimension",
+    "grid_wavenumber",
+    "jacobian",
+    "phase_components",
+    "phase_defects",
+    "SpotStatistics",
+    "spiral_tips",
+    "spot_statistics",
+    "steady_state",
+    "stripe_orientation",
+]

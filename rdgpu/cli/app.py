@@ -1,4 +1,4 @@
-"""The ``rdgpu`` command line.
+"""The ``rdgpu`` command line: its parser and :func:`main`.
 
     rdgpu run gray-scott --size 256 --steps 10000 --out gray_scott.png
     rdgpu run allen-cahn --preset NAME --mesh torus --out torus.png --movie torus.mp4
@@ -7,7 +7,7 @@
     rdgpu run MODEL --size 32x48x64 --out blob.png   # 3-D: planes x rows x columns
     rdgpu run gray-scott --init spots:20 --bc neumann --length 128   # where it starts
     rdgpu run allen-cahn --mesh sphere:5 --radius 10
-    rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 --size 128 \
+    rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 --size 128 \\
         --steps 10000 --out map.png --data map.zarr      # a parameter map, on Dask
     rdgpu presets
     rdgpu models
@@ -22,19 +22,30 @@ A simulation that diverges writes its outputs from the last good state and exits
 status 1; one interrupted by Ctrl-C writes them from the state where it stopped (and a
 checkpoint there, with ``--checkpoint``) and exits with status 130.  ``RDGPU_DEBUG=1``
 shows tracebacks instead.
+
+The commands live in their own modules -- :mod:`rdgpu.cli.run`, :mod:`rdgpu.cli.sweep`,
+:mod:`rdgpu.cli.listing` -- and are imported when one runs (:func:`_command`).
 """
 
 from __future__ import annotations
 
 import argparse
-import math
+import importlib
 import os
-import re
 import sys
-import time
-from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
+from rdgpu.cli.common import (
+    DEFAULT_SIZE,
+    DEFAULT_STEPS,
+    EXIT_BAD_INPUT,
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    cli_words,
+    io_message,
+    one_line,
+)
 from rdgpu.cli.options import (
     _at_least_1,
     _block_steps,
@@ -49,30 +60,12 @@ from rdgpu.cli.options import (
     _roughen,
     _seed,
     _size,
+    _sweep_param,
     add_domain_options,
 )
-from rdgpu.core.errors import ResourceLimitError
-from rdgpu.core.files import check_writable
-from rdgpu.core.optional import MissingExtraError, check, require
-from rdgpu.core.resources import check_fields
+from rdgpu.core.errors import BackendUnavailableError
 
 __all__ = ["build_parser", "main", "_size"]
-
-DEFAULT_SIZE = (256, 256)
-#: steps of a model that has no default run length of its own
-DEFAULT_STEPS = 10_000
-DEFAULT_SCALE = 2
-EXIT_BAD_INPUT = 2
-EXIT_DIVERGED = 1
-EXIT_FAILED = 1
-EXIT_INTERRUPTED = 130
-#: the largest picture (pixels) and side (pixels) that --scale may ask for
-MAX_PICTURE_PIXELS = 2**28
-MAX_PICTURE_SIDE = 65_000
-
-
-class UsageError(ValueError):
-    """Bad command-line input (exit status 2)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -84,574 +77,30 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"rdgpu: error: {message} (see {hint})\n")
 
 
-# ---------------------------------------------------------------------------- helpers
-def _models() -> dict:
-    try:
-        from rdgpu.models import MODELS
-    except ImportError as exc:
-        raise UsageError(f"models are not available in this installation ({exc})") from None
-    return MODELS
-
-
-def _presets() -> dict:
-    try:
-        from rdgpu.models import PRESETS
-    except ImportError:
-        return {}
-    return PRESETS
-
-
-def _model_name(model: Any) -> str:
-    return model if isinstance(model, str) else model.name
-
-
-def _presets_of(model: Any) -> list:
-    """The presets of ``model`` (the very model: a user model named like a built-in has
-    none)."""
-    from rdgpu.models import MODELS
-
-    if MODELS.get(model.name) is not model:
-        return []
-    return [p for p in _presets().values() if _model_name(p.model) == model.name]
-
-
-def _describe_domain(domain: Any) -> str:
-    from rdgpu.domains.grid import Grid
-
-    if isinstance(domain, Grid):
-        bc = domain.bcs
-        axes = (bc.z, bc.y, bc.x) if domain.ndim == 3 else (bc.y, bc.x)
-        names = [a.name for a in axes]
-        bcs = names[0] if len(set(axes)) == 1 else "/".join(names)
-        if hasattr(domain, "height"):  # a graph surface (rdgpu.domains.graph_surface)
-            return f"graph surface over a {_grid_text(domain.shape)} grid (dx={domain.dx:g})"
-        return f"{_grid_text(domain.shape)} grid (dx={domain.dx:g}, {bcs})"
-    return f"mesh of {domain.n_vertices} vertices, {domain.n_faces} faces"
-
-
-def _describe_spec(spec: dict) -> str:
-    if "grid" in spec:
-        g = spec["grid"]
-        surface = "graph surface over a " if "height" in spec else ""
-        return f"{surface}{_grid_text((g, g) if isinstance(g, int) else g)} grid"
-    opts = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "mesh")
-    return f"mesh {spec['mesh']}" + (f" ({opts})" if opts else "")
-
-
-def _display_field(model: Any, preset: Any, requested: str | None) -> str:
-    species = tuple(model.species)
-    if requested is not None:
-        if requested not in species:
-            raise UsageError(f"--field {requested!r}: model {model.name} has fields "
-                             f"{', '.join(species)}")
-        return requested
-    classify = getattr(preset, "classify", None) or {}
-    if classify.get("field") in species:
-        return classify["field"]
-    shown = getattr(model, "display", None)
-    if shown in species:
-        return shown
-    return "v" if model.name == "gray-scott" else species[0]
-
-
-def _say(args: argparse.Namespace, text: str) -> None:
-    if not args.quiet:
-        print(text, file=sys.stderr)
-
-
-# ---------------------------------------------------------------------------- commands
-def _cmd_backends(args: argparse.Namespace) -> int:
-    from rdgpu.backends.registry import available_backends
-
-    infos = available_backends()
-    for info in infos:
-        print(info)
-    missing = [name for name in args.require
-               if not any(i.name == name and i.available for i in infos)]
-    if missing:
-        print(f"rdgpu: required backend(s) unavailable: {', '.join(missing)}", file=sys.stderr)
-        return 1
-    return 0
-
-
-def _cmd_models(args: argparse.Namespace) -> int:
-    for name, m in _models().items():
-        params = ", ".join(f"{k}={v:g}" for k, v in m.defaults.items())
-        print(f"{name}")
-        print(f"    fields: {', '.join(m.species)}; parameters: {params}")
-        if getattr(m, "description", ""):
-            print(f"    {m.description}")
-    return 0
-
-
-def _cmd_presets(args: argparse.Namespace) -> int:
-    presets = _presets()
-    if args.model is not None and not args.model.strip():
-        raise UsageError("MODEL is empty: name a model ('rdgpu models') or leave it out to "
-                         "list every preset")
-    if args.model:
-        _models_known = _models()
-        if args.model not in _models_known:
-            raise UsageError(f"unknown model {args.model!r}; models: "
-                             f"{', '.join(_models_known)}")
-        presets = {k: p for k, p in presets.items() if _model_name(p.model) == args.model}
-    if not presets:
-        print("no presets" + (f" for {args.model}" if args.model else ""))
-        return 0
-    for name, p in presets.items():
-        params = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
-                           for k, v in (p.params or {}).items())
-        print(f"{name}")
-        print(f"    model:   {_model_name(p.model)} on {_describe_spec(p.domain)}, "
-              f"{p.steps} steps of dt={p.dt:g}" + (f"; {params}" if params else ""))
-        print(f"    source:  {p.source}")
-        print(f"    pattern: {p.expect}")
-        if getattr(p, "description", ""):
-            print(f"    {p.description}")
-        print(f"    run:     rdgpu run {_model_name(p.model)} --preset {name}")
-    return 0
-
-
-# ------------------------------------------------------------------------ checking input
-def _check_output(option: str, path: str) -> None:
-    """An output path whose folder exists and can be written, and is not a folder itself."""
-    p = Path(path)
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.exists():
-        raise UsageError(f"{option} {path}: the folder {str(folder)!r} does not exist")
-    if not folder.is_dir():
-        raise UsageError(f"{option} {path}: {str(folder)!r} is not a folder")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"{option} {path}: the folder {str(folder)!r} is not writable")
-    if p.is_dir():
-        raise UsageError(f"{option} {path} is a folder; give a file name")
-    try:  # the writers' own check: never a device, a pipe or a socket; no NUL byte
-        check_writable(path, option)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    if p.exists() and not os.access(p, os.W_OK):
-        raise UsageError(f"{option} {path} exists and is not writable")
-
-
-def _check_options(args: argparse.Namespace) -> None:
-    """Everything that can be checked before a model or a domain is built."""
-    from rdgpu.io.output import MESH_FORMATS, MOVIE_FORMATS
-
-    if args.movie and Path(args.movie).suffix.lower() not in MOVIE_FORMATS:
-        raise UsageError(f"--movie must end in {' or '.join(MOVIE_FORMATS)}, got {args.movie!r}")
-    for d in args.data or []:
-        if Path(d).suffix.lower() not in (".npz", *MESH_FORMATS):
-            raise UsageError(f"--data must end in .npz or a mesh format "
-                             f"({', '.join(MESH_FORMATS)}), got {d!r}")
-    if args.out and Path(args.out).suffix.lower() != ".png":
-        raise UsageError(f"--out must end in .png, got {args.out!r}")
-    outputs = [("--out", args.out), ("--movie", args.movie)]
-    outputs += [("--data", d) for d in args.data or []]
-    outputs += [("--checkpoint", args.checkpoint)]
-    for option, path in outputs:
-        if path:
-            _check_output(option, path)
-    ckpt = args.checkpoint or args.resume
-    if ckpt:
-        for option, path in outputs[:-1]:
-            if path and Path(path).resolve() == Path(ckpt).resolve():
-                which = "--checkpoint" if args.checkpoint else "--resume"
-                raise UsageError(f"{option} {path} is also the {which} file: the output "
-                                 "would overwrite the checkpoint")
-    if args.checkpoint_every is not None and not ckpt:
-        raise UsageError("--checkpoint-every needs --checkpoint PATH (or --resume)")
-    if args.movie and args.snapshot_every == 0:
-        raise UsageError("--movie needs snapshots: --snapshot-every must be > 0")
-    from rdgpu.cli.domain import check_init_file
-
-    check_init_file(args)
-    if args.cmap is not None:
-        colormaps = require("matplotlib", "--cmap (a Matplotlib colour map)").colormaps
-        if args.cmap not in colormaps:
-            close = [c for c in sorted(colormaps) if c.lower().startswith(args.cmap[:3].lower())
-                     and not c.endswith("_r")][:4]
-            raise UsageError(f"--cmap {args.cmap!r} is not a Matplotlib colour map; e.g. "
-                             f"{', '.join(close or ['viridis', 'magma', 'gray', 'RdBu'])}")
-
-
-def _check_memory(what: str, cells: int, n_species: int, itemsize: int, snapshots: int = 0,
-                  frame_pixels: int = 0) -> None:
-    """The shared estimate (``rdgpu.core.resources.check_fields``), as a usage error."""
-    try:
-        check_fields(what, cells, n_species, itemsize, snapshots=snapshots,
-                     frame_pixels=frame_pixels)
-    except ResourceLimitError as exc:
-        raise UsageError(str(exc)) from None
-
-
-def _picture_size(shape: tuple[int, ...], k: int) -> tuple[int, int]:
-    """``(height, width)`` in pixels of the picture of a grid of ``shape`` at ``k`` pixels a
-    cell: the grid itself in 2-D (one row in 1-D), the three mid-plane slices of a 3-D grid
-    (the largest picture a 3-D field can get, see ``rdgpu.output.slices_rgb``)."""
-    if len(shape) == 3:
-        from rdgpu.io.output import slices_size
-
-        return slices_size(shape, k)
-    ny, nx = (1, shape[0]) if len(shape) == 1 else shape[-2:]
-    return ny * k, nx * k
-
-
-def _picture_scale(args: argparse.Namespace, shape: tuple[int, ...] | None) -> int:
-    """--scale, or the default (2, or 1 for a grid too large for that); refuse a picture
-    past MAX_PICTURE_PIXELS or MAX_PICTURE_SIDE."""
-    if shape is None:  # a mesh: rendered at a fixed window size
-        return args.scale or DEFAULT_SCALE
-
-    def fits(k: int) -> bool:
-        h, w = _picture_size(shape, k)
-        return h * w <= MAX_PICTURE_PIXELS and max(h, w) <= MAX_PICTURE_SIDE
-
-    if args.scale is None:
-        return DEFAULT_SCALE if fits(DEFAULT_SCALE) else 1
-    if not fits(args.scale):
-        most = max([k for k in range(1, args.scale) if fits(k)], default=None)
-        h, w = _picture_size(shape, args.scale)
-        what = "slices of this" if len(shape) == 3 else "this"
-        grid = _grid_text((1, shape[0]) if len(shape) == 1 else shape)
-        raise UsageError(f"--scale {args.scale} makes a {h}x{w}-"
-                         f"pixel picture of {what} {grid} grid; the most is "
-                         f"{MAX_PICTURE_SIDE} pixels a side and {MAX_PICTURE_PIXELS:,} in all"
-                         + (f" (--scale {most} or less)" if most else ""))
-    return args.scale
-
-
-def _frame_size(shape: tuple[int, ...], scale: int) -> tuple[int, int]:
-    """``(height, width)`` of a movie frame of a grid: its picture at ``scale``, at least
-    the 480 x 480 window of a 3-D isosurface frame."""
-    h, w = _picture_size(shape, scale)
-    return (max(h, 480), max(w, 480)) if len(shape) == 3 else (h, w)
-
-
-def _check_view(args: argparse.Namespace, domain: Any) -> None:
-    """--view and --level picture 3-D grids only; --view isosurface needs pyvista."""
-    from rdgpu.domains.grid import Grid
-
-    if not (isinstance(domain, Grid) and domain.ndim == 3):
-        for option in ("--view", "--level"):
-            if getattr(args, option[2:]) is not None:
-                raise UsageError(f"{option} is for 3-D grids (--size NxMxK); this run is on "
-                                 f"a {_describe_domain(domain)}")
-        return
-    if args.view == "isosurface":
-        check("pyvista", "--view isosurface (--view slices needs only the media extra)")
-
-
-def _check_extras(args: argparse.Namespace, is_mesh: bool) -> None:
-    """The optional packages that the asked-for outputs need, checked before the run: a
-    missing one raises :class:`MissingExtraError` naming the extra (``--data PATH.npz``
-    needs none)."""
-    default_png = args.out is None and not args.movie and not args.data
-    pictures = bool(args.out or args.movie or default_png)
-    needs = []
-    if pictures:
-        what = "writing the PNG picture" if args.out or default_png else "writing the movie"
-        needs += [("imageio", what), ("matplotlib", what)]
-    if args.movie and Path(args.movie).suffix.lower() == ".mp4":
-        needs.append(("imageio_ffmpeg", "writing MP4 movies"))
-    if is_mesh and pictures:
-        needs.append(("pyvista", "rendering the mesh"))
-    if any(Path(d).suffix.lower() in (".vtk", ".vtp", ".vtu") for d in args.data or []):
-        needs.append(("pyvista", "writing VTK files"))
-    if any(Path(d).suffix.lower() in (".msh", ".xdmf", ".inp") for d in args.data or []):
-        needs.append(("meshio", "writing gmsh/XDMF/Abaqus files"))
-    for module, purpose in needs:
-        try:
-            check(module, purpose)
-        except MissingExtraError as exc:
-            if not default_png:
-                raise
-            raise MissingExtraError(f"{exc} (or give --data PATH.npz to write the fields "
-                                    "and no picture)", module=exc.module, extra=exc.extra) from None
-
-
-def _cli_words(text: str) -> str:
-    """A library message in the command line's words."""
-    text = re.sub(r"pass check_stability=False", "use --no-stability-check", text)
-    return text.replace("check_stability=False", "--no-stability-check")
-
-
-# ---------------------------------------------------------------------------- run
-def _grid_text(shape: Any) -> str:
-    return "x".join(str(int(n)) for n in shape)
-
-
-def _build_simulation(args: argparse.Namespace) -> tuple[Any, Any, dict]:
-    """The Simulation, its preset (or None) and the run() keyword arguments."""
-    from rdgpu.core.errors import StabilityError
-    from rdgpu.simulation.driver import Simulation
-
-    if args.resume is not None:
-        from rdgpu.cli.resume import build_resumed
-
-        return build_resumed(args, _presets())
-
-    models, presets = _models(), _presets()
-    preset = None
-    model_name = args.model
-    defined = _equation_model(args) if args.equation else None
-    if defined is not None:
-        models = {**models, defined.name: defined}
-        model_name = defined.name
-    if model_name is None:
-        raise UsageError("name a MODEL ('rdgpu models') or a preset, or give the equations "
-                         "with --equation")
-    if args.preset is not None:
-        if args.preset not in presets:
-            raise UsageError(f"unknown preset {args.preset!r}; see 'rdgpu presets'")
-        preset = presets[args.preset]
-        if model_name != _model_name(preset.model) and model_name != args.preset:
-            raise UsageError(f"preset {args.preset!r} is for model "
-                             f"{_model_name(preset.model)!r}, not {model_name!r}")
-    elif model_name not in models and model_name in presets:
-        preset = presets[model_name]  # `rdgpu run PRESET` works too
-    if preset is not None:
-        model_name = _model_name(preset.model)
-    if model_name not in models:
-        raise UsageError(f"unknown model {model_name!r}; models: {', '.join(models)} "
-                         "(presets: 'rdgpu presets')")
-    model = models[model_name]
-    if args.size is not None and args.mesh is not None:
-        raise UsageError("give --size (a grid) or --mesh, not both")
-    params = dict(preset.params or {}) if preset is not None else {}
-    # a model defined by --equation has the --param values as its defaults (so that on a
-    # mesh its diffusion coefficients are scaled like a built-in's); a built-in's are given
-    for name, value in [] if defined is not None else args.param or []:
-        if name not in model.defaults:
-            raise UsageError(f"--param {name}: model {model_name} has parameters "
-                             f"{', '.join(model.defaults)} (set one with --param "
-                             "NAME=VALUE)")
-        params[name] = value
-    from rdgpu.cli.domain import check_block_memory, domain_spec, init_for
-
-    domain = domain_spec(args, preset, model, DEFAULT_SIZE)
-    init, fields = init_for(args, model, params, domain)
-    dtype = args.dtype or "float32"
-    itemsize = 4 if dtype == "float32" else 8
-    members = getattr(args, "members", None)
-    if "grid" in domain:
-        g = domain["grid"]
-        cells = int(g) ** 2 if isinstance(g, int) else math.prod(int(n) for n in g)
-        _check_memory(f"a {_grid_text(g if not isinstance(g, int) else (g, g))} grid"
-                      + (f" × {members} members" if members else ""), cells * (members or 1),
-                      len(model.species), itemsize)
-        _picture_scale(args, (g, g) if isinstance(g, int) else tuple(g))
-    seed = args.seed if args.seed is not None else getattr(preset, "seed", 0)
-    if members:
-        seed = [seed + m for m in range(members)]
-    options = dict(getattr(preset, "options", None) or {})
-    if args.method is not None:
-        methods = tuple(getattr(model, "methods", ()) or ())
-        if args.method not in methods:
-            raise UsageError(f"--method {args.method!r}: model {model.name} has the methods "
-                             f"{', '.join(methods) or '(none)'}")
-        options["method"] = args.method
-    if args.stencil is not None:
-        import inspect
-
-        if "stencil" not in inspect.signature(model.stepper).parameters:
-            raise UsageError(f"--stencil: model {model.name} has no choice of stencil")
-        options["stencil"] = args.stencil
-    if args.block_steps is not None:
-        import inspect
-
-        if "block_steps" not in inspect.signature(model.stepper).parameters:
-            raise UsageError(f"--block-steps: model {model.name} has no blocked kernel; "
-                             "only the models defined by equations have")
-        options["block_steps"] = args.block_steps
-        check_block_memory(args.block_steps, domain, len(model.species), itemsize)
-    try:
-        sim = Simulation(
-            model, domain, params,
-            dt=args.dt if args.dt is not None else getattr(preset, "dt", None),
-            backend=args.backend, dtype=dtype, seed=seed,
-            init=init if init is not None else getattr(preset, "init", None), fields=fields,
-            check_stability=not args.no_stability_check, options=options or None,
-            members=members,
-        )
-    except StabilityError as exc:
-        raise UsageError(_cli_words(str(exc))) from None
-    except ArithmeticError as exc:  # e.g. --param F=1/0
-        given = [f"--param {k}={v}" for k, v in args.param or [] if isinstance(v, str)]
-        raise UsageError(f"{' '.join(given) or 'a parameter'}: {_arithmetic(exc)}") from None
-    except (ValueError, TypeError) as exc:
-        if fields is not None and "field" in str(exc):
-            raise UsageError(f"--init {args.init['path']}: {exc}") from None
-        if "parameter" not in str(exc) and "equation" not in str(exc):
-            raise
-        raise UsageError(_cli_words(str(exc))) from None
-    sim.preset = preset
-    steps = args.steps if args.steps is not None else sim.default_steps
-    if steps is None:
-        steps = DEFAULT_STEPS
-    snapshot_every = args.snapshot_every
-    if snapshot_every is None:
-        snapshot_every = getattr(preset, "snapshot_every", 0) or 0
-        if args.movie and not snapshot_every:
-            snapshot_every = max(1, steps // 100)
-    kwargs = {"steps": steps, "snapshot_every": snapshot_every,
-              "check_every": args.check_every, "checkpoint": args.checkpoint,
-              "checkpoint_every": args.checkpoint_every}
-    return sim, preset, {**kwargs, "_total": steps, "_snapshot_every": snapshot_every,
-                         "_target": sim.step + steps}
-
-
-def _equation_model(args: argparse.Namespace) -> Any:
-    """The model of ``rdgpu run [NAME] --equation S=EXPR ... --param P=VALUE ...``: every
-    --param is one of its parameters."""
-    from rdgpu.models import EquationError, define_model
-
-    if args.preset is not None:
-        raise UsageError("--preset and --equation cannot be combined: a preset names its model")
-    if args.model in _presets():
-        raise UsageError(f"{args.model!r} is a preset, and with --equation MODEL is the new "
-                         "model's name: choose another name (a preset names its own model; "
-                         "--preset and --equation cannot be combined)")
-    equations: dict[str, str] = {}
-    for species, rhs in args.equation:
-        if species in equations:
-            raise UsageError(f"--equation {species}=... is given twice")
-        equations[species] = rhs
-    params = dict(args.param or [])
-    try:
-        return define_model(args.model or "custom", equations, params,
-                            description="defined on the command line")
-    except (EquationError, ValueError) as exc:
-        text = _cli_words(str(exc))
-        unknown = re.search(r"uses the unknown name '(\w+)'", text)
-        if unknown:
-            text += f" (a parameter needs a value: --param {unknown.group(1)}=VALUE)"
-        raise UsageError(text) from None
-
-
-def _arithmetic(exc: ArithmeticError) -> str:
-    if isinstance(exc, ZeroDivisionError):
-        return "division by zero"
-    return f"{type(exc).__name__}: {exc}"
-
-
-def _colour_limits(args: argparse.Namespace, model: Any, field: str) -> tuple[float, float] | None:
-    """--range, else the model's known range of ``field`` (a fixed colour scale), else None
-    (the field's own range)."""
-    if args.range is not None:
-        return args.range or None  # "auto" parses to ()
-    known = (getattr(model, "value_range", None) or {}).get(field)
-    return None if known is None else (float(known[0]), float(known[1]))
-
-
-def _cmd_run(args: argparse.Namespace) -> int:
-    from rdgpu.cli.growth import is_growth, run_growth
-    from rdgpu.cli.outputs import (
-        default_png,
-        io_message,
-        result_of,
-        slices_note,
-        uniform_warning,
-        write_each,
+def _command(module: str, name: str) -> Callable[[argparse.Namespace], int]:
+    """The command ``module.name``, imported when it runs: the command modules load the
+    model layer and the simulation (about a second), which ``rdgpu --help`` and a usage
+    error do not need."""
+
+    def command(args: argparse.Namespace) -> int:
+        return getattr(importlib.import_module(module), name)(args)
+
+    return command
+
+
+# ---------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of every command; each sets ``func``, the command to run."""
+    parser = _Parser(
+        prog="rdgpu",
+        description="Reaction-diffusion pattern simulations on NumPy, Warp or OpenCL.",
+        epilog="Run 'rdgpu COMMAND --help' for the options of a command.",
     )
-    from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted
-    from rdgpu.io.output import MESH_FORMATS
-
-    if is_growth(args):  # dla, random-walk-dla: growth models, not reaction-diffusion
-        _check_extras(args, is_mesh=False)
-        return run_growth(args, _say, UsageError)
-    _check_options(args)
-    _check_extras(args, is_mesh=False)  # before the model and the domain are built
-    sim, preset, kwargs = _build_simulation(args)
-    total, every = kwargs.pop("_total"), kwargs.pop("_snapshot_every")
-    target = kwargs.pop("_target")
-    field = _display_field(sim.model, preset, args.field)
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-    is_mesh = isinstance(sim.domain, SurfaceMesh)
-    if not is_mesh and any(Path(d).suffix.lower() in MESH_FORMATS for d in args.data or []):
-        raise UsageError("VTK/PLY data files need a mesh (--mesh); use .npz for a grid")
-    _check_view(args, sim.domain)
-    if is_mesh:
-        _check_extras(args, is_mesh=True)
-    if args.movie and not every:
-        raise UsageError("--movie needs snapshots, and this run takes none: give "
-                         "--snapshot-every N")
-    scale = _picture_scale(args, None if is_mesh else sim.shape)
-    snapshots = (total // every + 2) if every else 0
-    pixels = 0 if is_mesh or not args.movie else math.prod(_frame_size(sim.shape, scale))
-    _check_memory(f"this run ({total} steps)", int(math.prod(sim.field_shape)),
-                  len(sim.species), sim.dtype.itemsize, snapshots, pixels)
-    limits = _colour_limits(args, sim.model, field)
-    out = args.out
-    if out is None and not args.movie and not args.data:
-        out = default_png(preset.name if preset is not None else sim.model.name)
-        _check_output("--out", out)
-    note = slices_note(args, sim.domain, pictures=bool(out or args.movie))
-    if note:
-        print(f"rdgpu: note: {note}", file=sys.stderr)
-    steps_note = "" if kwargs.get("steps") is None else f"{kwargs['steps']} steps, "
-    params = ", ".join(f"{k}={v:.4g}" for k, v in sim.params.items()
-                       if isinstance(v, (int, float)))
-    _say(args, f"{sim.model.name} on a {_describe_domain(sim.domain)}"
-               + (f" × {sim.members} members" if sim.members else "") + f", {steps_note}"
-               f"dt={sim.dt:g}, {sim.dtype.name}, {sim.backend.name} ({sim.backend.device})"
-               + (f", from step {sim.step} of {args.resume}" if args.resume else "")
-               + (f"; {params}" if params else ""))
-    start, first_step = time.perf_counter(), sim.step
-    status, stopped = 0, None
-    try:
-        result = sim.run(progress=not args.quiet, **kwargs)
-    except SimulationDiverged as exc:
-        result = exc.result
-        print(f"rdgpu: error: {_cli_words(str(exc))}", file=sys.stderr)
-        status = EXIT_DIVERGED
-    except SimulationInterrupted as exc:
-        result, stopped = exc.result, exc
-        status = EXIT_INTERRUPTED
-    except OSError as exc:  # a checkpoint that could not be written: a failed run
-        result, status = result_of(sim, exc), EXIT_FAILED
-        ckpt = kwargs.get("checkpoint") or args.resume
-        print(f"rdgpu: error: {io_message(exc, ckpt)}"
-              + (f"; the outputs are from step {result.step}, the last good state"
-                 if result is not None else ""), file=sys.stderr)
-    seconds = time.perf_counter() - start
-    written, failed = [], []
-    if result is not None:
-        outputs = [("png", out)] if out else []
-        outputs += [("movie", args.movie)] if args.movie else []
-        outputs += [("data", d) for d in args.data or []]
-        written, failed = write_each(result, outputs, dict(
-            field=field, cmap=args.cmap or "viridis", scale=scale, fps=args.fps,
-            vmin=None if limits is None else limits[0],
-            vmax=None if limits is None else limits[1], view=args.view or "auto",
-            level=args.level))
-    for path in written:
-        _say(args, f"wrote {path}")
-    for text in failed:
-        print(f"rdgpu: error: {text}", file=sys.stderr)
-    if failed and status == 0:
-        status = EXIT_FAILED
-    if stopped is not None:
-        ckpt = stopped.checkpoint or kwargs.get("checkpoint") or args.resume
-        what = ", ".join(str(p) for p in written) if written else "nothing"
-        where = (f"step {result.step} of {target} (t={result.time:g})" if result is not None
-                 else f"an unknown step of {target} (no checked state: --check-every 0)")
-        print(f"rdgpu: interrupted at {where}; wrote {what}"
-              + (f"; resume with --resume {ckpt}" if ckpt else ""), file=sys.stderr)
-        return status
-    if result is None:
-        return status
-    for _, what in sorted(result.diverged_members.items()):
-        print(f"rdgpu: warning: {_cli_words(what)}", file=sys.stderr)
-    warning = uniform_warning(result, sim.model, field, bool(_presets_of(sim.model))) \
-        if status == 0 else None
-    if warning:
-        print(f"rdgpu: warning: {warning}", file=sys.stderr)
-    n_points = int(result.fields[field].size)
-    rate = n_points * max(result.step - first_step, 0) / seconds / 1e6 if seconds > 0 else 0.0
-    _say(args, f"step {result.step}, t={result.time:g} ({seconds:.2f} s, "
-               f"{rate:.3g} M point-steps/s)")
-    return status
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_run_parser(sub)
+    _add_sweep_parser(sub)
+    _add_listing_parsers(sub)
+    return parser
 
 
 def _add_engine_options(group: Any, seed_note: str) -> None:
@@ -663,15 +112,8 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
     group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
 
 
-# ---------------------------------------------------------------------------- parser
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
-        prog="rdgpu",
-        description="Reaction-diffusion pattern simulations on NumPy, Warp or OpenCL.",
-        epilog="Run 'rdgpu COMMAND --help' for the options of a command.",
-    )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
+def _add_run_parser(sub: Any) -> None:
+    """``rdgpu run`` (the command: :func:`rdgpu.cli.run.cmd_run`)."""
     run = sub.add_parser(
         "run", help="run a model (or a preset) and write a PNG, a movie, data files",
         description="Run a reaction-diffusion model on a grid or a mesh. Without --preset\n"
@@ -699,7 +141,25 @@ def build_parser() -> argparse.ArgumentParser:
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
                      "geometry=seed001|radial; --steps: growth steps / particles); "
                      "seed003-front, a level-set front driven by seed 003's Turing spots")
-    what = run.add_argument_group("what to run")
+    _add_what_to_run(run.add_argument_group("what to run"))
+    _add_outputs(run.add_argument_group("outputs"))
+    long = run.add_argument_group("long runs")
+    long.add_argument("--check-every", type=_positive_int, metavar="N",
+                      help="check for NaN/Inf/blow-up every N steps (default 200, 0: never)")
+    long.add_argument("--checkpoint", metavar="PATH",
+                      help="write a checkpoint (NPZ, atomically) every --checkpoint-every "
+                      "steps and at the end")
+    long.add_argument("--checkpoint-every", type=_positive_int, metavar="N",
+                      help="steps between checkpoints (default 1000)")
+    long.add_argument("--resume", metavar="CHECKPOINT",
+                      help="continue an interrupted run from its checkpoint (same result as "
+                      "an uninterrupted run); keeps checkpointing to it")
+    run.add_argument("--quiet", action="store_true", help="no progress bar or messages")
+    run.set_defaults(func=_command("rdgpu.cli.run", "cmd_run"))
+
+
+def _add_what_to_run(what: Any) -> None:
+    """The model, its domain, parameters and stepping, of ``rdgpu run``."""
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
     where = what.add_mutually_exclusive_group()
     where.add_argument("--size", type=_size, metavar="NxM[xK]",
@@ -759,7 +219,10 @@ def build_parser() -> argparse.ArgumentParser:
                       "...; the picture and movie become mosaics of the members")
     what.add_argument("--no-stability-check", action="store_true",
                       help="run even if dt is past the stability limit")
-    outs = run.add_argument_group("outputs")
+
+
+def _add_outputs(outs: Any) -> None:
+    """The pictures, movies and data files of ``rdgpu run``."""
     outs.add_argument("--out", metavar="PATH.png", help="PNG of the final field (the media "
                       "extra; a mesh is rendered with pyvista: the mesh extra too); if no "
                       "other output is given, NAME.png in the current folder, NAME the "
@@ -791,34 +254,69 @@ def build_parser() -> argparse.ArgumentParser:
     outs.add_argument("--snapshot-every", type=_positive_int, metavar="N",
                       help="keep a snapshot every N steps (default: the preset's; with "
                       "--movie about 100 frames)")
-    long = run.add_argument_group("long runs")
-    long.add_argument("--check-every", type=_positive_int, metavar="N",
-                      help="check for NaN/Inf/blow-up every N steps (default 200, 0: never)")
-    long.add_argument("--checkpoint", metavar="PATH",
-                      help="write a checkpoint (NPZ, atomically) every --checkpoint-every "
-                      "steps and at the end")
-    long.add_argument("--checkpoint-every", type=_positive_int, metavar="N",
-                      help="steps between checkpoints (default 1000)")
-    long.add_argument("--resume", metavar="CHECKPOINT",
-                      help="continue an interrupted run from its checkpoint (same result as "
-                      "an uninterrupted run); keeps checkpointing to it")
-    run.add_argument("--quiet", action="store_true", help="no progress bar or messages")
-    run.set_defaults(func=_cmd_run)
 
-    from rdgpu.cli.sweep import add_sweep_parser
 
-    add_sweep_parser(sub)
+def _add_sweep_parser(sub: Any) -> None:
+    """``rdgpu sweep`` (the command: :func:`rdgpu.cli.sweep.cmd_sweep`)."""
+    sw = sub.add_parser(
+        "sweep", help="run a model over a grid of parameter values: a map and a Dataset",
+        description="Run MODEL at every point of the Cartesian product of the swept\n"
+        "parameters, in batches of ensemble members that run as Dask tasks (a local\n"
+        "cluster by default). Writes a mosaic of the final fields laid out on the\n"
+        "parameter axes (the first swept parameter along x, the second along y) and an\n"
+        "xarray Dataset (dims: the swept parameters, then y, x; the final fields and each\n"
+        "member's pattern class). A .zarr --data store fills as batches finish; run the\n"
+        "same command again to resume a stopped sweep. Needs the dask extra:\n"
+        '  pip install "rdgpu[dask]"',
+        epilog="examples:\n"
+        "  rdgpu sweep gray-scott --param F=0.01:0.08:64 --param k=0.03:0.07:64 \\\n"
+        "      --size 128 --steps 10000 --out map.png --data map.zarr\n"
+        "  rdgpu sweep gray-scott --param F=0.02,0.03,0.04 --param k=0.06 --out row.png\n"
+        "  rdgpu sweep gray-scott --param F=0.01:0.08:16 --param k=0.03:0.07:16 \\\n"
+        "      --scheduler tcp://host:8786 --data map.zarr",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sw.add_argument("model", metavar="MODEL", help="model name ('rdgpu models')")
+    sw.add_argument("--param", type=_sweep_param, action="append", metavar="NAME=VALUES",
+                    help="START:STOP:N (N values, inclusive), A,B,C (a list) or VALUE "
+                    "(fixed); repeatable, at least one swept")
+    sw.add_argument("--size", type=_size, metavar="NxM", help="grid of each member "
+                    "(default 128x128, periodic)")
+    sw.add_argument("--steps", type=_positive_int, default=DEFAULT_STEPS, metavar="N",
+                    help=f"time steps of every member (default {DEFAULT_STEPS})")
+    sw.add_argument("--dt", type=_positive_float, help="time step (default: the smallest "
+                    "default of all the members)")
+    _add_engine_options(sw, ", the same for every member")
+    sw.add_argument("--out", metavar="PATH.png", help="the parameter map (default "
+                    "MODEL_sweep.png if no --data)")
+    sw.add_argument("--data", metavar="PATH.zarr|PATH.nc", help="the Dataset: zarr "
+                    "(streamed, resumable) or netCDF (written at the end)")
+    sw.add_argument("--species", help="the field pictured (default: the one classified, "
+                    "as the model's presets do: v for Gray-Scott)")
+    sw.add_argument("--scheduler", metavar="local|serial|tcp://HOST:PORT",
+                    help="where the batches run: local (a Dask LocalCluster, default), "
+                    "serial (this process, no Dask) or a Dask scheduler's address")
+    sw.add_argument("--workers", type=_at_least_1, metavar="N", help="processes of the "
+                    "local cluster (default: one per core)")
+    sw.add_argument("--batch", type=_at_least_1, metavar="N", help="members per batch "
+                    "(default: about 4 batches per worker, within 256 MiB)")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar or messages")
+    sw.set_defaults(func=_command("rdgpu.cli.sweep", "cmd_sweep"))
 
+
+def _add_listing_parsers(sub: Any) -> None:
+    """``rdgpu presets``, ``rdgpu models`` and ``rdgpu backends`` (the commands:
+    :mod:`rdgpu.cli.listing`)."""
     presets = sub.add_parser("presets", help="list the presets: source and expected pattern",
                              description="List every preset with its model, domain, source "
                              "and the pattern it should give.")
     presets.add_argument("model", nargs="?", metavar="MODEL", help="only this model's presets")
-    presets.set_defaults(func=_cmd_presets)
+    presets.set_defaults(func=_command("rdgpu.cli.listing", "cmd_presets"))
 
     models = sub.add_parser("models", help="list the models and their parameters",
                             description="List the models, their fields and default "
                             "parameters.")
-    models.set_defaults(func=_cmd_models)
+    models.set_defaults(func=_command("rdgpu.cli.listing", "cmd_models"))
 
     backends = sub.add_parser("backends", help="list the backends and their devices",
                               description="List the backends, whether each can run here, "
@@ -827,20 +325,13 @@ def build_parser() -> argparse.ArgumentParser:
                           choices=("numpy", "warp", "opencl"),
                           help="exit with status 1 unless backend NAME can run here "
                           "(repeatable)")
-    backends.set_defaults(func=_cmd_backends)
-    return parser
+    backends.set_defaults(func=_command("rdgpu.cli.listing", "cmd_backends"))
 
 
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
-
-
+# ---------------------------------------------------------------------------- main
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (2: bad input, 1: failed run, 130:
     interrupted).  ``RDGPU_DEBUG=1`` shows tracebacks instead of one-line errors."""
-    from rdgpu.core.errors import BackendUnavailableError
-
     debug = bool(os.environ.get("RDGPU_DEBUG"))
     try:
         args = build_parser().parse_args(argv)
@@ -856,24 +347,22 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, TypeError, BackendUnavailableError) as exc:
         if debug:
             raise
-        print(f"rdgpu: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
+        print(f"rdgpu: error: {cli_words(one_line(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except (RuntimeError, NotImplementedError) as exc:
         if debug:
             raise
-        print(f"rdgpu: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
+        print(f"rdgpu: error: {cli_words(one_line(exc))}", file=sys.stderr)
         return EXIT_FAILED
     except OSError as exc:  # reading inputs is checked first: this is a failed run
         if debug:
             raise
-        from rdgpu.cli.outputs import io_message
-
         print(f"rdgpu: error: {io_message(exc)}", file=sys.stderr)
         return EXIT_FAILED
     except ImportError as exc:  # an optional package: the message names its extra
         if debug:
             raise
-        print(f"rdgpu: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"rdgpu: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_FAILED
     except MemoryError:
         if debug:
@@ -884,7 +373,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - one line, never a traceback
         if debug:
             raise
-        print(f"rdgpu: error: {_cli_words(_one_line(exc))} ({type(exc).__name__}; "
+        print(f"rdgpu: error: {cli_words(one_line(exc))} ({type(exc).__name__}; "
               "RDGPU_DEBUG=1 shows where)", file=sys.stderr)
         return EXIT_FAILED
 

@@ -1,17 +1,27 @@
 """Where and from what ``rdgpu run`` starts: the domain spec of ``--size``/``--mesh``
 (with ``--dx``/``--length``, ``--bc``, ``--height``, ``--mesh NAME:LEVEL``, ``--radius``,
 ``--roughen``) over the preset's or the model's default domain, and the initial condition
-of ``--init`` (:func:`init_for`).  Errors are :class:`rdgpu.cli.UsageError` (exit 2), raised
-before anything is built."""
+of ``--init`` (:func:`init_for`).  Errors are :class:`rdgpu.cli.common.UsageError` (exit
+2), raised before anything is built."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from rdgpu.cli.common import UsageError
 from rdgpu.cli.options import bc_value, mesh_level
+from rdgpu.core.errors import ResourceLimitError
+from rdgpu.core.resources import check_memory
+from rdgpu.simulation import default_init
+
+# the mesh generators of build_domain (moving to rdgpu.domains.specs with it)
+from rdgpu.simulation.driver import _MESH_GENERATORS
 
 #: generators a --radius sets, and how
 _RADIUS = {"sphere": ("radius",), "icosphere": ("radius",), "uv-sphere": ("radius",),
@@ -21,16 +31,8 @@ _RADIUS = {"sphere": ("radius",), "icosphere": ("radius",), "uv-sphere": ("radiu
 _TORUS_TUBE = 0.3
 
 
-def _usage(text: str) -> Exception:
-    from rdgpu.cli.app import UsageError
-
-    return UsageError(text)
-
-
 def generator_names() -> list[str]:
     """The --mesh generators, without the spelling variants."""
-    from rdgpu.simulation.driver import _MESH_GENERATORS
-
     return [k for k in _MESH_GENERATORS if "_" not in k and k != "disk"]
 
 
@@ -49,23 +51,23 @@ def domain_spec(args: argparse.Namespace, preset: Any, model: Any, default_size:
             del keep["dz"]
         base = {"grid": args.size, **keep}
     elif args.mesh is not None:
-        base = _mesh_base(args.mesh, base)
+        base = mesh_base(args.mesh, base)
     if "grid" in base:
         base = _grid_options(args, base)
     else:
-        base = _mesh_options(args, base)
+        base = mesh_options(args, base)
     return _surface_options(args, base)
 
 
-def _mesh_base(text: str, base: dict) -> dict:
-    from rdgpu.simulation.driver import _MESH_GENERATORS
-
+def mesh_base(text: str, base: dict) -> dict:
+    """The spec of ``--mesh NAME[:LEVEL]`` (a generator and its options, or a file) over
+    ``base`` (kept where it is the same mesh)."""
     try:
         name, options = mesh_level(text, _MESH_GENERATORS)
     except ValueError as exc:
-        raise _usage(str(exc)) from None
+        raise UsageError(str(exc)) from None
     if name.lower() not in _MESH_GENERATORS and not Path(name).exists():
-        raise _usage(f"--mesh {text!r}: no such file (or use a generator: "
+        raise UsageError(f"--mesh {text!r}: no such file (or use a generator: "
                      f"{', '.join(generator_names())}; sphere:LEVEL sets the subdivisions)")
     if "mesh" not in base or str(base["mesh"]) != name:
         base = {"mesh": name}
@@ -75,7 +77,7 @@ def _mesh_base(text: str, base: dict) -> dict:
 def _grid_options(args: argparse.Namespace, spec: dict) -> dict:
     """--dx, --length and --bc on a grid; --radius refused."""
     if getattr(args, "radius", None) is not None:
-        raise _usage("--radius is for a generated mesh (--mesh sphere, uv-sphere, torus or "
+        raise UsageError("--radius is for a generated mesh (--mesh sphere, uv-sphere, torus or "
                      "disc); a grid's size is --size with --dx or --length")
     g = spec["grid"]
     shape = (int(g), int(g)) if isinstance(g, int) else tuple(int(n) for n in g)
@@ -90,23 +92,23 @@ def _grid_options(args: argparse.Namespace, spec: dict) -> dict:
         try:
             spec["bc"] = bc_value(args.bc, len(shape) if len(shape) != 1 else 1, text)
         except ValueError as exc:
-            raise _usage(str(exc)) from None
+            raise UsageError(str(exc)) from None
     return spec
 
 
-def _mesh_options(args: argparse.Namespace, spec: dict) -> dict:
+def mesh_options(args: argparse.Namespace, spec: dict) -> dict:
     """--radius on a generated mesh; --dx, --length and --bc refused."""
     for option in ("dx", "length", "bc"):
         if getattr(args, option, None) is not None:
             why = ("a mesh's boundary is natural (Neumann)" if option == "bc" else
                    "a mesh's spacing comes from --mesh NAME:LEVEL and --radius")
-            raise _usage(f"--{option} is for a grid (--size); {why}")
+            raise UsageError(f"--{option} is for a grid (--size); {why}")
     radius = getattr(args, "radius", None)
     if radius is None:
         return spec
     keys = _RADIUS.get(str(spec["mesh"]).lower())
     if keys is None:
-        raise _usage(f"--radius is for a generated mesh (sphere, uv-sphere, torus or disc), "
+        raise UsageError(f"--radius is for a generated mesh (sphere, uv-sphere, torus or disc), "
                      f"not {spec['mesh']}")
     spec = dict(spec)
     spec[keys[0]] = float(radius)
@@ -121,11 +123,11 @@ def _surface_options(args: argparse.Namespace, spec: dict) -> dict:
     rough = getattr(args, "roughen", None)
     if height is not None:
         if "grid" not in spec:
-            raise _usage("--height needs a 2-D grid (--size NxM); for a mesh use --roughen")
+            raise UsageError("--height needs a 2-D grid (--size NxM); for a mesh use --roughen")
         spec = {**spec, "height": height}
     if rough is not None:
         if "mesh" not in spec:
-            raise _usage("--roughen needs a mesh (--mesh); for a grid use --height")
+            raise UsageError("--roughen needs a mesh (--mesh); for a grid use --height")
         spec = {**spec, "roughen": rough}
     return spec
 
@@ -134,9 +136,9 @@ def _bc_for_3d(bc: Any) -> Any:
     """The boundary condition of a 3-D ``--size`` from a 2-D default: a pair
     ``(y_bc, x_bc)`` becomes ``(y_bc, y_bc, x_bc)`` (z takes the rows' condition); one
     condition or a triple stays as it is."""
-    from rdgpu.domains.boundary import _is_pair
-
-    return (bc[0], bc[0], bc[1]) if _is_pair(bc) else bc
+    pair = isinstance(bc, (tuple, list)) and len(bc) == 2 and not (
+        isinstance(bc[0], str) and bc[0].lower() == "dirichlet")  # not ("dirichlet", value)
+    return (bc[0], bc[0], bc[1]) if pair else bc
 
 
 # ------------------------------------------------------------------------------ --init
@@ -146,7 +148,7 @@ def check_init_file(args: argparse.Namespace) -> None:
     if spec and spec["kind"] == "file":
         p = Path(spec["path"])
         if not p.is_file():
-            raise _usage(f"--init {spec['path']}: no such file" if not p.exists() else
+            raise UsageError(f"--init {spec['path']}: no such file" if not p.exists() else
                          f"--init {spec['path']} is not a file")
 
 
@@ -167,17 +169,15 @@ def init_for(args: argparse.Namespace, model: Any, params: dict, domain: dict | 
         most = MAX_SPOTS if g is None else (int(g) ** 2 if isinstance(g, int)
                                             else math.prod(int(n) for n in g))
         if spec["number"] > most:
-            raise _usage(f"--init {spec['text']}: at most {most} spots ("
+            raise UsageError(f"--init {spec['text']}: at most {most} spots ("
                          + ("one a cell" if g is not None else "on a mesh") + ")")
     species = tuple(model.species)
     if spec["kind"] == "file":
         return None, _fields_from(spec["path"], species)
     unknown = [s for s in spec["values"] if s not in species]
     if unknown:
-        raise _usage(f"--init: model {model.name} has fields {', '.join(species)}, got "
+        raise UsageError(f"--init: model {model.name} has fields {', '.join(species)}, got "
                      f"{', '.join(unknown)}")
-    from rdgpu.simulation.driver import default_init
-
     base = default_init(model, {**model.defaults, **params})
     background = _per_species(base.get("values", 0.0), species)
     noise = base.get("noise", 0.0)
@@ -188,7 +188,7 @@ def init_for(args: argparse.Namespace, model: Any, params: dict, domain: dict | 
     inside = dict(spec["values"])
     if not inside:
         if base.get("kind") not in ("square", "spots") or base.get("inside") is None:
-            raise _usage(f"--init {spec['text']}: give the values inside, e.g. --init "
+            raise UsageError(f"--init {spec['text']}: give the values inside, e.g. --init "
                          f"{spec['kind']},{species[0]}=1 (model {model.name} has no default "
                          "square or spots to take them from)")
         inside = _per_species(base["inside"], species)
@@ -209,8 +209,6 @@ def _per_species(values: Any, species: tuple[str, ...]) -> dict:
 def _fields_from(path: str, species: tuple[str, ...]) -> dict:
     """The fields of an rdgpu data file (``--data``), a checkpoint or an NPZ file of one
     array per species."""
-    import numpy as np
-
     try:
         with np.load(path, allow_pickle=False) as z:
             names = set(z.files)
@@ -219,29 +217,23 @@ def _fields_from(path: str, species: tuple[str, ...]) -> dict:
                     fields = {s: np.asarray(z[pattern.format(s)]) for s in species}
                     break
             else:
-                raise _usage(f"--init {path}: no fields {', '.join(species)} in it (an "
+                raise UsageError(f"--init {path}: no fields {', '.join(species)} in it (an "
                              "rdgpu --data file, a checkpoint or an NPZ file of one array "
                              f"per field); it holds {', '.join(sorted(names)) or 'nothing'}")
+    except UsageError:
+        raise
     except (OSError, ValueError, EOFError) as exc:
-        if isinstance(exc, ValueError) and type(exc).__name__ == "UsageError":
-            raise
-        raise _usage(f"--init {path} is not a readable NPZ file ({exc})") from None
+        raise UsageError(f"--init {path} is not a readable NPZ file ({exc})") from None
     for s, a in fields.items():
         if a.dtype.kind not in "iuf" or not np.isfinite(a).all():
-            raise _usage(f"--init {path}: field {s!r} must hold finite real numbers")
+            raise UsageError(f"--init {path}: field {s!r} must hold finite real numbers")
     return fields
-
 
 
 def check_block_memory(k: int | None, spec: dict, n_species: int, itemsize: int) -> None:
     """--block-steps K: the scratch rows of the blocked passes (``K - 1`` levels of 3 rows
     per species for each work-item, two per core; :mod:`rdgpu.models.blocking`) through the
     shared memory estimate."""
-    import os
-
-    from rdgpu.core.errors import ResourceLimitError
-    from rdgpu.core.resources import check_memory
-
     if not k or k < 2 or "grid" not in spec:
         return
     g = spec["grid"]
@@ -252,4 +244,4 @@ def check_block_memory(k: int | None, spec: dict, n_species: int, itemsize: int)
         check_memory(f"--block-steps {k}", need, f"scratch rows of {items} work-items on "
                      f"rows of {nx} cells")
     except ResourceLimitError as exc:
-        raise _usage(str(exc)) from None
+        raise UsageError(str(exc)) from None

@@ -23,6 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.analysis import fractal_dimension
+from rdgpu.growth.dla import dla, dla_image
+from rdgpu.growth.fronts import seed003_front
+from rdgpu.growth.walkers import random_walk_dla
+
 GEOMETRIES = ("seed001", "radial")
 #: growth model -> (default steps, {parameter: (kind, default)}), kinds "float", "int" or
 #: a tuple of the allowed words
@@ -88,8 +93,6 @@ def _unsupported(args: argparse.Namespace, usage: type[Exception]) -> None:
 
 def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     """Run ``args.model`` (a key of :data:`GROWTH`) and write its outputs."""
-    import rdgpu
-
     _unsupported(args, usage)
     size = args.size if args.size is not None else (256, 256)
     if len(size) != 2:
@@ -102,16 +105,15 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     t0 = time.perf_counter()
     try:
         if args.model == "dla":
-            result = rdgpu.dla(tuple(size), eta=params["eta"], steps=steps,
-                               geometry=params["geometry"], seed=seed, backend=args.backend,
-                               tol=params["tol"], k=params["k"],
-                               dtype=args.dtype or "float64")
+            result = dla(tuple(size), eta=params["eta"], steps=steps,
+                         geometry=params["geometry"], seed=seed, backend=args.backend,
+                         tol=params["tol"], k=params["k"], dtype=args.dtype or "float64")
             grown, stopped = int(result.mask.sum()), result.stopped
         else:
-            result = rdgpu.random_walk_dla(tuple(size), particles=steps,
-                                           sticking=params["sticking"],
-                                           geometry=params["geometry"], seed=seed,
-                                           backend=args.backend, walkers=params["walkers"])
+            result = random_walk_dla(tuple(size), particles=steps,
+                                     sticking=params["sticking"],
+                                     geometry=params["geometry"], seed=seed,
+                                     backend=args.backend, walkers=params["walkers"])
             grown, stopped = int(result.mask.sum()), result.stopped
     except ValueError as exc:
         raise usage(str(exc)) from None
@@ -121,8 +123,6 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     say(args, f"{args.model} on a {size[0]}x{size[1]} grid, {steps} "
               f"{'growth steps' if args.model == 'dla' else 'particles'}, "
               + ", ".join(f"{k}={v}" for k, v in params.items() if v is not None))
-    from rdgpu.growth.dla import dla_image
-
     arrays = {"mask": result.mask, "arrival": result.arrival}
     if getattr(result, "c", None) is not None:
         arrays["c"] = result.c
@@ -131,8 +131,6 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
                                             args.scale or 2), arrays, settings)
     dim = ""
     if grown >= 50:  # radial: mass-radius about the seed cell; seed001: box counting
-        from rdgpu.analysis.measures import fractal_dimension
-
         radial = params["geometry"] == "radial"
         center = getattr(result, "center", None) or (size[0] // 2, size[1] // 2)
         try:
@@ -149,8 +147,6 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
 def _front(args: argparse.Namespace, params: dict, steps: int, say,
            usage: type[Exception]) -> int:
     """``rdgpu run seed003-front``: the seed's Turing spots, then a front driven by Δu."""
-    from rdgpu.growth.fronts import seed003_front
-
     if args.size is not None or args.seed is not None:
         raise usage("seed003-front runs the seed's own grid and initial state (preset "
                     "turing-seed003-spots): --size and --seed do not apply")

@@ -81,10 +81,10 @@ def _param(text: str) -> tuple[str, float | str]:
 def _sweep_param(text: str) -> tuple[str, Any]:
     """``--param`` of ``rdgpu sweep``: ``NAME=START:STOP:N``, ``NAME=A,B,C`` or
     ``NAME=VALUE`` (see :func:`rdgpu.sweep.parse_axis`)."""
-    import importlib
+    # lazy: rdgpu.runs.sweep loads the simulation (about a second), which `rdgpu --help`
+    # does not need; it needs no optional package to import
+    from rdgpu.runs.sweep import parse_axis
 
-    # the parser lives in rdgpu.sweep, which needs no optional package to import
-    parse_axis = importlib.import_module("rdgpu.runs.sweep").parse_axis
     try:
         return parse_axis(text)
     except (TypeError, ValueError) as exc:

@@ -11,11 +11,18 @@ import argparse
 import re
 import sys
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.cli.common import io_message
+from rdgpu.core import optional
 from rdgpu.io.images import FlatFieldWarning
+from rdgpu.io.output import write_outputs
+from rdgpu.simulation import Result, describe_domain
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 #: a displayed field whose range is below this fraction of its scale is "uniform"
 UNIFORM_FRACTION = 0.05
@@ -47,14 +54,12 @@ def uniform_warning(result: Any, model: Any, field: str, has_presets: bool) -> s
             f"no pattern formed; {hint}")
 
 
-def slices_note(args: argparse.Namespace, domain: Any, pictures: bool) -> str | None:
+def slices_note(args: argparse.Namespace, domain: Domain, pictures: bool) -> str | None:
     """The note for a 3-D picture that will be slices because pyvista is missing."""
-    from rdgpu.core import optional as _optional
-    from rdgpu.domains.grid import Grid
-
     if not pictures or args.view not in (None, "auto"):
         return None
-    if not (isinstance(domain, Grid) and domain.ndim == 3) or _optional.available("pyvista"):
+    grid_3d = not domain.unstructured and len(domain.field_shape) == 3
+    if not grid_3d or optional.available("pyvista"):
         return None
     return ("pyvista is not installed: the 3-D picture shows the mid-plane slices instead "
             "of an isosurface (pip install \"rdgpu[mesh]\" for it; --view slices says so "
@@ -68,8 +73,6 @@ def result_of(sim: Any, exc: BaseException) -> Any:
     result = getattr(exc, "result", None)
     if result is not None:
         return result
-    from rdgpu.simulation.driver import Result, describe_domain
-
     try:
         fields = sim.host_state()
     except Exception:  # noqa: BLE001 - the device itself failed: nothing to write
@@ -84,19 +87,10 @@ def result_of(sim: Any, exc: BaseException) -> Any:
                   diverged_members=dict(sim.frozen))
 
 
-def io_message(exc: OSError, path: Any = None) -> str:
-    """``[Errno 28] No space left on device`` with the file it was writing."""
-    where = path if path is not None else exc.filename
-    why = exc.strerror or str(exc).strip() or type(exc).__name__
-    return f"cannot write {where}: {why}" if where is not None else why
-
-
 def write_each(result: Any, outputs: list[tuple[str, Any]], options: dict,
                ) -> tuple[list, list[str]]:
     """Write ``outputs`` (``("png"|"movie"|"data", path)``) one by one; returns the paths
     written and a message per output that failed (the others are still written)."""
-    from rdgpu.io.output import write_outputs
-
     written, failed = [], []
     for kind, path in outputs:
         if kind == "movie" and len(result.snapshot_steps) == 0:
@@ -117,6 +111,3 @@ def write_each(result: Any, outputs: list[tuple[str, Any]], options: dict,
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return written, failed
 
-
-def say_error(text: str) -> None:
-    print(f"rdgpu: error: {text}", file=sys.stderr)

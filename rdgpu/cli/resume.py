@@ -16,15 +16,22 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.cli.common import UsageError, grid_text
+from rdgpu.cli.domain import init_for, mesh_base, mesh_options
+from rdgpu.cli.options import bc_value
+from rdgpu.domains.grid import Grid
+from rdgpu.models import MODELS, EquationError, define_model
+from rdgpu.simulation import Simulation, build_domain
+from rdgpu.simulation.checks import GRID_KINDS
 
-def _usage(text: str) -> Exception:
-    from rdgpu.cli.app import UsageError
-
-    return UsageError(text)
-
-
-def _grid_text(shape: Any) -> str:
-    return "x".join(str(int(n)) for n in shape)
+# the driver's helpers for a checkpoint's domain and model (private there: to become
+# public names of the simulation's modules)
+from rdgpu.simulation.driver import (
+    _bc_text,
+    _domain_differences,
+    _generated_height,
+    _lookup_model,
+)
 
 
 def _squeeze(text: str) -> str:
@@ -36,8 +43,6 @@ def checkpoint_model(meta: dict) -> Any:
     defined by equations, even one named like a built-in), else None (the built-in)."""
     if "equations" not in meta:
         return None
-    from rdgpu.models import MODELS, EquationError, define_model
-
     builtin = getattr(MODELS.get(meta["model"]), "equations", None)
     if isinstance(builtin, dict) and {s: _squeeze(str(e)) for s, e in builtin.items()} == \
             {s: _squeeze(str(e)) for s, e in meta["equations"].items()} and \
@@ -48,28 +53,26 @@ def checkpoint_model(meta: dict) -> Any:
         return define_model(meta["model"], meta["equations"], meta.get("defaults") or {},
                             description="defined by equations (from its checkpoint)")
     except (EquationError, ValueError, TypeError) as exc:
-        raise _usage(f"the checkpoint's model {meta['model']!r} cannot be rebuilt from its "
+        raise UsageError(f"the checkpoint's model {meta['model']!r} cannot be rebuilt from its "
                      f"equations ({exc})") from None
 
 
 def build_resumed(args: argparse.Namespace, presets: dict) -> tuple[Any, Any, dict]:
     """The Simulation of ``--resume``, its preset (or None) and the run() arguments."""
-    from rdgpu.simulation.driver import Simulation
-
     meta, arrays = Simulation.read_checkpoint(args.resume)
     if args.model is not None and args.model not in (meta["model"], meta.get("preset")):
-        raise _usage(f"checkpoint {args.resume} is a run of {meta['model']!r}, "
+        raise UsageError(f"checkpoint {args.resume} is a run of {meta['model']!r}, "
                      f"not {args.model!r}")
     model = checkpoint_model(meta)
     conflicts = before_conflicts(args, meta, arrays, args.resume)
     if conflicts:
-        raise _usage("; ".join(conflicts) + ": leave them out (a resumed run takes them "
+        raise UsageError("; ".join(conflicts) + ": leave them out (a resumed run takes them "
                      "from its checkpoint)")
     sim = Simulation.resume(args.resume, model=model, backend=args.backend,
                             check_stability=False if args.no_stability_check else None)
     conflicts = stepper_conflicts(args, meta, sim, args.resume)
     if conflicts:
-        raise _usage("; ".join(conflicts) + ": leave them out (a resumed run takes them "
+        raise UsageError("; ".join(conflicts) + ": leave them out (a resumed run takes them "
                      "from its checkpoint)")
     preset = presets.get(meta.get("preset") or "")
     kwargs = {"steps": args.steps, "checkpoint": args.checkpoint}
@@ -96,7 +99,7 @@ def _domain_text(dom: dict) -> str:
         return (f"is of mesh {source.get('mesh', '(given as vertices)')}"
                 + (f" ({opts})" if opts else "") + f", {dom.get('n_vertices')} vertices")
     what = "graph surface over a " if dom.get("kind") == "graph-surface" else ""
-    return f"is of a {what}{_grid_text(dom['shape'])} grid"
+    return f"is of a {what}{grid_text(dom['shape'])} grid"
 
 
 def before_conflicts(args: argparse.Namespace, meta: dict, arrays: dict, path: str,
@@ -110,7 +113,7 @@ def before_conflicts(args: argparse.Namespace, meta: dict, arrays: dict, path: s
                            repr(args.preset)))
     if args.size is not None and (dom.get("kind") == "mesh"
                                   or list(dom["shape"]) != list(args.size)):
-        out.append(_refuse("--size", path, _domain_text(dom), _grid_text(args.size)))
+        out.append(_refuse("--size", path, _domain_text(dom), grid_text(args.size)))
     out += _grid_conflicts(args, dom, arrays, path)
     out += _mesh_conflicts(args, dom, arrays, path)
     if args.dt is not None and not math.isclose(args.dt, meta["dt"], rel_tol=1e-12):
@@ -168,9 +171,6 @@ def _init_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str
         return []
     text = spec.get("text", spec.get("path"))
     if spec["kind"] != "file":
-        from rdgpu.cli.domain import init_for
-        from rdgpu.simulation.driver import _lookup_model
-
         model = checkpoint_model(meta) or _lookup_model(meta["model"])
         init, _ = init_for(args, model, dict(meta["params"]))
         if json.loads(json.dumps(init)) == meta.get("init"):
@@ -182,8 +182,6 @@ def _init_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str
 
 def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str,
                     ) -> list[str]:
-    from rdgpu.simulation.driver import GRID_KINDS
-
     given = [o for o in ("bc", "dx", "length", "height") if getattr(args, o, None) is not None]
     if not given:
         return []
@@ -193,15 +191,12 @@ def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
     out = []
     shape = dom["shape"]
     if args.bc is not None:
-        from rdgpu.cli.options import bc_value
-        from rdgpu.domains.grid import Grid
-        from rdgpu.simulation.driver import _bc_json, _bc_text
-
         text = _given_text(args, "bc")
         try:
-            ours = _bc_json(Grid(tuple(shape), dx=1.0, bc=bc_value(args.bc, len(shape), text)))
+            grid = Grid(tuple(shape), dx=1.0, bc=bc_value(args.bc, len(shape), text))
+            ours = grid.describe()["bc"]
         except ValueError as exc:
-            raise _usage(str(exc)) from None
+            raise UsageError(str(exc)) from None
         if ours != dom["bc"]:
             out.append(_refuse("--bc", path, f"has bc {_bc_text(dom['bc'])}", text))
     spacings = [dom["dx"]] + [d for d in (dom.get("dy"), dom.get("dz")) if d is not None]
@@ -223,8 +218,6 @@ def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
 
 def _height_conflict(args: argparse.Namespace, dom: dict, arrays: dict, path: str,
                      ) -> list[str]:
-    from rdgpu.simulation.driver import _generated_height
-
     text = _given_text(args, "height")
     if dom.get("kind") != "graph-surface":
         return [_refuse("--height", path, _domain_text(dom) + " (flat)", text)]
@@ -233,7 +226,7 @@ def _height_conflict(args: argparse.Namespace, dom: dict, arrays: dict, path: st
         try:
             h = _generated_height(tuple(dom["shape"]), dict(h), float(dom["dx"]), dom.get("dy"))
         except ValueError as exc:
-            raise _usage(f"--height: {exc}") from None
+            raise UsageError(f"--height: {exc}") from None
     if np.shape(h) == arrays["surface_height"].shape and \
             np.array_equal(np.asarray(h, dtype=np.float64), arrays["surface_height"]):
         return []
@@ -249,21 +242,18 @@ def _mesh_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
     said = " ".join(_given_text(args, o) for o in given)
     if dom.get("kind") != "mesh":
         return [_refuse(option, path, _domain_text(dom), said)]
-    from rdgpu.cli.domain import _mesh_base, _mesh_options
-    from rdgpu.simulation.driver import _domain_differences, build_domain
-
     spec = dict(dom.get("source") or {})
     if args.mesh is not None:
-        spec = _mesh_base(args.mesh, spec)
+        spec = mesh_base(args.mesh, spec)
     if "mesh" not in spec:
         return [_refuse(option, path, "is of a mesh given as vertices and faces", said)]
-    spec = _mesh_options(args, spec)
+    spec = mesh_options(args, spec)
     if args.roughen is not None:
         spec["roughen"] = dict(args.roughen)
     try:
         differences = _domain_differences(dom, arrays, build_domain(spec))
     except (ValueError, TypeError) as exc:
-        raise _usage(f"{option} {said}: {exc}") from None
+        raise UsageError(f"{option} {said}: {exc}") from None
     if not differences:
         return []
     return [_refuse(option, path, f"{_domain_text(dom)}: {differences[0]}", said)]

@@ -45,6 +45,11 @@ class Domain(Protocol):
     def arrays(self) -> dict[str, np.ndarray]:
         """The arrays a data file or checkpoint keeps beside the description."""
 
+    @property
+    def point_weights(self) -> np.ndarray:
+        """The length, area or volume each point of a field stands for (``field_shape``,
+        float64): the weights of an integral over the domain."""
+
 
 def is_domain(obj: Any) -> bool:
     """Whether ``obj`` is a domain (a :class:`Grid`, graph surface or mesh)."""

@@ -209,3 +209,8 @@ class GraphSurface(Grid):
         ref = load_module("metric", "reference.py")
         c = self.coefficients_as(u.dtype)
         return ref.metric_laplacian(u, *(c[k] for k in ref.COEFFICIENTS))
+
+    @property
+    def point_weights(self) -> np.ndarray:
+        """The Domain protocol: the surface area of each cell, :attr:`area_weights`."""
+        return self.area_weights

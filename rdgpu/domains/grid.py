@@ -131,3 +131,10 @@ class Grid:
         y = (np.arange(ny) + 0.5) * self.dy if self.ndim == 2 else np.zeros(ny)
         x = (np.arange(nx) + 0.5) * self.dx
         return np.meshgrid(y, x, indexing="ij")
+
+    @property
+    def point_weights(self):
+        """The Domain protocol: ``cell_volume`` for every cell (``field_shape``)."""
+        import numpy as np
+
+        return np.full(self.field_shape, self.cell_volume)

@@ -157,7 +157,7 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
     re-run of a lost task changes nothing).  ``job``: the sweep's settings (see
     :func:`sweep`); ``values``: each swept parameter's value for every member.  Returns
     ``{"fields": {species: [B, *shape] array}, "pattern": [B] int8 codes}``."""
-    from rdgpu.analysis.measures import classify_pattern
+    from rdgpu.analysis import classify_pattern
     from rdgpu.simulation.driver import Simulation, _accepts, _lookup_model
 
     names = list(values)

@@ -1181,6 +1181,11 @@ class SurfaceMesh:
         V = np.stack([x.ravel(), y.ravel(), np.asarray(z, dtype=np.float64).ravel()], axis=1)
         return cls(V, _grid_faces(nx, ny))
 
+    @property
+    def point_weights(self) -> np.ndarray:
+        """The Domain protocol: the vertex areas :attr:`areas`."""
+        return self.areas
+
 
 def load_with_fields(
     path: PathLike, *, repair: bool = False
