@@ -29,9 +29,9 @@ def _usage(text: str) -> Exception:
 
 def generator_names() -> list[str]:
     """The --mesh generators, without the spelling variants."""
-    from rdgpu.simulation.driver import _MESH_GENERATORS
+    from rdgpu.simulation.specs import MESH_GENERATORS
 
-    return [k for k in _MESH_GENERATORS if "_" not in k and k != "disk"]
+    return [k for k in MESH_GENERATORS if "_" not in k and k != "disk"]
 
 
 def domain_spec(args: argparse.Namespace, preset: Any, model: Any, default_size: tuple,
@@ -58,13 +58,13 @@ def domain_spec(args: argparse.Namespace, preset: Any, model: Any, default_size:
 
 
 def _mesh_base(text: str, base: dict) -> dict:
-    from rdgpu.simulation.driver import _MESH_GENERATORS
+    from rdgpu.simulation.specs import MESH_GENERATORS
 
     try:
-        name, options = mesh_level(text, _MESH_GENERATORS)
+        name, options = mesh_level(text, MESH_GENERATORS)
     except ValueError as exc:
         raise _usage(str(exc)) from None
-    if name.lower() not in _MESH_GENERATORS and not Path(name).exists():
+    if name.lower() not in MESH_GENERATORS and not Path(name).exists():
         raise _usage(f"--mesh {text!r}: no such file (or use a generator: "
                      f"{', '.join(generator_names())}; sphere:LEVEL sets the subdivisions)")
     if "mesh" not in base or str(base["mesh"]) != name:
@@ -176,7 +176,7 @@ def init_for(args: argparse.Namespace, model: Any, params: dict, domain: dict | 
     if unknown:
         raise _usage(f"--init: model {model.name} has fields {', '.join(species)}, got "
                      f"{', '.join(unknown)}")
-    from rdgpu.simulation.driver import default_init
+    from rdgpu.simulation import default_init
 
     base = default_init(model, {**model.defaults, **params})
     background = _per_species(base.get("values", 0.0), species)

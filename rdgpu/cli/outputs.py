@@ -68,7 +68,7 @@ def result_of(sim: Any, exc: BaseException) -> Any:
     result = getattr(exc, "result", None)
     if result is not None:
         return result
-    from rdgpu.simulation.driver import Result, describe_domain
+    from rdgpu.simulation import Result, describe_domain
 
     try:
         fields = sim.host_state()

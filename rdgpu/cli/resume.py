@@ -169,9 +169,9 @@ def _init_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str
     text = spec.get("text", spec.get("path"))
     if spec["kind"] != "file":
         from rdgpu.cli.domain import init_for
-        from rdgpu.simulation.driver import _lookup_model
+        from rdgpu.simulation.defaults import lookup_model
 
-        model = checkpoint_model(meta) or _lookup_model(meta["model"])
+        model = checkpoint_model(meta) or lookup_model(meta["model"])
         init, _ = init_for(args, model, dict(meta["params"]))
         if json.loads(json.dumps(init)) == meta.get("init"):
             return []
@@ -182,7 +182,7 @@ def _init_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str
 
 def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str,
                     ) -> list[str]:
-    from rdgpu.simulation.driver import GRID_KINDS
+    from rdgpu.simulation.checks import GRID_KINDS
 
     given = [o for o in ("bc", "dx", "length", "height") if getattr(args, o, None) is not None]
     if not given:
@@ -195,15 +195,16 @@ def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
     if args.bc is not None:
         from rdgpu.cli.options import bc_value
         from rdgpu.domains.grid import Grid
-        from rdgpu.simulation.driver import _bc_json, _bc_text
+        from rdgpu.simulation.checkpoints import bc_text
 
         text = _given_text(args, "bc")
         try:
-            ours = _bc_json(Grid(tuple(shape), dx=1.0, bc=bc_value(args.bc, len(shape), text)))
+            grid = Grid(tuple(shape), dx=1.0, bc=bc_value(args.bc, len(shape), text))
+            ours = grid.describe()["bc"]
         except ValueError as exc:
             raise _usage(str(exc)) from None
         if ours != dom["bc"]:
-            out.append(_refuse("--bc", path, f"has bc {_bc_text(dom['bc'])}", text))
+            out.append(_refuse("--bc", path, f"has bc {bc_text(dom['bc'])}", text))
     spacings = [dom["dx"]] + [d for d in (dom.get("dy"), dom.get("dz")) if d is not None]
     if args.dx is not None and not all(math.isclose(args.dx, d, rel_tol=1e-12)
                                        for d in spacings):
@@ -223,7 +224,7 @@ def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
 
 def _height_conflict(args: argparse.Namespace, dom: dict, arrays: dict, path: str,
                      ) -> list[str]:
-    from rdgpu.simulation.driver import _generated_height
+    from rdgpu.simulation.specs import generated_height
 
     text = _given_text(args, "height")
     if dom.get("kind") != "graph-surface":
@@ -231,7 +232,7 @@ def _height_conflict(args: argparse.Namespace, dom: dict, arrays: dict, path: st
     h = args.height
     if isinstance(h, dict):
         try:
-            h = _generated_height(tuple(dom["shape"]), dict(h), float(dom["dx"]), dom.get("dy"))
+            h = generated_height(tuple(dom["shape"]), dict(h), float(dom["dx"]), dom.get("dy"))
         except ValueError as exc:
             raise _usage(f"--height: {exc}") from None
     if np.shape(h) == arrays["surface_height"].shape and \
@@ -250,7 +251,8 @@ def _mesh_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
     if dom.get("kind") != "mesh":
         return [_refuse(option, path, _domain_text(dom), said)]
     from rdgpu.cli.domain import _mesh_base, _mesh_options
-    from rdgpu.simulation.driver import _domain_differences, build_domain
+    from rdgpu.simulation.checkpoints import domain_differences
+    from rdgpu.simulation.specs import build_domain
 
     spec = dict(dom.get("source") or {})
     if args.mesh is not None:
@@ -261,7 +263,7 @@ def _mesh_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
     if args.roughen is not None:
         spec["roughen"] = dict(args.roughen)
     try:
-        differences = _domain_differences(dom, arrays, build_domain(spec))
+        differences = domain_differences(dom, arrays, build_domain(spec))
     except (ValueError, TypeError) as exc:
         raise _usage(f"{option} {said}: {exc}") from None
     if not differences:
