@@ -53,7 +53,9 @@ from rdgpu.io.volumes import (
 from rdgpu.io.writers import FPS_RANGE, check_fps, earlier_order, write_image
 
 if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
     from rdgpu.domains.grid import Grid
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 __all__ = [
     "FPS_RANGE",
@@ -95,7 +97,7 @@ def _on_grid(domain: Any) -> bool:
     return is_domain(domain) and not domain.unstructured
 
 
-def _grid_field(field: np.ndarray, domain: Any) -> np.ndarray:
+def _grid_field(field: np.ndarray, domain: Domain | None) -> np.ndarray:
     a = np.asarray(field)
     if _on_grid(domain) and a.ndim == 1 and a.size == domain.n_points:
         a = a.reshape(domain.kernel_shape)
@@ -111,7 +113,7 @@ def _grid_field(field: np.ndarray, domain: Any) -> np.ndarray:
 def save_png(
     path: PathLike,
     field: np.ndarray,
-    domain: Any = None,
+    domain: Domain | None = None,
     *,
     cmap: str = "viridis",
     vmin: float | None = None,
@@ -187,7 +189,7 @@ def _even(img: np.ndarray) -> np.ndarray:
 def save_movie(
     path: PathLike,
     frames: Sequence[np.ndarray] | np.ndarray,
-    domain: Any = None,
+    domain: Domain | None = None,
     *,
     cmap: str = "viridis",
     vmin: float | None = None,
@@ -246,7 +248,8 @@ def save_movie(
 
 
 # ------------------------------------------------------------------------ mesh files
-def save_mesh(path: PathLike, mesh: Any, fields: Mapping[str, np.ndarray] | None = None) -> Path:
+def save_mesh(path: PathLike, mesh: SurfaceMesh,
+              fields: Mapping[str, np.ndarray] | None = None) -> Path:
     """Write ``mesh`` with per-vertex ``fields`` attached (:data:`MESH_FORMATS`; see
     ``SurfaceMesh.save``), atomically except XDMF (whose data goes to a ``.h5`` beside
     it).  The earlier order ``(mesh, path, fields)`` works, deprecated."""

@@ -10,7 +10,7 @@ import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +19,10 @@ from rdgpu.core.optional import check, require
 from rdgpu.domains.base import is_domain
 from rdgpu.io.images import colour_limits, flat_field
 from rdgpu.io.writers import earlier_order, write_image
+
+if TYPE_CHECKING:
+    from rdgpu.domains.graph_surface import GraphSurface
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 __all__ = ["render_frames", "render_main", "render_mesh", "render_mesh_png", "render_offscreen",
            "render_options", "render_surface", "surface_mesh"]
@@ -174,7 +178,7 @@ def _level_colour(cmap: str, clim: tuple[float, float], level: float) -> tuple:
     return tuple(float(c) for c in colormaps[cmap](min(max(t, 0.0), 1.0))[:3])
 
 
-def render_frames(mesh: Any, frames: np.ndarray, options: dict) -> np.ndarray:
+def render_frames(mesh: SurfaceMesh, frames: np.ndarray, options: dict) -> np.ndarray:
     """Render every frame (``[n, n_vertices]``) of a mesh field to ``[n, h, w, 3]`` uint8
     (see :func:`render_offscreen`)."""
     frames = np.asarray(frames, dtype=np.float64)
@@ -262,7 +266,7 @@ def render_options(frames: np.ndarray, *, cmap: str, camera: Any, vmin: float | 
 
 
 def render_mesh(
-    mesh: Any,
+    mesh: SurfaceMesh,
     field: np.ndarray,
     *,
     cmap: str = "viridis",
@@ -291,7 +295,7 @@ def render_mesh(
     return render_frames(mesh, field[None, :], options)[0]
 
 
-def render_mesh_png(path: PathLike, field: np.ndarray, mesh: Any, *, cmap: str = "viridis",
+def render_mesh_png(path: PathLike, field: np.ndarray, mesh: SurfaceMesh, *, cmap: str = "viridis",
                     camera: Any = None, **kwargs: Any) -> Path:
     """Write :func:`render_mesh` of ``field`` on ``mesh`` to the PNG ``path`` (the earlier
     order ``(mesh, field, path)`` works, deprecated)."""
@@ -303,7 +307,7 @@ def render_mesh_png(path: PathLike, field: np.ndarray, mesh: Any, *, cmap: str =
 
 
 # ---------------------------------------------------------------------- graph surfaces
-def surface_mesh(surface: Any, warp_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def surface_mesh(surface: GraphSurface, warp_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """``(vertices, faces)`` of a graph surface drawn as ``z = warp_scale · h``: its cell
     centres ``(x, y) = ((j + ½) dx, (i + ½) dy)`` over one period, the first row and
     column repeated one period on (so the picture closes up), as the structured grid of
@@ -328,7 +332,7 @@ def _wrap_closed(a: Any) -> np.ndarray:
 def render_surface(
     path: PathLike,
     field: np.ndarray,
-    surface: Any,
+    surface: GraphSurface,
     *,
     cmap: str = "viridis",
     warp_scale: float = 1.0,

@@ -17,6 +17,7 @@ from rdgpu.io import rendering
 from rdgpu.io.images import colour_limits, flat_field, to_rgb
 
 if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
     from rdgpu.domains.grid import Grid
 
 __all__ = ["VIEWS_3D", "is_volume", "render_volume", "slices_rgb", "slices_size",
@@ -26,7 +27,7 @@ __all__ = ["VIEWS_3D", "is_volume", "render_volume", "slices_rgb", "slices_size"
 VIEWS_3D = ("auto", "isosurface", "slices")
 
 
-def is_volume(field: np.ndarray, domain: Any) -> bool:
+def is_volume(field: np.ndarray, domain: Domain | None) -> bool:
     """Whether ``field`` is pictured as a 3-D grid field: on a 3-D :class:`Grid`, or an
     array of three dimensions without a domain."""
     if is_domain(domain):
@@ -34,7 +35,7 @@ def is_volume(field: np.ndarray, domain: Any) -> bool:
     return domain is None and np.ndim(field) == 3
 
 
-def volume_frames(frames: Any, domain: Any) -> np.ndarray:
+def volume_frames(frames: Any, domain: Domain | None) -> np.ndarray:
     """``frames`` as a float64 ``[n, nz, ny, nx]`` array (flat frames reshaped to the grid)."""
     data = np.asarray(frames, dtype=np.float64)
     grid = is_domain(domain)
@@ -46,7 +47,7 @@ def volume_frames(frames: Any, domain: Any) -> np.ndarray:
     return data
 
 
-def _spacing(domain: Any) -> tuple[float, float, float]:
+def _spacing(domain: Domain | None) -> tuple[float, float, float]:
     """``(dz, dy, dx)`` of a 3-D grid; 1 for a bare array."""
     return (domain.dz, domain.dy, domain.dx) if is_domain(domain) else (1.0, 1.0, 1.0)
 
@@ -151,7 +152,7 @@ def volume_view(view: str, frames: np.ndarray, level: float) -> str:
     return "isosurface"
 
 
-def volume_images(frames: np.ndarray, domain: Any, *, view: str, level: float | None,
+def volume_images(frames: np.ndarray, domain: Domain | None, *, view: str, level: float | None,
                    cmap: str, lo: float, hi: float, scale: int, camera: Any,
                    window_size: tuple[int, int]) -> list[np.ndarray]:
     """One picture per ``[nz, ny, nx]`` frame, all by one renderer (see

@@ -28,6 +28,7 @@ from rdgpu.simulation.checks import check_checkpoint, model_record, refuse_other
 from rdgpu.simulation.result import package_versions
 
 if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
     from rdgpu.simulation.driver import Simulation
 
 __all__ = ["CHECKPOINT_FORMAT", "backend_spec", "bc_text", "check_resumable",
@@ -74,7 +75,7 @@ def backend_spec(be: Any) -> str:
     return be.name
 
 
-def describe_domain(domain: Any, source: Any = None) -> dict:
+def describe_domain(domain: Domain, source: Any = None) -> dict:
     """A JSON-able description of a domain (:meth:`Domain.describe
     <rdgpu.domains.base.Domain.describe>`; meshes: the generator/path if known, sizes)."""
     if not is_domain(domain):
@@ -82,7 +83,8 @@ def describe_domain(domain: Any, source: Any = None) -> dict:
     return domain.describe(source)
 
 
-def domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], domain: Any) -> list[str]:
+def domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray],
+                       domain: Domain) -> list[str]:
     """What differs between a checkpoint's domain (``desc``, ``arrays``) and ``domain``:
     one ``"WHAT X in the checkpoint, Y here"`` per difference (empty when equal)."""
     mine = describe_domain(domain)

@@ -34,12 +34,15 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.domains.base import is_domain
 from rdgpu.simulation.checkpoints import json_default, split_params
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["result_dataset"]
 
@@ -50,7 +53,7 @@ def _xarray() -> Any:
     return require("xarray", "Result.to_xarray()")
 
 
-def _space(domain: Any) -> tuple[tuple[str, ...], dict[str, Any]]:
+def _space(domain: Domain) -> tuple[tuple[str, ...], dict[str, Any]]:
     """The spatial dims of one field and their coordinates."""
     if not is_domain(domain):
         raise TypeError(f"Result.to_xarray needs the result's domain to be a Grid, "

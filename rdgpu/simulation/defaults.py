@@ -9,10 +9,13 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rdgpu.models import MODELS, PRESETS
 from rdgpu.models.steady_state import fit_to_domain, steady_start
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["DEFAULT_BOUND", "DEFAULT_CHECKPOINT_EVERY", "DEFAULT_CHECK_EVERY", "FALLBACK_INITS",
            "accepts", "default_dt", "default_init", "default_steps", "domain_defaults",
@@ -84,7 +87,7 @@ def presets_of(model: Any) -> list:
 
 
 def default_init(model: Any, params: Mapping[str, Any] | None = None,
-                 domain: Any = None) -> dict:
+                 domain: Domain | None = None) -> dict:
     """The initial condition of a model run without one: the model's ``default_init``,
     else :data:`FALLBACK_INITS`, else its first preset's, else its homogeneous steady state
     (``model.steady_guess(params)``) plus noise 0.05, else the start that
@@ -112,7 +115,7 @@ def default_init(model: Any, params: Mapping[str, Any] | None = None,
                                                         "noise": 0.05}
 
 
-def dt_limit(model: Any, domain: Any, params: Mapping[str, Any],
+def dt_limit(model: Any, domain: Domain, params: Mapping[str, Any],
               options: Mapping[str, Any] | None = None) -> float:
     """The model's stability limit of ``dt`` on ``domain`` (``options``: the stepper's,
     passed where ``model.dt_limit`` takes them)."""
@@ -131,7 +134,7 @@ def model_value(model: Any, name: str, params: Mapping[str, Any]) -> float | Non
     return value if math.isfinite(value) and value > 0 else None
 
 
-def domain_defaults(model: Any, domain: Any,
+def domain_defaults(model: Any, domain: Domain,
                     options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Parameter defaults that depend on the domain (the model's optional
     ``domain_defaults(domain)``; e.g. Allen-Cahn's ε relative to the spacing): they replace
@@ -144,7 +147,7 @@ def domain_defaults(model: Any, domain: Any,
     return {k: v for k, v in dict(hook(domain, **kwargs)).items() if k in model.defaults}
 
 
-def default_dt(model: Any, domain: Any, params: Mapping[str, Any],
+def default_dt(model: Any, domain: Domain, params: Mapping[str, Any],
                options: Mapping[str, Any] | None = None) -> float:
     """The time step of a run that names none: the smaller of 0.9 times the stability limit
     on ``domain`` and the model's own ``default_dt`` (a number or a function of the

@@ -1,7 +1,7 @@
-"""Running a model: initial conditions, the time loop, snapshots, checks and checkpoints.
+"""Running a model: :class:`Simulation`, its construction, checkpoints and ``run``.
 
-A :class:`Simulation` binds a model (``rdgpu.models``, see :mod:`rdgpu.stepping`) to a
-domain (a :class:`~rdgpu.domains.Grid` or a :class:`~rdgpu.domains.mesh.SurfaceMesh`), parameter
+A :class:`Simulation` binds a model (:mod:`rdgpu.models`) to a domain (any
+:class:`~rdgpu.domains.base.Domain`: a grid, a graph surface, a mesh), parameter
 values, a time step, a backend and a dtype, and runs it::
 
     sim = Simulation("gray-scott", Grid((128, 128)), {"F": 0.03, "k": 0.055}, dt=1.0)
@@ -10,8 +10,8 @@ values, a time step, a backend and a dtype, and runs it::
 While it runs, the fields stay on the device.  Snapshots are device-to-device copies into
 preallocated buffers, downloaded in batches (when the batch is full, at a checkpoint and at
 the end).  Every ``check_every`` steps the state is downloaded and checked for NaN, Inf and
-blow-up (``|x| >`` :data:`DEFAULT_BOUND`, or the model's optional ``blowup_bound``: a number
-or a per-species dict); a bad state stops the run with
+blow-up (``|x| >`` :data:`~rdgpu.simulation.defaults.DEFAULT_BOUND`, or the model's
+optional ``blowup_bound``: a number or a per-species dict); a bad state stops the run with
 :class:`~rdgpu.core.errors.SimulationDiverged`, naming the first bad step (found by replaying
 from the last good state), the field and a likely cause, and keeping the last good state
 in ``exc.result``.
@@ -21,8 +21,11 @@ same folder, ``fsync``, ``os.replace``): the state, the step, the parameters, th
 the domain, the run settings and the snapshots taken so far.  ``run(steps, resume=PATH)``
 (or :meth:`Simulation.resume`) continues from one and ends with the same result, bitwise,
 as the uninterrupted run on the same backend: step boundaries fall on the same absolute
-step numbers in both runs, and a :class:`~rdgpu.stepping.Stepper` must give the same
+step numbers in both runs, and a model's stepper must give the same
 arithmetic for ``advance(a); advance(b)`` as for ``advance(a + b)``.
+
+The loop itself is :mod:`rdgpu.simulation.runner`; the checkpoint files
+:mod:`rdgpu.simulation.checkpoints`.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ import os
 from collections.abc import Mapping
 from contextlib import nullcontext
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -72,6 +75,9 @@ from rdgpu.simulation.result import Result
 from rdgpu.simulation.runner import Runner, restore
 from rdgpu.simulation.specs import build_domain
 
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
+
 __all__ = ["Simulation"]
 
 
@@ -81,7 +87,7 @@ class Simulation:
     Parameters
     ----------
     model : Model or str
-        A :class:`~rdgpu.stepping.Model` or a name in ``rdgpu.models.MODELS``.
+        A model (``rdgpu.define_model``) or a name in ``rdgpu.models.MODELS``.
     domain : Grid, SurfaceMesh or dict
         Where it runs (a dict as in :func:`build_domain`).
     params : dict
@@ -122,7 +128,7 @@ class Simulation:
     def __init__(
         self,
         model: Any,
-        domain: Any,
+        domain: Domain | Mapping[str, Any],
         params: Mapping[str, Any] | None = None,
         *,
         dt: float | None = None,
@@ -163,28 +169,8 @@ class Simulation:
         else:
             self.seed = whole(seed, "seed")
         self.options = check_options(self.model, options)
-        if params is not None and not isinstance(params, Mapping):
-            raise TypeError(f"params must be a dict of parameter values, got "
-                            f"{type(params).__name__} {params!r}")
-        if self.members is None:
-            self.params = self._merge_params(params or {}, self.seed)
-            each = [self.params]
-        else:
-            each = resolve_members(self._merge_params, params or {}, self.members,
-                                   self.shape, self.seed)
-            self.params = {k: (np.asarray(v.values) if isinstance(v, PerMember) else v)
-                           for k, v in stack_members(each, self.shape).items()}
-        distinct = list({id(p): p for p in each}.values())
-        if dt is None:
-            dt = min(default_dt(self.model, self.domain, p, self.options) for p in distinct)
-        if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, numbers.Real):
-            raise TypeError(f"dt must be a positive number, got {type(dt).__name__} {dt!r}")
-        self.dt = float(dt)
-        if not (math.isfinite(self.dt) and self.dt > 0):
-            raise ValueError(f"dt must be a positive number, got {dt}")
-        self.check_stability = bool(check_stability)
-        self.dt_limit = min(dt_limit(self.model, self.domain, p, self.options)
-                            for p in distinct)
+        each = self._set_params(params)
+        self._set_dt(dt, list({id(p): p for p in each}.values()), check_stability)
         self.backend = get_backend(backend)
         if fields is not None:
             self.init = None
@@ -194,14 +180,7 @@ class Simulation:
             inits = [default_init(self.model, p, self.domain) for p in each]
             self.init = inits[0] if all(i == inits[0] for i in inits) else inits
         self.preset: Any = None
-        kwargs = dict(self.options)
-        if not self.check_stability:
-            if not accepts(self.model.stepper, "check_stability"):
-                raise ValueError(f"model {self.model.name} cannot run with "
-                                 "check_stability=False")
-            kwargs["check_stability"] = False
-        if self.members is not None:
-            kwargs["members"] = self.members
+        kwargs = self._stepper_options()
         if fields is not None:  # checked before the stepper's programs are built
             start = self._check_fields(fields)
         elif self.members is None:
@@ -218,6 +197,48 @@ class Simulation:
         self._resume_snaps: tuple[dict, list] | None = None
 
     # ------------------------------------------------------------------ construction
+    def _set_params(self, params: Mapping[str, Any] | None) -> list[dict[str, Any]]:
+        """Set :attr:`params` (a member's own values stacked for an ensemble) and return
+        each member's parameters (one dict without members)."""
+        if params is not None and not isinstance(params, Mapping):
+            raise TypeError(f"params must be a dict of parameter values, got "
+                            f"{type(params).__name__} {params!r}")
+        if self.members is None:
+            self.params = self._merge_params(params or {}, self.seed)
+            return [self.params]
+        each = resolve_members(self._merge_params, params or {}, self.members,
+                               self.shape, self.seed)
+        self.params = {k: (np.asarray(v.values) if isinstance(v, PerMember) else v)
+                       for k, v in stack_members(each, self.shape).items()}
+        return each
+
+    def _set_dt(self, dt: Any, distinct: list[dict[str, Any]], check_stability: bool) -> None:
+        """Set :attr:`dt` (default: the smallest default of the ``distinct`` parameter
+        sets), ``check_stability`` and :attr:`dt_limit`."""
+        if dt is None:
+            dt = min(default_dt(self.model, self.domain, p, self.options) for p in distinct)
+        if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, numbers.Real):
+            raise TypeError(f"dt must be a positive number, got {type(dt).__name__} {dt!r}")
+        self.dt = float(dt)
+        if not (math.isfinite(self.dt) and self.dt > 0):
+            raise ValueError(f"dt must be a positive number, got {dt}")
+        self.check_stability = bool(check_stability)
+        self.dt_limit = min(dt_limit(self.model, self.domain, p, self.options)
+                            for p in distinct)
+
+    def _stepper_options(self) -> dict[str, Any]:
+        """The keyword arguments of ``model.stepper``: the options, ``check_stability``
+        when off, ``members`` of an ensemble."""
+        kwargs = dict(self.options)
+        if not self.check_stability:
+            if not accepts(self.model.stepper, "check_stability"):
+                raise ValueError(f"model {self.model.name} cannot run with "
+                                 "check_stability=False")
+            kwargs["check_stability"] = False
+        if self.members is not None:
+            kwargs["members"] = self.members
+        return kwargs
+
     def _member_states(self) -> dict[str, np.ndarray]:
         """Each member's initial fields (its own init and seed), stacked."""
         seeds = member_seeds(self.seed, self.members)
@@ -314,7 +335,7 @@ class Simulation:
         cls,
         preset: Any,
         *,
-        domain: Any = None,
+        domain: Domain | Mapping[str, Any] | None = None,
         params: Mapping[str, Any] | None = None,
         dt: float | None = None,
         backend: Any = None,
@@ -504,6 +525,28 @@ class Simulation:
         self._resume_run = None
         snaps, snap_steps = self._resume_snaps or ({s: [] for s in self.species}, [])
         self._resume_snaps = None
+        run_info, checkpoint = self._run_settings(run0, steps, snapshot_every, check_every,
+                                                  checkpoint_every, checkpoint)
+        target = run_info["target"]
+        if target > MAX_STEPS:
+            raise ValueError(f"steps: a run to step {target} is past the largest step "
+                             f"{MAX_STEPS} (2**53)")
+        check_run_memory(target - self.step, run_info["snapshot_every"], len(snap_steps),
+                         self.field_shape, len(self.species), self.dtype.itemsize)
+        if checkpoint is not None:
+            check_writable(checkpoint, "checkpoint")
+            remove_stale_temporaries(checkpoint)
+        with CheckpointLock(checkpoint) if checkpoint is not None else nullcontext():
+            return Runner(self, run_info, snaps, snap_steps, checkpoint, progress).go()
+
+    def _run_settings(self, run0: dict | None, steps: int | None, snapshot_every: int | None,
+                      check_every: int | None, checkpoint_every: int | None,
+                      checkpoint: Any) -> tuple[dict, Any]:
+        """``(run, checkpoint)``: the settings of a run (``start``, ``target``,
+        ``snapshot_every``, ``check_every``, ``checkpoint_every``) and its checkpoint path,
+        from those given, else the interrupted run's (``run0``, after a resume), else the
+        defaults (the preset's, the model's, ``DEFAULT_CHECK_EVERY``,
+        ``DEFAULT_CHECKPOINT_EVERY`` of :mod:`rdgpu.simulation.defaults`)."""
         if run0 is not None:
             start = int(run0["start"])
             target = int(run0["target"]) if steps is None else start + steps
@@ -530,16 +573,5 @@ class Simulation:
         if checkpoint is not None and not checkpoint_every:
             checkpoint_every = DEFAULT_CHECKPOINT_EVERY
         checkpoint_every = int(checkpoint_every or 0) if checkpoint is not None else 0
-        if target > MAX_STEPS:
-            raise ValueError(f"steps: a run to step {target} is past the largest step "
-                             f"{MAX_STEPS} (2**53)")
-        check_run_memory(target - self.step, snapshot_every, len(snap_steps), self.field_shape,
-                         len(self.species), self.dtype.itemsize)
-        if checkpoint is not None:
-            check_writable(checkpoint, "checkpoint")
-            remove_stale_temporaries(checkpoint)
-        run_info = {"start": start, "target": target, "snapshot_every": snapshot_every,
-                    "check_every": check_every, "checkpoint_every": checkpoint_every}
-        with CheckpointLock(checkpoint) if checkpoint is not None else nullcontext():
-            return Runner(self, run_info, snaps, snap_steps, checkpoint, progress).go()
-
+        return {"start": start, "target": target, "snapshot_every": snapshot_every,
+                "check_every": check_every, "checkpoint_every": checkpoint_every}, checkpoint

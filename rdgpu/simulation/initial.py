@@ -20,6 +20,7 @@ from rdgpu.domains.boundary import PERIODIC
 from rdgpu.simulation.checks import init_spec, real, spots_count, unit_fractions
 
 if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
     from rdgpu.domains.grid import Grid
 
 __all__ = ["INIT_KINDS", "INIT_KEYS", "initial_state", "per_species"]
@@ -52,7 +53,7 @@ def _number(x: Any, what: str) -> float:
     return real(x, f"init {what}")
 
 
-def _extent(domain: Any) -> float:
+def _extent(domain: Domain) -> float:
     """The largest side of a grid (physical units) or of a mesh's bounding box."""
     if not domain.unstructured:
         return max(domain.lengths)
@@ -105,7 +106,7 @@ def _centre(center: Any, n: int, what: str) -> tuple[float, ...]:
     return tuple(values)
 
 
-def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
+def _square_mask(domain: Domain, size: float, center: Any) -> np.ndarray:
     """A box of ``size`` times each side (a square in 2-D, a cube on a cubic 3-D grid)
     around ``center`` (fractions of the sides; mesh: a point, default the bounding-box
     centre)."""
@@ -129,7 +130,7 @@ def _square_mask(domain: Any, size: float, center: Any) -> np.ndarray:
     return (np.abs(V - c) <= half + 1e-12 * (hi - lo).max()).all(axis=1)
 
 
-def _half_masks(domain: Any, center: Any) -> dict[str, np.ndarray]:
+def _half_masks(domain: Domain, center: Any) -> dict[str, np.ndarray]:
     """``{"y_low": ..., "x_low": ...}`` (and ``"z_low"`` on a 3-D grid): the points with
     that coordinate below the fraction ``center`` of the domain -- grid rows, columns and
     planes; a mesh's bounding box, ``center = (y, x)``, default the middle."""
@@ -149,7 +150,7 @@ def _half_masks(domain: Any, center: Any) -> dict[str, np.ndarray]:
             "x_low": V[:, 0] < lo[0] + cx * (hi[0] - lo[0])}
 
 
-def _ball_mask(domain: Any, rng: np.random.Generator, count: int, radius: float,
+def _ball_mask(domain: Domain, rng: np.random.Generator, count: int, radius: float,
                *, cells: bool) -> np.ndarray:
     """Union of ``count`` balls (discs in 2-D) around random cells/vertices; ``radius`` in
     cells (mesh: mean edge lengths) when ``cells``, else as a fraction of the domain
@@ -171,7 +172,7 @@ def _ball_mask(domain: Any, rng: np.random.Generator, count: int, radius: float,
 
 
 def _set_seed(fields: dict[str, np.ndarray], init: Mapping[str, Any], kind: str,
-              domain: Any, species: tuple[str, ...], rng: np.random.Generator) -> None:
+              domain: Domain, species: tuple[str, ...], rng: np.random.Generator) -> None:
     """Apply the ``inside`` values of a ``"square"`` or ``"spots"`` init to ``fields``
     (see :func:`initial_state`)."""
     if kind == "square":
@@ -194,7 +195,7 @@ def _set_seed(fields: dict[str, np.ndarray], init: Mapping[str, Any], kind: str,
             fields[s][mask] = _number(x, f"inside value of {s!r}")
 
 
-def _set_patch(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Any,
+def _set_patch(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Domain,
                species: tuple[str, ...], rng: np.random.Generator) -> None:
     """Apply a ``"patch"`` init to ``fields`` (see :func:`initial_state`)."""
     radius = _number(init.get("radius", 0.3), "radius")
@@ -219,7 +220,7 @@ def _set_patch(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: A
             fields[s][mask] = _number(x, f"patch value of {s!r}")
 
 
-def _set_halves(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Any,
+def _set_halves(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Domain,
                 species: tuple[str, ...]) -> None:
     """Apply the ``y_low``, ``x_low`` (and on a 3-D grid ``z_low``) values of a
     ``"halves"`` init to ``fields`` (see :func:`initial_state`)."""
@@ -237,7 +238,7 @@ def _set_halves(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: 
 
 def initial_state(
     init: Mapping[str, Any] | None,
-    domain: Any,
+    domain: Domain,
     species: tuple[str, ...] | list[str],
     seed: int = 0,
     dtype: Any = np.float64,

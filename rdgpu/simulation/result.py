@@ -4,9 +4,12 @@ with) and :func:`package_versions` (recorded with it)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["Result", "package_versions"]
 
@@ -48,7 +51,7 @@ class Result:
     time: float
     dt: float
     params: dict[str, Any]
-    domain: Any
+    domain: Domain
     domain_info: dict
     backend: str
     device: str
