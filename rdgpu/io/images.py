@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rdgpu.core.files import atomic_path, check_writable
 from rdgpu.core.optional import require
 
 __all__ = ["FLAT_FLOOR", "FLAT_RELATIVE", "FlatFieldWarning", "colour_limits", "flat_field",
@@ -90,8 +91,6 @@ def save_png(path: str | Path, field: np.ndarray, cmap: str = "viridis",
     """Write ``field`` as a colour-mapped PNG, each cell ``scale``×``scale`` pixels;
     atomically (a temporary file renamed over ``path``), refusing a path that is not a
     regular file (:func:`rdgpu.core.files.check_writable`)."""
-    from rdgpu.core.files import atomic_path, check_writable
-
     path = check_writable(path, "the picture")
     iio = require("imageio.v3", "writing PNG pictures")
     rgb = to_rgb(field, cmap, vmin, vmax)

@@ -31,6 +31,7 @@ import numpy as np
 from rdgpu.core.files import atomic_path, check_writable, writing
 from rdgpu.core.optional import require
 from rdgpu.domains.base import is_domain
+from rdgpu.io import images
 from rdgpu.io.datafile import load_npz, save_npz
 from rdgpu.io.images import colour_limits, flat_field, to_rgb
 from rdgpu.io.rendering import (
@@ -149,9 +150,7 @@ def save_png(
     if _on_mesh(domain):
         return render_mesh_png(path, field, domain, cmap=cmap, camera=camera, vmin=vmin,
                                vmax=vmax, window_size=window_size)
-    from rdgpu.io.images import save_png as _save
-
-    return _save(path, _grid_field(field, domain), cmap=cmap, vmin=vmin, vmax=vmax,
+    return images.save_png(path, _grid_field(field, domain), cmap=cmap, vmin=vmin, vmax=vmax,
                  scale=scale)
 
 

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.core.optional import require
 from rdgpu.domains.base import is_domain
 from rdgpu.simulation.checkpoints import json_default, split_params
 
@@ -48,8 +49,6 @@ __all__ = ["result_dataset"]
 
 
 def _xarray() -> Any:
-    from rdgpu.core.optional import require
-
     return require("xarray", "Result.to_xarray()")
 
 

@@ -27,7 +27,7 @@ def package_versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[name] = "missing"
     if out["rdgpu"] == "missing":
-        from rdgpu import __version__
+        from rdgpu import __version__  # lazy: rdgpu/__init__ is the top layer
 
         out["rdgpu"] = __version__
     return out
@@ -78,7 +78,7 @@ class Result:
         last one); parameter fields as ``param_<name>``, a graph surface's ``height``; the
         model, parameters, dt, backend, dtype and domain as attributes. Needs xarray. See
         :mod:`rdgpu.simulation.dataset` for the full layout."""
-        from rdgpu.simulation.dataset import result_dataset
+        from rdgpu.simulation.dataset import result_dataset  # lazy: dataset imports this
 
         return result_dataset(self)
 
