@@ -149,11 +149,11 @@ def test_help_says_the_default_picture_name_it_writes(capsys, tmp_path, monkeypa
 # --------------------------------------------------------------------------- E5 3-D
 def test_3d_without_pyvista_says_it_draws_slices(capsys, tmp_path, monkeypatch):
     import rdgpu.core.optional as opt
-    import rdgpu.io.output as output
+    import rdgpu.io.volumes as volumes
 
     real = opt.available
     monkeypatch.setattr(opt, "available", lambda m: m != "pyvista" and real(m))
-    monkeypatch.setattr(output, "available", lambda m: m != "pyvista" and real(m))
+    monkeypatch.setattr(volumes, "available", lambda m: m != "pyvista" and real(m))
     code, _, err = cli(capsys, "run", "gray-scott", "--size", "8x8x8", "--steps", "1", *FAST,
                        "--out", tmp_path / "a.png")
     assert code == 0, err
@@ -179,9 +179,9 @@ def test_a_failed_picture_write_exits_1_and_still_writes_the_data(capsys, tmp_pa
 
 def test_a_failed_checkpoint_write_exits_1_and_keeps_the_last_good_state(capsys, tmp_path,
                                                                          monkeypatch):
-    import rdgpu.simulation.driver as simulation
+    from rdgpu.simulation import checkpoints
 
-    real, calls = simulation._atomic_savez, []
+    real, calls = checkpoints.atomic_savez, []
 
     def flaky(path, *a, **k):
         if str(path).endswith("ck.npz"):
@@ -190,7 +190,7 @@ def test_a_failed_checkpoint_write_exits_1_and_keeps_the_last_good_state(capsys,
                 _disk_full(path)
         return real(path, *a, **k)
 
-    monkeypatch.setattr(simulation, "_atomic_savez", flaky)
+    monkeypatch.setattr(checkpoints, "atomic_savez", flaky)
     code, _, err = cli(capsys, "run", "gray-scott", "--size", "16", "--steps", "40", *FAST,
                        "--checkpoint", tmp_path / "ck.npz", "--checkpoint-every", "10",
                        "--check-every", "10", "--data", tmp_path / "d.npz")

@@ -10,7 +10,7 @@ import rdgpu
 from rdgpu.analysis import classify_pattern
 from rdgpu.domains.grid import Grid
 from rdgpu.models.steady_state import steady_start, steady_states
-from rdgpu.simulation.driver import Simulation, default_init
+from rdgpu.simulation import Simulation, default_init
 
 GS = {"u": "Du*laplace(u) - u*v**2 + F*(1 - u)", "v": "Dv*laplace(v) + u*v**2 - (F + k)*v"}
 GS_PARAMS = {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.06}

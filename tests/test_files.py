@@ -26,10 +26,10 @@ from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.files import CheckpointLock, FileInUseError, check_writable
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-from rdgpu.io import images, output
+from rdgpu.io import images, output, rendering
 from rdgpu.io.images import FlatFieldWarning
 from rdgpu.io.writers import FPS_RANGE, check_fps
-from rdgpu.simulation import driver as simmod
+from rdgpu.simulation import runner
 from rdgpu.simulation.driver import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -270,7 +270,7 @@ def test_the_lock_is_released_on_errors_and_ctrl_c(tmp_path, monkeypatch, exc):
         assert files.lock_path(ck).exists()
         raise exc("stop")
 
-    monkeypatch.setattr(simmod._Runner, "go", boom)
+    monkeypatch.setattr(runner.Runner, "go", boom)
     with pytest.raises(exc):
         sim().run(10, checkpoint=ck, progress=False)
     assert not files.lock_path(ck).exists()
@@ -463,7 +463,7 @@ def test_the_suite_refuses_the_old_order(tmp_path, result):
 
 
 def test_render_mesh_png_old_order(tmp_path, monkeypatch):
-    monkeypatch.setattr(output, "render_mesh", lambda mesh, field, **kw:
+    monkeypatch.setattr(rendering, "render_mesh", lambda mesh, field, **kw:
                         np.full((4, 4, 3), 7, np.uint8) if isinstance(mesh, SurfaceMesh)
                         else pytest.fail("the mesh was not passed as the mesh"))
     with pytest.warns(DeprecationWarning, match=r"render_mesh_png\(path, field, mesh\)"):

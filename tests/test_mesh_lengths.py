@@ -92,7 +92,7 @@ def test_complex_ginzburg_landau_defaults_form_a_pattern_on_a_disc():
     steps of the mesh's limit; scaled, its grid step 0.16 is 0.70 of the disc's limit, where
     Euler diverged at t = 15 (as at 0.7 on a grid): a default dt takes at most 0.65 of the
     limit (the model's ``dt_share``)."""
-    from rdgpu.simulation.driver import default_steps
+    from rdgpu.simulation import default_steps
 
     disc = SurfaceMesh.disc()
     sim = Simulation("complex-ginzburg-landau", disc, backend="numpy", seed=0)
@@ -107,7 +107,7 @@ def test_complex_ginzburg_landau_defaults_form_a_pattern_on_a_disc():
 
 def test_dt_share_leaves_the_unit_grid_step():
     """On the 2-D grid of dx = 1 the model's own 0.16/(1 + b1²) stays the step."""
-    from rdgpu.simulation.driver import default_dt
+    from rdgpu.simulation import default_dt
 
     cgl = MODELS["complex-ginzburg-landau"]
     for b1 in (0.0, 0.5, 2.0):

@@ -16,7 +16,7 @@ import rdgpu
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh, load_with_fields
 from rdgpu.io import output
-from rdgpu.simulation.driver import Result
+from rdgpu.simulation import Result
 
 
 @pytest.fixture(scope="module")

@@ -42,7 +42,7 @@ pde = pytest.importorskip("pde")
 import rdgpu  # noqa: E402
 from rdgpu.domains.grid import Grid  # noqa: E402
 from rdgpu.models import MODELS  # noqa: E402
-from rdgpu.simulation.driver import initial_state  # noqa: E402
+from rdgpu.simulation import initial_state  # noqa: E402
 
 # seed 001's parameters and initial condition (u = 0.5 everywhere, v = 0.25 in a central
 # square, noise 0.05) on a smaller, non-square grid of anisotropic cells

@@ -31,7 +31,7 @@ from rdgpu.analysis import classify_pattern, phase_components, spiral_tips
 from rdgpu.cli.app import main as cli_main
 from rdgpu.io.output import load_npz
 from rdgpu.models import PRESETS, AllenCahn
-from rdgpu.simulation.driver import Simulation, initial_state
+from rdgpu.simulation import Simulation, initial_state
 
 BACKENDS = ["numpy", "warp", "opencl"]
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import backend_or_skip, repo_module
 
+from rdgpu.analysis import classify_pattern, phase_components
 from rdgpu.analysis.isometry import (
     bend,
     cylinder,
@@ -17,7 +18,6 @@ from rdgpu.analysis.isometry import (
     isometry_experiment,
     phase_overlap,
 )
-from rdgpu.analysis import classify_pattern, phase_components
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import PRESETS
 from rdgpu.simulation.driver import Simulation

@@ -23,10 +23,10 @@ from rdgpu.cli import app as cli
 from rdgpu.core.errors import SimulationDiverged
 from rdgpu.domains.boundary import NEUMANN, PERIODIC
 from rdgpu.domains.grid import Grid
-from rdgpu.io import output
+from rdgpu.io import output, rendering, volumes
 from rdgpu.io.images import to_rgb
 from rdgpu.models import MODELS
-from rdgpu.simulation.driver import Simulation, describe_domain, initial_state
+from rdgpu.simulation import Simulation, describe_domain, initial_state
 
 SHAPE = (6, 8, 10)  # (nz, ny, nx)
 
@@ -414,8 +414,8 @@ def test_auto_view_falls_back_to_slices_when_rendering_fails(tmp_path, monkeypat
     def broken(arrays, options):
         raise RuntimeError("rendering the 3-D field failed: no OpenGL")
 
-    monkeypatch.setattr(output, "_render", broken)
-    monkeypatch.setattr(output, "_volume_view", lambda view, frames, level: "isosurface"
+    monkeypatch.setattr(rendering, "render_offscreen", broken)
+    monkeypatch.setattr(volumes, "volume_view", lambda view, frames, level: "isosurface"
                         if view != "slices" else "slices")
     with pytest.warns(RuntimeWarning, match="no OpenGL; drawing mid-plane slices instead"):
         p = output.save_png(tmp_path / "f.png", blob(), Grid(SHAPE))

@@ -20,12 +20,18 @@ import pytest
 from conftest import backend_or_skip, interrupt_after
 
 import rdgpu
+from rdgpu.core import files
 from rdgpu.core.errors import SimulationDiverged, StabilityError
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.ops.api import gray_scott_dt_limit
-from rdgpu.simulation import driver as simmod
-from rdgpu.simulation.driver import Simulation, initial_state
+from rdgpu.simulation import (
+    Simulation,
+    SimulationInterrupted,
+    initial_state,
+    remove_stale_temporaries,
+    runner,
+)
 
 HERE = Path(__file__).resolve()
 ROOT = Path(rdgpu.__file__).resolve().parents[1]
@@ -223,7 +229,7 @@ def test_snapshots_and_result():
 
 def test_snapshot_batches_do_not_change_results(monkeypatch):
     ref = toy_sim(seed=2).run(60, snapshot_every=5, progress=False)
-    monkeypatch.setattr(simmod, "_SNAPSHOT_BUDGET", 1)  # one snapshot per device batch
+    monkeypatch.setattr(runner, "_SNAPSHOT_BUDGET", 1)  # one snapshot per device batch
     small = toy_sim(seed=2).run(60, snapshot_every=5, progress=False)
     assert_same_result(ref, small)
 
@@ -314,7 +320,7 @@ def test_checkpoint_is_atomic(tmp_path, monkeypatch):
         fh.write(b"partial")
         raise OSError("disk full")
 
-    monkeypatch.setattr(simmod.np, "savez", broken)
+    monkeypatch.setattr(np, "savez", broken)
     with pytest.raises(OSError, match="disk full"):
         sim.run(50, checkpoint=ck, checkpoint_every=50, progress=False)
     assert ck.read_bytes() == before
@@ -324,7 +330,7 @@ def test_checkpoint_is_atomic(tmp_path, monkeypatch):
 def test_checkpoint_goes_through_replace(tmp_path, monkeypatch):
     replaced = []
     real = os.replace
-    monkeypatch.setattr(simmod.os, "replace", lambda a, b: replaced.append((a, b)) or real(a, b))
+    monkeypatch.setattr(os, "replace", lambda a, b: replaced.append((a, b)) or real(a, b))
     ck = tmp_path / "c.npz"
     toy_sim().run(20, checkpoint=ck, checkpoint_every=10, progress=False)
     assert len(replaced) == 2 and all(Path(b) == ck and Path(a).parent == tmp_path
@@ -497,7 +503,7 @@ def test_checkpoints_between_checks_are_checked(tmp_path, monkeypatch):
     """Checkpoints at steps that are no multiple of check_every: each one is checked, on
     exactly the state that is written."""
     checked, written = [], []
-    real_bad, real_write = simmod._Runner.find_bad, simmod._Runner.write_checkpoint
+    real_bad, real_write = runner.Runner.find_bad, runner.Runner.write_checkpoint
 
     def find_bad(self, state):
         checked.append({s: a.copy() for s, a in state.items()})
@@ -508,8 +514,8 @@ def test_checkpoints_between_checks_are_checked(tmp_path, monkeypatch):
         assert any(all(np.array_equal(c[s], state[s]) for s in state) for c in checked)
         return real_write(self, state)
 
-    monkeypatch.setattr(simmod._Runner, "find_bad", find_bad)
-    monkeypatch.setattr(simmod._Runner, "write_checkpoint", write)
+    monkeypatch.setattr(runner.Runner, "find_bad", find_bad)
+    monkeypatch.setattr(runner.Runner, "write_checkpoint", write)
     toy_sim().run(90, check_every=40, checkpoint=tmp_path / "c.npz", checkpoint_every=30,
                   progress=False)
     assert len(written) == 3  # steps 30, 60, 90
@@ -563,7 +569,7 @@ def _dead_pid():
 
 def test_killed_writers_temporaries_are_removed(tmp_path):
     ck = tmp_path / "run.npz"
-    host = simmod._host_tag()
+    host = files._host_tag()
     dead = _dead_pid()
     old = time.time() - 2 * 3600
     names = {
@@ -598,23 +604,24 @@ def test_killed_writers_temporaries_are_removed(tmp_path):
 def test_temporary_names_carry_the_writer(tmp_path, monkeypatch):
     seen = []
     real = os.replace
-    monkeypatch.setattr(simmod.os, "replace", lambda a, b: seen.append(Path(a).name) or real(a, b))
+    monkeypatch.setattr(os, "replace", lambda a, b: seen.append(Path(a).name) or real(a, b))
     toy_sim().run(10, checkpoint=tmp_path / "c.npz", progress=False)
-    assert seen and all(n.startswith(f".c.npz.{simmod._host_tag()}.{os.getpid()}.")
+    assert seen and all(n.startswith(f".c.npz.{files._host_tag()}.{os.getpid()}.")
                         and n.endswith(".tmp") for n in seen)
 
 
 _CHILD_WRITER = """
 import sys, numpy as np
 sys.path.insert(0, {root!r})
-from rdgpu import simulation as simmod
+from pathlib import Path
+from rdgpu.core import files
 def slow(fh, **arrays):  # a writer that is killed while it writes
     fh.write(b"partial")
     fh.flush()
     print("writing", flush=True)
     import time; time.sleep(60)
-simmod.np.savez = slow
-simmod._atomic_savez(simmod.Path({ck!r}), {{"x": np.zeros(3)}})
+np.savez = slow
+files.atomic_savez(Path({ck!r}), {{"x": np.zeros(3)}})
 """
 
 
@@ -627,7 +634,7 @@ def test_a_killed_writer_leaves_a_temporary_that_the_next_run_removes(tmp_path):
         assert proc.stdout.readline().strip() == "writing"
         temps = [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
         assert len(temps) == 1 and f".{proc.pid}." in temps[0].name
-        simmod.remove_stale_temporaries(ck)  # the writer is alive: its file stays
+        remove_stale_temporaries(ck)  # the writer is alive: its file stays
         assert temps[0].exists()
         proc.send_signal(signal.SIGKILL)
     finally:
@@ -655,7 +662,7 @@ def test_ctrl_c_stops_at_a_chunk_boundary_with_the_state_there(tmp_path):
 
     sim.stepper.advance = advance
     ck = tmp_path / "c.npz"
-    with pytest.raises(simmod.SimulationInterrupted) as info:
+    with pytest.raises(SimulationInterrupted) as info:
         sim.run(400, checkpoint=ck, checkpoint_every=1000, **settings)
     exc = info.value
     assert isinstance(exc, KeyboardInterrupt)
@@ -674,7 +681,7 @@ def test_other_keyboard_interrupts_keep_the_last_checked_state():
     last checked state, which the exception carries."""
     sim = toy_sim(seed=4)
     interrupt_after(sim, 170)
-    with pytest.raises(simmod.SimulationInterrupted) as info:
+    with pytest.raises(SimulationInterrupted) as info:
         sim.run(400, snapshot_every=25, check_every=40, progress=False)
     res = info.value.result
     assert res.step == sim.step == info.value.step == 160

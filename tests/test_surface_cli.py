@@ -10,7 +10,7 @@ from conftest import cli
 from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.surfaces import heat_filtered, random_waves
 from rdgpu.io.output import load_npz
-from rdgpu.simulation.driver import build_domain
+from rdgpu.simulation import build_domain
 
 
 def test_generated_heights_in_a_domain_dict():

@@ -392,7 +392,7 @@ def test_periodic_mesh_simulation_data_file_keeps_period(tmp_path: Path) -> None
 
 
 def test_periodic_mesh_is_rendered_unwrapped(monkeypatch: pytest.MonkeyPatch) -> None:
-    from rdgpu.io import output
+    from rdgpu.io import output, rendering
 
     seen: dict[str, np.ndarray] = {}
 
@@ -400,7 +400,7 @@ def test_periodic_mesh_is_rendered_unwrapped(monkeypatch: pytest.MonkeyPatch) ->
         seen.update(arrays)
         return np.zeros((len(arrays["frames"]), 2, 2, 3), dtype=np.uint8)
 
-    monkeypatch.setattr(output, "_render", fake_render)
+    monkeypatch.setattr(rendering, "render_offscreen", fake_render)
     mesh = graph_mesh(np.zeros((4, 5)), dx=1.0)
     field = np.arange(mesh.n_vertices, dtype=np.float64)
     output.render_mesh(mesh, field)

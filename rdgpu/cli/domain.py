@@ -19,9 +19,7 @@ from rdgpu.cli.options import bc_value, mesh_level
 from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.resources import check_memory
 from rdgpu.simulation import default_init
-
-# the mesh generators of build_domain (moving to rdgpu.domains.specs with it)
-from rdgpu.simulation.driver import _MESH_GENERATORS
+from rdgpu.simulation.specs import MESH_GENERATORS
 
 #: generators a --radius sets, and how
 _RADIUS = {"sphere": ("radius",), "icosphere": ("radius",), "uv-sphere": ("radius",),
@@ -33,7 +31,7 @@ _TORUS_TUBE = 0.3
 
 def generator_names() -> list[str]:
     """The --mesh generators, without the spelling variants."""
-    return [k for k in _MESH_GENERATORS if "_" not in k and k != "disk"]
+    return [k for k in MESH_GENERATORS if "_" not in k and k != "disk"]
 
 
 def domain_spec(args: argparse.Namespace, preset: Any, model: Any, default_size: tuple,
@@ -63,10 +61,10 @@ def mesh_base(text: str, base: dict) -> dict:
     """The spec of ``--mesh NAME[:LEVEL]`` (a generator and its options, or a file) over
     ``base`` (kept where it is the same mesh)."""
     try:
-        name, options = mesh_level(text, _MESH_GENERATORS)
+        name, options = mesh_level(text, MESH_GENERATORS)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    if name.lower() not in _MESH_GENERATORS and not Path(name).exists():
+    if name.lower() not in MESH_GENERATORS and not Path(name).exists():
         raise UsageError(f"--mesh {text!r}: no such file (or use a generator: "
                      f"{', '.join(generator_names())}; sphere:LEVEL sets the subdivisions)")
     if "mesh" not in base or str(base["mesh"]) != name:

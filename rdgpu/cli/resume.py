@@ -22,16 +22,10 @@ from rdgpu.cli.options import bc_value
 from rdgpu.domains.grid import Grid
 from rdgpu.models import MODELS, EquationError, define_model
 from rdgpu.simulation import Simulation, build_domain
+from rdgpu.simulation.checkpoints import bc_text, domain_differences
 from rdgpu.simulation.checks import GRID_KINDS
-
-# the driver's helpers for a checkpoint's domain and model (private there: to become
-# public names of the simulation's modules)
-from rdgpu.simulation.driver import (
-    _bc_text,
-    _domain_differences,
-    _generated_height,
-    _lookup_model,
-)
+from rdgpu.simulation.defaults import lookup_model
+from rdgpu.simulation.specs import generated_height
 
 
 def _squeeze(text: str) -> str:
@@ -171,7 +165,7 @@ def _init_conflicts(args: argparse.Namespace, meta: dict, path: str) -> list[str
         return []
     text = spec.get("text", spec.get("path"))
     if spec["kind"] != "file":
-        model = checkpoint_model(meta) or _lookup_model(meta["model"])
+        model = checkpoint_model(meta) or lookup_model(meta["model"])
         init, _ = init_for(args, model, dict(meta["params"]))
         if json.loads(json.dumps(init)) == meta.get("init"):
             return []
@@ -198,7 +192,7 @@ def _grid_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
         except ValueError as exc:
             raise UsageError(str(exc)) from None
         if ours != dom["bc"]:
-            out.append(_refuse("--bc", path, f"has bc {_bc_text(dom['bc'])}", text))
+            out.append(_refuse("--bc", path, f"has bc {bc_text(dom['bc'])}", text))
     spacings = [dom["dx"]] + [d for d in (dom.get("dy"), dom.get("dz")) if d is not None]
     if args.dx is not None and not all(math.isclose(args.dx, d, rel_tol=1e-12)
                                        for d in spacings):
@@ -224,7 +218,7 @@ def _height_conflict(args: argparse.Namespace, dom: dict, arrays: dict, path: st
     h = args.height
     if isinstance(h, dict):
         try:
-            h = _generated_height(tuple(dom["shape"]), dict(h), float(dom["dx"]), dom.get("dy"))
+            h = generated_height(tuple(dom["shape"]), dict(h), float(dom["dx"]), dom.get("dy"))
         except ValueError as exc:
             raise UsageError(f"--height: {exc}") from None
     if np.shape(h) == arrays["surface_height"].shape and \
@@ -251,7 +245,7 @@ def _mesh_conflicts(args: argparse.Namespace, dom: dict, arrays: dict, path: str
     if args.roughen is not None:
         spec["roughen"] = dict(args.roughen)
     try:
-        differences = _domain_differences(dom, arrays, build_domain(spec))
+        differences = domain_differences(dom, arrays, build_domain(spec))
     except (ValueError, TypeError) as exc:
         raise UsageError(f"{option} {said}: {exc}") from None
     if not differences:

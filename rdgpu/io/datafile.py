@@ -18,7 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.files import atomic_savez, check_writable
+from rdgpu.core.npzread import read_archive
+from rdgpu.domains.base import from_description
 from rdgpu.io.writers import earlier_order
+from rdgpu.simulation.checkpoints import json_str, split_params
+from rdgpu.simulation.result import Result
 
 __all__ = ["load_npz", "save_npz"]
 
@@ -32,15 +37,12 @@ def save_npz(path: Any, result: Any) -> Path:
     """One data file for a run, written atomically (temporary file, fsync, rename) to
     ``path`` (``.npz``); see the module docstring for its contents.  The earlier order
     ``save_npz(result, path)`` still works, with a ``DeprecationWarning``."""
-    from rdgpu.core.files import atomic_savez, check_writable
-    from rdgpu.simulation.driver import _json_str, _split_params, domain_arrays
-
     if earlier_order("save_npz", path, "save_npz(path, result)"):
         path, result = result, path
     path = check_writable(path, "the data file")
     if path.suffix.lower() != ".npz":
         raise ValueError(f"the data file must end in .npz, got {str(path)!r}")
-    scalars, fields = _split_params(result.params)
+    scalars, fields = split_params(result.params)
     meta = {
         "format": _NPZ_FORMAT,
         "model": result.model,
@@ -60,11 +62,11 @@ def save_npz(path: Any, result: Any) -> Path:
                              sorted(getattr(result, "diverged_members", {}).items())},
     }
     arrays: dict[str, np.ndarray] = {
-        "meta": _json_str(meta),
-        "params": _json_str(scalars),
+        "meta": json_str(meta),
+        "params": json_str(scalars),
         "backend": np.array(result.backend),
         "device": np.array(result.device),
-        "versions": _json_str(result.versions),
+        "versions": json_str(result.versions),
         "times": np.asarray(result.times, dtype=np.float64),
         "snapshot_steps": np.asarray(result.snapshot_steps, dtype=np.int64),
     }
@@ -73,7 +75,7 @@ def save_npz(path: Any, result: Any) -> Path:
         arrays[f"snapshots_{s}"] = np.asarray(result.snapshots[s])
     for k, a in fields.items():
         arrays[f"param_{k}"] = a
-    arrays.update(domain_arrays(result.domain))
+    arrays.update(result.domain.arrays())
     atomic_savez(path, arrays, compressed=True, what="the data file")
     return path
 
@@ -90,9 +92,6 @@ def load_npz(path: str | os.PathLike) -> Any:
     """Read a :func:`save_npz` file back into a :class:`~rdgpu.simulation.Result`; a
     ``ValueError`` naming the file says what is wrong with one that is missing, empty,
     damaged, a checkpoint or not rdgpu's."""
-    from rdgpu.core.npzread import read_archive
-    from rdgpu.simulation.driver import Result, _domain_from_description
-
     path = Path(path)
     name = repr(str(path))
     meta, arrays = read_archive(path, "data file")
@@ -125,7 +124,7 @@ def load_npz(path: str | os.PathLike) -> Any:
     for k in meta["param_fields"]:
         params[k] = arrays[f"param_{k}"]
     try:
-        domain = _domain_from_description(meta["domain"], arrays)
+        domain = from_description(meta["domain"], arrays)
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise ValueError(f"{bad}: its domain cannot be rebuilt ({type(exc).__name__}: "
                          f"{exc}){again}") from None

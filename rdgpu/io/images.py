@@ -14,10 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
+from rdgpu.core.files import atomic_path, check_writable
 from rdgpu.core.optional import require
 
-__all__ = ["FLAT_FLOOR", "FLAT_RELATIVE", "FlatFieldWarning", "flat_field", "save_png",
-           "to_rgb"]
+__all__ = ["FLAT_FLOOR", "FLAT_RELATIVE", "FlatFieldWarning", "colour_limits", "flat_field",
+           "save_png", "to_rgb"]
 
 #: a field whose range (max - min) is at most this fraction of its largest |value| is
 #: uniform to round-off and drawn flat
@@ -29,6 +30,15 @@ FLAT_FLOOR = 1e-12
 
 class FlatFieldWarning(UserWarning):
     """A picture was drawn in one flat colour: the field is uniform to round-off."""
+
+
+def colour_limits(a: np.ndarray, vmin: float | None, vmax: float | None) -> tuple[float, float]:
+    """The colour range of ``a``: ``vmin``/``vmax``, else its finite values' range."""
+    finite = np.asarray(a)[np.isfinite(a)]
+    lo = float(finite.min()) if vmin is None and finite.size else (vmin or 0.0)
+    hi = float(finite.max()) if vmax is None and finite.size else (vmax if vmax is not None
+                                                                    else 1.0)
+    return lo, hi
 
 
 def flat_field(a: np.ndarray, vmin: float | None = None, vmax: float | None = None,
@@ -81,8 +91,6 @@ def save_png(path: str | Path, field: np.ndarray, cmap: str = "viridis",
     """Write ``field`` as a colour-mapped PNG, each cell ``scale``×``scale`` pixels;
     atomically (a temporary file renamed over ``path``), refusing a path that is not a
     regular file (:func:`rdgpu.core.files.check_writable`)."""
-    from rdgpu.core.files import atomic_path, check_writable
-
     path = check_writable(path, "the picture")
     iio = require("imageio.v3", "writing PNG pictures")
     rgb = to_rgb(field, cmap, vmin, vmax)

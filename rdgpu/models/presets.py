@@ -22,7 +22,7 @@ def build_domain(spec: Mapping[str, Any]) -> Any:
     3-D with ``"dz"``; ``"height"``: a graph surface), ``{"mesh": "sphere", "subdivisions":
     4, "radius": 1.0}``, ``{"mesh": "disc", "radius": 30, "rings": 50}`` (``"roughen"``:
     a rough copy), ``{"mesh": "path/to/file.obj"}``..."""
-    from rdgpu.simulation.driver import build_domain as build_any
+    from rdgpu.simulation.specs import build_domain as build_any
 
     return build_any(spec)
 

@@ -158,7 +158,8 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
     :func:`sweep`); ``values``: each swept parameter's value for every member.  Returns
     ``{"fields": {species: [B, *shape] array}, "pattern": [B] int8 codes}``."""
     from rdgpu.analysis import classify_pattern
-    from rdgpu.simulation.driver import Simulation, _accepts, _lookup_model
+    from rdgpu.simulation.defaults import accepts, lookup_model
+    from rdgpu.simulation.driver import Simulation
 
     names = list(values)
     count = len(values[names[0]]) if names else 1
@@ -169,8 +170,8 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
         from rdgpu.models import define_model
 
         model = define_model(job["name"], dict(model["equations"]), dict(model["defaults"]))
-    model = _lookup_model(model)
-    if _accepts(model.stepper, "members"):  # one ensemble: all members in one launch a step
+    model = lookup_model(model)
+    if accepts(model.stepper, "members"):  # one ensemble: all members in one launch a step
         params = {**job["fixed"], **{k: np.asarray(v, dtype=np.float64)
                                      for k, v in values.items()}}
         sim = Simulation(model, job["domain"], params, members=count, **kwargs)
@@ -194,7 +195,7 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
 def _common_dt(model: Any, domain: Any, fixed: Mapping[str, Any],
                axes: Mapping[str, np.ndarray], options: Mapping[str, Any]) -> float:
     """The default time step that suits every member: the smallest of theirs."""
-    from rdgpu.simulation.driver import default_dt, domain_defaults
+    from rdgpu.simulation import default_dt, domain_defaults
 
     base = {**model.defaults, **domain_defaults(model, domain, options), **fixed}
     return min(default_dt(model, domain, {**base, **dict(zip(axes, combo, strict=True))},
@@ -391,16 +392,13 @@ def sweep(
     from rdgpu.core.validation import scalar
     from rdgpu.domains.grid import Grid
     from rdgpu.runs.store import check_sweep_memory
-    from rdgpu.simulation.driver import (
-        _lookup_model,
-        _model_definition,
-        build_domain,
-        describe_domain,
-    )
+    from rdgpu.simulation import build_domain, describe_domain
+    from rdgpu.simulation.checks import model_definition
+    from rdgpu.simulation.defaults import lookup_model
 
     kind = _store_kind(store)
     _check_scheduler(scheduler)
-    mdl = _lookup_model(model)
+    mdl = lookup_model(model)
     if not isinstance(params, Mapping):
         raise TypeError(f"params must be a dict of parameter → values, got "
                         f"{type(params).__name__}")
@@ -451,7 +449,7 @@ def sweep(
         dt = _common_dt(mdl, grid, fixed, axes, options)
     be = get_backend(backend)
     dtype = str(np.dtype(dtype))
-    definition = _model_definition(mdl)
+    definition = model_definition(mdl)
     desc = describe_domain(grid)
     space = tuple(grid.field_shape)
     if batch is None and kind == "zarr":  # resuming: the store's batches

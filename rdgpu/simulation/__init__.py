@@ -1,24 +1,24 @@
-"""A model bound to a domain and run: initial conditions, defaults, the result,
-checkpoints and the driver (:class:`Simulation`)."""
+"""A model bound to a domain and run: initial conditions (:mod:`~rdgpu.simulation.initial`),
+defaults (:mod:`~rdgpu.simulation.defaults`), the result (:mod:`~rdgpu.simulation.result`),
+checkpoints (:mod:`~rdgpu.simulation.checkpoints`), the time loop
+(:mod:`~rdgpu.simulation.runner`) and the driver (:class:`Simulation`,
+:mod:`~rdgpu.simulation.driver`)."""
 
-from rdgpu.simulation.driver import (
+from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted
+from rdgpu.core.files import remove_stale_temporaries
+from rdgpu.simulation.checkpoints import describe_domain
+from rdgpu.simulation.defaults import (
     DEFAULT_BOUND,
     FALLBACK_INITS,
-    INIT_KINDS,
-    Result,
-    Simulation,
-    SimulationDiverged,
-    SimulationInterrupted,
-    build_domain,
     default_dt,
     default_init,
     default_steps,
-    describe_domain,
     domain_defaults,
-    initial_state,
-    package_versions,
-    remove_stale_temporaries,
 )
+from rdgpu.simulation.driver import Simulation
+from rdgpu.simulation.initial import INIT_KINDS, initial_state
+from rdgpu.simulation.result import Result, package_versions
+from rdgpu.simulation.specs import build_domain
 
 __all__ = ["DEFAULT_BOUND", "FALLBACK_INITS", "INIT_KINDS", "Result", "Simulation",
            "SimulationDiverged", "SimulationInterrupted", "build_domain", "default_dt",

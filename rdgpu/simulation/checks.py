@@ -353,10 +353,8 @@ def model_definition(model: Any) -> dict:
     defaults = getattr(model, "defaults", None)
     if not isinstance(equations, dict):
         return {}
-    try:
-        from rdgpu.models import MODELS
-    except ImportError:  # pragma: no cover
-        return {}
+    from rdgpu.models import MODELS  # lazy: rdgpu.models imports this module
+
     if MODELS.get(model.name) is model:
         return {}
     plain = {k: v for k, v in (defaults or {}).items() if isinstance(v, (int, float, str))}
@@ -366,10 +364,8 @@ def model_definition(model: Any) -> dict:
 
 
 def _builtin(name: str) -> Any:
-    try:
-        from rdgpu.models import MODELS
-    except ImportError:  # pragma: no cover
-        return None
+    from rdgpu.models import MODELS  # lazy: rdgpu.models imports this module
+
     return MODELS.get(name)
 
 
@@ -396,10 +392,8 @@ def _reference_equations(meta: Mapping[str, Any]) -> tuple[dict | None, str]:
     (``None`` when neither is known), and where they come from."""
     if isinstance(meta.get("equations"), Mapping):
         return dict(meta["equations"]), "the checkpoint's equations"
-    try:
-        from rdgpu.models import MODELS
-    except ImportError:  # pragma: no cover
-        return None, ""
+    from rdgpu.models import MODELS  # lazy: rdgpu.models imports this module
+
     builtin = MODELS.get(meta.get("model"))
     equations = getattr(builtin, "equations", None)
     if isinstance(equations, Mapping):

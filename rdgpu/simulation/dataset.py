@@ -34,25 +34,30 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from rdgpu.core.optional import require
+from rdgpu.domains.base import is_domain
+from rdgpu.simulation.checkpoints import json_default, split_params
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["result_dataset"]
 
 
 def _xarray() -> Any:
-    from rdgpu.core.optional import require
-
     return require("xarray", "Result.to_xarray()")
 
 
-def _space(domain: Any) -> tuple[tuple[str, ...], dict[str, Any]]:
+def _space(domain: Domain) -> tuple[tuple[str, ...], dict[str, Any]]:
     """The spatial dims of one field and their coordinates."""
-    from rdgpu.domains.grid import Grid
-    from rdgpu.simulation.driver import _is_mesh
-
-    if _is_mesh(domain):
+    if not is_domain(domain):
+        raise TypeError(f"Result.to_xarray needs the result's domain to be a Grid, "
+                        f"GraphSurface or SurfaceMesh, got {type(domain).__name__}")
+    if domain.unstructured:
         V = np.asarray(domain.vertices)
         coords: dict[str, Any] = {
             name: ("vertex", V[:, k], {"long_name": f"vertex {name}", "units": "length"})
@@ -61,17 +66,14 @@ def _space(domain: Any) -> tuple[tuple[str, ...], dict[str, Any]]:
         coords["faces"] = (("face", "corner"), np.asarray(domain.faces, dtype=np.int32),
                            {"long_name": "triangle vertex indices (0-based)"})
         return ("vertex",), coords
-    if isinstance(domain, Grid):
-        names = ("z", "y", "x")[3 - domain.ndim:]
-        step = {"x": domain.dx, "y": domain.dy, "z": domain.dz}
-        coords = {
-            name: (name, (np.arange(n) + 0.5) * step[name],
-                   {"long_name": f"cell-centre {name}", "units": "length"})
-            for name, n in zip(names, domain.field_shape, strict=True)
-        }
-        return names, coords
-    raise TypeError(f"Result.to_xarray needs the result's domain to be a Grid, GraphSurface or "
-                    f"SurfaceMesh, got {type(domain).__name__}")
+    names = ("z", "y", "x")[3 - domain.ndim:]
+    step = {"x": domain.dx, "y": domain.dy, "z": domain.dz}
+    coords = {
+        name: (name, (np.arange(n) + 0.5) * step[name],
+               {"long_name": f"cell-centre {name}", "units": "length"})
+        for name, n in zip(names, domain.field_shape, strict=True)
+    }
+    return names, coords
 
 
 def _param_field(name: str, a: np.ndarray, space: tuple[str, ...], shape: tuple[int, ...],
@@ -89,9 +91,7 @@ def _param_field(name: str, a: np.ndarray, space: tuple[str, ...], shape: tuple[
 
 
 def _attrs(result: Any) -> dict[str, Any]:
-    from rdgpu.simulation.driver import _json_default, _split_params
-
-    scalars, fields = _split_params(result.params)
+    scalars, fields = split_params(result.params)
     attrs: dict[str, Any] = {
         "model": str(result.model),
         "dt": float(result.dt),
@@ -101,8 +101,8 @@ def _attrs(result: Any) -> dict[str, Any]:
         "final_step": int(result.step),
         "final_time": float(result.time),
         "domain_kind": str(result.domain_info.get("kind", "")),
-        "domain": json.dumps(result.domain_info, default=_json_default),
-        "params": json.dumps(scalars, default=_json_default),
+        "domain": json.dumps(result.domain_info, default=json_default),
+        "params": json.dumps(scalars, default=json_default),
         "param_fields": json.dumps(sorted(fields)),
         "rdgpu_version": str(result.versions.get("rdgpu", "")),
     }
@@ -117,20 +117,18 @@ def _attrs(result: Any) -> dict[str, Any]:
     if result.seed is not None:  # netCDF-3 holds 32-bit integers; anything else as JSON
         seed = result.seed
         small = isinstance(seed, (int, np.integer)) and abs(int(seed)) < 2**31
-        attrs["seed"] = int(seed) if small else json.dumps(seed, default=_json_default)
+        attrs["seed"] = int(seed) if small else json.dumps(seed, default=json_default)
     if result.members is not None:
         attrs["members"] = int(result.members)
     if result.diverged:
         attrs["diverged"] = str(result.diverged)
     if result.init is not None:
-        attrs["init"] = json.dumps(result.init, default=_json_default)
+        attrs["init"] = json.dumps(result.init, default=json_default)
     return attrs
 
 
 def result_dataset(result: Any) -> Any:
     """``result`` as an ``xarray.Dataset`` (layout in the module docstring)."""
-    from rdgpu.simulation.driver import _field_shape, _is_surface, _split_params
-
     xr = _xarray()
     space, coords = _space(result.domain)
     members = result.members
@@ -157,13 +155,14 @@ def result_dataset(result: Any) -> Any:
         coords["step"] = ((), int(result.step))
         for s, final in result.fields.items():
             data[s] = ((*lead, *space), np.asarray(final))
-    shape = _field_shape(result.domain)
-    fields = _split_params(result.params)[1]
-    _check_names(result.fields, fields, _is_surface(result.domain), coords)
+    shape = result.domain.field_shape
+    fields = split_params(result.params)[1]
+    height = result.domain.arrays().get("surface_height")  # a graph surface's
+    _check_names(result.fields, fields, height is not None, coords)
     for k, a in fields.items():
         data[f"param_{k}"] = _param_field(k, a, space, shape, members)
-    if _is_surface(result.domain):
-        data["height"] = (space, np.asarray(result.domain.height),
+    if height is not None:
+        data["height"] = (space, height,
                           {"long_name": "surface height h(x, y)", "units": "length"})
     return xr.Dataset(data, coords=coords, attrs=_attrs(result))
 

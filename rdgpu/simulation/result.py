@@ -1,0 +1,89 @@
+"""What a run produced: :class:`Result` (fields, snapshots, times, the settings it ran
+with) and :func:`package_versions` (recorded with it)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
+
+__all__ = ["Result", "package_versions"]
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of rdgpu, Python, NumPy, SciPy, Warp and PyOpenCL (``"missing"`` if absent)."""
+    import platform
+    from importlib import metadata
+
+    out = {"python": platform.python_version()}
+    for name, dist in (("rdgpu", "rdgpu"), ("numpy", "numpy"), ("scipy", "scipy"),
+                       ("warp", "warp-lang"), ("pyopencl", "pyopencl")):
+        try:
+            out[name] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[name] = "missing"
+    if out["rdgpu"] == "missing":
+        from rdgpu import __version__  # lazy: rdgpu/__init__ is the top layer
+
+        out["rdgpu"] = __version__
+    return out
+
+
+@dataclass
+class Result:
+    """What a run produced.
+
+    ``fields`` are the final fields (the last good state if the run diverged);
+    ``snapshots[name]`` is an ``[n_snap, *shape]`` array, taken at ``snapshot_steps``
+    (times ``times``).  ``domain`` is the Grid or SurfaceMesh, ``domain_info`` its
+    description."""
+
+    model: str
+    fields: dict[str, np.ndarray]
+    snapshots: dict[str, np.ndarray]
+    times: np.ndarray
+    snapshot_steps: np.ndarray
+    step: int
+    time: float
+    dt: float
+    params: dict[str, Any]
+    domain: Domain
+    domain_info: dict
+    backend: str
+    device: str
+    dtype: str
+    seed: int | None = None
+    init: Any = None
+    versions: dict[str, str] = field(default_factory=package_versions)
+    wall_seconds: float = 0.0
+    diverged: str | None = None
+    #: ensembles: the number of members (fields ``[members, *shape]``), and the members
+    #: that diverged and were frozen at their last good state, with what happened
+    members: int | None = None
+    diverged_members: dict[int, str] = field(default_factory=dict)
+
+    @property
+    def species(self) -> tuple[str, ...]:
+        return tuple(self.fields)
+
+    def to_xarray(self) -> Any:
+        """The result as an ``xarray.Dataset``: one variable per species on dims ``(x,)``,
+        ``(y, x)`` or ``(z, y, x)`` (cell-centre coordinates) or ``(vertex,)`` (a mesh:
+        coordinates ``x``, ``y``, ``z``, ``faces``), led by ``member`` for an ensemble and
+        by ``time`` when snapshots were taken (the final state appended if it is not the
+        last one); parameter fields as ``param_<name>``, a graph surface's ``height``; the
+        model, parameters, dt, backend, dtype and domain as attributes. Needs xarray. See
+        :mod:`rdgpu.simulation.dataset` for the full layout."""
+        from rdgpu.simulation.dataset import result_dataset  # lazy: dataset imports this
+
+        return result_dataset(self)
+
+    def __repr__(self) -> str:
+        shape = next(iter(self.fields.values())).shape if self.fields else ()
+        return (f"Result(model={self.model!r}, step={self.step}, time={self.time:g}, "
+                f"shape={shape}, snapshots={len(self.times)}, backend={self.backend!r}, "
+                f"dtype={self.dtype!r}{', diverged' if self.diverged else ''})")
