@@ -26,8 +26,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import factorized
 
+from rdgpu.domains.mesh.generators import grid_faces
+from rdgpu.domains.mesh.geometry import face_cross
 from rdgpu.domains.mesh.size import check_mesh_size
-from rdgpu.domains.mesh.surface_mesh import SurfaceMesh, _face_cross, _grid_faces
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 __all__ = ["graph_mesh", "heat_filtered", "random_waves", "roughen", "vertex_normals"]
 
@@ -221,7 +223,7 @@ def vertex_normals(mesh: SurfaceMesh) -> np.ndarray:
     """Unit area-weighted vertex normals ``(n, 3)``: the normalised sum of the incident faces'
     ``(p1 − p0) × (p2 − p0)`` (minimum-image edges on a periodic mesh). Faces must be
     consistently oriented; a vertex whose normals cancel raises ``ValueError``."""
-    _, cross = _face_cross(mesh.vertices, mesh.faces, mesh.period)
+    _, cross = face_cross(mesh.vertices, mesh.faces, mesh.period)
     F = mesh.faces.ravel()
     nrm = np.stack(
         [np.bincount(F, weights=np.repeat(c, 3), minlength=mesh.n_vertices) for c in cross],
@@ -296,6 +298,6 @@ def graph_mesh(h: Any, dx: float = 1.0, dy: float | None = None) -> SurfaceMesh:
     x, y = np.meshgrid((np.arange(nx) + 0.5) * dx, (np.arange(ny) + 0.5) * dy, indexing="xy")
     V = np.stack([x.ravel(), y.ravel(), h.ravel()], axis=1)
     # the open (nx+1) × (ny+1) grid's faces, with the last row and column wrapped onto the first
-    F = _grid_faces(nx + 1, ny + 1)
+    F = grid_faces(nx + 1, ny + 1)
     jj, ii = F % (nx + 1), F // (nx + 1)
     return SurfaceMesh(V, (ii % ny) * nx + jj % nx, period=(nx * dx, ny * dy))
