@@ -4,10 +4,12 @@ periodic meshes, the cotangent/Voronoi assembly, and the element bound of the sp
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
+
+from rdgpu.domains.mesh.size import check_mesh_size
 
 #: Default relative tolerance for "zero-area" faces: a face is degenerate when
 #: ``2·area <= ZERO_AREA_RTOL · (longest edge)²`` (its smallest angle is below ~1e-12 rad).
@@ -303,3 +305,153 @@ def check_periodic_faces(V: np.ndarray, F: np.ndarray, period: tuple[float, floa
             f"(faces {example_indices(bad)}; face {f} = {F[f].tolist()}): on a periodic mesh every "
             "triangle must be narrower than half a period along x and y"
         )
+
+
+# ----------------------------------------------------------------------------------------
+# the checks of a SurfaceMesh's input, and its repair
+# ----------------------------------------------------------------------------------------
+
+
+class CheckedMesh(NamedTuple):
+    """What :func:`checked_mesh` found: the (repaired) arrays, the maps from input indices
+    to output ones (−1: dropped), what was repaired, and the edges (``edge_keys``: ``lo · n
+    + hi`` per edge, sorted; ``corner_edge``: the edge of each face corner, flat;
+    ``edge_face_count``: the faces per edge)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    period: tuple[float, float] | None
+    vertex_map: np.ndarray
+    face_map: np.ndarray
+    repairs: tuple[str, ...]
+    edge_keys: np.ndarray
+    corner_edge: np.ndarray
+    edge_face_count: np.ndarray
+
+
+def _merge_duplicate_vertices(V: np.ndarray, F: np.ndarray, repair: bool,
+                              repairs: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """``(rep, F)``: each vertex's lowest-index bitwise copy, and the faces renumbered onto
+    it (an error unless ``repair``)."""
+    rep = duplicate_representatives(V)
+    dup = np.flatnonzero(rep != np.arange(V.shape[0]))
+    if dup.size:
+        if not repair:
+            i = int(dup[0])
+            raise DegenerateMeshError(
+                f"{dup.size} duplicate vertices (bitwise-identical coordinates), e.g. "
+                f"vertex {i} repeats vertex {int(rep[i])} at {V[i].tolist()}; merge them "
+                "or pass repair=True (merges into the lowest index)"
+            )
+        F = rep[F]
+        repairs.append(f"merged {dup.size} duplicate vertices")
+    return rep, F
+
+
+def _drop_bad_faces(V: np.ndarray, F: np.ndarray, fid: np.ndarray, period: Any,
+                    area_rtol: float, repair: bool,
+                    repairs: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, fid)`` without zero-area and duplicate faces (an error unless ``repair``)."""
+    # zero-area faces (also catches faces that repeat a vertex)
+    dbl, lmax2 = double_areas(V, F, period)
+    bad = dbl <= area_rtol * lmax2
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        if not repair:
+            f = int(rows[0])
+            raise DegenerateMeshError(
+                f"{rows.size} zero-area (degenerate) faces (faces {example_indices(rows)}; "
+                f"face {f} = {F[f].tolist()} has area {0.5 * dbl[f]:.3g}); every face must "
+                f"have 2·area > {area_rtol:g}·(longest edge)², or pass repair=True to "
+                "drop them"
+            )
+        F, fid = F[~bad], fid[~bad]
+        repairs.append(f"dropped {rows.size} zero-area faces")
+
+    # duplicate faces
+    dupf = duplicate_faces(F) if F.shape[0] else np.zeros(0, dtype=bool)
+    if dupf.any():
+        rows = np.flatnonzero(dupf)
+        if not repair:
+            f = int(rows[0])
+            raise DegenerateMeshError(
+                f"{rows.size} duplicate faces (same three vertices as an earlier face), "
+                f"e.g. face {f} = {F[f].tolist()}; remove them or pass repair=True"
+            )
+        F, fid = F[~dupf], fid[~dupf]
+        repairs.append(f"dropped {rows.size} duplicate faces")
+    if F.shape[0] == 0:
+        raise DegenerateMeshError("no faces are left after dropping degenerate ones")
+    return F, fid
+
+
+def _drop_unused_vertices(V: np.ndarray, F: np.ndarray, vid: np.ndarray, n_merged: int,
+                          repair: bool, repairs: list[str]) -> tuple[np.ndarray, ...]:
+    """``(V, F, vid)`` without the vertices no face uses (merged duplicates become unused
+    here; an error unless ``repair``)."""
+    used = np.zeros(V.shape[0], dtype=bool)
+    used[F.ravel()] = True
+    unused = np.flatnonzero(~used)
+    if unused.size:
+        if not repair:
+            raise DegenerateMeshError(
+                f"{unused.size} unreferenced vertices (used by no face: "
+                f"{example_indices(unused)}); the Laplacian is undefined there. Remove them or "
+                "pass repair=True (drops them; mesh.vertex_map maps old indices to new)"
+            )
+        new = np.cumsum(used) - 1
+        F = new[F]
+        V, vid = V[used], vid[used]
+        n_dropped = unused.size - n_merged
+        if n_dropped:
+            repairs.append(f"dropped {n_dropped} unreferenced vertices")
+    n = V.shape[0]
+    if n < 3:
+        raise DegenerateMeshError(f"only {n} vertices are left; a mesh needs at least 3")
+    return V, F, vid
+
+
+def checked_mesh(vertices: Any, faces: Any, *, repair: bool, area_rtol: float,
+                 period: Any) -> CheckedMesh:
+    """The checks (and with ``repair`` the repairs) of :class:`SurfaceMesh
+    <rdgpu.domains.mesh.SurfaceMesh>`'s input, in its documented order."""
+    V = as_vertices(vertices)
+    F = as_faces(faces, V.shape[0])
+    check_mesh_size("a SurfaceMesh", V.shape[0], F.shape[0])  # its operators' memory
+    period = as_period(period)
+    n0, m0 = V.shape[0], F.shape[0]
+    repairs: list[str] = []
+    vid = np.arange(n0, dtype=np.int64)  # input index of each current vertex
+    fid = np.arange(m0, dtype=np.int64)  # input index of each current face
+
+    rep, F = _merge_duplicate_vertices(V, F, repair, repairs)
+    F, fid = _drop_bad_faces(V, F, fid, period, area_rtol, repair, repairs)
+    n_merged = int(np.count_nonzero(rep != np.arange(n0)))
+    V, F, vid = _drop_unused_vertices(V, F, vid, n_merged, repair, repairs)
+    n = V.shape[0]
+
+    # edges and manifoldness
+    lo, hi = half_edge_keys(F, n)
+    keys, corner_edge, counts = np.unique(lo * n + hi, return_inverse=True, return_counts=True)
+    if (counts > 2).any():
+        bad_e = np.flatnonzero(counts > 2)
+        e = int(bad_e[0])
+        a, b = int(vid[keys[e] // n]), int(vid[keys[e] % n])
+        raise DegenerateMeshError(
+            f"non-manifold mesh: {bad_e.size} edges are shared by more than two faces, "
+            f"e.g. edge ({a}, {b}) is in {int(counts[e])} faces; the cotangent Laplacian "
+            "needs every edge in one (boundary) or two faces. Split the mesh along those "
+            "edges (no automatic repair)"
+        )
+
+    # final bookkeeping
+    vmap = np.full(n0, -1, dtype=np.int64)
+    vmap[vid] = np.arange(n)
+    vmap = vmap[rep]  # merged duplicates map to their representative
+    fmap = np.full(m0, -1, dtype=np.int64)
+    fmap[fid] = np.arange(F.shape[0])
+
+    if period is not None:
+        check_periodic_faces(V, F, period)
+    return CheckedMesh(V, F, period, vmap, fmap, tuple(repairs), keys,
+                       corner_edge.ravel(), counts)

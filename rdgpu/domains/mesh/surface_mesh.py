@@ -35,6 +35,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from rdgpu.core.optional import require as _require
+from rdgpu.domains import spectra
+from rdgpu.domains.base import STENCILS
 from rdgpu.domains.mesh import generators
 from rdgpu.domains.mesh import io as mesh_io
 from rdgpu.domains.mesh.colouring import greedy_colouring
@@ -42,21 +44,13 @@ from rdgpu.domains.mesh.geometry import (
     ZERO_AREA_RTOL,
     DegenerateMeshError,
     MeshFileError,
-    as_faces,
-    as_period,
-    as_vertices,
     assemble,
-    check_periodic_faces,
+    checked_mesh,
     double_areas,
-    duplicate_faces,
-    duplicate_representatives,
     element_eigenvalue_bound,
-    example_indices,
-    half_edge_keys,
     min_image,
     rowwise_dot,
 )
-from rdgpu.domains.mesh.size import check_mesh_size
 
 __all__ = [
     "DegenerateMeshError",
@@ -125,113 +119,17 @@ class SurfaceMesh:
         area_rtol: float = ZERO_AREA_RTOL,
         period: tuple[float, float] | None = None,
     ) -> None:
-        V = as_vertices(vertices)
-        F = as_faces(faces, V.shape[0])
-        check_mesh_size("a SurfaceMesh", V.shape[0], F.shape[0])  # its operators' memory
-        period = as_period(period)
-        n0, m0 = V.shape[0], F.shape[0]
-        repairs: list[str] = []
-        vid = np.arange(n0, dtype=np.int64)  # input index of each current vertex
-        fid = np.arange(m0, dtype=np.int64)  # input index of each current face
-
-        # duplicate vertices
-        rep = duplicate_representatives(V)
-        dup = np.flatnonzero(rep != np.arange(n0))
-        if dup.size:
-            if not repair:
-                i = int(dup[0])
-                raise DegenerateMeshError(
-                    f"{dup.size} duplicate vertices (bitwise-identical coordinates), e.g. "
-                    f"vertex {i} repeats vertex {int(rep[i])} at {V[i].tolist()}; merge them "
-                    "or pass repair=True (merges into the lowest index)"
-                )
-            F = rep[F]
-            repairs.append(f"merged {dup.size} duplicate vertices")
-
-        # zero-area faces (also catches faces that repeat a vertex)
-        dbl, lmax2 = double_areas(V, F, period)
-        bad = dbl <= area_rtol * lmax2
-        if bad.any():
-            rows = np.flatnonzero(bad)
-            if not repair:
-                f = int(rows[0])
-                raise DegenerateMeshError(
-                    f"{rows.size} zero-area (degenerate) faces (faces {example_indices(rows)}; "
-                    f"face {f} = {F[f].tolist()} has area {0.5 * dbl[f]:.3g}); every face must "
-                    f"have 2·area > {area_rtol:g}·(longest edge)², or pass repair=True to "
-                    "drop them"
-                )
-            F, fid = F[~bad], fid[~bad]
-            repairs.append(f"dropped {rows.size} zero-area faces")
-
-        # duplicate faces
-        dupf = duplicate_faces(F) if F.shape[0] else np.zeros(0, dtype=bool)
-        if dupf.any():
-            rows = np.flatnonzero(dupf)
-            if not repair:
-                f = int(rows[0])
-                raise DegenerateMeshError(
-                    f"{rows.size} duplicate faces (same three vertices as an earlier face), "
-                    f"e.g. face {f} = {F[f].tolist()}; remove them or pass repair=True"
-                )
-            F, fid = F[~dupf], fid[~dupf]
-            repairs.append(f"dropped {rows.size} duplicate faces")
-        if F.shape[0] == 0:
-            raise DegenerateMeshError("no faces are left after dropping degenerate ones")
-
-        # unreferenced vertices (merged duplicates become unreferenced here)
-        used = np.zeros(n0, dtype=bool)
-        used[F.ravel()] = True
-        unused = np.flatnonzero(~used)
-        if unused.size:
-            if not repair:
-                raise DegenerateMeshError(
-                    f"{unused.size} unreferenced vertices (used by no face: "
-                    f"{example_indices(unused)}); the Laplacian is undefined there. Remove them or "
-                    "pass repair=True (drops them; mesh.vertex_map maps old indices to new)"
-                )
-            new = np.cumsum(used) - 1
-            F = new[F]
-            V, vid = V[used], vid[used]
-            n_dropped = unused.size - dup.size
-            if n_dropped:
-                repairs.append(f"dropped {n_dropped} unreferenced vertices")
-        n = V.shape[0]
-        if n < 3:
-            raise DegenerateMeshError(f"only {n} vertices are left; a mesh needs at least 3")
-
-        # edges and manifoldness
-        lo, hi = half_edge_keys(F, n)
-        keys, corner_edge, counts = np.unique(lo * n + hi, return_inverse=True, return_counts=True)
-        if (counts > 2).any():
-            bad_e = np.flatnonzero(counts > 2)
-            e = int(bad_e[0])
-            a, b = int(vid[keys[e] // n]), int(vid[keys[e] % n])
-            raise DegenerateMeshError(
-                f"non-manifold mesh: {bad_e.size} edges are shared by more than two faces, "
-                f"e.g. edge ({a}, {b}) is in {int(counts[e])} faces; the cotangent Laplacian "
-                "needs every edge in one (boundary) or two faces. Split the mesh along those "
-                "edges (no automatic repair)"
-            )
-
-        # final bookkeeping
-        vmap = np.full(n0, -1, dtype=np.int64)
-        vmap[vid] = np.arange(n)
-        vmap = vmap[rep]  # merged duplicates map to their representative
-        fmap = np.full(m0, -1, dtype=np.int64)
-        fmap[fid] = np.arange(F.shape[0])
-
-        if period is not None:
-            check_periodic_faces(V, F, period)
+        m = checked_mesh(vertices, faces, repair=repair, area_rtol=area_rtol, period=period)
+        V, F, n, keys = m.vertices, m.faces, m.vertices.shape[0], m.edge_keys
         self.vertices = V
         self.faces = np.ascontiguousarray(F)
-        self.period = period
-        self.vertex_map = vmap
-        self.face_map = fmap
-        self.repairs = tuple(repairs)
+        self.period = m.period
+        self.vertex_map = m.vertex_map
+        self.face_map = m.face_map
+        self.repairs = m.repairs
         self._edges = np.stack([keys // n, keys % n], axis=1)
-        self._edge_face_count = counts
-        self._corner_edge = corner_edge.ravel()
+        self._edge_face_count = m.edge_face_count
+        self._corner_edge = m.corner_edge
         for arr in (self.vertices, self.faces, self.vertex_map, self.face_map, self._edges):
             arr.flags.writeable = False
         self._colourings: dict[int, np.ndarray] = {}
@@ -247,6 +145,9 @@ class SurfaceMesh:
     #: the Domain protocol (rdgpu.domains.base)
     kind: ClassVar[str] = "mesh"
     unstructured: ClassVar[bool] = True
+    label: ClassVar[str] = "mesh"
+    #: a mesh has no grid axes
+    axes: ClassVar[tuple[str, ...]] = ()
 
     @property
     def n_vertices(self) -> int:
@@ -389,39 +290,7 @@ class SurfaceMesh:
         """
         if method in self._lambda_max:
             return self._lambda_max[method]
-        if method == "gershgorin":
-            L = self.laplacian
-            lam = float(np.add.reduceat(np.abs(L.data), L.indptr[:-1]).max())
-        elif method == "bound":
-            lam = self._lambda_bound
-        elif method in ("eigsh", "auto"):
-            lam = self._lambda_bound
-            W, A = self._operators
-            s = 1.0 / np.sqrt(A)
-            S = W.copy()
-            rows = np.repeat(np.arange(self.n_vertices), np.diff(W.indptr))
-            S.data = -W.data * s[rows] * s[W.indices]
-            if self.n_vertices <= 200:
-                lam = min(lam, float(np.linalg.eigvalsh(S.toarray())[-1]) * (1 + 1e-12))
-            else:
-                from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigsh
-
-                v0 = np.random.default_rng(0).standard_normal(self.n_vertices)
-                if method == "eigsh":
-                    opts = {"tol": 1e-8, "maxiter": max(2000, self.n_vertices // 10)}
-                else:
-                    opts = {"tol": 1e-3, "ncv": 20, "maxiter": 100}
-                try:
-                    vals, vecs = eigsh(S, k=1, which="LA", v0=v0, **opts)
-                    theta, x = float(vals[0]), vecs[:, 0]
-                    r = float(np.linalg.norm(S @ x - theta * x) / np.linalg.norm(x))
-                    lam = min(theta + r, lam)
-                except (ArpackNoConvergence, ArpackError):
-                    pass
-        else:
-            raise ValueError(
-                f"method must be 'auto', 'eigsh', 'bound' or 'gershgorin', got {method!r}"
-            )
+        lam = spectra.mesh_spectral_radius(self, method)
         self._lambda_max[method] = lam
         return lam
 
@@ -453,6 +322,69 @@ class SurfaceMesh:
             c.flags.writeable = False
             self._colourings[seed] = c
         return self._colourings[seed]
+
+    # ------------------------------------------------------------ the Domain protocol
+    @cached_property
+    def extents(self) -> dict[str, float]:
+        """``Lx, Ly, Lz``: the extents of the bounding box."""
+        v = np.asarray(self.vertices, dtype=np.float64)
+        ext = v.max(axis=0) - v.min(axis=0) if len(v) else np.zeros(3)
+        return {"Lx": float(ext[0]), "Ly": float(ext[1]), "Lz": float(ext[2])}
+
+    @property
+    def spacing_scale(self) -> float:
+        """The mean edge length (:attr:`mean_edge_length`)."""
+        return float(self.mean_edge_length)
+
+    def kernel_coordinate(self, name: str, dtype: Any) -> np.ndarray:
+        """The vertices' coordinate ``name`` (``x``, ``y``, ``z``) in ``dtype``."""
+        k = {"x": 0, "y": 1, "z": 2}[name]
+        return np.ascontiguousarray(np.asarray(self.vertices[:, k], dtype=dtype))
+
+    def unit_coordinate(self, axis: str) -> np.ndarray:
+        """The vertices' coordinate ``axis`` scaled to [0, 1] over the bounding box."""
+        k = {"x": 0, "y": 1, "z": 2}.get(axis)
+        if k is None:
+            raise ValueError(f"a mesh axis is 'x', 'y' or 'z', got {axis!r}")
+        c = np.asarray(self.vertices[:, k], dtype=np.float64)
+        span = c.max() - c.min()
+        return (c - c.min()) / span if span > 0 else np.zeros_like(c)
+
+    def stencil_kind(self, stencil: str = "compact") -> str:
+        """``mesh``: the cotangent operator, whatever grid stencil is named."""
+        if stencil not in STENCILS:
+            raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
+        return "mesh"
+
+    def largest_eigenvalue(self, stencil: str = "compact") -> float:
+        """``λ_max(−L)`` as :meth:`max_stable_dt` estimates it."""
+        return 2.0 / self.max_stable_dt(1.0)
+
+    def explicit_diffusion_limit(self) -> float:
+        """:meth:`max_stable_dt` of ``D = 1``."""
+        return self.max_stable_dt(1.0)
+
+    def operator_matrix(self) -> tuple[Any, np.ndarray]:
+        """``A⁻¹W`` (:attr:`laplacian`) and ``b = 0``."""
+        return self.laplacian, np.zeros(self.n_vertices)
+
+    def mass_weights(self) -> np.ndarray:
+        """The vertex areas (``Σ_i A_i L_ij = Σ_i W_ij = 0``)."""
+        return np.asarray(self.areas, dtype=np.float64)
+
+    def smallest_eigenvalue(self) -> tuple[float, bool]:
+        """From the pencil ``(−W, A)`` (Lanczos), or the geodesic estimate above
+        :data:`~rdgpu.domains.spectra.EIGSH_MAX_VERTICES` vertices
+        (:func:`rdgpu.domains.spectra.mesh_eigenvalue`)."""
+        labels, count, _ = spectra.components(self.laplacian)
+        return spectra.mesh_eigenvalue(self, labels, count)
+
+    def sor_colouring(self, matrix: Any) -> np.ndarray:
+        """:meth:`colouring` (greedy, proper for the mesh's own operator)."""
+        colour = np.asarray(self.colouring())
+        if not spectra.valid_colouring(matrix, colour):  # pragma: no cover - it is proper
+            colour = greedy_colouring(matrix, symmetric=False)
+        return colour
 
     # ------------------------------------------------------------------ constructors
     @classmethod
