@@ -175,9 +175,9 @@ def mesh_spectral_radius(mesh: SurfaceMesh, method: str) -> float:
         L = mesh.laplacian
         lam = float(np.add.reduceat(np.abs(L.data), L.indptr[:-1]).max())
     elif method == "bound":
-        lam = mesh.spectral_radius("bound")
+        lam = mesh.lambda_bound
     elif method in ("eigsh", "auto"):
-        lam = mesh.spectral_radius("bound")
+        lam = mesh.lambda_bound
         W, A = mesh.weights, mesh.areas
         s = 1.0 / np.sqrt(A)
         S = W.copy()

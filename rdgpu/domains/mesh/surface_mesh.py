@@ -264,7 +264,7 @@ class SurfaceMesh:
         return L
 
     @cached_property
-    def _lambda_bound(self) -> float:
+    def lambda_bound(self) -> float:
         """Rigorous upper bound on λ_max(−L): min of Gershgorin and the element bound."""
         L = self.laplacian
         gersh = float(np.add.reduceat(np.abs(L.data), L.indptr[:-1]).max())
