@@ -12,7 +12,6 @@ Shapes (the glossary of ``docs/architecture.md``):
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
@@ -126,24 +125,3 @@ def require_domain(obj: Any, what: str = "domain") -> Any:
             f"rdgpu.domains.mesh.SurfaceMesh, got {type(obj).__name__}"
         )
     return obj
-
-
-def from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) -> Any:
-    """The domain a description (:meth:`Domain.describe`) and its arrays
-    (:meth:`Domain.arrays`) were made from."""
-    kind = desc["kind"]
-    if kind == "graph-surface":
-        from rdgpu.domains.graph_surface import GraphSurface
-
-        return GraphSurface(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"],
-                            height=arrays["surface_height"])
-    if kind == "grid":
-        from rdgpu.domains.grid import Grid
-
-        conds = [tuple(b) if isinstance(b, list) else b for b in desc["bc"]]
-        bc = conds[0] if len(set(conds)) == 1 else tuple(conds)
-        return Grid(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"], dz=desc.get("dz"),
-                    bc=bc)
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-    return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"], period=desc.get("period"))

@@ -233,8 +233,7 @@ class Grid:
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
         """``4 Σ 1/h²`` over the axes; the isotropic stencils: the maximum of their symbol
-        (``16/(3h²)`` in 2-D)."""
-        self.stencil_kind(stencil)
+        (``16/(3h²)`` in 2-D); the stencil is not checked here (:meth:`stencil_kind`)."""
         if stencil == "isotropic" and self.ndim > 1:
             th = np.linspace(0.0, np.pi, 33)
             c = np.meshgrid(*([np.cos(th)] * self.ndim), indexing="ij")

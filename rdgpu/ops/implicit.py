@@ -158,6 +158,22 @@ class ImplicitDiffusion:
         max_sweeps: int | None = None,
         check_every: int | None = None,
     ):
+        self._check_numbers(D, dt, theta, dtype, tol)
+        self.domain = require_domain(domain)
+        self.backend = get_backend(backend)
+        M, b = domain.operator_matrix()
+        self.shape = domain.kernel_shape
+        n = M.shape[0]
+        self.n = n
+        self.check_every = 1 if check_every is None else check.whole(check_every,
+                                                                     "check_every", minimum=1)
+        K, S = self._assemble(M, b)
+        self._set_spectrum(M, K, S, omega, max_sweeps)
+        self._upload(M, K, S, b)
+        self._reset_statistics()
+
+    def _check_numbers(self, D: Any, dt: Any, theta: Any, dtype: Any, tol: Any) -> None:
+        """``dtype``, ``D``, ``dt``, ``theta`` and ``tol`` checked and kept."""
         self.dtype = np.dtype(dtype)
         if self.dtype not in _REALS:
             raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
@@ -177,17 +193,13 @@ class ImplicitDiffusion:
         self.tol = check.real_number(tol, "tol")
         if not (math.isfinite(self.tol) and self.tol > 0):
             raise ValueError(f"tol must be a positive number, got {tol}")
-        self.domain = require_domain(domain)
-        self.backend = get_backend(backend)
-        M, b = domain.operator_matrix()
-        self.shape = domain.kernel_shape
-        n = M.shape[0]
-        self.n = n
-        self.check_every = 1 if check_every is None else check.whole(check_every,
-                                                                     "check_every", minimum=1)
 
+    def _assemble(self, M: Any, b: np.ndarray) -> tuple[Any, Any]:
+        """``(K, S)`` on the host in float64 (module doc); keeps ``matrix`` (``S``),
+        ``operator`` (``M``) and ``dirichlet`` (``b``)."""
         import scipy.sparse as sp
 
+        n = self.n
         c = self.theta * self.dt * self.D
         #: ``K = dt D M``: ``g = K u + dt (s + D b)``
         K = sp.csr_matrix((self.dt * self.D) * M)
@@ -202,7 +214,12 @@ class ImplicitDiffusion:
         if not np.all(diag > 0):
             raise ValueError("the implicit system has a non-positive diagonal entry; SOR "
                              "cannot run on it")
+        return K, S
 
+    def _set_spectrum(self, M: Any, K: Any, S: Any, omega: Any, max_sweeps: Any) -> None:
+        """The closed components and their weights, ``λ₁``, ``ω``, Young's rate, the sweep
+        cap and the constants of the error estimates (module doc)."""
+        domain, n = self.domain, self.n
         # closed components, their weights, the spectrum SOR sees after the projection
         self._labels, self._count, self._closed = components(M)
         # Σ_i w_i M_ij = 0: the vertex areas, a graph surface's √g dx dy, else 1
@@ -213,6 +230,7 @@ class ImplicitDiffusion:
         #: components excluded: the projection handles them exactly)
         self.lambda1 = lam
         self.lambda1_exact = exact
+        c = self.theta * self.dt * self.D
         d = float(np.median(np.abs(M.diagonal()))) if n else 0.0
         if c == 0.0 or n == 0:
             mu = 1.0
@@ -242,6 +260,11 @@ class ImplicitDiffusion:
         self._K_inf = float(abs(K).sum(axis=1).max()) if n else 0.0
         self._S_inf = float(abs(S).sum(axis=1).max()) if n else 0.0
 
+    def _upload(self, M: Any, K: Any, S: Any, b: np.ndarray) -> None:
+        """The matrices, the colours' rows and the work buffers on the device."""
+        import scipy.sparse as sp
+
+        n = self.n
         be = self.backend
         self._S = be.upload_csr(S, self.dtype)
         self._K = be.upload_csr(K, self.dtype) if K.nnz and self.dt * self.D != 0 else None
@@ -250,7 +273,7 @@ class ImplicitDiffusion:
         if np.any(b != 0.0) and self.D != 0.0:
             self._Db = be.upload(np.ascontiguousarray((self.D * b).reshape(self.shape),
                                                       dtype=self.dtype))
-        self.colouring = domain.sor_colouring(M)
+        self.colouring = self.domain.sor_colouring(M)
         ref = load_module("mesh", "reference.py")
         self._rows = [be.upload(r) for r in ref.colour_rows(self.colouring) if r.size]
         self._zeros = be.upload(np.zeros(self.shape, dtype=self.dtype))
@@ -259,6 +282,9 @@ class ImplicitDiffusion:
         self._tmp = be.empty(self.shape, self.dtype)
         self._change = be.empty((n,), self.dtype)
         self._source_cache: dict[float, DeviceArray] = {}
+
+    def _reset_statistics(self) -> None:
+        """The statistics of the last step (class doc), before the first."""
         self.last_sweeps = 0
         self.last_change = math.nan
         self.last_error = math.nan

@@ -57,8 +57,9 @@ from rdgpu.core.files import (  # noqa: F401 - the file helpers, kept importable
     remove_stale_temporaries,
 )
 from rdgpu.core.files import atomic_savez as _atomic_savez
-from rdgpu.domains.base import from_description, is_domain
+from rdgpu.domains.base import is_domain
 from rdgpu.domains.grid import Grid
+from rdgpu.domains.specs import from_description
 from rdgpu.simulation.checks import (
     GRID_KINDS,
     MAX_STEPS,

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from rdgpu.core.optional import require as _require
-from rdgpu.domains import spectra
+from rdgpu.domains import roughness, spectra
 from rdgpu.domains.base import STENCILS
 from rdgpu.domains.mesh import generators
 from rdgpu.domains.mesh import io as mesh_io
@@ -531,9 +531,8 @@ class SurfaceMesh:
         :func:`rdgpu.surfaces.roughen` (uniform random values, ``filter_steps`` implicit
         heat steps ``(A − τW) x_{k+1} = A x_k``, ``τ`` = mean edge length² by default,
         minus the area-weighted mean). Same faces; reproducible per ``seed``."""
-        from rdgpu.domains.surfaces import roughen
-
-        return roughen(self, amplitude, filter_steps, seed, tau=tau)
+        V = roughness.roughened_vertices(self, amplitude, filter_steps, seed, tau=tau)
+        return type(self)(V, self.faces, period=self.period)
 
 
     # ------------------------------------------------------------------- generators
