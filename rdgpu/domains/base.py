@@ -16,6 +16,8 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
+from rdgpu.domains.boundary import AxisBC
+
 #: the ``kind`` of each domain class, as its description (checkpoints, data files) spells it
 KINDS = ("grid", "graph-surface", "mesh")
 
@@ -55,6 +57,15 @@ class Domain(Protocol):
     def axes(self) -> tuple[str, ...]:
         """The names of a structured grid's axes in ``field_shape`` order (``("x",)``,
         ``("y", "x")``, ``("z", "y", "x")``); ``()`` on a mesh."""
+
+    @property
+    def spacings(self) -> tuple[float, ...]:
+        """The spacing per axis of :attr:`axes` (``()`` on a mesh)."""
+
+    @property
+    def boundaries(self) -> tuple[AxisBC, ...]:
+        """The boundary condition per axis of :attr:`axes`
+        (:class:`~rdgpu.domains.boundary.AxisBC`; ``()`` on a mesh)."""
 
     @property
     def extents(self) -> dict[str, float]:
@@ -104,8 +115,8 @@ class Domain(Protocol):
 
 #: the members of :class:`Domain` (looked up on the class: no property is evaluated)
 _MEMBERS = ("kind", "unstructured", "label", "field_shape", "kernel_shape", "n_points",
-            "axes", "extents", "spacing_scale", "describe", "arrays", "kernel_coordinate",
-            "unit_coordinate", "stencil_kind", "largest_eigenvalue",
+            "axes", "spacings", "boundaries", "extents", "spacing_scale", "describe",
+            "arrays", "kernel_coordinate", "unit_coordinate", "stencil_kind", "largest_eigenvalue",
             "explicit_diffusion_limit", "operator_matrix", "mass_weights",
             "smallest_eigenvalue", "sor_colouring")
 

@@ -23,6 +23,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.domains import spectra
 from rdgpu.domains.base import STENCILS
 from rdgpu.domains.grid import Grid
@@ -168,8 +169,6 @@ class GraphSurface(Grid):
 
     def coefficients_as(self, dtype: Any) -> dict[str, np.ndarray]:
         """The coefficients rounded to ``dtype`` (float32 or float64), subnormals flushed."""
-        from rdgpu.core.fpenv import flush_subnormals
-
         dtype = np.dtype(dtype)
         key = ("coefficients", dtype.char)
         if key not in self._cache:

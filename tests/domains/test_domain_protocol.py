@@ -54,6 +54,7 @@ def test_every_kind_is_a_domain(domain):
     assert domain.kind in KINDS and domain.label
     assert domain.n_points == math.prod(domain.kernel_shape) == math.prod(domain.field_shape)
     assert domain.unstructured == (domain.axes == ())
+    assert len(domain.spacings) == len(domain.boundaries) == len(domain.axes)
     assert set(domain.extents) == {"Lx", "Ly", "Lz"}
     assert domain.spacing_scale > 0
 
@@ -195,3 +196,13 @@ def test_mesh_io_does_not_import_the_mesh_class():
     text = (ROOT / "rdgpu/domains/mesh/io.py").read_text(encoding="utf-8")
     top = text.split("if TYPE_CHECKING:")[0]
     assert "surface_mesh" not in top
+
+
+def test_domains_import_rdgpu_at_the_top_only():
+    """No import of an rdgpu module inside a function of ``rdgpu/domains`` (the layers are
+    acyclic there; ``TYPE_CHECKING`` imports are for type hints only)."""
+    inner = re.compile(r"^[ \t]+(from|import) rdgpu\b", re.M)
+    for path in sorted((ROOT / "rdgpu/domains").rglob("*.py")):
+        text = path.read_text(encoding="utf-8").split("if TYPE_CHECKING:")
+        body = text[0] + "".join(part.split("\n\n", 1)[-1] for part in text[1:])
+        assert not inner.findall(body), f"{path.relative_to(ROOT)} imports inside a function"

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import numpy as np
 
 from rdgpu.core.files import check_writable
+from rdgpu.core.optional import MissingExtraError
 from rdgpu.core.optional import check as _check_extra
 from rdgpu.core.optional import require as _require
 from rdgpu.domains.mesh.geometry import (
@@ -492,8 +493,6 @@ def read_mesh_file(path: PathLike) -> tuple[np.ndarray, np.ndarray, dict[str, np
     checked as a mesh: :func:`rdgpu.domains.mesh.load_with_fields` builds the
     :class:`SurfaceMesh`).  A file that cannot be read raises :class:`MeshFileError`
     naming it."""
-    from rdgpu.core.optional import MissingExtraError
-
     path = Path(path)
     ext = path.suffix.lower()
     if not (_is_meshio_only(path) or ext in _PYVISTA_FORMATS + _TRIMESH_FORMATS):

@@ -146,8 +146,11 @@ class SurfaceMesh:
     kind: ClassVar[str] = "mesh"
     unstructured: ClassVar[bool] = True
     label: ClassVar[str] = "mesh"
-    #: a mesh has no grid axes
+    #: a mesh has no grid axes, so no spacings or conditions per axis (an open mesh's
+    #: boundary is the natural zero-flux one)
     axes: ClassVar[tuple[str, ...]] = ()
+    spacings: ClassVar[tuple[float, ...]] = ()
+    boundaries: ClassVar[tuple[Any, ...]] = ()
 
     @property
     def n_vertices(self) -> int:
