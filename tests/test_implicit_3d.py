@@ -26,7 +26,7 @@ from scipy.sparse.linalg import splu, spsolve
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC, parse_bc
 from rdgpu.domains.grid import Grid
 from rdgpu.families import load_module
-from rdgpu.ops.implicit import ImplicitDiffusion, _colouring, operator_matrix, smallest_eigenvalue
+from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix, smallest_eigenvalue
 
 #: one condition of each kind, with a distinct Dirichlet value per axis (z, y, x)
 KINDS = ("periodic", "neumann", "dirichlet")
@@ -166,7 +166,7 @@ def test_colouring_3d(shape, kinds):
     colour."""
     grid = _grid(shape, kinds)
     M, _ = operator_matrix(grid)
-    colour = _colouring(grid, M)
+    colour = grid.sor_colouring(M)
     C = sp.coo_matrix(M)
     coupled = (C.row != C.col) & (C.data != 0)
     assert np.all(colour[C.row[coupled]] != colour[C.col[coupled]])

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.domains.base import is_domain
 from rdgpu.domains.boundary import GridBC
 
 Scalar = float
@@ -253,9 +254,7 @@ class Backend(ABC):
         rounded to ``dtype`` (subnormals flushed), on this backend.  Cached per backend for
         the last few ``(surface, dtype)`` pairs: surfaces compare by grid and height, so an
         equal surface built again reuses the upload.  Treat the arrays as read-only."""
-        from rdgpu.domains.graph_surface import GraphSurface
-
-        if not isinstance(surface, GraphSurface):
+        if not (is_domain(surface) and surface.kind == "graph-surface"):
             raise TypeError(f"upload_metric needs an rdgpu.domains.graph_surface.GraphSurface, got "
                             f"{type(surface).__name__}")
         dtype = np.dtype(dtype)

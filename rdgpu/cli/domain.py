@@ -18,8 +18,8 @@ from rdgpu.cli.common import UsageError
 from rdgpu.cli.options import bc_value, mesh_level
 from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.resources import check_memory
+from rdgpu.domains.specs import MESH_GENERATORS
 from rdgpu.simulation import default_init
-from rdgpu.simulation.specs import MESH_GENERATORS
 
 #: generators a --radius sets, and how
 _RADIUS = {"sphere": ("radius",), "icosphere": ("radius",), "uv-sphere": ("radius",),

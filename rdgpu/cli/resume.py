@@ -20,12 +20,12 @@ from rdgpu.cli.common import UsageError, grid_text
 from rdgpu.cli.domain import init_for, mesh_base, mesh_options
 from rdgpu.cli.options import bc_value
 from rdgpu.domains.grid import Grid
+from rdgpu.domains.specs import generated_height
 from rdgpu.models import MODELS, EquationError, define_model
 from rdgpu.simulation import Simulation, build_domain
 from rdgpu.simulation.checkpoints import bc_text, domain_differences
 from rdgpu.simulation.checks import GRID_KINDS
 from rdgpu.simulation.defaults import lookup_model
-from rdgpu.simulation.specs import generated_height
 
 
 def _squeeze(text: str) -> str:

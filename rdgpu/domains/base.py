@@ -12,23 +12,37 @@ Shapes (the glossary of ``docs/architecture.md``):
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
+
+from rdgpu.domains.boundary import AxisBC
 
 #: the ``kind`` of each domain class, as its description (checkpoints, data files) spells it
 KINDS = ("grid", "graph-surface", "mesh")
 
 
+#: the Laplacian stencils a grid model may use: ``compact`` (3/5/7 points) or ``isotropic``
+#: (9 points in 2-D, 19 in 3-D)
+STENCILS = ("compact", "isotropic")
+
+#: what :meth:`Domain.stencil_kind` answers, and the number of grid axes of each (0: the
+#: unstructured mesh): the code generators key their per-kind stencil table on it
+STENCIL_KINDS = {"grid1": 1, "grid2": 2, "grid3": 3, "grid2iso": 2, "grid3iso": 3,
+                 "grid2metric": 2, "mesh": 0}
+
+
 @runtime_checkable
 class Domain(Protocol):
-    """Where fields live (see the module doc for the shapes)."""
+    """Where fields live (see the module doc for the shapes).  Everything code outside
+    :mod:`rdgpu.domains` needs to know about a domain is asked here, never by its class."""
 
     #: one of :data:`KINDS`
     kind: ClassVar[str]
     #: True where fields live on the vertices of an unstructured mesh (CSR operators)
     unstructured: ClassVar[bool]
+    #: the kind in words, for messages: ``"grid"``, ``"graph surface"``, ``"mesh"``
+    label: ClassVar[str]
 
     @property
     def field_shape(self) -> tuple[int, ...]: ...
@@ -38,6 +52,28 @@ class Domain(Protocol):
 
     @property
     def n_points(self) -> int: ...
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The names of a structured grid's axes in ``field_shape`` order (``("x",)``,
+        ``("y", "x")``, ``("z", "y", "x")``); ``()`` on a mesh."""
+
+    @property
+    def spacings(self) -> tuple[float, ...]:
+        """The spacing per axis of :attr:`axes` (``()`` on a mesh)."""
+
+    @property
+    def boundaries(self) -> tuple[AxisBC, ...]:
+        """The boundary condition per axis of :attr:`axes`
+        (:class:`~rdgpu.domains.boundary.AxisBC`; ``()`` on a mesh)."""
+
+    @property
+    def extents(self) -> dict[str, float]:
+        """``Lx, Ly, Lz``: a grid's extents (0 along absent axes), a mesh's bounding box."""
+
+    @property
+    def spacing_scale(self) -> float:
+        """The length of one cell: a grid's smallest spacing, a mesh's mean edge."""
 
     def describe(self, source: Any = None) -> dict:
         """A JSON-able description (kept in checkpoints and data files)."""
@@ -50,28 +86,58 @@ class Domain(Protocol):
         """The length, area or volume each point of a field stands for (``field_shape``,
         float64): the weights of an integral over the domain."""
 
+    def kernel_coordinate(self, name: str, dtype: Any) -> np.ndarray:
+        """Coordinate ``name`` (``x``, ``y``, ``z``) of every point in ``kernel_shape``,
+        computed in ``dtype`` the way the generated kernels compute it."""
+
+    def unit_coordinate(self, axis: str) -> np.ndarray:
+        """Coordinate ``axis`` of every point (``kernel_shape``) scaled to [0, 1]."""
+
+    def stencil_kind(self, stencil: str = "compact") -> str:
+        """The key of the code generators' per-kind stencil table (:data:`STENCIL_KINDS`)
+        for ``stencil`` (:data:`STENCILS`) on this domain; a stencil the domain cannot
+        use is a ``ValueError``."""
+
+    def largest_eigenvalue(self, stencil: str = "compact") -> float:
+        """An upper bound of the largest eigenvalue of ``−Δ_h`` (explicit stability)."""
+
+    def explicit_diffusion_limit(self) -> float:
+        """The largest stable forward-Euler step of ``u_t = Δu``."""
+
+    def operator_matrix(self) -> tuple[Any, np.ndarray]:
+        """``(M, b)`` with ``Δ_h u = M u + b`` on the flat field (SciPy CSR, float64)."""
+
+    def mass_weights(self) -> np.ndarray:
+        """``w`` with ``Σ_i w_i M_ij = 0`` (the flat field's areas or volumes)."""
+
+    def smallest_eigenvalue(self) -> tuple[float, bool]:
+        """``(λ₁, exact)``: the smallest eigenvalue of ``−M`` past the constant null vectors
+        of closed components, and whether it is exact rather than an estimate."""
+
+    def sor_colouring(self, matrix: Any) -> np.ndarray:
+        """A colouring (int32 per row) of ``matrix``'s graph for multicolour SOR."""
+
+
+#: the members of :class:`Domain` (looked up on the class: no property is evaluated)
+_MEMBERS = ("kind", "unstructured", "label", "field_shape", "kernel_shape", "n_points",
+            "axes", "spacings", "boundaries", "extents", "spacing_scale", "describe",
+            "arrays", "kernel_coordinate", "unit_coordinate", "stencil_kind", "largest_eigenvalue",
+            "explicit_diffusion_limit", "operator_matrix", "mass_weights",
+            "smallest_eigenvalue", "sor_colouring", "point_weights")
+
 
 def is_domain(obj: Any) -> bool:
-    """Whether ``obj`` is a domain (a :class:`Grid`, graph surface or mesh)."""
-    return getattr(type(obj), "kind", None) in KINDS and isinstance(obj, Domain)
+    """Whether ``obj`` is a domain (a :class:`Grid`, graph surface or mesh): its class has
+    a known ``kind`` and every member of :class:`Domain`."""
+    cls = type(obj)
+    return getattr(cls, "kind", None) in KINDS and all(hasattr(cls, m) for m in _MEMBERS)
 
 
-def from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) -> Any:
-    """The domain a description (:meth:`Domain.describe`) and its arrays
-    (:meth:`Domain.arrays`) were made from."""
-    kind = desc["kind"]
-    if kind == "graph-surface":
-        from rdgpu.domains.graph_surface import GraphSurface
-
-        return GraphSurface(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"],
-                            height=arrays["surface_height"])
-    if kind == "grid":
-        from rdgpu.domains.grid import Grid
-
-        conds = [tuple(b) if isinstance(b, list) else b for b in desc["bc"]]
-        bc = conds[0] if len(set(conds)) == 1 else tuple(conds)
-        return Grid(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"], dz=desc.get("dz"),
-                    bc=bc)
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-    return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"], period=desc.get("period"))
+def require_domain(obj: Any, what: str = "domain") -> Any:
+    """``obj`` if it is a domain, else a ``TypeError`` naming ``what`` and what is allowed."""
+    if not is_domain(obj):
+        raise TypeError(
+            f"a {what} is an rdgpu.domains.Grid, an rdgpu.GraphSurface or an "
+            f"rdgpu.domains.mesh.SurfaceMesh, got {type(obj).__name__}"
+        )
+    return obj

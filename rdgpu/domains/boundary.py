@@ -24,6 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from rdgpu.core.validation import scalar
+
 PERIODIC = 0
 NEUMANN = 1
 DIRICHLET = 2
@@ -82,8 +84,7 @@ def _parse_axis(spec: Any) -> AxisBC:
         and isinstance(spec[0], str)
         and spec[0].lower() == "dirichlet"
     ):
-        from rdgpu.core.validation import scalar  # the number rule: no bool, text or complex
-
+        # the number rule: no bool, text or complex
         return AxisBC(DIRICHLET, scalar(spec[1], "Dirichlet value", minimum=None))
     raise ValueError(f"unknown boundary condition {spec!r}; allowed: {ALLOWED}")
 

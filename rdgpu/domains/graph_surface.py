@@ -23,7 +23,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from rdgpu.core.fpenv import flush_subnormals
+from rdgpu.domains import spectra
+from rdgpu.domains.base import STENCILS
 from rdgpu.domains.grid import Grid
+from rdgpu.domains.mesh.colouring import greedy_colouring
 from rdgpu.families import load_module
 
 __all__ = ["GraphSurface", "metric_coefficients", "metric_matrix"]
@@ -105,6 +109,7 @@ class GraphSurface(Grid):
     Two surfaces are equal when their grids and heights are."""
 
     kind: ClassVar[str] = "graph-surface"
+    label: ClassVar[str] = "graph surface"
 
     height: Any = None
 
@@ -164,8 +169,6 @@ class GraphSurface(Grid):
 
     def coefficients_as(self, dtype: Any) -> dict[str, np.ndarray]:
         """The coefficients rounded to ``dtype`` (float32 or float64), subnormals flushed."""
-        from rdgpu.core.fpenv import flush_subnormals
-
         dtype = np.dtype(dtype)
         key = ("coefficients", dtype.char)
         if key not in self._cache:
@@ -214,3 +217,45 @@ class GraphSurface(Grid):
     def point_weights(self) -> np.ndarray:
         """The Domain protocol: the surface area of each cell, :attr:`area_weights`."""
         return self.area_weights
+
+    # ------------------------------------------------------------ the Domain protocol
+    def stencil_kind(self, stencil: str = "compact") -> str:
+        """``grid2metric``: the 9-point ``Δ_Γ``; the isotropic stencil is refused."""
+        if stencil not in STENCILS:
+            raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
+        if stencil == "isotropic":
+            raise ValueError("the isotropic stencil is a flat-grid stencil; a graph surface "
+                             "has its own 9-point Laplace-Beltrami operator: use "
+                             "stencil='compact'")
+        return "grid2metric"
+
+    def largest_eigenvalue(self, stencil: str = "compact") -> float:
+        """:meth:`spectral_bound` (the isotropic stencil is refused)."""
+        self.stencil_kind(stencil)
+        return self.spectral_bound()
+
+    def explicit_diffusion_limit(self) -> float:
+        """``2/λ_max`` of ``Δ_Γ`` (its Gershgorin bound, :meth:`spectral_bound`)."""
+        return 2.0 / self.spectral_bound()
+
+    def operator_matrix(self) -> tuple[Any, np.ndarray]:
+        """The 9-point ``Δ_Γ`` (:attr:`laplacian`) and ``b = 0``."""
+        return self.laplacian, np.zeros(self.n_points)
+
+    def mass_weights(self) -> np.ndarray:
+        """:attr:`area_weights`, flat (``√g dx dy Δ_Γ`` is symmetric)."""
+        return np.asarray(self.area_weights, dtype=np.float64).ravel()
+
+    def smallest_eigenvalue(self) -> tuple[float, bool]:
+        """From the pencil ``(−√g Δ_Γ, √g)``, or above its size limit the flat grid's
+        scaled by the area (:func:`rdgpu.domains.spectra.surface_eigenvalue`)."""
+        return spectra.surface_eigenvalue(self, self._eigen_axes())
+
+    def sor_colouring(self, matrix: Any) -> np.ndarray:
+        """Four colours by the parities of (row, column) (the 9-point graph) where that is
+        a valid colouring of ``matrix``; else greedy."""
+        i, j = np.indices(self.shape)
+        colour = (2 * (i % 2) + j % 2).astype(np.int32).ravel()
+        if spectra.valid_colouring(matrix, colour):
+            return colour
+        return greedy_colouring(matrix, symmetric=False)

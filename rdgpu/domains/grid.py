@@ -1,5 +1,6 @@
-"""Where a simulation lives: a 1-D, 2-D or 3-D :class:`Grid` or a triangle mesh
-(``rdgpu.domains.mesh.SurfaceMesh``)."""
+"""A 1-D, 2-D or 3-D cell-centred :class:`Grid` and its part of the Domain protocol
+(:mod:`rdgpu.domains.base`); the graph surface (:mod:`rdgpu.domains.graph_surface`) is a
+grid with a metric."""
 
 from __future__ import annotations
 
@@ -7,7 +8,37 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from rdgpu.domains.boundary import GridBC, parse_bc
+import numpy as np
+
+from rdgpu.core import validation
+from rdgpu.domains import spectra
+from rdgpu.domains.base import STENCILS
+from rdgpu.domains.boundary import AxisBC, GridBC, parse_bc
+from rdgpu.domains.mesh.colouring import greedy_colouring
+from rdgpu.families import load_module
+
+#: the axis names of a grid's ``field_shape``, per dimension
+AXES = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
+
+
+def grid_shape(shape: Any) -> tuple[int, ...]:
+    """A grid's shape: a tuple/list of 1 to 3 whole numbers >= 1 (ints, or floats with a
+    whole value); a string, a bool or a fraction is an error, not a shape."""
+    form = "(nx,), (ny, nx) or (nz, ny, nx) with every size >= 1, whole numbers"
+    if isinstance(shape, (str, bytes)) or not isinstance(shape, (tuple, list, np.ndarray)):
+        raise TypeError(f"grid shape must be {form}, got {type(shape).__name__} {shape!r}")
+    sizes = list(shape.ravel()) if isinstance(shape, np.ndarray) else list(shape)
+    if len(sizes) not in (1, 2, 3):
+        raise ValueError(f"grid shape must be {form}, got {tuple(sizes)!r}")
+    out = []
+    for n in sizes:
+        try:
+            out.append(validation.whole(n, "size", minimum=1, floats=True))
+        except (TypeError, ValueError) as exc:
+            got = f"{type(n).__name__} {n!r}" if isinstance(exc, TypeError) else repr(n)
+            raise type(exc)(f"grid shape must be {form}, got {tuple(sizes)!r} (a size of "
+                            f"{got})") from None
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -27,6 +58,7 @@ class Grid:
     #: the Domain protocol (rdgpu.domains.base)
     kind: ClassVar[str] = "grid"
     unstructured: ClassVar[bool] = False
+    label: ClassVar[str] = "grid"
 
     shape: tuple[int, ...]
     dx: float = 1.0
@@ -37,9 +69,7 @@ class Grid:
     ndim: int = field(init=False, default=2)
 
     def __post_init__(self) -> None:
-        from rdgpu.core.validation import scalar
-        from rdgpu.simulation.checks import grid_shape
-
+        scalar = validation.scalar
         shape = grid_shape(self.shape)  # whole numbers: no string, bool or fraction
         dx = scalar(self.dx, "dx", strict=True)
         dz = math.inf
@@ -76,8 +106,7 @@ class Grid:
     def _bc_json(self) -> list:
         """The conditions as JSON, one per axis of ``field_shape``: ``[x_bc]`` (1-D),
         ``[y_bc, x_bc]`` (2-D) or ``[z_bc, y_bc, x_bc]`` (3-D)."""
-        axes = {1: (self.bcs.x,), 2: (self.bcs.y, self.bcs.x),
-                3: (self.bcs.z, self.bcs.y, self.bcs.x)}[self.ndim]
+        axes = self.boundaries
         return [["dirichlet", a.value] if a.name == "dirichlet" else a.name for a in axes]
 
     def describe(self, source: Any = None) -> dict:
@@ -114,14 +143,11 @@ class Grid:
     def lengths(self) -> tuple[float, ...]:
         """The domain's extent per axis of ``field_shape``: ``(Lx,)``, ``(Ly, Lx)`` or
         ``(Lz, Ly, Lx)``."""
-        sp = {1: (self.dx,), 2: (self.dy, self.dx), 3: (self.dz, self.dy, self.dx)}[self.ndim]
-        return tuple(n * h for n, h in zip(self.field_shape, sp, strict=True))
+        return tuple(n * h for n, h in zip(self.field_shape, self.spacings, strict=True))
 
     def coordinates(self):
         """Cell-centre coordinates ``(y, x)`` as two ``[ny, nx]`` arrays (``y = 0`` in 1-D);
         in 3-D ``(z, y, x)`` as three ``[nz, ny, nx]`` arrays."""
-        import numpy as np
-
         if self.ndim == 3:
             nz, ny, nx = self.shape
             axes = [(np.arange(n) + 0.5) * h for n, h in ((nz, self.dz), (ny, self.dy),
@@ -138,3 +164,131 @@ class Grid:
         import numpy as np
 
         return np.full(self.field_shape, self.cell_volume)
+
+    # ------------------------------------------------------------ the Domain protocol
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """``("x",)``, ``("y", "x")`` or ``("z", "y", "x")``: the axes of ``field_shape``."""
+        return AXES[self.ndim]
+
+    @property
+    def spacings(self) -> tuple[float, ...]:
+        """The spacing per axis of ``field_shape``: ``(dx,)``, ``(dy, dx)``, ``(dz, dy, dx)``."""
+        return {1: (self.dx,), 2: (self.dy, self.dx), 3: (self.dz, self.dy, self.dx)}[self.ndim]
+
+    @property
+    def boundaries(self) -> tuple[AxisBC, ...]:
+        """The condition per axis of ``field_shape`` (:mod:`rdgpu.domains.boundary`)."""
+        b = self.bcs
+        return {1: (b.x,), 2: (b.y, b.x), 3: (b.z, b.y, b.x)}[self.ndim]
+
+    @property
+    def extents(self) -> dict[str, float]:
+        """``Lx, Ly, Lz``: the extents, 0 along absent axes."""
+        nz, ny, nx = self.shape3
+        return {"Lx": nx * self.dx, "Ly": ny * self.dy if self.ndim > 1 else 0.0,
+                "Lz": nz * self.dz if self.ndim > 2 else 0.0}
+
+    @property
+    def spacing_scale(self) -> float:
+        """The smallest spacing (``dy``, ``dz`` are ``inf`` along absent axes)."""
+        return min(self.dx, self.dy, self.dz)
+
+    def kernel_spacings(self) -> tuple[float, float, float]:
+        """``(dx, dy, dz)`` for coordinates: 0 along absent axes (so y = z = 0 in 1-D)."""
+        return self.dx, (self.dy if self.ndim > 1 else 0.0), (self.dz if self.ndim > 2 else 0.0)
+
+    def kernel_coordinate(self, name: str, dtype: Any) -> np.ndarray:
+        """Cell-centre coordinate ``name`` in ``dtype``: ``(k + ½) h`` along its axis,
+        broadcast to ``kernel_shape`` (0 along an absent axis)."""
+        dtype = np.dtype(dtype)
+        t = dtype.type
+        nz, ny, nx = self.shape3
+        axis = {"x": 2, "y": 1, "z": 0}[name]
+        h = t(self.kernel_spacings()[{"x": 0, "y": 1, "z": 2}[name]])
+        n = (nz, ny, nx)[axis]
+        c = (np.arange(n).astype(dtype) + t(0.5)) * h
+        shape = [1, 1, 1]
+        shape[axis] = n
+        full = np.broadcast_to(c.reshape(shape), (nz, ny, nx)).reshape(self.shape)
+        return np.ascontiguousarray(full)
+
+    def unit_coordinate(self, axis: str) -> np.ndarray:
+        """Coordinate ``axis`` of every cell (``kernel_shape``), scaled to [0, 1]."""
+        names = self.axes
+        if axis not in names:
+            raise ValueError(f"a {self.ndim}-D grid axis is one of {names}, got {axis!r}")
+        k = names.index(axis)
+        n = self.field_shape[k]
+        c = (np.arange(n) + 0.5) / n
+        shape = [1] * self.ndim
+        shape[k] = n
+        return np.broadcast_to(c.reshape(shape), self.field_shape).reshape(self.shape).copy()
+
+    def stencil_kind(self, stencil: str = "compact") -> str:
+        """``grid1``..``grid3``, ``+ "iso"`` for the isotropic stencil (2-D and 3-D), which
+        needs equal spacings."""
+        if stencil not in STENCILS:
+            raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
+        iso = stencil == "isotropic" and self.ndim > 1
+        if iso:
+            hs = [self.dx, self.dy] + ([self.dz] if self.ndim > 2 else [])
+            if max(hs) != min(hs):
+                raise ValueError(f"the isotropic stencil needs equal spacings, got "
+                                 f"{', '.join(f'{h:g}' for h in hs)}")
+        return f"grid{self.ndim}" + ("iso" if iso else "")
+
+    def largest_eigenvalue(self, stencil: str = "compact") -> float:
+        """``4 Σ 1/h²`` over the axes; the isotropic stencils: the maximum of their symbol
+        (``16/(3h²)`` in 2-D); the stencil is not checked here (:meth:`stencil_kind`)."""
+        if stencil == "isotropic" and self.ndim > 1:
+            th = np.linspace(0.0, np.pi, 33)
+            c = np.meshgrid(*([np.cos(th)] * self.ndim), indexing="ij")
+            if self.ndim == 2:
+                sym = 4 * (2 * c[0] + 2 * c[1]) + 4 * c[0] * c[1] - 20
+            else:
+                sym = (2 * 2 * (c[0] + c[1] + c[2])
+                       + 4 * (c[0] * c[1] + c[0] * c[2] + c[1] * c[2]) - 24)
+            return float(np.max(-sym)) / (6.0 * self.dx**2)
+        hs = [self.dx] + ([self.dy] if self.ndim > 1 else []) + \
+            ([self.dz] if self.ndim > 2 else [])
+        return sum(4.0 / (h * h) for h in hs)
+
+    def explicit_diffusion_limit(self) -> float:
+        """``1/(2 Σ 1/h²)`` (``1/h² = 0`` along absent axes, whose spacing is ``inf``)."""
+        return 1.0 / (2.0 * (1.0 / self.dx**2 + 1.0 / self.dy**2 + 1.0 / self.dz**2))
+
+    def operator_matrix(self) -> tuple[Any, np.ndarray]:
+        """The 5-point (3-D: 7-point) matrix with the boundary conditions and the Dirichlet
+        vector (``kernels/laplacian/reference.py::laplacian_matrix``), CSR, sorted."""
+        import scipy.sparse as sp
+
+        ref = load_module("laplacian", "reference.py")
+        dz = self.dz if self.ndim == 3 else None
+        M, b = ref.laplacian_matrix(self.shape, self.dx, self.dy, self.bcs, dz=dz)
+        M = sp.csr_matrix(M)
+        M.sum_duplicates()
+        M.sort_indices()
+        return M, np.asarray(b, dtype=np.float64)
+
+    def mass_weights(self) -> np.ndarray:
+        """One per cell (``M`` is symmetric)."""
+        return np.ones(self.n_points)
+
+    def _eigen_axes(self) -> list[tuple[int, AxisBC, float]]:
+        axes = [(self.shape[-2], self.bcs.y, self.dy), (self.shape[-1], self.bcs.x, self.dx)]
+        if self.ndim == 3:
+            axes.insert(0, (self.shape[0], self.bcs.z, self.dz))
+        return axes
+
+    def smallest_eigenvalue(self) -> tuple[float, bool]:
+        """Analytic (:func:`rdgpu.domains.spectra.grid_eigenvalue`): exact."""
+        return spectra.grid_eigenvalue(self._eigen_axes()), True
+
+    def sor_colouring(self, matrix: Any) -> np.ndarray:
+        """Red-black (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``) where that is a valid
+        colouring of ``matrix`` (periodic odd sizes break it); else greedy."""
+        colour = (np.indices(self.shape).sum(axis=0) % 2).astype(np.int32).ravel()
+        if spectra.valid_colouring(matrix, colour):
+            return colour
+        return greedy_colouring(matrix, symmetric=False)

@@ -24,10 +24,19 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import factorized
 
+from rdgpu.domains.mesh.generators import grid_faces
 from rdgpu.domains.mesh.size import check_mesh_size
-from rdgpu.domains.mesh.surface_mesh import SurfaceMesh, _face_cross, _grid_faces
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.domains.roughness import (
+    centred_scaled,
+    check_amplitude,
+    check_steps,
+    check_tau,
+    heat_filter,
+    peak_scaled,
+    vertex_normals,
+)
 
 __all__ = ["graph_mesh", "heat_filtered", "random_waves", "roughen", "vertex_normals"]
 
@@ -49,36 +58,6 @@ def _spacings(dx: float, dy: float | None) -> tuple[float, float]:
     if not (np.isfinite(dx) and np.isfinite(dy) and dx > 0 and dy > 0):
         raise ValueError(f"dx and dy must be positive and finite, got dx={dx}, dy={dy}")
     return float(dx), float(dy)
-
-
-def _check_amplitude(amplitude: float) -> float:
-    if not (np.isfinite(amplitude) and amplitude >= 0):
-        raise ValueError(f"amplitude must be a finite number >= 0, got {amplitude}")
-    return float(amplitude)
-
-
-def _check_steps(filter_steps: int) -> int:
-    if isinstance(filter_steps, bool) or int(filter_steps) != filter_steps or filter_steps < 0:
-        raise ValueError(f"filter_steps must be an int >= 0, got {filter_steps!r}")
-    return int(filter_steps)
-
-
-def _scaled(x: np.ndarray, weights: np.ndarray, amplitude: float) -> np.ndarray:
-    """``x`` minus its ``weights``-weighted mean, scaled to ``max|x| = amplitude``."""
-    return _peak_scaled(x - np.dot(weights, x) / weights.sum(), amplitude)
-
-
-def _heat_filter(
-    mass: sp.spmatrix, stiffness: sp.spmatrix, tau: float, steps: int, x: np.ndarray
-) -> np.ndarray:
-    """``steps`` implicit heat steps ``(M − τK) x_{k+1} = M x_k`` (``K`` the negative
-    semidefinite Laplacian-like matrix, ``M`` the mass), one sparse LU factorisation."""
-    if steps == 0:
-        return x
-    solve = factorized(sp.csc_matrix(mass - tau * stiffness))
-    for _ in range(steps):  # loop over filter steps only
-        x = solve(mass @ x)
-    return x
 
 
 def random_waves(
@@ -111,7 +90,7 @@ def random_waves(
     """
     ny, nx = _grid_shape(shape, minimum=1)
     dx, dy = _spacings(dx, dy)
-    amplitude = _check_amplitude(amplitude)
+    amplitude = check_amplitude(amplitude)
     if not (np.isfinite(attenuation) and attenuation >= 0):
         raise ValueError(f"attenuation β must be a finite number >= 0, got {attenuation}")
     M, N = _frequencies(max_frequency)
@@ -131,15 +110,7 @@ def random_waves(
     ex = np.exp(2j * np.pi * np.outer(m, (np.arange(nx) + 0.5) / nx))
     ey = np.exp(2j * np.pi * np.outer((np.arange(ny) + 0.5) / ny, n))
     h = (ey @ (a * np.exp(1j * phi)) @ ex).real
-    return _peak_scaled(h, amplitude)
-
-
-def _peak_scaled(h: np.ndarray, amplitude: float) -> np.ndarray:
-    """``amplitude · h / max|h|`` (zeros for amplitude 0 or h ≡ 0)."""
-    peak = np.abs(h).max()
-    if amplitude == 0 or peak == 0:
-        return np.zeros_like(h)
-    return h * (amplitude / peak)
+    return peak_scaled(h, amplitude)
 
 
 def _frequencies(max_frequency: Any) -> tuple[int, int]:
@@ -194,47 +165,21 @@ def heat_filtered(
     """
     ny, nx = _grid_shape(shape)
     dx, dy = _spacings(dx, dy)
-    amplitude = _check_amplitude(amplitude)
-    steps = _check_steps(filter_steps)
+    amplitude = check_amplitude(amplitude)
+    steps = check_steps(filter_steps)
     try:
         fx, fy = (float(t) for t in tensor)
     except (TypeError, ValueError):
         raise ValueError(f"tensor must be a pair (fx, fy) of numbers, got {tensor!r}") from None
     if not (np.isfinite(fx) and np.isfinite(fy) and fx >= 0 and fy >= 0):
         raise ValueError(f"tensor (fx, fy) must be finite and >= 0, got {(fx, fy)}")
-    tau = _check_tau(dx * dy if tau is None else tau)
+    tau = check_tau(dx * dy if tau is None else tau)
     x0 = np.random.default_rng(seed).uniform(0.0, 1.0, ny * nx)
     lap = fx * sp.kron(sp.identity(ny), _periodic_second_difference(nx, dx)) + fy * sp.kron(
         _periodic_second_difference(ny, dy), sp.identity(nx)
     )
-    x = _heat_filter(sp.identity(ny * nx, format="csr"), lap, tau, steps, x0)
-    return _scaled(x, np.ones(x.size), amplitude).reshape(ny, nx)
-
-
-def _check_tau(tau: float) -> float:
-    if not (np.isfinite(tau) and tau > 0):
-        raise ValueError(f"tau (the filter's time step) must be positive and finite, got {tau}")
-    return float(tau)
-
-
-def vertex_normals(mesh: SurfaceMesh) -> np.ndarray:
-    """Unit area-weighted vertex normals ``(n, 3)``: the normalised sum of the incident faces'
-    ``(p1 − p0) × (p2 − p0)`` (minimum-image edges on a periodic mesh). Faces must be
-    consistently oriented; a vertex whose normals cancel raises ``ValueError``."""
-    _, cross = _face_cross(mesh.vertices, mesh.faces, mesh.period)
-    F = mesh.faces.ravel()
-    nrm = np.stack(
-        [np.bincount(F, weights=np.repeat(c, 3), minlength=mesh.n_vertices) for c in cross],
-        axis=1,
-    )
-    length = np.linalg.norm(nrm, axis=1)
-    tiny = length <= 1e-12 * np.maximum(mesh.face_areas.max(), 1e-300)
-    if tiny.any():
-        raise ValueError(
-            f"{int(tiny.sum())} vertices (e.g. {int(np.flatnonzero(tiny)[0])}) have no normal: "
-            "their faces' normals cancel; orient the faces consistently"
-        )
-    return nrm / length[:, None]
+    x = heat_filter(sp.identity(ny * nx, format="csr"), lap, tau, steps, x0)
+    return centred_scaled(x, np.ones(x.size), amplitude).reshape(ny, nx)
 
 
 def roughen(
@@ -261,14 +206,7 @@ def roughen(
     """
     if not isinstance(mesh, SurfaceMesh):
         raise TypeError(f"roughen needs a SurfaceMesh, got {type(mesh).__name__}")
-    amplitude = _check_amplitude(amplitude)
-    steps = _check_steps(filter_steps)
-    tau = _check_tau(mesh.mean_edge_length**2 if tau is None else tau)
-    x0 = np.random.default_rng(seed).uniform(0.0, 1.0, mesh.n_vertices)
-    x = _heat_filter(sp.diags(mesh.areas), mesh.weights, tau, steps, x0)
-    x = _scaled(x, mesh.areas, amplitude)
-    V = mesh.vertices + x[:, None] * vertex_normals(mesh)
-    return SurfaceMesh(V, mesh.faces, period=mesh.period)
+    return mesh.roughen(amplitude, filter_steps, seed, tau=tau)
 
 
 def graph_mesh(h: Any, dx: float = 1.0, dy: float | None = None) -> SurfaceMesh:
@@ -296,6 +234,6 @@ def graph_mesh(h: Any, dx: float = 1.0, dy: float | None = None) -> SurfaceMesh:
     x, y = np.meshgrid((np.arange(nx) + 0.5) * dx, (np.arange(ny) + 0.5) * dy, indexing="xy")
     V = np.stack([x.ravel(), y.ravel(), h.ravel()], axis=1)
     # the open (nx+1) × (ny+1) grid's faces, with the last row and column wrapped onto the first
-    F = _grid_faces(nx + 1, ny + 1)
+    F = grid_faces(nx + 1, ny + 1)
     jj, ii = F % (nx + 1), F // (nx + 1)
     return SurfaceMesh(V, (ii % ny) * nx + jj % nx, period=(nx * dx, ny * dy))

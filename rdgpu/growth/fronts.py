@@ -122,13 +122,13 @@ class RDFront:
                  reinit_iterations: int = 8, phi0: np.ndarray | None = None,
                  radius: float | None = None, substep: bool = True) -> None:
         grid = sim.domain
-        if hasattr(grid, "height"):  # a GraphSurface: its fronts are not flat
+        if grid.kind == "graph-surface":  # its fronts are not flat
             raise ValueError("a reaction-diffusion front moves in the flat plane of a 2-D "
                              "grid; a graph surface (z = h) is not supported: use a "
                              "flat Grid((ny, nx))")
-        if not isinstance(grid, Grid) or grid.ndim != 2 or sim.members is not None:
+        if grid.kind != "grid" or len(grid.axes) != 2 or sim.members is not None:
             raise ValueError("a reaction-diffusion front runs on a single 2-D grid (ny, nx); "
-                             f"got {type(grid).__name__} of shape {getattr(grid, 'shape', '?')}"
+                             f"got a {grid.label} of shape {grid.field_shape}"
                              + (" as an ensemble" if sim.members is not None else ""))
         species = tuple(sim.species)
         name = species[0] if field is None else field

@@ -21,9 +21,13 @@ themselves to the domain (Allen-Cahn: ``ε`` relative to the spacing) opt out wi
 from __future__ import annotations
 
 import copy
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from rdgpu.domains.base import is_domain
 from rdgpu.ir import equations as eq
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["LENGTHS", "length_ratio", "scale_written_laplacians", "fit_to_mesh"]
 
@@ -31,16 +35,14 @@ __all__ = ["LENGTHS", "length_ratio", "scale_written_laplacians", "fit_to_mesh"]
 LENGTHS = ("cells", "model")
 
 
-def length_ratio(model: Any, domain: Any, lengths: str = "cells") -> float | None:
+def length_ratio(model: Any, domain: Domain, lengths: str = "cells") -> float | None:
     """``(mean edge / model.spacing)²`` on a mesh; None on any other domain or with
     ``lengths="model"``."""
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
     if not (isinstance(lengths, str) and lengths in LENGTHS):
         raise ValueError(f"lengths must be one of {', '.join(LENGTHS)} (a mean edge of a mesh "
                          f"is one model cell, or the mesh is in the model's lengths), got "
                          f"{lengths!r}")
-    if not isinstance(domain, SurfaceMesh) or lengths == "model":
+    if not (is_domain(domain) and domain.unstructured) or lengths == "model":
         return None
     return (float(domain.mean_edge_length) / float(model.spacing)) ** 2
 
@@ -69,7 +71,7 @@ def scale_written_laplacians(node: eq.Node, ratio: float, named: bool = False) -
     return node
 
 
-def fit_to_mesh(model: Any, domain: Any, lengths: str = "cells") -> Any:
+def fit_to_mesh(model: Any, domain: Domain, lengths: str = "cells") -> Any:
     """``model`` itself on a grid (or where nothing changes); on a mesh a shallow copy whose
     equation trees (``trees``, ``linear``) have their number-written Laplacians scaled by
     :func:`length_ratio` (module doc).  The copy keeps the equations' text, name and

@@ -37,17 +37,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
-from rdgpu.domains.grid import Grid
+from rdgpu.domains.base import require_domain
 from rdgpu.ir import equations as eq
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 from rdgpu.models.ranges import check_bounds, check_fits
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
 
@@ -60,59 +63,27 @@ _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
 
 
 # ---------------------------------------------------------------------------- domains
-def _is_mesh(domain: Any) -> bool:
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-    return isinstance(domain, SurfaceMesh)
-
-
-def domain_shape(domain: Any) -> tuple[int, ...]:
+def domain_shape(domain: Domain) -> tuple[int, ...]:
     """The kernels' shape: ``(ny, nx)`` / ``(nz, ny, nx)`` of a grid, ``(n_vertices,)`` of a
-    mesh."""
-    if isinstance(domain, Grid):
-        return domain.shape
-    if _is_mesh(domain):
-        return (domain.n_vertices,)
-    raise TypeError(
-        f"a domain is an rdgpu.domains.Grid or an rdgpu.domains.mesh.SurfaceMesh, got "
-        f"{type(domain).__name__}"
-    )
+    mesh (:attr:`Domain.kernel_shape <rdgpu.domains.base.Domain.kernel_shape>`)."""
+    return require_domain(domain).kernel_shape
 
 
-def _coordinates(domain: Any, axis: str) -> np.ndarray:
+def _coordinates(domain: Domain, axis: str) -> np.ndarray:
     """Coordinate ``axis`` of every cell / vertex, scaled to [0, 1] over the domain."""
-    if isinstance(domain, Grid):
-        names = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}[domain.ndim]
-        if axis not in names:
-            raise ValueError(f"a {domain.ndim}-D grid axis is one of {names}, got {axis!r}")
-        k = names.index(axis)
-        n = domain.field_shape[k]
-        c = (np.arange(n) + 0.5) / n
-        shape = [1] * domain.ndim
-        shape[k] = n
-        return np.broadcast_to(c.reshape(shape), domain.field_shape).reshape(
-            domain.shape).copy()
-    k = {"x": 0, "y": 1, "z": 2}.get(axis)
-    if k is None:
-        raise ValueError(f"a mesh axis is 'x', 'y' or 'z', got {axis!r}")
-    c = np.asarray(domain.vertices[:, k], dtype=np.float64)
-    span = c.max() - c.min()
-    return (c - c.min()) / span if span > 0 else np.zeros_like(c)
+    return domain.unit_coordinate(axis)
 
 
-def _physical_coordinates(domain: Any) -> dict[str, Any]:
+def _physical_coordinates(domain: Domain) -> dict[str, Any]:
     """``x, y, z`` (float64, the kernels' cell centres or vertex coordinates) and ``Lx, Ly,
     Lz`` for evaluating parameter expressions on the host."""
-    from rdgpu.models.compiler import Target
-
-    t = Target(domain, None, np.dtype(np.float64))  # no backend needed for host data
-    env: dict[str, Any] = {c: t.coordinate(c) for c in ("x", "y", "z")}
-    env.update(t.lengths())
+    env: dict[str, Any] = {c: domain.kernel_coordinate(c, np.float64) for c in ("x", "y", "z")}
+    env.update(domain.extents)
     return env
 
 
 # ---------------------------------------------------------------------------- parameters
-def param_field(spec: Mapping[str, Any], domain: Any, rng: np.random.Generator,
+def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generator,
                 name: str | None = None) -> np.ndarray:
     """A float64 parameter field over ``domain`` from a spec:
 
@@ -156,7 +127,7 @@ def _field(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def resolve_params(
-    model: Any, domain: Any, params: Mapping[str, Any] | None, *, seed: int = 0
+    model: Any, domain: Domain, params: Mapping[str, Any] | None, *, seed: int = 0
 ) -> dict[str, Any]:
     """The model's defaults updated by ``params``: every value a float, a float64 array of
     the domain's shape (field specs drawn with ``numpy.random.default_rng(seed)``,
@@ -609,32 +580,12 @@ def _method(method: str, allowed: Sequence[str]) -> str:
     return m
 
 
-def _largest_mode(domain: Any, stencil: str = "compact") -> float:
+def _largest_mode(domain: Domain, stencil: str = "compact") -> float:
     """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes
     (the isotropic stencils: the maximum of their symbol, ``16/(3h²)`` in 2-D), ``λ_max(−L)``
     on a mesh, and on a graph surface its ``Δ_Γ``'s Gershgorin bound
-    (:meth:`~rdgpu.domains.graph_surface.GraphSurface.spectral_bound`)."""
-    from rdgpu.domains.graph_surface import GraphSurface
-    from rdgpu.models.compiler import check_stencil
-
-    if isinstance(domain, GraphSurface):
-        check_stencil(domain, stencil)  # the isotropic stencil is refused
-        return domain.spectral_bound()
-    if isinstance(domain, Grid) and stencil == "isotropic" and domain.ndim > 1:
-        th = np.linspace(0.0, np.pi, 33)
-        c = np.meshgrid(*([np.cos(th)] * domain.ndim), indexing="ij")
-        if domain.ndim == 2:
-            sym = 4 * (2 * c[0] + 2 * c[1]) + 4 * c[0] * c[1] - 20
-        else:
-            sym = (2 * 2 * (c[0] + c[1] + c[2])
-                   + 4 * (c[0] * c[1] + c[0] * c[2] + c[1] * c[2]) - 24)
-        return float(np.max(-sym)) / (6.0 * domain.dx**2)
-    if isinstance(domain, Grid):
-        hs = [domain.dx] + ([domain.dy] if domain.ndim > 1 else []) + \
-            ([domain.dz] if domain.ndim > 2 else [])
-        return sum(4.0 / (h * h) for h in hs)
-    domain_shape(domain)
-    return 2.0 / domain.max_stable_dt(1.0)
+    (:meth:`Domain.largest_eigenvalue <rdgpu.domains.base.Domain.largest_eigenvalue>`)."""
+    return require_domain(domain).largest_eigenvalue(stencil)
 
 
 def define_model(name: str, equations: Mapping[str, str],

@@ -6,26 +6,27 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.backends.base import Backend
+from rdgpu.domains.specs import build_domain as _build_any
 from rdgpu.models.library import MODELS
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["PRESETS", "Preset", "build_domain"]
 
 
-def build_domain(spec: Mapping[str, Any]) -> Any:
-    """A domain from a preset's dict (:func:`rdgpu.simulation.build_domain`):
+def build_domain(spec: Mapping[str, Any]) -> Domain:
+    """A domain from a preset's dict (:func:`rdgpu.domains.specs.build_domain`):
     ``{"grid": (ny, nx), "dx": 1.0, "bc": "periodic"}`` (``(nx,)`` 1-D, ``(nz, ny, nx)``
     3-D with ``"dz"``; ``"height"``: a graph surface), ``{"mesh": "sphere", "subdivisions":
     4, "radius": 1.0}``, ``{"mesh": "disc", "radius": 30, "rings": 50}`` (``"roughen"``:
     a rough copy), ``{"mesh": "path/to/file.obj"}``..."""
-    from rdgpu.simulation.specs import build_domain as build_any
-
-    return build_any(spec)
-
+    return _build_any(spec)
 
 
 # ---------------------------------------------------------------------------- presets
@@ -56,14 +57,14 @@ class Preset:
     seed: int = 0
     options: dict[str, Any] = field(default_factory=dict)
 
-    def build_domain(self) -> Any:
+    def build_domain(self) -> Domain:
         return build_domain(self.domain)
 
     def get_model(self) -> Any:
         return MODELS[self.model]
 
     def stepper(self, *, backend: Backend | str | None = None, dtype: Any = np.float64,
-                domain: Any = None, seed: int | None = None, **kwargs) -> Any:
+                domain: Domain | None = None, seed: int | None = None, **kwargs) -> Any:
         """The preset's stepper (fields at zero: the driver sets the initial state)."""
         domain = self.build_domain() if domain is None else domain
         opts = {**self.options, **kwargs}

@@ -29,9 +29,12 @@ from __future__ import annotations
 import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["SteadyState", "fit_to_domain", "steady_states", "steady_start"]
 
@@ -241,11 +244,11 @@ def _steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
 
 
 
-def fit_to_domain(init: dict, domain: Any) -> dict:
+def fit_to_domain(init: dict, domain: Domain | None) -> dict:
     """``init`` with a ``"square"`` seed widened on a mesh to at least
     :data:`MESH_SEED_EDGES` mean edge lengths (the model's defaults are scaled so that a
     mesh's mean edge plays a grid cell's part, and a seed a few edges wide dies out)."""
-    if domain is None or init.get("kind") != "square" or not hasattr(domain, "mean_edge_length"):
+    if domain is None or init.get("kind") != "square" or not domain.unstructured:
         return init
     V = np.asarray(domain.vertices, dtype=np.float64)
     extent = float((V.max(axis=0) - V.min(axis=0)).max())

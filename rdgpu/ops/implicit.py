@@ -41,8 +41,9 @@ How it runs:
   red-black on a uniform grid, a good estimate on a mesh); SOR then contracts by
   ``ρ = ω − 1`` per sweep (Young's theory; ``ρ`` is also measured, below).  ``λ₁`` is
   exact on a grid (sine series per axis), from a shift-invert Lanczos run (or a dense
-  solve) on a mesh of up to :data:`EIGSH_MAX_VERTICES` vertices, and above that estimated
-  as ``π²/diam²`` from the mesh's geodesic diameter (cached per mesh);
+  solve) on a mesh of up to :data:`~rdgpu.domains.spectra.EIGSH_MAX_VERTICES` vertices,
+  and above that estimated as ``π²/diam²`` from the mesh's geodesic diameter (cached per
+  mesh; :mod:`rdgpu.domains.spectra`);
 * convergence: every check (every ``check_every`` sweeps at first, then spaced by the
   predicted remaining sweeps, at most 16 apart) downloads the per-row ``|Δx|`` of the last
   sweep, ``m = max|Δx|``.  The error estimate is the geometric tail ``E = m ρ/(1 − ρ)``
@@ -71,8 +72,7 @@ from __future__ import annotations
 
 import math
 import warnings
-import weakref
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -80,238 +80,36 @@ from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
 from rdgpu.core.errors import ConvergenceError
-from rdgpu.domains.boundary import DIRICHLET, PERIODIC
-from rdgpu.domains.grid import Grid
+from rdgpu.domains.base import require_domain
+from rdgpu.domains.spectra import components
 from rdgpu.families import load_module
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["ImplicitDiffusion", "operator_matrix", "smallest_eigenvalue"]
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 
-#: meshes up to this many vertices get λ₁ from shift-invert Lanczos (a sparse LU: ~0.1 s at
-#: 10⁴ vertices, growing faster than linearly); larger ones from their geodesic diameter
-EIGSH_MAX_VERTICES = 20000
 #: at most this many sweeps between two convergence checks
 MAX_CHECK_GAP = 16
 #: the error estimate from the residual is max|r| times this over (1 + θ dt D λ₁)
 _GREEN = 2.0
 
-_MESH_SPECTRA: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _is_mesh(domain: Any) -> bool:
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-    return isinstance(domain, SurfaceMesh)
-
-
-def _is_surface(domain: Any) -> bool:
-    from rdgpu.domains.graph_surface import GraphSurface
-
-    return isinstance(domain, GraphSurface)
-
-
-def operator_matrix(domain: Any) -> tuple[Any, np.ndarray]:
+def operator_matrix(domain: Domain) -> tuple[Any, np.ndarray]:
     """``(M, b)`` with ``L u = M u + b`` (float64) on ``domain``, acting on the flat field:
     the mesh's ``A⁻¹W`` and ``b = 0``, a graph surface's 9-point ``Δ_Γ`` and ``b = 0``, or a
-    grid's 5-point (3-D: 7-point) matrix and Dirichlet vector."""
-    import scipy.sparse as sp
-
-    if _is_surface(domain):  # before Grid: a graph surface is a Grid subclass
-        return domain.laplacian, np.zeros(domain.n_points)
-    if isinstance(domain, Grid):
-        ref = load_module("laplacian", "reference.py")
-        dz = domain.dz if domain.ndim == 3 else None
-        M, b = ref.laplacian_matrix(domain.shape, domain.dx, domain.dy, domain.bcs, dz=dz)
-        M = sp.csr_matrix(M)
-        M.sum_duplicates()
-        M.sort_indices()
-        return M, np.asarray(b, dtype=np.float64)
-    if _is_mesh(domain):
-        return domain.laplacian, np.zeros(domain.n_vertices)
-    raise TypeError(
-        f"the domain must be an rdgpu.domains.Grid or an rdgpu.domains.mesh.SurfaceMesh, got "
-        f"{type(domain).__name__}"
-    )
+    grid's 5-point (3-D: 7-point) matrix and Dirichlet vector
+    (:meth:`Domain.operator_matrix <rdgpu.domains.base.Domain.operator_matrix>`)."""
+    return require_domain(domain).operator_matrix()
 
 
-def _valid_colouring(M: Any, colour: np.ndarray) -> bool:
-    rows = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
-    off = rows != M.indices
-    return bool(np.all(colour[rows[off]] != colour[M.indices[off]]))
-
-
-def _colouring(domain: Any, M: Any) -> np.ndarray:
-    """Red-black on a grid (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``), four colours by
-    the parities of (row, column) on a graph surface (its 9-point graph), where that is a
-    valid colouring of ``M``; else greedy."""
-    from rdgpu.domains.mesh.surface_mesh import greedy_colouring
-
-    if _is_surface(domain):
-        i, j = np.indices(domain.shape)
-        colour = (2 * (i % 2) + j % 2).astype(np.int32).ravel()
-        if _valid_colouring(M, colour):
-            return colour
-        return greedy_colouring(M, symmetric=False)
-    if isinstance(domain, Grid):
-        colour = (np.indices(domain.shape).sum(axis=0) % 2).astype(np.int32).ravel()
-        if _valid_colouring(M, colour):
-            return colour
-        return greedy_colouring(M, symmetric=False)
-    colour = np.asarray(domain.colouring())
-    if not _valid_colouring(M, colour):  # pragma: no cover - the mesh colouring is proper
-        colour = greedy_colouring(M, symmetric=False)
-    return colour
-
-
-# ---------------------------------------------------------------------------- spectrum
-def _components(M: Any) -> tuple[np.ndarray, int, np.ndarray]:
-    """``(labels, count, closed)``: the connected components of ``M``'s graph and, per
-    component, whether ``M 1 = 0`` on it (no Dirichlet row: a constant null vector)."""
-    from scipy.sparse.csgraph import connected_components
-
-    n = M.shape[0]
-    if n == 0:
-        return np.zeros(0, np.int64), 0, np.zeros(0, bool)
-    count, labels = connected_components(M, directed=False)
-    scale = np.asarray(abs(M).sum(axis=1)).ravel()
-    rowsum = np.abs(np.asarray(M.sum(axis=1)).ravel())
-    open_rows = rowsum > 1e-12 * np.maximum(scale, np.finfo(float).tiny)
-    closed = np.bincount(labels, weights=open_rows, minlength=count) == 0
-    return labels.astype(np.int64), int(count), closed
-
-
-def _grid_eigenvalue(grid: Grid) -> float:
-    """The smallest eigenvalue of ``−M`` on a grid, leaving out the constant null vector
-    where no axis is Dirichlet (``inf`` if there is no other).  ``M`` is a Kronecker sum
-    of the axes' matrices (y and x; z, y and x in 3-D), whose eigenvalues are ``(4/h²)
-    sin²(·)``: periodic ``πk/n``, Neumann ``πk/(2n)`` (``k = 0..n−1``), Dirichlet
-    ``πk/(2(n + 1))`` (``k = 1..n``, the ghost holds ``g``)."""
-    axes = [(grid.shape[-2], grid.bcs.y, grid.dy), (grid.shape[-1], grid.bcs.x, grid.dx)]
-    if grid.ndim == 3:
-        axes.insert(0, (grid.shape[0], grid.bcs.z, grid.dz))
-    lows, nonzero = [], []
-    for n, axis, h in axes:
-        s = 4.0 / (h * h)
-        if axis.kind == DIRICHLET:
-            low = s * math.sin(math.pi / (2 * (n + 1))) ** 2
-            lows.append(low)
-            nonzero.append(low)
-        else:
-            arg = math.pi / n if axis.kind == PERIODIC else math.pi / (2 * n)
-            lows.append(0.0)
-            nonzero.append(s * math.sin(arg) ** 2 if n > 1 else math.inf)
-    if all(low == 0.0 for low in lows):
-        return min(nonzero)
-    return sum(lows)
-
-
-def _mesh_eigenvalue(mesh: Any, labels: np.ndarray, count: int) -> tuple[float, bool]:
-    """``(λ₁, computed)``: the smallest non-zero eigenvalue of the pencil ``(−W, A)``
-    (``computed``), or above :data:`EIGSH_MAX_VERTICES` vertices (or when Lanczos fails)
-    the estimate ``π²/diam²`` from the largest component's geodesic diameter (exact order
-    for convex shapes, not a bound).  Cached per mesh."""
-    cached = _MESH_SPECTRA.get(mesh)
-    if cached is not None:
-        return cached
-    found = _pencil_eigenvalue(mesh.weights, mesh.areas, count)
-    result = (found, True) if found is not None else (_geodesic_estimate(mesh, labels), False)
-    _MESH_SPECTRA[mesh] = result
-    return result
-
-
-def _pencil_eigenvalue(W: Any, A: np.ndarray, count: int) -> float | None:
-    """The smallest eigenvalue of the pencil ``(−W, diag(A))`` after the ``count``
-    zeros (``W`` symmetric with zero row sums, ``A > 0``): dense up to 600 unknowns,
-    shift-invert Lanczos up to :data:`EIGSH_MAX_VERTICES`; None above that or on failure."""
-    import scipy.sparse as sp
-
-    n = len(A)
-    result = None
-    if n <= count:
-        result = math.inf
-    elif n <= 600:
-        from scipy.linalg import eigh
-
-        vals = eigh(-W.toarray(), np.diag(A), eigvals_only=True)
-        result = float(vals[count])
-    elif n <= EIGSH_MAX_VERTICES and count <= 8:
-        from scipy.sparse.linalg import (
-            ArpackError,
-            ArpackNoConvergence,
-            LinearOperator,
-            eigsh,
-            splu,
-        )
-
-        # shift-invert on the symmetric C = A^-1/2 (−W) A^-1/2: (C + σ)^-1 = A^½ (−W + σA)^-1 A^½
-        sigma = 1e-6 * float(np.median(-W.diagonal() / A))
-        lu = splu(sp.csc_matrix(-W + sigma * sp.diags(A)), permc_spec="COLAMD")
-        root = np.sqrt(A)
-        op = LinearOperator((n, n), matvec=lambda v: root * lu.solve(root * np.ravel(v)),
-                            dtype=np.float64)
-        v0 = 1.0 + np.random.default_rng(0).random(n)
-        try:
-            nu = eigsh(op, k=count + 1, which="LM", tol=1e-8, v0=v0,
-                       return_eigenvectors=False)
-            lam = np.sort(1.0 / nu - sigma)
-            result = float(lam[count])
-        except (ArpackError, ArpackNoConvergence):
-            result = None
-    return result
-
-
-def _surface_eigenvalue(surface: Any) -> tuple[float, bool]:
-    """``(λ₁, exact)`` of ``−Δ_Γ`` on a graph surface: the pencil ``(−√g Δ_Γ, √g)``
-    (:func:`_pencil_eigenvalue`; one closed component), or above its size limit the flat
-    grid's ``λ₁`` scaled by the flat over the surface area (an estimate).  Cached."""
-    cached = _MESH_SPECTRA.get(surface)
-    if cached is not None:
-        return cached
-    import scipy.sparse as sp
-
-    area = surface.area_weights.ravel() / (surface.dx * surface.dy)  # √g
-    W = sp.diags(area) @ surface.laplacian
-    found = _pencil_eigenvalue(sp.csr_matrix(0.5 * (W + W.T)), area, 1)
-    if found is None:
-        flat = Grid(surface.shape, dx=surface.dx, dy=surface.dy)
-        result = (_grid_eigenvalue(flat) / float(area.mean()), False)
-    else:
-        result = (found, True)
-    _MESH_SPECTRA[surface] = result
-    return result
-
-
-def _geodesic_estimate(mesh: Any, labels: np.ndarray) -> float:
-    """``π²/d²`` with ``d`` the largest component's edge-path diameter (double sweep)."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import dijkstra
-
-    n = mesh.n_vertices
-    e = np.asarray(mesh.edges)
-    V = np.asarray(mesh.vertices, dtype=np.float64)
-    length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
-    G = sp.csr_matrix((length, (e[:, 0], e[:, 1])), shape=(n, n))
-    _, first = np.unique(labels, return_index=True)
-    d0 = dijkstra(G, directed=False, indices=first, min_only=True)
-    order = np.lexsort((d0, labels))
-    last = np.r_[np.flatnonzero(np.diff(labels[order])), order.size - 1]
-    d1 = dijkstra(G, directed=False, indices=order[last], min_only=True)
-    diameter = float(np.max(d1[np.isfinite(d1)], initial=0.0))
-    return math.pi**2 / diameter**2 if diameter > 0 else math.inf
-
-
-def smallest_eigenvalue(domain: Any) -> tuple[float, bool]:
+def smallest_eigenvalue(domain: Domain) -> tuple[float, bool]:
     """``(λ₁, exact)``: the smallest eigenvalue of ``−L`` on ``domain`` that is not the
     constant null vector of a closed component (``inf`` if there is none), and whether it
-    is exact (grid: analytic; mesh, graph surface: Lanczos) rather than an estimate."""
-    if _is_surface(domain):
-        return _surface_eigenvalue(domain)
-    if isinstance(domain, Grid):
-        return _grid_eigenvalue(domain), True
-    M, _ = operator_matrix(domain)
-    labels, count, _ = _components(M)
-    return _mesh_eigenvalue(domain, labels, count)
+    is exact (grid: analytic; mesh, graph surface: Lanczos) rather than an estimate
+    (:meth:`Domain.smallest_eigenvalue <rdgpu.domains.base.Domain.smallest_eigenvalue>`)."""
+    return require_domain(domain).smallest_eigenvalue()
 
 
 def _sor_rate(omega: float, rho_j: float) -> float:
@@ -348,7 +146,7 @@ class ImplicitDiffusion:
 
     def __init__(
         self,
-        domain: Any,
+        domain: Domain,
         *,
         D: float,
         dt: float,
@@ -360,6 +158,22 @@ class ImplicitDiffusion:
         max_sweeps: int | None = None,
         check_every: int | None = None,
     ):
+        self._check_numbers(D, dt, theta, dtype, tol)
+        self.domain = require_domain(domain)
+        self.backend = get_backend(backend)
+        M, b = domain.operator_matrix()
+        self.shape = domain.kernel_shape
+        n = M.shape[0]
+        self.n = n
+        self.check_every = 1 if check_every is None else check.whole(check_every,
+                                                                     "check_every", minimum=1)
+        K, S = self._assemble(M, b)
+        self._set_spectrum(M, K, S, omega, max_sweeps)
+        self._upload(M, K, S, b)
+        self._reset_statistics()
+
+    def _check_numbers(self, D: Any, dt: Any, theta: Any, dtype: Any, tol: Any) -> None:
+        """``dtype``, ``D``, ``dt``, ``theta`` and ``tol`` checked and kept."""
         self.dtype = np.dtype(dtype)
         if self.dtype not in _REALS:
             raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
@@ -379,17 +193,13 @@ class ImplicitDiffusion:
         self.tol = check.real_number(tol, "tol")
         if not (math.isfinite(self.tol) and self.tol > 0):
             raise ValueError(f"tol must be a positive number, got {tol}")
-        self.domain = domain
-        self.backend = get_backend(backend)
-        M, b = operator_matrix(domain)
-        self.shape = domain.shape if isinstance(domain, Grid) else (domain.n_vertices,)
-        n = M.shape[0]
-        self.n = n
-        self.check_every = 1 if check_every is None else check.whole(check_every,
-                                                                     "check_every", minimum=1)
 
+    def _assemble(self, M: Any, b: np.ndarray) -> tuple[Any, Any]:
+        """``(K, S)`` on the host in float64 (module doc); keeps ``matrix`` (``S``),
+        ``operator`` (``M``) and ``dirichlet`` (``b``)."""
         import scipy.sparse as sp
 
+        n = self.n
         c = self.theta * self.dt * self.D
         #: ``K = dt D M``: ``g = K u + dt (s + D b)``
         K = sp.csr_matrix((self.dt * self.D) * M)
@@ -404,25 +214,23 @@ class ImplicitDiffusion:
         if not np.all(diag > 0):
             raise ValueError("the implicit system has a non-positive diagonal entry; SOR "
                              "cannot run on it")
+        return K, S
 
+    def _set_spectrum(self, M: Any, K: Any, S: Any, omega: Any, max_sweeps: Any) -> None:
+        """The closed components and their weights, ``λ₁``, ``ω``, Young's rate, the sweep
+        cap and the constants of the error estimates (module doc)."""
+        domain, n = self.domain, self.n
         # closed components, their weights, the spectrum SOR sees after the projection
-        self._labels, self._count, self._closed = _components(M)
+        self._labels, self._count, self._closed = components(M)
         # Σ_i w_i M_ij = 0: the vertex areas, a graph surface's √g dx dy, else 1
-        if _is_mesh(domain):
-            self.weights = np.asarray(domain.areas, dtype=np.float64)
-        elif _is_surface(domain):
-            self.weights = np.asarray(domain.area_weights, dtype=np.float64).ravel()
-        else:
-            self.weights = np.ones(n)
+        self.weights = domain.mass_weights()
         self._wsum = np.bincount(self._labels, weights=self.weights, minlength=self._count)
-        if _is_mesh(domain):
-            lam, exact = _mesh_eigenvalue(domain, self._labels, self._count)
-        else:
-            lam, exact = smallest_eigenvalue(domain)
+        lam, exact = domain.smallest_eigenvalue()
         #: smallest eigenvalue of −M that SOR has to resolve (constant null vectors of closed
         #: components excluded: the projection handles them exactly)
         self.lambda1 = lam
         self.lambda1_exact = exact
+        c = self.theta * self.dt * self.D
         d = float(np.median(np.abs(M.diagonal()))) if n else 0.0
         if c == 0.0 or n == 0:
             mu = 1.0
@@ -452,6 +260,11 @@ class ImplicitDiffusion:
         self._K_inf = float(abs(K).sum(axis=1).max()) if n else 0.0
         self._S_inf = float(abs(S).sum(axis=1).max()) if n else 0.0
 
+    def _upload(self, M: Any, K: Any, S: Any, b: np.ndarray) -> None:
+        """The matrices, the colours' rows and the work buffers on the device."""
+        import scipy.sparse as sp
+
+        n = self.n
         be = self.backend
         self._S = be.upload_csr(S, self.dtype)
         self._K = be.upload_csr(K, self.dtype) if K.nnz and self.dt * self.D != 0 else None
@@ -460,7 +273,7 @@ class ImplicitDiffusion:
         if np.any(b != 0.0) and self.D != 0.0:
             self._Db = be.upload(np.ascontiguousarray((self.D * b).reshape(self.shape),
                                                       dtype=self.dtype))
-        self.colouring = _colouring(domain, M)
+        self.colouring = self.domain.sor_colouring(M)
         ref = load_module("mesh", "reference.py")
         self._rows = [be.upload(r) for r in ref.colour_rows(self.colouring) if r.size]
         self._zeros = be.upload(np.zeros(self.shape, dtype=self.dtype))
@@ -469,6 +282,9 @@ class ImplicitDiffusion:
         self._tmp = be.empty(self.shape, self.dtype)
         self._change = be.empty((n,), self.dtype)
         self._source_cache: dict[float, DeviceArray] = {}
+
+    def _reset_statistics(self) -> None:
+        """The statistics of the last step (class doc), before the first."""
         self.last_sweeps = 0
         self.last_change = math.nan
         self.last_error = math.nan
@@ -479,9 +295,7 @@ class ImplicitDiffusion:
         self.total_sweeps = 0
 
     def __repr__(self) -> str:
-        kind = ("graph surface" if _is_surface(self.domain) else
-                "grid" if isinstance(self.domain, Grid) else "mesh")
-        return (f"ImplicitDiffusion({kind} of {self.n}, D={self.D}, dt={self.dt}, "
+        return (f"ImplicitDiffusion({self.domain.label} of {self.n}, D={self.D}, dt={self.dt}, "
                 f"theta={self.theta}, colours={len(self._rows)}, omega={self.omega:.4f}, "
                 f"backend={self.backend.name})")
 
@@ -719,9 +533,8 @@ class ImplicitDiffusion:
     def _describe(self) -> str:
         method = {1.0: "backward Euler", 0.5: "Crank-Nicolson"}.get(self.theta,
                                                                     f"theta={self.theta}")
-        grid = "graph surface" if _is_surface(self.domain) else "grid"
-        where = ("x".join(map(str, self.shape)) + f" {grid}" if isinstance(self.domain, Grid)
-                 else f"mesh of {self.n} vertices")
+        where = (f"mesh of {self.n} vertices" if self.domain.unstructured
+                 else "x".join(map(str, self.shape)) + f" {self.domain.label}")
         return f"{method}, dt={self.dt:.3g}, D={self.D:.3g}, {where}, {self.dtype}"
 
     # ------------------------------------------------------------------ the step

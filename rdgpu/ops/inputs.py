@@ -17,6 +17,7 @@ import numpy as np
 from rdgpu.backends import interop
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.core import validation as check
+from rdgpu.domains.base import is_domain
 from rdgpu.domains.boundary import PERIODIC
 from rdgpu.domains.grid import Grid
 
@@ -99,9 +100,7 @@ def _param(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
 
 
 def _check_mesh(mesh: Any) -> Any:
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-    if not isinstance(mesh, SurfaceMesh):
+    if not (is_domain(mesh) and mesh.unstructured):
         raise TypeError(f"mesh must be an rdgpu.SurfaceMesh, got {type(mesh).__name__}")
     return mesh
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from rdgpu.core.optional import require
 from rdgpu.core.resources import check_memory
+from rdgpu.domains.specs import build_domain
 from rdgpu.runs.store import SETTINGS_ATTR, open_store, stored_batch
 from rdgpu.simulation.checks import whole
 
@@ -327,6 +328,52 @@ def _default_batch(n_members: int, cells: int, n_species: int, itemsize: int,
     return max(1, min(fits, math.ceil(n_members / (4 * max(1, workers)))))
 
 
+def _swept_and_fixed(mdl: Any, params: Any) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """``(axes, fixed)``: the swept parameters' values and the fixed ones (:func:`sweep`)."""
+    if not isinstance(params, Mapping):
+        raise TypeError(f"params must be a dict of parameter → values, got "
+                        f"{type(params).__name__}")
+    unknown = [k for k in params if k not in mdl.defaults]
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {', '.join(map(repr, unknown))} of model "
+                         f"{mdl.name}; it has {', '.join(mdl.defaults)}")
+    axes: dict[str, np.ndarray] = {}
+    fixed: dict[str, float] = {}
+    for name, value in params.items():
+        v = axis_values(name, value)
+        if isinstance(v, np.ndarray):
+            axes[name] = v
+        else:
+            fixed[name] = v
+    if not axes:
+        raise ValueError("nothing to sweep: give at least one parameter several values, "
+                         "e.g. {'F': '0.01:0.08:16'}")
+    return axes, fixed
+
+
+def _check_names(axes: Mapping[str, Any], species: Sequence[str]) -> None:
+    """No swept parameter or species may take a name the Dataset uses itself."""
+    own = (*_SPACE_DIMS[3], "batch", "pattern", "done")  # the Dataset's own names
+    clash = [k for k in axes if k in own or k in species]
+    if clash:
+        raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "
+                         "dimension or variable of the Dataset)")
+    clash = [s for s in species if s in own]
+    if clash:
+        raise ValueError(f"a sweep cannot hold species {', '.join(clash)}: the Dataset "
+                         f"uses {', '.join(own)} for its own dimensions and variables; "
+                         "rename the species")
+
+
+def _task_model(mdl: Any, definition: Any) -> Any:
+    """What a task carries of the model: its name (a built-in), its equations, or (a model
+    of Python code) the model itself, which must then pickle for a cluster."""
+    from rdgpu.models import MODELS
+
+    builtin = MODELS.get(mdl.name) is mdl
+    return definition or (mdl.name if builtin else mdl)
+
+
 # ------------------------------------------------------------------------ sweep
 def sweep(
     model: Any,
@@ -390,33 +437,15 @@ def sweep(
     xr, da = _need("xarray", "dask.array")
     from rdgpu.backends.registry import get_backend
     from rdgpu.core.validation import scalar
-    from rdgpu.domains.grid import Grid
     from rdgpu.runs.store import check_sweep_memory
-    from rdgpu.simulation import build_domain, describe_domain
+    from rdgpu.simulation import describe_domain
     from rdgpu.simulation.checks import model_definition
     from rdgpu.simulation.defaults import lookup_model
 
     kind = _store_kind(store)
     _check_scheduler(scheduler)
     mdl = lookup_model(model)
-    if not isinstance(params, Mapping):
-        raise TypeError(f"params must be a dict of parameter → values, got "
-                        f"{type(params).__name__}")
-    unknown = [k for k in params if k not in mdl.defaults]
-    if unknown:
-        raise ValueError(f"unknown parameter(s) {', '.join(map(repr, unknown))} of model "
-                         f"{mdl.name}; it has {', '.join(mdl.defaults)}")
-    axes: dict[str, np.ndarray] = {}
-    fixed: dict[str, float] = {}
-    for name, value in params.items():
-        v = axis_values(name, value)
-        if isinstance(v, np.ndarray):
-            axes[name] = v
-        else:
-            fixed[name] = v
-    if not axes:
-        raise ValueError("nothing to sweep: give at least one parameter several values, "
-                         "e.g. {'F': '0.01:0.08:16'}")
+    axes, fixed = _swept_and_fixed(mdl, params)
     steps, seed = whole(steps, "steps", 0), whole(seed, "seed", 0)
     batch, workers = (None if n is None else whole(n, what, 1)
                       for n, what in ((batch, "batch"), (workers, "workers")))
@@ -425,21 +454,12 @@ def sweep(
             raise TypeError(f"dt must be a real number > 0, got {dt!r} (a bool)")
         dt = scalar(dt, "dt", minimum=0.0, strict=True)
     grid = build_domain(domain if domain is not None else _default_domain(mdl, size))
-    if not isinstance(grid, Grid):
+    if grid.unstructured:
         raise ValueError("a sweep runs on a grid (size= or a grid domain), not a mesh")
     n_members = math.prod(a.size for a in axes.values())
     check_sweep_memory(n_members, tuple(grid.field_shape), len(mdl.species),
                        np.dtype(dtype).itemsize, batch, BATCH_MEMORY, store)
-    own = (*_SPACE_DIMS[3], "batch", "pattern", "done")  # the Dataset's own names
-    clash = [k for k in axes if k in own or k in mdl.species]
-    if clash:
-        raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "
-                         "dimension or variable of the Dataset)")
-    clash = [s for s in mdl.species if s in own]
-    if clash:
-        raise ValueError(f"a sweep cannot hold species {', '.join(clash)}: the Dataset "
-                         f"uses {', '.join(own)} for its own dimensions and variables; "
-                         "rename the species")
+    _check_names(axes, mdl.species)
     species = tuple(mdl.species)
     classify = classify or pattern_species(mdl)
     if classify not in species:
@@ -471,13 +491,7 @@ def sweep(
             "options": json.loads(json.dumps(options)), "batch": batch,
             "backend_name": be.name, "classify": classify, "species": list(species),
         }
-        from rdgpu.models import MODELS
-
-        builtin = MODELS.get(mdl.name) is mdl
-        # the task names its model, or carries its equations, or (a model of Python code)
-        # the model itself, which must then pickle for a cluster
-        job = {"name": mdl.name, "model": definition or (mdl.name if builtin else mdl),
-               "domain": grid,
+        job = {"name": mdl.name, "model": _task_model(mdl, definition), "domain": grid,
                "fixed": fixed, "steps": steps, "dt": float(dt), "dtype": dtype,
                "seed": int(seed), "init": init, "options": options,
                "backend": backend if isinstance(backend, str) or backend is None else be.name,

@@ -6,6 +6,7 @@ checkpoints (:mod:`~rdgpu.simulation.checkpoints`), the time loop
 
 from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted
 from rdgpu.core.files import remove_stale_temporaries
+from rdgpu.domains.specs import build_domain
 from rdgpu.simulation.checkpoints import describe_domain
 from rdgpu.simulation.defaults import (
     DEFAULT_BOUND,
@@ -18,7 +19,6 @@ from rdgpu.simulation.defaults import (
 from rdgpu.simulation.driver import Simulation
 from rdgpu.simulation.initial import INIT_KINDS, initial_state
 from rdgpu.simulation.result import Result, package_versions
-from rdgpu.simulation.specs import build_domain
 
 __all__ = ["DEFAULT_BOUND", "FALLBACK_INITS", "INIT_KINDS", "Result", "Simulation",
            "SimulationDiverged", "SimulationInterrupted", "build_domain", "default_dt",

@@ -68,27 +68,6 @@ def unit_fractions(values: tuple[float, ...], name: str) -> None:
                          "(a point outside the domain)")
 
 
-# ------------------------------------------------------------------------------- grids
-def grid_shape(shape: Any) -> tuple[int, ...]:
-    """A grid's shape: a tuple/list of 1 to 3 whole numbers >= 1 (ints, or floats with a
-    whole value); a string, a bool or a fraction is an error, not a shape."""
-    form = "(nx,), (ny, nx) or (nz, ny, nx) with every size >= 1, whole numbers"
-    if isinstance(shape, (str, bytes)) or not isinstance(shape, (tuple, list, np.ndarray)):
-        raise TypeError(f"grid shape must be {form}, got {type(shape).__name__} {shape!r}")
-    sizes = list(shape.ravel()) if isinstance(shape, np.ndarray) else list(shape)
-    if len(sizes) not in (1, 2, 3):
-        raise ValueError(f"grid shape must be {form}, got {tuple(sizes)!r}")
-    out = []
-    for n in sizes:
-        try:
-            out.append(whole(n, "size", 1))
-        except (TypeError, ValueError) as exc:
-            got = f"{type(n).__name__} {n!r}" if isinstance(exc, TypeError) else repr(n)
-            raise type(exc)(f"grid shape must be {form}, got {tuple(sizes)!r} (a size of "
-                            f"{got})") from None
-    return tuple(out)
-
-
 # -------------------------------------------------------------------- parameter fields
 #: per field-spec kind: (required keys, optional keys with defaults)
 FIELD_SPEC_KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {

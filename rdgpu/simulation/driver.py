@@ -44,7 +44,7 @@ import numpy as np
 from rdgpu.backends import interop
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.files import CheckpointLock, check_writable, remove_stale_temporaries
-from rdgpu.domains.base import from_description
+from rdgpu.domains.specs import build_domain, from_description
 from rdgpu.models import resolve_params
 from rdgpu.models.compiler import PerMember
 from rdgpu.models.ensemble import member_seeds, resolve_members, stack_members
@@ -73,7 +73,6 @@ from rdgpu.simulation.defaults import (
 from rdgpu.simulation.initial import initial_state
 from rdgpu.simulation.result import Result
 from rdgpu.simulation.runner import Runner, restore
-from rdgpu.simulation.specs import build_domain
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain

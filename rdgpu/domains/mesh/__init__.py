@@ -1,5 +1,9 @@
-"""Triangle meshes: :class:`SurfaceMesh` (geometry, cotangent Laplace-Beltrami, colouring,
-generators), file input and output, and the size estimate of a mesh request."""
+"""Triangle meshes: :class:`SurfaceMesh` (``surface_mesh``: the validated mesh and its
+cotangent Laplace-Beltrami operator), ``geometry`` (input checks, repair, assembly),
+``colouring`` (greedy colouring of an operator's graph), ``generators`` (disc, spheres,
+torus, planes), ``io`` (mesh files) and ``size`` (the size estimate of a mesh request).
+Imports run one way: ``geometry`` < ``io``, ``generators``, ``colouring`` <
+``surface_mesh``."""
 
 from rdgpu.domains.mesh.surface_mesh import (
     DegenerateMeshError,

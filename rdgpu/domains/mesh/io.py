@@ -15,21 +15,24 @@ import os
 import re
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
 from rdgpu.core.files import check_writable
+from rdgpu.core.optional import MissingExtraError
 from rdgpu.core.optional import check as _check_extra
 from rdgpu.core.optional import require as _require
-from rdgpu.domains.mesh.surface_mesh import (
+from rdgpu.domains.mesh.geometry import (
     DegenerateMeshError,
     MeshFileError,
-    SurfaceMesh,
-    _merge_exact_duplicates,
+    merge_exact_duplicates,
 )
 
-__all__ = ["MeshFileError", "load_with_fields", "save_mesh"]
+if TYPE_CHECKING:
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+
+__all__ = ["MeshFileError", "read_mesh_file", "save_mesh"]
 
 _TRIMESH_FORMATS = (".obj", ".ply", ".stl", ".off")
 _PYVISTA_FORMATS = (".vtk", ".vtp", ".vtu")
@@ -458,7 +461,7 @@ def _read_arrays(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, dict[str
         raise MeshFileError(f"mesh file '{path}' has {len(V)} vertices but no faces; a "
                             "triangle mesh needs at least one face")
     if ext == ".stl":
-        V, F = _merge_exact_duplicates(V, F)
+        V, F = merge_exact_duplicates(V, F)
     elif ext == ".ply":
         columns = _ply_columns(tm.metadata.get("_ply_raw", {}).get("vertex", {}).get("data"))
         if columns and all(len(c) == len(V) for c in columns.values()):
@@ -485,41 +488,22 @@ def _reader_failed(path: Path, ext: str, exc: BaseException) -> NoReturn:
                         f"({why})") from None
 
 
-def load_with_fields(
-    path: PathLike, *, repair: bool = False
-) -> tuple[SurfaceMesh, dict[str, np.ndarray]]:
-    """Read a mesh and its per-vertex fields: VTK/VTP/VTU point data (pyvista), the extra
-    vertex properties of a PLY file, ASCII or binary (``name_0..name_{k-1}`` regrouped into
-    an (n, k) array) or, for the formats only meshio reads (``.msh``, ``.xdmf``, ...),
-    meshio's point data. OBJ, OFF and STL give no fields. If ``repair`` changed the vertex
-    numbering the fields are renumbered with ``mesh.vertex_map`` (for merged duplicates the
-    last copy wins).  A file that cannot be used raises :class:`MeshFileError` naming it."""
-    from rdgpu.core.optional import MissingExtraError
-
+def read_mesh_file(path: PathLike) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """``(vertices, faces, fields)`` of a mesh file, as its reader gives them (not yet
+    checked as a mesh: :func:`rdgpu.domains.mesh.load_with_fields` builds the
+    :class:`SurfaceMesh`).  A file that cannot be read raises :class:`MeshFileError`
+    naming it."""
     path = Path(path)
     ext = path.suffix.lower()
     if not (_is_meshio_only(path) or ext in _PYVISTA_FORMATS + _TRIMESH_FORMATS):
         _unsupported(path)
     _check_readable(path)
     try:
-        V, F, fields = _read_arrays(path, ext)
+        return _read_arrays(path, ext)
     except (MeshFileError, MissingExtraError, MemoryError):
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - readers fail in many ways
         _reader_failed(path, ext, exc)
-    try:
-        mesh = SurfaceMesh(V, F, repair=repair)
-    except DegenerateMeshError as exc:
-        raise MeshFileError(f"mesh file '{path}': {exc}") from None
-    if mesh.repairs and fields:
-        keep = mesh.vertex_map >= 0
-        renum: dict[str, np.ndarray] = {}
-        for name, a in fields.items():
-            b = np.zeros((mesh.n_vertices,) + a.shape[1:], dtype=a.dtype)
-            b[mesh.vertex_map[keep]] = a[keep]
-            renum[name] = b
-        fields = renum
-    return mesh, fields
 
 
 # ----------------------------------------------------------------------------------------

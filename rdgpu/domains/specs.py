@@ -1,10 +1,9 @@
-"""Domains from descriptions: :func:`build_domain` turns a preset's or the command line's
-``{"grid": ...}`` / ``{"mesh": ...}`` dict into a :class:`~rdgpu.domains.grid.Grid`, a
+"""Domains from their descriptions: :func:`build_domain` turns a preset's (or a user's)
+``{"grid": ...}`` / ``{"mesh": ...}`` dict into a :class:`~rdgpu.domains.Grid`, a
 :class:`~rdgpu.domains.graph_surface.GraphSurface` or a
-:class:`~rdgpu.domains.mesh.surface_mesh.SurfaceMesh`.
-
-(To be replaced by :mod:`rdgpu.domains.specs`, the same code in the domains package.)
-"""
+:class:`~rdgpu.domains.mesh.SurfaceMesh` (moved from ``rdgpu.simulation.driver``);
+:func:`from_description` rebuilds one from what a checkpoint or data file keeps
+(:meth:`Domain.describe <rdgpu.domains.base.Domain.describe>` and ``arrays``)."""
 
 from __future__ import annotations
 
@@ -16,14 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu.domains.base import is_domain
-from rdgpu.domains.grid import Grid
-from rdgpu.simulation.checks import grid_shape
+from rdgpu.domains import surfaces
+from rdgpu.domains.base import Domain, is_domain
+from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.domains.grid import Grid, grid_shape
+from rdgpu.domains.mesh.surface_mesh import MeshFileError, SurfaceMesh
 
-__all__ = ["HEIGHT_GENERATORS", "MESH_DEFAULTS", "MESH_GENERATORS", "build_domain",
-           "generated_height"]
+__all__ = ["MESH_GENERATORS", "build_domain", "from_description", "generated_height"]
 
-#: mesh generator names of a ``{"mesh": NAME}`` spec -> ``SurfaceMesh`` constructors
 MESH_GENERATORS = {
     "sphere": "icosphere",
     "icosphere": "icosphere",
@@ -39,10 +38,10 @@ MESH_GENERATORS = {
 
 
 #: generator options that differ from the SurfaceMesh defaults (as rdgpu.models uses them)
-MESH_DEFAULTS = {"icosphere": {"subdivisions": 4}, "torus": {"n_major": 96, "n_minor": 48}}
+_MESH_DEFAULTS = {"icosphere": {"subdivisions": 4}, "torus": {"n_major": 96, "n_minor": 48}}
 
 
-def build_domain(spec: Any) -> Any:
+def build_domain(spec: Any) -> Domain:
     """A :class:`Grid` or :class:`SurfaceMesh` from a preset's domain description.
 
     ``{"grid": (ny, nx), "dx": 1.0, "dy": None, "bc": "periodic"}`` gives a grid (a 3-D
@@ -107,13 +106,11 @@ _MESH_FILE_HINT = ("OBJ, PLY, STL, OFF or VTK with triangle faces; repair=True m
 
 def _mesh_from(name: Any, spec: dict) -> Any:
     """A mesh from a generator name or a file path (:func:`build_domain`)."""
-    from rdgpu.domains.mesh.surface_mesh import MeshFileError, SurfaceMesh
-
     if not isinstance(name, (str, os.PathLike)):
         raise ValueError(f"mesh must be a generator name or a file path, got {name!r}")
     key = str(name).lower()
     if key in MESH_GENERATORS:
-        spec = {**MESH_DEFAULTS.get(MESH_GENERATORS[key], {}), **spec}
+        spec = {**_MESH_DEFAULTS.get(MESH_GENERATORS[key], {}), **spec}
         try:
             return getattr(SurfaceMesh, MESH_GENERATORS[key])(**spec)
         except TypeError as exc:
@@ -139,8 +136,6 @@ def _mesh_from(name: Any, spec: dict) -> Any:
 def _graph_surface(shape: Any, spec: Mapping) -> Any:
     """The :class:`~rdgpu.GraphSurface` of a ``{"grid": (ny, nx), "height": h}``
     description (``dz`` not allowed; ``bc`` periodic only)."""
-    from rdgpu.domains.graph_surface import GraphSurface
-
     if spec.get("dz") is not None:
         raise ValueError("a graph surface is 2-D: the 'dz' option is not allowed with "
                          "'height'")
@@ -159,22 +154,34 @@ def _graph_surface(shape: Any, spec: Mapping) -> Any:
                         bc=spec.get("bc", "periodic"), height=h)
 
 
-#: ``"height": {"kind": ...}`` generators (rdgpu.surfaces)
-HEIGHT_GENERATORS = {"random-waves": "random_waves", "heat-filtered": "heat_filtered"}
+#: ``"height": {"kind": ...}`` generators (rdgpu.domains.surfaces)
+_HEIGHT_GENERATORS = {"random-waves": "random_waves", "heat-filtered": "heat_filtered"}
 
 
 def generated_height(shape: tuple[int, ...], options: Mapping, dx: float,
                       dy: Any) -> np.ndarray:
     """The height of a ``{"kind": "random-waves" | "heat-filtered", **options}`` spec."""
-    from rdgpu.domains import surfaces
-
     options = dict(options)
     kind = options.pop("kind", None)
-    if kind not in HEIGHT_GENERATORS:
+    if kind not in _HEIGHT_GENERATORS:
         raise ValueError(f"a generated height needs 'kind': one of "
-                         f"{', '.join(HEIGHT_GENERATORS)}; got {kind!r}")
+                         f"{', '.join(_HEIGHT_GENERATORS)}; got {kind!r}")
     try:
-        return getattr(surfaces, HEIGHT_GENERATORS[kind])(shape, dx=dx, dy=dy, **options)
+        return getattr(surfaces, _HEIGHT_GENERATORS[kind])(shape, dx=dx, dy=dy, **options)
     except TypeError as exc:
         raise ValueError(f"bad options for the {kind} height: {exc}") from None
 
+
+def from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) -> Domain:
+    """The domain a description (:meth:`Domain.describe`) and its arrays
+    (:meth:`Domain.arrays`) were made from."""
+    kind = desc["kind"]
+    if kind == "graph-surface":
+        return GraphSurface(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"],
+                            height=arrays["surface_height"])
+    if kind == "grid":
+        conds = [tuple(b) if isinstance(b, list) else b for b in desc["bc"]]
+        bc = conds[0] if len(set(conds)) == 1 else tuple(conds)
+        return Grid(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"], dz=desc.get("dz"),
+                    bc=bc)
+    return SurfaceMesh(arrays["mesh_vertices"], arrays["mesh_faces"], period=desc.get("period"))
