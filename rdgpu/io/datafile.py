@@ -20,7 +20,7 @@ import numpy as np
 
 from rdgpu.core.files import atomic_savez, check_writable
 from rdgpu.core.npzread import read_archive
-from rdgpu.domains.base import from_description
+from rdgpu.domains.specs import from_description
 from rdgpu.io.writers import earlier_order
 from rdgpu.simulation.checkpoints import json_str, split_params
 from rdgpu.simulation.result import Result

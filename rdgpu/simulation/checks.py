@@ -30,7 +30,6 @@ __all__ = [
     "check_simulation_memory",
     "checkpoint_model",
     "field_spec",
-    "grid_shape",
     "init_spec",
     "model_definition",
     "model_differences",
