@@ -24,15 +24,12 @@ from rdgpu.ops.api import (
     gray_scott,
     gray_scott_dt_limit,
     laplacian,
-    levelset_advance,
     levelset_dt_limit,
-    optimal_omega,
-    reinitialize,
-    sor_solve,
-    sor_sweep,
     spmv,
 )
 from rdgpu.ops.implicit import ImplicitDiffusion
+from rdgpu.ops.levelsets import levelset_advance, reinitialize
+from rdgpu.ops.solvers import optimal_omega, sor_solve, sor_sweep
 
 __version__ = "0.1.0"
 

@@ -55,6 +55,7 @@ from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.files import check_writable
 from rdgpu.core.optional import MissingExtraError, check, require
 from rdgpu.core.resources import check_fields
+from rdgpu.ir.schemes import method_names as methods
 
 __all__ = ["build_parser", "main", "_size"]
 
@@ -746,9 +747,8 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--stencil", choices=["compact", "isotropic"],
                       help="grid Laplacian: compact (3/5/7 points, default) or isotropic "
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
-    what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
-                      "heun, rk3, imex, imex-cn, bdf2 (Allen-Cahn: explicit, implicit, "
-                      "crank-nicolson)")
+    what.add_argument("--method", metavar="NAME", help=f"time stepping: {', '.join(methods())}"
+                      " (default euler; Allen-Cahn: explicit, implicit, crank-nicolson)")
     what.add_argument("--block-steps", type=_block_steps, metavar="K", help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "
                       "K single steps (default: automatic, on for 2-D grids larger than the "

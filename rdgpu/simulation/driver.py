@@ -1216,7 +1216,7 @@ class Simulation:
     def host_state(self, history: bool = False) -> dict[str, np.ndarray]:
         """The current fields, downloaded, each of :attr:`shape`; ``history``: also what a
         multistep method carries between steps (BDF2's previous level, ``"_prev_<s>"``:
-        :meth:`rdgpu.models.ModelStepper.get_state`), so that ``stepper.set_state`` of it
+        :meth:`rdgpu.integrators.ModelStepper.get_state`), so that ``stepper.set_state`` of it
         goes on bit for bit."""
         get = self.stepper.get_state
         state = get(history=True) if history and _accepts(get, "history") else get()
@@ -1512,10 +1512,6 @@ class _DeferSigint:
             signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
-#: the methods whose linear spatial terms are implicit (the reaction terms stay explicit)
-_IMPLICIT_METHODS = ("imex", "imex-cn", "bdf2")
-
-
 class _Runner:
     """One ``Simulation.run`` call: the loop, device snapshot buffers, checks, checkpoints."""
 
@@ -1654,7 +1650,7 @@ class _Runner:
             cause = (f"dt={sim.dt:g} is past the stability limit {sim.dt_limit:.4g} of "
                      f"{sim.model.name} on this domain (the run had check_stability=False); "
                      f"use dt <= {sim.dt_limit:.4g}")
-        elif cause is None and getattr(sim.stepper, "method", None) in _IMPLICIT_METHODS:
+        elif cause is None and getattr(getattr(sim.stepper, "scheme", None), "implicit", False):
             own = default_dt(sim.model, sim.domain, sim.params, {})
             cause = (f"method {sim.stepper.method!r} steps the diffusion implicitly (stable at "
                      f"any dt) but the reaction terms explicitly, and they are unstable at "
