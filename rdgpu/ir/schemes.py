@@ -75,6 +75,12 @@ class ImexScheme:
 
     implicit = True
 
+    def __post_init__(self) -> None:
+        if self.steps not in (1, 2) or not 0.0 <= self.theta <= 1.0:
+            raise ValueError(f"scheme {self.name!r}: an IMEX scheme has steps 1 (the "
+                             "θ-scheme) or 2 (SBDF2) and 0 <= theta <= 1, got steps="
+                             f"{self.steps!r}, theta={self.theta!r}")
+
 
 Scheme = ExplicitScheme | ImexScheme
 
@@ -90,6 +96,10 @@ def register_scheme(scheme: Scheme, *, replace: bool = False) -> Scheme:
         raise TypeError(f"a scheme is an ExplicitScheme or an ImexScheme, got "
                         f"{type(scheme).__name__}")
     names = (scheme.name, *scheme.aliases)
+    bad = [n for n in names if not isinstance(n, str) or not n or n != n.lower()]
+    if bad:
+        raise ValueError(f"scheme names and aliases are non-empty lower-case strings (method "
+                         f"names match in any case), got {bad}")
     taken = sorted(n for n in names if n in SCHEMES or n in _ALIASES)
     if taken and not replace:
         raise ValueError(f"method name(s) {taken} are taken; pass replace=True to replace "

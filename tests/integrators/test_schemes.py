@@ -101,6 +101,11 @@ def test_names_aliases_and_errors():
     with pytest.raises(ValueError, match="strictly lower-triangular"):
         ExplicitScheme("bad", 1, a=((1.0,),), b=(1.0,), c=(0.0,), title="bad",
                        real_stability=2.0)
+    with pytest.raises(ValueError, match="lower-case"):
+        register_scheme(ExplicitScheme("RK1", 1, a=((),), b=(1.0,), c=(0.0,), title="x",
+                                       real_stability=2.0))
+    with pytest.raises(ValueError, match="steps 1"):
+        ImexScheme("bdf3", 3, theta=1.0, steps=3, title="bad")
     gs = MODELS["gray-scott"]
     with pytest.raises(ValueError, match=re.escape(", ".join(method_names()))):
         gs.dt_limit(Grid((8, 8)), method="rk7")
