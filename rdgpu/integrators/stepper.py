@@ -454,6 +454,9 @@ class ModelStepper(FieldStepper):
             if scheme.shu_osher is None:
                 self._step_butcher(scheme, t0, h)
                 return
+            if not self._stages:  # Euler: the first stage is the step
+                self._eval(self._euler, x, y, t0)
+                return
             outs = [*self._stages, y]
             self._eval(self._euler, x, outs[0], t0)
             for (a, b, c), cur, nxt in zip(scheme.shu_osher, outs[:-1], outs[1:], strict=True):

@@ -163,3 +163,14 @@ def test_the_model_layer_does_not_import_the_integrators():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert out.stdout.strip() == "[]"
+
+
+def test_allen_cahn_methods_take_their_theta_from_the_registry():
+    """Allen-Cahn's own method names (its model's ``methods``) map onto registry schemes:
+    explicit diffusion is Euler's, the implicit ones the IMEX θ-schemes'."""
+    from rdgpu.integrators.allen_cahn import METHODS
+    from rdgpu.models import AllenCahn
+
+    assert tuple(METHODS) == AllenCahn.methods
+    assert not get_scheme(METHODS["explicit"]).implicit
+    assert [get_scheme(METHODS[m]).theta for m in ("implicit", "crank-nicolson")] == [1.0, 0.5]
