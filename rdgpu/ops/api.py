@@ -44,7 +44,6 @@ from rdgpu.ops.results import (
     BackendSpec,
     ProgressBar,
     advance,
-    check_finite,
     expect_out,
     fresh,
     give,
@@ -437,57 +436,3 @@ def diffusion_step(
     (res,) = advance(be, start, n, step, (out,))
     return give(res, u, out, "diffusion_step", stepping=True,
                  check_stability=check_stability)
-
-
-def allen_cahn(
-    u: np.ndarray,
-    *,
-    eps: float,
-    dt: float,
-    b: float | np.ndarray = 0.0,
-    steps: int = 1,
-    method: str = "explicit",
-    mesh: Any = None,
-    dx: float = 1.0,
-    dy: float | None = None,
-    bc: Any = "periodic",
-    check_stability: bool = True,
-    backend: BackendSpec = None,
-    out: Any = None,
-) -> Any:
-    """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
-    equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
-    source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (the stepper of
-    :class:`rdgpu.models.AllenCahn`).
-
-    ``method``: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
-    ``mesh.max_stable_dt(1)`` on a mesh; :class:`StabilityError` above it unless
-    ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
-    (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
-    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
-    ``out``: module doc (the state crosses the host once each way: the stepper's own)."""
-    from rdgpu.models import AllenCahn
-
-    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
-    eps = check.scalar(eps, "eps", strict=True)
-    check_stability = check.flag(check_stability, "check_stability")
-    if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
-        raise ValueError(
-            f"eps={eps:g} is too small for {field.dtype}: the reaction term (u³ − u + b)/eps² "
-            f"overflows; allowed: eps > {1 / math.sqrt(float(np.finfo(field.dtype).max)):.3g}"
-        )
-    dt = check.scalar(dt, "dt", strict=True)
-    n = check.steps(steps)
-    b_ = _param(b, "b", field)
-    expect_out(out, u, field.dtype)
-    if method not in AllenCahn.methods:
-        raise ValueError(f"method must be one of {AllenCahn.methods}, got {method!r}")
-    stepper = AllenCahn().stepper(
-        domain, {"eps": eps, "b": b_}, dt=dt, backend=get_backend(backend), dtype=field.dtype,
-        check_stability=check_stability, method=method,
-    )
-    stepper.set_state({"u": field})
-    stepper.advance(n)
-    res = check_finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
-                  check_stability=check_stability)
-    return give_host(res.reshape(_given_shape(u)), u, out)
