@@ -18,21 +18,17 @@ from rdgpu.core.errors import (
 )
 from rdgpu.core.optional import MissingExtraError
 from rdgpu.ops.api import (
-    allen_cahn,
     bernoulli_substep,
     diffusion_step,
     gray_scott,
     gray_scott_dt_limit,
     laplacian,
-    levelset_advance,
     levelset_dt_limit,
-    optimal_omega,
-    reinitialize,
-    sor_solve,
-    sor_sweep,
     spmv,
 )
 from rdgpu.ops.implicit import ImplicitDiffusion
+from rdgpu.ops.levelsets import levelset_advance, reinitialize
+from rdgpu.ops.solvers import optimal_omega, sor_solve, sor_sweep
 
 __version__ = "0.1.0"
 
@@ -52,6 +48,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "random_walk_dla": ("rdgpu.growth.walkers", "random_walk_dla"),
     "Simulation": ("rdgpu.simulation", "Simulation"),
     "define_model": ("rdgpu.models", "define_model"),
+    "allen_cahn": ("rdgpu.integrators.allen_cahn", "allen_cahn"),  # steps the model layer
     # submodules as attributes: rdgpu.output, rdgpu.analysis, ...
     "analysis": ("rdgpu.analysis", None),
     "fronts": ("rdgpu.growth.fronts", None),

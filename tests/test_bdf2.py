@@ -1,4 +1,4 @@
-"""BDF2 (``method="bdf2"``, :mod:`rdgpu.models.integrators`): the semi-implicit BDF2 of
+"""BDF2 (``method="bdf2"``, :mod:`rdgpu.integrators.stepper`): the semi-implicit BDF2 of
 seed 002 eq. 18 with the ``"imex"`` split.
 
 1. Second order measured: against an exact solution (a forced Fourier mode of a linear
@@ -28,8 +28,9 @@ from rdgpu.cli.app import main
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.integrators import SCHEMES
 from rdgpu.io.output import load_npz
-from rdgpu.models import METHODS, MODELS, define_model, domain_shape
+from rdgpu.models import MODELS, define_model, domain_shape
 from rdgpu.simulation.driver import Simulation
 
 GS = MODELS["gray-scott"]
@@ -277,7 +278,7 @@ def test_errors_as_imex():
 def test_cli_runs_bdf2(tmp_path, capsys):
     """``rdgpu run gray-scott --method bdf2`` runs and writes the same fields as the
     Simulation; a checkpoint it writes resumes to the same end."""
-    assert "bdf2" in METHODS
+    assert "bdf2" in SCHEMES
     args = ["run", "gray-scott", "--method", "bdf2", "--size", "12", "--dt", "2",
             "--backend", "numpy", "--dtype", "float64", "--seed", "4", "--quiet"]
     assert main([*args, "--steps", "9", "--data", str(tmp_path / "a.npz")]) == 0

@@ -36,11 +36,11 @@ import rdgpu
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.integrators import ModelStepper
 from rdgpu.models import (
     MODELS,
     AllenCahn,
     EquationError,
-    ModelStepper,
     build_domain,
     define_model,
     domain_shape,

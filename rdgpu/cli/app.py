@@ -64,6 +64,7 @@ from rdgpu.cli.options import (
     add_domain_options,
 )
 from rdgpu.core.errors import BackendUnavailableError
+from rdgpu.ir.schemes import method_names as methods
 
 __all__ = ["build_parser", "main", "_size"]
 
@@ -206,9 +207,8 @@ def _add_what_to_run(what: Any) -> None:
     what.add_argument("--stencil", choices=["compact", "isotropic"],
                       help="grid Laplacian: compact (3/5/7 points, default) or isotropic "
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
-    what.add_argument("--method", metavar="NAME", help="time stepping: euler (default), "
-                      "heun, rk3, imex, imex-cn, bdf2 (Allen-Cahn: explicit, implicit, "
-                      "crank-nicolson)")
+    what.add_argument("--method", metavar="NAME", help=f"time stepping: {', '.join(methods())}"
+                      " (default euler; Allen-Cahn: explicit, implicit, crank-nicolson)")
     what.add_argument("--block-steps", type=_block_steps, metavar="K", help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "
                       "K single steps (default: automatic, on for 2-D grids larger than the "

@@ -33,7 +33,8 @@ from rdgpu.core.optional import require
 from rdgpu.core.resources import check_fields
 from rdgpu.domains.boundary import GridBC
 from rdgpu.domains.grid import Grid
-from rdgpu.ops.api import BackendSpec, optimal_omega
+from rdgpu.ops.results import BackendSpec
+from rdgpu.ops.solvers import optimal_omega
 
 GEOMETRIES = ("seed001", "radial")
 #: the radial geometry's outer circle (c = 1 on and outside it), as a fraction of min(shape)

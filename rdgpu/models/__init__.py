@@ -1,5 +1,8 @@
 """The model layer: a model is its equations.
 
+Time stepping (the schemes, the steppers, stability) is :mod:`rdgpu.integrators`, a layer
+above this one.
+
 Where things are:
 
 * :mod:`~rdgpu.ir.equations` — the equation language (py-pde's ``PDE`` spelling),
@@ -9,9 +12,9 @@ Where things are:
 * :mod:`~rdgpu.models.compiler` — the tree turned into one fused kernel per backend (NumPy
   reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
   ``kernels/model/``;
-* :mod:`~rdgpu.models.integrators` — time stepping: Euler, Heun, SSP-RK3, IMEX;
 * :mod:`~rdgpu.models.library` — the built-in models (a few lines each);
-  :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn, with its exact Bernoulli substep;
+  :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
+  :mod:`rdgpu.integrators.allen_cahn`);
 * :mod:`~rdgpu.models.presets` — the papers' runs, as data.
 """
 
@@ -21,11 +24,9 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from rdgpu.ir.equations import EquationError
-from rdgpu.models.allen_cahn import AllenCahn, AllenCahnStepper
-from rdgpu.models.integrators import FieldStepper, ModelStepper
+from rdgpu.models.allen_cahn import AllenCahn
 from rdgpu.models.library import MODELS
 from rdgpu.models.model import (
-    METHODS,
     Model,
     define_model,
     domain_shape,
@@ -35,27 +36,19 @@ from rdgpu.models.model import (
 from rdgpu.models.presets import PRESETS, Preset, build_domain
 
 __all__ = [
-    "METHODS",
     "MODELS",
     "PRESETS",
     "AllenCahn",
-    "AllenCahnStepper",
     "EquationError",
-    "FieldStepper",
     "Model",
-    "ModelStepper",
     "Preset",
     "ReactionDiffusion2",
-    "ReactionDiffusionStepper",
     "build_domain",
     "define_model",
     "domain_shape",
     "param_field",
     "resolve_params",
 ]
-
-#: the stepper of every equation-defined model (the former name)
-ReactionDiffusionStepper = ModelStepper
 
 
 def ReactionDiffusion2(  # noqa: N802 - the former class name, kept for users' scripts

@@ -1,12 +1,13 @@
 """The modified Allen-Cahn model (Dascal, Pai & Kimmel, equations §2): defined by its
 equation like every model, stepped by Strang splitting with the exact Bernoulli substep
-(:func:`rdgpu.ops.api.bernoulli_decay`), explicit or implicit diffusion in between."""
+(:class:`rdgpu.integrators.allen_cahn.AllenCahnStepper`), explicit or implicit diffusion in
+between."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,13 +15,12 @@ from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
 from rdgpu.domains.grid import Grid
-from rdgpu.ir import equations as eq
-from rdgpu.models.compiler import Output, Program, Target, launch
-from rdgpu.models.integrators import FieldStepper
 from rdgpu.models.model import Model, _scalar_param, check_dt, domain_shape, resolve_params
-from rdgpu.ops.api import bernoulli_decay
 
-__all__ = ["AllenCahn", "AllenCahnStepper"]
+if TYPE_CHECKING:
+    from rdgpu.integrators.allen_cahn import AllenCahnStepper
+
+__all__ = ["AllenCahn"]
 
 
 def _is_surface(domain: Any) -> bool:
@@ -43,28 +43,6 @@ def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
         last = bc.value - np.take(u, [-1], axis=axis)
         return np.concatenate([first, d, last], axis=axis)
     raise ValueError(f"unknown boundary kind {bc.kind}")  # pragma: no cover
-
-
-def _strang_program() -> Program:
-    """The rest of an explicit Strang step after the first Bernoulli substep ``ū = B(u)``
-    (``backend.bernoulli``), in one fused pass: ``B(ū + h (1·Δū + (−b)/ε²))`` with
-    ``B(x) = x/√(d + x²(1 − d))`` the exact substep for ``h/2`` (``d = e^{−h/ε²}``; the
-    operations of kernels/bernoulli).  Two passes per step where the former form took three
-    (applying ``B`` at every neighbour instead, one pass, computes it five times per cell:
-    slower, measured).  Regrouping ``B B`` into one exact full substep ``B_h`` would make
-    it one pass with one square root (measured 1.1× the hand-written Gray-Scott on Warp,
-    against 0.7× for this form), but a run resumed from a checkpoint, which holds ``u`` and
-    not the intermediate ``ū``, would then differ in the last bit from an uninterrupted
-    one; resumes are bit for bit, so this form stays."""
-    names = ("h", "b", "eps2", "d", "omd")
-    y = "(u + h*(1.0*laplace(u) + (-b)/eps2))"
-    tree = eq.parse(f"{y}/sqrt(d + {y}*{y}*omd)", species=("u",), params=names)
-    tree = eq.substitute(tree, lambda n: eq.Ref("builtin", "_" + n.name)
-                         if isinstance(n, eq.Ref) and n.name in ("h", "d", "omd") else None)
-    return Program(("u",), (Output("u", tree),))
-
-
-_STRANG = _strang_program()
 
 
 class AllenCahn(Model):
@@ -158,6 +136,9 @@ class AllenCahn(Model):
         what = ("explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh or a graph "
                 "surface")
         dt = check_dt(dt, self.dt_limit(domain, p, method), what, check_stability)
+        # integrators/ is a layer above models/: the stepper is imported when one is made
+        from rdgpu.integrators.allen_cahn import AllenCahnStepper
+
         return AllenCahnStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
                                 method)
 
@@ -209,57 +190,3 @@ class AllenCahn(Model):
         pot = ((u * u - 1.0) ** 2 / 4.0 + b.ravel() * u) / eps**2 if b.size > 1 else \
             ((u * u - 1.0) ** 2 / 4.0 + float(b) * u) / eps**2
         return grad + float(np.sum(domain.areas * pot))
-
-
-class AllenCahnStepper(FieldStepper):
-    """Strang splitting of the modified Allen-Cahn equation on the device (see
-    :class:`AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
-    ``dt/2``; three device buffers, no host transfer (the implicit methods download the
-    SOR's per-vertex change to test convergence)."""
-
-    def __init__(self, model, domain, params, dt, backend, dtype, method):
-        super().__init__(model.species, domain, dt, backend, dtype)
-        self.model = model
-        self.params = dict(params)
-        self.method = method
-        eps = float(params["eps"])
-        self.decay = bernoulli_decay(self.dt / 2.0, eps, self.dtype)
-        b = params["b"]
-        self._b = (backend.upload(np.ascontiguousarray(b, dtype=self.dtype))
-                   if isinstance(b, np.ndarray) else float(b))
-        self._kparams = {"b": self._b, "eps2": eps * eps}
-        self._tmp = backend.empty(self.shape, self.dtype)
-        if method == "explicit":
-            self._target = Target.bind(domain, backend, self.dtype)
-        else:
-            self._implicit = _implicit_solver(domain, backend, self.dtype, self.dt, method)
-            # the source −b/ε² enters the θ-scheme of ū_t = Δū − b/ε² directly:
-            # (I − θ dt L) ū' = ū + (1 − θ) dt L ū − dt b/ε²
-            self._source = (backend.upload(np.ascontiguousarray(-b / (eps * eps),
-                                                                dtype=self.dtype))
-                            if isinstance(b, np.ndarray) else -float(b) / (eps * eps))
-            self._rhs = backend.empty(self.shape, self.dtype)  # the diffusion result
-
-    def _step(self) -> None:
-        be = self.backend
-        (x,), (y,) = self._x, self._y
-        be.bernoulli(x, self._tmp, decay=self.decay)
-        if self.method == "explicit":
-            t = self.dtype.type
-            launch(_STRANG, self._target, [self._tmp], [y], self._kparams,
-                   {"_h": self.dt, "_d": self.decay, "_omd": float(t(1) - t(self.decay))})
-            return
-        self._implicit.step(self._tmp, self._rhs, source=self._source)
-        be.bernoulli(self._rhs, y, decay=self.decay)
-
-
-def _implicit_solver(domain, backend, dtype, dt, method):
-    """The θ-step solver of ``ū_t = Δū + s``: ``(I − θ dt L) out = u + (1 − θ) dt L u +
-    dt s`` with θ = 1 (backward Euler, ``method="implicit"``) or ½ (Crank-Nicolson), by
-    multicolour SOR on the device (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on
-    a grid)."""
-    from rdgpu.ops.implicit import ImplicitDiffusion
-
-    theta = 1.0 if method == "implicit" else 0.5
-    return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)
-

@@ -9,7 +9,7 @@ per ``steps`` steps.  Every value is computed by the step kernel's own cell body
 by :func:`rdgpu.models.compiler.opencl_cell`), in the same order, so a pass is bit for bit
 ``steps`` single steps.
 
-Eligible (:func:`why_not`): a :class:`~rdgpu.models.integrators.ModelStepper` with
+Eligible (:func:`why_not`): a :class:`~rdgpu.integrators.ModelStepper` with
 ``method="euler"`` and no bilaplacian pre-pass, on a 2-D grid (compact or isotropic
 stencil, every boundary kind), on the OpenCL backend in its row layout (CPU devices);
 scalar parameters, parameter fields and parameters that are expressions of ``t`` (the
@@ -213,7 +213,7 @@ def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
 
 
 class BlockedEuler:
-    """Blocked passes of a :class:`~rdgpu.models.integrators.ModelStepper`'s Euler step:
+    """Blocked passes of a :class:`~rdgpu.integrators.ModelStepper`'s Euler step:
     ``steps`` steps per pass in bands of ``rows`` grid rows (default: :meth:`default_rows`)."""
 
     def __init__(self, stepper: Any, steps: int, rows: int | None = None):

@@ -4,7 +4,7 @@ A :class:`Program` says what one pass over the domain computes: the buffers it r
 (``inputs``, read at each cell and, where the expressions take their Laplacian, at its
 neighbours), the parameter fields it reads, and one expression per output buffer.  A
 time step of a model is such a program (``out_s = s + h·f_s``; see
-:mod:`rdgpu.models.integrators` for the other forms); so is the pre-pass that stores
+:mod:`rdgpu.integrators.stepper` for the other forms); so is the pre-pass that stores
 ``laplace(s)`` for a bilaplacian.  Every cell reads each input once and writes each output
 once: the stencils and the reaction in the same pass.
 

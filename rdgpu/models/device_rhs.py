@@ -1,7 +1,7 @@
 """A model's right-hand side on the device, and the field arithmetic explicit solvers need.
 
 :class:`DeviceRHS` binds a :class:`~rdgpu.models.Model` to a domain, a backend and a dtype
-(through a forward-Euler :class:`~rdgpu.models.integrators.ModelStepper`, which uploads the
+(through a forward-Euler :class:`~rdgpu.integrators.ModelStepper`, which uploads the
 parameters and lowers bilaplacians) and offers fused passes over device buffers, none of
 which crosses to the host:
 

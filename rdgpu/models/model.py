@@ -9,8 +9,8 @@
 
 The language is :mod:`rdgpu.ir.equations` (py-pde's ``PDE`` spelling); the kernels
 come from :mod:`rdgpu.models.compiler`; the time integrators from
-:mod:`rdgpu.models.integrators`.  A model is accepted wherever a model name is
-(``Simulation``, presets, ``rdgpu run --equation``).
+:mod:`rdgpu.integrators` (the schemes: :data:`rdgpu.ir.schemes.SCHEMES`).  A model is
+accepted wherever a model name is (``Simulation``, presets, ``rdgpu run --equation``).
 
 Parameter values (defaults, or what a run passes): a number; an array of the domain's
 shape (a per-cell / per-vertex field); a field spec (:func:`param_field`); or an
@@ -25,8 +25,9 @@ Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m² 
 limit is the largest ``dt`` for which every such mode that decays in the equations also
 decays in the scheme, for ``m`` up to the domain's largest (``4 Σ 1/h²`` on a grid,
 ``λ_max(−L)`` on a mesh).  For forward Euler that is ``min −2 Re λ/|λ|²`` over the
-eigenvalues ``λ`` of ``A(m)`` (``1/(2 D Σ 1/h²)`` for plain diffusion); Heun and SSP-RK3
-use the same bound (their real stability intervals contain Euler's); IMEX methods are
+eigenvalues ``λ`` of ``A(m)`` (``1/(2 D Σ 1/h²)`` for plain diffusion); every explicit
+scheme uses the same bound (Heun's, SSP-RK3's and RK4's stability regions contain Euler's
+disk); IMEX methods are
 checked on the amplification matrix of the scheme.  The reaction terms add a limit of their
 own that depends on the state (``dt ≲ 2/|λ|`` of the reaction Jacobian along the
 trajectory): it is not included, as it cannot be bounded from the parameters alone.  A
@@ -46,6 +47,7 @@ from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.base import require_domain
 from rdgpu.ir import equations as eq
+from rdgpu.ir.schemes import get_scheme, method_names
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 from rdgpu.models.ranges import check_bounds, check_fits
 
@@ -54,10 +56,6 @@ if TYPE_CHECKING:
 
 __all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
 
-#: time-stepping methods of a model (``options={"method": ...}``, ``--method``)
-METHODS = ("euler", "heun", "rk3", "imex", "imex-cn", "bdf2")
-_ALIASES = {"explicit": "euler", "forward-euler": "euler", "rk2": "heun",
-            "ssprk3": "rk3", "imex-be": "imex"}
 _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
              *eq.CONSTANTS}
 
@@ -279,7 +277,11 @@ class Model:
     spec), ``default_method``, ``dt_share`` (of the stability limit a default dt may take;
     0.9)."""
 
-    methods = METHODS
+    @property
+    def methods(self) -> tuple[str, ...]:
+        """Its time-stepping methods (``options={"method": ...}``, ``--method``): every
+        scheme of :data:`rdgpu.ir.schemes.SCHEMES`."""
+        return method_names()
 
     def __init__(
         self,
@@ -494,19 +496,18 @@ class Model:
         """The largest stable ``dt`` of ``method`` (default: the model's
         ``default_method``) on ``domain`` (module doc); ``inf`` when the linear spatial part
         sets none."""
-        from rdgpu.models.integrators import stability_limit
-
         ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
         if ops is None:
             return math.inf
         method = _method(method or self.default_method, self.methods)
-        if method in ("imex", "imex-cn", "bdf2"):
+        if get_scheme(method).implicit:
             for s, beta in zip(self.species, np.diag(ops[1]), strict=True):
                 if beta > 0:
                     raise ValueError(
                         f"method {method!r}: the bilaplacian of {s!r} has the coefficient "
                         f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
-        return stability_limit(ops[0], ops[1], _largest_mode(domain, stencil), method)
+        return _integrators().stability_limit(ops[0], ops[1], _largest_mode(domain, stencil),
+                                              method)
 
     def stepper(
         self,
@@ -525,10 +526,11 @@ class Model:
         block_steps: int | None = None,
         lengths: str = "cells",
     ):
-        """Bind the model to a domain (see :class:`rdgpu.stepping.Model`); field specs in
-        ``params`` are drawn with ``seed``.  ``method``: one of :data:`METHODS`;
-        ``tol``: the implicit solves' accuracy (IMEX); ``stencil``: ``"compact"`` (3/5/7
-        points) or ``"isotropic"`` (9 points in 2-D, 19 in 3-D; equal spacings) on grids.
+        """Bind the model to a domain: a :class:`rdgpu.integrators.ModelStepper`; field
+        specs in ``params`` are drawn with ``seed``.  ``method``: a name (or alias) of
+        :data:`rdgpu.ir.schemes.SCHEMES`; ``tol``: the implicit solves' accuracy (IMEX);
+        ``stencil``: ``"compact"`` (3/5/7 points) or ``"isotropic"`` (9 points in 2-D, 19
+        in 3-D; equal spacings) on grids.
         ``members``: an ensemble of that many members, fields ``[members, *shape]``, each
         parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
         member; ``dt`` must be stable for every member.
@@ -536,7 +538,6 @@ class Model:
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
         lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
         from rdgpu.models.compiler import check_stencil
-        from rdgpu.models.integrators import ModelStepper
 
         method = _method(method or self.default_method, self.methods)
         check_stencil(domain, stencil)
@@ -559,9 +560,10 @@ class Model:
         check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
-        return ModelStepper(fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
-                            np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
-                            block_steps=block_steps)
+        return _integrators().ModelStepper(
+            fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
+            np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
+            block_steps=block_steps)
 
 
 def _members(members: Any) -> int:
@@ -572,12 +574,16 @@ def _members(members: Any) -> int:
 
 
 def _method(method: str, allowed: Sequence[str]) -> str:
+    """The canonical name of ``method`` (an alias resolved), one of ``allowed``."""
     m = str(method).lower()
-    if m not in allowed:
-        m = _ALIASES.get(m, m)
-    if m not in allowed:
-        raise ValueError(f"unknown method {method!r}; allowed: {', '.join(allowed)}")
-    return m
+    return m if m in allowed else get_scheme(method, tuple(allowed)).name
+
+
+def _integrators() -> Any:
+    """:mod:`rdgpu.integrators`, a layer above this one: imported when a model is stepped."""
+    import rdgpu.integrators
+
+    return rdgpu.integrators
 
 
 def _largest_mode(domain: Domain, stencil: str = "compact") -> float:

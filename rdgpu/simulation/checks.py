@@ -183,12 +183,12 @@ def check_tol(method: Any, tol: Any, *, unused_ok: bool = False) -> float | None
     value = real(tol, "tol")
     if not value > 0:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
-    from rdgpu.models.integrators import EXPLICIT
+    from rdgpu.ir.schemes import method_names
 
-    if method in EXPLICIT and not unused_ok:
+    if method in method_names(implicit=False) and not unused_ok:
         raise ValueError(f"tol={tol!r} is the accuracy of implicit solves; method {method!r} "
                          f"is explicit and does not use it (leave tol out, or use an IMEX "
-                         "method: 'imex', 'imex-cn', 'bdf2')")
+                         f"method: {', '.join(map(repr, method_names(implicit=True)))})")
     return value
 
 

@@ -370,7 +370,7 @@ class Simulation:
     def host_state(self, history: bool = False) -> dict[str, np.ndarray]:
         """The current fields, downloaded, each of :attr:`shape`; ``history``: also what a
         multistep method carries between steps (BDF2's previous level, ``"_prev_<s>"``:
-        :meth:`rdgpu.models.ModelStepper.get_state`), so that ``stepper.set_state`` of it
+        :meth:`rdgpu.integrators.ModelStepper.get_state`), so that ``stepper.set_state`` of it
         goes on bit for bit."""
         get = self.stepper.get_state
         state = get(history=True) if history and accepts(get, "history") else get()

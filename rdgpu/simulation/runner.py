@@ -83,10 +83,6 @@ class _DeferSigint:
             signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
-#: the methods whose linear spatial terms are implicit (the reaction terms stay explicit)
-_IMPLICIT_METHODS = ("imex", "imex-cn", "bdf2")
-
-
 class Runner:
     """One ``Simulation.run`` call: the loop, device snapshot buffers, checks, checkpoints."""
 
@@ -223,7 +219,7 @@ class Runner:
             cause = (f"dt={sim.dt:g} is past the stability limit {sim.dt_limit:.4g} of "
                      f"{sim.model.name} on this domain (the run had check_stability=False); "
                      f"use dt <= {sim.dt_limit:.4g}")
-        elif cause is None and getattr(sim.stepper, "method", None) in _IMPLICIT_METHODS:
+        elif cause is None and getattr(getattr(sim.stepper, "scheme", None), "implicit", False):
             own = default_dt(sim.model, sim.domain, sim.params, {})
             cause = (f"method {sim.stepper.method!r} steps the diffusion implicitly (stable at "
                      f"any dt) but the reaction terms explicitly, and they are unstable at "

@@ -1,7 +1,8 @@
 """py-pde's solvers on an rdgpu device (used by :mod:`rdgpu.pypde`).
 
 The stepping loops of py-pde 0.59's ``EulerSolver`` (fixed and adaptive ``dt``),
-``RungeKuttaSolver`` (fixed: classic RK4; adaptive: Runge-Kutta-Fehlberg 4(5)),
+``RungeKuttaSolver`` (fixed: classic RK4, its stages from the tableau of the scheme
+registry :data:`rdgpu.ir.schemes.SCHEMES`; adaptive: Runge-Kutta-Fehlberg 4(5)),
 ``AdamsBashforthSolver`` (two-step, fixed), ``ImplicitSolver`` and
 ``CrankNicolsonSolver`` (fixed, by fixed-point iteration), written again over device
 fields: every right-hand side is one fused rdgpu pass
@@ -28,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.ir.schemes import ExplicitScheme, get_scheme
 from rdgpu.models.device_rhs import DeviceRHS, Field
 
 __all__ = ["SUPPORTED", "make_stepper"]
@@ -52,9 +54,27 @@ _RKF = {
     "r1": 1 / 360, "r3": -128 / 4275, "r4": -2197 / 75240, "r5": 1 / 50, "r6": 2 / 55,
     "c1": 25 / 216, "c3": 1408 / 2565, "c4": 2197 / 4104, "c5": -1 / 5,
 }
-_RK4_STAGES = ((0.5, "x + 0.5*k1"), (0.5, "x + 0.5*k2"), (1.0, "x + k3"))
 _RKF_ERROR = "r1*k1 + r3*k3 + r4*k4 + r5*k5 + r6*k6"
 _RKF_NEW = "x + c1*k1 + c3*k3 + c4*k4 + c5*k5"
+
+
+def _stages(scheme: ExplicitScheme) -> tuple[tuple[float, str], ...]:
+    """The stages after the first of an explicit ``scheme`` as ``(c_i, "x + a_i1*k1 +
+    ...")`` with ``k_j = dt f`` (py-pde's spelling: a weight 1 is left out)."""
+    out = []
+    for c, row in zip(scheme.c[1:], scheme.a[1:], strict=True):
+        terms = [f"k{j + 1}" if w == 1.0 else f"{w!r}*k{j + 1}"
+                 for j, w in enumerate(row) if w != 0.0]
+        out.append((c, " + ".join(["x", *terms])))
+    return tuple(out)
+
+
+#: classic RK4 from the scheme registry: ((0.5, "x + 0.5*k1"), (0.5, "x + 0.5*k2"),
+#: (1.0, "x + k3")); its last combination is py-pde's ``x + (k1 + 2k2 + 2k3 + k4)/6``
+#: (the tableau's ``b`` times 6, in py-pde's operation order)
+_RK4 = get_scheme("rk4")
+_RK4_STAGES = _stages(_RK4)
+_RK4_NEW = "x + (k1 + 2*k2 + 2*k3 + k4)/6"
 
 
 class _Fields:
@@ -184,7 +204,7 @@ def _rk_stage_fields(f: _Fields, ks: list[Field]) -> dict[str, Field]:
 def _rk4_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
     """``RungeKuttaSolver`` with a fixed ``dt``: classic RK4, py-pde's ``single_step``."""
     dt = float(solver.info["dt"])
-    ks = [rhs.empty() for _ in range(4)]
+    ks = [rhs.empty() for _ in range(_RK4.stages)]
     new = rhs.empty()
 
     def step(t: float) -> None:
@@ -193,7 +213,7 @@ def _rk4_fixed(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
         rhs.rate(f.x, ks[0], t, dt)
         for i, (a, y_of) in enumerate(_RK4_STAGES):
             rhs.stage([ks[i + 1]], y_of, k, ["c*F"], t + a * dt, {"c": dt})
-        rhs.pointwise(new, "x + (k1 + 2*k2 + 2*k3 + k4)/6", k)
+        rhs.pointwise(new, _RK4_NEW, k)
         f.x, new = new, f.x
 
     return _fixed(solver, f, step)

@@ -1,15 +1,21 @@
-"""Time integrators of the model layer: the equations of a :class:`~rdgpu.models.Model`
-lowered to fused programs (:mod:`rdgpu.models.compiler`) and stepped on the device.
+"""The stepper of the model layer: the equations of a :class:`~rdgpu.models.Model`
+lowered to fused programs (:mod:`rdgpu.models.compiler`) and stepped on the device by a
+scheme of :data:`rdgpu.ir.schemes.SCHEMES` (the registry says what each method is).
 
 Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand side and
 ``h`` the step:
 
-* ``"euler"`` (default): ``x' = x + h f(x, t)`` — one fused pass;
-* ``"heun"`` (2nd order): ``x₁ = x + h f(x, t)``, ``x' = ½x + ½(x₁ + h f(x₁, t + h))``;
-* ``"rk3"`` (3rd order, Shu-Osher SSP-RK3): ``x₁ = x + h f(x, t)``, ``x₂ = ¾x + ¼(x₁ +
-  h f(x₁, t + h))``, ``x' = ⅓x + ⅔(x₂ + h f(x₂, t + h/2))`` — each stage one fused pass of
-  the form ``a·base + b·(y + h f(y))``;
-* ``"imex"`` / ``"imex-cn"``: implicit-explicit. Each species' own linear spatial terms
+* explicit schemes with Shu-Osher stages (``shu_osher``): a first Euler stage ``y = x +
+  h f(x, t)``, then per stage one fused pass ``y ← a·x + b·(y + h f(y, t + c h))``:
+  ``"euler"`` (default; one pass), ``"heun"`` (2nd order: ``x' = ½x + ½(x₁ + h f(x₁, t +
+  h))``), ``"rk3"`` (3rd order, Shu-Osher SSP-RK3: ``x₂ = ¾x + ¼(x₁ + h f(x₁, t + h))``,
+  ``x' = ⅓x + ⅔(x₂ + h f(x₂, t + h/2))``);
+* any other explicit scheme (``"rk4"``, a registered one) from its Butcher tableau: per
+  stage a pass that stores ``k_i = f(Y_i, t + c_i h)`` and a pointwise pass that forms
+  the next ``Y = x + h Σ a_ij k_j`` (the model's bounds applied to it), the last one
+  ``x' = x + h Σ b_i k_i``;
+* one-step IMEX schemes (``steps=1``; θ from the registry), ``"imex"`` / ``"imex-cn"``:
+  implicit-explicit. Each species' own linear spatial terms
   ``α Δs + β Δ²s`` (constant coefficients, ``β <= 0``) go to an implicit operator ``P = (I
   − a₁Δ)(I − a₂Δ)``, everything else (reactions, cross-diffusion, any other term) stays
   explicit: ``y = x + h f(x) + (P − I) x`` in one fused pass (its expression leaves ``α Δs
@@ -23,8 +29,9 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   amplification factor ``1 + h A(m)/((1 + a₁m)(1 + a₂m))`` stays in the unit disk for
   every decaying mode, so ``h`` is set by accuracy, not by ``1/m_max²``; it keeps steady
   states exactly (``x' = x`` where ``f(x) = 0``). First order in time;
-* ``"bdf2"`` (2nd order): the semi-implicit BDF2 (SBDF2; seed 002 eq. 18 and its refs,
-  Ascher & Petzold, Ruuth in J. Math. Biol. 34), with the same split into implicit ``L``
+* the two-level IMEX scheme (``steps=2``), ``"bdf2"`` (2nd order): the semi-implicit
+  BDF2 (SBDF2; seed 002 eq. 18 and its refs, Ascher & Petzold, Ruuth in J. Math. Biol.
+  34), with the same split into implicit ``L``
   (each species' own ``α Δs + β Δ²s``) and explicit ``N`` (the rest) as ``"imex"``::
 
       (3x' − 4x + x₋)/(2h) = L x' + 2N(x, t) − N(x₋, t − h)
@@ -42,12 +49,13 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   ``"imex"`` (backward Euler) step: first order once, second order over a run.  The
   history ``x₋`` is in ``get_state(history=True)`` as ``"_prev_<species>"`` and
   ``set_state`` takes it back, so a stepper restored with it continues bit for bit.
-  Stability (:func:`stability_limit`: the spectral radius of the two-level recursion's
-  companion matrix per mode): each species' own diffusion is damped at any ``h`` (BDF2 is
-  A-stable: no limit); explicit cross-diffusion sets a limit (``c = 0.3`` between ``Δu``
-  and ``Δv`` on a 16² grid: 5.5, against Euler's 0.32); a bilaplacian's stabilised pair
-  leaves none in practice (Swift-Hohenberg: ~10⁶, where round-off meets the neutral mode
-  ``A(m) = 0``); the reaction terms limit ``h`` as in every explicit method.
+  Stability (:func:`rdgpu.integrators.stability.stability_limit`: the spectral radius of
+  the two-level recursion's companion matrix per mode): each species' own diffusion is
+  damped at any ``h`` (BDF2 is A-stable: no limit); explicit cross-diffusion sets a
+  limit (``c = 0.3`` between ``Δu`` and ``Δv`` on a 16² grid: 5.5, against Euler's
+  0.32); a bilaplacian's stabilised pair leaves none in practice (Swift-Hohenberg: ~10⁶,
+  where round-off meets the neutral mode ``A(m) = 0``); the reaction terms limit ``h`` as
+  in every explicit method.
 
 ``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
 (Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
@@ -56,116 +64,25 @@ fused pass.
 
 from __future__ import annotations
 
-import functools
-import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.core.validation import real_number
+from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
+from rdgpu.ir.schemes import EULER, SCHEMES, ExplicitScheme, ImexScheme, get_scheme
+from rdgpu.models.blocking import setup as setup_blocking
 from rdgpu.models.compiler import Output, PerMember, Program, Target, launch
+from rdgpu.models.model import domain_shape, expression_tree
+from rdgpu.ops.implicit import ImplicitDiffusion
 
-__all__ = ["FieldStepper", "ModelStepper", "stability_limit"]
+__all__ = ["FieldStepper", "ModelStepper"]
 
-EXPLICIT = ("euler", "heun", "rk3")
-#: the methods with implicit solves, and their θ (BDF2's start step is backward Euler)
-_THETA = {"imex": 1.0, "imex-cn": 0.5, "bdf2": 1.0}
 #: the key of species ``s``'s previous level in ``get_state(history=True)``/``set_state``
 HISTORY = "_prev_{}"
-
-
-# ---------------------------------------------------------------------------- stability
-def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
-    """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
-    ``0 < m <= m_max`` (module doc of :mod:`rdgpu.models.model`).  Remembered per
-    ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per member."""
-    D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)
-    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method)
-
-
-@functools.lru_cache(maxsize=4096)
-def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
-                     method: str) -> float:
-    D = np.frombuffer(d, dtype=np.float64).reshape(shape)
-    B = np.frombuffer(b, dtype=np.float64).reshape(shape)
-    ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
-    if method in EXPLICIT:
-        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
-        neg = lam[lam.real < -1e-300]
-        return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
-    def stable(h: float) -> bool:
-        for m in ms:
-            A = -m * D + m * m * B
-            exact = np.max(np.linalg.eigvals(A).real)
-            G = _amplification(D, B, m, h, method)
-            rho = np.max(np.abs(np.linalg.eigvals(G)))
-            if exact <= 0 and rho > 1.0 + 1e-9:
-                return False
-        return True
-
-    hi = 1.0 / max(m_max * (np.max(np.abs(D)) + m_max * np.max(np.abs(B))), 1e-300)
-    if not stable(hi):
-        lo = 0.0
-    else:
-        lo = hi
-        while stable(hi * 4.0):
-            hi *= 4.0
-            lo = hi
-            if hi > 1e12:
-                return math.inf
-        hi *= 4.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if stable(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
-def _implicit_factors(alpha: float, beta: float, h: float, theta: float) -> tuple[float, float]:
-    """``(a₁, a₂)`` of ``P = (I − a₁Δ)(I − a₂Δ)`` (module doc)."""
-    if beta == 0.0:
-        return max(theta * h * alpha, 0.0), 0.0
-    prod = -h * beta
-    total = max(2.0 * math.sqrt(prod), theta * h * alpha)
-    disc = math.sqrt(max(total * total - 4.0 * prod, 0.0))
-    return 0.5 * (total + disc), 0.5 * (total - disc)
-
-
-def _amplification(D: np.ndarray, B: np.ndarray, m: float, h: float,
-                   method: str) -> np.ndarray:
-    """The matrix that advances a Fourier mode (``−Δ`` eigenvalue ``m``) by one step of
-    an implicit ``method``: ``n × n`` for IMEX, the ``2n × 2n`` companion matrix of BDF2's
-    recursion ``P x' = (4/3 + 2h'E) x − (1/3 + h'E) x₋`` (``h' = 2h/3``, ``P`` the
-    implicit factors' symbol per species, ``E = A(m) + (P − I)/h'`` the explicit linear
-    part)."""
-    if method != "bdf2":
-        return _imex_amplification(D, B, m, h, _THETA[method])
-    n = D.shape[0]
-    hb = 2.0 * h / 3.0
-    p = np.empty(n)
-    for i in range(n):
-        a1, a2 = _implicit_factors(D[i, i], B[i, i], hb, 1.0)
-        p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
-    E = -m * D + m * m * B + np.diag((p - 1.0) / hb)
-    G = np.zeros((2 * n, 2 * n))
-    G[:n, :n] = (4.0 / 3.0 * np.eye(n) + 2.0 * hb * E) / p[:, None]
-    G[:n, n:] = -(1.0 / 3.0 * np.eye(n) + hb * E) / p[:, None]
-    G[n:, :n] = np.eye(n)
-    return G
-
-
-def _imex_amplification(D, B, m, h, theta):
-    """IMEX's ``G = I + h P⁻¹ A(m)``: the scheme is ``P (x' − x) = h f(x)`` (module doc)."""
-    n = D.shape[0]
-    p = np.empty(n)
-    for i in range(n):
-        a1, a2 = _implicit_factors(D[i, i], B[i, i], h, theta)
-        p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
-    return np.eye(n) + h * (-m * D + m * m * B) / p[:, None]
 
 
 # ---------------------------------------------------------------------------- stepper
@@ -175,8 +92,6 @@ class FieldStepper:
 
     def __init__(self, species, domain, dt: float, backend: Backend, dtype: Any,
                  members: int | None = None):
-        from rdgpu.models.model import domain_shape
-
         self.species = tuple(species)
         self.domain = domain
         self.dt = float(dt)
@@ -253,16 +168,16 @@ class ModelStepper(FieldStepper):
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None):
-        from rdgpu.simulation.checks import check_tol
-
         # a positive number for every method (explicit ones do not use it)
-        tol = check_tol(method, tol, unused_ok=True)
+        tol = None if tol is None else _positive_tol(tol)
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
-        self.method = method
+        #: the scheme (:data:`rdgpu.ir.schemes.SCHEMES`) and its canonical name
+        self.scheme = get_scheme(method)
+        self.method = method = self.scheme.name
         self.params = dict(params)
         self.target = Target.bind(domain, backend, self.dtype, stencil, members or 1)
-        if stencil != "compact" and method not in EXPLICIT:
+        if stencil != "compact" and self.scheme.implicit:
             raise ValueError(f"method {method!r} solves the compact stencil implicitly; the "
                              f"{stencil} stencil runs with the explicit methods")
         be = backend
@@ -270,8 +185,6 @@ class ModelStepper(FieldStepper):
         # of t are inlined into the programs
         self._dev: dict[str, Any] = {}
         inline: dict[str, eq.Node] = {}
-        from rdgpu.models.model import expression_tree
-
         for p, v in self.params.items():
             if isinstance(v, str):
                 inline[p] = expression_tree(p, v, self.params)
@@ -287,14 +200,12 @@ class ModelStepper(FieldStepper):
                                   if isinstance(n, eq.Ref) and n.kind == "param" else None)
                  for s in self.species}
         self.D = self._diffusion_numbers()
-        if method in EXPLICIT:
-            self._setup_explicit(trees)
-        else:
+        if self.scheme.implicit:
             self._setup_imex(trees, tol, inline)
-        from rdgpu.models.blocking import setup
-
+        else:
+            self._setup_explicit(trees, self.scheme)
         #: temporal blocking (:mod:`rdgpu.models.blocking`): None, or the passes' kernel
-        self.blocked = setup(self, block_steps)
+        self.blocked = setup_blocking(self, block_steps)
 
     # ------------------------------------------------------------------ programs
     def _diffusion_numbers(self) -> list[float]:
@@ -317,7 +228,7 @@ class ModelStepper(FieldStepper):
     def _bounds(self, s: str) -> tuple[float | None, float | None]:
         return self.model.bounds.get(s, (None, None))
 
-    def _setup_explicit(self, trees) -> None:
+    def _setup_explicit(self, trees: dict[str, eq.Node], scheme: ExplicitScheme) -> None:
         low, self._pre = self._lower(trees)
         #: each species' right-hand side as the fused passes read it (bilaplacians lowered)
         self.rates = low
@@ -331,7 +242,20 @@ class ModelStepper(FieldStepper):
                    self._bounds(s))
             for s in self.species)
         self._euler = Program(self.species + aux_names, euler, zero)
-        if self.method == "euler":
+        if scheme.shu_osher is not None:
+            self._setup_shu_osher(scheme, euler, aux_names, zero)
+        else:
+            self._setup_butcher(scheme, low, aux_names, zero)
+
+    def _new_fields(self) -> list[DeviceArray]:
+        return [self.backend.empty(self.shape, self.dtype) for _ in self.species]
+
+    def _setup_shu_osher(self, scheme: ExplicitScheme, euler: tuple[Output, ...],
+                         aux_names: tuple[str, ...], zero: frozenset[str]) -> None:
+        """The stages after the first Euler stage: one program ``_a·x + _b·(y + h f(y))``
+        (``x`` read as ``_base_<s>``) and one buffer per stage."""
+        self._stages = [self._new_fields() for _ in scheme.shu_osher]
+        if not scheme.shu_osher:
             return
         combine = tuple(
             Output(s, eq.Bin("+", eq.Bin("*", eq.Ref("builtin", "_a"),
@@ -341,23 +265,48 @@ class ModelStepper(FieldStepper):
         self._combine = Program(
             self.species + aux_names + tuple(f"_base_{s}" for s in self.species), combine,
             zero)
-        n_stages = 1 if self.method == "heun" else 2
-        self._stages = [[self.backend.empty(self.shape, self.dtype) for _ in self.species]
-                        for _ in range(n_stages)]
+
+    def _setup_butcher(self, scheme: ExplicitScheme, low: dict[str, eq.Node],
+                       aux_names: tuple[str, ...], zero: frozenset[str]) -> None:
+        """A Butcher tableau (module doc): ``_rate`` stores ``k = f(Y)``; ``_sums[i]``
+        forms ``Y_{i+1} = x + h Σ_j a_{i+1,j} k_j``, the last ``x' = x + h Σ_j b_j k_j``."""
+        self._rate = Program(self.species + aux_names,
+                             tuple(Output(f"_k_{s}", low[s]) for s in self.species), zero)
+        self._k = [self._new_fields() for _ in range(scheme.stages)]
+        self._y_stage = self._new_fields()
+        self._sums = [self._sum_program(row) for row in (*scheme.a[1:], scheme.b)]
+
+    def _sum_program(self, weights: tuple[float, ...]) -> tuple[Program, list[int]]:
+        """The pointwise program ``x + h Σ_j w_j k_j`` (bounds applied) and the stages
+        ``j`` it reads (those with ``w_j ≠ 0``)."""
+        used = [j for j, w in enumerate(weights) if w != 0.0]
+        outputs = []
+        for s in self.species:
+            total: eq.Node | None = None
+            for j in used:
+                term = eq.Bin("*", eq.Num(weights[j]), eq.Ref("species", f"_k{j}_{s}"))
+                total = term if total is None else eq.Bin("+", total, term)
+            expr: eq.Node = eq.Ref("species", s)
+            if total is not None:
+                expr = eq.Bin("+", expr, eq.Bin("*", eq.Ref("builtin", "_h"), total))
+            outputs.append(Output(s, expr, self._bounds(s)))
+        inputs = self.species + tuple(f"_k{j}_{s}" for j in used for s in self.species)
+        return Program(inputs, tuple(outputs)), used
 
     def _setup_imex(self, trees, tol, inline) -> None:
         cache: dict[float, Any] = {}
-        if self.method == "bdf2":
-            # the start step: backward-Euler IMEX over h (its program is ``_euler``)
-            start, self._start_solvers = self._split(trees, inline, self.dt, 1.0, tol, cache)
-            self._setup_explicit_from(start)
+        scheme: ImexScheme = self.scheme
+        # the explicit pass of a one-step scheme, or SBDF2's start step (θ = 1 over h), is
+        # an Euler step of the explicit rest: its program is ``_euler``
+        start, solvers = self._split(trees, inline, self.dt, scheme.theta, tol, cache)
+        self._setup_explicit(start, EULER)
+        if scheme.steps == 2:
+            self._start_solvers = solvers
             explicit, self._solvers = self._split(trees, inline, 2.0 * self.dt / 3.0, 1.0,
                                                   tol, cache)
             self._setup_bdf2(explicit)
         else:
-            explicit, self._solvers = self._split(trees, inline, self.dt,
-                                                  _THETA[self.method], tol, cache)
-            self._setup_explicit_from(explicit)
+            self._solvers = solvers
         # an ensemble solves member by member: the same solves, sweeps and convergence
         # tests as each member alone (one member's field at a time in these buffers)
         one = self.shape if self.members is None else self.shape[1:]
@@ -368,8 +317,6 @@ class ModelStepper(FieldStepper):
         """``(explicit, solvers)`` of an implicit step over ``h`` (module doc): per species
         the explicit rest of its right-hand side and the backward-Euler solvers of ``P``
         (shared through ``cache``, keyed by their ``a``)."""
-        from rdgpu.ops.implicit import ImplicitDiffusion
-
         merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
                       else None) for k, v in self.params.items()}
         explicit: dict[str, eq.Node] = {}
@@ -393,7 +340,7 @@ class ModelStepper(FieldStepper):
                 raise ValueError(
                     f"method {self.method!r}: the bilaplacian of {s!r} has the coefficient "
                     f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
-            a1, a2 = _implicit_factors(alpha, beta, h, theta)
+            a1, a2 = implicit_factors(alpha, beta, h, theta)
             # explicit: f without α Δs and β Δ²s, plus (P − I)x/h = −((a₁+a₂)/h) Δs
             # + (a₁a₂/h) Δ²s = −((a₁+a₂)/h) Δs − β Δ²s: the Δ² terms cancel exactly
             terms: list[eq.Node] = []
@@ -459,13 +406,6 @@ class ModelStepper(FieldStepper):
         #: whether ``_prev`` holds the previous level (else the next step is the start step)
         self._has_prev = False
 
-    def _setup_explicit_from(self, explicit: dict[str, eq.Node]) -> None:
-        method, self.method = self.method, "euler"
-        try:
-            self._setup_explicit(explicit)
-        finally:
-            self.method = method
-
     def _constant(self, c: eq.Node | None, merged, s: str, what: str) -> float:
         if c is None:
             return 0.0
@@ -509,18 +449,19 @@ class ModelStepper(FieldStepper):
     def _step(self) -> None:
         t0, h = self.time, self.dt
         x, y = self._x, self._y
-        if self.method == "euler":
-            self._eval(self._euler, x, y, t0)
-        elif self.method == "heun":
-            (s1,) = self._stages
-            self._eval(self._euler, x, s1, t0)
-            self._eval(self._combine, s1, y, t0 + h, x, 0.5, 0.5)
-        elif self.method == "rk3":
-            s1, s2 = self._stages
-            self._eval(self._euler, x, s1, t0)
-            self._eval(self._combine, s1, s2, t0 + h, x, 0.75, 0.25)
-            self._eval(self._combine, s2, y, t0 + 0.5 * h, x, 1.0 / 3.0, 2.0 / 3.0)
-        elif self.method == "bdf2":
+        scheme = self.scheme
+        if not scheme.implicit:
+            if scheme.shu_osher is None:
+                self._step_butcher(scheme, t0, h)
+                return
+            if not self._stages:  # Euler: the first stage is the step
+                self._eval(self._euler, x, y, t0)
+                return
+            outs = [*self._stages, y]
+            self._eval(self._euler, x, outs[0], t0)
+            for (a, b, c), cur, nxt in zip(scheme.shu_osher, outs[:-1], outs[1:], strict=True):
+                self._eval(self._combine, cur, nxt, t0 + c * h, x, a, b)
+        elif scheme.steps == 2:
             if self._has_prev:
                 self._eval(self._bdf2, x, y, t0, self._prev, b=2.0 * h / 3.0,
                            prepass=self._bdf2_pre, tp=(self.steps_done - 1) * h)
@@ -534,6 +475,18 @@ class ModelStepper(FieldStepper):
         else:
             self._eval(self._euler, x, y, t0)
             self._solve_all(y, self._solvers)
+
+    def _step_butcher(self, scheme: ExplicitScheme, t0: float, h: float) -> None:
+        """One step of a Butcher tableau (module doc): ``Y_1 = x``; per stage ``k_i =
+        f(Y_i, t0 + c_i h)``, then the next ``Y`` (the last: the new fields in ``_y``)."""
+        x = stage = self._x
+        no_pre: tuple[Program | None, list] = (None, [])
+        for i in range(scheme.stages):
+            self._eval(self._rate, stage, self._k[i], t0 + scheme.c[i] * h)
+            program, used = self._sums[i]
+            stage = self._y if i == scheme.stages - 1 else self._y_stage
+            self._eval(program, x, stage, t0, [k for j in used for k in self._k[j]],
+                       prepass=no_pre)
 
     def _solve_all(self, y: list[DeviceArray], solvers: dict[str, list[Any]]) -> None:
         """Every species' implicit solves on ``y``, in place; an ensemble member by
@@ -557,11 +510,16 @@ class ModelStepper(FieldStepper):
             solvers[1].step(self._tmp[0], y)
 
     # ------------------------------------------------------------------ state
+    @property
+    def _multistep(self) -> bool:
+        """Whether the scheme reads the previous level (SBDF2)."""
+        return getattr(self.scheme, "steps", 1) == 2
+
     def get_state(self, history: bool = False) -> dict[str, np.ndarray]:
         """Every species' field; with ``history=True`` also what the next step reads
         besides them: BDF2's previous level as ``"_prev_<species>"`` (once it has one)."""
         out = super().get_state(history)
-        if history and self.method == "bdf2" and self._has_prev:
+        if history and self._multistep and self._has_prev:
             out.update({HISTORY.format(s): p.numpy()
                         for s, p in zip(self.species, self._prev, strict=True)})
         return out
@@ -573,15 +531,25 @@ class ModelStepper(FieldStepper):
         backward-Euler IMEX start step."""
         keys = [HISTORY.format(s) for s in self.species]
         given = [k for k in keys if k in fields]
-        if given and self.method != "bdf2":
+        if given and not self._multistep:
+            multi = [n for n, sc in SCHEMES.items() if getattr(sc, "steps", 1) > 1]
             raise ValueError(f"method {self.method!r} carries no history; {given} are "
-                             "accepted by method 'bdf2' only")
+                             f"accepted by method(s) {', '.join(map(repr, multi))} only")
         if given and len(given) != len(keys):
             raise KeyError(f"set_state: the history needs every one of {keys} or none; "
                            f"missing {sorted(set(keys) - set(given))}")
         super().set_state(fields, steps=steps)
-        if self.method != "bdf2":
+        if not self._multistep:
             return
         for k, p in zip(given, self._prev, strict=False):
             self.backend.copy(self.backend.upload(self._host_field(k, fields[k])), p)
         self._has_prev = bool(given)
+
+
+def _positive_tol(tol: Any) -> float:
+    """The implicit solves' tolerance: a positive finite number (every method takes one;
+    the explicit ones do not use it)."""
+    value = real_number(tol, "tol")
+    if not value > 0:
+        raise ValueError(f"tol must be a positive number, got {tol!r}")
+    return value

@@ -1,0 +1,46 @@
+"""Time stepping: the schemes as data and the steppers that run them.
+
+* :data:`SCHEMES` / :func:`get_scheme` / :func:`register_scheme` — every method by name:
+  explicit Runge-Kutta schemes as Butcher tableaux (``euler``, ``heun``, ``rk3``, ``rk4``)
+  and the IMEX schemes (``imex``, ``imex-cn``, ``bdf2``), each with its order; the data
+  live in :mod:`rdgpu.ir.schemes` (below the model layer, which validates method names);
+* :mod:`~rdgpu.integrators.stepper` — :class:`ModelStepper`, a model's equations stepped on
+  the device by any registered scheme, and :class:`FieldStepper`, what steppers share;
+* :mod:`~rdgpu.integrators.stability` — the largest stable step of a scheme for a model's
+  linear part (:meth:`rdgpu.models.Model.dt_limit`);
+* :mod:`~rdgpu.integrators.allen_cahn` — Allen-Cahn's Strang splitting with its exact
+  Bernoulli substep.
+
+This package sits above :mod:`rdgpu.models` (it compiles a model's equations); the model
+layer reaches it only when a model is stepped (``Model.stepper``, ``Model.dt_limit``).
+"""
+
+from __future__ import annotations
+
+from rdgpu.integrators.allen_cahn import AllenCahnStepper
+from rdgpu.integrators.stability import stability_limit
+from rdgpu.integrators.stepper import HISTORY, FieldStepper, ModelStepper
+from rdgpu.ir.schemes import (
+    SCHEMES,
+    ExplicitScheme,
+    ImexScheme,
+    Scheme,
+    get_scheme,
+    method_names,
+    register_scheme,
+)
+
+__all__ = [
+    "HISTORY",
+    "SCHEMES",
+    "AllenCahnStepper",
+    "ExplicitScheme",
+    "FieldStepper",
+    "ImexScheme",
+    "ModelStepper",
+    "Scheme",
+    "get_scheme",
+    "method_names",
+    "register_scheme",
+    "stability_limit",
+]

@@ -1,0 +1,116 @@
+"""Linear stability of the schemes of :data:`~rdgpu.ir.schemes.SCHEMES`: the largest
+stable step for the linear spatial part of a model (:meth:`rdgpu.models.Model.dt_limit`).
+
+A Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m² B`` (``D``, ``B``
+the coefficient matrices of ``laplace`` and ``laplace(laplace(·))``); the limit is the
+largest step for which every mode that decays in the equations also decays in the scheme,
+``0 < m <= m_max``.  Explicit schemes: forward Euler's bound ``min −2 Re λ/|λ|²`` over the
+eigenvalues of ``A(m)``, which every registered explicit scheme keeps (the stability
+regions of Heun, SSP-RK3 and classic RK4 contain Euler's disk).  IMEX schemes: the spectral
+radius of the scheme's amplification matrix (:func:`_amplification`), found by bisection;
+SBDF2's is the companion matrix of its two-level recursion.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from rdgpu.ir.schemes import ImexScheme, get_scheme
+
+__all__ = ["implicit_factors", "stability_limit"]
+
+
+def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
+    """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
+    ``0 < m <= m_max`` (module doc; ``method`` a name or alias of :data:`SCHEMES`).
+    Remembered per ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per
+    member."""
+    D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)
+    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method)
+
+
+@functools.lru_cache(maxsize=4096)
+def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
+                     method: str) -> float:
+    D = np.frombuffer(d, dtype=np.float64).reshape(shape)
+    B = np.frombuffer(b, dtype=np.float64).reshape(shape)
+    ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
+    scheme = get_scheme(method)
+    if not scheme.implicit:
+        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
+        neg = lam[lam.real < -1e-300]
+        return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
+    def stable(h: float) -> bool:
+        for m in ms:
+            A = -m * D + m * m * B
+            exact = np.max(np.linalg.eigvals(A).real)
+            G = _amplification(D, B, m, h, scheme)
+            rho = np.max(np.abs(np.linalg.eigvals(G)))
+            if exact <= 0 and rho > 1.0 + 1e-9:
+                return False
+        return True
+
+    hi = 1.0 / max(m_max * (np.max(np.abs(D)) + m_max * np.max(np.abs(B))), 1e-300)
+    if not stable(hi):
+        lo = 0.0
+    else:
+        lo = hi
+        while stable(hi * 4.0):
+            hi *= 4.0
+            lo = hi
+            if hi > 1e12:
+                return math.inf
+        hi *= 4.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if stable(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def implicit_factors(alpha: float, beta: float, h: float, theta: float) -> tuple[float, float]:
+    """``(a₁, a₂)`` of ``P = (I − a₁Δ)(I − a₂Δ)`` (module doc)."""
+    if beta == 0.0:
+        return max(theta * h * alpha, 0.0), 0.0
+    prod = -h * beta
+    total = max(2.0 * math.sqrt(prod), theta * h * alpha)
+    disc = math.sqrt(max(total * total - 4.0 * prod, 0.0))
+    return 0.5 * (total + disc), 0.5 * (total - disc)
+
+
+def _amplification(D: np.ndarray, B: np.ndarray, m: float, h: float,
+                   scheme: ImexScheme) -> np.ndarray:
+    """The matrix that advances a Fourier mode (``−Δ`` eigenvalue ``m``) by one step of
+    an implicit ``scheme``: ``n × n`` for a one-step IMEX scheme, the ``2n × 2n``
+    companion matrix of BDF2's recursion ``P x' = (4/3 + 2h'E) x − (1/3 + h'E) x₋``
+    (``h' = 2h/3``, ``P`` the implicit factors' symbol per species, ``E = A(m) + (P −
+    I)/h'`` the explicit linear part)."""
+    if scheme.steps == 1:
+        return _imex_amplification(D, B, m, h, scheme.theta)
+    n = D.shape[0]
+    hb = 2.0 * h / 3.0
+    p = np.empty(n)
+    for i in range(n):
+        a1, a2 = implicit_factors(D[i, i], B[i, i], hb, 1.0)
+        p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
+    E = -m * D + m * m * B + np.diag((p - 1.0) / hb)
+    G = np.zeros((2 * n, 2 * n))
+    G[:n, :n] = (4.0 / 3.0 * np.eye(n) + 2.0 * hb * E) / p[:, None]
+    G[:n, n:] = -(1.0 / 3.0 * np.eye(n) + hb * E) / p[:, None]
+    G[n:, :n] = np.eye(n)
+    return G
+
+
+def _imex_amplification(D, B, m, h, theta):
+    """IMEX's ``G = I + h P⁻¹ A(m)``: the scheme is ``P (x' − x) = h f(x)`` (module doc)."""
+    n = D.shape[0]
+    p = np.empty(n)
+    for i in range(n):
+        a1, a2 = implicit_factors(D[i, i], B[i, i], h, theta)
+        p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
+    return np.eye(n) + h * (-m * D + m * m * B) / p[:, None]

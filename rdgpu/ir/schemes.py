@@ -1,0 +1,154 @@
+"""Time-stepping schemes as data: the registry every stepper of rdgpu reads.
+
+A scheme is what a method name (``options={"method": ...}``, ``--method``) stands for:
+
+* :class:`ExplicitScheme` — an explicit Runge-Kutta method as its Butcher tableau ``(a, b,
+  c)``: ``k_i = f(x + h Σ_j a_ij k_j, t + c_i h)``, ``x' = x + h Σ_i b_i k_i``.  The model
+  layer (:class:`rdgpu.integrators.ModelStepper`) steps any tableau; a scheme that also
+  gives ``shu_osher`` stages is stepped in that form instead (each stage one fused pass
+  ``a·x + b·(y + h f(y, t + c h))`` after a first Euler stage), which is how Euler, Heun
+  and SSP-RK3 have always run (their results stay bit for bit).
+* :class:`ImexScheme` — an implicit-explicit scheme: each species' own linear spatial
+  terms implicit, the rest explicit (:mod:`rdgpu.integrators.stepper`).  ``steps=1``: the
+  θ-scheme ``P (x' − x) = h f(x)`` (``θ = 1`` backward Euler, ``½`` Crank-Nicolson);
+  ``steps=2``: the semi-implicit BDF2 (SBDF2), whose first step is the ``θ = 1`` one.
+
+Adding a scheme is one entry here (or :func:`register_scheme` from a user's script); the
+method lists of the CLI help, the error messages and the docs come from :data:`SCHEMES`.
+This module is pure data (no rdgpu imports): the model layer, the functional API's
+``diffusion_step``, the py-pde steppers and :mod:`rdgpu.integrators` all read it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+
+__all__ = ["EULER", "SCHEMES", "ExplicitScheme", "ImexScheme", "Scheme", "get_scheme",
+           "method_names", "register_scheme"]
+
+
+@dataclass(frozen=True)
+class ExplicitScheme:
+    """An explicit Runge-Kutta scheme (module doc).  ``a``: the strictly lower triangle of
+    the Butcher matrix, row ``i`` with ``i`` entries (row 0 empty); ``order``: its order of
+    accuracy; ``real_stability``: the length of its stability interval on the negative
+    real axis (Euler 2); ``shu_osher``: ``None``, or the stages after the first Euler stage
+    as ``(a, b, c)``, each ``y ← a·x + b·(y + h f(y, t + c h))``."""
+
+    name: str
+    order: int
+    a: tuple[tuple[float, ...], ...]
+    b: tuple[float, ...]
+    c: tuple[float, ...]
+    title: str
+    real_stability: float
+    aliases: tuple[str, ...] = ()
+    shu_osher: tuple[tuple[float, float, float], ...] | None = None
+
+    implicit = False
+
+    def __post_init__(self) -> None:
+        n = len(self.b)
+        if len(self.c) != n or len(self.a) != n or \
+                any(len(row) != i for i, row in enumerate(self.a)):
+            raise ValueError(f"scheme {self.name!r}: a Butcher tableau of {n} stages needs "
+                             f"{n} weights b, {n} nodes c and a strictly lower-triangular a "
+                             "(row i with i entries)")
+
+    @property
+    def stages(self) -> int:
+        return len(self.b)
+
+
+@dataclass(frozen=True)
+class ImexScheme:
+    """An implicit-explicit scheme (module doc): ``theta`` of its one-step form (for
+    ``steps=2``, the start step's), ``steps`` the time levels it reads."""
+
+    name: str
+    order: int
+    theta: float
+    steps: int
+    title: str
+    aliases: tuple[str, ...] = ()
+
+    implicit = True
+
+    def __post_init__(self) -> None:
+        if self.steps not in (1, 2) or not 0.0 <= self.theta <= 1.0:
+            raise ValueError(f"scheme {self.name!r}: an IMEX scheme has steps 1 (the "
+                             "θ-scheme) or 2 (SBDF2) and 0 <= theta <= 1, got steps="
+                             f"{self.steps!r}, theta={self.theta!r}")
+
+
+Scheme = ExplicitScheme | ImexScheme
+
+#: every method by its canonical name, in the order the help lists them
+SCHEMES: dict[str, Scheme] = {}
+_ALIASES: dict[str, str] = {}
+
+
+def register_scheme(scheme: Scheme, *, replace: bool = False) -> Scheme:
+    """Add ``scheme`` to :data:`SCHEMES` (its name and aliases become method names of every
+    model).  A name already taken is refused unless ``replace``."""
+    if not isinstance(scheme, (ExplicitScheme, ImexScheme)):
+        raise TypeError(f"a scheme is an ExplicitScheme or an ImexScheme, got "
+                        f"{type(scheme).__name__}")
+    names = (scheme.name, *scheme.aliases)
+    bad = [n for n in names if not isinstance(n, str) or not n or n != n.lower()]
+    if bad:
+        raise ValueError(f"scheme names and aliases are non-empty lower-case strings (method "
+                         f"names match in any case), got {bad}")
+    taken = sorted(n for n in names if n in SCHEMES or n in _ALIASES)
+    if taken and not replace:
+        raise ValueError(f"method name(s) {taken} are taken; pass replace=True to replace "
+                         "a scheme")
+    SCHEMES[scheme.name] = scheme
+    for alias in scheme.aliases:
+        _ALIASES[alias] = scheme.name
+    return scheme
+
+
+def get_scheme(name: str, allowed: tuple[str, ...] | None = None) -> Scheme:
+    """The scheme of method ``name`` (a canonical name or an alias, any case); ``allowed``:
+    the canonical names accepted (default: every registered one)."""
+    key = str(name).lower()
+    key = key if key in SCHEMES else _ALIASES.get(key, key)
+    names = method_names() if allowed is None else allowed
+    if key not in SCHEMES or key not in names:
+        raise ValueError(f"unknown method {name!r}; allowed: {', '.join(names)}")
+    return SCHEMES[key]
+
+
+def method_names(implicit: bool | None = None) -> tuple[str, ...]:
+    """The canonical method names, in registry order (``implicit``: only those that solve
+    implicitly, or only the explicit ones)."""
+    return tuple(n for n, s in SCHEMES.items() if implicit is None or s.implicit == implicit)
+
+
+def _q(*xs: int | str) -> tuple[float, ...]:
+    """Exact rationals, written as text (``"1/6"``), as floats."""
+    return tuple(float(Fraction(x)) for x in xs)
+
+
+#: forward Euler: the default method, and the explicit pass of every IMEX step
+EULER = register_scheme(ExplicitScheme(
+    "euler", 1, a=((),), b=(1.0,), c=(0.0,), title="forward Euler",
+    real_stability=2.0, aliases=("explicit", "forward-euler"), shu_osher=()))
+register_scheme(ExplicitScheme(
+    "heun", 2, a=((), (1.0,)), b=(0.5, 0.5), c=(0.0, 1.0), title="Heun (SSP-RK2)",
+    real_stability=2.0, aliases=("rk2",), shu_osher=((0.5, 0.5, 1.0),)))
+register_scheme(ExplicitScheme(
+    "rk3", 3, a=((), (1.0,), (0.25, 0.25)), b=_q("1/6", "1/6", "2/3"), c=(0.0, 1.0, 0.5),
+    title="Shu-Osher SSP-RK3", real_stability=2.5127453266183286, aliases=("ssprk3",),
+    shu_osher=((0.75, 0.25, 1.0), (1.0 / 3.0, 2.0 / 3.0, 0.5))))
+register_scheme(ExplicitScheme(
+    "rk4", 4, a=((), (0.5,), (0.0, 0.5), (0.0, 0.0, 1.0)), b=_q("1/6", "1/3", "1/3", "1/6"),
+    c=(0.0, 0.5, 0.5, 1.0), title="classic Runge-Kutta", real_stability=2.785293563405282))
+register_scheme(ImexScheme(
+    "imex", 1, theta=1.0, steps=1, title="IMEX backward Euler", aliases=("imex-be",)))
+register_scheme(ImexScheme(
+    "imex-cn", 1, theta=0.5, steps=1, title="IMEX Crank-Nicolson diffusion"))
+register_scheme(ImexScheme(
+    "bdf2", 2, theta=1.0, steps=2, title="semi-implicit BDF2 (SBDF2)", aliases=("sbdf2",)))
