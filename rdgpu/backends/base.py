@@ -23,11 +23,15 @@ import threading
 from abc import ABC, abstractmethod
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.domains.boundary import GridBC
+
+if TYPE_CHECKING:
+    from rdgpu.backends.target import FusedPass, Target
+    from rdgpu.ir.program import Program
 
 Scalar = float
 FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
@@ -85,9 +89,16 @@ class DeviceCSR:
 
 
 class Backend(ABC):
-    """One compute backend on one device."""
+    """One compute backend on one device.
 
-    #: "numpy", "warp" or "opencl"
+    A backend stores arrays (``upload``, ``download``, ``empty``, ``copy``), reduces them
+    (``max_abs``, ``sum_squares``) and runs kernels: the hand-written families
+    (``laplacian``, ``gray_scott``...) and the model layer's generated passes
+    (:meth:`fused_pass`; :meth:`blocked_pass` for temporal blocking).  A backend that lacks
+    one raises an error naming itself and what it lacks.  A new backend registers itself
+    with :func:`rdgpu.backends.registry.register_backend`."""
+
+    #: the name it is registered under ("numpy", "warp", "opencl"...)
     name: str = ""
 
     #: human-readable device description, e.g. "cpu" or "pthread-AMD EPYC (PoCL 3.0)"
@@ -107,6 +118,10 @@ class Backend(ABC):
             raise ResourceLimitError(
                 f"{what} of {dims} = {n:,} cells is too large for the {self.name} kernels: "
                 f"they index with 32-bit ints, at most {self.max_cells:,} cells")
+
+    def _lacks(self, kernel: str) -> str:
+        return (f"the {self.name!r} backend ({type(self).__name__}) has no {kernel} kernel; "
+                "use a backend that has (rdgpu.available_backends())")
 
     # ------------------------------------------------------------------ memory
     @abstractmethod
@@ -191,6 +206,56 @@ class Backend(ABC):
     def synchronize(self) -> None:  # noqa: B027 - optional hook
         """Wait until every queued kernel has finished (for timing)."""
 
+    @property
+    def spec(self) -> str:
+        """The spec that gets this backend again (``get_backend(spec)``), as checkpoints and
+        data files record it: the name, and the device where the name alone would not
+        choose it (``"warp:cuda:0"``)."""
+        return self.name
+
+    def reshaped(self, d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
+        """The same buffer seen with another shape of the same size (no copy)."""
+        if tuple(d.shape) == tuple(shape):
+            return d
+        return DeviceArray(d.backend, d.handle.reshape(shape), tuple(shape), d.dtype)
+
+    # ------------------------------------------------------------------ generated passes
+    def fused_pass(self, program: Program, target: Target, fields: frozenset[str],
+                   member: frozenset[str]) -> FusedPass:
+        """``program`` compiled for ``target`` (a :class:`~rdgpu.backends.target.FusedPass`,
+        cached by the backend): ``fields`` are the parameters given as field buffers,
+        ``member`` those given per ensemble member.  A backend without kernels of its own
+        may return :class:`~rdgpu.backends.target.HostFusedPass` (the NumPy semantics on the
+        host); this default refuses."""
+        raise NotImplementedError(
+            f"the {self.name!r} backend ({type(self).__name__}) cannot run a model's fused "
+            "pass: it does not implement Backend.fused_pass(program, target, fields, "
+            "member); implement it, or return rdgpu.backends.target.HostFusedPass(program) "
+            "from it to run the passes on the host")
+
+    def blocked_pass_support(self) -> str | None:
+        """Why this backend cannot run temporally blocked Euler passes
+        (:meth:`blocked_pass`), or None when it can."""
+        return f"the {self.name} backend has no blocked kernel (only opencl has)"
+
+    def blocked_pass(self, program: Program, target: Target, *, steps: int, rows: int,
+                     items: int) -> Any:
+        """A blocked pass of an explicit Euler ``program`` on a 2-D grid ``target``
+        (:mod:`rdgpu.models.blocking`): ``steps`` steps per pass in bands of ``rows`` rows,
+        ``items`` work-items; an object with ``run(x, y, params, scalars, time, times)``."""
+        raise NotImplementedError(self.blocked_pass_support() or
+                                  f"the {self.name} backend has no blocked kernel")
+
+    @property
+    def on_cpu(self) -> bool:
+        """Whether the kernels run on the host's CPU."""
+        return True
+
+    @property
+    def compute_units(self) -> int:
+        """How many cores (compute units) the device runs kernels on."""
+        return 1
+
     # ------------------------------------------------------------------ reductions
     @abstractmethod
     def max_abs(self, u: DeviceArray) -> float:
@@ -230,13 +295,12 @@ class Backend(ABC):
             raise TypeError(f"{what} takes float32 or float64 arrays, got {u.dtype}")
 
     # ------------------------------------------------------------------ grid kernels
-    @abstractmethod
     def laplacian(
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
         """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
+        raise NotImplementedError(self._lacks('laplacian'))
 
-    @abstractmethod
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
         """``out = Δ_Γ u``, the Laplace-Beltrami operator of a graph surface over a periodic
@@ -247,6 +311,7 @@ class Backend(ABC):
         surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
         dtype, e.g. from :meth:`upload_metric` (upload once, reuse).  Units: ``[u]/length²``
         when the coefficients are those of spacings in length units."""
+        raise NotImplementedError(self._lacks('metric_laplacian'))
 
     def upload_metric(self, surface: Any, dtype: Any) -> tuple[DeviceArray, ...]:
         """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
@@ -298,13 +363,12 @@ class Backend(ABC):
                                  f"u {u.shape} {u.dtype} needs {u.shape[-2:]} {u.dtype}")
         return u.shape[0] if len(u.shape) == 3 else 1
 
-    @abstractmethod
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
         Works on arrays of any shape (grid or mesh vertices)."""
+        raise NotImplementedError(self._lacks('bernoulli'))
 
-    @abstractmethod
     def gray_scott(
         self,
         u: DeviceArray,
@@ -322,8 +386,8 @@ class Backend(ABC):
         bc: GridBC,
     ) -> None:
         """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3)."""
+        raise NotImplementedError(self._lacks('gray_scott'))
 
-    @abstractmethod
     def sor_half_sweep(
         self,
         c: DeviceArray,
@@ -344,8 +408,8 @@ class Backend(ABC):
 
         ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
         colour 0 overwrites it, colour 1 takes the max with what is there."""
+        raise NotImplementedError(self._lacks('sor_half_sweep'))
 
-    @abstractmethod
     def levelset_step(
         self,
         phi: DeviceArray,
@@ -360,8 +424,8 @@ class Backend(ABC):
     ) -> None:
         """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5) on
         a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid."""
+        raise NotImplementedError(self._lacks('levelset_step'))
 
-    @abstractmethod
     def reinit_step(
         self,
         phi: DeviceArray,
@@ -380,17 +444,17 @@ class Backend(ABC):
         ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (equations §5); with ``subcell``,
         cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py).
         A 3-D ``[nz, ny, nx]`` grid needs ``dz``."""
+        raise NotImplementedError(self._lacks('reinit_step'))
 
     # ------------------------------------------------------------------ CSR / mesh kernels
     # A CSR kernel's vector operands may have any shape: they are read as flat C-order
     # vectors (so a grid field [ny, nx] is the vector of ``u.ravel()``).  Every row is
     # summed in index order in the matrix's dtype (kernels/mesh/reference.py).
 
-    @abstractmethod
     def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
         """``y = A x`` for any CSR matrix (square or not; empty rows give 0)."""
+        raise NotImplementedError(self._lacks('spmv'))
 
-    @abstractmethod
     def mesh_gray_scott(
         self,
         L: DeviceCSR,
@@ -408,8 +472,8 @@ class Backend(ABC):
         """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (equations §3, §6):
         ``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``.
         ``F``, ``k``: numbers or DeviceArrays of u's shape."""
+        raise NotImplementedError(self._lacks('mesh_gray_scott'))
 
-    @abstractmethod
     def mesh_diffusion(
         self,
         L: DeviceCSR,
@@ -422,8 +486,8 @@ class Backend(ABC):
     ) -> None:
         """``out = u + dt (D (L u) + source)`` (``source`` a number or a DeviceArray of u's
         shape): the explicit diffusion step of Allen-Cahn with its ``−b/ε²`` source."""
+        raise NotImplementedError(self._lacks('mesh_diffusion'))
 
-    @abstractmethod
     def csr_sor_colour(
         self,
         A: DeviceCSR,
@@ -439,6 +503,7 @@ class Backend(ABC):
         ``x_i ← (1 − ω) x_i + ω (rhs_i − Σ_{j≠i} a_ij x_j) / a_ii`` (``a_ii`` from
         ``A.diagonal``) and ``change[i] = |Δx_i|``; other entries of ``change`` are left as
         they are.  A is square; x, rhs and change have n elements."""
+        raise NotImplementedError(self._lacks('csr_sor_colour'))
 
     # ------------------------------------------------------------------ DLA growth
     # (kernels/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)

@@ -44,6 +44,7 @@ from rdgpu.backends.base import (
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.backends.opencl_codegen import OpenCLBlockedPass, OpenCLFusedPass
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module, read_source
@@ -328,6 +329,41 @@ class OpenCLBackend(Backend):
 
     def __repr__(self) -> str:
         return f"OpenCLBackend({self.device!r}, layout={self.layout!r})"
+
+    # ------------------------------------------------------------------ generated passes
+    def reshaped(self, d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
+        if tuple(d.shape) == tuple(shape):
+            return d
+        return DeviceArray(d.backend, d.handle, tuple(shape), d.dtype)  # a Buffer has no shape
+
+    def fused_pass(self, program, target, fields, member) -> OpenCLFusedPass:
+        """The program's ``rd_program`` kernel (cached in the program)."""
+        key = ("opencl pass", fields, member)
+        found = program.cache.get(key)
+        if found is None:
+            found = program.cache[key] = OpenCLFusedPass(program, fields, member)
+        return found
+
+    def blocked_pass_support(self) -> str | None:
+        if self.layout != "row":
+            return (f"the OpenCL backend runs the {self.layout} layout; blocked passes need "
+                    "the row layout (CPU devices)")
+        return None
+
+    def blocked_pass(self, program, target, *, steps: int, rows: int,
+                     items: int) -> OpenCLBlockedPass:
+        reason = self.blocked_pass_support()
+        if reason is not None:
+            raise NotImplementedError(reason)
+        return OpenCLBlockedPass(program, target, steps, rows, items)
+
+    @property
+    def on_cpu(self) -> bool:
+        return bool(self.cl_device.type & self._cl.device_type.CPU)
+
+    @property
+    def compute_units(self) -> int:
+        return max(1, int(self.cl_device.max_compute_units))
 
     # ------------------------------------------------------------------ programs
     def _program_source(self) -> str:

@@ -752,9 +752,7 @@ def _split_params(params: Mapping[str, Any]) -> tuple[dict, dict[str, np.ndarray
 
 
 def _backend_spec(be: Any) -> str:
-    if be.name == "warp":
-        return "warp:" + str(be.device).split(" ")[0]
-    return be.name
+    return be.spec
 
 
 def _why(exc: BaseException) -> str:
