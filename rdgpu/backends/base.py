@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.domains.boundary import GridBC
+from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS
 
 if TYPE_CHECKING:
     from rdgpu.backends.target import FusedPass, Target
@@ -36,9 +37,7 @@ if TYPE_CHECKING:
 Scalar = float
 FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
 
-_REAL_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
-#: the metric coefficient arrays, in the kernels' argument order (kernels/metric/reference.py)
-METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
+_REAL_DTYPES = REALS
 #: how many (surface, dtype) uploads ``Backend.upload_metric`` keeps per backend
 _METRIC_CACHE = 8
 _METRIC_LOCK = threading.Lock()
@@ -260,7 +259,7 @@ class Backend(ABC):
     @abstractmethod
     def max_abs(self, u: DeviceArray) -> float:
         """``max |u|`` over every element of ``u`` (float32 or float64, any shape), as a
-        host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (kernels/reduce): exact,
+        host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (families/reduce): exact,
         NaN if any element is NaN, ``inf`` if any is ±inf and none NaN, subnormals count
         (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
         queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
@@ -268,9 +267,9 @@ class Backend(ABC):
     @abstractmethod
     def sum_squares(self, u: DeviceArray) -> float:
         """``Σ u²`` over every element of ``u`` (float32 or float64, any shape), as a host
-        float (kernels/reduce), for mean-square convergence tests.  Accumulated in float64
+        float (families/reduce), for mean-square convergence tests.  Accumulated in float64
         for both dtypes (a float32 square is exact in float64): the device sums chunks in
-        a fixed order (see ``kernels/reduce``), the host adds the partials in float64, so
+        a fixed order (see ``families/reduce``), the host adds the partials in float64, so
         the result differs from NumPy's ``np.sum(u.astype(np.float64) ** 2)`` by rounding
         only (relative ``(n − 1)·2⁻⁵³`` at most, plus one rounding per float64 square) and
         is the same bits for the same array on the same backend.  NaN if any element is
@@ -305,7 +304,7 @@ class Backend(ABC):
                          out: DeviceArray) -> None:
         """``out = Δ_Γ u``, the Laplace-Beltrami operator of a graph surface over a periodic
         grid (``rdgpu.domains.graph_surface``; the conservative 9-point form of
-        ``kernels/metric/reference.py``, in its evaluation order).
+        ``families/metric/reference.py``, in its evaluation order).
 
         ``u``, ``out``: ``[ny, nx]``, or ``[nm, ny, nx]`` for ``nm`` members sharing one
         surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
@@ -404,7 +403,7 @@ class Backend(ABC):
         """Update in place the cells of one colour (``(i + j) % 2 == color``) that are not
         ``fixed`` (uint8 mask, 1 = held) by SOR (equations §4).  ``rhs`` is ``f`` or None (0).
         The update is ``(1 − ω) c + ω (wx (E + W) + wy (N + S) − wf f)`` with the weights of
-        ``kernels/sor/reference.py`` (``weights``; ``dy = inf`` gives ``wy = 0``).
+        ``families/sor/reference.py`` (``weights``; ``dy = inf`` gives ``wy = 0``).
 
         ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
         colour 0 overwrites it, colour 1 takes the max with what is there."""
@@ -449,7 +448,7 @@ class Backend(ABC):
     # ------------------------------------------------------------------ CSR / mesh kernels
     # A CSR kernel's vector operands may have any shape: they are read as flat C-order
     # vectors (so a grid field [ny, nx] is the vector of ``u.ravel()``).  Every row is
-    # summed in index order in the matrix's dtype (kernels/mesh/reference.py).
+    # summed in index order in the matrix's dtype (families/mesh/reference.py).
 
     def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
         """``y = A x`` for any CSR matrix (square or not; empty rows give 0)."""
@@ -506,13 +505,13 @@ class Backend(ABC):
         raise NotImplementedError(self._lacks('csr_sor_colour'))
 
     # ------------------------------------------------------------------ DLA growth
-    # (kernels/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)
+    # (families/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)
     def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                     row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
         """``weights`` (int64 ``[ny, nx]``) = the quantised candidate weights
         ``trunc(min(max(c, 0), 1)^η · 2^40)`` of the empty cells (``state`` uint8 0) with a
         4-neighbour in the object (state 1; x wraps if ``wrap_x``), 0 elsewhere;
-        ``row_sums`` (int64 ``[ny]``) their exact row sums (kernels/dla/reference.py)."""
+        ``row_sums`` (int64 ``[ny]``) their exact row sums (families/dla/reference.py)."""
         raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
 
     def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
@@ -530,7 +529,7 @@ class Backend(ABC):
         """Steps ``t0 … t0 + n_steps − 1`` of random-walker DLA, in place on the grid
         (uint8), ``arrival`` and the walkers (``pos`` int32 ``[W, 2]``, ``want`` int32
         ``[W]``, ``state`` int32 ``[4]``): each step moves every walker once, then adds
-        the cells of those that stick in walker id order (kernels/walkers/reference.py)."""
+        the cells of those that stick in walker id order (families/walkers/reference.py)."""
         raise NotImplementedError(f"the {self.name} backend has no random-walker kernels")
 
     def _check_sor(self, A, x, rhs, rows, change) -> None:

@@ -143,7 +143,7 @@ class NumpyBackend(Backend):
         x.handle.reshape(-1)[r] = new[r]
         change.handle.reshape(-1)[r] = delta[r]
 
-    # DLA growth (kernels/dla)
+    # DLA growth (families/dla)
     def dla_weights(self, c, state, weights, row_sums, *, eta, wrap_x):
         q, sums = load_module("dla", "reference.py").dla_weights(
             c.handle, state.handle, eta, wrap_x)
@@ -161,7 +161,7 @@ class NumpyBackend(Backend):
         c.handle[row, j] = 0
         arrival.handle[row, j] = step
 
-    # random-walker DLA (kernels/walkers)
+    # random-walker DLA (families/walkers)
     def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
                      n_steps, seed, geometry, thresh, margin, particles, limit):
         ref = self._walk

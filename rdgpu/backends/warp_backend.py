@@ -1,10 +1,10 @@
-"""The NVIDIA Warp backend: the kernels of ``kernels/*/warp_kernels.py`` on a Warp device.
+"""The NVIDIA Warp backend: the kernels of ``families/*/warp_kernels.py`` on a Warp device.
 
 Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
 
 * on a CPU device, ``rows``: one Warp thread per row with a serial inner loop over the
   columns, which indexes flat views of the arrays so that LLVM vectorises it (see
-  ``kernels/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
+  ``families/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
   a CPU launch as one serial loop on one core and releases the GIL while it runs, so a
   large grid is cut into ``os.cpu_count()`` row chunks launched at the same time from a
   thread pool (one chunk in the calling thread);
@@ -13,7 +13,7 @@ Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell form
 Subnormals are flushed (docs/equations.md,
 :mod:`rdgpu.core.fpenv`): every kernel flushes what it writes,
 and the CPU shapes run their bodies with the x86 FTZ/DAZ bits on, restoring each thread's
-MXCSR at the end (see ``kernels/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
+MXCSR at the end (see ``families/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
 are zeroed, so ``warp.config.verify_fp`` runs clean.
 
 Each kernel family is one Warp module holding the float32 and float64 versions of its
@@ -40,13 +40,13 @@ import numpy as np
 from rdgpu.backends.base import (
     Backend,
     DeviceArray,
-    DeviceCSR,
     FieldOrScalar,
     _check_range,
     max_abs_of_partials,
     sum_of_partials,
 )
 from rdgpu.backends.warp_codegen import WarpFusedPass
+from rdgpu.backends.warp_mesh import WarpMeshKernels
 from rdgpu.backends.warp_runtime import (
     _REAL,
     _WARP_LOCK,
@@ -57,7 +57,6 @@ from rdgpu.backends.warp_runtime import (
     REDUCE_SPLIT_BYTES,
     REDUCE_THREADS,
     REDUCE_THREADS_2,
-    ROW_BLOCK,
     _cpu_count,
     _import_warp,
     _native_stderr_silenced,
@@ -69,7 +68,7 @@ from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module
 
 
-class WarpBackend(Backend):
+class WarpBackend(WarpMeshKernels, Backend):
     """rdgpu kernels on one Warp device (``"cpu"``, ``"cuda"``, ``"cuda:0"``, …).
 
     Safe to drive from several Python threads at once (module doc); it owns a small
@@ -586,103 +585,6 @@ class WarpBackend(Backend):
             *self._bc_args(bc, t),
         ]
         self._run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
-
-    # ------------------------------------------------------------------ CSR / mesh kernels
-    def _run_rows(self, kernels, n_rows: int, nnz: int, args: list) -> None:
-        """Launch a ``(blocks, rows)`` CSR kernel pair over ``n_rows`` rows: one thread per
-        row on CUDA; on the CPU one thread per ``ROW_BLOCK`` rows, in row chunks side by
-        side (``_run_split``) once the matrix is large."""
-        if n_rows == 0:
-            return
-        blocks, rows = kernels
-        if self._cells:
-            self._launch(rows, n_rows, args, 0)
-            return
-        self._run_split(blocks, -(-n_rows // ROW_BLOCK), nnz + n_rows,
-                        [*args, n_rows, ROW_BLOCK])
-
-    def _csr_handles(self, A: DeviceCSR) -> list:
-        return [A.indptr.handle, A.indices.handle, A.data.handle]
-
-    def _vparam(self, p: FieldOrScalar, like: DeviceArray, what: str):
-        """``(value, is_field)`` of a per-vertex parameter: a flat array or a scalar."""
-        if isinstance(p, DeviceArray):
-            if p.size != like.size or p.dtype != like.dtype:
-                raise ValueError(f"{what} field must have {like.size} elements of "
-                                 f"{like.dtype}, got {p.shape} {p.dtype}")
-            return self._flat(p), True
-        return like.dtype.type(p), False
-
-    def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
-        self._check_csr(A, x, y, "spmv")
-        kernels = self._family("mesh").SPMV[A.dtype]
-        args = [*self._csr_handles(A), self._flat(x), self._flat(y)]
-        self._run_rows(kernels, A.shape[0], A.nnz, args)
-
-    def mesh_gray_scott(
-        self,
-        L: DeviceCSR,
-        u: DeviceArray,
-        v: DeviceArray,
-        u_out: DeviceArray,
-        v_out: DeviceArray,
-        *,
-        Du: float,
-        Dv: float,
-        F: FieldOrScalar,
-        k: FieldOrScalar,
-        dt: float,
-    ) -> None:
-        for a in (u, v, u_out, v_out):
-            self._check_csr(L, u, a, "mesh_gray_scott")
-        t = u.dtype.type
-        f_val, f_field = self._vparam(F, u, "mesh_gray_scott F")
-        k_val, k_field = self._vparam(k, u, "mesh_gray_scott k")
-        kernels = self._family("mesh").GRAY_SCOTT[(u.dtype, f_field, k_field)]
-        args = [
-            *self._csr_handles(L), self._flat(u), self._flat(v), self._flat(u_out),
-            self._flat(v_out), f_val, k_val, t(Du), t(Dv), t(dt),
-        ]
-        self._run_rows(kernels, L.shape[0], L.nnz, args)
-
-    def mesh_diffusion(
-        self,
-        L: DeviceCSR,
-        u: DeviceArray,
-        out: DeviceArray,
-        *,
-        D: float,
-        dt: float,
-        source: FieldOrScalar = 0.0,
-    ) -> None:
-        self._check_csr(L, u, out, "mesh_diffusion")
-        t = u.dtype.type
-        s_val, s_field = self._vparam(source, u, "mesh_diffusion source")
-        kernels = self._family("mesh").DIFFUSION[(u.dtype, s_field)]
-        args = [*self._csr_handles(L), self._flat(u), self._flat(out), t(D), s_val, t(dt)]
-        self._run_rows(kernels, L.shape[0], L.nnz, args)
-
-    def csr_sor_colour(
-        self,
-        A: DeviceCSR,
-        x: DeviceArray,
-        rhs: DeviceArray,
-        rows: DeviceArray,
-        change: DeviceArray,
-        *,
-        omega: float,
-    ) -> None:
-        self._check_sor(A, x, rhs, rows, change)
-        t = x.dtype.type
-        om = t(omega)
-        kernels = self._family("mesh").SOR[x.dtype]
-        args = [
-            *self._csr_handles(A), A.diagonal.handle, self._flat(x), self._flat(rhs),
-            rows.handle, self._flat(change), om, t(1) - om,
-        ]
-        n = rows.size
-        # work: about nnz · n / n_rows matrix entries
-        self._run_rows(kernels, n, A.nnz * n // max(A.shape[0], 1), args)
 
     # ------------------------------------------------------------------ DLA growth
     def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
