@@ -31,7 +31,7 @@ from rdgpu.domains.boundary import GridBC
 from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS
 
 if TYPE_CHECKING:
-    from rdgpu.backends.target import FusedPass, Target
+    from rdgpu.backends.target import BlockedPass, FusedPass, Target
     from rdgpu.ir.program import Program
 
 Scalar = float
@@ -238,10 +238,10 @@ class Backend(ABC):
         return f"the {self.name} backend has no blocked kernel (only opencl has)"
 
     def blocked_pass(self, program: Program, target: Target, *, steps: int, rows: int,
-                     items: int) -> Any:
+                     items: int) -> BlockedPass:
         """A blocked pass of an explicit Euler ``program`` on a 2-D grid ``target``
         (:mod:`rdgpu.models.blocking`): ``steps`` steps per pass in bands of ``rows`` rows,
-        ``items`` work-items; an object with ``run(x, y, params, scalars, time, times)``."""
+        ``items`` work-items (a :class:`~rdgpu.backends.target.BlockedPass`)."""
         raise NotImplementedError(self.blocked_pass_support() or
                                   f"the {self.name} backend has no blocked kernel")
 

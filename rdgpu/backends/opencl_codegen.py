@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
-from rdgpu.backends.target import FusedPass, Target, arguments
+from rdgpu.backends.target import BlockedPass, FusedPass, Target, arguments
 from rdgpu.families import read_source
 from rdgpu.ir.equations import to_text
 from rdgpu.ir.names import ident
@@ -310,7 +310,7 @@ class OpenCLFusedPass(FusedPass):
         be._launch_grid(k, ny * nz * nm, args)
 
 
-class OpenCLBlockedPass:
+class OpenCLBlockedPass(BlockedPass):
     """``steps`` Euler steps of ``program`` per pass over a 2-D grid ``target``, in bands of
     ``rows`` rows over ``items`` work-items, each with its scratch rings
     (:mod:`rdgpu.models.blocking`; :meth:`OpenCLBackend.blocked_pass`)."""

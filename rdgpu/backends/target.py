@@ -22,7 +22,8 @@ from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS, PerMember, Program
 from rdgpu.ir.reference import run_numpy
 from rdgpu.ir.stencils import check_stencil
 
-__all__ = ["FusedPass", "HostFusedPass", "Target", "arguments", "host_params"]
+__all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
+           "host_params"]
 
 
 class Target(Layout):
@@ -79,6 +80,18 @@ class FusedPass(ABC):
         ``target.field_shape``; ``params`` maps each parameter to a number, a DeviceArray
         (the names in ``fields``) or a :class:`~rdgpu.ir.program.PerMember` (``member``);
         ``scalars`` the builtins (``_h``...)."""
+
+
+class BlockedPass(ABC):
+    """``steps`` explicit Euler steps of one program per pass over a 2-D grid, in bands of
+    rows (temporal blocking, :mod:`rdgpu.models.blocking`; ``Backend.blocked_pass``)."""
+
+    @abstractmethod
+    def run(self, x: Sequence[DeviceArray], y: Sequence[DeviceArray],
+            params: Mapping[str, Any], fields: frozenset[str], member: frozenset[str],
+            scalars: Mapping[str, float], time: float, times: np.ndarray | None) -> None:
+        """One pass from ``x`` (at ``time``) into ``y``; ``times``: the ``steps`` step times
+        where they changed since the last pass (else None)."""
 
 
 def host_params(program: Program, params: Mapping[str, Any], get) -> dict[str, Any]:
