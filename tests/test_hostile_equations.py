@@ -146,8 +146,8 @@ def test_generated_sources_never_rebind_a_name(kind):
     import ast
     import re
 
-    from rdgpu.models.blocking import blocked_source
-    from rdgpu.models.compiler import opencl_source, warp_source
+    from rdgpu.backends.opencl_codegen import blocked_source, opencl_source
+    from rdgpu.backends.warp_codegen import warp_source
 
     st = COLLIDING.stepper(Grid((4, 4)), {}, dt=0.01, backend="numpy", method="rk3")
     fields = frozenset({"F", "F_1d", "pf_F"})

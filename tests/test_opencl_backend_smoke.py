@@ -19,6 +19,7 @@ from rdgpu.domains.boundary import parse_bc  # noqa: E402
 from rdgpu.families import load_module  # noqa: E402
 
 opencl_backend = pytest.importorskip("rdgpu.backends.opencl_backend")
+opencl_devices = pytest.importorskip("rdgpu.backends.opencl_devices")
 OpenCLBackend = opencl_backend.OpenCLBackend
 
 try:
@@ -257,13 +258,13 @@ def test_default_device_skips_a_driver_that_cannot_compile(monkeypatch):
     first = devices[0][2]
     probed = {d.int_ptr: None for _k, _p, d in devices}  # pretend the others work
     probed[first.int_ptr] = "error: unknown target CPU"
-    monkeypatch.setattr(opencl_backend, "_PROBED", probed)
+    monkeypatch.setattr(opencl_devices, "_PROBED", probed)
     if len(devices) > 1:
         _platform, chosen = opencl_backend._select_device(None)
         assert chosen.int_ptr != first.int_ptr
     with pytest.raises(BackendUnavailableError, match="cannot compile kernels.*unknown target"):
         opencl_backend._select_device(devices[0][0])
-    monkeypatch.setattr(opencl_backend, "_PROBED",
+    monkeypatch.setattr(opencl_devices, "_PROBED",
                         {d.int_ptr: "error: unknown target CPU" for _k, _p, d in devices})
     with pytest.raises(BackendUnavailableError, match="no OpenCL device here can compile"):
         opencl_backend._select_device(None)

@@ -499,8 +499,8 @@ def test_warp_cuda_code_compiles():
     if not hasattr(wp, "compile_aot_module") or not archs:
         pytest.skip("this Warp cannot compile CUDA code here (no NVRTC)")
     from rdgpu.backends.warp_backend import WarpBackend
+    from rdgpu.backends.warp_codegen import cache_dir, warp_module, warp_source
     from rdgpu.models import MODELS
-    from rdgpu.models.compiler import cache_dir, warp_module, warp_source
 
     arch = 90 if 90 in archs else archs[0]
     cpu = WarpBackend("cpu")

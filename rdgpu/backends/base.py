@@ -23,19 +23,22 @@ import threading
 from abc import ABC, abstractmethod
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.domains.base import is_domain
 from rdgpu.domains.boundary import GridBC
+from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS
+
+if TYPE_CHECKING:
+    from rdgpu.backends.target import BlockedPass, FusedPass, Target
+    from rdgpu.ir.program import Program
 
 Scalar = float
 FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
 
-_REAL_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
-#: the metric coefficient arrays, in the kernels' argument order (kernels/metric/reference.py)
-METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
+_REAL_DTYPES = REALS
 #: how many (surface, dtype) uploads ``Backend.upload_metric`` keeps per backend
 _METRIC_CACHE = 8
 _METRIC_LOCK = threading.Lock()
@@ -86,9 +89,16 @@ class DeviceCSR:
 
 
 class Backend(ABC):
-    """One compute backend on one device."""
+    """One compute backend on one device.
 
-    #: "numpy", "warp" or "opencl"
+    A backend stores arrays (``upload``, ``download``, ``empty``, ``copy``), reduces them
+    (``max_abs``, ``sum_squares``) and runs kernels: the hand-written families
+    (``laplacian``, ``gray_scott``...) and the model layer's generated passes
+    (:meth:`fused_pass`; :meth:`blocked_pass` for temporal blocking).  A backend that lacks
+    one raises an error naming itself and what it lacks.  A new backend registers itself
+    with :func:`rdgpu.backends.registry.register_backend`."""
+
+    #: the name it is registered under ("numpy", "warp", "opencl"...)
     name: str = ""
 
     #: human-readable device description, e.g. "cpu" or "pthread-AMD EPYC (PoCL 3.0)"
@@ -108,6 +118,10 @@ class Backend(ABC):
             raise ResourceLimitError(
                 f"{what} of {dims} = {n:,} cells is too large for the {self.name} kernels: "
                 f"they index with 32-bit ints, at most {self.max_cells:,} cells")
+
+    def _lacks(self, kernel: str) -> str:
+        return (f"the {self.name!r} backend ({type(self).__name__}) has no {kernel} kernel; "
+                "use a backend that has (rdgpu.available_backends())")
 
     # ------------------------------------------------------------------ memory
     @abstractmethod
@@ -192,11 +206,61 @@ class Backend(ABC):
     def synchronize(self) -> None:  # noqa: B027 - optional hook
         """Wait until every queued kernel has finished (for timing)."""
 
+    @property
+    def spec(self) -> str:
+        """The spec that gets this backend again (``get_backend(spec)``), as checkpoints and
+        data files record it: the name, and the device where the name alone would not
+        choose it (``"warp:cuda:0"``)."""
+        return self.name
+
+    def reshaped(self, d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
+        """The same buffer seen with another shape of the same size (no copy)."""
+        if tuple(d.shape) == tuple(shape):
+            return d
+        return DeviceArray(d.backend, d.handle.reshape(shape), tuple(shape), d.dtype)
+
+    # ------------------------------------------------------------------ generated passes
+    def fused_pass(self, program: Program, target: Target, fields: frozenset[str],
+                   member: frozenset[str]) -> FusedPass:
+        """``program`` compiled for ``target`` (a :class:`~rdgpu.backends.target.FusedPass`,
+        cached by the backend): ``fields`` are the parameters given as field buffers,
+        ``member`` those given per ensemble member.  A backend without kernels of its own
+        may return :class:`~rdgpu.backends.target.HostFusedPass` (the NumPy semantics on the
+        host); this default refuses."""
+        raise NotImplementedError(
+            f"the {self.name!r} backend ({type(self).__name__}) cannot run a model's fused "
+            "pass: it does not implement Backend.fused_pass(program, target, fields, "
+            "member); implement it, or return rdgpu.backends.target.HostFusedPass(program) "
+            "from it to run the passes on the host")
+
+    def blocked_pass_support(self) -> str | None:
+        """Why this backend cannot run temporally blocked Euler passes
+        (:meth:`blocked_pass`), or None when it can."""
+        return f"the {self.name} backend has no blocked kernel (only opencl has)"
+
+    def blocked_pass(self, program: Program, target: Target, *, steps: int, rows: int,
+                     items: int) -> BlockedPass:
+        """A blocked pass of an explicit Euler ``program`` on a 2-D grid ``target``
+        (:mod:`rdgpu.models.blocking`): ``steps`` steps per pass in bands of ``rows`` rows,
+        ``items`` work-items (a :class:`~rdgpu.backends.target.BlockedPass`)."""
+        raise NotImplementedError(self.blocked_pass_support() or
+                                  f"the {self.name} backend has no blocked kernel")
+
+    @property
+    def on_cpu(self) -> bool:
+        """Whether the kernels run on the host's CPU."""
+        return True
+
+    @property
+    def compute_units(self) -> int:
+        """How many cores (compute units) the device runs kernels on."""
+        return 1
+
     # ------------------------------------------------------------------ reductions
     @abstractmethod
     def max_abs(self, u: DeviceArray) -> float:
         """``max |u|`` over every element of ``u`` (float32 or float64, any shape), as a
-        host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (kernels/reduce): exact,
+        host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (families/reduce): exact,
         NaN if any element is NaN, ``inf`` if any is ±inf and none NaN, subnormals count
         (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
         queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
@@ -204,9 +268,9 @@ class Backend(ABC):
     @abstractmethod
     def sum_squares(self, u: DeviceArray) -> float:
         """``Σ u²`` over every element of ``u`` (float32 or float64, any shape), as a host
-        float (kernels/reduce), for mean-square convergence tests.  Accumulated in float64
+        float (families/reduce), for mean-square convergence tests.  Accumulated in float64
         for both dtypes (a float32 square is exact in float64): the device sums chunks in
-        a fixed order (see ``kernels/reduce``), the host adds the partials in float64, so
+        a fixed order (see ``families/reduce``), the host adds the partials in float64, so
         the result differs from NumPy's ``np.sum(u.astype(np.float64) ** 2)`` by rounding
         only (relative ``(n − 1)·2⁻⁵³`` at most, plus one rounding per float64 square) and
         is the same bits for the same array on the same backend.  NaN if any element is
@@ -231,23 +295,23 @@ class Backend(ABC):
             raise TypeError(f"{what} takes float32 or float64 arrays, got {u.dtype}")
 
     # ------------------------------------------------------------------ grid kernels
-    @abstractmethod
     def laplacian(
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
         """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
+        raise NotImplementedError(self._lacks('laplacian'))
 
-    @abstractmethod
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
         """``out = Δ_Γ u``, the Laplace-Beltrami operator of a graph surface over a periodic
         grid (``rdgpu.domains.graph_surface``; the conservative 9-point form of
-        ``kernels/metric/reference.py``, in its evaluation order).
+        ``families/metric/reference.py``, in its evaluation order).
 
         ``u``, ``out``: ``[ny, nx]``, or ``[nm, ny, nx]`` for ``nm`` members sharing one
         surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
         dtype, e.g. from :meth:`upload_metric` (upload once, reuse).  Units: ``[u]/length²``
         when the coefficients are those of spacings in length units."""
+        raise NotImplementedError(self._lacks('metric_laplacian'))
 
     def upload_metric(self, surface: Any, dtype: Any) -> tuple[DeviceArray, ...]:
         """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
@@ -297,13 +361,12 @@ class Backend(ABC):
                                  f"u {u.shape} {u.dtype} needs {u.shape[-2:]} {u.dtype}")
         return u.shape[0] if len(u.shape) == 3 else 1
 
-    @abstractmethod
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
         Works on arrays of any shape (grid or mesh vertices)."""
+        raise NotImplementedError(self._lacks('bernoulli'))
 
-    @abstractmethod
     def gray_scott(
         self,
         u: DeviceArray,
@@ -321,8 +384,8 @@ class Backend(ABC):
         bc: GridBC,
     ) -> None:
         """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3)."""
+        raise NotImplementedError(self._lacks('gray_scott'))
 
-    @abstractmethod
     def sor_half_sweep(
         self,
         c: DeviceArray,
@@ -339,12 +402,12 @@ class Backend(ABC):
         """Update in place the cells of one colour (``(i + j) % 2 == color``) that are not
         ``fixed`` (uint8 mask, 1 = held) by SOR (equations §4).  ``rhs`` is ``f`` or None (0).
         The update is ``(1 − ω) c + ω (wx (E + W) + wy (N + S) − wf f)`` with the weights of
-        ``kernels/sor/reference.py`` (``weights``; ``dy = inf`` gives ``wy = 0``).
+        ``families/sor/reference.py`` (``weights``; ``dy = inf`` gives ``wy = 0``).
 
         ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
         colour 0 overwrites it, colour 1 takes the max with what is there."""
+        raise NotImplementedError(self._lacks('sor_half_sweep'))
 
-    @abstractmethod
     def levelset_step(
         self,
         phi: DeviceArray,
@@ -359,8 +422,8 @@ class Backend(ABC):
     ) -> None:
         """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5) on
         a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid."""
+        raise NotImplementedError(self._lacks('levelset_step'))
 
-    @abstractmethod
     def reinit_step(
         self,
         phi: DeviceArray,
@@ -379,17 +442,17 @@ class Backend(ABC):
         ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (equations §5); with ``subcell``,
         cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py).
         A 3-D ``[nz, ny, nx]`` grid needs ``dz``."""
+        raise NotImplementedError(self._lacks('reinit_step'))
 
     # ------------------------------------------------------------------ CSR / mesh kernels
     # A CSR kernel's vector operands may have any shape: they are read as flat C-order
     # vectors (so a grid field [ny, nx] is the vector of ``u.ravel()``).  Every row is
-    # summed in index order in the matrix's dtype (kernels/mesh/reference.py).
+    # summed in index order in the matrix's dtype (families/mesh/reference.py).
 
-    @abstractmethod
     def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
         """``y = A x`` for any CSR matrix (square or not; empty rows give 0)."""
+        raise NotImplementedError(self._lacks('spmv'))
 
-    @abstractmethod
     def mesh_gray_scott(
         self,
         L: DeviceCSR,
@@ -407,8 +470,8 @@ class Backend(ABC):
         """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (equations §3, §6):
         ``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``.
         ``F``, ``k``: numbers or DeviceArrays of u's shape."""
+        raise NotImplementedError(self._lacks('mesh_gray_scott'))
 
-    @abstractmethod
     def mesh_diffusion(
         self,
         L: DeviceCSR,
@@ -421,8 +484,8 @@ class Backend(ABC):
     ) -> None:
         """``out = u + dt (D (L u) + source)`` (``source`` a number or a DeviceArray of u's
         shape): the explicit diffusion step of Allen-Cahn with its ``−b/ε²`` source."""
+        raise NotImplementedError(self._lacks('mesh_diffusion'))
 
-    @abstractmethod
     def csr_sor_colour(
         self,
         A: DeviceCSR,
@@ -438,15 +501,16 @@ class Backend(ABC):
         ``x_i ← (1 − ω) x_i + ω (rhs_i − Σ_{j≠i} a_ij x_j) / a_ii`` (``a_ii`` from
         ``A.diagonal``) and ``change[i] = |Δx_i|``; other entries of ``change`` are left as
         they are.  A is square; x, rhs and change have n elements."""
+        raise NotImplementedError(self._lacks('csr_sor_colour'))
 
     # ------------------------------------------------------------------ DLA growth
-    # (kernels/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)
+    # (families/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)
     def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                     row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
         """``weights`` (int64 ``[ny, nx]``) = the quantised candidate weights
         ``trunc(min(max(c, 0), 1)^η · 2^40)`` of the empty cells (``state`` uint8 0) with a
         4-neighbour in the object (state 1; x wraps if ``wrap_x``), 0 elsewhere;
-        ``row_sums`` (int64 ``[ny]``) their exact row sums (kernels/dla/reference.py)."""
+        ``row_sums`` (int64 ``[ny]``) their exact row sums (families/dla/reference.py)."""
         raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
 
     def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
@@ -464,7 +528,7 @@ class Backend(ABC):
         """Steps ``t0 … t0 + n_steps − 1`` of random-walker DLA, in place on the grid
         (uint8), ``arrival`` and the walkers (``pos`` int32 ``[W, 2]``, ``want`` int32
         ``[W]``, ``state`` int32 ``[4]``): each step moves every walker once, then adds
-        the cells of those that stick in walker id order (kernels/walkers/reference.py)."""
+        the cells of those that stick in walker id order (families/walkers/reference.py)."""
         raise NotImplementedError(f"the {self.name} backend has no random-walker kernels")
 
     def _check_sor(self, A, x, rhs, rows, change) -> None:

@@ -7,8 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray, _check_range
+from rdgpu.backends.target import FusedPass, host_params
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module
+from rdgpu.ir.reference import run_numpy
 
 
 def _value(x):
@@ -41,6 +43,10 @@ class NumpyBackend(Backend):
         self._walk = load_module("walkers", "reference.py")
         self._metric = load_module("metric", "reference.py")
         self._reduce = load_module("reduce", "reference.py")
+
+    def fused_pass(self, program, target, fields, member) -> FusedPass:
+        """The program's NumPy semantics on the host arrays themselves."""
+        return _NumpyPass(program)
 
     # memory
     def upload(self, a: np.ndarray) -> DeviceArray:
@@ -137,7 +143,7 @@ class NumpyBackend(Backend):
         x.handle.reshape(-1)[r] = new[r]
         change.handle.reshape(-1)[r] = delta[r]
 
-    # DLA growth (kernels/dla)
+    # DLA growth (families/dla)
     def dla_weights(self, c, state, weights, row_sums, *, eta, wrap_x):
         q, sums = load_module("dla", "reference.py").dla_weights(
             c.handle, state.handle, eta, wrap_x)
@@ -155,7 +161,7 @@ class NumpyBackend(Backend):
         c.handle[row, j] = 0
         arrival.handle[row, j] = step
 
-    # random-walker DLA (kernels/walkers)
+    # random-walker DLA (families/walkers)
     def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
                      n_steps, seed, geometry, thresh, margin, particles, limit):
         ref = self._walk
@@ -183,3 +189,18 @@ def _param(p, like, what):
                              f"got {p.shape} {p.dtype}")
         return p.handle.reshape(-1)
     return float(p)
+
+
+class _NumpyPass(FusedPass):
+    """A program run by :func:`rdgpu.ir.reference.run_numpy` on the buffers in place."""
+
+    def __init__(self, program):
+        self.program = program
+
+    def launch(self, target, inputs, outputs, params, fields, member, scalars, time):
+        program = self.program
+        host = {n: a.handle for n, a in zip(program.inputs, inputs, strict=True)}
+        res = run_numpy(program, target, host, host_params(program, params, _value),
+                        scalars, time)
+        for o, buf in zip(program.outputs, outputs, strict=True):
+            buf.handle[...] = res[o.name].reshape(buf.shape)

@@ -1,10 +1,10 @@
-"""OpenCL backend (PyOpenCL): the kernels of ``kernels/<family>/<family>.cl`` on any device.
+"""OpenCL backend (PyOpenCL): the kernels of ``families/<family>/<family>.cl`` on any device.
 
-One program per (context, dtype, layout) is built from ``kernels/common.cl`` followed by
+One program per (context, dtype, layout) is built from ``families/common.cl`` followed by
 every family source, and its kernel objects are cached.  Launches go to one in-order
 queue without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
 
-Two launch layouts run the same inline cell functions (see ``kernels/common.cl``):
+Two launch layouts run the same inline cell functions (see ``families/common.cl``):
 
 * ``"row"`` (default on CPU devices, e.g. PoCL): one work-item per grid row with a
   branch-free, vectorisable inner loop over the columns;
@@ -30,7 +30,6 @@ commands from all threads share the device's one in-order queue.
 from __future__ import annotations
 
 import os
-import re
 import threading
 from typing import Any
 
@@ -44,11 +43,27 @@ from rdgpu.backends.base import (
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.backends.opencl_codegen import OpenCLBlockedPass, OpenCLFusedPass
+from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: public here too
+    _LOCK,
+    _PROGRAMS,
+    _context,
+    _describe,
+    _has_fp64,
+    _import_pyopencl,
+    _pow2_floor,
+    _select_device,
+    list_devices,
+    probe_compiler,
+)
+from rdgpu.backends.opencl_growth import OpenCLGrowthKernels
+from rdgpu.backends.opencl_mesh import _GS_NAMES, OpenCLMeshKernels
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module, read_source
 
-_INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
+__all__ = ["OpenCLBackend", "list_devices", "probe_compiler"]
+
 _FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric",
              "reduce")
 # Argument types of every kernel (must match the .cl signatures): B = buffer, i = int32,
@@ -86,12 +101,6 @@ _KERNEL_ARGS = {
     "max_abs_partial": "BBllB",  # u, partial; n, chunk; __local scratch
     "sum_squares_partial": "BBllB",  # u, partial (double); n, chunk; __local scratch
 }
-_GS_NAMES = {
-    (False, False): "gray_scott_ss",
-    (True, False): "gray_scott_fs",
-    (False, True): "gray_scott_sf",
-    (True, True): "gray_scott_ff",
-}
 _LAYOUTS = ("row", "strided")
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
@@ -109,159 +118,7 @@ _REDUCE_GROUP = 256
 _REDUCE_MAX_GROUPS = 1024
 _MAX_CELLS = 2**31 - 1  # the grid kernels index with 32-bit ints
 
-# (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
-# built program: shared by every backend instance on the same device, filled under _LOCK
-_CONTEXTS: dict[int, tuple[Any, Any]] = {}
-_PROGRAMS: dict[tuple, Any] = {}
-_LOCK = threading.RLock()
-
-
-def _import_pyopencl():
-    try:
-        import pyopencl as cl
-    except Exception as exc:  # ImportError, or OSError for a missing libOpenCL
-        raise BackendUnavailableError(
-            f"the OpenCL backend needs the Python package pyopencl, which cannot be imported "
-            f"({type(exc).__name__}: {exc}); fix: {_INSTALL_HINT}"
-        ) from exc
-    return cl
-
-
-def list_devices() -> list[tuple[str, Any, Any]]:
-    """Every OpenCL device as ``("P:D", platform, device)``."""
-    cl = _import_pyopencl()
-    try:
-        platforms = cl.get_platforms()
-    except cl.Error as exc:
-        platforms = []
-        reason = f" ({exc})"
-    else:
-        reason = ""
-    found = []
-    for p_index, platform in enumerate(platforms):
-        try:
-            devices = platform.get_devices()
-        except cl.Error:
-            continue
-        for d_index, device in enumerate(devices):
-            found.append((f"{p_index}:{d_index}", platform, device))
-    if not found:
-        raise BackendUnavailableError(
-            f"no OpenCL platform/device found{reason}: pyopencl is installed but no OpenCL "
-            f"driver (ICD) is; for the portable CPU driver PoCL: {_INSTALL_HINT}"
-        )
-    return found
-
-
-def _describe(platform, device) -> str:
-    return f"{device.name.strip()} ({platform.name.strip()})"
-
-
-_PROBE_SOURCE = "__kernel void rdgpu_probe(__global float *a) { a[get_global_id(0)] *= 2.0f; }"
-# device int_ptr -> None (the device's compiler works) or the reason it does not
-_PROBED: dict[int, str | None] = {}
-
-
-def probe_compiler(device) -> str | None:
-    """Build and run a one-line kernel on ``device``: ``None`` when that works, else the
-    reason (for instance PoCL 3.0, built on LLVM 14, cannot target CPUs newer than its
-    LLVM -- "unknown target CPU 'generic'" on AMD Zen 5)."""
-    key = device.int_ptr
-    if key in _PROBED:
-        return _PROBED[key]
-    with _LOCK:
-        return _probe_locked(device, key)
-
-
-def _context(device) -> tuple[Any, Any]:
-    """The ``(context, queue)`` of ``device``, shared by every backend on it (and the probe)."""
-    with _LOCK:
-        if device.int_ptr not in _CONTEXTS:
-            cl = _import_pyopencl()
-            ctx = cl.Context([device])
-            _CONTEXTS[device.int_ptr] = (ctx, cl.CommandQueue(ctx, device))
-        return _CONTEXTS[device.int_ptr]
-
-
-def _probe_locked(device, key: int) -> str | None:
-    if key not in _PROBED:
-        cl = _import_pyopencl()
-        try:
-            ctx, queue = _context(device)
-            program = cl.Program(ctx, _PROBE_SOURCE).build()
-            buf = cl.Buffer(ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
-                            hostbuf=np.ones(1, np.float32))
-            cl.Kernel(program, "rdgpu_probe")(queue, (1,), None, buf)
-            queue.finish()
-            _PROBED[key] = None
-        except Exception as exc:  # noqa: BLE001 - any failure means "cannot compile here"
-            lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
-            detail = next((ln for ln in lines if ln.lower().startswith("error")), None)
-            _PROBED[key] = detail or (lines[0] if lines else type(exc).__name__)
-    return _PROBED[key]
-
-
-_BROKEN_HINT = (
-    "PoCL releases built on an LLVM older than "
-    "this CPU cannot target it (pip's pocl-binary-distribution 3.0 uses LLVM 14: AMD Zen 5 "
-    "and newer fail); install a newer OpenCL driver, e.g. Debian/Ubuntu's "
-    "'apt-get install pocl-opencl-icd', or use backend='warp' or 'numpy'"
-)
-
-
-def _select_device(spec: str | None):
-    """The device named by ``spec`` (``"P:D"`` or part of a name), or by default the first
-    GPU, else the first CPU device whose compiler works (see :func:`probe_compiler`)."""
-    cl = _import_pyopencl()
-    devices = list_devices()
-    if spec is None or not str(spec).strip():
-        # Oclgrind (a debugging simulator that claims every device type) only on request
-        real = [(p, d) for _k, p, d in devices if "oclgrind" not in p.name.lower()]
-        real = real or [(p, d) for _k, p, d in devices]
-        real.sort(key=lambda pd: not (pd[1].type & cl.device_type.GPU))  # GPUs first
-        failures = []
-        for platform, device in real:
-            reason = probe_compiler(device)
-            if reason is None:
-                return platform, device
-            failures.append(f"{_describe(platform, device)}: {reason}")
-        raise BackendUnavailableError(
-            f"no OpenCL device here can compile kernels ({'; '.join(failures)}). {_BROKEN_HINT}"
-        )
-    spec = str(spec).strip()
-    chosen = None
-    m = re.fullmatch(r"(\d+)\s*:\s*(\d+)", spec)
-    if m:
-        key = f"{int(m.group(1))}:{int(m.group(2))}"
-        chosen = next(((p, d) for k, p, d in devices if k == key), None)
-    else:
-        low = spec.lower()
-        chosen = next(((p, d) for _k, p, d in devices
-                       if low in d.name.lower() or low in p.name.lower()), None)
-    if chosen is None:
-        listing = "; ".join(f"{k} = {_describe(p, d)}" for k, p, d in devices)
-        raise BackendUnavailableError(
-            f"no OpenCL device matches {spec!r}; give 'P:D' (platform:device index) or part "
-            f"of a platform or device name. Devices: {listing}"
-        )
-    reason = probe_compiler(chosen[1])
-    if reason is not None:
-        raise BackendUnavailableError(
-            f"OpenCL device {_describe(*chosen)} cannot compile kernels ({reason}); "
-            f"{_BROKEN_HINT}"
-        )
-    return chosen
-
-
-def _has_fp64(device) -> bool:
-    return bool(device.double_fp_config) or "cl_khr_fp64" in device.extensions
-
-
-def _pow2_floor(n: int) -> int:
-    return 1 << (max(int(n), 1).bit_length() - 1)
-
-
-class OpenCLBackend(Backend):
+class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     """The rdgpu kernels in OpenCL C on one device.
 
     ``device``: None (the first GPU, else the first device; the Oclgrind simulator only
@@ -328,6 +185,41 @@ class OpenCLBackend(Backend):
 
     def __repr__(self) -> str:
         return f"OpenCLBackend({self.device!r}, layout={self.layout!r})"
+
+    # ------------------------------------------------------------------ generated passes
+    def reshaped(self, d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
+        if tuple(d.shape) == tuple(shape):
+            return d
+        return DeviceArray(d.backend, d.handle, tuple(shape), d.dtype)  # a Buffer has no shape
+
+    def fused_pass(self, program, target, fields, member) -> OpenCLFusedPass:
+        """The program's ``rd_program`` kernel (cached in the program)."""
+        key = ("opencl pass", fields, member)
+        found = program.cache.get(key)
+        if found is None:
+            found = program.cache[key] = OpenCLFusedPass(program, fields, member)
+        return found
+
+    def blocked_pass_support(self) -> str | None:
+        if self.layout != "row":
+            return (f"the OpenCL backend runs the {self.layout} layout; blocked passes need "
+                    "the row layout (CPU devices)")
+        return None
+
+    def blocked_pass(self, program, target, *, steps: int, rows: int,
+                     items: int) -> OpenCLBlockedPass:
+        reason = self.blocked_pass_support()
+        if reason is not None:
+            raise NotImplementedError(reason)
+        return OpenCLBlockedPass(program, target, steps, rows, items)
+
+    @property
+    def on_cpu(self) -> bool:
+        return bool(self.cl_device.type & self._cl.device_type.CPU)
+
+    @property
+    def compute_units(self) -> int:
+        return max(1, int(self.cl_device.max_compute_units))
 
     # ------------------------------------------------------------------ programs
     def _program_source(self) -> str:
@@ -722,6 +614,12 @@ class OpenCLBackend(Backend):
         )  # fmt: skip
         self._launch_grid(kernel, ny, args)
 
+    def _check_on_device(self, *arrays: DeviceArray) -> None:
+        for a in arrays:
+            if not isinstance(a.backend, OpenCLBackend):
+                raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")
+        self._check_real(arrays[0].dtype)
+
     # ------------------------------------------------------------------ CSR / mesh kernels
     def _launch_rows(self, kernel, n_rows: int, head: tuple, tail: tuple = ()) -> None:
         """Launch a CSR kernel over ``n_rows`` rows with the arguments ``(*head, n,
@@ -740,201 +638,3 @@ class OpenCLBackend(Backend):
         gsize = (-(-items // group) * group,)
         self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
 
-    @staticmethod
-    def _csr_buffers(A) -> tuple:
-        return A.indptr.handle, A.indices.handle, A.data.handle
-
-    @staticmethod
-    def _vertex_param(f: FieldOrScalar, u: DeviceArray, what: str):
-        """``(is_field, buffer, scalar)`` for a number or a DeviceArray of u's size."""
-        if isinstance(f, DeviceArray):
-            if f.size != u.size or f.dtype != u.dtype:
-                raise ValueError(
-                    f"{what} field must have {u.size} elements of {u.dtype}, got {f.shape} "
-                    f"{f.dtype}"
-                )
-            return True, f.handle, 0.0
-        return False, u.handle, float(f)
-
-    def _check_on_device(self, *arrays: DeviceArray) -> None:
-        for a in arrays:
-            if not isinstance(a.backend, OpenCLBackend):
-                raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")
-        self._check_real(arrays[0].dtype)
-
-    def spmv(self, A, x: DeviceArray, y: DeviceArray) -> None:
-        self._check_csr(A, x, y, "spmv")
-        self._check_on_device(A.data, x, y)
-        kernel = self.kernels(A.dtype)["csr_spmv"]
-        self._launch_rows(kernel, A.shape[0], (*self._csr_buffers(A), x.handle, y.handle))
-
-    def mesh_gray_scott(
-        self,
-        L,
-        u: DeviceArray,
-        v: DeviceArray,
-        u_out: DeviceArray,
-        v_out: DeviceArray,
-        *,
-        Du: float,
-        Dv: float,
-        F: FieldOrScalar,
-        k: FieldOrScalar,
-        dt: float,
-    ) -> None:
-        for a in (u, v, u_out, v_out):
-            self._check_csr(L, u, a, "mesh_gray_scott")
-        self._check_on_device(L.data, u, v, u_out, v_out)
-        f_field, f_buf, f_val = self._vertex_param(F, u, "F")
-        k_field, k_buf, k_val = self._vertex_param(k, u, "k")
-        name = "mesh_" + _GS_NAMES[f_field, k_field]
-        args = (
-            *self._csr_buffers(L), u.handle, v.handle, u_out.handle, v_out.handle, f_buf,
-            k_buf,
-        )
-        kernel = self.kernels(u.dtype)[name]
-        self._launch_rows(kernel, L.shape[0], args, (Du, Dv, f_val, k_val, dt))
-
-    def mesh_diffusion(
-        self,
-        L,
-        u: DeviceArray,
-        out: DeviceArray,
-        *,
-        D: float,
-        dt: float,
-        source: FieldOrScalar = 0.0,
-    ) -> None:
-        self._check_csr(L, u, out, "mesh_diffusion")
-        self._check_on_device(L.data, u, out)
-        s_field, s_buf, s_val = self._vertex_param(source, u, "source")
-        kernel = self.kernels(u.dtype)["mesh_diffusion_f" if s_field else "mesh_diffusion_s"]
-        self._launch_rows(
-            kernel, L.shape[0], (*self._csr_buffers(L), u.handle, out.handle, s_buf),
-            (D, s_val, dt),
-        )
-
-    def csr_sor_colour(
-        self,
-        A,
-        x: DeviceArray,
-        rhs: DeviceArray,
-        rows: DeviceArray,
-        change: DeviceArray,
-        *,
-        omega: float,
-    ) -> None:
-        self._check_sor(A, x, rhs, rows, change)
-        self._check_on_device(A.data, x, rhs, change)
-        t = x.dtype.type
-        om = t(omega)
-        kernel = self.kernels(x.dtype)["csr_sor_colour"]
-        self._launch_rows(
-            kernel, rows.size,
-            (*self._csr_buffers(A), A.diagonal.handle, x.handle, rhs.handle, rows.handle,
-             change.handle),
-            (om, t(1) - om),
-        )
-
-    # ------------------------------------------------------------------ DLA growth
-    def _dla_kernels(self, dtype: np.dtype) -> dict[str, Any]:
-        """This thread's ``dla_weights`` / ``dla_pick`` kernels: a program of its own
-        (``common.cl`` + ``dla/dla.cl``), built once per context and dtype; it needs fp64."""
-        dtype = np.dtype(dtype)
-        self._check_real(dtype)
-        if not self.fp64:
-            raise BackendUnavailableError(
-                f"OpenCL device {self.device} has no float64 support (cl_khr_fp64), which the "
-                "DLA weights need; use backend='warp' or 'numpy'")
-        mine = getattr(self._local, "dla", None)
-        if mine is None:
-            mine = self._local.dla = {}
-        if dtype not in mine:
-            key = ("dla", self.context.int_ptr, dtype.char, self.layout, self.col_stride)
-            with _LOCK:
-                program = _PROGRAMS.get(key)
-                if program is None:
-                    source = ('#line 1 "common.cl"\n' + read_source("", "common.cl")
-                              + '\n#line 1 "dla/dla.cl"\n' + read_source("dla", "dla.cl"))
-                    options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}",
-                               *self._options]
-                    program = self._cl.Program(self.context, source).build(options=options)
-                    _PROGRAMS[key] = program
-            weights = self._cl.Kernel(program, "dla_weights")
-            weights.set_scalar_arg_dtypes([None, None, None, None, np.int32, np.int32,
-                                           np.int32, np.float64, np.int32])
-            pick = self._cl.Kernel(program, "dla_pick")
-            pick.set_scalar_arg_dtypes([None, None, None, None, None, np.int32, np.int32,
-                                        np.int64, np.int32])
-            mine[dtype] = {"weights": weights, "pick": pick}
-        return mine[dtype]
-
-    def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
-                    row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
-        ny, nx = c.shape
-        mode = load_module("dla", "reference.py").power_mode(eta)
-        kernel = self._dla_kernels(c.dtype)["weights"]
-        kernel.set_args(c.handle, state.handle, weights.handle, row_sums.handle, nx, ny, mode,
-                        float(eta), int(bool(wrap_x)))
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1, ny), (1, 1))
-
-    def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
-                 arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
-                 step: int) -> None:
-        kernel = self._dla_kernels(c.dtype)["pick"]
-        kernel.set_args(c.handle, state.handle, weights.handle, arrival.handle, out.handle,
-                        c.shape[1], int(row), int(target), int(step))
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,))
-
-    # ------------------------------------------------------------------ random walkers
-    _WALK_ARGS = {
-        "walk_step": [None] * 6 + [np.int32] * 3 + [np.uint32] * 4 + [np.int32, np.int64,
-                                                                      np.int32],
-        "resolve": [None] * 7 + [np.int32] * 3 + [np.uint32] * 4 + [np.int32] * 4,
-        "philox_fill": [None, np.int32] + [np.uint32] * 6,
-    }
-
-    def _walk_kernels(self) -> dict[str, Any]:
-        """This thread's kernels of ``walkers/walkers.cl`` (integer only: its own program,
-        built once per context)."""
-        mine = getattr(self._local, "walk", None)
-        if mine is None:
-            key = (self.context.int_ptr, "walkers")
-            with _LOCK:
-                program = _PROGRAMS.get(key)
-                if program is None:
-                    source = '#line 1 "walkers/walkers.cl"\n' + read_source("walkers",
-                                                                             "walkers.cl")
-                    program = self._cl.Program(self.context, source).build()
-                    _PROGRAMS[key] = program
-            mine = {}
-            for name, types in self._WALK_ARGS.items():
-                mine[name] = self._cl.Kernel(program, name)
-                mine[name].set_scalar_arg_dtypes(types)
-            self._local.walk = mine
-        return mine
-
-    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
-                     n_steps, seed, geometry, thresh, margin, particles, limit) -> None:
-        ks = self._walk_kernels()
-        ny, nx = grid.shape
-        n = pos.shape[0]
-        k0, k1 = seed & 0xFFFFFFFF, (seed >> 32) & 0xFFFFFFFF
-        tables = (state.handle, ring_start.handle, ring_ij.handle, ny, nx, n)
-        step, res = ks["walk_step"], ks["resolve"]
-        enqueue = self._cl.enqueue_nd_range_kernel
-        for t in range(t0, t0 + n_steps):
-            tt = (t & 0xFFFFFFFF, t >> 32, k0, k1, geometry)
-            step.set_args(grid.handle, pos.handle, want.handle, *tables, *tt, thresh, margin)
-            enqueue(self.queue, step, (n,), None)
-            res.set_args(grid.handle, arrival.handle, pos.handle, want.handle, *tables, *tt,
-                         margin, particles, limit)
-            enqueue(self.queue, res, (1,), (1,))
-
-    def philox(self, out, *, first: int, t: int, purpose: int, seed: int) -> None:
-        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``
-        (``out`` uint32 ``[N, 4]``; for tests)."""
-        kernel = self._walk_kernels()["philox_fill"]
-        kernel.set_args(out.handle, out.shape[0], first, t & 0xFFFFFFFF, t >> 32, purpose,
-                        seed & 0xFFFFFFFF, seed >> 32)
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (out.shape[0],), None)

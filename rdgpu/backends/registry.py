@@ -4,11 +4,12 @@ Precedence, highest first: the per-call ``backend=`` argument, the innermost
 ``use_backend(...)`` block, ``set_backend(...)``, the ``RDGPU_BACKEND`` environment
 variable, and finally ``"auto"``.
 
-A backend is named ``"numpy"``, ``"warp"``, ``"opencl"`` or ``"auto"``, optionally with a
-device after a colon: ``"warp:cpu"``, ``"warp:cuda:0"``, ``"opencl:0:1"`` (platform:device
-indices) or ``"opencl:nvidia"`` (a substring of the platform or device name).  The OpenCL
-device may also come from ``RDGPU_OPENCL_DEVICE``.  ``"auto"`` picks Warp on CUDA where a
-CUDA device exists, else OpenCL, then Warp on the CPU, then NumPy.
+A backend is named ``"numpy"``, ``"warp"``, ``"opencl"`` (the built-ins, registered here
+like any other: :func:`register_backend`) or ``"auto"``, optionally with a device after a
+colon: ``"warp:cpu"``, ``"warp:cuda:0"``, ``"opencl:0:1"`` (platform:device indices) or
+``"opencl:nvidia"`` (a substring of the platform or device name).  The OpenCL device may
+also come from ``RDGPU_OPENCL_DEVICE``.  ``"auto"`` picks Warp on CUDA where a CUDA device
+exists, else OpenCL, then Warp on the CPU, then NumPy.
 """
 
 from __future__ import annotations
@@ -18,18 +19,81 @@ import contextvars
 import os
 import re
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from rdgpu.backends.base import Backend
 from rdgpu.core.errors import BackendUnavailableError
 
-BACKEND_NAMES = ("numpy", "warp", "opencl")
-_ALLOWED = "'numpy', 'warp', 'opencl' or 'auto' (optionally 'NAME:DEVICE')"
-#: the devices each backend takes after its ':'
-_DEVICES = {"warp": "'warp:cpu', 'warp:cuda' or 'warp:cuda:N'",
-            "opencl": "'opencl:P:D' (platform:device indices) or 'opencl:NAME' (part of a "
-                      "platform or device name)"}
+
+@dataclass(frozen=True)
+class BackendEntry:
+    """A registered backend (:func:`register_backend`)."""
+
+    name: str
+    #: ``factory(device)`` constructs the backend (``device``: the text after ':', or None)
+    factory: Callable[[str | None], Backend]
+    #: the devices it takes after its ':', for messages; None: it takes none
+    devices: str | None = None
+    #: ``check_device(device)`` -> the device as the factory takes it, or a ValueError
+    check_device: Callable[[str], str] | None = None
+    #: what the backend runs on, for the message refusing a device ("runs on this CPU")
+    runs_on: str | None = None
+    #: more specs ``available_backends()`` reports (e.g. ``"warp:cuda:0"`` where it exists)
+    variants: Callable[[], list[str]] | None = None
+
+
+_REGISTRY: dict[str, BackendEntry] = {}
+
+
+def register_backend(name: str, factory: Callable[[str | None], Backend], *,
+                     devices: str | None = None,
+                     check_device: Callable[[str], str] | None = None,
+                     runs_on: str | None = None,
+                     variants: Callable[[], list[str]] | None = None,
+                     replace: bool = False) -> None:
+    """Make ``get_backend(name)`` (and ``backend=name`` everywhere, the CLI's ``--backend``)
+    construct ``factory(device)``: ``device`` is the text after ``name:``, or None.
+    ``devices`` describes the devices it takes (None: it takes none); ``check_device``
+    normalises one or raises a ValueError; ``runs_on`` ("runs on this CPU") words the
+    refusal of a device; ``variants`` lists more specs :func:`available_backends` reports.
+    A name already registered is refused unless ``replace``."""
+    key = name.strip().lower() if isinstance(name, str) else name
+    if not isinstance(key, str) or not re.fullmatch(r"[a-z][a-z0-9_-]*", key) or key == "auto":
+        raise ValueError(f"register_backend: name must be a lowercase word (letters, digits, "
+                         f"'_', '-'), not 'auto'; got {name!r}")
+    if not callable(factory):
+        raise TypeError(f"register_backend: factory must be callable, got "
+                        f"{type(factory).__name__}")
+    if key in _REGISTRY and not replace:
+        raise ValueError(f"register_backend: a backend named {key!r} is already registered; "
+                         "pass replace=True to replace it")
+    _REGISTRY[key] = BackendEntry(key, factory, devices, check_device, runs_on, variants)
+    for k in [k for k in _instances if k[0] == key]:  # a replaced backend is built anew
+        del _instances[k]
+
+
+def unregister_backend(name: str) -> None:
+    """Forget a backend registered with :func:`register_backend` (and its instances)."""
+    key = name.strip().lower()
+    if key not in _REGISTRY:
+        raise ValueError(f"no backend named {name!r} is registered; registered: "
+                         f"{', '.join(_REGISTRY)}")
+    del _REGISTRY[key]
+    for k in [k for k in _instances if k[0] == key]:
+        del _instances[k]
+
+
+def backend_names() -> tuple[str, ...]:
+    """The registered backends' names, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def allowed_text() -> str:
+    """``'numpy', 'warp', 'opencl' or 'auto' (optionally 'NAME:DEVICE')`` from the registry."""
+    names = ", ".join(f"{n!r}" for n in _REGISTRY)
+    return f"{names} or 'auto' (optionally 'NAME:DEVICE')"
+
 
 _instances: dict[tuple[str, str | None], Backend] = {}
 # constructing a backend (Warp's init, an OpenCL context) happens once, under this lock;
@@ -56,55 +120,82 @@ class BackendInfo:
         return f"{self.name:7s} unavailable  {self.reason}"
 
 
-_WARP_DEVICE = re.compile(r"cpu|cuda(:\d+)?")
-
-
 def _split(spec: str) -> tuple[str, str | None]:
     """``(name, device or None)`` of a backend spec; a malformed spec is a ValueError that
     says what is allowed: an unknown name, an empty device (``"opencl:"``), a device for a
-    backend that takes none (``"numpy:gpu"``, ``"auto:0"``), a Warp device that is not
-    ``cpu``, ``cuda`` or ``cuda:N``."""
+    backend that takes none (``"numpy:gpu"``, ``"auto:0"``), a device the backend's
+    ``check_device`` refuses."""
     name, colon, device = spec.strip().partition(":")
     name, device = name.strip().lower(), device.strip()
-    if name not in (*BACKEND_NAMES, "auto"):
-        raise ValueError(f"unknown backend {spec!r}; allowed: {_ALLOWED}")
-    if colon and name in ("numpy", "auto"):
-        what = ("the numpy backend runs on this CPU" if name == "numpy"
-                else "'auto' picks the backend and its device")
+    entry = _REGISTRY.get(name)
+    if entry is None and name != "auto":
+        raise ValueError(f"unknown backend {spec!r}; allowed: {allowed_text()}")
+    if colon and (entry is None or entry.devices is None):
+        what = ("'auto' picks the backend and its device" if entry is None else
+                f"the {name} backend {entry.runs_on}" if entry.runs_on else
+                f"the {name} backend")
         raise ValueError(f"backend {spec!r}: {what} and takes no device; use {name!r}")
     if colon and not device:
         raise ValueError(f"backend {spec!r} has an empty device after ':'; name a device "
-                         f"({_DEVICES[name]}) or leave out the ':'")
-    if device and name == "warp" and not _WARP_DEVICE.fullmatch(device.lower()):
-        raise ValueError(f"backend {spec!r}: unknown Warp device {device!r}; allowed: "
-                         f"{_DEVICES['warp']}")
-    return name, ((device.lower() if name == "warp" else device) or None)
+                         f"({entry.devices}) or leave out the ':'")
+    if device and entry.check_device is not None:
+        device = entry.check_device(device)
+    return name, device or None
 
 
 def _construct(name: str, device: str | None) -> Backend:
-    if name == "numpy":
-        from rdgpu.backends.numpy_backend import NumpyBackend
+    entry = _REGISTRY.get(name)
+    if entry is None:
+        raise ValueError(f"unknown backend {name!r}; allowed: {allowed_text()}")
+    return entry.factory(device)
 
-        return NumpyBackend()
-    if name == "warp":
-        try:
-            from rdgpu.backends.warp_backend import WarpBackend
-        except ImportError as exc:  # warp-lang missing or broken
-            raise BackendUnavailableError(
-                f"the Warp backend needs the 'warp-lang' package ({exc}); "
-                "install it with: pip install warp-lang"
-            ) from exc
-        return WarpBackend(device or "cpu")
-    if name == "opencl":
-        try:
-            from rdgpu.backends.opencl_backend import OpenCLBackend
-        except ImportError as exc:
-            raise BackendUnavailableError(
-                f"the OpenCL backend needs 'pyopencl' ({exc}); install it with: "
-                "pip install pyopencl pocl-binary-distribution"
-            ) from exc
-        return OpenCLBackend(device or os.environ.get("RDGPU_OPENCL_DEVICE") or None)
-    raise ValueError(f"unknown backend {name!r}; allowed: {_ALLOWED}")
+
+# ---------------------------------------------------------------------------- built-ins
+_WARP_DEVICE = re.compile(r"cpu|cuda(:\d+)?")
+_WARP_DEVICES = "'warp:cpu', 'warp:cuda' or 'warp:cuda:N'"
+
+
+def _numpy(device: str | None) -> Backend:
+    from rdgpu.backends.numpy_backend import NumpyBackend
+
+    return NumpyBackend()
+
+
+def _warp_device(device: str) -> str:
+    if not _WARP_DEVICE.fullmatch(device.lower()):
+        raise ValueError(f"backend 'warp:{device}': unknown Warp device {device!r}; "
+                         f"allowed: {_WARP_DEVICES}")
+    return device.lower()
+
+
+def _warp(device: str | None) -> Backend:
+    try:  # lazy: warp-lang is an optional extra
+        from rdgpu.backends.warp_backend import WarpBackend
+    except ImportError as exc:  # warp-lang missing or broken
+        raise BackendUnavailableError(
+            f"the Warp backend needs the 'warp-lang' package ({exc}); "
+            "install it with: pip install warp-lang"
+        ) from exc
+    return WarpBackend(device or "cpu")
+
+
+def _opencl(device: str | None) -> Backend:
+    try:  # lazy: pyopencl is an optional extra
+        from rdgpu.backends.opencl_backend import OpenCLBackend
+    except ImportError as exc:
+        raise BackendUnavailableError(
+            f"the OpenCL backend needs 'pyopencl' ({exc}); install it with: "
+            "pip install pyopencl pocl-binary-distribution"
+        ) from exc
+    return OpenCLBackend(device or os.environ.get("RDGPU_OPENCL_DEVICE") or None)
+
+
+register_backend("numpy", _numpy, runs_on="runs on this CPU")
+register_backend("warp", _warp, devices=_WARP_DEVICES, check_device=_warp_device,
+                 variants=lambda: ["warp:cuda:0"] if _cuda_available() else [])
+register_backend("opencl", _opencl,
+                 devices="'opencl:P:D' (platform:device indices) or 'opencl:NAME' (part of a "
+                         "platform or device name)")
 
 
 def _cuda_available() -> bool:
@@ -174,13 +265,15 @@ def use_backend(backend: str | Backend) -> Iterator[Backend]:
 
 
 def available_backends() -> list[BackendInfo]:
-    """Every backend, whether it can run here, on which device, or why not."""
+    """Every registered backend, whether it can run here, on which device, or why not (and
+    the variants a backend reports, e.g. Warp on CUDA where a CUDA device exists)."""
     infos = []
-    for name in BACKEND_NAMES:
+    for name in list(_REGISTRY):
         try:
             infos.append(BackendInfo(name, True, get_backend(name).device))
         except BackendUnavailableError as exc:
             infos.append(BackendInfo(name, False, reason=str(exc)))
-    if _cuda_available():
-        infos.append(BackendInfo("warp", True, get_backend("warp:cuda:0").device))
+    for entry in list(_REGISTRY.values()):
+        for spec in (entry.variants() if entry.variants is not None else []):
+            infos.append(BackendInfo(entry.name, True, get_backend(spec).device))
     return infos

@@ -1,10 +1,10 @@
-"""The NVIDIA Warp backend: the kernels of ``kernels/*/warp_kernels.py`` on a Warp device.
+"""The NVIDIA Warp backend: the kernels of ``families/*/warp_kernels.py`` on a Warp device.
 
 Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell formula:
 
 * on a CPU device, ``rows``: one Warp thread per row with a serial inner loop over the
   columns, which indexes flat views of the arrays so that LLVM vectorises it (see
-  ``kernels/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
+  ``families/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
   a CPU launch as one serial loop on one core and releases the GIL while it runs, so a
   large grid is cut into ``os.cpu_count()`` row chunks launched at the same time from a
   thread pool (one chunk in the calling thread);
@@ -13,7 +13,7 @@ Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell form
 Subnormals are flushed (docs/equations.md,
 :mod:`rdgpu.core.fpenv`): every kernel flushes what it writes,
 and the CPU shapes run their bodies with the x86 FTZ/DAZ bits on, restoring each thread's
-MXCSR at the end (see ``kernels/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
+MXCSR at the end (see ``families/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
 are zeroed, so ``warp.config.verify_fp`` runs clean.
 
 Each kernel family is one Warp module holding the float32 and float64 versions of its
@@ -33,7 +33,6 @@ import os
 import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager
 from types import ModuleType
 
 import numpy as np
@@ -41,110 +40,35 @@ import numpy as np
 from rdgpu.backends.base import (
     Backend,
     DeviceArray,
-    DeviceCSR,
     FieldOrScalar,
     _check_range,
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.backends.warp_codegen import WarpFusedPass
+from rdgpu.backends.warp_mesh import WarpMeshKernels
+from rdgpu.backends.warp_runtime import (
+    _REAL,
+    _WARP_LOCK,
+    BLOCK,
+    CHUNK_MIN_CELLS,
+    MAX_CELLS,
+    REDUCE_BLOCK,
+    REDUCE_SPLIT_BYTES,
+    REDUCE_THREADS,
+    REDUCE_THREADS_2,
+    _cpu_count,
+    _import_warp,
+    _native_stderr_silenced,
+    _quiet,
+    check_cells,
+)
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module
 
-#: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
-#: thread costs tens of microseconds), larger ones in up to one chunk per core
-CHUNK_MIN_CELLS = 1 << 15
-#: elements per thread of the pointwise (Bernoulli) kernel on the CPU
-BLOCK = 4096
-#: matrix rows per thread of the CSR kernels on the CPU
-ROW_BLOCK = 256
-#: max_abs, sum_squares: elements per thread on the CPU (one partial each); threads of the
-#: CUDA shape's first pass over the array, and of its second pass over the first's partials
-#: (REDUCE_BLOCK: a multiple of 16, the vectors sum_squares loads)
-REDUCE_BLOCK = 1 << 16
-REDUCE_THREADS = 1 << 18
-REDUCE_THREADS_2 = 1 << 10
-#: max_abs, sum_squares on the CPU: bytes per row chunk run side by side (at least)
-REDUCE_SPLIT_BYTES = 8 << 20
-#: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
-MAX_CELLS = 2**31 - 1
 
-_REAL = (np.dtype(np.float32), np.dtype(np.float64))
-
-#: guards Warp's global state: wp.init, module loading, recording a launch, wp.config
-#: (flipped by _quiet) and file descriptor 2 (swapped by _native_stderr_silenced)
-_WARP_LOCK = threading.RLock()
-
-
-@contextmanager
-def _native_stderr_silenced():
-    """Hide what native code prints on file descriptor 2 (Warp's "CUDA driver not found"
-    notice on CPU-only machines); Python exceptions still propagate."""
-    import sys
-    import tempfile
-
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError):  # no real stderr (e.g. some notebooks)
-        yield
-        return
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-
-@contextmanager
-def _quiet(wp):
-    """No greeting or module-load lines from Warp (older Warp reads ``config.quiet``,
-    newer ``config.log_level``); the settings are restored afterwards."""
-    config = wp.config
-    saved = {n: getattr(config, n) for n in ("quiet", "log_level") if hasattr(config, n)}
-    config.quiet = True
-    if "log_level" in saved and hasattr(wp, "LOG_WARNING"):
-        config.log_level = max(saved["log_level"], wp.LOG_WARNING)
-    try:
-        yield
-    finally:
-        for name, value in saved.items():
-            setattr(config, name, value)
-        if "quiet" not in saved:
-            del config.quiet
-
-
-def check_cells(n: int, shape: tuple[int, ...]) -> None:
-    """Refuse a grid launch over more than :data:`MAX_CELLS` cells (``shape``: for the
-    message)."""
-    if n > MAX_CELLS:
-        dims = "x".join(str(d) for d in shape)
-        raise ValueError(f"a grid of {dims} = {n} cells is too large for the Warp kernels: "
-                         f"they index with 32-bit ints, at most {MAX_CELLS} cells")
-
-
-def _cpu_count() -> int:
-    """Cores this process may run on."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):
-        return max(1, os.cpu_count() or 1)
-
-
-def _import_warp():
-    try:
-        import warp as wp
-    except ImportError as exc:
-        raise BackendUnavailableError(
-            "the 'warp' backend needs NVIDIA Warp (Python package 'warp'), which is not "
-            f"installed or failed to import ({exc}); install it with: pip install warp-lang"
-        ) from exc
-    return wp
-
-
-class WarpBackend(Backend):
+class WarpBackend(WarpMeshKernels, Backend):
     """rdgpu kernels on one Warp device (``"cpu"``, ``"cuda"``, ``"cuda:0"``, …).
 
     Safe to drive from several Python threads at once (module doc); it owns a small
@@ -198,6 +122,18 @@ class WarpBackend(Backend):
 
     def __repr__(self) -> str:
         return f"WarpBackend(device={self.device!r})"
+
+    @property
+    def spec(self) -> str:
+        return "warp:" + str(self.device).split(" ")[0]
+
+    def fused_pass(self, program, target, fields, member) -> WarpFusedPass:
+        """The program's generated Warp module for this device (cached in the program)."""
+        key = ("warp", str(self._dev), target.kind, fields, member, target.dtype.char)
+        found = program.cache.get(key)
+        if found is None:
+            found = program.cache[key] = WarpFusedPass(program, target, fields, member)
+        return found
 
     # ------------------------------------------------------------------ plumbing
     def _family(self, family: str) -> ModuleType:
@@ -649,103 +585,6 @@ class WarpBackend(Backend):
             *self._bc_args(bc, t),
         ]
         self._run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
-
-    # ------------------------------------------------------------------ CSR / mesh kernels
-    def _run_rows(self, kernels, n_rows: int, nnz: int, args: list) -> None:
-        """Launch a ``(blocks, rows)`` CSR kernel pair over ``n_rows`` rows: one thread per
-        row on CUDA; on the CPU one thread per ``ROW_BLOCK`` rows, in row chunks side by
-        side (``_run_split``) once the matrix is large."""
-        if n_rows == 0:
-            return
-        blocks, rows = kernels
-        if self._cells:
-            self._launch(rows, n_rows, args, 0)
-            return
-        self._run_split(blocks, -(-n_rows // ROW_BLOCK), nnz + n_rows,
-                        [*args, n_rows, ROW_BLOCK])
-
-    def _csr_handles(self, A: DeviceCSR) -> list:
-        return [A.indptr.handle, A.indices.handle, A.data.handle]
-
-    def _vparam(self, p: FieldOrScalar, like: DeviceArray, what: str):
-        """``(value, is_field)`` of a per-vertex parameter: a flat array or a scalar."""
-        if isinstance(p, DeviceArray):
-            if p.size != like.size or p.dtype != like.dtype:
-                raise ValueError(f"{what} field must have {like.size} elements of "
-                                 f"{like.dtype}, got {p.shape} {p.dtype}")
-            return self._flat(p), True
-        return like.dtype.type(p), False
-
-    def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
-        self._check_csr(A, x, y, "spmv")
-        kernels = self._family("mesh").SPMV[A.dtype]
-        args = [*self._csr_handles(A), self._flat(x), self._flat(y)]
-        self._run_rows(kernels, A.shape[0], A.nnz, args)
-
-    def mesh_gray_scott(
-        self,
-        L: DeviceCSR,
-        u: DeviceArray,
-        v: DeviceArray,
-        u_out: DeviceArray,
-        v_out: DeviceArray,
-        *,
-        Du: float,
-        Dv: float,
-        F: FieldOrScalar,
-        k: FieldOrScalar,
-        dt: float,
-    ) -> None:
-        for a in (u, v, u_out, v_out):
-            self._check_csr(L, u, a, "mesh_gray_scott")
-        t = u.dtype.type
-        f_val, f_field = self._vparam(F, u, "mesh_gray_scott F")
-        k_val, k_field = self._vparam(k, u, "mesh_gray_scott k")
-        kernels = self._family("mesh").GRAY_SCOTT[(u.dtype, f_field, k_field)]
-        args = [
-            *self._csr_handles(L), self._flat(u), self._flat(v), self._flat(u_out),
-            self._flat(v_out), f_val, k_val, t(Du), t(Dv), t(dt),
-        ]
-        self._run_rows(kernels, L.shape[0], L.nnz, args)
-
-    def mesh_diffusion(
-        self,
-        L: DeviceCSR,
-        u: DeviceArray,
-        out: DeviceArray,
-        *,
-        D: float,
-        dt: float,
-        source: FieldOrScalar = 0.0,
-    ) -> None:
-        self._check_csr(L, u, out, "mesh_diffusion")
-        t = u.dtype.type
-        s_val, s_field = self._vparam(source, u, "mesh_diffusion source")
-        kernels = self._family("mesh").DIFFUSION[(u.dtype, s_field)]
-        args = [*self._csr_handles(L), self._flat(u), self._flat(out), t(D), s_val, t(dt)]
-        self._run_rows(kernels, L.shape[0], L.nnz, args)
-
-    def csr_sor_colour(
-        self,
-        A: DeviceCSR,
-        x: DeviceArray,
-        rhs: DeviceArray,
-        rows: DeviceArray,
-        change: DeviceArray,
-        *,
-        omega: float,
-    ) -> None:
-        self._check_sor(A, x, rhs, rows, change)
-        t = x.dtype.type
-        om = t(omega)
-        kernels = self._family("mesh").SOR[x.dtype]
-        args = [
-            *self._csr_handles(A), A.diagonal.handle, self._flat(x), self._flat(rhs),
-            rows.handle, self._flat(change), om, t(1) - om,
-        ]
-        n = rows.size
-        # work: about nnz · n / n_rows matrix entries
-        self._run_rows(kernels, n, A.nnz * n // max(A.shape[0], 1), args)
 
     # ------------------------------------------------------------------ DLA growth
     def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,

@@ -36,6 +36,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
+from rdgpu.backends.registry import backend_names
 from rdgpu.cli.common import (
     DEFAULT_SIZE,
     DEFAULT_STEPS,
@@ -108,7 +109,7 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
     """--seed, --backend and --dtype (of `rdgpu run` and `rdgpu sweep`)."""
     group.add_argument("--seed", type=_seed, help="random seed of the initial condition"
                        f"{seed_note} (a whole number >= 0; default 0)")
-    group.add_argument("--backend", help="numpy, warp, opencl or auto, optionally "
+    group.add_argument("--backend", help=f"{', '.join(backend_names())} or auto, optionally "
                        "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
     group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
 

@@ -2,11 +2,11 @@
 
 A single step of a fused model kernel reads and writes every field once, so on a grid
 larger than the last-level cache its rate is bounded by memory bandwidth (the "roofline":
-bandwidth ÷ bytes per cell).  A blocked pass (``kernels/model/blocked.cl``) advances bands
+bandwidth ÷ bytes per cell).  A blocked pass (``families/model/blocked.cl``) advances bands
 of ``rows`` grid rows by ``steps`` steps each, keeping the intermediate steps in a small
 per-work-item scratch area that stays in the core's cache, so the grid crosses memory once
 per ``steps`` steps.  Every value is computed by the step kernel's own cell body (generated
-by :func:`rdgpu.models.compiler.opencl_cell`), in the same order, so a pass is bit for bit
+by :func:`rdgpu.backends.opencl_codegen.opencl_cell`), in the same order, so a pass is bit for bit
 ``steps`` single steps.
 
 Eligible (:func:`why_not`): a :class:`~rdgpu.integrators.ModelStepper` with
@@ -32,22 +32,8 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
-from rdgpu.families import read_source
-from rdgpu.ir.names import ident
-from rdgpu.models.compiler import (
-    PerMember,
-    Program,
-    Target,
-    _grid_coefficients,
-    _member_lines,
-    _signature,
-    arguments,
-    opencl_arg_dtypes,
-    opencl_cell,
-    opencl_head,
-    opencl_kernel,
-    opencl_program,
-)
+from rdgpu.backends.target import Target
+from rdgpu.ir.program import PerMember, Program
 
 __all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "cache_sizes", "fitting_steps",
            "last_level_cache", "why_not"]
@@ -66,12 +52,9 @@ ITEMS_PER_UNIT = 2
 # ---------------------------------------------------------------------------- eligibility
 def why_not(stepper: Any) -> str | None:
     """Why ``stepper`` cannot run blocked passes, or None when it can."""
-    be = stepper.backend
-    if be.name != "opencl":
-        return f"the {be.name} backend has no blocked kernel (only opencl has)"
-    if getattr(be, "layout", None) != "row":
-        return (f"the OpenCL backend runs the {be.layout} layout; blocked passes need the row "
-                "layout (CPU devices)")
+    reason = stepper.backend.blocked_pass_support()
+    if reason is not None:
+        return reason
     if stepper.method != "euler":
         return f"method {stepper.method!r} is not a single-pass step; only 'euler' is"
     if stepper._pre is not None:
@@ -135,8 +118,7 @@ def auto_steps(stepper: Any) -> int:
     parameter fields) exceed the last-level cache; then :func:`fitting_steps`."""
     if why_not(stepper) is not None:
         return 1
-    be = stepper.backend
-    if not be.cl_device.type & be._cl.device_type.CPU:
+    if not stepper.backend.on_cpu:
         return 1
     llc = last_level_cache()
     fields = sum(isinstance(v, DeviceArray) for v in stepper._dev.values())
@@ -184,37 +166,11 @@ def setup(stepper: Any, block_steps: Any, rows: int | None = None) -> BlockedEul
     return BlockedEuler(stepper, k, rows) if k > 1 else None
 
 
-# ---------------------------------------------------------------------------- kernel
-def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
-                   member: frozenset[str] = frozenset()) -> str:
-    """The OpenCL C kernel ``rd_blocked`` of ``program`` (needs ``common.cl`` first);
-    ``member``: the parameters given per ensemble member."""
-    decl, body = opencl_cell(program, kind, fields, dtype, member, field_index="kf_",
-                             out_index="ko_")
-    select = []
-    for q, s in enumerate(program.inputs):
-        select.append(f"__global const real *{ident('lin', s)} = (k == 1) ? {ident('in', s)}"
-                      f" : src_ + {q} * ring_;")
-        select.append(f"__global real *{ident('lout', s)} = (k == steps) ? {ident('out', s)}"
-                      f" : dst_ + {q} * ring_;")
-    rename = {ident("in", s): ident("lin", s) for s in program.inputs}
-    rename.update({ident("out", s): ident("lout", s) for s in program.inputs})
-    rename["b_t"] = "times_[k - 1]"
-    call = [rename.get(nm, nm) for _, nm in _signature(program, fields, member)]
-    text = read_source("model", "blocked.cl")
-    return opencl_head(program) + (
-        text.replace("@ARGS@", ",\n        ".join(decl))
-        .replace("@NS@", str(len(program.inputs)))
-        .replace("@SELECT@", "\n".join(" " * 16 + line for line in select))
-        .replace("@CALL@", ", ".join(call))
-        .replace("@ROW@", "\n".join("    " + line for line in _member_lines(member)))
-        .replace("@CELL@", " \\\n".join("        " + b for b in body))
-    )
-
-
+# ---------------------------------------------------------------------------- passes
 class BlockedEuler:
     """Blocked passes of a :class:`~rdgpu.integrators.ModelStepper`'s Euler step:
-    ``steps`` steps per pass in bands of ``rows`` grid rows (default: :meth:`default_rows`)."""
+    ``steps`` steps per pass in bands of ``rows`` grid rows (default: :meth:`default_rows`),
+    run by the backend's blocked pass (``Backend.blocked_pass``)."""
 
     def __init__(self, stepper: Any, steps: int, rows: int | None = None):
         reason = why_not(stepper)
@@ -231,67 +187,35 @@ class BlockedEuler:
         self.rows = self.default_rows() if rows is None else int(rows)
         if self.rows < 1:
             raise ValueError(f"rows must be >= 1, got {rows}")
-        be = stepper.backend
         bands = self.planes * -(-ny // self.rows)
-        units = max(1, int(be.cl_device.max_compute_units))
+        units = stepper.backend.compute_units
         self.items = max(1, min(bands, ITEMS_PER_UNIT * units))
-        ns = len(stepper.species)
-        per_item = (self.steps - 1) * ns * 3 * max(nx, 1)
-        self._scratch = be.empty((max(1, self.items * per_item),), stepper.dtype)
-        self._times = be.empty((self.steps,), stepper.dtype)
-        self._uses_time = bool(stepper._euler.refs("time"))
+        program: Program = stepper._euler
+        self._pass = stepper.backend.blocked_pass(program, self.target, steps=self.steps,
+                                                  rows=self.rows, items=self.items)
+        self._uses_time = bool(program.refs("time"))
         self._last_t0: int | None = None
 
     def default_rows(self) -> int:
         """Band height: :data:`ROWS` rows, fewer where that leaves a work-item without a
         band."""
-        units = max(1, int(self.stepper.backend.cl_device.max_compute_units))
+        units = self.stepper.backend.compute_units
         return max(1, min(ROWS, -(-self.ny * self.planes // (ITEMS_PER_UNIT * units))))
-
-    def _kernel(self, fields: frozenset[str], member: frozenset[str]):
-        program, target = self.stepper._euler, self.target
-
-        def make():
-            src = blocked_source(program, target.kind, fields, target.dtype, member)
-            k = target.backend._cl.Kernel(opencl_program(target, src, "model/blocked.cl"),
-                                          "rd_blocked")
-            dt = target.dtype
-            k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt, member), None, None,
-                                     np.int32, np.int32, np.int32, np.int32, dt, np.int32, dt,
-                                     dt, dt, dt, dt, np.int32, np.int32, np.int32])
-            return k
-
-        return opencl_kernel(program, target, fields, "rd_blocked", make, member)
 
     def run(self, x: list[DeviceArray], y: list[DeviceArray], steps_done: int) -> None:
         """One pass: ``y`` = the state ``steps`` Euler steps after ``x``, which is at step
         ``steps_done`` (time ``steps_done·dt``)."""
         st = self.stepper
         program, target = st._euler, self.target
-        if self.nx == 0 or self.ny == 0 or self.planes == 0:
-            return
-        be = st.backend
-        t = target.dtype.type
+        times = None
         if self._uses_time and self._last_t0 != steps_done:
+            t = target.dtype.type
             times = np.array([t((steps_done + k) * st.dt) for k in range(self.steps)],
                              dtype=target.dtype)
-            # the in-order queue runs the copy after the previous pass (pyopencl keeps
-            # ``times`` alive until it is done)
-            be._cl.enqueue_copy(be.queue, self._times.handle, times, is_blocking=False)
             self._last_t0 = steps_done
         fields = frozenset(p for p in program.refs("param")
                            if isinstance(st._dev[p], DeviceArray))
         member = frozenset(p for p in program.refs("param")
                            if isinstance(st._dev[p], PerMember))
-        args = arguments(program, target, x, y, st._dev, fields,
-                         {"_h": st.dt, "_a": 0.0, "_b": 1.0}, steps_done * st.dt,
-                         member=member)
-        b = target.domain.bcs
-        dx, dy, _ = target.spacing()
-        cx, cy, _ = _grid_coefficients(target)
-        args += [self._times.handle, self._scratch.handle, self.nx, self.ny, self.planes,
-                 b.x.kind, b.x.value, b.y.kind, b.y.value, cx, cy, dx, dy, self.steps,
-                 self.rows, self.items]
-        k = self._kernel(fields, member)
-        k.set_args(*args)
-        be._cl.enqueue_nd_range_kernel(be.queue, k, (self.items,), (1,))
+        self._pass.run(x, y, st._dev, fields, member, {"_h": st.dt, "_a": 0.0, "_b": 1.0},
+                       steps_done * st.dt, times)

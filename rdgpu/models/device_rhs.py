@@ -9,11 +9,11 @@ which crosses to the host:
   pointwise expression of fields (``"x + 0.5*k1"``) and writes expressions of ``F =
   f(y, t)``, ``Y = y`` and the fields (``"h*F"``, ``"Y + c*F"``, ``"x + h*r - (Y +
   c*F)"``).  ``y`` is never stored: the pass evaluates it at each cell and at each
-  neighbour its Laplacians read (a derived field of :class:`~rdgpu.models.compiler.
-  Program`), the same value bit for bit as a stored one.  A ``y`` of more than two
-  fields (a Runge-Kutta stage) is stored first by one elementwise pass, since every
-  neighbour would reload them all; so is any ``y`` of a model with a bilaplacian (its
-  pre-pass reads it);
+  neighbour its Laplacians read (a derived field of :class:`~rdgpu.ir.program.Program`),
+  the same value bit for bit as a stored one.  A ``y`` of more than two fields (a
+  Runge-Kutta stage) is stored first by one elementwise pass, since every neighbour
+  would reload them all; so is any ``y`` of a model with a bilaplacian (its pre-pass
+  reads it);
 * :meth:`DeviceRHS.rate` (``out = c·f(x, t)``) and :meth:`DeviceRHS.euler` (``out = x +
   h·f(x, t)``), the two simplest stages;
 * :meth:`DeviceRHS.pointwise`: ``out = expr`` elementwise, an expression of named fields
@@ -38,7 +38,8 @@ import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.ir import equations as eq
-from rdgpu.models.compiler import Output, Program, launch
+from rdgpu.ir.program import Output, Program
+from rdgpu.models.compiler import launch
 
 __all__ = ["DeviceRHS", "Field"]
 

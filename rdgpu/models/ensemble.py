@@ -11,7 +11,7 @@ A member's parameters are given once for the ensemble: a value is
 per member.)  :func:`split_members` turns that into one plain parameter dict per member,
 :func:`stack_members` the members' resolved dicts back into what an ensemble kernel reads:
 numbers the same for all stay numbers, numbers that differ become a
-:class:`~rdgpu.models.compiler.PerMember` vector, fields are stacked (or shared when every
+:class:`~rdgpu.ir.program.PerMember` vector, fields are stacked (or shared when every
 member has the same one).  Each member runs exactly as it would alone.
 """
 
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu.models.compiler import PerMember
+from rdgpu.ir.program import PerMember
 
 __all__ = ["member_seeds", "resolve_members", "split_members", "stack_members"]
 

@@ -70,9 +70,7 @@ def split_params(params: Mapping[str, Any]) -> tuple[dict, dict[str, np.ndarray]
 
 def backend_spec(be: Any) -> str:
     """The backend as ``get_backend`` takes it back (Warp with its device)."""
-    if be.name == "warp":
-        return "warp:" + str(be.device).split(" ")[0]
-    return be.name
+    return be.spec
 
 
 def describe_domain(domain: Domain, source: Any = None) -> dict:

@@ -1,0 +1,147 @@
+"""A domain bound to a backend and a dtype (:class:`Target`), and the interface of a compiled
+fused pass (:class:`FusedPass`): what the model layer hands a backend to run a
+:class:`~rdgpu.ir.program.Program`.
+
+``Backend.fused_pass(program, target, fields, member)`` returns a :class:`FusedPass`; its
+:meth:`~FusedPass.launch` runs one pass.  :class:`HostFusedPass` runs a program through
+its NumPy semantics (:func:`rdgpu.ir.reference.run_numpy`) with a download and an upload:
+a backend without kernels of its own may return it, explicitly; nothing falls back to it.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from rdgpu.backends.base import Backend, DeviceArray, DeviceCSR
+from rdgpu.ir.layout import Layout
+from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS, PerMember, Program
+from rdgpu.ir.reference import run_numpy
+from rdgpu.ir.stencils import check_stencil
+
+__all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
+           "host_params"]
+
+
+class Target(Layout):
+    """A domain bound to a backend and dtype: what a launch needs besides the buffers
+    (:class:`~rdgpu.ir.layout.Layout` for the host side).
+
+    ``csr``: the mesh Laplacian on the device; ``metric``: a graph surface's coefficients
+    ``ex, ny, bx, w`` (DeviceArrays ``[ny, nx]``); ``coords``: the coordinates uploaded so
+    far (``"x"`` -> DeviceArray).  ``backend`` may be None for host data only."""
+
+    def __init__(self, domain: Any, backend: Backend | None, dtype: Any,
+                 csr: DeviceCSR | None = None, stencil: str = "compact",
+                 coords: dict[str, DeviceArray] | None = None,
+                 host: dict[str, Any] | None = None, members: int = 1,
+                 metric: tuple[DeviceArray, ...] = ()):
+        super().__init__(domain, dtype, stencil=stencil, members=members, host=host)
+        self.backend = backend
+        self.csr = csr
+        self.coords: dict[str, DeviceArray] = {} if coords is None else coords
+        self.metric = metric
+
+    @classmethod
+    def bind(cls, domain: Any, backend: Backend, dtype: Any,
+             stencil: str = "compact", members: int = 1) -> Target:
+        dtype = np.dtype(dtype)
+        if dtype not in REALS:
+            raise TypeError(f"dtype must be float32 or float64, got {dtype}")
+        check_stencil(domain, stencil)
+        if int(members) < 1:
+            raise ValueError(f"members must be >= 1, got {members}")
+        t = cls(domain, backend, dtype, stencil=stencil, members=int(members))
+        if domain.kind == "graph-surface":
+            c = domain.coefficients_as(dtype)
+            t.metric = tuple(backend.upload(c[k]) for k in METRIC_COEFFICIENTS)
+        elif domain.kind == "mesh":
+            t.csr = backend.upload_csr(domain.laplacian, dtype)
+        return t
+
+    def device_coordinate(self, name: str) -> DeviceArray:
+        if name not in self.coords:
+            self.coords[name] = self.backend.upload(self.coordinate(name))
+        return self.coords[name]
+
+
+class FusedPass(ABC):
+    """One program compiled for one backend (and stencil kind, parameter fields and dtype)."""
+
+    @abstractmethod
+    def launch(self, target: Target, inputs: Sequence[DeviceArray],
+               outputs: Sequence[DeviceArray], params: Mapping[str, Any],
+               fields: frozenset[str], member: frozenset[str],
+               scalars: Mapping[str, float], time: float) -> None:
+        """One pass: ``inputs``/``outputs`` in the program's order, each of
+        ``target.field_shape``; ``params`` maps each parameter to a number, a DeviceArray
+        (the names in ``fields``) or a :class:`~rdgpu.ir.program.PerMember` (``member``);
+        ``scalars`` the builtins (``_h``...)."""
+
+
+class BlockedPass(ABC):
+    """``steps`` explicit Euler steps of one program per pass over a 2-D grid, in bands of
+    rows (temporal blocking, :mod:`rdgpu.models.blocking`; ``Backend.blocked_pass``)."""
+
+    @abstractmethod
+    def run(self, x: Sequence[DeviceArray], y: Sequence[DeviceArray],
+            params: Mapping[str, Any], fields: frozenset[str], member: frozenset[str],
+            scalars: Mapping[str, float], time: float, times: np.ndarray | None) -> None:
+        """One pass from ``x`` (at ``time``) into ``y``; ``times``: the ``steps`` step times
+        where they changed since the last pass (else None)."""
+
+
+def host_params(program: Program, params: Mapping[str, Any], get) -> dict[str, Any]:
+    """The program's parameters with each device array replaced by ``get(array)``."""
+    out = {}
+    refs = program.refs("param")
+    for p, v in params.items():
+        if p not in refs:
+            continue
+        if isinstance(v, PerMember):
+            out[p] = PerMember(get(v.values))
+        else:
+            out[p] = get(v) if isinstance(v, DeviceArray) else v
+    return out
+
+
+class HostFusedPass(FusedPass):
+    """A program run through its NumPy semantics: inputs downloaded, outputs uploaded (for
+    a backend that has no kernels of its own; it must return this itself)."""
+
+    def __init__(self, program: Program):
+        self.program = program
+
+    def launch(self, target, inputs, outputs, params, fields, member, scalars, time):
+        program, be = self.program, target.backend
+        host = {n: a.numpy() for n, a in zip(program.inputs, inputs, strict=True)}
+        res = run_numpy(program, target, host, host_params(program, params, be.download),
+                        scalars, time)
+        for o, buf in zip(program.outputs, outputs, strict=True):
+            be.copy(be.upload(np.ascontiguousarray(res[o.name].reshape(buf.shape))), buf)
+
+
+def _handle(a: DeviceArray) -> Any:
+    return a.handle
+
+
+def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
+              outputs: Sequence[DeviceArray], params: Mapping[str, Any],
+              fields: frozenset[str], scalars: Mapping[str, float], time: float,
+              flat=_handle, member: frozenset[str] = frozenset()) -> list[Any]:
+    """The kernel arguments of :func:`rdgpu.ir.program.signature`: buffers through
+    ``flat``, scalars in the target's dtype."""
+    t = target.dtype.type
+    bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]
+    ps = program.refs("param")
+    bufs += [flat(params[p]) for p in ps if p in fields]
+    bufs += [params[p].values.handle for p in ps if p in member]
+    bufs += [t(params[p]) for p in ps if p not in fields and p not in member]
+    bufs += [t(scalars[b]) for b in program.refs("builtin")]
+    bufs.append(t(time))
+    lengths = target.lengths()
+    bufs += [t(lengths[n]) for n in program.refs("length")]
+    return bufs

@@ -1,0 +1,105 @@
+"""Warp's process-wide runtime pieces shared by :mod:`rdgpu.backends.warp_backend` and
+:mod:`rdgpu.backends.warp_codegen`: the launch-shape constants, the lock around Warp's
+global state, the helpers that keep Warp quiet, the 32-bit cell limit."""
+
+from __future__ import annotations
+
+import os
+import threading
+from contextlib import contextmanager
+
+import numpy as np
+
+from rdgpu.core.errors import BackendUnavailableError
+
+#: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
+#: thread costs tens of microseconds), larger ones in up to one chunk per core
+CHUNK_MIN_CELLS = 1 << 15
+#: elements per thread of the pointwise (Bernoulli) kernel on the CPU
+BLOCK = 4096
+#: matrix rows per thread of the CSR kernels on the CPU
+ROW_BLOCK = 256
+#: max_abs, sum_squares: elements per thread on the CPU (one partial each); threads of the
+#: CUDA shape's first pass over the array, and of its second pass over the first's partials
+#: (REDUCE_BLOCK: a multiple of 16, the vectors sum_squares loads)
+REDUCE_BLOCK = 1 << 16
+REDUCE_THREADS = 1 << 18
+REDUCE_THREADS_2 = 1 << 10
+#: max_abs, sum_squares on the CPU: bytes per row chunk run side by side (at least)
+REDUCE_SPLIT_BYTES = 8 << 20
+#: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
+MAX_CELLS = 2**31 - 1
+
+_REAL = (np.dtype(np.float32), np.dtype(np.float64))
+
+#: guards Warp's global state: wp.init, module loading, recording a launch, wp.config
+#: (flipped by _quiet) and file descriptor 2 (swapped by _native_stderr_silenced)
+_WARP_LOCK = threading.RLock()
+
+
+@contextmanager
+def _native_stderr_silenced():
+    """Hide what native code prints on file descriptor 2 (Warp's "CUDA driver not found"
+    notice on CPU-only machines); Python exceptions still propagate."""
+    import sys
+    import tempfile
+
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real stderr (e.g. some notebooks)
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+@contextmanager
+def _quiet(wp):
+    """No greeting or module-load lines from Warp (older Warp reads ``config.quiet``,
+    newer ``config.log_level``); the settings are restored afterwards."""
+    config = wp.config
+    saved = {n: getattr(config, n) for n in ("quiet", "log_level") if hasattr(config, n)}
+    config.quiet = True
+    if "log_level" in saved and hasattr(wp, "LOG_WARNING"):
+        config.log_level = max(saved["log_level"], wp.LOG_WARNING)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(config, name, value)
+        if "quiet" not in saved:
+            del config.quiet
+
+
+def check_cells(n: int, shape: tuple[int, ...]) -> None:
+    """Refuse a grid launch over more than :data:`MAX_CELLS` cells (``shape``: for the
+    message)."""
+    if n > MAX_CELLS:
+        dims = "x".join(str(d) for d in shape)
+        raise ValueError(f"a grid of {dims} = {n} cells is too large for the Warp kernels: "
+                         f"they index with 32-bit ints, at most {MAX_CELLS} cells")
+
+
+def _cpu_count() -> int:
+    """Cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def _import_warp():
+    try:
+        import warp as wp
+    except ImportError as exc:
+        raise BackendUnavailableError(
+            "the 'warp' backend needs NVIDIA Warp (Python package 'warp'), which is not "
+            f"installed or failed to import ({exc}); install it with: pip install warp-lang"
+        ) from exc
+    return wp

@@ -1,0 +1,133 @@
+"""A :class:`Program`: what one fused pass over a domain computes, as data.
+
+A program says which buffers a pass reads (``inputs``, read at each cell and, where the
+expressions take their Laplacian, at its neighbours), which parameters it reads, and one
+expression per output buffer.  A time step of a model is such a program (``out_s = s +
+h·f_s``; see :mod:`rdgpu.models.integrators` for the other forms); so is the pre-pass that
+stores ``laplace(s)`` for a bilaplacian.  Every cell reads each input once and writes each
+output once: the stencils and the reaction in the same pass.
+
+The program's meaning on the host is :func:`rdgpu.ir.reference.run_numpy`; the backends
+print it as kernels (:meth:`rdgpu.backends.base.Backend.fused_pass`) that agree with it bit
+for bit where only ``+ − × ÷`` are used.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rdgpu.core.fpenv import flush_subnormals
+from rdgpu.ir.equations import Lap, Node, Ref, walk
+from rdgpu.ir.names import ident
+
+__all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "Program",
+           "literal", "signature"]
+
+#: the dtypes a program runs in
+REALS = (np.dtype(np.float32), np.dtype(np.float64))
+#: the grid stencils: "compact" (3/5/7 points) or "isotropic" (9 points in 2-D, 19 in 3-D)
+STENCILS = ("compact", "isotropic")
+#: the metric coefficient arrays in the kernels' argument order (families/metric/reference.py)
+METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output buffer: the value ``expr`` clamped to ``bounds`` (None: no bound)."""
+
+    name: str
+    expr: Node
+    bounds: tuple[float | None, float | None] = (None, None)
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """One pass: read ``inputs`` (field buffers, by name), write ``outputs``.
+
+    Names in the expressions: ``Ref("species", n)`` is input ``n`` at the cell,
+    ``Lap(n)`` its Laplacian (``n`` an input; ``order`` must be 1), ``Ref("param", p)``
+    a parameter (a field buffer or a scalar argument: decided per launch),
+    ``Ref("builtin", b)`` a scalar argument (``_h``, ``_a``...), ``Ref("time", "t")``,
+    ``Ref("coord", c)``, ``Ref("length", L)``.  ``zero_ghost``: inputs whose Dirichlet
+    ghost is 0 instead of the grid's value."""
+
+    inputs: tuple[str, ...]
+    outputs: tuple[Output, ...]
+    zero_ghost: frozenset[str] = frozenset()
+    #: pointwise fields ``(name, expression of the inputs and scalar parameters)``, readable
+    #: at the cell and through ``Lap(name)``: a neighbour's value is the expression of the
+    #: inputs there (Dirichlet ghost: the grid's value)
+    derived: tuple[tuple[str, Node], ...] = ()
+    #: per-program caches (names, sources, compiled passes); programs compare by identity
+    cache: dict = field(default_factory=dict, repr=False)
+
+    def refs(self, kind: str) -> tuple[str, ...]:
+        """The names of ``Ref``s of ``kind`` the outputs and derived fields use, sorted
+        (cached)."""
+        key = ("refs", kind)
+        found = self.cache.get(key)
+        if found is None:
+            exprs = [o.expr for o in self.outputs] + [e for _, e in self.derived]
+            found = tuple(sorted({n.name for e in exprs for n in walk(e)
+                                  if isinstance(n, Ref) and n.kind == kind}))
+            self.cache[key] = found
+        return found
+
+    @property
+    def stencil_inputs(self) -> tuple[str, ...]:
+        """Inputs and derived fields whose Laplacian is taken, in that order."""
+        used = {n.name for o in self.outputs for n in walk(o.expr) if isinstance(n, Lap)}
+        names = (*self.inputs, *(d for d, _ in self.derived))
+        return tuple(s for s in names if s in used)
+
+    def derived_expr(self, name: str) -> Node | None:
+        return dict(self.derived).get(name)
+
+    def check(self) -> None:
+        for o in self.outputs:
+            for n in walk(o.expr):
+                known = (*self.inputs, *(d for d, _ in self.derived))
+                if isinstance(n, Lap) and (n.order != 1 or n.name not in known):
+                    raise ValueError(f"program reads laplace^{n.order}({n.name}): only "
+                                     "first-order Laplacians of inputs")
+                if isinstance(n, Ref) and n.kind == "species" and n.name not in self.inputs:
+                    raise ValueError(f"program reads {n.name!r}, which is not an input")
+
+
+@dataclass(frozen=True)
+class PerMember:
+    """A parameter with one number per ensemble member: ``values`` is a DeviceArray (or,
+    for the NumPy reference, an array) of shape ``(members,)``."""
+
+    values: Any
+
+
+def literal(v: float, dtype: np.dtype):
+    """A literal rounded to the dtype, subnormals flushed to 0; refused if it overflows."""
+    t = np.dtype(dtype).type
+    with np.errstate(over="ignore"):
+        out = t(flush_subnormals(np.asarray(v, dtype=t)))
+    if math.isfinite(v) and not np.isfinite(out):
+        raise ValueError(f"the number {v:g} does not fit {np.dtype(dtype).name}")
+    return out
+
+
+def signature(program: Program, fields: frozenset[str],
+              member: frozenset[str] = frozenset()) -> list[tuple[str, str]]:
+    """A pass's buffer/scalar arguments in order: (kind, name) with kind in in/out/field/
+    member/scalar (``fields``: the parameters given as fields; ``member``: one number per
+    member, read as ``_p_{name}``; :mod:`rdgpu.ir.names`)."""
+    args = [("in", ident("in", s)) for s in program.inputs]
+    args += [("out", ident("out", o.name)) for o in program.outputs]
+    params = program.refs("param")
+    args += [("field", ident("pf", p)) for p in params if p in fields]
+    args += [("member", ident("pm", p)) for p in params if p in member]
+    args += [("scalar", ident("p", p)) for p in params if p not in fields and p not in member]
+    args += [("scalar", ident("b", b)) for b in program.refs("builtin")]
+    args.append(("scalar", "b_t"))
+    args += [("scalar", f"len_{n[1]}") for n in program.refs("length")]
+    return args

@@ -1,0 +1,148 @@
+"""The NumPy semantics of a :class:`~rdgpu.ir.program.Program`: what one pass computes,
+on host arrays, in the kernels' operation order (every backend's fused pass agrees with it
+bit for bit where only ``+ − × ÷`` are used, and to a few ulps where a function is).
+
+The Laplacians are those of :mod:`rdgpu.ir.stencils`: on grids the kernels' 3/5/7-point or
+isotropic stencils, ghosts by :mod:`rdgpu.domains.boundary` (a Dirichlet ghost of a
+``zero_ghost`` input is 0), on graph surfaces the metric operator of
+``families/metric/reference.py``, on meshes the CSR rows of ``L`` in index order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from rdgpu.families import load_module
+from rdgpu.ir.equations import evaluate
+from rdgpu.ir.layout import Layout
+from rdgpu.ir.program import METRIC_COEFFICIENTS, PerMember, Program, literal
+from rdgpu.ir.stencils import STENCIL_KINDS
+
+__all__ = ["run_numpy"]
+
+
+def _grid_laplacian(a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
+    """The kernels' Laplacian of a grid field (ghosts by the bc; Dirichlet 0 if ``zero``);
+    ``a`` is one member's field or an ensemble's ``[members, *shape]``."""
+    gc = load_module("", "grid_common.py")
+    d = layout.domain
+    t = a.dtype.type
+    nz, ny, nx = d.shape3
+    if layout.stencil == "isotropic" and d.ndim > 1:
+        axes = [(2, d.bcs.x, d.dx), (1, d.bcs.y, d.dy)] + (
+            [(0, d.bcs.z, d.dz)] if d.ndim > 2 else [])
+        members = a.reshape(-1, nz, ny, nx)
+        return np.stack([_isotropic_laplacian(u, axes, zero, t) for u in members]
+                        ).reshape(a.shape)
+    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
+    axes = [(3, d.bcs.x, d.dx)]
+    if d.ndim > 1:
+        axes.append((2, d.bcs.y, d.dy))
+    if d.ndim > 2:
+        axes.append((1, d.bcs.z, d.dz))
+    out = None
+    for axis, bc, h in axes:
+        value = 0.0 if zero else bc.value
+        p = gc.pad_axis(u, axis, bc.kind, value)
+        lo = np.take(p, range(0, p.shape[axis] - 2), axis=axis)
+        hi = np.take(p, range(2, p.shape[axis]), axis=axis)
+        term = ((hi + lo) - t(2) * u) * t(1.0 / (h * h))
+        out = term if out is None else out + term
+    return out.reshape(a.shape)
+
+
+def _isotropic_laplacian(u, axes, zero: bool, t) -> np.ndarray:
+    """9-point (2-D) ``(4 Σ faces + Σ corners − 20 u)/(6h²)`` or 19-point (3-D) ``(2 Σ
+    faces + Σ edges − 24 u)/(6h²)``; ghosts padded x, then y, then z, so a diagonal ghost
+    follows the outer axis's rule (z before y before x), as the kernels resolve them."""
+    gc = load_module("", "grid_common.py")
+    p = u
+    for axis, bc, _ in axes:
+        p = gc.pad_axis(p, axis, bc.kind, 0.0 if zero else bc.value)
+    nd = len(axes)
+    lo = 1 if nd > 2 else 0  # the z padding exists only in 3-D
+
+    def at(dz, dy, dx):
+        zs = slice(lo + dz, p.shape[0] - lo + dz if p.shape[0] - lo + dz else None) \
+            if nd > 2 else slice(None)
+        ys = slice(1 + dy, p.shape[1] - 1 + dy if p.shape[1] - 1 + dy else None)
+        xs = slice(1 + dx, p.shape[2] - 1 + dx if p.shape[2] - 1 + dx else None)
+        return p[zs, ys, xs]
+
+    h = axes[0][2]
+    c6 = t(1.0 / (6.0 * h * h))
+    faces = ((at(0, 0, -1) + at(0, 0, 1)) + at(0, -1, 0)) + at(0, 1, 0)
+    corners = ((at(0, -1, -1) + at(0, -1, 1)) + at(0, 1, -1)) + at(0, 1, 1)
+    if nd == 2:
+        return ((t(4) * faces + corners) - t(20) * u) * c6
+    faces = (faces + at(-1, 0, 0)) + at(1, 0, 0)
+    edges = corners
+    for pos in ((-1, 0, -1), (-1, 0, 1), (1, 0, -1), (1, 0, 1), (-1, -1, 0), (-1, 1, 0),
+                (1, -1, 0), (1, 1, 0)):
+        edges = edges + at(*pos)
+    return ((t(2) * faces + edges) - t(24) * u) * c6
+
+
+def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray],
+              params: Mapping[str, Any], scalars: Mapping[str, float],
+              time: float) -> dict[str, np.ndarray]:
+    """The reference of one launch on host arrays: ``{output name: array}``."""
+    dtype = layout.dtype
+    t = dtype.type
+    mesh_ref = None if layout.is_grid else load_module("mesh", "reference.py")
+    gc = load_module("", "grid_common.py")
+    shape = layout.field_shape
+    env: dict[str, Any] = {n: np.asarray(a, dtype=dtype).reshape(shape)
+                           for n, a in inputs.items()}
+    for p in program.refs("param"):
+        v = params[p]
+        if isinstance(v, PerMember):  # one number per member, broadcast over its cells
+            env[p] = np.asarray(v.values, dtype=dtype).reshape(
+                (layout.members,) + (1,) * len(layout.shape))
+        else:
+            env[p] = np.asarray(v, dtype=dtype) if isinstance(v, np.ndarray) else t(v)
+    for b in program.refs("builtin"):
+        env[b] = t(scalars[b])
+    env["t"] = t(time)
+    for c in program.refs("coord"):
+        env[c] = layout.coordinate(c)
+    env.update({k: t(v) for k, v in layout.lengths().items()})
+    for name, expr in program.derived:
+        with np.errstate(all="ignore"):
+            env[name] = np.broadcast_to(np.asarray(
+                evaluate(expr, env, literal=lambda v: literal(v, dtype)), dtype=dtype),
+                shape)
+    laps: dict[str, np.ndarray] = {}
+
+    def lap(name: str, order: int) -> np.ndarray:
+        if name not in laps:
+            a = env[name]
+            if STENCIL_KINDS[layout.kind].form == "metric":
+                ref = load_module("metric", "reference.py")
+                c = layout.domain.coefficients_as(dtype)
+                laps[name] = ref.metric_laplacian(a, *(c[k] for k in METRIC_COEFFICIENTS))
+            elif layout.is_grid:
+                laps[name] = _grid_laplacian(a, layout, name in program.zero_ghost)
+            else:
+                L = layout.domain.laplacian
+                n = layout.shape[0]
+                laps[name] = np.stack([
+                    mesh_ref._product(L.indptr, L.indices, L.data, m, n)
+                    for m in a.reshape(-1, n)]).reshape(a.shape)
+        return laps[name]
+
+    out = {}
+    for o in program.outputs:
+        with np.errstate(all="ignore"):
+            val = evaluate(o.expr, env, literal=lambda v: literal(v, dtype), lap=lap)
+        val = np.broadcast_to(np.asarray(val, dtype=dtype), shape)
+        lo, hi = o.bounds
+        if lo is not None:
+            val = np.where(val < t(lo), t(lo), val)
+        if hi is not None:
+            val = np.where(val > t(hi), t(hi), val)
+        out[o.name] = gc.flush(val).astype(dtype, copy=False)
+    return out

@@ -1,0 +1,243 @@
+"""The one stencil table per domain kind, and the stencil walk both kernel printers use.
+
+A pass's *stencil kind* (:func:`stencil_kind`) follows from the domain's ``kind`` (the
+Domain protocol, :mod:`rdgpu.domains.base`) and the grid stencil:
+
+* ``grid1``, ``grid2``, ``grid3``: the 3-, 5- or 7-point Laplacian ``((e + w) − 2c)/dx² +
+  ((n + s) − 2c)/dy² + ((t + b) − 2c)/dz²`` (terms of absent axes left out);
+* ``grid2iso``, ``grid3iso``: the isotropic 9- and 19-point Laplacians;
+* ``grid2metric`` (a graph surface): the periodic 9-point ``Δ_Γ`` of
+  ``families/metric/reference.py`` in its operation order;
+* ``mesh``: ``laplace(s)_i = Σ_q L_iq s_q`` over the CSR row of ``L``, in index order (one
+  "neighbour": the row's column, read in a loop).
+
+:data:`STENCIL_KINDS` says for each which neighbours a cell reads (:class:`Neighbour`:
+its row and column offsets and the ghost rules that replace it at a boundary).
+:func:`neighbour_values` walks them for a program, :func:`laplacian_text` writes the
+Laplacian from them in the reference's operation order, and :func:`emit` writes an
+expression fully parenthesised; the Warp and OpenCL printers
+(:mod:`rdgpu.backends.warp_codegen`, :mod:`rdgpu.backends.opencl_codegen`) differ only in
+how they spell a load, a select and a literal.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from rdgpu.ir.equations import Bin, Lap, Neg, Node, Num, Ref
+from rdgpu.ir.names import ident
+from rdgpu.ir.program import METRIC_COEFFICIENTS, STENCILS, Program
+
+__all__ = ["STENCIL_KINDS", "Neighbour", "StencilKind", "check_stencil", "emit",
+           "laplacian_text", "metric_loads", "neighbour_value", "neighbour_values",
+           "stencil_kind", "variable"]
+
+
+@dataclass(frozen=True)
+class Neighbour:
+    """A neighbour a cell's Laplacian reads: ``row`` names its row relative to the cell's
+    (``""``: the same row, ``"s"``, ``"n"``, ``"b"``, ``"t"``, ``"bs"``...), ``dx`` its
+    column offset; ``ghosts``: ``(side, axis)`` pairs, outer axis first, each replacing the
+    value by that axis's ghost where the cell is on that side's boundary."""
+
+    name: str
+    row: str
+    dx: int
+    ghosts: tuple[tuple[str, str], ...]
+
+
+def _neighbour(name: str) -> Neighbour:
+    sides = {"w": ("", -1, "x"), "e": ("", 1, "x"), "s": ("s", 0, "y"), "n": ("n", 0, "y"),
+             "b": ("b", 0, "z"), "t": ("t", 0, "z")}
+    row = "".join(sides[c][0] for c in name)
+    dx = sum(sides[c][1] for c in name)
+    return Neighbour(name, row, dx, tuple((c, sides[c][2]) for c in name))
+
+
+@dataclass(frozen=True)
+class StencilKind:
+    """One row of :data:`STENCIL_KINDS`: the dimension, the form of the Laplacian
+    (``compact``, ``isotropic``, ``metric`` or ``csr``) and the neighbours, in the order the
+    kernels read them."""
+
+    name: str
+    ndim: int
+    form: str
+    neighbours: tuple[Neighbour, ...]
+
+
+_FACES = {1: ("w", "e"), 2: ("w", "e", "s", "n"), 3: ("w", "e", "s", "n", "b", "t")}
+_CORNERS = ("sw", "se", "nw", "ne")
+_EDGES = ("bw", "be", "tw", "te", "bs", "bn", "ts", "tn")
+
+
+def _kind(name: str, ndim: int, form: str, names: Sequence[str]) -> StencilKind:
+    return StencilKind(name, ndim, form, tuple(_neighbour(n) for n in names))
+
+
+#: THE stencil table: stencil kind -> what a cell's Laplacian reads (module doc)
+STENCIL_KINDS: dict[str, StencilKind] = {k.name: k for k in (
+    _kind("grid1", 1, "compact", _FACES[1]),
+    _kind("grid2", 2, "compact", _FACES[2]),
+    _kind("grid3", 3, "compact", _FACES[3]),
+    _kind("grid2iso", 2, "isotropic", _FACES[2] + _CORNERS),
+    _kind("grid3iso", 3, "isotropic", _FACES[3] + _CORNERS + _EDGES),
+    _kind("grid2metric", 2, "metric", _FACES[2] + _CORNERS),
+    # one neighbour: column ``j_`` of the cell's CSR row, read in a loop over the row
+    StencilKind("mesh", 0, "csr", (Neighbour("col", "", 0, ()),)),
+)}
+
+
+def stencil_kind(domain: Any, stencil: str = "compact") -> str:
+    """The row of :data:`STENCIL_KINDS` of a pass on ``domain`` (by its ``kind``) with the
+    grid ``stencil``."""
+    if domain.kind == "mesh":
+        return "mesh"
+    if domain.kind == "graph-surface":
+        return "grid2metric"
+    iso = stencil == "isotropic" and domain.ndim > 1
+    return f"grid{domain.ndim}" + ("iso" if iso else "")
+
+
+def check_stencil(domain: Any, stencil: str) -> None:
+    """``stencil`` is known, and an isotropic one has a uniform grid spacing."""
+    if stencil not in STENCILS:
+        raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
+    if stencil == "isotropic" and domain.kind == "graph-surface":
+        raise ValueError("the isotropic stencil is a flat-grid stencil; a graph surface has "
+                         "its own 9-point Laplace-Beltrami operator: use stencil='compact'")
+    if stencil == "isotropic" and domain.kind == "grid" and domain.ndim > 1:
+        hs = [domain.dx, domain.dy] + ([domain.dz] if domain.ndim > 2 else [])
+        if max(hs) != min(hs):
+            raise ValueError(f"the isotropic stencil needs equal spacings, got "
+                             f"{', '.join(f'{h:g}' for h in hs)}")
+
+
+# ---------------------------------------------------------------------------- expressions
+def emit(node: Node, name: Callable[[Node], str], lit: Callable[[float], str],
+         fn: Callable[[str, list[str]], str]) -> str:
+    """Fully parenthesised source: ``name(ref)``, ``lit(value)``, ``fn(call, args)``."""
+    if isinstance(node, Num):
+        return lit(node.value)
+    if isinstance(node, (Ref, Lap)):
+        return name(node)
+    if isinstance(node, Bin):
+        return f"({emit(node.a, name, lit, fn)} {node.op} {emit(node.b, name, lit, fn)})"
+    if isinstance(node, Neg):
+        return f"(-{emit(node.a, name, lit, fn)})"
+    return fn(node.fn, [emit(a, name, lit, fn) for a in node.args])
+
+
+def variable(node: Node, fields: frozenset[str]) -> str:
+    """The local variable a kernel body uses for a Ref/Lap (``fields``: the parameters
+    given as fields)."""
+    if isinstance(node, Lap):
+        return ident("lap", node.name)
+    if node.kind == "species":
+        return ident("c", node.name)
+    if node.kind == "param":
+        return ident("f" if node.name in fields else "p", node.name)
+    if node.kind == "builtin":
+        return ident("b", node.name)
+    if node.kind == "time":
+        return "b_t"
+    if node.kind == "coord":
+        return f"{node.name}c"
+    return f"len_{node.name[1]}"  # Lx -> len_x
+
+
+def neighbour_value(program: Program, s: str, load: Callable[[str], str],
+                    fields: frozenset[str], lit, fn) -> str:
+    """Source of field ``s`` at a neighbour whose input ``i`` reads as ``load(i)``: the
+    load itself, or a derived field's expression of the inputs there."""
+    expr = program.derived_expr(s)
+    if expr is None:
+        return load(s)
+    return emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind == "species"
+                else variable(n, fields), lit, fn)
+
+
+# ---------------------------------------------------------------------------- the walk
+def neighbour_values(program: Program, kind: str,
+                     load: Callable[[Neighbour, str], str],
+                     select: Callable[[str, str, str], str] | None,
+                     fields: frozenset[str], lit, fn) -> Iterator[tuple[str, str, str]]:
+    """The stencil walk: for each neighbour of ``kind`` (table order) and each field whose
+    Laplacian ``program`` takes, ``(neighbour name, field, value source)``.  ``load(nb,
+    i)`` reads input ``i`` at neighbour ``nb``; ``select(side, ghost, value)`` replaces the
+    value by ``ghost`` (the axis's ghost name ``g{axis}``, or ``"0"`` for a zero-ghost
+    input) on that side's boundary, applied inner axis first; None: no boundary can occur
+    (an interior cell)."""
+    stencil = program.stencil_inputs
+    for nb in STENCIL_KINDS[kind].neighbours:
+        for s in stencil:
+            value = neighbour_value(program, s, lambda i, nb=nb: load(nb, i), fields, lit, fn)
+            if select is not None:
+                for side, axis in reversed(nb.ghosts):
+                    ghost = "0" if s in program.zero_ghost else f"g{axis}"
+                    value = select(side, ghost, value)
+            yield nb.name, s, value
+
+
+def laplacian_text(kind: str, s: str, num: Callable[[int], str], flush: str = "FLUSH") -> str:
+    """The Laplacian of field ``s`` from the neighbour values ``_q{name}_{s}`` and
+    ``_c_{s}``, in the reference's operation order; ``num(v)`` writes a literal, ``flush``
+    names the subnormal flush (the metric operator flushes its result, as its reference)."""
+    row = STENCIL_KINDS[kind]
+    nd = row.ndim
+    v = {nb.name: ident("q" + nb.name, s) for nb in row.neighbours}
+    c = ident("c", s)
+    if row.form == "metric":  # families/metric/reference.py, operation by operation
+        def a(coef: str, pos: str, sign: str = "") -> str:
+            return f"(m{coef}_ * ({v[pos]} - {c}))" if not sign else \
+                f"(m{coef}_ * ({c} - {v[pos]}))"
+
+        axial = (f"(({a('ex', 'e')} - {a('exw', 'w', '-')}) + "
+                 f"({a('ny', 'n')} - {a('nys', 's', '-')}))")
+        cross = (f"(({a('bx', 'ne')} + {a('bxsw', 'sw')}) - "
+                 f"({a('bxs', 'se')} + {a('bxw', 'nw')}))")
+        return f"{flush}(mw_ * ({axial} + {cross}))"
+    if row.form == "compact":
+        lap = f"(({v['e']} + {v['w']}) - {num(2)} * {c}) * cx"
+        if nd > 1:
+            lap = f"({lap} + (({v['n']} + {v['s']}) - {num(2)} * {c}) * cy)"
+        if nd > 2:
+            lap = f"({lap} + (({v['t']} + {v['b']}) - {num(2)} * {c}) * cz)"
+        return lap
+
+    def total(names):
+        out = v[names[0]]
+        for n in names[1:]:
+            out = f"({out} + {v[n]})"
+        return out
+
+    if nd == 2:
+        faces = total(_FACES[2])
+        return f"((({num(4)} * {faces}) + {total(_CORNERS)}) - ({num(20)} * {c})) * cx"
+    faces = total(_FACES[3])
+    edges = total(_CORNERS + _EDGES)
+    return f"((({num(2)} * {faces}) + {edges}) - ({num(24)} * {c})) * cx"
+
+
+#: the metric coefficients a cell reads: local name -> (argument, row, column offset), the
+#: row ``c`` (this cell's) or ``s`` (the south neighbour's), in the reference's notation
+_METRIC_LOADS = {
+    "ex": ("_me_ex", "c", 0), "exw": ("_me_ex", "c", -1), "ny": ("_me_ny", "c", 0),
+    "nys": ("_me_ny", "s", 0), "bx": ("_me_bx", "c", 0), "bxsw": ("_me_bx", "s", -1),
+    "bxs": ("_me_bx", "s", 0), "bxw": ("_me_bx", "c", -1), "w": ("_me_w", "c", 0),
+}
+#: the metric coefficient arguments, after the program's own (:func:`~rdgpu.ir.program.
+#: signature`)
+METRIC_ARGS = tuple(ident("me", k) for k in METRIC_COEFFICIENTS)
+
+
+def metric_loads(kind: str, stencil: Sequence[str], load) -> list[str]:
+    """The statements loading the metric coefficients of a cell (none unless ``kind``'s
+    Laplacian is the metric one and a Laplacian is taken): ``load(argument, row, dx)``
+    writes a load."""
+    if STENCIL_KINDS[kind].form != "metric" or not stencil:
+        return []
+    return [f"m{name}_ = {load(arg, row, dx)}" for name, (arg, row, dx) in
+            _METRIC_LOADS.items()]
