@@ -14,7 +14,6 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
-from rdgpu.domains.grid import Grid
 from rdgpu.models.model import Model, _scalar_param, check_dt, domain_shape, resolve_params
 
 if TYPE_CHECKING:
@@ -24,9 +23,7 @@ __all__ = ["AllenCahn"]
 
 
 def _is_surface(domain: Any) -> bool:
-    from rdgpu.domains.graph_surface import GraphSurface
-
-    return isinstance(domain, GraphSurface)
+    return domain.kind == "graph-surface"
 
 
 def _grid_face_differences(u: np.ndarray, axis: int, bc) -> np.ndarray:
@@ -85,12 +82,8 @@ class AllenCahn(Model):
 
     def domain_defaults(self, domain: Any) -> dict[str, float]:
         """``eps`` = :attr:`eps_per_spacing` times the spacing of ``domain``."""
-        if isinstance(domain, Grid):
-            h = min(domain.dx, domain.dy, domain.dz)
-        else:
-            domain_shape(domain)
-            h = float(domain.mean_edge_length)
-        return {"eps": self.eps_per_spacing * h}
+        domain_shape(domain)  # a domain, or a clear error
+        return {"eps": self.eps_per_spacing * domain.spacing_scale}
 
     def _default_dt(self, params: Mapping[str, Any]) -> float:
         """ε²/2: the step of the presets, where the splitting is accurate."""
@@ -106,14 +99,8 @@ class AllenCahn(Model):
     ) -> float:
         if method != "explicit":
             return math.inf
-        if _is_surface(domain):  # 2/λ_max of Δ_Γ (its Gershgorin bound)
-            return 2.0 / domain.spectral_bound()
-        if isinstance(domain, Grid):
-            # dy, dz are inf along absent axes: 1/h² = 0 there (1-D, 2-D)
-            return 1.0 / (2.0 * (1.0 / domain.dx**2 + 1.0 / domain.dy**2
-                                 + 1.0 / domain.dz**2))
-        domain_shape(domain)
-        return domain.max_stable_dt(1.0)
+        domain_shape(domain)  # a domain, or a clear error
+        return domain.explicit_diffusion_limit()
 
     def stepper(
         self,
@@ -173,7 +160,7 @@ class AllenCahn(Model):
             u = u.ravel()
             pot = ((u * u - 1.0) ** 2 / 4.0 + b.ravel() * u) / eps**2
             return 0.5 * float(u @ (-(a * (domain.laplacian @ u)))) + float(np.sum(a * pot))
-        if isinstance(domain, Grid):
+        if not domain.unstructured:
             u = u.reshape(domain.shape)
             b = b.reshape(domain.shape) if b.size > 1 else b
             # faces along x (last axis), y and, on a 3-D grid, z (the 7-point stencil's)
