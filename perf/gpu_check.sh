@@ -16,8 +16,9 @@
 #   bench   perf/bench.py, GPU backends only, grid kernels at 1024², 4096², 8192² (beyond
 #           an H100's 50 MB or H200's 60 MB L2), in $OUT/bench
 #   bench2  its mesh, model, ensemble and growth rows, in $OUT/bench2
-# NVIDIA's OpenCL driver mounted into a container often comes without an ICD file: where
-# /etc/OpenCL/vendors names none, one is written in /tmp and OCL_ICD_VENDORS set to it.
+# NVIDIA's OpenCL driver mounted into a container often comes without an ICD file: unless
+# OCL_ICD_VENDORS is set, one naming the libnvidia-opencl found is written in /tmp and
+# OCL_ICD_VENDORS set to it.
 set -uo pipefail
 OUT=${OUT:-perf/results/gpu}
 PY=${PYTHON:-python3}
@@ -57,7 +58,7 @@ run_tests() {  # run_tests NAME DROP_BACKENDS
 }
 
 opencl_icd() {
-    ls /etc/OpenCL/vendors/*.icd >/dev/null 2>&1 && return
+    [ -n "${OCL_ICD_VENDORS:-}" ] && return
     local lib
     lib=$(find /usr/local/nvidia /usr/lib /usr/lib64 /usr/lib/x86_64-linux-gnu \
           -name 'libnvidia-opencl.so*' 2>/dev/null | sort | head -1)
