@@ -254,7 +254,7 @@ def test_warp_pool_chunks(dtype, monkeypatch):
     8 MiB): every chunk's blocks count, a NaN or the largest value in any chunk is found."""
     from rdgpu.backends import warp_backend
 
-    be = backend_or_skip("warp")
+    be = backend_or_skip("warp:cpu")  # the CPU thread pool, whatever RDGPU_TEST_WARP_DEVICE says
     dtype = np.dtype(dtype)
     n = 3 * warp_backend.REDUCE_SPLIT_BYTES // dtype.itemsize + 17
     offsets = []
