@@ -3,7 +3,8 @@
 # and on Warp CUDA, and perf/bench.py's GPU rows (warp-cuda, opencl-gpu).
 #
 # Run from the repository root on a machine with an NVIDIA GPU, with pyopencl (stage opencl)
-# and warp-lang (stage warp) importable by $PYTHON (default python3):
+# and warp-lang (stage warp) importable by $PYTHON (default python3), and trimesh (the mesh
+# tests: without it ~150 tests per backend fail in SurfaceMesh.icosphere/torus):
 #
 #     OUT=/tmp/gpu perf/gpu_check.sh info opencl warp bench bench2
 #
@@ -14,8 +15,10 @@
 #   warp    the same on Warp's cuda:0 (RDGPU_TEST_WARP_DEVICE, see tests/conftest.py),
 #           numpy- and opencl-only tests left out, $OUT/junit-warp.xml
 #   bench   perf/bench.py, GPU backends only, grid kernels at 1024², 4096², 8192² (beyond
-#           an H100's 50 MB or H200's 60 MB L2), in $OUT/bench
+#           an H100's 50 MB or H200's 60 MB L2), bench.md/json/png in $OUT
 #   bench2  its mesh, model, ensemble and growth rows, in $OUT/bench2
+# First run (2026-11-27, H200): wheels carried to a machine without a package index (warp-lang
+# 1.19.0 repacked as tar.xz without examples/tests, 99 MB, in two calls), pytest-xdist there.
 # NVIDIA's OpenCL driver mounted into a container often comes without an ICD file: unless
 # OCL_ICD_VENDORS is set, one naming the libnvidia-opencl found is written in /tmp and
 # OCL_ICD_VENDORS set to it.
@@ -92,7 +95,7 @@ for stage in "$@"; do
     bench)
         timeout "$BENCH_S" $PY perf/bench.py --backends warp-cuda opencl-gpu --no-pypde \
             --sizes 1024 4096 8192 --mesh-vertices 0 --model-size 0 --members 0 --dla-sizes \
-            --real-size 0 --seconds 0.3 --out "$OUT/bench"
+            --real-size 0 --seconds 0.3 --out "$OUT"
         ;;
     bench2)
         timeout "$BENCH_S" $PY perf/bench.py --backends warp-cuda opencl-gpu --no-pypde \
