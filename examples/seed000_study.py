@@ -47,8 +47,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a clone without installing
 
-from rdgpu.analysis.isometry import interface_width  # noqa: E402
 from rdgpu.analysis import classify_pattern, phase_components  # noqa: E402
+from rdgpu.analysis.isometry import interface_width  # noqa: E402
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh  # noqa: E402
 from rdgpu.models.library import MODELS  # noqa: E402
 

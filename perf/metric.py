@@ -8,7 +8,7 @@ convergence check and a benchmark against the flat 5-point Laplacian.
 over ``[0, 2π]²`` (:data:`HEIGHT`, waves up to wave number 2, max |h| ≈ 1), with the
 manufactured solution ``u = e^{-t} sin(x) cos(y)`` and ``f = e^{-t}(−s − Δ_Γ s)``,
 ``s = sin(x) cos(y)``, where ``Δ_Γ s`` is the exact operator (closed form of
-``kernels/metric/exact.py``, checked here against its FFT form).  Forward Euler with
+``rdgpu/families/metric/exact.py``, checked here against its FFT form).  Forward Euler with
 ``rdgpu.laplacian(height=)`` every step (float64) to ``T = 1``, ``dt = κ dx²`` with one ``κ``
 for every grid (stable on all: ``κ dx² · λ_max ≤ 1`` by the Gershgorin bound), so the time
 error is second order too.  The table: the relative ℓ² error ``‖u − u_exact‖₂ / ‖u_exact‖₂``

@@ -1,4 +1,4 @@
-"""Speed of the reductions ``Backend.max_abs`` and ``Backend.sum_squares`` (kernels/reduce):
+"""Speed of the reductions ``Backend.max_abs`` and ``Backend.sum_squares`` (rdgpu/families/reduce):
 bandwidth and call overhead.
 
     python perf/reduce.py [--seconds 1] [--out perf/results/reduce.md]
@@ -25,7 +25,7 @@ perf/results/reduce.md, PoCL's cached binary of the vectorised max_abs row kerne
 ``vcvtps2pd``/``vmulpd``/``vaddpd`` on zmm registers; the scalar builds neither.)
 
 The ``sum_squares`` results are checked against the rigorous rounding bound of
-``kernels/reduce/reference.py`` (``sum_squares_error_bound``), ``max_abs`` bit for bit.
+``rdgpu/families/reduce/reference.py`` (``sum_squares_error_bound``), ``max_abs`` bit for bit.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ refined together.
 
     python perf/surface_rds.py [--backend numpy] [--out perf/results]
 
-The manufactured two-species system of ``kernels/metric/exact.py`` (``manufactured_rds``:
+The manufactured two-species system of ``rdgpu/families/metric/exact.py`` (``manufactured_rds``:
 a graph surface over ``[0, 2π]²``, exact solution ``u = e^{−t}φ``, ``v = e^{−t}ψ``) is
 stepped to ``T = 0.5`` on ``n²`` cells with ``n/4`` steps (``dt ∝ dx``), float64, by BDF2
 (seed 002 eq. 18) and IMEX Euler.  Prints and writes ``surface_rds.md``: the max over the

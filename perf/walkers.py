@@ -11,7 +11,7 @@ Speed rows: ``rdgpu.random_walk_dla`` (radial, ``--speed-sticking``, seed 0), af
 that compiles; walker steps = swarm steps x walkers in flight.  The plain NumPy version
 (``plain_numpy_steps``) moves every walker one step with ``numpy.random`` draws, checks
 the four neighbours, and adds the stickers' cells in a Python loop: the same rules as
-``kernels/walkers/reference.py`` without Philox or the identical-cluster guarantee.
+``rdgpu/families/walkers/reference.py`` without Philox or the identical-cluster guarantee.
 
 Dimension: the mass-radius fit ``M(r) ∝ r^D`` (``mass_radius_dimension``): M counts the
 cells within distance r of the seed; D is the least-squares slope of log M on log r over

@@ -15,6 +15,20 @@ from rdgpu.families import load_module
 BACKENDS = ["numpy", "warp", "opencl"]
 DTYPES = [np.float32, np.float64]
 
+#: the Warp device of the suite's "warp" backends (``get_backend("warp")`` and the
+#: "warp-cells" variant): the CPU unless RDGPU_TEST_WARP_DEVICE names another, e.g.
+#: ``cuda:0`` to run the suite on a GPU (OpenCL's device comes from RDGPU_OPENCL_DEVICE)
+WARP_DEVICE = os.environ.get("RDGPU_TEST_WARP_DEVICE", "").strip().lower() or "cpu"
+if WARP_DEVICE != "cpu":
+    from rdgpu.backends import registry as _dispatch
+
+    _real_construct = _dispatch._construct
+
+    def _construct_on_test_device(name, device):
+        return _real_construct(name, device or (WARP_DEVICE if name == "warp" else None))
+
+    _dispatch._construct = _construct_on_test_device
+
 
 def cli(capsys, *argv):
     """Run the ``rdgpu`` command in-process: (exit status, stdout, stderr)."""
@@ -72,7 +86,7 @@ def variant_or_skip(name: str):
     if name == "warp-cells":
         from rdgpu.backends.warp_backend import WarpBackend
 
-        return WarpBackend("cpu", launch="cells")
+        return WarpBackend(WARP_DEVICE, launch="cells")
     if name == "opencl-strided":
         from rdgpu.backends.opencl_backend import OpenCLBackend
 

@@ -1,4 +1,4 @@
-"""The metric Laplace-Beltrami kernels (``kernels/metric``, ``rdgpu.laplacian(height=)``):
+"""The metric Laplace-Beltrami kernels (``rdgpu/families/metric``, ``rdgpu.laplacian(height=)``):
 every backend and launch shape bit for bit against the NumPy reference, the flat limit, the
 CSR matrix, conservation, symmetry, second-order convergence to the exact operator, and
 the error messages."""
@@ -130,7 +130,7 @@ def test_weighted_operator_is_symmetric(variant_backend):
 
 
 def test_exact_operators_agree():
-    """The two exact operators of ``kernels/metric/exact.py`` check each other."""
+    """The two exact operators of ``rdgpu/families/metric/exact.py`` check each other."""
     X, Y, d = cell_centres(96)
     exact = EXACT.exact_laplace_beltrami(SMOOTH_H, SMOOTH_U, X, Y)
     spectral = EXACT.spectral_laplace_beltrami(SMOOTH_H(X, Y), SMOOTH_U(X, Y), d, d)

@@ -1,6 +1,6 @@
 """Graph surfaces ``z = h(x, y)`` (:class:`rdgpu.GraphSurface`) as a domain of the
 model layer: every ``laplace`` is the metric 9-point ``Δ_Γ`` of
-``kernels/metric/reference.py``, fused into the model kernels (compiler kind
+``rdgpu/families/metric/reference.py``, fused into the model kernels (compiler kind
 ``grid2metric``).
 
 The contract: every backend and launch shape equals the NumPy reference bit for bit for

@@ -1,4 +1,4 @@
-"""The reductions of kernels/reduce on every backend and launch shape.
+"""The reductions of rdgpu/families/reduce on every backend and launch shape.
 
 ``Backend.max_abs``, bit for bit the
 NumPy reference ``float(np.max(np.abs(u)))``: random arrays of odd, tiny, non-square and
@@ -254,7 +254,7 @@ def test_warp_pool_chunks(dtype, monkeypatch):
     8 MiB): every chunk's blocks count, a NaN or the largest value in any chunk is found."""
     from rdgpu.backends import warp_backend
 
-    be = backend_or_skip("warp")
+    be = backend_or_skip("warp:cpu")  # the CPU thread pool, whatever RDGPU_TEST_WARP_DEVICE says
     dtype = np.dtype(dtype)
     n = 3 * warp_backend.REDUCE_SPLIT_BYTES // dtype.itemsize + 17
     offsets = []
@@ -278,7 +278,7 @@ ss_reference = REDUCE.sum_squares
 
 def within_bound(got: float, a: np.ndarray) -> bool:
     """``got`` is within the rigorous rounding bound of the correctly rounded sum of the
-    squares (kernels/reduce/reference.py: ``sum_squares_error_bound``), compared exactly."""
+    squares (rdgpu/families/reduce/reference.py: ``sum_squares_error_bound``), compared exactly."""
     exact = REDUCE.sum_squares_exact(a)
     return abs(Fraction(got) - Fraction(exact)) <= REDUCE.sum_squares_error_bound(a, exact)
 

@@ -1,5 +1,5 @@
 """Seed 002 §4's convergence check of reaction-diffusion on a rough surface: a manufactured
-two-species system (``kernels/metric/exact.py``) on a graph surface, stepped by the model
+two-species system (``rdgpu/families/metric/exact.py``) on a graph surface, stepped by the model
 layer with ``dt ∝ dx`` (``perf/surface_rds.py``).  BDF2 (seed 002 eq. 18) converges at
 second order in space and time together; IMEX Euler at first (issue 11)."""
 

@@ -1,4 +1,4 @@
-"""Random-walker DLA (``rdgpu.random_walk_dla``, kernels/walkers): Philox-4x32-10 against
+"""Random-walker DLA (``rdgpu.random_walk_dla``, rdgpu/families/walkers): Philox-4x32-10 against
 its known answers, the same streams and the same clusters on every backend, connected
 clusters, the counts, the stopping flags and bad input."""
 

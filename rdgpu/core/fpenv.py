@@ -10,8 +10,8 @@ infinities are not affected.
 Where it is implemented:
 
 * kernels: every value a kernel writes goes through a flush (``FLUSH`` in
-  ``kernels/common.cl``, ``flush`` in ``kernels/warp_common.py``, ``flush`` in
-  ``kernels/grid_common.py`` for the references and the generated model kernels);
+  ``rdgpu/families/common.cl``, ``flush`` in ``rdgpu/families/warp_common.py``, ``flush`` in
+  ``rdgpu/families/grid_common.py`` for the references and the generated model kernels);
 * devices that honour it also flush intermediate results: the OpenCL programs are built
   with ``-cl-denorms-are-zero`` (PoCL then sets the x86 FTZ/DAZ bits while a kernel runs)
   and the Warp CPU kernels set FTZ/DAZ for their body and restore the thread's MXCSR value

@@ -8,7 +8,7 @@ its cell centres.  Fields live on the parameter grid; the surface's metric
     ``Δ_Γ u = (1/√g) ∂_i(√g g^{ij} ∂_j u)``,  ``g = det g_ij = 1 + h_x² + h_y²``,
     ``√g g⁻¹ = [[1 + h_y², −h_x h_y], [−h_x h_y, 1 + h_x²]] / √g``,
 
-discretised conservatively to second order (``kernels/metric/reference.py`` states the
+discretised conservatively to second order (``rdgpu/families/metric/reference.py`` states the
 stencil).  :func:`metric_coefficients` turns ``h`` into the four coefficient arrays the
 kernels read; the derivatives of ``h`` are centred differences of the nodal heights (the
 seed's §5 does the same for surfaces known only by nodal values).  With ``h = 0`` the
@@ -68,7 +68,7 @@ def metric_coefficients(h: np.ndarray, dx: float, dy: float) -> dict[str, np.nda
 
 def _couplings(coefficients: dict[str, np.ndarray]) -> list[tuple[tuple[int, int], np.ndarray]]:
     """``((dy, dx), a)``: each neighbour's offset and its coefficient ``a_k`` at every cell
-    (``Δ_Γ u = w Σ_k a_k (u_k − u_c)``, ``kernels/metric/reference.py``)."""
+    (``Δ_Γ u = w Σ_k a_k (u_k − u_c)``, ``rdgpu/families/metric/reference.py``)."""
     ex, ny, bx = coefficients["ex"], coefficients["ny"], coefficients["bx"]
     return [((0, 1), ex), ((0, -1), _shift(ex, 0, -1)), ((1, 0), ny),
             ((-1, 0), _shift(ny, -1, 0)), ((1, 1), bx), ((-1, -1), _shift(bx, -1, -1)),

@@ -260,7 +260,7 @@ class Grid:
 
     def operator_matrix(self) -> tuple[Any, np.ndarray]:
         """The 5-point (3-D: 7-point) matrix with the boundary conditions and the Dirichlet
-        vector (``kernels/laplacian/reference.py::laplacian_matrix``), CSR, sorted."""
+        vector (``rdgpu/families/laplacian/reference.py::laplacian_matrix``), CSR, sorted."""
         import scipy.sparse as sp
 
         ref = load_module("laplacian", "reference.py")

@@ -9,7 +9,7 @@ probability proportional to their weights (the candidates of the step's start); 
 cells become held at ``c = 0``.
 
 Reproducible on every backend.  The weights are computed in float64 and quantised to
-integers (multiples of 2^-40, ``kernels/dla/reference.py``), so each row's sum is exact
+integers (multiples of 2^-40, ``rdgpu/families/dla/reference.py``), so each row's sum is exact
 whatever the order of addition.  The cumulative order is row-major: the host downloads
 only the ``ny`` row sums, draws one ``u`` from ``numpy.random.default_rng(seed)`` per
 pick, takes ``target = floor(u · total)``, finds the row by a cumulative sum and leaves

@@ -4,7 +4,7 @@
 the lattice, and one next to the object joins it with probability ``sticking``.  Every
 random number is Philox-4x32-10 keyed by (seed, walker, step), and walkers that touch the
 object in the same step join one at a time in walker id order, so every backend grows the
-same cluster from the same seed.  The rules are in ``kernels/walkers/reference.py``.
+same cluster from the same seed.  The rules are in ``rdgpu/families/walkers/reference.py``.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ def _strang_program() -> Program:
     """The rest of an explicit Strang step after the first Bernoulli substep ``ū = B(u)``
     (``backend.bernoulli``), in one fused pass: ``B(ū + h (1·Δū + (−b)/ε²))`` with
     ``B(x) = x/√(d + x²(1 − d))`` the exact substep for ``h/2`` (``d = e^{−h/ε²}``; the
-    operations of kernels/bernoulli).  Two passes per step where the former form took three
+    operations of rdgpu/families/bernoulli).  Two passes per step where the former form took three
     (applying ``B`` at every neighbour instead, one pass, computes it five times per cell:
     slower, measured).  Regrouping ``B B`` into one exact full substep ``B_h`` would make
     it one pass with one square root (measured 1.1× the hand-written Gray-Scott on Warp,

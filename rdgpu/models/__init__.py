@@ -11,7 +11,7 @@ Where things are:
   parameters (numbers, fields, expressions of ``x, y, z, t``), stability limits;
 * :mod:`~rdgpu.models.compiler` — the tree turned into one fused kernel per backend (NumPy
   reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
-  ``kernels/model/``;
+  ``rdgpu/families/model/``;
 * :mod:`~rdgpu.models.library` — the built-in models (a few lines each);
   :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
   :mod:`rdgpu.integrators.allen_cahn`);

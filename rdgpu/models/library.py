@@ -30,7 +30,7 @@ def _meinhardt_steady(p) -> tuple[float, ...]:
 GRAY_SCOTT = Model(
     "gray-scott",
     # u*v*v, not u*v**2 (= u*(v*v)): the operation order of the hand-written kernel
-    # (kernels/gray_scott), so the two agree bit for bit
+    # (rdgpu/families/gray_scott), so the two agree bit for bit
     {"u": "Du*laplace(u) - u*v*v + F*(1 - u)",
      "v": "Dv*laplace(v) + u*v*v - (F + k)*v"},
     {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060},

@@ -9,7 +9,7 @@ modes) is solved for the *increment* ``δ = out − u``:
 
 where ``L u = M u + b`` is the mesh's ``A⁻¹W`` (:attr:`rdgpu.domains.mesh.SurfaceMesh.laplacian`,
 ``b = 0``) or the grid's 5-point operator (7-point on a 3-D grid) with its boundary
-conditions (``kernels/laplacian/reference.py::laplacian_matrix``; ``b`` carries the
+conditions (``rdgpu/families/laplacian/reference.py::laplacian_matrix``; ``b`` carries the
 Dirichlet ghosts).
 This is the textbook system ``S out = u + (1 − θ) dt D L u + θ dt D b + dt s`` with ``u``
 and ``(1 − θ) dt D M u`` cancelled analytically: at ``dt D ≫ dx²`` those terms are

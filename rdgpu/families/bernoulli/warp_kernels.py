@@ -13,7 +13,9 @@ import warp as wp
 
 from rdgpu.families.warp_common import flush, ftz_begin, ftz_end
 
-wp.set_module_options({"enable_backward": False})
+# fuse_fp off: no FMA contraction (CUDA contracts a*b+c by default), the rounding of
+# the NumPy reference, as FP_CONTRACT OFF in common.cl gives OpenCL
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 
 def _build(dtype):

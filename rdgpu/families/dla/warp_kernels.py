@@ -14,7 +14,9 @@
 import numpy as np
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+# fuse_fp off: no FMA contraction (CUDA contracts a*b+c by default), the rounding of
+# the NumPy reference, as FP_CONTRACT OFF in common.cl gives OpenCL
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 QUANTUM = wp.constant(wp.float64(1099511627776.0))  # 2^40
 

@@ -28,7 +28,9 @@ from rdgpu.families.warp_common import flat_field_at as field_at  # per-vertex p
 from rdgpu.families.warp_common import flat_scalar_at as scalar_at
 from rdgpu.families.warp_common import flush, ftz_begin, ftz_end
 
-wp.set_module_options({"enable_backward": False})
+# fuse_fp off: no FMA contraction (CUDA contracts a*b+c by default), the rounding of
+# the NumPy reference, as FP_CONTRACT OFF in common.cl gives OpenCL
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 I1 = wp.array(dtype=wp.int32)
 #: ``k & NONNEG`` tells the compiler an index is >= 0, which drops the negative-index

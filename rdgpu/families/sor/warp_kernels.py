@@ -38,7 +38,9 @@ from rdgpu.families.warp_common import (
     row_bases,
 )
 
-wp.set_module_options({"enable_backward": False})
+# fuse_fp off: no FMA contraction (CUDA contracts a*b+c by default), the rounding of
+# the NumPy reference, as FP_CONTRACT OFF in common.cl gives OpenCL
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 
 def _build(dtype, rhs_field):
@@ -160,7 +162,11 @@ def _build(dtype, rhs_field):
         else:
             d = edge(cc, fixed, rhs, i, j, wx, wy, wf, om, one_m_om,
                      yk, yv, xk, xv)
-        wp.atomic_max(row_change, i, d)
+        # a row's threads all max into one address: the atomic only where it can change it
+        # (row_change only grows during the sweep, so a stale read can only cost an atomic;
+        # a NaN change, unordered, still goes through)
+        if not (d <= row_change[i]):
+            wp.atomic_max(row_change, i, d)
 
     return rows, cells
 
