@@ -411,7 +411,7 @@ def test_lazy_names_are_attributes_and_listed():
                           timeout=120, check=True)
     first, listing = proc.stdout.strip().splitlines()
     mods, heavy, missing = first.split("|")
-    assert mods == "['rdgpu.fronts', 'rdgpu.analysis', 'rdgpu.output']"
+    assert mods == "['rdgpu.growth.fronts', 'rdgpu.analysis', 'rdgpu.output']"
     assert heavy == "[]", heavy
     assert missing == "[]", missing
     names = set(listing.split("|"))
