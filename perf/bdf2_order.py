@@ -17,7 +17,7 @@ the fields at the final time ``T`` for steps ``h = T/n``, and the observed order
   it), ``T = 2``, against SSP-RK3: stiff, the order reaches 2 only at smaller steps;
 * ``gray-scott, mesh``: an icosphere of 162 vertices, the model's mesh defaults.
 
-The tests (``tests/test_bdf2.py``) use :func:`forced_mode`, :func:`spot` and
+The tests (``tests/integrators/test_bdf2.py``) use :func:`forced_mode`, :func:`spot` and
 :func:`errors` and assert the orders.
 """
 

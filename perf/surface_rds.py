@@ -8,7 +8,7 @@ a graph surface over ``[0, 2π]²``, exact solution ``u = e^{−t}φ``, ``v = e^
 stepped to ``T = 0.5`` on ``n²`` cells with ``n/4`` steps (``dt ∝ dx``), float64, by BDF2
 (seed 002 eq. 18) and IMEX Euler.  Prints and writes ``surface_rds.md``: the max over the
 species of the relative ℓ² error, and the observed order between neighbouring rows.
-``tests/test_surface_rds.py`` asserts the orders with :func:`space_time_error`.
+``tests/theory/test_surface_rds.py`` asserts the orders with :func:`space_time_error`.
 """
 
 from __future__ import annotations

@@ -145,7 +145,7 @@ class AllenCahn(Model):
         step (to round-off) at ``dt ≤ dt_limit/2`` when the interface is resolved (ε ≳ the
         spacing).  With ε well below the spacing (the pinned regime of the sphere presets)
         the split step can raise J slightly near its discrete equilibrium: a splitting
-        error that falls faster than dt (halving dt cut it 14× in tests/test_presets.py).
+        error that falls faster than dt (halving dt cut it 14× in tests/models/test_presets.py).
         Measured at dt = ε²/2, as the largest one-step rise over J(0) = |Γ|/(4ε²): ≤ 1e-8
         for the global sphere presets (ε = 0.15 h), ≤ 2e-7 for the localized ones
         (ε = 0.3 h); use a smaller dt where a strictly monotone J matters."""

@@ -472,7 +472,7 @@ def test_warp_verify_fp():
     pytest.importorskip("warp")
     backend_or_skip("warp")
     env = dict(os.environ)
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
     proc = subprocess.run(
         [sys.executable, "-c", _VERIFY_FP_SCRIPT], env=env, capture_output=True, text=True,

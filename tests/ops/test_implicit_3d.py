@@ -220,7 +220,7 @@ def spsolve_step(grid, theta, dt, D, u, source) -> np.ndarray:
 
 def allowed(grid, theta, dt, D, u, source, expect, dtype, tol) -> float:
     """The max error of the device step against :func:`spsolve_step` (the derivation of
-    tests/test_implicit.py::allowed_error, z axis included in what makes a grid closed):
+    tests/ops/test_implicit.py::allowed_error, z axis included in what makes a grid closed):
 
     * ``tol``, which the solver promises for the system it holds;
     * the working dtype's round-off: the device solves ``S δ = g`` with ``S``, ``K = dt D

@@ -1,4 +1,4 @@
-"""Run by tests/test_threads.py in a fresh process: four threads that each, at once and
+"""Run by tests/core/test_threads.py in a fresh process: four threads that each, at once and
 from a cold start, call several rdgpu functions on a backend, checked against NumPy.
 
 Usage: ``python thread_worker.py MODE ROUNDS SWITCH_INTERVAL`` with MODE ``mixed`` (the

@@ -22,7 +22,7 @@ from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import PRESETS
 from rdgpu.simulation.driver import Simulation
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

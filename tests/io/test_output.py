@@ -10,7 +10,7 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from test_simulation import toy_sim
+from toy_model import toy_sim
 
 import rdgpu
 from rdgpu.domains.grid import Grid

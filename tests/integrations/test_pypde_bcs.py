@@ -29,7 +29,7 @@ from rdgpu.integrations.pypde.backend import UnsupportedPDE, translate  # noqa: 
 DEVICES = ["numpy", "warp", "opencl"]
 #: round-off relative to the largest value compared (operators of size ~1/h²)
 REL = 1e-13
-#: whole solves: fields of order 1 after hundreds of steps (as tests/test_pypde_backend.py)
+#: whole solves: fields of order 1 after hundreds of steps (as test_pypde_backend.py)
 TOL = 1e-12
 
 # grids of odd, unequal sizes and spacings, not starting at 0

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import backend_or_skip
-from test_oclgrind import check_clean_under_oclgrind, oclgrind_available
+from oclgrind_check import check_clean_under_oclgrind, oclgrind_available
 
 import rdgpu
 from rdgpu.domains.grid import Grid

@@ -32,7 +32,7 @@ from rdgpu.io.writers import FPS_RANGE, check_fps
 from rdgpu.simulation import runner
 from rdgpu.simulation.driver import Simulation
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def sim(**kw):

@@ -99,7 +99,7 @@ def test_sweep_estimate_counts_the_dataset_and_store(monkeypatch, tmp_path):
 
 
 # --------------------------------------------------------------------- the extra (E5)
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _extra(name: str) -> set[str]:

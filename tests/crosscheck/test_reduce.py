@@ -27,7 +27,7 @@ from conftest import VARIANTS, backend_or_skip, repo_module, variant_or_skip
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-from test_oclgrind import check_clean_under_oclgrind, oclgrind_available
+from oclgrind_check import check_clean_under_oclgrind, oclgrind_available
 
 from rdgpu.families import load_module
 

@@ -7,7 +7,7 @@ sharing one Warp backend gave a wrong ``sor`` result in 1 of 17 runs (recorded l
 whose parameters one thread rewrote while another was about to launch them); OpenCL had
 the same race on its shared kernel objects (``set_args`` then enqueue).
 
-* :func:`test_cold_threads_in_fresh_processes` runs ``tests/thread_worker.py`` in fresh
+* :func:`test_cold_threads_in_fresh_processes` runs ``tests/core/thread_worker.py`` in fresh
   processes (the bugs are in first-use initialisation, so every run must start cold): four
   threads call laplacian, gray_scott, sor_solve, levelset_advance and spmv at once and
   compare every result with NumPy.  The worker shortens Python's thread switch interval
@@ -37,7 +37,7 @@ from conftest import backend_or_skip
 
 from rdgpu.backends import registry as dispatch
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 WORKER = Path(__file__).with_name("thread_worker.py")
 ROUNDS = 3
 

@@ -24,7 +24,7 @@ from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.io import images, output
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 OPTIONAL = sorted((m, extra) for extra, modules in EXTRAS.items() for m in modules)
 #: what the core install holds (distribution names, normalised)
 CORE = {"numpy", "scipy", "warp-lang", "pyopencl", "pocl-binary-distribution", "tqdm"}
