@@ -1,0 +1,447 @@
+"""The layer contract of docs/architecture.md, checked on the source (tests/import_graph.py
+reads the imports with :mod:`ast`; nothing is imported).
+
+* every import of an rdgpu module goes to its own layer or a lower one;
+* no import cycle between modules at import time, not even through the allowed lazy imports;
+* imports of rdgpu modules inside functions only where :data:`LAZY_IMPORTS` says why;
+* no relative imports; no module over 700 lines;
+* outside ``rdgpu/backends/`` nothing compares a backend's name or reads its private
+  members; outside ``rdgpu/domains/`` no ``isinstance`` on a domain class; no private name
+  taken from another module.
+
+What breaks a rule today is listed in :data:`KNOWN_VIOLATIONS`, one line each. A new
+violation fails its test, and so does a listed one that is gone: the list only shrinks and
+stays true. ``python -m tests.import_graph --known`` prints what every check finds now.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from tests import import_graph as ig
+
+#: imports of rdgpu modules inside functions that serve the user, each with its reason
+LAZY_IMPORTS: dict[str, str] = {
+    "rdgpu.backends.registry -> rdgpu.backends.numpy_backend":
+        "the registry builds a backend when it is first asked for (one factory each)",
+    "rdgpu.backends.registry -> rdgpu.backends.warp_backend":
+        "warp-lang loads only when the Warp backend is asked for; missing, it is a "
+        "BackendUnavailableError",
+    "rdgpu.backends.registry -> rdgpu.backends.opencl_backend":
+        "pyopencl and PoCL load only when the OpenCL backend is asked for; missing, it is "
+        "a BackendUnavailableError",
+}
+
+#: "<check>: <finding>" for every violation the code has today (see the module docstring)
+KNOWN_VIOLATIONS: frozenset[str] = frozenset({
+    # upward (8)
+    'upward: rdgpu.cli.growth -> rdgpu',
+    'upward: rdgpu.domains.grid -> rdgpu.simulation.checks',
+    'upward: rdgpu.models.integrators -> rdgpu.simulation.checks',
+    'upward: rdgpu.models.model -> rdgpu.simulation.checks',
+    'upward: rdgpu.models.presets -> rdgpu.simulation.driver',
+    'upward: rdgpu.ops.api -> rdgpu.models',
+    'upward: rdgpu.runs.sweep -> rdgpu',
+    'upward: rdgpu.simulation.driver -> rdgpu',
+    # lazy (117)
+    'lazy: rdgpu.analysis.isometry -> rdgpu.models.library',
+    'lazy: rdgpu.analysis.measures -> rdgpu.ir.equations',
+    'lazy: rdgpu.backends.base -> rdgpu.core.csr',
+    'lazy: rdgpu.backends.base -> rdgpu.core.errors',
+    'lazy: rdgpu.backends.base -> rdgpu.core.validation',
+    'lazy: rdgpu.backends.base -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.cli.app -> rdgpu.backends.registry',
+    'lazy: rdgpu.cli.app -> rdgpu.cli.domain',
+    'lazy: rdgpu.cli.app -> rdgpu.cli.growth',
+    'lazy: rdgpu.cli.app -> rdgpu.cli.outputs',
+    'lazy: rdgpu.cli.app -> rdgpu.cli.resume',
+    'lazy: rdgpu.cli.app -> rdgpu.cli.sweep',
+    'lazy: rdgpu.cli.app -> rdgpu.core.errors',
+    'lazy: rdgpu.cli.app -> rdgpu.domains.grid',
+    'lazy: rdgpu.cli.app -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.cli.app -> rdgpu.io.output',
+    'lazy: rdgpu.cli.app -> rdgpu.models',
+    'lazy: rdgpu.cli.app -> rdgpu.simulation.driver',
+    'lazy: rdgpu.cli.domain -> rdgpu.cli.app',
+    'lazy: rdgpu.cli.domain -> rdgpu.core.errors',
+    'lazy: rdgpu.cli.domain -> rdgpu.core.resources',
+    'lazy: rdgpu.cli.domain -> rdgpu.domains.boundary',
+    'lazy: rdgpu.cli.domain -> rdgpu.simulation.driver',
+    'lazy: rdgpu.cli.growth -> rdgpu',
+    'lazy: rdgpu.cli.growth -> rdgpu.analysis.measures',
+    'lazy: rdgpu.cli.growth -> rdgpu.growth.dla',
+    'lazy: rdgpu.cli.growth -> rdgpu.growth.fronts',
+    'lazy: rdgpu.cli.options -> rdgpu.runs.sweep',
+    'lazy: rdgpu.cli.outputs -> rdgpu.core.optional',
+    'lazy: rdgpu.cli.outputs -> rdgpu.domains.grid',
+    'lazy: rdgpu.cli.outputs -> rdgpu.io.output',
+    'lazy: rdgpu.cli.outputs -> rdgpu.simulation.driver',
+    'lazy: rdgpu.cli.resume -> rdgpu.cli.app',
+    'lazy: rdgpu.cli.resume -> rdgpu.cli.domain',
+    'lazy: rdgpu.cli.resume -> rdgpu.cli.options',
+    'lazy: rdgpu.cli.resume -> rdgpu.domains.grid',
+    'lazy: rdgpu.cli.resume -> rdgpu.models',
+    'lazy: rdgpu.cli.resume -> rdgpu.simulation.driver',
+    'lazy: rdgpu.cli.sweep -> rdgpu.cli.app',
+    'lazy: rdgpu.cli.sweep -> rdgpu.runs.sweep',
+    'lazy: rdgpu.core.npzread -> rdgpu.core.resources',
+    'lazy: rdgpu.core.validation -> rdgpu.core.errors',
+    'lazy: rdgpu.domains.base -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.domains.base -> rdgpu.domains.grid',
+    'lazy: rdgpu.domains.base -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.domains.boundary -> rdgpu.core.validation',
+    'lazy: rdgpu.domains.graph_surface -> rdgpu.core.fpenv',
+    'lazy: rdgpu.domains.grid -> rdgpu.core.validation',
+    'lazy: rdgpu.domains.grid -> rdgpu.simulation.checks',
+    'lazy: rdgpu.domains.mesh.io -> rdgpu.core.optional',
+    'lazy: rdgpu.domains.mesh.surface_mesh -> rdgpu.core.csr',
+    'lazy: rdgpu.domains.mesh.surface_mesh -> rdgpu.domains.mesh.io',
+    'lazy: rdgpu.domains.mesh.surface_mesh -> rdgpu.domains.surfaces',
+    'lazy: rdgpu.growth.fronts -> rdgpu.io.images',
+    'lazy: rdgpu.growth.fronts -> rdgpu.simulation.driver',
+    'lazy: rdgpu.integrations.pypde.checks -> rdgpu.integrations.pypde.backend',
+    'lazy: rdgpu.io.datafile -> rdgpu.core.files',
+    'lazy: rdgpu.io.datafile -> rdgpu.core.npzread',
+    'lazy: rdgpu.io.datafile -> rdgpu.simulation.driver',
+    'lazy: rdgpu.io.images -> rdgpu.core.files',
+    'lazy: rdgpu.io.output -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.io.output -> rdgpu.io.images',
+    'lazy: rdgpu.models.allen_cahn -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.models.allen_cahn -> rdgpu.ops.implicit',
+    'lazy: rdgpu.models.compiler -> rdgpu.backends.warp_backend',
+    'lazy: rdgpu.models.compiler -> rdgpu.ir.equations',
+    'lazy: rdgpu.models.diagnose -> rdgpu.models.compiler',
+    'lazy: rdgpu.models.diagnose -> rdgpu.models.model',
+    'lazy: rdgpu.models.integrators -> rdgpu.models.blocking',
+    'lazy: rdgpu.models.integrators -> rdgpu.models.model',
+    'lazy: rdgpu.models.integrators -> rdgpu.ops.implicit',
+    'lazy: rdgpu.models.integrators -> rdgpu.simulation.checks',
+    'lazy: rdgpu.models.mesh_lengths -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.models.model -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.models.model -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.models.model -> rdgpu.models.compiler',
+    'lazy: rdgpu.models.model -> rdgpu.models.ensemble',
+    'lazy: rdgpu.models.model -> rdgpu.models.integrators',
+    'lazy: rdgpu.models.model -> rdgpu.simulation.checks',
+    'lazy: rdgpu.models.presets -> rdgpu.simulation.driver',
+    'lazy: rdgpu.models.ranges -> rdgpu.models.compiler',
+    'lazy: rdgpu.ops.api -> rdgpu.core.csr',
+    'lazy: rdgpu.ops.api -> rdgpu.core.errors',
+    'lazy: rdgpu.ops.api -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.ops.api -> rdgpu.models',
+    'lazy: rdgpu.ops.api -> rdgpu.ops.implicit',
+    'lazy: rdgpu.ops.implicit -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.ops.implicit -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.ops.inputs -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.runs.store -> rdgpu.core.optional',
+    'lazy: rdgpu.runs.store -> rdgpu.core.resources',
+    'lazy: rdgpu.runs.sweep -> rdgpu',
+    'lazy: rdgpu.runs.sweep -> rdgpu.analysis.measures',
+    'lazy: rdgpu.runs.sweep -> rdgpu.backends.registry',
+    'lazy: rdgpu.runs.sweep -> rdgpu.core.validation',
+    'lazy: rdgpu.runs.sweep -> rdgpu.domains.grid',
+    'lazy: rdgpu.runs.sweep -> rdgpu.models',
+    'lazy: rdgpu.runs.sweep -> rdgpu.runs.store',
+    'lazy: rdgpu.runs.sweep -> rdgpu.simulation.driver',
+    'lazy: rdgpu.simulation.checks -> rdgpu.models',
+    'lazy: rdgpu.simulation.checks -> rdgpu.models.integrators',
+    'lazy: rdgpu.simulation.dataset -> rdgpu.core.optional',
+    'lazy: rdgpu.simulation.dataset -> rdgpu.domains.grid',
+    'lazy: rdgpu.simulation.dataset -> rdgpu.simulation.driver',
+    'lazy: rdgpu.simulation.driver -> rdgpu',
+    'lazy: rdgpu.simulation.driver -> rdgpu.backends.registry',
+    'lazy: rdgpu.simulation.driver -> rdgpu.core.npzread',
+    'lazy: rdgpu.simulation.driver -> rdgpu.domains.boundary',
+    'lazy: rdgpu.simulation.driver -> rdgpu.domains.graph_surface',
+    'lazy: rdgpu.simulation.driver -> rdgpu.domains.mesh.surface_mesh',
+    'lazy: rdgpu.simulation.driver -> rdgpu.domains.surfaces',
+    'lazy: rdgpu.simulation.driver -> rdgpu.models',
+    'lazy: rdgpu.simulation.driver -> rdgpu.models.compiler',
+    'lazy: rdgpu.simulation.driver -> rdgpu.models.diagnose',
+    'lazy: rdgpu.simulation.driver -> rdgpu.models.ensemble',
+    'lazy: rdgpu.simulation.driver -> rdgpu.models.steady_state',
+    'lazy: rdgpu.simulation.driver -> rdgpu.simulation.dataset',
+    # hidden cycles (4)
+    # private (67)
+    'private: rdgpu.backends.numpy_backend -> rdgpu.backends.base._check_range',
+    'private: rdgpu.backends.opencl_backend -> rdgpu.backends.base._check_range',
+    'private: rdgpu.backends.warp_backend -> rdgpu.backends.base._check_range',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._at_least_1',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._block_steps',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._colour_range',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._equation',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._finite_float',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._fps',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._height',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._param',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._positive_float',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._positive_int',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._roughen',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._seed',
+    'private: rdgpu.cli.app -> rdgpu.cli.options._size',
+    'private: rdgpu.cli.domain -> rdgpu.domains.boundary._is_pair',
+    'private: rdgpu.cli.domain -> rdgpu.simulation.driver._MESH_GENERATORS',
+    'private: rdgpu.cli.resume -> rdgpu.cli.domain._mesh_base',
+    'private: rdgpu.cli.resume -> rdgpu.cli.domain._mesh_options',
+    'private: rdgpu.cli.resume -> rdgpu.simulation.driver._bc_json',
+    'private: rdgpu.cli.resume -> rdgpu.simulation.driver._bc_text',
+    'private: rdgpu.cli.resume -> rdgpu.simulation.driver._domain_differences',
+    'private: rdgpu.cli.resume -> rdgpu.simulation.driver._generated_height',
+    'private: rdgpu.cli.resume -> rdgpu.simulation.driver._lookup_model',
+    'private: rdgpu.cli.sweep -> rdgpu.cli.options._at_least_1',
+    'private: rdgpu.cli.sweep -> rdgpu.cli.options._positive_float',
+    'private: rdgpu.cli.sweep -> rdgpu.cli.options._positive_int',
+    'private: rdgpu.cli.sweep -> rdgpu.cli.options._size',
+    'private: rdgpu.cli.sweep -> rdgpu.cli.options._sweep_param',
+    'private: rdgpu.domains.mesh.io -> rdgpu.domains.mesh.surface_mesh._merge_exact_duplicates',
+    'private: rdgpu.domains.mesh.surface_mesh -> rdgpu.domains.mesh.io._meshio_arrays',
+    'private: rdgpu.domains.mesh.surface_mesh -> rdgpu.domains.mesh.io._pyvista_arrays',
+    'private: rdgpu.domains.surfaces -> rdgpu.domains.mesh.surface_mesh._face_cross',
+    'private: rdgpu.domains.surfaces -> rdgpu.domains.mesh.surface_mesh._grid_faces',
+    'private: rdgpu.io.datafile -> rdgpu.simulation.driver._domain_from_description',
+    'private: rdgpu.io.datafile -> rdgpu.simulation.driver._json_str',
+    'private: rdgpu.io.datafile -> rdgpu.simulation.driver._split_params',
+    'private: rdgpu.models.allen_cahn -> rdgpu.models.model._scalar_param',
+    'private: rdgpu.models.blocking -> rdgpu.models.compiler._grid_coefficients',
+    'private: rdgpu.models.blocking -> rdgpu.models.compiler._member_lines',
+    'private: rdgpu.models.blocking -> rdgpu.models.compiler._signature',
+    'private: rdgpu.models.compiler -> rdgpu.backends.warp_backend._WARP_LOCK',
+    'private: rdgpu.models.compiler -> rdgpu.backends.warp_backend._quiet',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._given_shape',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._grid_or_mesh',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._grid_problem',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._host_field',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._levelset_problem',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._mesh_field',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._no_grid_args',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._on',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._param',
+    'private: rdgpu.ops.api -> rdgpu.ops.inputs._sor_inputs',
+    'private: rdgpu.runs.sweep -> rdgpu.simulation.driver._accepts',
+    'private: rdgpu.runs.sweep -> rdgpu.simulation.driver._lookup_model',
+    'private: rdgpu.runs.sweep -> rdgpu.simulation.driver._model_definition',
+    'private: rdgpu.simulation.dataset -> rdgpu.simulation.driver._field_shape',
+    'private: rdgpu.simulation.dataset -> rdgpu.simulation.driver._is_mesh',
+    'private: rdgpu.simulation.dataset -> rdgpu.simulation.driver._is_surface',
+    'private: rdgpu.simulation.dataset -> rdgpu.simulation.driver._json_default',
+    'private: rdgpu.simulation.dataset -> rdgpu.simulation.driver._split_params',
+    'private: rdgpu.simulation.driver -> rdgpu.core.files._host_tag',
+    'private: rdgpu.simulation.driver -> rdgpu.core.files._pid_alive',
+    'private: rdgpu.simulation.driver -> rdgpu.core.files._suppress',
+    'private: rdgpu.simulation.driver -> rdgpu.core.files._temp_prefix',
+    'private: rdgpu.simulation.driver -> rdgpu.core.files._umask',
+    # long modules (10)
+    'long_modules: rdgpu/analysis/measures.py',
+    'long_modules: rdgpu/backends/opencl_backend.py',
+    'long_modules: rdgpu/backends/warp_backend.py',
+    'long_modules: rdgpu/cli/app.py',
+    'long_modules: rdgpu/domains/mesh/surface_mesh.py',
+    'long_modules: rdgpu/io/output.py',
+    'long_modules: rdgpu/models/compiler.py',
+    'long_modules: rdgpu/ops/api.py',
+    'long_modules: rdgpu/ops/implicit.py',
+    'long_modules: rdgpu/simulation/driver.py',
+    # backend peeks (24)
+    'backend_peeks: rdgpu/models/blocking.py::BlockedEuler._kernel.make: target.backend._cl',
+    'backend_peeks: rdgpu/models/blocking.py::BlockedEuler.run: be._cl',
+    'backend_peeks: rdgpu/models/blocking.py::auto_steps: be._cl',
+    'backend_peeks: rdgpu/models/blocking.py::why_not: be.name compared',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_opencl: be._launch_grid',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_opencl: be._launch_rows',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_warp: be._cells',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_warp: be._dev',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_warp: be._flat',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_warp: be._launch',
+    'backend_peeks: rdgpu/models/compiler.py::_launch_warp: be._run_split',
+    'backend_peeks: rdgpu/models/compiler.py::_opencl_kernel.make: target.backend._cl',
+    'backend_peeks: rdgpu/models/compiler.py::launch: be._flat',
+    'backend_peeks: rdgpu/models/compiler.py::launch: be.name compared',
+    'backend_peeks: rdgpu/models/compiler.py::opencl_kernel: be._check_real',
+    'backend_peeks: rdgpu/models/compiler.py::opencl_kernel: be._options',
+    'backend_peeks: rdgpu/models/compiler.py::opencl_program: be._cl',
+    'backend_peeks: rdgpu/models/compiler.py::opencl_program: be._options',
+    'backend_peeks: rdgpu/models/compiler.py::warp_module: backend._dev',
+    'backend_peeks: rdgpu/models/compiler.py::warp_module: backend._wp',
+    'backend_peeks: rdgpu/models/compiler.py::warp_module: rdgpu.backends.warp_backend._WARP_LOCK imported',  # noqa: E501
+    'backend_peeks: rdgpu/models/compiler.py::warp_module: rdgpu.backends.warp_backend._quiet imported',  # noqa: E501
+    'backend_peeks: rdgpu/ops/implicit.py::_reshaped: d.backend.name compared',
+    'backend_peeks: rdgpu/simulation/driver.py::_backend_spec: be.name compared',
+    # domain isinstance (53)
+    'domain_isinstance: rdgpu/analysis/measures.py::_graph_edges: Grid',
+    'domain_isinstance: rdgpu/analysis/measures.py::_surface_frame: Grid',
+    'domain_isinstance: rdgpu/analysis/measures.py::classify_pattern: Grid',
+    'domain_isinstance: rdgpu/analysis/measures.py::phase_components: Grid',
+    'domain_isinstance: rdgpu/analysis/measures.py::phase_defects: Grid',
+    'domain_isinstance: rdgpu/analysis/measures.py::spiral_tips: Grid',
+    'domain_isinstance: rdgpu/backends/base.py::Backend.upload_metric: GraphSurface',
+    'domain_isinstance: rdgpu/cli/app.py::_check_view: Grid',
+    'domain_isinstance: rdgpu/cli/app.py::_cmd_run: SurfaceMesh',
+    'domain_isinstance: rdgpu/cli/app.py::_describe_domain: Grid',
+    'domain_isinstance: rdgpu/cli/outputs.py::slices_note: Grid',
+    'domain_isinstance: rdgpu/growth/fronts.py::RDFront.__init__: Grid',
+    'domain_isinstance: rdgpu/io/output.py::_ensemble_pictures: Grid',
+    'domain_isinstance: rdgpu/io/output.py::_grid_field: Grid',
+    'domain_isinstance: rdgpu/io/output.py::_is_volume: Grid',
+    'domain_isinstance: rdgpu/io/output.py::_spacing: Grid',
+    'domain_isinstance: rdgpu/io/output.py::_volume_frames: Grid',
+    'domain_isinstance: rdgpu/io/output.py::render_surface: GraphSurface',
+    'domain_isinstance: rdgpu/io/output.py::save_png: Grid',
+    'domain_isinstance: rdgpu/models/allen_cahn.py::AllenCahn.domain_defaults: Grid',
+    'domain_isinstance: rdgpu/models/allen_cahn.py::AllenCahn.dt_limit: Grid',
+    'domain_isinstance: rdgpu/models/allen_cahn.py::AllenCahn.energy: Grid',
+    'domain_isinstance: rdgpu/models/allen_cahn.py::_is_surface: GraphSurface',
+    'domain_isinstance: rdgpu/models/compiler.py::Target.bind: GraphSurface',
+    'domain_isinstance: rdgpu/models/compiler.py::Target.bind: Grid',
+    'domain_isinstance: rdgpu/models/compiler.py::Target.is_grid: Grid',
+    'domain_isinstance: rdgpu/models/compiler.py::Target.kind: GraphSurface',
+    'domain_isinstance: rdgpu/models/compiler.py::check_stencil: GraphSurface',
+    'domain_isinstance: rdgpu/models/compiler.py::check_stencil: Grid',
+    'domain_isinstance: rdgpu/models/mesh_lengths.py::length_ratio: SurfaceMesh',
+    'domain_isinstance: rdgpu/models/model.py::_coordinates: Grid',
+    'domain_isinstance: rdgpu/models/model.py::_is_mesh: SurfaceMesh',
+    'domain_isinstance: rdgpu/models/model.py::_largest_mode: GraphSurface',
+    'domain_isinstance: rdgpu/models/model.py::_largest_mode: Grid',
+    'domain_isinstance: rdgpu/models/model.py::domain_shape: Grid',
+    'domain_isinstance: rdgpu/ops/implicit.py::ImplicitDiffusion.__init__: Grid',
+    'domain_isinstance: rdgpu/ops/implicit.py::ImplicitDiffusion.__repr__: Grid',
+    'domain_isinstance: rdgpu/ops/implicit.py::ImplicitDiffusion._describe: Grid',
+    'domain_isinstance: rdgpu/ops/implicit.py::_colouring: Grid',
+    'domain_isinstance: rdgpu/ops/implicit.py::_is_mesh: SurfaceMesh',
+    'domain_isinstance: rdgpu/ops/implicit.py::_is_surface: GraphSurface',
+    'domain_isinstance: rdgpu/ops/implicit.py::operator_matrix: Grid',
+    'domain_isinstance: rdgpu/ops/implicit.py::smallest_eigenvalue: Grid',
+    'domain_isinstance: rdgpu/ops/inputs.py::_check_mesh: SurfaceMesh',
+    'domain_isinstance: rdgpu/runs/sweep.py::sweep: Grid',
+    'domain_isinstance: rdgpu/simulation/dataset.py::_space: Grid',
+    'domain_isinstance: rdgpu/simulation/driver.py::_ball_mask: Grid',
+    'domain_isinstance: rdgpu/simulation/driver.py::_extent: Grid',
+    'domain_isinstance: rdgpu/simulation/driver.py::_half_masks: Grid',
+    'domain_isinstance: rdgpu/simulation/driver.py::_is_surface: GraphSurface',
+    'domain_isinstance: rdgpu/simulation/driver.py::_square_mask: Grid',
+    'domain_isinstance: rdgpu/simulation/driver.py::build_domain: Grid',
+    'domain_isinstance: rdgpu/simulation/driver.py::initial_state: Grid',
+})
+
+
+@pytest.fixture(scope="module")
+def found() -> dict[str, set[str]]:
+    return ig.findings()
+
+
+@pytest.fixture(scope="module")
+def imports() -> list[ig.Import]:
+    return ig.scan()
+
+
+def _compare(check: str, now: set[str], allowed: set[str] = frozenset()) -> None:
+    known = {v.split(": ", 1)[1] for v in KNOWN_VIOLATIONS if v.startswith(check + ": ")}
+    new = sorted(now - known - set(allowed))
+    gone = sorted(known - now)
+    lines = [f"new {check} (fix them; the rule is in docs/architecture.md):"] if new else []
+    lines += [f"    {check}: {item}" for item in new]
+    if gone:
+        lines.append(f"fixed {check}: remove these lines from KNOWN_VIOLATIONS in "
+                     "tests/test_architecture.py:")
+        lines += [f"    {check}: {item}" for item in gone]
+    assert not lines, "\n".join(lines)
+
+
+def test_every_package_has_a_layer():
+    for module in ig.module_files():
+        ig.layer_of(module)  # KeyError names a package missing from LAYERS
+
+
+def test_imports_go_down_the_layers(found):
+    _compare("upward", found["UPWARD"])
+
+
+def test_no_import_cycles_at_import_time(imports):
+    assert ig.cycles(ig.runtime_graph(imports)) == []
+
+
+def test_allowed_lazy_imports_close_no_cycle(imports):
+    imports = [i for i in imports if i.kind == "module" or (
+        i.kind == "function" and f"{i.importer} -> {i.target}" in LAZY_IMPORTS)]
+    graph = ig.runtime_graph([ig.Import(i.importer, i.target, "module", "", (), i.line)
+                              for i in imports])
+    assert ig.cycles(graph) == []
+
+
+def test_lazy_imports_are_listed_with_a_reason(found):
+    assert all(reason.strip() for reason in LAZY_IMPORTS.values())
+    stale = sorted(set(LAZY_IMPORTS) - found["LAZY"])
+    assert not stale, f"LAZY_IMPORTS lists imports that are gone: {stale}"
+    _compare("lazy", found["LAZY"], set(LAZY_IMPORTS))
+
+
+def test_no_relative_imports():
+    assert ig.relative_imports() == set()
+
+
+def test_no_private_names_across_modules(found):
+    _compare("private", found["PRIVATE"])
+
+
+def test_no_module_over_700_lines(found):
+    _compare("long_modules", found["LONG_MODULES"])
+
+
+def test_backend_seam_outside_backends(found):
+    _compare("backend_peeks", found["BACKEND_PEEKS"])
+
+
+def test_no_isinstance_on_domains_outside_domains(found):
+    _compare("domain_isinstance", found["DOMAIN_ISINSTANCE"])
+
+
+# the scanner itself, on small sources
+
+
+def _imports(tmp_path, monkeypatch, files: dict[str, str]) -> list[ig.Import]:
+    root = tmp_path / "rdgpu"
+    for rel, text in {"__init__.py": "", **files}.items():
+        path = root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        (path.parent / "__init__.py").touch()
+        path.write_text(text)
+    monkeypatch.setattr(ig, "ROOT", tmp_path)
+    monkeypatch.setattr(ig, "PACKAGE", root)
+    return ig.scan()
+
+
+def test_scanner_kinds_targets_and_cycles(tmp_path, monkeypatch):
+    imports = _imports(tmp_path, monkeypatch, {
+        "core/a.py": "from rdgpu.ops import api\nimport rdgpu.core.b as b\n",
+        "core/b.py": ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                      "    from rdgpu.models.m import M\n"
+                      "def f():\n    from rdgpu.core.a import _x\n"),
+        "ops/api.py": "import rdgpu.core.a\n",
+        "models/m.py": "",
+    })
+    got = {(i.importer, i.target, i.kind, i.function) for i in imports}
+    assert got == {
+        ("rdgpu.core.a", "rdgpu.ops.api", "module", ""),
+        ("rdgpu.core.a", "rdgpu.core.b", "module", ""),
+        ("rdgpu.core.b", "rdgpu.models.m", "typing", ""),
+        ("rdgpu.core.b", "rdgpu.core.a", "function", "f"),
+        ("rdgpu.ops.api", "rdgpu.core.a", "module", ""),
+    }
+    assert ig.upward(imports) == {"rdgpu.core.a -> rdgpu.ops.api",
+                                  "rdgpu.core.b -> rdgpu.models.m"}
+    assert ig.private(imports) == {"rdgpu.core.b -> rdgpu.core.a._x"}
+    assert ig.cycles(ig.runtime_graph(imports)) == [("rdgpu.core.a", "rdgpu.ops.api")]
+    assert ig.hidden_cycles(imports) == [("rdgpu.core.a", "rdgpu.core.b", "rdgpu.ops.api")]
+
+
+def test_scanner_finds_backend_peeks_and_domain_checks(tmp_path, monkeypatch):
+    _imports(tmp_path, monkeypatch, {
+        "models/c.py": ("def launch(be, d, x):\n"
+                        "    if be.name == 'warp' or d.backend._cells:\n"
+                        "        return isinstance(x, (Grid, SurfaceMesh))\n"
+                        "    return be.upload(x), f'{be.name}', model.name == 'x'\n"),
+        "backends/w.py": "def f(be):\n    return be._cells, be.name == 'warp'\n",
+        "domains/d.py": "def f(x):\n    return isinstance(x, Grid)\n",
+    })
+    assert ig.backend_peeks() == {"rdgpu/models/c.py::launch: be.name compared",
+                                  "rdgpu/models/c.py::launch: d.backend._cells"}
+    assert ig.domain_isinstance() == {"rdgpu/models/c.py::launch: Grid, SurfaceMesh"}
