@@ -27,12 +27,11 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.conventions import REAL_DTYPES as _REAL_DTYPES
 from rdgpu.domains.boundary import GridBC
 
-Scalar = float
 FieldOrScalar = Any  # float, or a DeviceArray of the grid's shape (mesh: of n_vertices)
 
-_REAL_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 #: the metric coefficient arrays, in the kernels' argument order (kernels/metric/reference.py)
 METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
 #: how many (surface, dtype) uploads ``Backend.upload_metric`` keeps per backend

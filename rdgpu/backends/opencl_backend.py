@@ -44,6 +44,7 @@ from rdgpu.backends.base import (
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module, read_source
@@ -93,7 +94,6 @@ _GS_NAMES = {
     (True, True): "gray_scott_ff",
 }
 _LAYOUTS = ("row", "strided")
-_REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
 _BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
 # CSR kernels in the row layout: rows per work-item at least, and work-items per compute

@@ -47,6 +47,7 @@ from rdgpu.backends.base import (
     max_abs_of_partials,
     sum_of_partials,
 )
+from rdgpu.core.conventions import REAL_DTYPES as _REAL
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module
@@ -69,7 +70,6 @@ REDUCE_SPLIT_BYTES = 8 << 20
 #: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
 MAX_CELLS = 2**31 - 1
 
-_REAL = (np.dtype(np.float32), np.dtype(np.float64))
 
 #: guards Warp's global state: wp.init, module loading, recording a launch, wp.config
 #: (flipped by _quiet) and file descriptor 2 (swapped by _native_stderr_silenced)

@@ -51,6 +51,7 @@ from rdgpu.cli.options import (
     _size,
     add_domain_options,
 )
+from rdgpu.core.conventions import REAL_DTYPE_NAMES
 from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.files import check_writable
 from rdgpu.core.optional import MissingExtraError, check, require
@@ -660,7 +661,7 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
                        f"{seed_note} (a whole number >= 0; default 0)")
     group.add_argument("--backend", help="numpy, warp, opencl or auto, optionally "
                        "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
-    group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+    group.add_argument("--dtype", choices=REAL_DTYPE_NAMES, help="default float32")
 
 
 # ---------------------------------------------------------------------------- parser

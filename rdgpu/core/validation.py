@@ -275,15 +275,6 @@ def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2), backend: Any 
     return field_values(a, name)
 
 
-def same_shape(a: Any, b: Any, name_a: str, name_b: str) -> None:
-    """``a`` and ``b`` (arrays or lists, as the caller gave them) have one shape."""
-    shape_a, shape_b = np.shape(a), np.shape(b)
-    if shape_a != shape_b:
-        raise ValueError(
-            f"{name_b} has shape {shape_b} but {name_a} has shape {shape_a}; they must match"
-        )
-
-
 def same_dtype(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:
     if a.dtype != b.dtype:
         raise TypeError(

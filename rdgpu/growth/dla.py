@@ -28,6 +28,7 @@ import numpy as np
 
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.errors import ConvergenceError
 from rdgpu.core.optional import require
 from rdgpu.core.resources import check_fields
@@ -181,7 +182,7 @@ def dla(
         dt = np.dtype(dtype)
     except TypeError:
         dt = None
-    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+    if dt not in REAL_DTYPES:
         raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
     max_sweeps = (max(1000, 50 * max(ny, nx)) if max_sweeps is None
                   else check.whole(max_sweeps, "max_sweeps", minimum=1))

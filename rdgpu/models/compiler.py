@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.grid import Grid
@@ -55,8 +56,6 @@ from rdgpu.ir.equations import Bin, Lap, Neg, Node, Num, Ref, evaluate, walk
 from rdgpu.ir.names import flat_view, ident, split
 
 __all__ = ["Output", "PerMember", "Program", "Target", "cache_dir", "launch"]
-
-_REALS = (np.dtype(np.float32), np.dtype(np.float64))
 
 
 # ---------------------------------------------------------------------------- programs

@@ -43,6 +43,7 @@ import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
+from rdgpu.core.conventions import axis_names
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.grid import Grid
 from rdgpu.ir import equations as eq
@@ -82,7 +83,7 @@ def domain_shape(domain: Any) -> tuple[int, ...]:
 def _coordinates(domain: Any, axis: str) -> np.ndarray:
     """Coordinate ``axis`` of every cell / vertex, scaled to [0, 1] over the domain."""
     if isinstance(domain, Grid):
-        names = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}[domain.ndim]
+        names = axis_names(domain.ndim)
         if axis not in names:
             raise ValueError(f"a {domain.ndim}-D grid axis is one of {names}, got {axis!r}")
         k = names.index(axis)

@@ -79,6 +79,7 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import ConvergenceError
 from rdgpu.domains.boundary import DIRICHLET, PERIODIC
 from rdgpu.domains.grid import Grid
@@ -86,7 +87,6 @@ from rdgpu.families import load_module
 
 __all__ = ["ImplicitDiffusion", "operator_matrix", "smallest_eigenvalue"]
 
-_REALS = (np.dtype(np.float32), np.dtype(np.float64))
 
 #: meshes up to this many vertices get λ₁ from shift-invert Lanczos (a sparse LU: ~0.1 s at
 #: 10⁴ vertices, growing faster than linearly); larger ones from their geodesic diameter
