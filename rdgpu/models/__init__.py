@@ -8,7 +8,7 @@ Where things are:
   parameters (numbers, fields, expressions of ``x, y, z, t``), stability limits;
 * :mod:`~rdgpu.models.compiler` — the tree turned into one fused kernel per backend (NumPy
   reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
-  ``kernels/model/``;
+  ``rdgpu/families/model/``;
 * :mod:`~rdgpu.models.integrators` — time stepping: Euler, Heun, SSP-RK3, IMEX;
 * :mod:`~rdgpu.models.library` — the built-in models (a few lines each);
   :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn, with its exact Bernoulli substep;
@@ -16,9 +16,6 @@ Where things are:
 """
 
 from __future__ import annotations
-
-from collections.abc import Mapping, Sequence
-from typing import Any
 
 from rdgpu.ir.equations import EquationError
 from rdgpu.models.allen_cahn import AllenCahn, AllenCahnStepper
@@ -45,43 +42,9 @@ __all__ = [
     "Model",
     "ModelStepper",
     "Preset",
-    "ReactionDiffusion2",
-    "ReactionDiffusionStepper",
     "build_domain",
     "define_model",
     "domain_shape",
     "param_field",
     "resolve_params",
 ]
-
-#: the stepper of every equation-defined model (the former name)
-ReactionDiffusionStepper = ModelStepper
-
-
-def ReactionDiffusion2(  # noqa: N802 - the former class name, kept for users' scripts
-    name: str,
-    reactions: Sequence[str],
-    diffusion: Sequence[str | float] = ("Du", "Dv"),
-    defaults: Mapping[str, float] | None = None,
-    description: str = "",
-    source: str = "",
-    species: Sequence[str] = ("u", "v"),
-    steady_guess: Any = None,
-    bounds: Any = None,
-    **options: Any,
-) -> Model:
-    """The former declarative form (reaction terms plus diffusion coefficients) as a
-    :class:`Model`: ``∂s/∂t = D_s·laplace(s) + (R_s)``."""
-    species = tuple(species)
-    if isinstance(reactions, str) or len(reactions) != len(species):
-        raise ValueError(f"need one reaction expression per species {species}, got "
-                         f"{reactions!r}")
-    if len(diffusion) != len(species):
-        raise ValueError(f"need one diffusion coefficient per species {species}")
-    eqs = {}
-    for s, r, d in zip(species, reactions, diffusion, strict=True):
-        if isinstance(d, str) and d not in (defaults or {}):
-            raise ValueError(f"diffusion parameter {d!r} has no default value")
-        eqs[s] = f"({r})" if d == 0 else f"{d}*laplace({s}) + ({r})"
-    return Model(name, eqs, defaults, description=description, source=source,
-                 steady_guess=steady_guess, bounds=bounds, **options)
