@@ -421,6 +421,10 @@ def findings() -> dict[str, set[str]]:
     }
 
 
+def _package_layer(pkg: str) -> int:
+    return next(i for i, row in enumerate(LAYERS) if pkg in row)
+
+
 def draw(path: Path) -> None:
     """The layers as rows of boxes, lowest at the bottom; an arrow per package-to-package
     import that runs at import time (grey: only downward; red: upward, a violation),
@@ -441,19 +445,24 @@ def draw(path: Path) -> None:
     for (a, b), kinds in sorted(edges.items()):
         if a not in pos or b not in pos:
             continue
-        up = layer_of(f"rdgpu.{b}.x" if b != "rdgpu" else "rdgpu") > \
-            layer_of(f"rdgpu.{a}.x" if a != "rdgpu" else "rdgpu")
+        up = _package_layer(b) > _package_layer(a)
         static = kinds.get("module", 0) + kinds.get("typing", 0)
-        style = "-" if static else "--"
-        colour = "#c0392b" if up else "#9aa5b1"
-        rad = 0.25 if up else -0.15
-        ax.add_patch(FancyArrowPatch(pos[a], pos[b], arrowstyle="-|>", mutation_scale=10,
-                                     linestyle=style, color=colour, lw=1.2 if up else 0.7,
-                                     alpha=0.9 if up else 0.55, shrinkA=14, shrinkB=14,
+        # downward imports leave and enter the boxes on the left, upward ones on the right
+        side = 0.55 if up else -0.55
+        start = (pos[a][0] + side, pos[a][1])
+        end = (pos[b][0] + side, pos[b][1])
+        # bulging outwards, away from the column of boxes
+        rad = 0.3 if (pos[b][1] < pos[a][1]) != up else -0.3
+        ax.add_patch(FancyArrowPatch(start, end, arrowstyle="-|>", mutation_scale=9,
+                                     linestyle="-" if static else "--",
+                                     color="#c0392b" if up else "#7f8c9a",
+                                     lw=1.3 if up else 0.6, alpha=0.95 if up else 0.5,
+                                     shrinkA=2, shrinkB=2,
                                      connectionstyle=f"arc3,rad={rad}", zorder=1))
     labels = {"rdgpu": "rdgpu/__init__\n+ output, surfaces, pypde"}
     for pkg, (x, y) in pos.items():
-        ax.add_patch(FancyBboxPatch((x - 1.05, y - 0.28), 2.1, 0.56,
+        half = 1.25 if pkg == "rdgpu" else 0.8
+        ax.add_patch(FancyBboxPatch((x - half, y - 0.28), 2 * half, 0.56,
                                     boxstyle="round,pad=0.02", fc="#eaf2fb", ec="#2c5d8a",
                                     zorder=2))
         ax.text(x, y, labels.get(pkg, pkg), ha="center", va="center", zorder=3,
