@@ -698,7 +698,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "with --equation, the new model's name (default 'custom'; not a preset's "
                      "name); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
-                     "geometry=seed001|radial; --steps: growth steps / particles); "
+                     "geometry=slab|radial; --steps: growth steps / particles); "
                      "seed003-front, a level-set front driven by seed 003's Turing spots")
     what = run.add_argument_group("what to run")
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
