@@ -406,6 +406,28 @@ def domain_isinstance() -> set[str]:
     return _seams()[1]
 
 
+#: parameters that hold a domain, a model or a backend, by their usual names
+_TYPED_PARAMETERS = ("domain", "grid", "mesh", "surface", "model", "backend", "be")
+
+
+def any_hints() -> set[str]:
+    """``path: count`` of the parameters named in :data:`_TYPED_PARAMETERS` annotated
+    ``Any`` (they should name the real type, imported under ``TYPE_CHECKING``)."""
+    out = set()
+    for path in module_files().values():
+        count = 0
+        for node in ast.walk(parse(path)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                args = node.args
+                for arg in (*args.posonlyargs, *args.args, *args.kwonlyargs):
+                    if arg.arg in _TYPED_PARAMETERS and arg.annotation is not None \
+                            and ast.unparse(arg.annotation) in ("Any", "Any | None"):
+                        count += 1
+        if count:
+            out.add(f"{path.relative_to(ROOT).as_posix()}: {count}")
+    return out
+
+
 def findings() -> dict[str, set[str]]:
     """Every check of tests/test_architecture.py by its name there: what it finds now."""
     imports = scan()
@@ -418,6 +440,7 @@ def findings() -> dict[str, set[str]]:
         "LONG_MODULES": set(long_modules()),
         "BACKEND_PEEKS": peeks,
         "DOMAIN_ISINSTANCE": checks,
+        "ANY_HINTS": any_hints(),
     }
 
 

@@ -7,7 +7,9 @@ reads the imports with :mod:`ast`; nothing is imported).
 * no relative imports; no module over 700 lines;
 * outside ``rdgpu/backends/`` nothing compares a backend's name or reads its private
   members; outside ``rdgpu/domains/`` no ``isinstance`` on a domain class; no private name
-  taken from another module.
+  taken from another module;
+* parameters holding a domain, a model or a backend name its type, not ``Any`` (counted
+  per file).
 
 What breaks a rule today is listed in :data:`KNOWN_VIOLATIONS`, one line each. A new
 violation fails its test, and so does a listed one that is gone: the list only shrinks and
@@ -320,6 +322,32 @@ KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     'domain_isinstance: rdgpu/simulation/driver.py::_square_mask: Grid',
     'domain_isinstance: rdgpu/simulation/driver.py::build_domain: Grid',
     'domain_isinstance: rdgpu/simulation/driver.py::initial_state: Grid',
+    # any hints (25 files)
+    'any_hints: rdgpu/analysis/measures.py: 18',
+    'any_hints: rdgpu/backends/base.py: 1',
+    'any_hints: rdgpu/cli/app.py: 6',
+    'any_hints: rdgpu/cli/domain.py: 2',
+    'any_hints: rdgpu/cli/outputs.py: 2',
+    'any_hints: rdgpu/core/validation.py: 2',
+    'any_hints: rdgpu/domains/mesh/surface_mesh.py: 1',
+    'any_hints: rdgpu/growth/fronts.py: 4',
+    'any_hints: rdgpu/integrations/pypde/backend.py: 3',
+    'any_hints: rdgpu/io/output.py: 15',
+    'any_hints: rdgpu/models/allen_cahn.py: 5',
+    'any_hints: rdgpu/models/compiler.py: 2',
+    'any_hints: rdgpu/models/device_rhs.py: 2',
+    'any_hints: rdgpu/models/mesh_lengths.py: 4',
+    'any_hints: rdgpu/models/model.py: 11',
+    'any_hints: rdgpu/models/presets.py: 1',
+    'any_hints: rdgpu/models/ranges.py: 1',
+    'any_hints: rdgpu/models/steady_state.py: 6',
+    'any_hints: rdgpu/ops/api.py: 5',
+    'any_hints: rdgpu/ops/implicit.py: 9',
+    'any_hints: rdgpu/ops/inputs.py: 3',
+    'any_hints: rdgpu/runs/sweep.py: 6',
+    'any_hints: rdgpu/simulation/checks.py: 6',
+    'any_hints: rdgpu/simulation/dataset.py: 1',
+    'any_hints: rdgpu/simulation/driver.py: 35',
 })
 
 
@@ -394,6 +422,11 @@ def test_no_isinstance_on_domains_outside_domains(found):
     _compare("domain_isinstance", found["DOMAIN_ISINSTANCE"])
 
 
+def test_domains_models_and_backends_are_typed(found):
+    # "path: N": N parameters named domain/grid/mesh/surface/model/backend/be hinted Any
+    _compare("any_hints", found["ANY_HINTS"])
+
+
 # the scanner itself, on small sources
 
 
@@ -438,10 +471,13 @@ def test_scanner_finds_backend_peeks_and_domain_checks(tmp_path, monkeypatch):
         "models/c.py": ("def launch(be, d, x):\n"
                         "    if be.name == 'warp' or d.backend._cells:\n"
                         "        return isinstance(x, (Grid, SurfaceMesh))\n"
-                        "    return be.upload(x), f'{be.name}', model.name == 'x'\n"),
+                        "    return be.upload(x), f'{be.name}', model.name == 'x'\n"
+                        "def g(domain: Any, model: 'Model', backend: Any | None = None):\n"
+                        "    pass\n"),
         "backends/w.py": "def f(be):\n    return be._cells, be.name == 'warp'\n",
         "domains/d.py": "def f(x):\n    return isinstance(x, Grid)\n",
     })
     assert ig.backend_peeks() == {"rdgpu/models/c.py::launch: be.name compared",
                                   "rdgpu/models/c.py::launch: d.backend._cells"}
     assert ig.domain_isinstance() == {"rdgpu/models/c.py::launch: Grid, SurfaceMesh"}
+    assert ig.any_hints() == {"rdgpu/models/c.py: 2"}
