@@ -51,7 +51,6 @@ from rdgpu.cli.options import (
     _size,
     add_domain_options,
 )
-from rdgpu.core.conventions import REAL_DTYPE_NAMES
 from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.files import check_writable
 from rdgpu.core.optional import MissingExtraError, check, require
@@ -661,7 +660,7 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
                        f"{seed_note} (a whole number >= 0; default 0)")
     group.add_argument("--backend", help="numpy, warp, opencl or auto, optionally "
                        "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
-    group.add_argument("--dtype", choices=REAL_DTYPE_NAMES, help="default float32")
+    group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
 
 
 # ---------------------------------------------------------------------------- parser
@@ -698,7 +697,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "with --equation, the new model's name (default 'custom'; not a preset's "
                      "name); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
-                     "geometry=slab|radial; --steps: growth steps / particles); "
+                     "geometry=seed001|radial; --steps: growth steps / particles); "
                      "seed003-front, a level-set front driven by seed 003's Turing spots")
     what = run.add_argument_group("what to run")
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")

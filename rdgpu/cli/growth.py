@@ -5,7 +5,7 @@ reaction-diffusion models of ``rdgpu run``.
 
 ``--size NxM`` is the grid, ``--steps`` the growth steps (DLA by the nutrient field: cells
 joining, ``k`` a step) or the particles (random walkers), ``--param`` their parameters
-(``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=slab|radial`` for
+(``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=seed001|radial`` for
 both), ``--seed``, ``--backend``; ``--out`` a PNG coloured by arrival (empty cells white),
 ``--data`` an NPZ with the mask, the arrival steps and the settings.  ``seed003-front``:
 ``--steps`` front steps, ``--param warmup=``, ``reinit_every=``, ``beta_scale=``,
@@ -23,14 +23,12 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu import growth
-
-GEOMETRIES = (*growth.GEOMETRIES, *growth.GEOMETRY_ALIASES)
+GEOMETRIES = ("seed001", "radial")
 #: growth model -> (default steps, {parameter: (kind, default)}), kinds "float", "int" or
 #: a tuple of the allowed words
 GROWTH: dict[str, tuple[int, dict[str, tuple[Any, Any]]]] = {
     "dla": (1000, {"eta": ("float", 1.0), "k": ("int", 1), "tol": ("float", 1e-5),
-                   "geometry": (GEOMETRIES, "slab")}),
+                   "geometry": (GEOMETRIES, "seed001")}),
     "random-walk-dla": (1000, {"sticking": ("float", 1.0), "walkers": ("int", None),
                                "geometry": (GEOMETRIES, "radial")}),
     "seed003-front": (1000, {"warmup": ("int", 8000), "reinit_every": ("int", 20),
@@ -132,7 +130,7 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     _write(args, say, lambda out: dla_image(result, out, args.cmap or "viridis",
                                             args.scale or 2), arrays, settings)
     dim = ""
-    if grown >= 50:  # radial: mass-radius about the seed cell; slab: box counting
+    if grown >= 50:  # radial: mass-radius about the seed cell; seed001: box counting
         from rdgpu.analysis.measures import fractal_dimension
 
         radial = params["geometry"] == "radial"

@@ -116,3 +116,7 @@ def write_each(result: Any, outputs: list[tuple[str, Any]], options: dict,
             else:
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return written, failed
+
+
+def say_error(text: str) -> None:
+    print(f"rdgpu: error: {text}", file=sys.stderr)

@@ -278,7 +278,7 @@ def _render(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
     with tempfile.TemporaryDirectory(prefix="rdgpu-render-") as tmp:
         src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
         np.savez(src, **arrays, options=np.array(json.dumps(options)))
-        code = "import sys; from rdgpu.io.output import _render_main; _render_main(*sys.argv[1:])"
+        code = "import sys; from rdgpu.output import _render_main; _render_main(*sys.argv[1:])"
         proc = subprocess.run([sys.executable, "-c", code, str(src), str(dst)], env=env,
                               capture_output=True, text=True)
         if proc.returncode != 0 or not dst.exists():

@@ -38,8 +38,6 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu.core.conventions import axis_names
-
 __all__ = ["result_dataset"]
 
 
@@ -64,7 +62,7 @@ def _space(domain: Any) -> tuple[tuple[str, ...], dict[str, Any]]:
                            {"long_name": "triangle vertex indices (0-based)"})
         return ("vertex",), coords
     if isinstance(domain, Grid):
-        names = axis_names(domain.ndim)
+        names = ("z", "y", "x")[3 - domain.ndim:]
         step = {"x": domain.dx, "y": domain.dy, "z": domain.dz}
         coords = {
             name: (name, (np.arange(n) + 0.5) * step[name],

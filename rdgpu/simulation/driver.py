@@ -45,7 +45,6 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends import interop
-from rdgpu.core.conventions import axis_names
 from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted
 from rdgpu.core.files import (  # noqa: F401 - the file helpers, kept importable from here
     CheckpointLock,
@@ -363,7 +362,7 @@ def _bc_text(bc: Any) -> str:
     parts = [f"dirichlet({b[1]:g})" if isinstance(b, (list, tuple)) else str(b) for b in bc]
     if len(set(parts)) == 1:
         return parts[0]
-    names = axis_names(len(parts))
+    names = ("z", "y", "x")[-len(parts):]
     return "/".join(f"{p} ({n})" for p, n in zip(parts, names, strict=True))
 
 
