@@ -433,6 +433,7 @@ def findings() -> dict[str, set[str]]:
     imports = scan()
     peeks, checks = _seams()
     return {
+        "CYCLES": {", ".join(c) for c in cycles(runtime_graph(imports))},
         "UPWARD": upward(imports),
         "LAZY": lazy(imports),
         "PRIVATE": private(imports),
