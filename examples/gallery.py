@@ -98,7 +98,7 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
 
 #: the growth systems of seed 001 and seed 003 §4.2 (not presets): name -> (caption,
 #: source, the arguments after ``rdgpu run``); "measured" is their fractal dimension
-#: (mass-radius about the seed cell for radial growth, box counting for seed001's) or the
+#: (mass-radius about the seed cell for radial growth, box counting for the slab's) or the
 #: front's inside fraction
 GROWTH_ENTRIES: dict[str, tuple[str, str, list[str]]] = {
     "dla-eta0-radial": ("DLA by the nutrient field, η = 0: a compact bulk", "seed 001 §1, eq. 2",

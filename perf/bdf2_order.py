@@ -173,14 +173,15 @@ def timing(backend: str, size: int = 128, steps: int = 20) -> str:
             per_step = min(per_step, (time.perf_counter() - t0) / steps)
         program, extra = (st._bdf2, st._prev) if method == "bdf2" else (st._euler, [])
         ins = [*st._x, *extra]
-        launch(program, st.target, ins, st._y, st._dev, {"_h": 1.0, "_b": 2 / 3, "_tp": 0.0})
+        launch(program, st.target, ins, st._y, st._device_params,
+           {"_h": 1.0, "_b": 2 / 3, "_tp": 0.0})
         explicit = math.inf
         for _ in range(3):
             st.backend.synchronize()
             t0 = time.perf_counter()
             for _ in range(steps):
-                launch(program, st.target, ins, st._y, st._dev, {"_h": 1.0, "_b": 2 / 3,
-                                                                   "_tp": 0.0})
+                launch(program, st.target, ins, st._y, st._device_params,
+                       {"_h": 1.0, "_b": 2 / 3, "_tp": 0.0})
             st.backend.synchronize()
             explicit = min(explicit, (time.perf_counter() - t0) / steps)
         rows.append(f"| {method} | {1e3 * per_step:.2f} | {1e3 * explicit:.3f} |")

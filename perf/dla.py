@@ -3,7 +3,7 @@
     python perf/dla.py table [--size 128] [--seeds 3] [--backend warp] [--out dims.npz]
     python perf/dla.py speed [--size 256] [--steps 40] [--backends numpy,warp,opencl]
 
-``table`` grows radial and seed001 clusters at η = 0, 0.5, 1, 2 (η = 0: size²/6 steps,
+``table`` grows radial and slab clusters at η = 0, 0.5, 1, 2 (η = 0: size²/6 steps,
 others until the c = 1 boundary is reached) and prints mass-radius and box-counting
 dimensions (default fit ranges, see ``rdgpu.analysis.fractal_dimension``), mean ± spread
 over seeds.  ``speed`` times growth steps per second and SOR sweeps per growth step, warm
@@ -78,7 +78,7 @@ def table(args) -> None:
     saved = {}
     print("| geometry | size | η | cells | D mass-radius | D box | seeds |")
     print("|---|---|---|---|---|---|---|")
-    for geometry in ("radial", "seed001"):
+    for geometry in ("radial", "slab"):
         for eta in (0.0, 0.5, 1.0, 2.0):
             mr, bx, cells = [], [], []
             for seed in range(args.seeds):

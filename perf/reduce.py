@@ -152,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     load1 = os.getloadavg()[0]
     text = "\n\n".join([
         "# `Backend.max_abs` and `Backend.sum_squares`: bandwidth and call overhead",
-        f"Machine: {machine.cpu_name()}, {machine._allowed_cpus().__len__()} CPUs; "
+        f"Machine: {machine.cpu_name()}, {machine.allowed_cpus().__len__()} CPUs; "
         f"{caches.describe()}. OpenCL: {backends['opencl'].device}. Load average (1 min) "
         f"at start {load0:.1f}, at end {load1:.1f}.",
         f"Triad (all cores, outside the caches, {bw['triad_bytes'] / MiB:.0f} MiB): "

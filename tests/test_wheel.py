@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import site
 import subprocess
 import sys
@@ -30,6 +31,22 @@ for name in ("warp", "opencl"):
 """
 
 
+def _kernel_files(folder: Path) -> set[str]:
+    return {p.relative_to(folder).as_posix() for p in folder.rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"}
+
+
+def test_kernel_sources_are_package_data():
+    """The kernels are ordinary files of the package: no force-include, and the wheel
+    takes the whole ``rdgpu`` folder."""
+    text = (ROOT / "pyproject.toml").read_text()
+    assert "force-include" not in text
+    assert 'packages = ["rdgpu"]' in text
+    files = _kernel_files(ROOT / "rdgpu" / "families")
+    assert {"common.cl", "model/model.cl", "model/blocked.cl", "model/warp_model.py.in",
+            "gray_scott/gray_scott.cl"} <= files
+
+
 @pytest.mark.slow
 def test_wheel_installs_and_runs_every_backend(tmp_path):
     dist = tmp_path / "dist"
@@ -54,11 +71,16 @@ def test_wheel_installs_and_runs_every_backend(tmp_path):
     )
     parents = [sysconfig.get_paths()["purelib"], *site.getsitepackages()]
     (target / "zz_parent.pth").write_text("\n".join(dict.fromkeys(parents)) + "\n")
-    out = subprocess.run([python, "-c", SCRIPT], capture_output=True, text=True, cwd=tmp_path)
+    # without PYTHONPATH: a source tree on it would win over the installed wheel
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    out = subprocess.run([python, "-c", SCRIPT], capture_output=True, text=True, cwd=tmp_path,
+                         env=env)
     assert out.returncode == 0, out.stderr
     lines = dict(line.split(" ", 1) for line in out.stdout.splitlines())
     assert lines["RDGPU_FILE"].startswith(str(env_dir))
     assert lines["KERNEL_DIR"].startswith(str(env_dir))
     assert Path(lines["KERNEL_DIR"], "gray_scott", "gray_scott.cl").is_file()
     assert Path(lines["KERNEL_DIR"], "reduce", "reduce.cl").is_file()
+    # every file of every kernel family (.cl, .py, the .py.in template) is in the wheel
+    assert _kernel_files(Path(lines["KERNEL_DIR"])) == _kernel_files(ROOT / "rdgpu" / "families")
     assert "OK warp" in out.stdout and "OK opencl" in out.stdout

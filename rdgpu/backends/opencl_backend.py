@@ -58,6 +58,7 @@ from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: pub
 )
 from rdgpu.backends.opencl_growth import OpenCLGrowthKernels
 from rdgpu.backends.opencl_mesh import _GS_NAMES, OpenCLMeshKernels
+from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module, read_source
@@ -102,7 +103,6 @@ _KERNEL_ARGS = {
     "sum_squares_partial": "BBllB",  # u, partial (double); n, chunk; __local scratch
 }
 _LAYOUTS = ("row", "strided")
-_REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
 _BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
 # CSR kernels in the row layout: rows per work-item at least, and work-items per compute

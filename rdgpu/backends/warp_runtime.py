@@ -8,8 +8,7 @@ import os
 import threading
 from contextlib import contextmanager
 
-import numpy as np
-
+from rdgpu.core.conventions import REAL_DTYPES as _REAL  # noqa: F401 - for warp_backend
 from rdgpu.core.errors import BackendUnavailableError
 
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
@@ -30,7 +29,6 @@ REDUCE_SPLIT_BYTES = 8 << 20
 #: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
 MAX_CELLS = 2**31 - 1
 
-_REAL = (np.dtype(np.float32), np.dtype(np.float64))
 
 #: guards Warp's global state: wp.init, module loading, recording a launch, wp.config
 #: (flipped by _quiet) and file descriptor 2 (swapped by _native_stderr_silenced)

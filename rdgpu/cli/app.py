@@ -64,6 +64,7 @@ from rdgpu.cli.options import (
     _sweep_param,
     add_domain_options,
 )
+from rdgpu.core.conventions import REAL_DTYPE_NAMES
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.ir.schemes import method_names as methods
 
@@ -111,7 +112,7 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
                        f"{seed_note} (a whole number >= 0; default 0)")
     group.add_argument("--backend", help=f"{', '.join(backend_names())} or auto, optionally "
                        "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
-    group.add_argument("--dtype", choices=["float32", "float64"], help="default float32")
+    group.add_argument("--dtype", choices=REAL_DTYPE_NAMES, help="default float32")
 
 
 def _add_run_parser(sub: Any) -> None:
@@ -141,7 +142,7 @@ def _add_run_parser(sub: Any) -> None:
                      "with --equation, the new model's name (default 'custom'; not a preset's "
                      "name); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
-                     "geometry=seed001|radial; --steps: growth steps / particles); "
+                     "geometry=slab|radial; --steps: growth steps / particles); "
                      "seed003-front, a level-set front driven by seed 003's Turing spots")
     _add_what_to_run(run.add_argument_group("what to run"))
     _add_outputs(run.add_argument_group("outputs"))

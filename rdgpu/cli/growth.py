@@ -5,7 +5,7 @@ reaction-diffusion models of ``rdgpu run``.
 
 ``--size NxM`` is the grid, ``--steps`` the growth steps (DLA by the nutrient field: cells
 joining, ``k`` a step) or the particles (random walkers), ``--param`` their parameters
-(``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=seed001|radial`` for
+(``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=slab|radial`` for
 both), ``--seed``, ``--backend``; ``--out`` a PNG coloured by arrival (empty cells white),
 ``--data`` an NPZ with the mask, the arrival steps and the settings.  ``seed003-front``:
 ``--steps`` front steps, ``--param warmup=``, ``reinit_every=``, ``beta_scale=``,
@@ -23,17 +23,18 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu import growth
 from rdgpu.analysis import fractal_dimension
 from rdgpu.growth.dla import dla, dla_image
 from rdgpu.growth.fronts import seed003_front
 from rdgpu.growth.walkers import random_walk_dla
 
-GEOMETRIES = ("seed001", "radial")
+GEOMETRIES = (*growth.GEOMETRIES, *growth.GEOMETRY_ALIASES)
 #: growth model -> (default steps, {parameter: (kind, default)}), kinds "float", "int" or
 #: a tuple of the allowed words
 GROWTH: dict[str, tuple[int, dict[str, tuple[Any, Any]]]] = {
     "dla": (1000, {"eta": ("float", 1.0), "k": ("int", 1), "tol": ("float", 1e-5),
-                   "geometry": (GEOMETRIES, "seed001")}),
+                   "geometry": (GEOMETRIES, "slab")}),
     "random-walk-dla": (1000, {"sticking": ("float", 1.0), "walkers": ("int", None),
                                "geometry": (GEOMETRIES, "radial")}),
     "seed003-front": (1000, {"warmup": ("int", 8000), "reinit_every": ("int", 20),
@@ -130,7 +131,7 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     _write(args, say, lambda out: dla_image(result, out, args.cmap or "viridis",
                                             args.scale or 2), arrays, settings)
     dim = ""
-    if grown >= 50:  # radial: mass-radius about the seed cell; seed001: box counting
+    if grown >= 50:  # radial: mass-radius about the seed cell; slab: box counting
         radial = params["geometry"] == "radial"
         center = getattr(result, "center", None) or (size[0] // 2, size[1] // 2)
         try:

@@ -20,10 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.core.resources import check_fields, field_bytes
 
-DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+DTYPES = REAL_DTYPES
 
 #: elements per block of a value check (NaN/Inf, subnormals) of a large array
 CHECK_BLOCK = 1 << 22
@@ -273,15 +274,6 @@ def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2), backend: Any 
     a = field_header(a, name, ndim)
     check_size(a.shape, a.dtype, name, backend=backend)
     return field_values(a, name)
-
-
-def same_shape(a: Any, b: Any, name_a: str, name_b: str) -> None:
-    """``a`` and ``b`` (arrays or lists, as the caller gave them) have one shape."""
-    shape_a, shape_b = np.shape(a), np.shape(b)
-    if shape_a != shape_b:
-        raise ValueError(
-            f"{name_b} has shape {shape_b} but {name_a} has shape {shape_a}; they must match"
-        )
 
 
 def same_dtype(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None:

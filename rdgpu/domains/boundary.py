@@ -59,10 +59,6 @@ class GridBC:
     x: AxisBC
     z: AxisBC = AxisBC(NEUMANN)
 
-    def kernel_args(self) -> tuple[int, float, int, float]:
-        """``(y_kind, y_value, x_kind, x_value)`` as the kernels take them."""
-        return self.y.kind, self.y.value, self.x.kind, self.x.value
-
 
 def _parse_axis(spec: Any) -> AxisBC:
     if isinstance(spec, AxisBC):

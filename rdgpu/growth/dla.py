@@ -28,15 +28,16 @@ import numpy as np
 
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.errors import ConvergenceError
 from rdgpu.core.optional import require
 from rdgpu.core.resources import check_fields
 from rdgpu.domains.boundary import GridBC
 from rdgpu.domains.grid import Grid
+from rdgpu.growth import GEOMETRIES, geometry_name  # noqa: F401 - GEOMETRIES: rdgpu.dla's
 from rdgpu.ops.results import BackendSpec
 from rdgpu.ops.solvers import optimal_omega
 
-GEOMETRIES = ("seed001", "radial")
 #: the radial geometry's outer circle (c = 1 on and outside it), as a fraction of min(shape)
 RADIUS_FRACTION = 0.45
 _EMPTY, _OBJECT, _HELD = 0, 1, 2
@@ -92,8 +93,8 @@ def _check_shape(shape: Any, geometry: str) -> tuple[int, int]:
     if ny * nx > MAX_CELLS:
         raise ValueError(f"shape {ny}x{nx} has {ny * nx} cells; the exact int64 weight sums "
                          f"(multiples of 2^-40) allow at most {MAX_CELLS} (2^22)")
-    if geometry == "seed001" and nx % 2:
-        raise ValueError(f"geometry 'seed001' wraps the x axis, and red-black SOR needs an even "
+    if geometry == "slab" and nx % 2:
+        raise ValueError(f"geometry 'slab' wraps the x axis, and red-black SOR needs an even "
                          f"size along a periodic axis: nx={nx}; use an even nx")
     return ny, nx
 
@@ -102,7 +103,7 @@ def _setup(shape: tuple[int, int], geometry: str):
     """``(state uint8, c0 float64, source bool, center, bc, wrap_x)`` of a geometry."""
     ny, nx = shape
     state = np.zeros(shape, np.uint8)
-    if geometry == "seed001":
+    if geometry == "slab":
         c0 = np.repeat((np.arange(ny, dtype=np.float64) / (ny - 1))[:, None], nx, axis=1)
         state[0, :] = _HELD
         state[-1, :] = _HELD
@@ -141,7 +142,7 @@ def dla(
     shape: tuple[int, int],
     eta: float = 1.0,
     steps: int = 1000,
-    geometry: str = "seed001",
+    geometry: str = "slab",
     seed: int = 0,
     backend: BackendSpec = None,
     tol: float = 1e-5,
@@ -153,8 +154,8 @@ def dla(
 ) -> DLAResult:
     """Grow a DLA cluster on a ``shape = (ny, nx)`` grid by the nutrient field (module doc).
 
-    ``geometry``: ``"seed001"`` (the seed's set-up: the seed cell in the middle of the
-    bottom row 0, the rest of which is held at ``c = 0``; ``c = 1`` on the top row; x
+    ``geometry``: ``"slab"`` (seed 001's set-up, ``"seed001"`` too: the seed cell in the
+    middle of the bottom row 0, the rest of which is held at ``c = 0``; ``c = 1`` on the top row; x
     periodic, so nx must be even) or ``"radial"`` (the seed cell at ``(ny//2, nx//2)``,
     ``c = 1`` on and outside the circle of radius ``0.45 min(shape)`` around it).
     ``steps``: growth steps; each joins ``k`` cells (fewer if there are fewer candidates of
@@ -162,14 +163,13 @@ def dla(
     ``tol``: SOR stops when the max change of a sweep is below it (``ConvergenceError``
     after ``max_sweeps``, default ``max(1000, 50 max(shape))``); ``omega`` defaults to
     :func:`rdgpu.optimal_omega`.  The first solve starts from the field without the object
-    (linear in y for seed001, ``log(1 + r)/log(1 + R)`` for radial); every later one from
+    (linear in y for the slab, ``log(1 + r)/log(1 + R)`` for radial); every later one from
     the previous step's field.  ``warm_start=False`` starts every later solve from scratch
     instead (``c = 1`` on the source cells, 0 elsewhere): only for measuring what the warm
     start saves.
     ``dtype``: of the field and SOR, ``"float64"`` or ``"float32"``.
     """
-    if not isinstance(geometry, str) or geometry not in GEOMETRIES:
-        raise ValueError(f"unknown geometry {geometry!r}; allowed: {', '.join(GEOMETRIES)}")
+    geometry = geometry_name(geometry)
     ny, nx = _check_shape(shape, geometry)
     eta = check.scalar(eta, "eta")
     steps, seed = check.whole(steps, "steps"), check.whole(seed, "seed")
@@ -182,7 +182,7 @@ def dla(
         dt = np.dtype(dtype)
     except TypeError:
         dt = None
-    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+    if dt not in REAL_DTYPES:
         raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
     max_sweeps = (max(1000, 50 * max(ny, nx)) if max_sweeps is None
                   else check.whole(max_sweeps, "max_sweeps", minimum=1))
@@ -289,7 +289,7 @@ class _Grower:
 def dla_image(result: DLAResult, path: str | Path, cmap: str = "viridis",
               scale: int = 1) -> Path:
     """Write ``result`` as a PNG coloured by arrival step (Matplotlib ``cmap``), empty
-    cells white; the seed001 geometry's bottom row is drawn at the bottom (row 0 of
+    cells white; the slab geometry's bottom row is drawn at the bottom (row 0 of
     the array is the bottom of the picture)."""
     iio = require("imageio.v3", "writing PNG pictures")
     colormaps = require("matplotlib", "colouring pictures").colormaps

@@ -17,8 +17,8 @@ from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
 from rdgpu.core.resources import check_memory
 from rdgpu.families import load_module
+from rdgpu.growth import geometry_name
 
-GEOMETRIES = ("radial", "seed001")
 #: why a run stopped: every particle added, the launch line/circle reached the grid edge,
 #: or ``max_steps`` ran out
 STOPS = ("particles", "edge", "max_steps")
@@ -52,8 +52,6 @@ def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, bat
             isinstance(s, (int, np.integer)) and not isinstance(s, bool) for s in shape):
         raise ValueError(f"shape must be two integers (ny, nx), got {shape!r}")
     ny, nx = (int(s) for s in shape)
-    if not isinstance(geometry, str) or geometry not in GEOMETRIES:
-        raise ValueError(f"geometry must be one of {GEOMETRIES}, got {geometry!r}")
     margin = check.whole(margin, "margin", minimum=1)
     if geometry == "radial":
         limit = min(ny // 2, nx // 2, ny - 1 - ny // 2, nx - 1 - nx // 2)
@@ -63,8 +61,8 @@ def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, bat
         raise ValueError(
             f"shape {shape!r} is too small or too large for geometry {geometry!r} with "
             f"margin {margin}: each side needs at least {2 * margin + 3} cells "
-            f"({margin + 2} rows for seed001), and fewer than 2**31 cells in all")
-    capacity = ny * nx - (nx if geometry == "seed001" else 1)
+            f"({margin + 2} rows for the slab), and fewer than 2**31 cells in all")
+    capacity = ny * nx - (nx if geometry == "slab" else 1)
     try:
         check.whole(particles, "particles", minimum=1, maximum=capacity)
     except ValueError:
@@ -103,16 +101,17 @@ def random_walk_dla(
 ) -> WalkDLAResult:
     """Grow a DLA cluster of ``particles`` cells from random walkers.
 
-    ``shape``: ``(ny, nx)`` cells.  ``geometry``: ``"radial"`` (one seed cell in the centre,
+    ``shape``: ``(ny, nx)`` cells. ``geometry``: ``"radial"`` (one seed cell in the centre,
     walkers released on the lattice circle ``margin`` cells outside the cluster and
-    re-released beyond twice that radius or off the grid) or ``"seed001"`` (the seed is the
-    bottom row 0, periodic in x, released on the row ``margin`` above the highest cell and
-    re-released above twice that height).  ``sticking``: the probability in (0, 1] that a
-    walker next to the object joins it.  ``walkers``: walkers in flight at once (default
-    ``min(particles, 256)``).  ``max_steps``: swarm steps at most.  ``batch``: steps
-    launched between two reads of the 4-integer state.  The run stops when ``particles``
+    re-released beyond twice that radius or off the grid) or ``"slab"`` (``"seed001"`` too;
+    the seed is the bottom row 0, periodic in x, released on the row ``margin`` above the
+    highest cell and re-released above twice that height). ``sticking``: the probability in
+    (0, 1] that a walker next to the object joins it. ``walkers``: walkers in flight at once
+    (default ``min(particles, 256)``). ``max_steps``: swarm steps at most. ``batch``: steps
+    launched between two reads of the 4-integer state. The run stops when ``particles``
     cells joined, the launch line/circle would leave the grid (``stopped == "edge"``), or
     after ``max_steps``."""
+    geometry = geometry_name(geometry)
     ny, nx, limit = _check(shape, particles, sticking, geometry, walkers, max_steps, margin,
                            batch)
     seed = check.whole(seed, "seed", maximum=2**64 - 1)
@@ -120,7 +119,7 @@ def random_walk_dla(
     _check_memory(ny, nx, n_walk, limit + 1 if geometry == "radial" else 0)
     ref = load_module("walkers", "reference.py")
     be = get_backend(backend)
-    geo = ref.RADIAL if geometry == "radial" else ref.SEED001
+    geo = ref.RADIAL if geometry == "radial" else ref.SLAB
     key = ref.key_of(int(seed))
     ring_start, ring_ij = ref.ring_table(limit + 1 if geo == ref.RADIAL else 0)
 

@@ -70,6 +70,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.validation import real_number
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
@@ -97,7 +98,7 @@ class FieldStepper:
         self.dt = float(dt)
         self.backend = backend
         self.dtype = np.dtype(dtype)
-        if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
+        if self.dtype not in REAL_DTYPES:
             raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
         #: None, or the number of ensemble members: fields ``[members, *domain shape]``
         self.members = members
@@ -183,19 +184,19 @@ class ModelStepper(FieldStepper):
         be = backend
         # parameters on the device: numbers stay numbers, fields are uploaded, expressions
         # of t are inlined into the programs
-        self._dev: dict[str, Any] = {}
+        self._device_params: dict[str, Any] = {}
         inline: dict[str, eq.Node] = {}
         for p, v in self.params.items():
             if isinstance(v, str):
                 inline[p] = expression_tree(p, v, self.params)
             elif isinstance(v, PerMember):  # one number per member
-                self._dev[p] = PerMember(be.upload(np.ascontiguousarray(v.values,
+                self._device_params[p] = PerMember(be.upload(np.ascontiguousarray(v.values,
                                                                         dtype=self.dtype)))
             elif isinstance(v, np.ndarray):  # a field: per member, or shared by all
                 a = np.broadcast_to(np.asarray(v, dtype=self.dtype), self.shape)
-                self._dev[p] = be.upload(np.ascontiguousarray(a))
+                self._device_params[p] = be.upload(np.ascontiguousarray(a))
             else:
-                self._dev[p] = float(v)
+                self._device_params[p] = float(v)
         trees = {s: eq.substitute(model.trees[s], lambda n: inline.get(n.name)
                                   if isinstance(n, eq.Ref) and n.kind == "param" else None)
                  for s in self.species}
@@ -442,8 +443,9 @@ class ModelStepper(FieldStepper):
         pre, aux = (self._pre, self._aux) if prepass is None else prepass
         if pre is not None:
             src = dict(zip(program.inputs, [*ins, *aux, *extra], strict=True))
-            launch(pre, self.target, [src[s] for s in pre.inputs], aux, self._dev, {}, time)
-        launch(program, self.target, [*ins, *aux, *extra], outs, self._dev,
+            launch(pre, self.target, [src[s] for s in pre.inputs], aux, self._device_params,
+                   {}, time)
+        launch(program, self.target, [*ins, *aux, *extra], outs, self._device_params,
                {"_h": self.dt, "_a": a, "_b": b, "_tp": tp}, time)
 
     def _step(self) -> None:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.ir.equations import Lap, Node, Ref, walk
 from rdgpu.ir.names import ident
@@ -28,7 +29,7 @@ __all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "P
            "literal", "signature"]
 
 #: the dtypes a program runs in
-REALS = (np.dtype(np.float32), np.dtype(np.float64))
+REALS = REAL_DTYPES
 #: the grid stencils: "compact" (3/5/7 points) or "isotropic" (9 points in 2-D, 19 in 3-D)
 STENCILS = ("compact", "isotropic")
 #: the metric coefficient arrays in the kernels' argument order (families/metric/reference.py)

@@ -12,6 +12,7 @@ Where things are:
 * :mod:`~rdgpu.models.compiler` — the tree turned into one fused kernel per backend (NumPy
   reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
   ``rdgpu/families/model/``;
+  ``rdgpu/families/model/``;
 * :mod:`~rdgpu.models.library` — the built-in models (a few lines each);
   :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
   :mod:`rdgpu.integrators.allen_cahn`);
@@ -19,9 +20,6 @@ Where things are:
 """
 
 from __future__ import annotations
-
-from collections.abc import Mapping, Sequence
-from typing import Any
 
 from rdgpu.ir.equations import EquationError
 from rdgpu.models.allen_cahn import AllenCahn
@@ -42,39 +40,9 @@ __all__ = [
     "EquationError",
     "Model",
     "Preset",
-    "ReactionDiffusion2",
     "build_domain",
     "define_model",
     "domain_shape",
     "param_field",
     "resolve_params",
 ]
-
-
-def ReactionDiffusion2(  # noqa: N802 - the former class name, kept for users' scripts
-    name: str,
-    reactions: Sequence[str],
-    diffusion: Sequence[str | float] = ("Du", "Dv"),
-    defaults: Mapping[str, float] | None = None,
-    description: str = "",
-    source: str = "",
-    species: Sequence[str] = ("u", "v"),
-    steady_guess: Any = None,
-    bounds: Any = None,
-    **options: Any,
-) -> Model:
-    """The former declarative form (reaction terms plus diffusion coefficients) as a
-    :class:`Model`: ``∂s/∂t = D_s·laplace(s) + (R_s)``."""
-    species = tuple(species)
-    if isinstance(reactions, str) or len(reactions) != len(species):
-        raise ValueError(f"need one reaction expression per species {species}, got "
-                         f"{reactions!r}")
-    if len(diffusion) != len(species):
-        raise ValueError(f"need one diffusion coefficient per species {species}")
-    eqs = {}
-    for s, r, d in zip(species, reactions, diffusion, strict=True):
-        if isinstance(d, str) and d not in (defaults or {}):
-            raise ValueError(f"diffusion parameter {d!r} has no default value")
-        eqs[s] = f"({r})" if d == 0 else f"{d}*laplace({s}) + ({r})"
-    return Model(name, eqs, defaults, description=description, source=source,
-                 steady_guess=steady_guess, bounds=bounds, **options)

@@ -22,17 +22,14 @@ always (an error where the stepper is not eligible).
 
 from __future__ import annotations
 
-import functools
 import math
-import re
-import subprocess
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
 from rdgpu.backends.target import Target
+from rdgpu.core.hardware import cache_sizes
 from rdgpu.ir.program import PerMember, Program
 
 __all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "cache_sizes", "fitting_steps",
@@ -68,48 +65,10 @@ def why_not(stepper: Any) -> str | None:
     return None
 
 
-@functools.cache
-def cache_sizes() -> dict[int, int]:
-    """``{level: bytes}`` of the data caches of CPU 0 (``/sys/devices/system/cpu/cpu0/
-    cache``, else ``lscpu``'s L1d/L2/L3 lines); empty where neither says."""
-    sizes: dict[int, int] = {}
-    for d in Path("/sys/devices/system/cpu/cpu0/cache").glob("index*"):
-        try:
-            if (d / "type").read_text().strip() == "Instruction":
-                continue
-            size = _bytes((d / "size").read_text())
-            if size:
-                sizes[int((d / "level").read_text())] = size
-        except (OSError, ValueError):
-            continue
-    if sizes:
-        return sizes
-    try:
-        text = subprocess.run(["lscpu"], capture_output=True, text=True, timeout=10).stdout
-    except (OSError, subprocess.SubprocessError):
-        return sizes
-    for level, name in ((1, "L1d"), (2, "L2"), (3, "L3")):
-        m = re.search(rf"^{name} cache:\s*(.+)$", text, re.MULTILINE)
-        size = _bytes(m.group(1)) if m else None
-        if size:  # lscpu sums the instances ("2 MiB (2 instances)"): one instance's size
-            n = re.search(r"\((\d+) instances?\)", m.group(1))
-            sizes[level] = size // (int(n.group(1)) if n else 1)
-    return sizes
-
-
 def last_level_cache() -> int | None:
     """Bytes of the CPU's last-level cache (:func:`cache_sizes`), or None if unknown."""
     sizes = cache_sizes()
     return sizes[max(sizes)] if sizes else None
-
-
-def _bytes(text: str) -> int | None:
-    """``"32768K"``, ``"32 MiB"``, ``"32 MiB (1 instance)"`` → bytes."""
-    m = re.match(r"\s*([\d.]+)\s*([KMG]?)i?B?", text.strip(), re.IGNORECASE)
-    if not m:
-        return None
-    scale = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30}[m.group(2).upper()]
-    return int(float(m.group(1)) * scale)
 
 
 def auto_steps(stepper: Any) -> int:
@@ -121,7 +80,7 @@ def auto_steps(stepper: Any) -> int:
     if not stepper.backend.on_cpu:
         return 1
     llc = last_level_cache()
-    fields = sum(isinstance(v, DeviceArray) for v in stepper._dev.values())
+    fields = sum(isinstance(v, DeviceArray) for v in stepper._device_params.values())
     cells = math.prod(stepper.shape)
     working = (2 * len(stepper.species) + fields) * cells * stepper.dtype.itemsize
     return fitting_steps(stepper) if llc is not None and working > llc else 1
@@ -214,8 +173,8 @@ class BlockedEuler:
                              dtype=target.dtype)
             self._last_t0 = steps_done
         fields = frozenset(p for p in program.refs("param")
-                           if isinstance(st._dev[p], DeviceArray))
+                           if isinstance(st._device_params[p], DeviceArray))
         member = frozenset(p for p in program.refs("param")
-                           if isinstance(st._dev[p], PerMember))
-        self._pass.run(x, y, st._dev, fields, member, {"_h": st.dt, "_a": 0.0, "_b": 1.0},
+                           if isinstance(st._device_params[p], PerMember))
+        self._pass.run(x, y, st._device_params, fields, member, {"_h": st.dt, "_a": 0.0, "_b": 1.0},
                        steps_done * st.dt, times)

@@ -130,14 +130,14 @@ class DeviceRHS:
         if st._pre is None:
             program = self._stage_program(state, names, tuple(scalars), tuple(outputs))
             ins = [b for n in names for b in fields[n]]
-            launch(program, st.target, ins, flat_outs, st._dev, args, t)
+            launch(program, st.target, ins, flat_outs, st._device_params, args, t)
             return
         # a bilaplacian: its Laplacian of the stored y by the pre-pass, then the stage on y
         y = fields[state]
-        launch(st._pre, st.target, y, st._aux, st._dev, {}, t)
+        launch(st._pre, st.target, y, st._aux, st._device_params, {}, t)
         program = self._stage_program(None, names, tuple(scalars), tuple(outputs))
         ins = [*y, *st._aux, *(b for n in names for b in fields[n])]
-        launch(program, st.target, ins, flat_outs, st._dev, args, t)
+        launch(program, st.target, ins, flat_outs, st._device_params, args, t)
 
     def _reads(self, expr: str, names: tuple[str, ...], scalars: tuple[str, ...]
                ) -> frozenset[str]:

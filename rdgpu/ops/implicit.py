@@ -79,6 +79,7 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import ConvergenceError
 from rdgpu.domains.base import require_domain
 from rdgpu.domains.spectra import components
@@ -89,7 +90,6 @@ if TYPE_CHECKING:
 
 __all__ = ["ImplicitDiffusion", "operator_matrix", "smallest_eigenvalue"]
 
-_REALS = (np.dtype(np.float32), np.dtype(np.float64))
 
 #: at most this many sweeps between two convergence checks
 MAX_CHECK_GAP = 16

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.conventions import AXIS_NAMES, axis_names
 from rdgpu.core.optional import require
 from rdgpu.core.resources import check_memory
 from rdgpu.domains.specs import build_domain
@@ -46,7 +47,6 @@ MIXED_SHARE = 0.25
 BATCH_MEMORY = 256 * 2**20
 _AXIS_FORMS = ("NAME=START:STOP:N (N values from START to STOP, inclusive), "
                "NAME=A,B,C (a list) or NAME=VALUE (fixed)")
-_SPACE_DIMS = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
 
 
 # ------------------------------------------------------------------------ optional extra
@@ -222,7 +222,7 @@ def _template(xr: Any, da: Any, settings: dict, axes: dict[str, np.ndarray],
               n_batches: int) -> Any:
     """The sweep's Dataset with lazy empty arrays (NaN fields, pattern -1, done False),
     chunked one member per chunk."""
-    dims = (*axes, *_SPACE_DIMS[len(space)])
+    dims = (*axes, *axis_names(len(space)))
     shape = (*(a.size for a in axes.values()), *space)
     chunks = (*(1 for _ in axes), *space)
     data = {s: (dims, da.full(shape, np.nan, dtype=settings["dtype"], chunks=chunks))
@@ -234,7 +234,7 @@ def _template(xr: Any, da: Any, settings: dict, axes: dict[str, np.ndarray],
                         f"{settings['classify']!r} (-1: not run yet)"})
     data["done"] = (("batch",), da.zeros(n_batches, dtype=bool))
     coords: dict[str, Any] = {k: (k, v) for k, v in axes.items()}
-    for d, n in zip(_SPACE_DIMS[len(space)], space, strict=True):
+    for d, n in zip(axis_names(len(space)), space, strict=True):
         coords[d] = (d, (np.arange(n) + 0.5) * dx[d], {"description": "cell centre"})
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(_attrs(settings))
@@ -353,7 +353,7 @@ def _swept_and_fixed(mdl: Any, params: Any) -> tuple[dict[str, np.ndarray], dict
 
 def _check_names(axes: Mapping[str, Any], species: Sequence[str]) -> None:
     """No swept parameter or species may take a name the Dataset uses itself."""
-    own = (*_SPACE_DIMS[3], "batch", "pattern", "done")  # the Dataset's own names
+    own = (*AXIS_NAMES, "batch", "pattern", "done")  # the Dataset's own names
     clash = [k for k in axes if k in own or k in species]
     if clash:
         raise ValueError(f"a swept parameter may not be called {', '.join(clash)} (a "

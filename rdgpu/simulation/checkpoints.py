@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.core.conventions import axis_names
 from rdgpu.core.files import atomic_savez
 from rdgpu.core.npzread import read_archive
 from rdgpu.domains.base import is_domain
@@ -145,7 +146,7 @@ def bc_text(bc: Any) -> str:
     parts = [f"dirichlet({b[1]:g})" if isinstance(b, (list, tuple)) else str(b) for b in bc]
     if len(set(parts)) == 1:
         return parts[0]
-    names = ("z", "y", "x")[-len(parts):]
+    names = axis_names(len(parts))
     return "/".join(f"{p} ({n})" for p, n in zip(parts, names, strict=True))
 
 

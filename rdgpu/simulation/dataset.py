@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.core.conventions import axis_names
 from rdgpu.core.optional import require
 from rdgpu.domains.base import is_domain
 from rdgpu.simulation.checkpoints import json_default, split_params
@@ -66,7 +67,7 @@ def _space(domain: Domain) -> tuple[tuple[str, ...], dict[str, Any]]:
         coords["faces"] = (("face", "corner"), np.asarray(domain.faces, dtype=np.int32),
                            {"long_name": "triangle vertex indices (0-based)"})
         return ("vertex",), coords
-    names = ("z", "y", "x")[3 - domain.ndim:]
+    names = axis_names(domain.ndim)
     step = {"x": domain.dx, "y": domain.dy, "z": domain.dz}
     coords = {
         name: (name, (np.arange(n) + 0.5) * step[name],

@@ -43,6 +43,7 @@ import numpy as np
 
 from rdgpu.backends import interop
 from rdgpu.backends.registry import get_backend
+from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.files import CheckpointLock, check_writable, remove_stale_temporaries
 from rdgpu.domains.specs import build_domain, from_description
 from rdgpu.models import resolve_params
@@ -157,7 +158,7 @@ class Simulation:
             self.dtype = np.dtype(dtype)
         except TypeError:
             raise ValueError(f"dtype must be float32 or float64, got {dtype!r}") from None
-        if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
+        if self.dtype not in REAL_DTYPES:
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
         # refused from the shared estimate before anything is made for the members/cells
         check_simulation_memory(self.field_shape, len(self.species), self.dtype.itemsize,

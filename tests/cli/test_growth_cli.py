@@ -41,7 +41,7 @@ def test_random_walk_dla(capsys, tmp_path):
 
 @pytest.mark.parametrize("argv, match", [
     (["dla", "--param", "foo=1"], "dla has the parameters eta, k, tol, geometry"),
-    (["dla", "--param", "geometry=square"], "allowed: seed001, radial"),
+    (["dla", "--param", "geometry=square"], "allowed: slab, radial, seed001"),
     (["dla", "--param", "k=1.5"], "a whole number >= 1"),
     (["dla", "--movie", "m.gif"], "--movie does not apply"),
     (["dla", "--size", "8x8x8"], "2-D grid"),

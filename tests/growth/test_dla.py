@@ -25,9 +25,9 @@ def _backend(name):
 
 # ---------------------------------------------------------------- same cluster everywhere
 @pytest.mark.parametrize("geometry,eta,k,dtype", [
-    ("seed001", 1.0, 1, "float64"),
+    ("slab", 1.0, 1, "float64"),
     ("seed001", 0.0, 1, "float64"),
-    ("seed001", 2.0, 3, "float32"),
+    ("slab", 2.0, 3, "float32"),
     ("radial", 1.0, 1, "float64"),
     ("radial", 0.5, 2, "float64"),
     ("radial", 1.7, 1, "float32"),
@@ -67,9 +67,9 @@ def test_cluster_is_connected_and_grows_from_the_seed():
     assert np.all(r.c[r.mask] == 0)
 
 
-def test_seed001_wraps_x_and_stops_at_the_top():
+def test_slab_wraps_x_and_stops_at_the_top():
     # eta = 4 on a short grid: growth runs straight up and reaches the c = 1 row
-    r = rdgpu.dla((16, 16), eta=4.0, steps=100, geometry="seed001", seed=0, backend="numpy")
+    r = rdgpu.dla((16, 16), eta=4.0, steps=100, geometry="slab", seed=0, backend="numpy")
     assert r.stopped == "boundary"
     assert r.mask[-2].any() and r.steps_done < 100
     assert not r.mask[-1].any() and r.mask[0].sum() == 1  # held rows never join
@@ -306,3 +306,20 @@ def test_random_walkers_at_sticking_1_grow_eta_1_clusters():
         walkers.append(fractal_dimension(w.mask, center=(96, 96)).dimension)
     assert 1.55 < np.mean(field) < 1.85 and 1.55 < np.mean(walkers) < 1.85
     assert abs(np.mean(field) - np.mean(walkers)) < 0.1, (field, walkers)
+
+
+def test_geometry_names_and_the_paper_label():
+    # "slab" is the geometry's name; seed 001's label is an alias for it
+    kw = {"eta": 1.0, "steps": 5, "seed": 1, "backend": "numpy"}
+    slab = rdgpu.dla((16, 16), geometry="slab", **kw)
+    label = rdgpu.dla((16, 16), geometry="seed001", **kw)
+    default = rdgpu.dla((16, 16), **kw)
+    assert np.array_equal(slab.mask, label.mask) and np.array_equal(slab.mask, default.mask)
+    assert slab.geometry == label.geometry == default.geometry == "slab"
+    with pytest.raises(ValueError, match=r"unknown geometry 'seed002'; allowed: slab, radial "
+                                         r"\(also 'seed001' for 'slab'\)"):
+        rdgpu.dla((16, 16), geometry="seed002", **kw)
+    walk = {"particles": 20, "seed": 2, "walkers": 8, "backend": "numpy"}
+    a = rdgpu.random_walk_dla((16, 24), geometry="slab", **walk)
+    b = rdgpu.random_walk_dla((16, 24), geometry="seed001", **walk)
+    assert np.array_equal(a.arrival, b.arrival) and b.settings["geometry"] == "slab"

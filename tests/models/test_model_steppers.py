@@ -30,8 +30,8 @@ from rdgpu.models import (
     MODELS,
     PRESETS,
     AllenCahn,
-    ReactionDiffusion2,
     build_domain,
+    define_model,
     resolve_params,
 )
 
@@ -182,8 +182,8 @@ def test_stability_and_parameter_errors():
 
 
 def test_declarative_model_and_registry():
-    m = ReactionDiffusion2("logistic", reactions=("r*u*(1 - u)",), diffusion=("D",),
-                           defaults={"D": 1.0, "r": 2.0}, species=("u",))
+    m = define_model("logistic", {"u": "D*laplace(u) + (r*u*(1 - u))"},
+                     {"D": 1.0, "r": 2.0})
     grid = Grid((1, 16), bc="neumann")
     st = m.stepper(grid, {}, dt=0.1, backend="numpy")
     st.set_state({"u": np.full(16, 0.5)})

@@ -40,7 +40,7 @@ W0, W1 = 0x9E3779B9, 0xBB67AE85
 MASK32 = np.uint64(0xFFFFFFFF)
 COUNT, EXT, DONE, STEPS = 0, 1, 2, 3
 STEP, RELEASE, FIRST = 0, 1, 2  # purposes (the counter's last word)
-RADIAL, SEED001 = 0, 1
+RADIAL, SLAB = 0, 1
 _DI = np.array([0, 0, 1, -1], np.int64)
 _DJ = np.array([1, -1, 0, 0], np.int64)
 
@@ -116,7 +116,7 @@ def release(r, launch, geometry, shape, ring_start, ring_ij) -> tuple[np.ndarray
 def _occupied(grid, i, j, geometry) -> np.ndarray:
     """``grid[i, j] != 0`` with cells off the grid empty (columns wrap in seed001)."""
     ny, nx = grid.shape
-    if geometry == SEED001:
+    if geometry == SLAB:
         j = j % nx
     inside = (i >= 0) & (i < ny) & (j >= 0) & (j < nx)
     return inside & (grid[np.clip(i, 0, ny - 1), np.clip(j, 0, nx - 1)] != 0)
@@ -157,7 +157,7 @@ def walk_step(grid, pos, want, state, ring_start, ring_ij, *, t, key, geometry, 
 
 def extent_after(ext: int, i: int, j: int, geometry: int, shape) -> int:
     """The cluster's extent once cell ``(i, j)`` joins (module doc, ``EXT``)."""
-    if geometry == SEED001:
+    if geometry == SLAB:
         return max(ext, i)
     di, dj = i - shape[0] // 2, j - shape[1] // 2
     d2 = di * di + dj * dj

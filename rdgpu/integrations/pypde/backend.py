@@ -85,6 +85,7 @@ from pde.grids.boundaries.local import (
 )
 
 from rdgpu.backends import registry as dispatch
+from rdgpu.core.conventions import REAL_DTYPES, axis_names
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.pypde import steppers as pypde_steppers
 from rdgpu.integrations.pypde.checks import check_overrides, check_solver
@@ -97,7 +98,6 @@ __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 
 NAME = "rdgpu"
 #: rdgpu's coordinate name of each field axis, by number of dimensions
-_AXIS_NAMES = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
 _SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
               "SwiftHohenbergPDE, WavePDE, KleinGordonPDE")
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
@@ -339,7 +339,7 @@ def _expression_pde(pde_obj: Any) -> tuple[dict[str, str], dict[str, Any],
 def _coordinate_map(grid: Any) -> Callable[[eq.Node], eq.Node | None]:
     """py-pde's coordinates (axis ``k`` named ``grid.axes[k]``, from its lower bound)
     in rdgpu's names (from 0)."""
-    ours = _AXIS_NAMES[grid.num_axes]
+    ours = axis_names(grid.num_axes)
     table = {}
     for k, name in enumerate(grid.axes):
         lo = float(grid.axes_bounds[k][0])
@@ -469,7 +469,7 @@ class RdgpuBackend(BackendBase):
     @staticmethod
     def _dtype(state: Any) -> np.dtype:
         dtype = np.asarray(state.data).dtype
-        if dtype not in (np.float32, np.float64):
+        if dtype not in REAL_DTYPES:
             raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
         return dtype
 
