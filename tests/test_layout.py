@@ -1,8 +1,9 @@
 """The tests' layout (issue 20, rule 6): no file under tests/ imports or loads anything from
 perf/ or examples/.  What a test needs of a study or a benchmark lives in the package
 (``rdgpu.analysis.convergence``, ``rdgpu.analysis.pinning``,
-``rdgpu.analysis.rough_patterns``, ``rdgpu.backends.reduce_timing``) or in a helper module
-at tests/ top level (``toy_model.py``); the scripts import it from there.
+``rdgpu.analysis.rough_patterns``, ``rdgpu.backends.reduce_timing``), which the scripts
+import too, or, where only tests need it, in a helper module at tests/ top level
+(``toy_model.py``).
 
 The scan reads the sources (nothing is imported): an ``import`` of ``perf``, ``examples``
 or of a script's name; a loader (``spec_from_file_location``, ``SourceFileLoader``,
