@@ -9,16 +9,17 @@ the fields at the final time ``T`` for steps ``h = T/n``, and the observed order
 
 * ``forced mode``: a linear two-species system on a periodic 1-D grid (32 cells, dx =
   0.25), explicit coupling, forced so that ``u = cos(t) φ``, ``v = sin(t) φ`` exactly
-  (``φ`` a discrete Fourier mode, :func:`forced_mode`); the steps are 1-8× the explicit
+  (``φ`` a discrete Fourier mode, ``forced_mode``); the steps are 1-8× the explicit
   limit;
 * ``gray-scott``: a Gaussian spot on a periodic 16² grid, ``T = 20``, against SSP-RK3 at
-  an eighth of the smallest step (:func:`spot`, :func:`reference`);
+  an eighth of the smallest step (``spot``, ``reference``);
 * ``schnakenberg``: the same grid, ``Dv = 40`` (explicit limit 0.006, steps up to 30×
   it), ``T = 2``, against SSP-RK3: stiff, the order reaches 2 only at smaller steps;
 * ``gray-scott, mesh``: an icosphere of 162 vertices, the model's mesh defaults.
 
-The tests (``tests/integrators/test_bdf2.py``) use :func:`forced_mode`, :func:`spot` and
-:func:`errors` and assert the orders.
+The problems and the error measure are :mod:`rdgpu.analysis.convergence`'s
+(``forced_mode``, ``spot``, ``reference``, ``errors``, ``orders``);
+``tests/integrators/test_bdf2.py`` asserts the orders with them.
 """
 
 from __future__ import annotations
@@ -27,83 +28,13 @@ import argparse
 import math
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from rdgpu.analysis.convergence import errors, forced_mode, orders, reference, spot
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-from rdgpu.models import MODELS, define_model, domain_shape
-
-
-def forced_mode(n_cells: int = 32, length: float = 8.0, k: int = 4):
-    """``(model, grid, params, init, exact)``: ``u_t = Du Δu + a u + b v + F_u(t) φ``,
-    ``v_t = Dv Δv + c u + d v + F_v(t) φ`` on a periodic 1-D grid, ``φ = sin(wx)`` an
-    eigenvector of the 3-point Laplacian (eigenvalue ``−m``), ``F`` chosen so that ``u =
-    cos(t) φ``, ``v = sin(t) φ`` solve it exactly; ``exact(T)`` is that solution."""
-    dx = length / n_cells
-    grid = Grid((n_cells,), dx=dx, bc="periodic")
-    m = 4 / dx**2 * math.sin(math.pi * k / n_cells) ** 2
-    Du, Dv, a, b, c, d = 1.0, 0.5, -0.5, 1.0, -1.0, 0.2
-    params = {"Du": Du, "Dv": Dv, "a": a, "b": b, "c": c, "d": d,
-              "w": 2 * math.pi * k / length,
-              "p1": Du * m - a, "p2": -1 - b, "q1": 1 - c, "q2": Dv * m - d}
-    model = define_model("forced-mode", {
-        "u": "Du*laplace(u) + a*u + b*v + (p1*cos(t) + p2*sin(t))*sin(w*x)",
-        "v": "Dv*laplace(v) + c*u + d*v + (q1*cos(t) + q2*sin(t))*sin(w*x)"}, params)
-    phi = np.sin(params["w"] * (np.arange(n_cells) + 0.5) * dx)
-
-    def exact(T: float) -> dict[str, np.ndarray]:
-        return {"u": math.cos(T) * phi[None], "v": math.sin(T) * phi[None]}
-
-    return model, grid, params, {"u": phi.copy(), "v": np.zeros_like(phi)}, exact
-
-
-def spot(domain: Any) -> dict[str, np.ndarray]:
-    """Gray-Scott's ``u = 1 − ½g``, ``v = ¼g`` with ``g`` a Gaussian spot (variance 4 on a
-    grid with dx = 1, centred; on a unit sphere a cap around +z)."""
-    if isinstance(domain, Grid):
-        yy, xx = np.indices(domain.shape)
-        cy, cx = (domain.shape[0] - 1) / 2 + 0.5, (domain.shape[1] - 1) / 2 + 0.5
-        g = np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / 8.0)
-    else:
-        g = np.exp(-4.0 * (1.0 - np.asarray(domain.vertices)[:, 2]))
-    return {"u": 1.0 - 0.5 * g, "v": 0.25 * g}
-
-
-def run(model, domain, params, init, T: float, n: int, method: str = "bdf2",
-        backend: str = "numpy", tol: float | None = 1e-12) -> dict[str, np.ndarray]:
-    """The fields after ``n`` steps of ``T/n`` (float64)."""
-    st = model.stepper(domain, params, dt=T / n, backend=backend, method=method,
-                       check_stability=False, tol=tol)
-    st.set_state(init)
-    st.advance(n)
-    return st.get_state()
-
-
-def reference(model, domain, params, init, T: float, n_max: int) -> dict[str, np.ndarray]:
-    """SSP-RK3 at half the explicit limit and at most ``T/(8 n_max)``: at ⅛ of the
-    smallest step tested its third-order error is far below the tested methods'."""
-    n = max(math.ceil(T / (0.5 * model.dt_limit(domain, params, "euler"))), 8 * n_max)
-    return run(model, domain, params, init, T, n, "rk3")
-
-
-def errors(model, domain, params, init, T: float, ns, ref: dict[str, np.ndarray],
-           method: str = "bdf2", backend: str = "numpy") -> list[float]:
-    """Max error over every field at ``T`` for each ``n`` of ``ns``."""
-    out = []
-    for n in ns:
-        got = run(model, domain, params, init, T, n, method, backend)
-        shape = domain_shape(domain)
-        out.append(max(float(np.max(np.abs(got[s].reshape(shape) - ref[s].reshape(shape))))
-                       for s in model.species))
-    return out
-
-
-def orders(ns, errs) -> list[float]:
-    """``log(e_i/e_{i+1}) / log(n_{i+1}/n_i)`` between neighbouring rows."""
-    return [math.log(errs[i] / errs[i + 1]) / math.log(ns[i + 1] / ns[i])
-            for i in range(len(ns) - 1)]
+from rdgpu.models import MODELS
 
 
 def problems():

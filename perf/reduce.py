@@ -26,6 +26,7 @@ perf/results/reduce.md, PoCL's cached binary of the vectorised max_abs row kerne
 
 The ``sum_squares`` results are checked against the rigorous rounding bound of
 ``rdgpu/families/reduce/reference.py`` (``sum_squares_error_bound``), ``max_abs`` bit for bit.
+The timing, the checks and the table are :mod:`rdgpu.backends.reduce_timing`'s.
 """
 
 from __future__ import annotations
@@ -33,54 +34,13 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
-from fractions import Fraction
 from pathlib import Path
-
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import machine  # noqa: E402
 
 import rdgpu  # noqa: E402
-from rdgpu.families import load_module  # noqa: E402
-
-MiB = 1 << 20
-#: the reductions timed, as Backend method names
-OPS = ("max_abs", "sum_squares")
-REDUCE = load_module("reduce", "reference.py")
-
-
-def scalar_opencl():
-    """An OpenCLBackend whose programs are built with ``-D RDGPU_REDUCE_SCALAR`` (its own
-    programs: the shared program cache is set aside while it builds)."""
-    from rdgpu.backends import opencl_backend as ocl
-
-    be = ocl.OpenCLBackend(layout="row")
-    be._options.append("-D RDGPU_REDUCE_SCALAR")
-    saved = dict(ocl._PROGRAMS)
-    ocl._PROGRAMS.clear()
-    try:
-        for dtype in (np.float32, np.float64):
-            be.kernels(dtype)
-    finally:
-        ocl._PROGRAMS.clear()
-        ocl._PROGRAMS.update(saved)
-    return be
-
-
-def best_seconds(op, d, seconds: float, repeats: int = 5) -> float:
-    """Least seconds of one ``op(d)`` (a backend's reduction; synchronous: the result is on
-    the host)."""
-    op(d)  # warm: compile, allocate the partials
-    best, count = float("inf"), 0
-    end = time.perf_counter() + seconds
-    while count < repeats or time.perf_counter() < end:
-        t0 = time.perf_counter()
-        op(d)
-        best = min(best, time.perf_counter() - t0)
-        count += 1
-    return best
+from rdgpu.backends.reduce_timing import MiB, measure, scalar_opencl, table  # noqa: E402
 
 
 def sizes(caches: machine.Caches) -> dict[str, int]:
@@ -89,56 +49,12 @@ def sizes(caches: machine.Caches) -> dict[str, int]:
     return {"tiny": 0, "L2": l2 // 2, "DRAM": 4 * (caches.llc or 32 * MiB)}
 
 
-def check(op: str, got: float, u: np.ndarray) -> bool:
-    """``got`` is right for ``op`` on ``u``: max_abs exactly 2.0 (the array's extreme), sum_squares
-    within the rounding bound."""
-    if op == "max_abs":
-        return got == 2.0
-    exact = REDUCE.sum_squares_exact(u)
-    return abs(Fraction(got) - Fraction(exact)) <= REDUCE.sum_squares_error_bound(u, exact)
-
-
-def measure(backends: dict, size_bytes: dict[str, int], seconds: float) -> list[dict]:
-    """One row per (size, dtype, op, backend): microseconds per call and GB/s; every
-    result is checked (see :func:`check`)."""
-    rng = np.random.default_rng(0)
-    rows = []
-    for label, nbytes in size_bytes.items():
-        for dtype in (np.dtype(np.float32), np.dtype(np.float64)):
-            n = max(1, nbytes // dtype.itemsize)
-            u = rng.uniform(-1, 1, n).astype(dtype)
-            u[n // 3] = -2.0
-            for op in OPS:
-                for name, be in backends.items():
-                    d = be.upload(u)
-                    fn = getattr(be, op)
-                    if not check(op, fn(d), u):
-                        raise AssertionError(f"{name} {op} is wrong at {label} {dtype}")
-                    t = best_seconds(fn, d, seconds)
-                    rows.append(dict(size=label, dtype=dtype.name, n=n, op=op, backend=name,
-                                     bytes=n * dtype.itemsize, us=t * 1e6,
-                                     GBps=n * dtype.itemsize / t / 1e9))
-                    del d
-    return rows
-
-
-def table(rows: list[dict], triad: float) -> str:
-    lines = ["| size | dtype | elements | MiB | op | backend | µs per call | GB/s | % triad |",
-             "|---|---|---:|---:|---|---|---:|---:|---:|"]
-    for r in rows:
-        share = "" if r["size"] == "tiny" else f"{100 * r['GBps'] / triad:.0f}"
-        lines.append(f"| {r['size']} | {r['dtype']} | {r['n']} | {r['bytes'] / MiB:.3g} | "
-                     f"{r['op']} | {r['backend']} | {r['us']:.1f} | {r['GBps']:.2f} | "
-                     f"{share} |")
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=1.0, help="timing per row (s)")
     ap.add_argument("--out", type=Path, default=None, help="write the markdown report here")
     ap.add_argument("--scale", type=float, default=1.0,
-                    help="multiply the L2 and DRAM sizes (tests use a small one)")
+                    help="multiply the L2 and DRAM sizes (a small one for a quick run)")
     args = ap.parse_args(argv)
 
     caches = machine.cpu_caches()

@@ -8,7 +8,8 @@ a graph surface over ``[0, 2π]²``, exact solution ``u = e^{−t}φ``, ``v = e^
 stepped to ``T = 0.5`` on ``n²`` cells with ``n/4`` steps (``dt ∝ dx``), float64, by BDF2
 (seed 002 eq. 18) and IMEX Euler.  Prints and writes ``surface_rds.md``: the max over the
 species of the relative ℓ² error, and the observed order between neighbouring rows.
-``tests/theory/test_surface_rds.py`` asserts the orders with :func:`space_time_error`.
+The error is :func:`rdgpu.analysis.convergence.space_time_error`;
+``tests/theory/test_surface_rds.py`` asserts the orders with it.
 """
 
 from __future__ import annotations
@@ -17,28 +18,7 @@ import argparse
 import math
 from pathlib import Path
 
-import numpy as np
-
-from rdgpu.families import load_module
-from rdgpu.models import define_model
-from rdgpu.simulation.driver import Simulation
-
-T = 0.5
-
-
-def space_time_error(n: int, method: str, backend: str = "numpy",
-                     dtype: str = "float64") -> float:
-    """Max over species of the relative ℓ² error at ``T`` after ``n/4`` steps on ``n²``."""
-    problem = load_module("metric", "exact.py").manufactured_rds(n)
-    model = define_model("manufactured", problem["equations"],
-                         {"Du": 1.0, "Dv": 0.5, "Au": 0.0, "Av": 0.0, "P": 0.0})
-    steps = max(n // 4, 1)
-    sim = Simulation(model, problem["domain"], problem["params"], dt=T / steps,
-                     backend=backend, dtype=dtype, fields=problem["fields"],
-                     options={"method": method})
-    result = sim.run(steps, progress=False)
-    return max(float(np.sqrt(np.mean((result.fields[s] - e) ** 2) / np.mean(e**2)))
-               for s, e in zip("uv", problem["exact"](T), strict=True))
+from rdgpu.analysis.convergence import space_time_error
 
 
 def main() -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -40,18 +39,6 @@ def cli(capsys, *argv):
         code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
-
-
-def repo_module(path: str):
-    """A script of the repository (``perf/bdf2_order.py``, ``examples/...``) loaded as a
-    module, for tests that share its problems."""
-    import importlib.util
-
-    file = Path(__file__).resolve().parents[1] / path
-    spec = importlib.util.spec_from_file_location(file.stem, file)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def backend_or_skip(name: str):

@@ -6,7 +6,10 @@
 * :mod:`~rdgpu.analysis.spots` — spot statistics and stripe orientation;
 * :mod:`~rdgpu.analysis.defects` — spiral tips and phase defects;
 * :mod:`~rdgpu.analysis.fractal` — the fractal dimension of a cluster;
-* :mod:`~rdgpu.analysis.isometry` — the isometry experiment of seed 000.
+* :mod:`~rdgpu.analysis.isometry` — the isometry experiment of seed 000;
+* studies: :mod:`~rdgpu.analysis.convergence` (manufactured solutions, measured orders),
+  :mod:`~rdgpu.analysis.pinning` (seed 000's pinned spots),
+  :mod:`~rdgpu.analysis.rough_patterns` (seed 002's patterns on rough surfaces).
 
 Every measure is a name of this package (``rdgpu.analysis.classify_pattern``, ...).
 """

@@ -6,7 +6,7 @@ and the compiled fused pass of a Program (``target.py``: ``Target``, ``FusedPass
 (``numpy_backend.py``), Warp (``warp_backend.py`` with ``warp_runtime.py``,
 ``warp_mesh.py`` and the printer ``warp_codegen.py``) and OpenCL (``opencl_backend.py``
 with ``opencl_devices.py``, ``opencl_mesh.py``, ``opencl_growth.py`` and the printer
-``opencl_codegen.py``).
+``opencl_codegen.py``); the reductions' timing (``reduce_timing.py``, ``perf/reduce.py``).
 
 A new backend subclasses ``Backend`` (memory, reductions, and ``fused_pass`` for models),
 and registers a factory: ``register_backend("mine", Mine)``; then ``backend="mine"`` works

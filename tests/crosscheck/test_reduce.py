@@ -5,8 +5,8 @@ NumPy reference ``float(np.max(np.abs(u)))``: random arrays of odd, tiny, non-sq
 multi-chunk shapes in both dtypes; NaN, ±inf and the largest value at many positions
 (first, last, vector lanes, chunk edges, peeled tails); negative extremes, -0.0, arrays
 whose only non-zeros are subnormal, empty arrays; wrong dtypes and foreign arrays; buffer
-reuse between calls and threads; the OpenCL kernel on Oclgrind; perf/reduce.py at tiny
-sizes (no timing is asserted).
+reuse between calls and threads; the OpenCL kernel on Oclgrind; the timing of
+perf/reduce.py (``rdgpu.backends.reduce_timing``) at tiny sizes (no timing is asserted).
 
 ``Backend.sum_squares``: within the rigorous rounding bound of ``math.fsum`` of the
 exactly rounded float64 squares (``sum_squares_error_bound``, derived, not tuned), and
@@ -23,7 +23,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from conftest import VARIANTS, backend_or_skip, repo_module, variant_or_skip
+from conftest import VARIANTS, backend_or_skip, variant_or_skip
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -225,13 +225,14 @@ def test_reduce_kernel_under_oclgrind():
     check_clean_under_oclgrind(["-c", OCLGRIND_WORKER], 4)
 
 
-# ---------------------------------------------------------------------------- perf/reduce.py
-def test_benchmark_script_runs_at_tiny_sizes():
-    """perf/reduce.py's rows (every backend, both dtypes, results checked by the script)
-    and its scalar-build OpenCL backend, which must leave the shared programs alone."""
+# ------------------------------------------------------------------ rdgpu.backends.reduce_timing
+def test_reduce_timing_runs_at_tiny_sizes():
+    """rdgpu.backends.reduce_timing (perf/reduce.py's rows: every backend, both dtypes,
+    results checked) and its scalar-build OpenCL backend, which must leave the shared
+    programs alone."""
     from rdgpu.backends import opencl_backend
+    from rdgpu.backends import reduce_timing as bench
 
-    bench = repo_module("perf/reduce.py")
     backends = {name: backend_or_skip(name) for name in ("opencl", "warp", "numpy")}
     before = dict(opencl_backend._PROGRAMS)
     backends["opencl scalar"] = bench.scalar_opencl()

@@ -22,8 +22,9 @@ import math
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip, repo_module
+from conftest import backend_or_skip
 
+from rdgpu.analysis import convergence
 from rdgpu.cli.app import main
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.grid import Grid
@@ -55,21 +56,18 @@ SH = define_model("sh", {"u": "(r - 1)*u - 2*laplace(u) - laplace(laplace(u)) - 
                   {"r": 0.3})
 
 
-ORDER = repo_module("perf/bdf2_order.py")
-
-
 # ---------------------------------------------------------------------------- 1. order
 def test_second_order_against_an_exact_solution():
     """The forced Fourier mode (``forced_mode``) at T = 2 for h = T/8 ... T/64 (1-8× the
     explicit limit, 0.031): each halving divides BDF2's error by 4 (measured orders 1.99,
     2.01, 2.01) and IMEX's by 2 (0.99, 1.00, 1.00)."""
-    model, grid, params, init, exact = ORDER.forced_mode()
+    model, grid, params, init, exact = convergence.forced_mode()
     T, ns = 2.0, [8, 16, 32, 64]
     assert model.dt_limit(grid, params, "euler") <= T / ns[-1]
     for method, low, high in (("bdf2", 1.8, 2.3), ("imex", 0.9, 1.1)):
-        errors = ORDER.errors(model, grid, params, init, T, ns, exact(T), method)
+        errors = convergence.errors(model, grid, params, init, T, ns, exact(T), method)
         assert errors[-1] > 1e-6  # far above the solver tolerance and round-off
-        assert all(low <= p <= high for p in ORDER.orders(ns, errors)), (method, errors)
+        assert all(low <= p <= high for p in convergence.orders(ns, errors)), (method, errors)
 
 
 def test_second_order_on_gray_scott():
@@ -77,12 +75,12 @@ def test_second_order_on_gray_scott():
     against SSP-RK3 at an eighth of the smallest step: the observed orders are 1.89, 1.95,
     1.98 (a fit through the four errors: 1.94)."""
     grid = Grid((16, 16), dx=1.0, bc="periodic")
-    init, T, ns = ORDER.spot(grid), 20.0, [20, 40, 80, 160]
-    ref = ORDER.reference(GS, grid, {}, init, T, ns[-1])
-    errors = ORDER.errors(GS, grid, {}, init, T, ns, ref)
+    init, T, ns = convergence.spot(grid), 20.0, [20, 40, 80, 160]
+    ref = convergence.reference(GS, grid, {}, init, T, ns[-1])
+    errors = convergence.errors(GS, grid, {}, init, T, ns, ref)
     fit = -np.polyfit(np.log(ns), np.log(errors), 1)[0]
     assert 1.8 <= fit <= 2.3, errors
-    assert 1.8 <= ORDER.orders(ns, errors)[-1] <= 2.3, errors
+    assert 1.8 <= convergence.orders(ns, errors)[-1] <= 2.3, errors
 
 
 # ---------------------------------------------------------------------------- 2. backends
@@ -269,9 +267,9 @@ def test_errors_as_imex():
     # an ODE species (no diffusion) steps without a solve: explicit second-order BDF2
     ode = define_model("ode", {"u": "-u"}, {})
     T, ns, line = 1.0, [20, 40, 80], Grid((3,), dx=1.0)
-    errors = ORDER.errors(ode, line, {}, {"u": np.ones(3)}, T, ns,
-                          {"u": np.full(3, math.exp(-T))})
-    assert all(1.8 <= p <= 2.3 for p in ORDER.orders(ns, errors)), errors
+    errors = convergence.errors(ode, line, {}, {"u": np.ones(3)}, T, ns,
+                                {"u": np.full(3, math.exp(-T))})
+    assert all(1.8 <= p <= 2.3 for p in convergence.orders(ns, errors)), errors
 
 
 # ---------------------------------------------------------------------------- 6. CLI

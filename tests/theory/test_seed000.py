@@ -4,11 +4,10 @@ presets, the isometry experiment (rdgpu.analysis.isometry) and smooth mesh shadi
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import backend_or_skip, repo_module
+from conftest import backend_or_skip
 
 from rdgpu.analysis import classify_pattern, phase_components
 from rdgpu.analysis.isometry import (
@@ -18,47 +17,40 @@ from rdgpu.analysis.isometry import (
     isometry_experiment,
     phase_overlap,
 )
+from rdgpu.analysis.pinning import run_case, table
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.models import PRESETS
 from rdgpu.simulation.driver import Simulation
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
-@pytest.fixture(scope="module")
-def study():
-    """examples/seed000_study.py as a module (its ``run_case``)."""
-    return repo_module("examples/seed000_study.py")
-
 
 # ------------------------------------------------------------------ frozen versus resolved
-def test_pinned_case_is_detected_as_frozen(study):
+def test_pinned_case_is_detected_as_frozen():
     """ε = 0.15 h: the interfaces lock onto the mesh within ~100 ε² and the field stops
     changing while both phases remain; a resolved ε = h on the same mesh and b goes uniform,
     and b = 0 at ε = h is still moving at the same time (not frozen)."""
     backend_or_skip("opencl")
     mesh = SurfaceMesh.icosphere(3)
     samples = (1, 10, 100, 200, 400)
-    pinned = study.run_case(mesh, 0.15, -0.1, samples=samples)
+    pinned = run_case(mesh, 0.15, -0.1, samples=samples)
     assert pinned["verdict"] == "frozen"
     assert pinned["final_class"] != "uniform" and pinned["final_components"] > 10
     assert pinned["samples"][-1]["max_change"] < 1e-6   # 200 ε² → 400 ε²
     assert pinned["samples"][-1]["width"] < 0.5          # under one vertex wide
-    resolved = study.run_case(mesh, 1.0, -0.1, samples=samples)
+    resolved = run_case(mesh, 1.0, -0.1, samples=samples)
     assert resolved["verdict"] == "uniform" and resolved["uniform_at"]["t_eps2"] <= 100
-    moving = study.run_case(mesh, 1.0, 0.0, samples=(1, 2, 5, 10))
+    moving = run_case(mesh, 1.0, 0.0, samples=(1, 2, 5, 10))
     assert moving["verdict"] == "coarsening"
     assert moving["samples"][-1]["max_change"] > 1e-3
 
 
-def test_study_table_and_verdict_cells(study):
+def test_study_table_and_verdict_cells():
     runs = {"4/0.1/-0.1": {"level": 4, "ratio": 0.1, "b": -0.1, "level_vertices": 2562,
                            "h": 0.0755, "verdict": "frozen", "final_class": "stripes",
                            "final_components": 102, "uniform_at": None},
             "4/1.0/-0.1": {"level": 4, "ratio": 1.0, "b": -0.1, "level_vertices": 2562,
                            "h": 0.0755, "verdict": "uniform", "final_class": "uniform",
                            "final_components": 1, "uniform_at": {"t_eps2": 7.0, "step": 50}}}
-    text = study.table({"runs": runs})
+    text = table({"runs": runs})
     assert "frozen (stripes, 102)" in text and "uniform @ 7" in text
 
 
