@@ -45,6 +45,7 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
+from rdgpu.core.validation import real_number
 from rdgpu.domains.base import require_domain
 from rdgpu.ir import equations as eq
 from rdgpu.ir.schemes import get_scheme, method_names
@@ -54,7 +55,8 @@ from rdgpu.models.ranges import check_bounds, check_fits
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
+__all__ = ["FIELD_SPEC_KEYS", "Model", "define_model", "domain_shape", "field_spec",
+           "param_field", "resolve_params"]
 
 _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
              *eq.CONSTANTS}
@@ -81,6 +83,51 @@ def _physical_coordinates(domain: Domain) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------- parameters
+#: per field-spec kind: (required keys, optional keys with defaults)
+FIELD_SPEC_KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
+    "random": (("low", "high"), {}),
+    "sine": (("mean", "amplitude"), {"axis": "x", "periods": 1.0}),
+    "linear": (("start", "stop"), {"axis": "x"}),
+}
+
+
+def field_spec(spec: Any, name: str | None = None) -> dict[str, Any]:
+    """A parameter field spec (:func:`param_field`) checked and completed: a known
+    ``kind``, every required key, no unknown key, numbers that are numbers (finite),
+    ``low <= high``, an axis name.  ``name`` (the parameter) goes into the messages."""
+    what = "a parameter field spec" if name is None else f"parameter {name!r}"
+    kinds = ", ".join(repr(k) for k in FIELD_SPEC_KEYS)
+    if not isinstance(spec, Mapping):
+        raise TypeError(f"{what}: a field spec is a dict such as {{'kind': 'random', 'low': "
+                        f"0.01, 'high': 0.05}}, got {type(spec).__name__}")
+    kind = spec.get("kind")
+    if not isinstance(kind, str) or kind not in FIELD_SPEC_KEYS:
+        raise ValueError(f"{what}: unknown parameter field kind {kind!r}; allowed: {kinds}")
+    required, optional = FIELD_SPEC_KEYS[kind]
+    missing = [k for k in required if k not in spec]
+    if missing:
+        raise ValueError(f"{what}: a {kind!r} field spec needs {', '.join(map(repr, missing))}"
+                         f" (keys: {', '.join(required + tuple(optional))})")
+    unknown = sorted(set(spec) - {"kind", *required, *optional}, key=str)
+    if unknown:
+        raise ValueError(f"{what}: unknown key(s) {unknown} in a {kind!r} field spec; "
+                         f"allowed: {['kind', *required, *optional]}")
+    out: dict[str, Any] = {"kind": kind, **optional}
+    for key in (*required, *optional):
+        if key == "axis":
+            axis = spec.get(key, optional[key])
+            if not isinstance(axis, str):
+                raise ValueError(f"{what}: 'axis' of a {kind!r} field spec is 'x', 'y' or 'z',"
+                                 f" got {axis!r}")
+            out[key] = axis
+        elif key in spec:
+            out[key] = real_number(spec[key], f"{what}: {key!r} of a {kind!r} field spec")
+    if kind == "random" and out["low"] > out["high"]:
+        raise ValueError(f"{what}: a 'random' field spec needs low <= high, got low "
+                         f"{out['low']:g} > high {out['high']:g}")
+    return out
+
+
 def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generator,
                 name: str | None = None) -> np.ndarray:
     """A float64 parameter field over ``domain`` from a spec:
@@ -90,12 +137,10 @@ def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generato
       ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
     * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
 
-    The spec is checked first (:func:`rdgpu.simulation.checks.field_spec`: every key known, the
-    required ones given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes
-    into the messages.
+    The spec is checked first (:func:`field_spec`: every key known, the required ones
+    given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes into the
+    messages.
     """
-    from rdgpu.simulation.checks import field_spec
-
     spec = field_spec(spec, name)
     kind = spec["kind"]
     shape = domain_shape(domain)

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu.core.conventions import AXIS_NAMES, axis_names
+from rdgpu.core.conventions import AXIS_NAMES, VERSION, axis_names
 from rdgpu.core.optional import require
 from rdgpu.core.resources import check_memory
 from rdgpu.domains.specs import build_domain
@@ -243,12 +243,10 @@ def _template(xr: Any, da: Any, settings: dict, axes: dict[str, np.ndarray],
 
 def _attrs(settings: dict) -> dict:
     """The Dataset's attributes: plain values, and the full settings as JSON."""
-    from rdgpu import __version__
-
     out = {"model": settings["name"], "steps": settings["steps"], "dt": settings["dt"],
            "dtype": settings["dtype"], "backend": settings["backend_name"],
            "seed": settings["seed"], "classify": settings["classify"],
-           "rdgpu_version": __version__, SETTINGS_ATTR: json.dumps(settings, sort_keys=True)}
+           "rdgpu_version": VERSION, SETTINGS_ATTR: json.dumps(settings, sort_keys=True)}
     for k, v in settings["fixed"].items():
         out[f"param_{k}"] = v
     return out
