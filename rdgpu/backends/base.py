@@ -27,6 +27,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.core.csr import checked_csr
+from rdgpu.core.errors import ResourceLimitError
+from rdgpu.core.validation import fits_dtype
 from rdgpu.domains.base import is_domain
 from rdgpu.domains.boundary import GridBC
 from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS
@@ -112,8 +115,6 @@ class Backend(ABC):
         allocation (a :class:`rdgpu.ResourceLimitError`)."""
         n = math.prod(int(s) for s in shape)
         if self.max_cells is not None and n > self.max_cells:
-            from rdgpu.core.errors import ResourceLimitError
-
             dims = "x".join(str(int(s)) for s in shape)
             raise ResourceLimitError(
                 f"{what} of {dims} = {n:,} cells is too large for the {self.name} kernels: "
@@ -159,9 +160,6 @@ class Backend(ABC):
         Its structure is checked first (:func:`rdgpu.core.csr.checked_csr`: indices in range,
         ``indptr`` sound, finite real values that ``dtype`` can hold), so that no kernel
         reads outside the arrays; errors name the matrix as ``name``."""
-        from rdgpu.core.csr import checked_csr
-        from rdgpu.core.validation import fits_dtype
-
         m = checked_csr(matrix, name)  # canonical: sorted, no duplicates; input untouched
         dtype = np.dtype(dtype)
         if dtype not in _REAL_DTYPES:

@@ -49,6 +49,8 @@ from rdgpu.core.validation import real_number
 from rdgpu.domains.base import require_domain
 from rdgpu.ir import equations as eq
 from rdgpu.ir.schemes import get_scheme, method_names
+from rdgpu.models.compiler import PerMember, check_stencil
+from rdgpu.models.ensemble import resolve_members, stack_members
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 from rdgpu.models.ranges import check_bounds, check_fits
 
@@ -215,8 +217,6 @@ def resolve_params(
 def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> eq.Node:
     """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
     replaced by their numbers."""
-    from rdgpu.models.compiler import PerMember
-
     scalars = {k: v for k, v in params.items()
                if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node, PerMember))}
     # an ensemble's per-member numbers stay parameters (read per member by the kernel)
@@ -582,8 +582,6 @@ class Model:
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
         lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
-        from rdgpu.models.compiler import check_stencil
-
         method = _method(method or self.default_method, self.methods)
         check_stencil(domain, stencil)
         if members is None:
@@ -591,8 +589,6 @@ class Model:
             self._check_diffusion(p)
             limit = self.dt_limit(domain, p, method, stencil, lengths)
         else:
-            from rdgpu.models.ensemble import resolve_members, stack_members
-
             members = _members(members)
             shape = domain_shape(domain)
             each = resolve_members(lambda q, s: resolve_params(self, domain, q, seed=s),

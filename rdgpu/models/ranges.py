@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.ir import equations as eq
+from rdgpu.models.compiler import PerMember
 
 __all__ = ["check_bounds", "check_fits", "fits"]
 
@@ -73,8 +74,6 @@ def fits(value: Any, dtype: Any) -> bool:
 def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
     """Refuse a literal of the equations, a parameter value (number, field, per-member
     values, the literals of an expression of ``t``) or a bound that ``dtype`` cannot hold."""
-    from rdgpu.models.compiler import PerMember
-
     dtype = np.dtype(dtype)
     if dtype.kind != "f":
         return  # the binding refuses it, naming the dtypes allowed

@@ -26,10 +26,13 @@ import numpy as np
 from rdgpu.backends import interop
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.csr import checked_csr
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.boundary import PERIODIC
+from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.grid import Grid
 from rdgpu.ir.schemes import get_scheme
+from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix
 from rdgpu.ops.inputs import (  # the input checks (kind, size, then values) of every function here
     _given_shape,
     _grid_or_mesh,
@@ -142,8 +145,6 @@ def laplacian(
 def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: Any,
                        mesh: Any, backend: BackendSpec, out: Any) -> Any:
     """``rdgpu.laplacian(u, height=h, ...)``: ``Δ_Γ u`` on the periodic graph surface of h."""
-    from rdgpu.domains.graph_surface import GraphSurface
-
     if mesh is not None:
         raise ValueError("height= and mesh= given together: height makes the graph surface "
                          "z = h(x, y) over the grid of u, a mesh is a surface of its own; "
@@ -317,8 +318,6 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
     operator many times, upload it once with ``backend.upload_csr`` and call
     ``backend.spmv``.  Neither input is modified.  ``x``: any array kind; ``out``: an
     array of shape ``(n_rows,)`` and x's dtype that receives ``y`` (module doc)."""
-    from rdgpu.core.csr import checked_csr
-
     m = checked_csr(csr, "csr")  # type, real finite values, structure (indices in range)
     n_rows, n_cols = m.shape
     xa = np.asarray(x) if isinstance(x, (list, tuple)) else x
@@ -384,8 +383,6 @@ def diffusion_step(
     :class:`rdgpu.SurfaceMesh`; ``u`` has one value per vertex; the grid arguments must stay
     at their defaults.  On a closed mesh (or a periodic/Neumann grid) every method keeps
     ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step.  ``out``: module doc."""
-    from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix
-
     method = "backward-euler" if method == "implicit" else method
     if method not in DIFFUSION_METHODS:
         raise ValueError(f"method must be one of {tuple(DIFFUSION_METHODS)} (or 'implicit'), "

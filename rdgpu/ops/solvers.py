@@ -13,6 +13,7 @@ from rdgpu.backends import interop
 from rdgpu.backends.base import Backend
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.errors import ConvergenceError
 from rdgpu.ops.inputs import _given_shape, _on, _sor_inputs
 from rdgpu.ops.results import BackendSpec, expect_out
 
@@ -108,8 +109,6 @@ def sor_solve(
     dtype resolves; the result is as accurate as it can be).  If ``max_sweeps`` ends the
     solve otherwise, :class:`rdgpu.core.errors.ConvergenceError` is raised.  ``out``: an array
     that receives ``c`` (module doc)."""
-    from rdgpu.core.errors import ConvergenceError
-
     be = get_backend(backend)
     grid, mask, omega_, f, dx, dy, bcs = _sor_inputs(c, fixed, 1.0 if omega is None else omega,
                                                      rhs, dx, dy, bc, be)

@@ -18,6 +18,7 @@ import numpy as np
 
 from rdgpu.core import validation
 from rdgpu.core.resources import check_fields
+from rdgpu.ir.schemes import method_names
 
 __all__ = [
     "GRID_KINDS",
@@ -135,8 +136,6 @@ def check_tol(method: Any, tol: Any, *, unused_ok: bool = False) -> float | None
     value = real(tol, "tol")
     if not value > 0:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
-    from rdgpu.ir.schemes import method_names
-
     if method in method_names(implicit=False) and not unused_ok:
         raise ValueError(f"tol={tol!r} is the accuracy of implicit solves; method {method!r} "
                          f"is explicit and does not use it (leave tol out, or use an IMEX "
