@@ -149,7 +149,7 @@ class Backend(ABC):
         """Copy ``count`` elements of ``src`` from flat index ``src_start`` to ``dst`` from
         ``dst_start`` (same dtype; e.g. one ensemble member in or out of its stack).
         This default goes through the host; the backends copy on the device."""
-        _check_range(src, src_start, dst, dst_start, count)
+        check_range(src, src_start, dst, dst_start, count)
         out = dst.numpy().reshape(-1)
         out[dst_start:dst_start + count] = src.numpy().reshape(-1)[src_start:src_start + count]
         self.copy(self.upload(out.reshape(dst.shape)), dst)
@@ -539,7 +539,7 @@ class Backend(ABC):
                             f"{rows.shape}")
 
 
-def _check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
+def check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
                  count: int) -> None:
     """``copy_range``'s arguments are in range and of one dtype."""
     if src.dtype != dst.dtype:

@@ -14,7 +14,7 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
-from rdgpu.models.model import Model, _scalar_param, check_dt, domain_shape, resolve_params
+from rdgpu.models.model import Model, check_dt, domain_shape, resolve_params, scalar_param
 
 if TYPE_CHECKING:
     from rdgpu.integrators.allen_cahn import AllenCahnStepper
@@ -117,7 +117,7 @@ class AllenCahn(Model):
         if method not in self.methods:
             raise ValueError(f"method must be one of {self.methods}, got {method!r}")
         p = resolve_params(self, domain, params, seed=seed)
-        eps = _scalar_param(p, "eps", "parameter")
+        eps = scalar_param(p, "eps", "parameter")
         if not eps > 0:
             raise ValueError(f"eps must be > 0, got {eps}")
         what = ("explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh or a graph "

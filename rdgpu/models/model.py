@@ -267,7 +267,7 @@ def _constant_value(name: str, text: str, tree: eq.Node) -> float | None:
     return v
 
 
-def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
+def scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
     v = params[name]
     if np.ndim(v) != 0 or isinstance(v, (str, eq.Node)):
         raise ValueError(f"{what} {name!r} must be a number, not a field or expression")
