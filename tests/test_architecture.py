@@ -61,8 +61,7 @@ KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     # long modules (0)
     # backend peeks (0)
     # domain isinstance (0)
-    # any hints (31)
-    'any_hints: rdgpu/analysis/linear.py: 8',
+    # any hints (24)
     'any_hints: rdgpu/backends/base.py: 1',
     'any_hints: rdgpu/backends/target.py: 2',
     'any_hints: rdgpu/cli/common.py: 1',
@@ -80,12 +79,6 @@ KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     'any_hints: rdgpu/io/volumes.py: 1',
     'any_hints: rdgpu/ir/layout.py: 1',
     'any_hints: rdgpu/ir/stencils.py: 2',
-    'any_hints: rdgpu/models/allen_cahn.py: 5',
-    'any_hints: rdgpu/models/device_rhs.py: 2',
-    'any_hints: rdgpu/models/mesh_lengths.py: 2',
-    'any_hints: rdgpu/models/model.py: 4',
-    'any_hints: rdgpu/models/ranges.py: 1',
-    'any_hints: rdgpu/models/steady_state.py: 5',
     'any_hints: rdgpu/ops/api.py: 4',
     'any_hints: rdgpu/ops/inputs.py: 3',
     'any_hints: rdgpu/runs/sweep.py: 6',

@@ -172,7 +172,7 @@ def _field(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def resolve_params(
-    model: Any, domain: Domain, params: Mapping[str, Any] | None, *, seed: int = 0
+    model: Model, domain: Domain, params: Mapping[str, Any] | None, *, seed: int = 0
 ) -> dict[str, Any]:
     """The model's defaults updated by ``params``: every value a float, a float64 array of
     the domain's shape (field specs drawn with ``numpy.random.default_rng(seed)``,
@@ -520,7 +520,7 @@ class Model:
         merged = {k: float(np.mean(v)) for k, v in self._merged(params).items()}
         return [float(x) for x in self._steady_guess(merged)]
 
-    def domain_defaults(self, domain: Any, lengths: str = "cells") -> dict[str, Any]:
+    def domain_defaults(self, domain: Domain, lengths: str = "cells") -> dict[str, Any]:
         """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
         each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
         edge length)."""
@@ -535,7 +535,7 @@ class Model:
         return out
 
     # ------------------------------------------------------------------ stepping
-    def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
+    def dt_limit(self, domain: Domain, params: Mapping[str, Any] | None = None,
                  method: str | None = None, stencil: str = "compact",
                  lengths: str = "cells") -> float:
         """The largest stable ``dt`` of ``method`` (default: the model's
@@ -556,7 +556,7 @@ class Model:
 
     def stepper(
         self,
-        domain: Any,
+        domain: Domain,
         params: Mapping[str, Any] | None = None,
         *,
         dt: float,
