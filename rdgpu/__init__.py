@@ -10,6 +10,7 @@ per process (``rdgpu.set_backend("numpy")`` or ``RDGPU_BACKEND``); ``"auto"`` ot
 """
 
 from rdgpu.backends.registry import available_backends, get_backend, set_backend, use_backend
+from rdgpu.core.conventions import VERSION
 from rdgpu.core.errors import (
     BackendUnavailableError,
     ConvergenceError,
@@ -30,7 +31,7 @@ from rdgpu.ops.implicit import ImplicitDiffusion
 from rdgpu.ops.levelsets import levelset_advance, reinitialize
 from rdgpu.ops.solvers import optimal_omega, sor_solve, sor_sweep
 
-__version__ = "0.1.0"
+__version__ = VERSION
 
 
 #: names imported on first use (their modules pull SciPy, trimesh, Dask or the model

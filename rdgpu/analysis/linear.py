@@ -25,16 +25,19 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.ir import equations as eq
 
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
+
 __all__ = ["dispersion", "dispersion_matrix", "grid_wavenumber", "jacobian", "steady_state"]
 
 
-def _scalar_params(model: Any, params: Mapping[str, Any] | None) -> dict[str, float]:
+def _scalar_params(model: Model, params: Mapping[str, Any] | None) -> dict[str, float]:
     merged = {**model.defaults, **dict(params or {})}
     out: dict[str, float] = {}
     texts: dict[str, str] = {}
@@ -72,12 +75,12 @@ def _constant_expression(name: str, text: str, scalars: Mapping[str, float]) -> 
     return float(eq.evaluate(tree, dict(scalars)))
 
 
-def _rates(model: Any, x: Sequence[Any], params: dict[str, float], dtype) -> np.ndarray:
+def _rates(model: Model, x: Sequence[Any], params: dict[str, float], dtype) -> np.ndarray:
     r = model.rates([np.asarray(xi, dtype=dtype) for xi in x], params, dtype)
     return np.array([np.asarray(ri, dtype=dtype) for ri in r])
 
 
-def _analytic(model: Any) -> Any:
+def _analytic(model: Model) -> Any:
     """The model for the complex step: ``abs(a)`` (not analytic: NumPy's complex ``abs`` is
     the modulus, whose imaginary part is 0) becomes ``sqrt(a*a)``, equal to ``|a|`` for
     real ``a`` and carrying ``sign(a)·h`` in the imaginary part."""
@@ -100,7 +103,7 @@ def _analytic(model: Any) -> Any:
     return shadow
 
 
-def jacobian(model: Any, params: Mapping[str, Any] | None, state: Sequence[float]) -> np.ndarray:
+def jacobian(model: Model, params: Mapping[str, Any] | None, state: Sequence[float]) -> np.ndarray:
     """``J_ij = ∂R_i/∂x_j`` at ``state`` by the complex step (float64, exact to round-off;
     ``min``/``max`` take the derivative of the selected argument, ``abs`` that of ``±a``)."""
     p = _scalar_params(model, params)
@@ -117,7 +120,7 @@ def jacobian(model: Any, params: Mapping[str, Any] | None, state: Sequence[float
 
 
 def steady_state(
-    model: Any,
+    model: Model,
     params: Mapping[str, Any] | None = None,
     guess: Sequence[float] | None = None,
     *,
@@ -148,7 +151,7 @@ def steady_state(
     return x
 
 
-def _spatial_operators(model: Any, params: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def _spatial_operators(model: Model, params: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """``(D, B)``: the coefficients of ``laplace(r)`` and ``laplace(laplace(r))`` in the
     equation of each species (rows) — :meth:`Model.linear_operators`, or the diagonal of
     ``diffusion_coefficients`` for a model object without it."""
@@ -177,7 +180,7 @@ def _spatial_operators(model: Any, params: dict[str, float]) -> tuple[np.ndarray
 
 
 def dispersion_matrix(
-    model: Any,
+    model: Model,
     params: Mapping[str, Any] | None,
     k: Any,
     *,
@@ -207,7 +210,7 @@ def dispersion_matrix(
 
 
 def dispersion(
-    model: Any,
+    model: Model,
     params: Mapping[str, Any] | None,
     k: Any,
     *,

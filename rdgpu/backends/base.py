@@ -27,6 +27,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.core.csr import checked_csr
+from rdgpu.core.errors import ResourceLimitError
+from rdgpu.core.validation import fits_dtype
 from rdgpu.domains.base import is_domain
 from rdgpu.domains.boundary import GridBC
 from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS
@@ -112,8 +115,6 @@ class Backend(ABC):
         allocation (a :class:`rdgpu.ResourceLimitError`)."""
         n = math.prod(int(s) for s in shape)
         if self.max_cells is not None and n > self.max_cells:
-            from rdgpu.core.errors import ResourceLimitError
-
             dims = "x".join(str(int(s)) for s in shape)
             raise ResourceLimitError(
                 f"{what} of {dims} = {n:,} cells is too large for the {self.name} kernels: "
@@ -148,7 +149,7 @@ class Backend(ABC):
         """Copy ``count`` elements of ``src`` from flat index ``src_start`` to ``dst`` from
         ``dst_start`` (same dtype; e.g. one ensemble member in or out of its stack).
         This default goes through the host; the backends copy on the device."""
-        _check_range(src, src_start, dst, dst_start, count)
+        check_range(src, src_start, dst, dst_start, count)
         out = dst.numpy().reshape(-1)
         out[dst_start:dst_start + count] = src.numpy().reshape(-1)[src_start:src_start + count]
         self.copy(self.upload(out.reshape(dst.shape)), dst)
@@ -159,9 +160,6 @@ class Backend(ABC):
         Its structure is checked first (:func:`rdgpu.core.csr.checked_csr`: indices in range,
         ``indptr`` sound, finite real values that ``dtype`` can hold), so that no kernel
         reads outside the arrays; errors name the matrix as ``name``."""
-        from rdgpu.core.csr import checked_csr
-        from rdgpu.core.validation import fits_dtype
-
         m = checked_csr(matrix, name)  # canonical: sorted, no duplicates; input untouched
         dtype = np.dtype(dtype)
         if dtype not in _REAL_DTYPES:
@@ -541,7 +539,7 @@ class Backend(ABC):
                             f"{rows.shape}")
 
 
-def _check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
+def check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
                  count: int) -> None:
     """``copy_range``'s arguments are in range and of one dtype."""
     if src.dtype != dst.dtype:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rdgpu.backends.base import Backend, DeviceArray, _check_range
+from rdgpu.backends.base import Backend, DeviceArray, check_range
 from rdgpu.backends.target import FusedPass, host_params
 from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module
@@ -64,7 +64,7 @@ class NumpyBackend(Backend):
         np.copyto(dst.handle, src.handle)
 
     def copy_range(self, src, src_start, dst, dst_start, count) -> None:
-        _check_range(src, src_start, dst, dst_start, count)
+        check_range(src, src_start, dst, dst_start, count)
         dst.handle.reshape(-1)[dst_start:dst_start + count] = \
             src.handle.reshape(-1)[src_start:src_start + count]
 

@@ -39,25 +39,25 @@ from rdgpu.backends.base import (
     Backend,
     DeviceArray,
     FieldOrScalar,
-    _check_range,
+    check_range,
     max_abs_of_partials,
     sum_of_partials,
 )
 from rdgpu.backends.opencl_codegen import OpenCLBlockedPass, OpenCLFusedPass
 from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: public here too
-    _LOCK,
     _PROGRAMS,
-    _context,
-    _describe,
-    _has_fp64,
-    _import_pyopencl,
-    _pow2_floor,
-    _select_device,
+    OPENCL_LOCK,
+    describe_device,
+    has_fp64,
+    import_pyopencl,
     list_devices,
+    opencl_context,
+    pow2_floor,
     probe_compiler,
+    select_device,
 )
 from rdgpu.backends.opencl_growth import OpenCLGrowthKernels
-from rdgpu.backends.opencl_mesh import _GS_NAMES, OpenCLMeshKernels
+from rdgpu.backends.opencl_mesh import GS_NAMES, OpenCLMeshKernels
 from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
@@ -134,15 +134,15 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     def __init__(
         self, device: str | None = None, *, layout: str | None = None, col_stride: int | None = None
     ):
-        cl = _import_pyopencl()
+        cl = import_pyopencl()
         self._cl = cl
         if device is None:
             device = os.environ.get("RDGPU_OPENCL_DEVICE") or None
-        platform, dev = _select_device(device)
+        platform, dev = select_device(device)
         self.cl_device = dev
-        self.device = _describe(platform, dev)
-        self.context, self.queue = _context(dev)
-        self.fp64 = _has_fp64(dev)
+        self.device = describe_device(platform, dev)
+        self.context, self.queue = opencl_context(dev)
+        self.fp64 = has_fp64(dev)
 
         is_cpu = bool(dev.type & cl.device_type.CPU)
         layout = layout or os.environ.get("RDGPU_OPENCL_LAYOUT") or ("row" if is_cpu else "strided")
@@ -157,7 +157,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
             stride = 128 if col_stride is None else int(col_stride)
             if stride < 1 or stride & (stride - 1):
                 raise ValueError(f"col_stride must be a power of two, got {stride}")
-            self.col_stride = min(stride, _pow2_floor(max_wg))
+            self.col_stride = min(stride, pow2_floor(max_wg))
         self._options = [
             f"-D COL_STRIDE={self.col_stride}",
             f"-D ROW_LAYOUT={int(layout == 'row')}",
@@ -255,7 +255,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         """The program for ``dtype``, built once per (context, dtype, layout, stride)."""
         self._check_real(dtype)
         key = (self.context.int_ptr, dtype.char, self.layout, self.col_stride)
-        with _LOCK:
+        with OPENCL_LOCK:
             program = _PROGRAMS.get(key)
             if program is None:
                 options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
@@ -320,7 +320,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
             self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=src.nbytes)
 
     def copy_range(self, src, src_start, dst, dst_start, count) -> None:
-        _check_range(src, src_start, dst, dst_start, count)
+        check_range(src, src_start, dst, dst_start, count)
         if count:
             size = src.dtype.itemsize
             self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=count * size,
@@ -440,7 +440,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
             parts, group = -(-n // chunk), 1
         else:
             chunk = 0
-            group = min(_REDUCE_GROUP, _pow2_floor(self.cl_device.max_work_group_size))
+            group = min(_REDUCE_GROUP, pow2_floor(self.cl_device.max_work_group_size))
             parts = min(-(-n // group), _REDUCE_MAX_GROUPS)
         partial, host, scratch = self._reduce_buffers(partial_dtype, group)
         kernel = self.kernels(u.dtype)[name]
@@ -494,7 +494,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         ny, grid = self._grid(bc, u, v, u_out, v_out)
         f_field, f_buf, f_val = self._field_or_scalar(F, u, "F")
         k_field, k_buf, k_val = self._field_or_scalar(k, u, "k")
-        name = _GS_NAMES[f_field, k_field]
+        name = GS_NAMES[f_field, k_field]
         kernel = self.kernels(u.dtype)[name]
         args = (
             u.handle, v.handle, u_out.handle, v_out.handle, f_buf, k_buf, *grid,

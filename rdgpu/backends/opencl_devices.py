@@ -15,13 +15,13 @@ from rdgpu.core.errors import BackendUnavailableError
 _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
 
 # (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
-# built program: shared by every backend instance on the same device, filled under _LOCK
+# built program: shared by every backend instance on the same device, filled under OPENCL_LOCK
 _CONTEXTS: dict[int, tuple[Any, Any]] = {}
 _PROGRAMS: dict[tuple, Any] = {}
-_LOCK = threading.RLock()
+OPENCL_LOCK = threading.RLock()
 
 
-def _import_pyopencl():
+def import_pyopencl():
     try:
         import pyopencl as cl
     except Exception as exc:  # ImportError, or OSError for a missing libOpenCL
@@ -34,7 +34,7 @@ def _import_pyopencl():
 
 def list_devices() -> list[tuple[str, Any, Any]]:
     """Every OpenCL device as ``("P:D", platform, device)``."""
-    cl = _import_pyopencl()
+    cl = import_pyopencl()
     try:
         platforms = cl.get_platforms()
     except cl.Error as exc:
@@ -58,7 +58,7 @@ def list_devices() -> list[tuple[str, Any, Any]]:
     return found
 
 
-def _describe(platform, device) -> str:
+def describe_device(platform, device) -> str:
     return f"{device.name.strip()} ({platform.name.strip()})"
 
 
@@ -74,15 +74,15 @@ def probe_compiler(device) -> str | None:
     key = device.int_ptr
     if key in _PROBED:
         return _PROBED[key]
-    with _LOCK:
+    with OPENCL_LOCK:
         return _probe_locked(device, key)
 
 
-def _context(device) -> tuple[Any, Any]:
+def opencl_context(device) -> tuple[Any, Any]:
     """The ``(context, queue)`` of ``device``, shared by every backend on it (and the probe)."""
-    with _LOCK:
+    with OPENCL_LOCK:
         if device.int_ptr not in _CONTEXTS:
-            cl = _import_pyopencl()
+            cl = import_pyopencl()
             ctx = cl.Context([device])
             _CONTEXTS[device.int_ptr] = (ctx, cl.CommandQueue(ctx, device))
         return _CONTEXTS[device.int_ptr]
@@ -90,9 +90,9 @@ def _context(device) -> tuple[Any, Any]:
 
 def _probe_locked(device, key: int) -> str | None:
     if key not in _PROBED:
-        cl = _import_pyopencl()
+        cl = import_pyopencl()
         try:
-            ctx, queue = _context(device)
+            ctx, queue = opencl_context(device)
             program = cl.Program(ctx, _PROBE_SOURCE).build()
             buf = cl.Buffer(ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
                             hostbuf=np.ones(1, np.float32))
@@ -114,10 +114,10 @@ _BROKEN_HINT = (
 )
 
 
-def _select_device(spec: str | None):
+def select_device(spec: str | None):
     """The device named by ``spec`` (``"P:D"`` or part of a name), or by default the first
     GPU, else the first CPU device whose compiler works (see :func:`probe_compiler`)."""
-    cl = _import_pyopencl()
+    cl = import_pyopencl()
     devices = list_devices()
     if spec is None or not str(spec).strip():
         # Oclgrind (a debugging simulator that claims every device type) only on request
@@ -129,7 +129,7 @@ def _select_device(spec: str | None):
             reason = probe_compiler(device)
             if reason is None:
                 return platform, device
-            failures.append(f"{_describe(platform, device)}: {reason}")
+            failures.append(f"{describe_device(platform, device)}: {reason}")
         raise BackendUnavailableError(
             f"no OpenCL device here can compile kernels ({'; '.join(failures)}). {_BROKEN_HINT}"
         )
@@ -144,7 +144,7 @@ def _select_device(spec: str | None):
         chosen = next(((p, d) for _k, p, d in devices
                        if low in d.name.lower() or low in p.name.lower()), None)
     if chosen is None:
-        listing = "; ".join(f"{k} = {_describe(p, d)}" for k, p, d in devices)
+        listing = "; ".join(f"{k} = {describe_device(p, d)}" for k, p, d in devices)
         raise BackendUnavailableError(
             f"no OpenCL device matches {spec!r}; give 'P:D' (platform:device index) or part "
             f"of a platform or device name. Devices: {listing}"
@@ -152,15 +152,15 @@ def _select_device(spec: str | None):
     reason = probe_compiler(chosen[1])
     if reason is not None:
         raise BackendUnavailableError(
-            f"OpenCL device {_describe(*chosen)} cannot compile kernels ({reason}); "
+            f"OpenCL device {describe_device(*chosen)} cannot compile kernels ({reason}); "
             f"{_BROKEN_HINT}"
         )
     return chosen
 
 
-def _has_fp64(device) -> bool:
+def has_fp64(device) -> bool:
     return bool(device.double_fp_config) or "cl_khr_fp64" in device.extensions
 
 
-def _pow2_floor(n: int) -> int:
+def pow2_floor(n: int) -> int:
     return 1 << (max(int(n), 1).bit_length() - 1)

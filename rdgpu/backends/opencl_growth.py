@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
-from rdgpu.backends.opencl_devices import _LOCK, _PROGRAMS
+from rdgpu.backends.opencl_devices import _PROGRAMS, OPENCL_LOCK
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.families import load_module, read_source
 
@@ -33,7 +33,7 @@ class OpenCLGrowthKernels:
             mine = self._local.dla = {}
         if dtype not in mine:
             key = ("dla", self.context.int_ptr, dtype.char, self.layout, self.col_stride)
-            with _LOCK:
+            with OPENCL_LOCK:
                 program = _PROGRAMS.get(key)
                 if program is None:
                     source = ('#line 1 "common.cl"\n' + read_source("", "common.cl")
@@ -82,7 +82,7 @@ class OpenCLGrowthKernels:
         mine = getattr(self._local, "walk", None)
         if mine is None:
             key = (self.context.int_ptr, "walkers")
-            with _LOCK:
+            with OPENCL_LOCK:
                 program = _PROGRAMS.get(key)
                 if program is None:
                     source = '#line 1 "walkers/walkers.cl"\n' + read_source("walkers",

@@ -6,7 +6,7 @@ from __future__ import annotations
 from rdgpu.backends.base import DeviceArray, FieldOrScalar
 
 #: the Gray-Scott kernel for (F is a field, k is a field)
-_GS_NAMES = {
+GS_NAMES = {
     (False, False): "gray_scott_ss",
     (True, False): "gray_scott_fs",
     (False, True): "gray_scott_sf",
@@ -59,7 +59,7 @@ class OpenCLMeshKernels:
         self._check_on_device(L.data, u, v, u_out, v_out)
         f_field, f_buf, f_val = self._vertex_param(F, u, "F")
         k_field, k_buf, k_val = self._vertex_param(k, u, "k")
-        name = "mesh_" + _GS_NAMES[f_field, k_field]
+        name = "mesh_" + GS_NAMES[f_field, k_field]
         args = (
             *self._csr_buffers(L), u.handle, v.handle, u_out.handle, v_out.handle, f_buf,
             k_buf,

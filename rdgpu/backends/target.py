@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from rdgpu.ir.layout import Layout
 from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS, PerMember, Program
 from rdgpu.ir.reference import run_numpy
 from rdgpu.ir.stencils import check_stencil
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
            "host_params"]
@@ -34,7 +37,7 @@ class Target(Layout):
     ``ex, ny, bx, w`` (DeviceArrays ``[ny, nx]``); ``coords``: the coordinates uploaded so
     far (``"x"`` -> DeviceArray).  ``backend`` may be None for host data only."""
 
-    def __init__(self, domain: Any, backend: Backend | None, dtype: Any,
+    def __init__(self, domain: Domain, backend: Backend | None, dtype: Any,
                  csr: DeviceCSR | None = None, stencil: str = "compact",
                  coords: dict[str, DeviceArray] | None = None,
                  host: dict[str, Any] | None = None, members: int = 1,
@@ -46,7 +49,7 @@ class Target(Layout):
         self.metric = metric
 
     @classmethod
-    def bind(cls, domain: Any, backend: Backend, dtype: Any,
+    def bind(cls, domain: Domain, backend: Backend, dtype: Any,
              stencil: str = "compact", members: int = 1) -> Target:
         dtype = np.dtype(dtype)
         if dtype not in REALS:

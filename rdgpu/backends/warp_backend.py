@@ -23,7 +23,7 @@ backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
 Threads: one backend may be driven from several threads at once.  Warp's process-wide
 state -- ``wp.init``, module compilation and loading, the first (recording) launch of a
 kernel, the log settings and file descriptor 2 that the quiet helpers flip -- is touched
-under one lock (:data:`_WARP_LOCK`); recorded launches (whose parameters each launch
+under one lock (:data:`WARP_LOCK`); recorded launches (whose parameters each launch
 rewrites) are kept per thread, so a replay never sees another thread's arguments.
 """
 
@@ -41,27 +41,27 @@ from rdgpu.backends.base import (
     Backend,
     DeviceArray,
     FieldOrScalar,
-    _check_range,
+    check_range,
     max_abs_of_partials,
     sum_of_partials,
 )
 from rdgpu.backends.warp_codegen import WarpFusedPass
 from rdgpu.backends.warp_mesh import WarpMeshKernels
 from rdgpu.backends.warp_runtime import (
-    _REAL,
-    _WARP_LOCK,
     BLOCK,
     CHUNK_MIN_CELLS,
     MAX_CELLS,
+    REAL,
     REDUCE_BLOCK,
     REDUCE_SPLIT_BYTES,
     REDUCE_THREADS,
     REDUCE_THREADS_2,
+    WARP_LOCK,
     _cpu_count,
-    _import_warp,
-    _native_stderr_silenced,
-    _quiet,
     check_cells,
+    import_warp,
+    native_stderr_silenced,
+    quiet_warp,
 )
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
@@ -83,10 +83,10 @@ class WarpBackend(WarpMeshKernels, Backend):
         CUDA code path runs on the CPU too)."""
         if launch not in ("auto", "rows", "cells"):
             raise ValueError(f"launch must be 'auto', 'rows' or 'cells', got {launch!r}")
-        wp = _import_warp()
-        with _WARP_LOCK:
+        wp = import_warp()
+        with WARP_LOCK:
             try:
-                with _quiet(wp), _native_stderr_silenced():
+                with quiet_warp(wp), native_stderr_silenced():
                     wp.init()
             except Exception as exc:  # a broken install, a driver failure
                 raise BackendUnavailableError(
@@ -141,11 +141,11 @@ class WarpBackend(WarpMeshKernels, Backend):
         (under the lock: two threads never compile or load at once)."""
         mod = self._families.get(family)
         if mod is None:
-            with _WARP_LOCK:
+            with WARP_LOCK:
                 mod = self._families.get(family)
                 if mod is None:
                     mod = load_module(family, "warp_kernels.py")
-                    with _quiet(self._wp):
+                    with quiet_warp(self._wp):
                         self._wp.load_module(mod, device=self._dev)
                     self._families[family] = mod
         return mod
@@ -169,7 +169,7 @@ class WarpBackend(WarpMeshKernels, Backend):
             wp = self._wp
             if len(cmds) >= 1024:
                 cmds.clear()
-            with _WARP_LOCK:  # the first launch of a kernel may load or hash its module
+            with WARP_LOCK:  # the first launch of a kernel may load or hash its module
                 rec = wp.launch(kernel, dim=dim, inputs=args, device=self._dev,
                                 record_cmd=True)
             rec.fwd_args = None
@@ -225,7 +225,7 @@ class WarpBackend(WarpMeshKernels, Backend):
 
     @staticmethod
     def _real(d: DeviceArray, what: str) -> type:
-        if d.dtype not in _REAL:
+        if d.dtype not in REAL:
             raise TypeError(f"{what} must be float32 or float64, got {d.dtype}")
         return d.dtype.type
 
@@ -275,7 +275,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         self._wp.copy(dst.handle, src.handle)
 
     def copy_range(self, src, src_start, dst, dst_start, count) -> None:
-        _check_range(src, src_start, dst, dst_start, count)
+        check_range(src, src_start, dst, dst_start, count)
         if count:
             self._wp.copy(dst.handle, src.handle, dest_offset=dst_start, src_offset=src_start,
                           count=count)
@@ -639,8 +639,8 @@ def cuda_device_count() -> int:
 
     if ctypes.util.find_library("cuda") is None and not os.path.exists("/dev/nvidiactl"):
         return 0
-    wp = _import_warp()
-    with _WARP_LOCK:
-        with _quiet(wp), _native_stderr_silenced():
+    wp = import_warp()
+    with WARP_LOCK:
+        with quiet_warp(wp), native_stderr_silenced():
             wp.init()
         return wp.get_cuda_device_count() if wp.is_cuda_available() else 0

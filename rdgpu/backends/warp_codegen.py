@@ -25,8 +25,8 @@ import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.target import FusedPass, Target, arguments
-from rdgpu.backends.warp_runtime import _WARP_LOCK as BACKEND_LOCK
-from rdgpu.backends.warp_runtime import ROW_BLOCK, _quiet, check_cells
+from rdgpu.backends.warp_runtime import ROW_BLOCK, check_cells, quiet_warp
+from rdgpu.backends.warp_runtime import WARP_LOCK as BACKEND_LOCK
 from rdgpu.families import read_source
 from rdgpu.ir.equations import to_text
 from rdgpu.ir.names import flat_view, ident, split
@@ -215,7 +215,7 @@ def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
             _MODULES[digest] = mod
     loaded = _LOADED.setdefault(backend, set())
     if digest not in loaded:
-        with BACKEND_LOCK, _quiet(backend._wp):
+        with BACKEND_LOCK, quiet_warp(backend._wp):
             backend._wp.load_module(mod, device=backend._dev)
         loaded.add(digest)
     return mod

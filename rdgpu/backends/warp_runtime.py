@@ -8,7 +8,7 @@ import os
 import threading
 from contextlib import contextmanager
 
-from rdgpu.core.conventions import REAL_DTYPES as _REAL  # noqa: F401 - for warp_backend
+from rdgpu.core.conventions import REAL_DTYPES as REAL  # noqa: F401 - for warp_backend
 from rdgpu.core.errors import BackendUnavailableError
 
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
@@ -31,12 +31,12 @@ MAX_CELLS = 2**31 - 1
 
 
 #: guards Warp's global state: wp.init, module loading, recording a launch, wp.config
-#: (flipped by _quiet) and file descriptor 2 (swapped by _native_stderr_silenced)
-_WARP_LOCK = threading.RLock()
+#: (flipped by quiet_warp) and file descriptor 2 (swapped by native_stderr_silenced)
+WARP_LOCK = threading.RLock()
 
 
 @contextmanager
-def _native_stderr_silenced():
+def native_stderr_silenced():
     """Hide what native code prints on file descriptor 2 (Warp's "CUDA driver not found"
     notice on CPU-only machines); Python exceptions still propagate."""
     import sys
@@ -58,7 +58,7 @@ def _native_stderr_silenced():
 
 
 @contextmanager
-def _quiet(wp):
+def quiet_warp(wp):
     """No greeting or module-load lines from Warp (older Warp reads ``config.quiet``,
     newer ``config.log_level``); the settings are restored afterwards."""
     config = wp.config
@@ -92,7 +92,7 @@ def _cpu_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _import_warp():
+def import_warp():
     try:
         import warp as wp
     except ImportError as exc:

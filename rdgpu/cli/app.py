@@ -48,27 +48,27 @@ from rdgpu.cli.common import (
     one_line,
 )
 from rdgpu.cli.options import (
-    _at_least_1,
-    _block_steps,
-    _colour_range,
-    _equation,
-    _finite_float,
-    _fps,
-    _height,
-    _param,
-    _positive_float,
-    _positive_int,
-    _roughen,
-    _seed,
-    _size,
-    _sweep_param,
     add_domain_options,
+    at_least_1,
+    finite_float,
+    parse_block_steps,
+    parse_colour_range,
+    parse_equation,
+    parse_fps,
+    parse_height,
+    parse_param,
+    parse_roughen,
+    parse_seed,
+    parse_size,
+    parse_sweep_param,
+    positive_float,
+    positive_int,
 )
 from rdgpu.core.conventions import REAL_DTYPE_NAMES
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.ir.schemes import method_names as methods
 
-__all__ = ["build_parser", "main", "_size"]
+__all__ = ["build_parser", "main", "parse_size"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -108,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_engine_options(group: Any, seed_note: str) -> None:
     """--seed, --backend and --dtype (of `rdgpu run` and `rdgpu sweep`)."""
-    group.add_argument("--seed", type=_seed, help="random seed of the initial condition"
+    group.add_argument("--seed", type=parse_seed, help="random seed of the initial condition"
                        f"{seed_note} (a whole number >= 0; default 0)")
     group.add_argument("--backend", help=f"{', '.join(backend_names())} or auto, optionally "
                        "NAME:DEVICE (default: RDGPU_BACKEND or auto)")
@@ -147,12 +147,12 @@ def _add_run_parser(sub: Any) -> None:
     _add_what_to_run(run.add_argument_group("what to run"))
     _add_outputs(run.add_argument_group("outputs"))
     long = run.add_argument_group("long runs")
-    long.add_argument("--check-every", type=_positive_int, metavar="N",
+    long.add_argument("--check-every", type=positive_int, metavar="N",
                       help="check for NaN/Inf/blow-up every N steps (default 200, 0: never)")
     long.add_argument("--checkpoint", metavar="PATH",
                       help="write a checkpoint (NPZ, atomically) every --checkpoint-every "
                       "steps and at the end")
-    long.add_argument("--checkpoint-every", type=_positive_int, metavar="N",
+    long.add_argument("--checkpoint-every", type=positive_int, metavar="N",
                       help="steps between checkpoints (default 1000)")
     long.add_argument("--resume", metavar="CHECKPOINT",
                       help="continue an interrupted run from its checkpoint (same result as "
@@ -165,7 +165,7 @@ def _add_what_to_run(what: Any) -> None:
     """The model, its domain, parameters and stepping, of ``rdgpu run``."""
     what.add_argument("--preset", metavar="NAME", help="start from a preset ('rdgpu presets')")
     where = what.add_mutually_exclusive_group()
-    where.add_argument("--size", type=_size, metavar="NxM[xK]",
+    where.add_argument("--size", type=parse_size, metavar="NxM[xK]",
                        help="grid of N rows x M columns (256 means 256x256), or NxMxK: a "
                        "3-D grid of N planes (z) x M rows (y) x K columns (x); a preset's "
                        "or model's (y, x) boundary conditions give z the rows' condition")
@@ -183,27 +183,27 @@ def _add_what_to_run(what: Any) -> None:
                        "-2*laplace(u)) is multiplied by that ratio per laplace; a --param "
                        "given to a built-in model is used as given")
     add_domain_options(what)
-    what.add_argument("--height", type=_height, metavar="SPEC",
+    what.add_argument("--height", type=parse_height, metavar="SPEC",
                       help="run on the rough surface z = h(x, y) over the (periodic) grid: "
                       "'waves:AMPLITUDE:M[xN][:SEED]' (random waves up to frequency M "
                       "along x and N along y, seed 002 eqs. 6-7), "
                       "'heat:AMPLITUDE:STEPS[:SEED]' (heat-filtered random heights) or "
                       "FILE.npy (an [ny, nx] array); AMPLITUDE in the units of dx")
-    what.add_argument("--roughen", type=_roughen, metavar="AMPLITUDE[:STEPS[:SEED]]",
+    what.add_argument("--roughen", type=parse_roughen, metavar="AMPLITUDE[:STEPS[:SEED]]",
                       help="roughen the mesh: random normal displacements of at most "
                       "AMPLITUDE, smoothed by STEPS (default 15) heat-filter steps "
                       "(SurfaceMesh.roughen)")
-    what.add_argument("--steps", type=_positive_int, metavar="N",
+    what.add_argument("--steps", type=positive_int, metavar="N",
                       help="time steps (default: the preset's, else the model's default "
                       "run length over dt; with --resume: the total of the interrupted run)")
-    what.add_argument("--dt", type=_positive_float, help="time step (default: the preset's, "
+    what.add_argument("--dt", type=positive_float, help="time step (default: the preset's, "
                       "else the smaller of 0.9 times the stability limit and the model's own)")
-    what.add_argument("--equation", type=_equation, action="append",
+    what.add_argument("--equation", type=parse_equation, action="append",
                       metavar="SPECIES=EXPR", help="define the model by its equations, one "
                       "per species (repeatable), in py-pde's spelling: "
                       "--equation 'u=Du*laplace(u) - u*v**2 + F*(1 - u)'; every name they "
                       "use besides species, x y z t Lx Ly Lz pi is a --param")
-    what.add_argument("--param", type=_param, action="append", metavar="NAME=VALUE",
+    what.add_argument("--param", type=parse_param, action="append", metavar="NAME=VALUE",
                       help="set a model parameter (repeatable): a number or an expression "
                       "of x, y, z, t, Lx, Ly, Lz, pi, e.g. 'F=0.03+0.01*sin(2*pi*x/Lx)'")
     what.add_argument("--stencil", choices=["compact", "isotropic"],
@@ -211,12 +211,13 @@ def _add_what_to_run(what: Any) -> None:
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
     what.add_argument("--method", metavar="NAME", help=f"time stepping: {', '.join(methods())}"
                       " (default euler; Allen-Cahn: explicit, implicit, crank-nicolson)")
-    what.add_argument("--block-steps", type=_block_steps, metavar="K", help="temporal blocking: "
+    what.add_argument("--block-steps", type=parse_block_steps, metavar="K",
+                      help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "
                       "K single steps (default: automatic, on for 2-D grids larger than the "
                       "last-level cache; 1: off)")
     _add_engine_options(what, "")
-    what.add_argument("--members", type=_positive_int, metavar="M",
+    what.add_argument("--members", type=positive_int, metavar="M",
                       help="an ensemble: M runs in one launch per step, seeds SEED, SEED+1, "
                       "...; the picture and movie become mosaics of the members")
     what.add_argument("--no-stability-check", action="store_true",
@@ -238,22 +239,22 @@ def _add_outputs(outs: Any) -> None:
                       "fields (repeatable; the [mesh] extra)")
     outs.add_argument("--field", help="the field to picture (default: the model's)")
     outs.add_argument("--cmap", help="Matplotlib colour map (default viridis)")
-    outs.add_argument("--range", type=_colour_range, metavar="LO:HI|auto",
+    outs.add_argument("--range", type=parse_colour_range, metavar="LO:HI|auto",
                       help="colour scale of the pictures, e.g. --range=-1:1 (default: the "
                       "model's known range of the field, else auto: the field's own range)")
-    outs.add_argument("--scale", type=_at_least_1, help="pixels per grid cell (default 2; 1 "
+    outs.add_argument("--scale", type=at_least_1, help="pixels per grid cell (default 2; 1 "
                       "for very large grids)")
     outs.add_argument("--view", choices=("auto", "isosurface", "slices"),
                       help="picture of a 3-D grid: isosurface (pyvista, off-screen), slices "
                       "(the xy, xz and yz mid-planes side by side) or auto (default: the "
                       "isosurface, or the slices when it would show nothing or pyvista "
                       "cannot render)")
-    outs.add_argument("--level", type=_finite_float, metavar="VALUE",
+    outs.add_argument("--level", type=finite_float, metavar="VALUE",
                       help="the isosurface's value (3-D grids; default: the middle of the "
                       "colour range)")
-    outs.add_argument("--fps", type=_fps, default=10.0, help="movie frame rate, 0.01 to 100 "
+    outs.add_argument("--fps", type=parse_fps, default=10.0, help="movie frame rate, 0.01 to 100 "
                       "(default 10)")
-    outs.add_argument("--snapshot-every", type=_positive_int, metavar="N",
+    outs.add_argument("--snapshot-every", type=positive_int, metavar="N",
                       help="keep a snapshot every N steps (default: the preset's; with "
                       "--movie about 100 frames)")
 
@@ -279,14 +280,14 @@ def _add_sweep_parser(sub: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     sw.add_argument("model", metavar="MODEL", help="model name ('rdgpu models')")
-    sw.add_argument("--param", type=_sweep_param, action="append", metavar="NAME=VALUES",
+    sw.add_argument("--param", type=parse_sweep_param, action="append", metavar="NAME=VALUES",
                     help="START:STOP:N (N values, inclusive), A,B,C (a list) or VALUE "
                     "(fixed); repeatable, at least one swept")
-    sw.add_argument("--size", type=_size, metavar="NxM", help="grid of each member "
+    sw.add_argument("--size", type=parse_size, metavar="NxM", help="grid of each member "
                     "(default 128x128, periodic)")
-    sw.add_argument("--steps", type=_positive_int, default=DEFAULT_STEPS, metavar="N",
+    sw.add_argument("--steps", type=positive_int, default=DEFAULT_STEPS, metavar="N",
                     help=f"time steps of every member (default {DEFAULT_STEPS})")
-    sw.add_argument("--dt", type=_positive_float, help="time step (default: the smallest "
+    sw.add_argument("--dt", type=positive_float, help="time step (default: the smallest "
                     "default of all the members)")
     _add_engine_options(sw, ", the same for every member")
     sw.add_argument("--out", metavar="PATH.png", help="the parameter map (default "
@@ -298,9 +299,9 @@ def _add_sweep_parser(sub: Any) -> None:
     sw.add_argument("--scheduler", metavar="local|serial|tcp://HOST:PORT",
                     help="where the batches run: local (a Dask LocalCluster, default), "
                     "serial (this process, no Dask) or a Dask scheduler's address")
-    sw.add_argument("--workers", type=_at_least_1, metavar="N", help="processes of the "
+    sw.add_argument("--workers", type=at_least_1, metavar="N", help="processes of the "
                     "local cluster (default: one per core)")
-    sw.add_argument("--batch", type=_at_least_1, metavar="N", help="members per batch "
+    sw.add_argument("--batch", type=at_least_1, metavar="N", help="members per batch "
                     "(default: about 4 batches per worker, within 256 MiB)")
     sw.add_argument("--quiet", action="store_true", help="no progress bar or messages")
     sw.set_defaults(func=_command("rdgpu.cli.sweep", "cmd_sweep"))

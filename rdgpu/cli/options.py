@@ -4,7 +4,7 @@ is allowed (argparse prefixes the option).  Nothing here imports NumPy or a mode
 command line is checked before anything heavy loads.
 
 New with issue 19: ``--init`` (:func:`_init`), ``--bc`` (:func:`_bc`), ``--fps``
-(:func:`_fps`), ``--block-steps`` (:func:`_block_steps`) and ``--mesh NAME[:LEVEL]``
+(:func:`parse_fps`), ``--block-steps`` (:func:`parse_block_steps`) and ``--mesh NAME[:LEVEL]``
 (:func:`mesh_level`); ``--height`` and ``--roughen`` check every part of their specs.
 """
 
@@ -43,7 +43,7 @@ _SIZE_FORMS = ("256 or 256x128 (rows x columns), or 32x48x64 (planes x rows x co
                "for a 3-D grid")
 
 
-def _size(text: str) -> tuple[int, ...]:
+def parse_size(text: str) -> tuple[int, ...]:
     """``--size``: ``N`` is an N x N grid, ``NxM`` a 2-D grid of N rows (y) and M columns
     (x), ``NxMxK`` a 3-D grid of N planes (z), M rows and K columns: the order of
     :class:`~rdgpu.domains.Grid`'s shape, ``(ny, nx)`` or ``(nz, ny, nx)``."""
@@ -60,7 +60,7 @@ def _size(text: str) -> tuple[int, ...]:
     return tuple(parts)
 
 
-def _param(text: str) -> tuple[str, float | str]:
+def parse_param(text: str) -> tuple[str, float | str]:
     """``NAME=VALUE``: a number, or an expression of x, y, z, t, Lx, Ly, Lz, pi and the
     other parameters (checked when the model is built)."""
     name, sep, value = text.partition("=")
@@ -78,7 +78,7 @@ def _param(text: str) -> tuple[str, float | str]:
     return name, v
 
 
-def _sweep_param(text: str) -> tuple[str, Any]:
+def parse_sweep_param(text: str) -> tuple[str, Any]:
     """``--param`` of ``rdgpu sweep``: ``NAME=START:STOP:N``, ``NAME=A,B,C`` or
     ``NAME=VALUE`` (see :func:`rdgpu.sweep.parse_axis`)."""
     # lazy: rdgpu.runs.sweep loads the simulation (about a second), which `rdgpu --help`
@@ -91,7 +91,7 @@ def _sweep_param(text: str) -> tuple[str, Any]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def _equation(text: str) -> tuple[str, str]:
+def parse_equation(text: str) -> tuple[str, str]:
     """``SPECIES=RIGHT-HAND SIDE`` of ``--equation``."""
     name, sep, rhs = text.partition("=")
     name, rhs = name.strip(), rhs.strip()
@@ -102,7 +102,7 @@ def _equation(text: str) -> tuple[str, str]:
     return name, rhs
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
     try:
         n = int(text)
     except ValueError:
@@ -112,14 +112,14 @@ def _positive_int(text: str) -> int:
     return n
 
 
-def _at_least_1(text: str) -> int:
-    n = _positive_int(text)
+def at_least_1(text: str) -> int:
+    n = positive_int(text)
     if n < 1:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {n}")
     return n
 
 
-def _seed(text: str) -> int:
+def parse_seed(text: str) -> int:
     try:
         n = int(text)
     except ValueError:
@@ -130,7 +130,7 @@ def _seed(text: str) -> int:
     return n
 
 
-def _colour_range(text: str) -> tuple[float, ...]:
+def parse_colour_range(text: str) -> tuple[float, ...]:
     if text.strip().lower() == "auto":
         return ()
     parts = text.split(":")
@@ -144,7 +144,7 @@ def _colour_range(text: str) -> tuple[float, ...]:
     return lo, hi
 
 
-def _finite_float(text: str) -> float:
+def finite_float(text: str) -> float:
     try:
         x = float(text)
     except ValueError:
@@ -154,7 +154,7 @@ def _finite_float(text: str) -> float:
     return x
 
 
-def _positive_float(text: str) -> float:
+def positive_float(text: str) -> float:
     try:
         x = float(text)
     except ValueError:
@@ -165,7 +165,7 @@ def _positive_float(text: str) -> float:
 
 
 
-def _fps(text: str) -> float:
+def parse_fps(text: str) -> float:
     """--fps: the movie writers' own check (``rdgpu.io.writers.check_fps``), before the run."""
     try:
         x = float(text)
@@ -179,7 +179,7 @@ def _fps(text: str) -> float:
                   f"{text!r}") from None
 
 
-def _block_steps(text: str) -> int:
+def parse_block_steps(text: str) -> int:
     try:
         k = int(text)
     except ValueError:
@@ -214,7 +214,7 @@ _HEIGHT_FORMS = ("expected waves:AMPLITUDE:M[xN][:SEED] (e.g. waves:0.5:5x15), "
                  "heat:AMPLITUDE:STEPS[:SEED] (e.g. heat:0.5:15) or FILE.npy")
 
 
-def _height(text: str) -> Any:
+def parse_height(text: str) -> Any:
     """``--height``: ``waves:A:M[xN][:SEED]``, ``heat:A:STEPS[:SEED]`` or ``FILE.npy``."""
     kind, _, rest = text.partition(":")
     parts = rest.split(":") if rest else []
@@ -251,7 +251,7 @@ def _height_file(text: str) -> Any:
     return h
 
 
-def _roughen(text: str) -> dict:
+def parse_roughen(text: str) -> dict:
     """``--roughen AMPLITUDE[:STEPS[:SEED]]``."""
     parts = text.split(":")
     form = "expected AMPLITUDE[:STEPS[:SEED]], e.g. 0.05:15:3"
@@ -373,10 +373,10 @@ def mesh_level(text: str, generators: Any) -> tuple[str, dict]:
 def add_domain_options(group: Any) -> None:
     """--dx/--length, --bc, --radius and --init of ``rdgpu run``."""
     spacing = group.add_mutually_exclusive_group()
-    spacing.add_argument("--dx", type=_positive_float, metavar="H",
+    spacing.add_argument("--dx", type=positive_float, metavar="H",
                          help="grid spacing, the same along every axis (default: the "
                          "preset's or the model's, 1 for most)")
-    spacing.add_argument("--length", type=_positive_float, metavar="L",
+    spacing.add_argument("--length", type=positive_float, metavar="L",
                          help="the grid's length along x (columns): dx = L / columns, the "
                          "same spacing along every axis")
     group.add_argument("--bc", type=_bc, metavar="BC[/BC...]",
@@ -384,7 +384,7 @@ def add_domain_options(group: Any) -> None:
                        "dirichlet:VALUE, one for every axis or one per axis joined by / "
                        "(y/x, or z/y/x on a 3-D grid), e.g. neumann/periodic (default: the "
                        "preset's, else periodic)")
-    group.add_argument("--radius", type=_positive_float, metavar="R",
+    group.add_argument("--radius", type=positive_float, metavar="R",
                        help="radius of a generated mesh: sphere, uv-sphere, disc; torus: "
                        "the ring radius R, the tube 0.3 R (default 1)")
     group.add_argument("--init", type=_init, metavar="SPEC",

@@ -1,11 +1,14 @@
-"""Conventions every layer shares, written once: the real dtypes rdgpu computes in, and
-the names of the axes (C order: the last axis is ``x``)."""
+"""Conventions every layer shares, written once: rdgpu's version, the real dtypes rdgpu
+computes in, and the names of the axes (C order: the last axis is ``x``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["AXIS_NAMES", "REAL_DTYPES", "REAL_DTYPE_NAMES", "axis_names", "is_real"]
+__all__ = ["AXIS_NAMES", "REAL_DTYPES", "REAL_DTYPE_NAMES", "VERSION", "axis_names", "is_real"]
+
+#: rdgpu's version (``rdgpu.__version__``; pyproject.toml states it too)
+VERSION = "0.1.0"
 
 #: the dtypes of every field, kernel and solver: single and double precision
 REAL_DTYPES: tuple[np.dtype, ...] = (np.dtype(np.float32), np.dtype(np.float64))

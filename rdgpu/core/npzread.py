@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.resources import check_memory, format_bytes
+
 __all__ = ["read_archive"]
 
 #: the largest ``meta`` member read (JSON text; real ones are a few kB)
@@ -125,8 +127,6 @@ def read_archive(path: Any, kind: str = "checkpoint") -> tuple[dict, dict[str, n
     file"`` (it picks the checks and the wording).  ``meta`` is the parsed JSON of the
     ``meta`` member (a dict); ``arrays`` holds every other member.  A ``ValueError`` names
     the file and what is wrong (see the module docstring)."""
-    from rdgpu.core.resources import check_memory, format_bytes
-
     path = Path(path)
     name = repr(str(path))
     unreadable = f"{name} is not a readable rdgpu {kind}"

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.core.conventions import REAL_DTYPES
+from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.core.resources import check_fields, field_bytes
 
@@ -222,8 +223,6 @@ def check_size(shape: tuple[int, ...], dtype: Any, name: str, *, backend: Any = 
     cells than the ``backend``'s kernels index (its ``max_cells``), or more memory than
     the shared estimate allows (:func:`rdgpu.core.resources.check_fields`, ``copies`` working
     copies; skipped with ``memory=False``, for an array already on its device)."""
-    from rdgpu.core.errors import ResourceLimitError
-
     cells = math.prod(int(s) for s in shape)
     limit = getattr(backend, "max_cells", None)
     if limit is not None and cells > limit:

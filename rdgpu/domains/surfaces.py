@@ -26,9 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from rdgpu.domains.mesh.generators import grid_faces
-from rdgpu.domains.mesh.size import check_mesh_size
-from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-from rdgpu.domains.roughness import (
+from rdgpu.domains.mesh.roughness import (
     centred_scaled,
     check_amplitude,
     check_steps,
@@ -37,6 +35,8 @@ from rdgpu.domains.roughness import (
     peak_scaled,
     vertex_normals,
 )
+from rdgpu.domains.mesh.size import check_mesh_size
+from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 __all__ = ["graph_mesh", "heat_filtered", "random_waves", "roughen", "vertex_normals"]
 

@@ -35,7 +35,9 @@ from rdgpu.core.errors import StabilityError
 from rdgpu.core.resources import check_fields
 from rdgpu.domains.boundary import PERIODIC, GridBC, parse_bc
 from rdgpu.domains.grid import Grid
+from rdgpu.io.images import save_png
 from rdgpu.ops.api import laplacian, levelset_dt_limit
+from rdgpu.simulation.driver import Simulation
 
 SPEEDS = ("laplace", "offset")
 
@@ -83,8 +85,6 @@ class FrontResult:
 def save_pattern_png(path: str | Path, mask: np.ndarray, *, scale: int = 4) -> Path:
     """Write a pattern mask as a black (inside, ``True``) on white PNG, each cell
     ``scale``×``scale`` pixels; returns the path."""
-    from rdgpu.io.images import save_png
-
     m = np.asarray(mask)
     if m.ndim != 2:
         raise ValueError(f"a pattern image needs a 2-D mask, got shape {m.shape}")
@@ -286,8 +286,6 @@ def front_growth(
     a centred circle of ``radius``, default a quarter of the shorter side).  The other
     arguments go to :class:`rdgpu.Simulation` (``from_preset`` with ``preset``).  Returns
     a :class:`FrontResult`."""
-    from rdgpu.simulation.driver import Simulation
-
     check.steps(steps)
     warm = check.steps(warmup, "warmup")
     check.steps(snapshot_every, "snapshot_every")

@@ -21,7 +21,7 @@ from rdgpu.models.allen_cahn import AllenCahn
 from rdgpu.models.compiler import Output, Program, Target, launch
 from rdgpu.ops.api import bernoulli_decay
 from rdgpu.ops.implicit import ImplicitDiffusion
-from rdgpu.ops.inputs import _given_shape, _grid_or_mesh, _param
+from rdgpu.ops.inputs import given_shape, grid_or_mesh, param_value
 from rdgpu.ops.results import BackendSpec, check_finite, expect_out, give_host
 
 __all__ = ["METHODS", "AllenCahnStepper", "allen_cahn"]
@@ -131,7 +131,7 @@ def allen_cahn(
     shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
     ``out``: as in :mod:`rdgpu.ops.api` (the state crosses the host once each way: the
     stepper's own)."""
-    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
+    field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
     eps = check.scalar(eps, "eps", strict=True)
     check_stability = check.flag(check_stability, "check_stability")
     if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
@@ -141,7 +141,7 @@ def allen_cahn(
         )
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
-    b_ = _param(b, "b", field)
+    b_ = param_value(b, "b", field)
     expect_out(out, u, field.dtype)
     if method not in AllenCahn.methods:
         raise ValueError(f"method must be one of {AllenCahn.methods}, got {method!r}")
@@ -153,4 +153,4 @@ def allen_cahn(
     stepper.advance(n)
     res = check_finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
                        check_stability=check_stability)
-    return give_host(res.reshape(_given_shape(u)), u, out)
+    return give_host(res.reshape(given_shape(u)), u, out)

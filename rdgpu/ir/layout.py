@@ -4,11 +4,14 @@ stencil coefficients).  :class:`rdgpu.backends.target.Target` adds the device si
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.ir.stencils import STENCIL_KINDS, stencil_kind
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["Layout"]
 
@@ -19,7 +22,7 @@ class Layout:
     ``[members, *shape]`` (member-major); no cell reads another member's cells.
     ``host`` caches host data (NumPy)."""
 
-    def __init__(self, domain: Any, dtype: Any, stencil: str = "compact", members: int = 1,
+    def __init__(self, domain: Domain, dtype: Any, stencil: str = "compact", members: int = 1,
                  host: dict[str, Any] | None = None):
         self.domain = domain
         self.dtype = np.dtype(dtype)

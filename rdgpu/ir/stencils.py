@@ -24,11 +24,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from rdgpu.ir.equations import Bin, Lap, Neg, Node, Num, Ref
 from rdgpu.ir.names import ident
 from rdgpu.ir.program import METRIC_COEFFICIENTS, STENCILS, Program
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["STENCIL_KINDS", "Neighbour", "StencilKind", "check_stencil", "emit",
            "laplacian_text", "metric_loads", "neighbour_value", "neighbour_values",
@@ -90,7 +93,7 @@ STENCIL_KINDS: dict[str, StencilKind] = {k.name: k for k in (
 )}
 
 
-def stencil_kind(domain: Any, stencil: str = "compact") -> str:
+def stencil_kind(domain: Domain, stencil: str = "compact") -> str:
     """The row of :data:`STENCIL_KINDS` of a pass on ``domain`` (by its ``kind``) with the
     grid ``stencil``."""
     if domain.kind == "mesh":
@@ -101,7 +104,7 @@ def stencil_kind(domain: Any, stencil: str = "compact") -> str:
     return f"grid{domain.ndim}" + ("iso" if iso else "")
 
 
-def check_stencil(domain: Any, stencil: str) -> None:
+def check_stencil(domain: Domain, stencil: str) -> None:
     """``stencil`` is known, and an isotropic one has a uniform grid spacing."""
     if stencil not in STENCILS:
         raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")

@@ -14,15 +14,16 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
-from rdgpu.models.model import Model, _scalar_param, check_dt, domain_shape, resolve_params
+from rdgpu.models.model import Model, check_dt, domain_shape, resolve_params, scalar_param
 
 if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
     from rdgpu.integrators.allen_cahn import AllenCahnStepper
 
 __all__ = ["AllenCahn"]
 
 
-def _is_surface(domain: Any) -> bool:
+def _is_surface(domain: Domain) -> bool:
     return domain.kind == "graph-surface"
 
 
@@ -80,7 +81,7 @@ class AllenCahn(Model):
         self.default_dt = self._default_dt
         self.default_time = self._default_time
 
-    def domain_defaults(self, domain: Any) -> dict[str, float]:
+    def domain_defaults(self, domain: Domain) -> dict[str, float]:
         """``eps`` = :attr:`eps_per_spacing` times the spacing of ``domain``."""
         domain_shape(domain)  # a domain, or a clear error
         return {"eps": self.eps_per_spacing * domain.spacing_scale}
@@ -95,7 +96,7 @@ class AllenCahn(Model):
         return 1500.0 * float(np.max(params.get("eps", self.defaults["eps"]))) ** 2
 
     def dt_limit(
-        self, domain: Any, params: Mapping[str, Any] | None = None, method: str = "explicit"
+        self, domain: Domain, params: Mapping[str, Any] | None = None, method: str = "explicit"
     ) -> float:
         if method != "explicit":
             return math.inf
@@ -104,7 +105,7 @@ class AllenCahn(Model):
 
     def stepper(
         self,
-        domain: Any,
+        domain: Domain,
         params: Mapping[str, Any] | None = None,
         *,
         dt: float,
@@ -117,7 +118,7 @@ class AllenCahn(Model):
         if method not in self.methods:
             raise ValueError(f"method must be one of {self.methods}, got {method!r}")
         p = resolve_params(self, domain, params, seed=seed)
-        eps = _scalar_param(p, "eps", "parameter")
+        eps = scalar_param(p, "eps", "parameter")
         if not eps > 0:
             raise ValueError(f"eps must be > 0, got {eps}")
         what = ("explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh or a graph "
@@ -130,7 +131,7 @@ class AllenCahn(Model):
                                 method)
 
     @staticmethod
-    def energy(domain: Any, u: Any, params: Mapping[str, Any] | None = None) -> float:
+    def energy(domain: Domain, u: Any, params: Mapping[str, Any] | None = None) -> float:
         """``J(u) = ∫ ½|∇u|² + ((u² − 1)²/4 + b u)/ε²`` (float64).
 
         Graph surface: ``½ uᵀ(−a Δ_Γ)u + Σ a_i ((u_i² − 1)²/4 + b u_i)/ε²`` with ``a`` its

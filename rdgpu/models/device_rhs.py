@@ -32,7 +32,7 @@ apply).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,6 +40,10 @@ from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import Output, Program
 from rdgpu.models.compiler import launch
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 __all__ = ["DeviceRHS", "Field"]
 
@@ -67,7 +71,7 @@ class DeviceRHS:
     model's linear stability limit (:class:`rdgpu.StabilityError`), None for none.
     ``species``, ``shape`` (each buffer's) and :meth:`empty` describe the fields it works on."""
 
-    def __init__(self, model: Any, domain: Any, params: Mapping[str, Any], backend: Backend,
+    def __init__(self, model: Model, domain: Domain, params: Mapping[str, Any], backend: Backend,
                  dtype: Any, check_dt: float | None = None):
         # check_dt: a forward-Euler step the caller will take, checked against the model's
         # linear stability limit (rdgpu.StabilityError); None checks nothing

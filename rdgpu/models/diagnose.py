@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 
 from rdgpu.ir import equations as eq
+from rdgpu.models.compiler import Output, Program, Target, run_numpy
+from rdgpu.models.model import expression_tree
 
 __all__ = ["cause"]
 
@@ -42,8 +44,6 @@ def _cause(sim, state, step, first):
     trees = getattr(model, "trees", None)
     if not trees:
         return None
-    from rdgpu.models.compiler import Target
-
     dtype = np.dtype(sim.dtype)
     stepper = getattr(sim, "stepper", None)
     target = Target(sim.domain, None, np.dtype(np.float64),
@@ -104,16 +104,12 @@ def _environment(sim, state, target, t) -> dict[str, Any]:
 
 
 def _param_tree(sim, name: str) -> eq.Node:
-    from rdgpu.models.model import expression_tree
-
     return expression_tree(name, sim.params[name],
                            {k: v for k, v in sim.params.items() if k != name})
 
 
 def _laplacians(target, env, trees) -> dict[tuple[str, int], np.ndarray]:
     """Every Laplacian the equations take, in float64, by the NumPy reference."""
-    from rdgpu.models.compiler import Output, Program, run_numpy
-
     wanted = sorted({lp for tree in trees.values() for lp in eq.laplacians(tree)})
     if not wanted:
         return {}

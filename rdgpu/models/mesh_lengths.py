@@ -28,6 +28,7 @@ from rdgpu.ir import equations as eq
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 __all__ = ["LENGTHS", "length_ratio", "scale_written_laplacians", "fit_to_mesh"]
 
@@ -35,7 +36,7 @@ __all__ = ["LENGTHS", "length_ratio", "scale_written_laplacians", "fit_to_mesh"]
 LENGTHS = ("cells", "model")
 
 
-def length_ratio(model: Any, domain: Domain, lengths: str = "cells") -> float | None:
+def length_ratio(model: Model, domain: Domain, lengths: str = "cells") -> float | None:
     """``(mean edge / model.spacing)²`` on a mesh; None on any other domain or with
     ``lengths="model"``."""
     if not (isinstance(lengths, str) and lengths in LENGTHS):
@@ -71,7 +72,7 @@ def scale_written_laplacians(node: eq.Node, ratio: float, named: bool = False) -
     return node
 
 
-def fit_to_mesh(model: Any, domain: Domain, lengths: str = "cells") -> Any:
+def fit_to_mesh(model: Model, domain: Domain, lengths: str = "cells") -> Any:
     """``model`` itself on a grid (or where nothing changes); on a mesh a shallow copy whose
     equation trees (``trees``, ``linear``) have their number-written Laplacians scaled by
     :func:`length_ratio` (module doc).  The copy keeps the equations' text, name and

@@ -45,16 +45,20 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
+from rdgpu.core.validation import real_number
 from rdgpu.domains.base import require_domain
 from rdgpu.ir import equations as eq
 from rdgpu.ir.schemes import get_scheme, method_names
+from rdgpu.models.compiler import PerMember, check_stencil
+from rdgpu.models.ensemble import resolve_members, stack_members
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 from rdgpu.models.ranges import check_bounds, check_fits
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["Model", "define_model", "domain_shape", "param_field", "resolve_params"]
+__all__ = ["FIELD_SPEC_KEYS", "Model", "define_model", "domain_shape", "field_spec",
+           "param_field", "resolve_params"]
 
 _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
              *eq.CONSTANTS}
@@ -81,6 +85,51 @@ def _physical_coordinates(domain: Domain) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------- parameters
+#: per field-spec kind: (required keys, optional keys with defaults)
+FIELD_SPEC_KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
+    "random": (("low", "high"), {}),
+    "sine": (("mean", "amplitude"), {"axis": "x", "periods": 1.0}),
+    "linear": (("start", "stop"), {"axis": "x"}),
+}
+
+
+def field_spec(spec: Any, name: str | None = None) -> dict[str, Any]:
+    """A parameter field spec (:func:`param_field`) checked and completed: a known
+    ``kind``, every required key, no unknown key, numbers that are numbers (finite),
+    ``low <= high``, an axis name.  ``name`` (the parameter) goes into the messages."""
+    what = "a parameter field spec" if name is None else f"parameter {name!r}"
+    kinds = ", ".join(repr(k) for k in FIELD_SPEC_KEYS)
+    if not isinstance(spec, Mapping):
+        raise TypeError(f"{what}: a field spec is a dict such as {{'kind': 'random', 'low': "
+                        f"0.01, 'high': 0.05}}, got {type(spec).__name__}")
+    kind = spec.get("kind")
+    if not isinstance(kind, str) or kind not in FIELD_SPEC_KEYS:
+        raise ValueError(f"{what}: unknown parameter field kind {kind!r}; allowed: {kinds}")
+    required, optional = FIELD_SPEC_KEYS[kind]
+    missing = [k for k in required if k not in spec]
+    if missing:
+        raise ValueError(f"{what}: a {kind!r} field spec needs {', '.join(map(repr, missing))}"
+                         f" (keys: {', '.join(required + tuple(optional))})")
+    unknown = sorted(set(spec) - {"kind", *required, *optional}, key=str)
+    if unknown:
+        raise ValueError(f"{what}: unknown key(s) {unknown} in a {kind!r} field spec; "
+                         f"allowed: {['kind', *required, *optional]}")
+    out: dict[str, Any] = {"kind": kind, **optional}
+    for key in (*required, *optional):
+        if key == "axis":
+            axis = spec.get(key, optional[key])
+            if not isinstance(axis, str):
+                raise ValueError(f"{what}: 'axis' of a {kind!r} field spec is 'x', 'y' or 'z',"
+                                 f" got {axis!r}")
+            out[key] = axis
+        elif key in spec:
+            out[key] = real_number(spec[key], f"{what}: {key!r} of a {kind!r} field spec")
+    if kind == "random" and out["low"] > out["high"]:
+        raise ValueError(f"{what}: a 'random' field spec needs low <= high, got low "
+                         f"{out['low']:g} > high {out['high']:g}")
+    return out
+
+
 def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generator,
                 name: str | None = None) -> np.ndarray:
     """A float64 parameter field over ``domain`` from a spec:
@@ -90,12 +139,10 @@ def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generato
       ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
     * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
 
-    The spec is checked first (:func:`rdgpu.simulation.checks.field_spec`: every key known, the
-    required ones given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes
-    into the messages.
+    The spec is checked first (:func:`field_spec`: every key known, the required ones
+    given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes into the
+    messages.
     """
-    from rdgpu.simulation.checks import field_spec
-
     spec = field_spec(spec, name)
     kind = spec["kind"]
     shape = domain_shape(domain)
@@ -125,7 +172,7 @@ def _field(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def resolve_params(
-    model: Any, domain: Domain, params: Mapping[str, Any] | None, *, seed: int = 0
+    model: Model, domain: Domain, params: Mapping[str, Any] | None, *, seed: int = 0
 ) -> dict[str, Any]:
     """The model's defaults updated by ``params``: every value a float, a float64 array of
     the domain's shape (field specs drawn with ``numpy.random.default_rng(seed)``,
@@ -170,8 +217,6 @@ def resolve_params(
 def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> eq.Node:
     """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
     replaced by their numbers."""
-    from rdgpu.models.compiler import PerMember
-
     scalars = {k: v for k, v in params.items()
                if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node, PerMember))}
     # an ensemble's per-member numbers stay parameters (read per member by the kernel)
@@ -222,7 +267,7 @@ def _constant_value(name: str, text: str, tree: eq.Node) -> float | None:
     return v
 
 
-def _scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
+def scalar_param(params: Mapping[str, Any], name: str, what: str) -> float:
     v = params[name]
     if np.ndim(v) != 0 or isinstance(v, (str, eq.Node)):
         raise ValueError(f"{what} {name!r} must be a number, not a field or expression")
@@ -475,7 +520,7 @@ class Model:
         merged = {k: float(np.mean(v)) for k, v in self._merged(params).items()}
         return [float(x) for x in self._steady_guess(merged)]
 
-    def domain_defaults(self, domain: Any, lengths: str = "cells") -> dict[str, Any]:
+    def domain_defaults(self, domain: Domain, lengths: str = "cells") -> dict[str, Any]:
         """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
         each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
         edge length)."""
@@ -490,7 +535,7 @@ class Model:
         return out
 
     # ------------------------------------------------------------------ stepping
-    def dt_limit(self, domain: Any, params: Mapping[str, Any] | None = None,
+    def dt_limit(self, domain: Domain, params: Mapping[str, Any] | None = None,
                  method: str | None = None, stencil: str = "compact",
                  lengths: str = "cells") -> float:
         """The largest stable ``dt`` of ``method`` (default: the model's
@@ -511,7 +556,7 @@ class Model:
 
     def stepper(
         self,
-        domain: Any,
+        domain: Domain,
         params: Mapping[str, Any] | None = None,
         *,
         dt: float,
@@ -537,8 +582,6 @@ class Model:
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
         lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
-        from rdgpu.models.compiler import check_stencil
-
         method = _method(method or self.default_method, self.methods)
         check_stencil(domain, stencil)
         if members is None:
@@ -546,8 +589,6 @@ class Model:
             self._check_diffusion(p)
             limit = self.dt_limit(domain, p, method, stencil, lengths)
         else:
-            from rdgpu.models.ensemble import resolve_members, stack_members
-
             members = _members(members)
             shape = domain_shape(domain)
             each = resolve_members(lambda q, s: resolve_params(self, domain, q, seed=s),

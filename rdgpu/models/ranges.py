@@ -12,11 +12,15 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.ir import equations as eq
+from rdgpu.models.compiler import PerMember
+
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
 
 __all__ = ["check_bounds", "check_fits", "fits"]
 
@@ -70,11 +74,9 @@ def fits(value: Any, dtype: Any) -> bool:
         return bool(np.isfinite(a[finite].astype(dtype)).all())
 
 
-def check_fits(model: Any, params: Mapping[str, Any], dtype: Any) -> None:
+def check_fits(model: Model, params: Mapping[str, Any], dtype: Any) -> None:
     """Refuse a literal of the equations, a parameter value (number, field, per-member
     values, the literals of an expression of ``t``) or a bound that ``dtype`` cannot hold."""
-    from rdgpu.models.compiler import PerMember
-
     dtype = np.dtype(dtype)
     if dtype.kind != "f":
         return  # the binding refuses it, naming the dtypes allowed

@@ -35,6 +35,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 __all__ = ["SteadyState", "fit_to_domain", "steady_states", "steady_start"]
 
@@ -112,7 +113,7 @@ def _jacobian(f, x: np.ndarray) -> np.ndarray:
     return J
 
 
-def _within(model: Any, x: np.ndarray) -> bool:
+def _within(model: Model, x: np.ndarray) -> bool:
     """``x`` inside the model's ``bounds`` (a state the clamps would move is none)."""
     bounds = getattr(model, "bounds", None) or {}
     for s, v in zip(model.species, x, strict=True):
@@ -122,7 +123,7 @@ def _within(model: Any, x: np.ndarray) -> bool:
     return True
 
 
-def steady_states(model: Any, params: Mapping[str, Any]) -> list[SteadyState]:
+def steady_states(model: Model, params: Mapping[str, Any]) -> list[SteadyState]:
     """The homogeneous steady states of ``model`` with ``params`` (module doc), each with
     its stability; found in a fixed order (the same list every call)."""
     from scipy.optimize import root
@@ -189,7 +190,7 @@ def _noise(values: tuple[float, ...]) -> float:
 _CACHE: dict[tuple, dict | None] = {}
 
 
-def _key(model: Any, params: Mapping[str, Any]) -> tuple | None:
+def _key(model: Model, params: Mapping[str, Any]) -> tuple | None:
     mean = _mean_params(params)
     if not all(isinstance(v, float) for v in mean.values()):
         return None
@@ -197,7 +198,7 @@ def _key(model: Any, params: Mapping[str, Any]) -> tuple | None:
             tuple(sorted(mean.items())))
 
 
-def steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
+def steady_start(model: Model, params: Mapping[str, Any]) -> dict | None:
     """The initial condition of the module doc's rule, as an init spec for
     :func:`rdgpu.simulation.initial_state`; ``None`` when no steady state is found."""
     key = _key(model, params)
@@ -212,7 +213,7 @@ def steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
     return found
 
 
-def _steady_start(model: Any, params: Mapping[str, Any]) -> dict | None:
+def _steady_start(model: Model, params: Mapping[str, Any]) -> dict | None:
     try:
         states = steady_states(model, params)
     except (ArithmeticError, ValueError, TypeError, RecursionError):

@@ -26,19 +26,22 @@ import numpy as np
 from rdgpu.backends import interop
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
+from rdgpu.core.csr import checked_csr
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.boundary import PERIODIC
+from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.grid import Grid
 from rdgpu.ir.schemes import get_scheme
+from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix
 from rdgpu.ops.inputs import (  # the input checks (kind, size, then values) of every function here
-    _given_shape,
-    _grid_or_mesh,
-    _grid_problem,
-    _host_field,
-    _mesh_field,
-    _no_grid_args,
-    _on,
-    _param,
+    given_shape,
+    grid_or_mesh,
+    grid_problem,
+    host_field,
+    mesh_field,
+    no_grid_args,
+    on_backend,
+    param_value,
 )
 from rdgpu.ops.results import (
     BackendSpec,
@@ -118,22 +121,22 @@ def laplacian(
         return _surface_laplacian(u, height, dx, dy, bc, stencil, mesh, backend, out)
     be = get_backend(backend)
     if mesh is not None:
-        _no_grid_args(dx, dy, bc, stencil)
-        field = _mesh_field(u, mesh, "u", be)
+        no_grid_args(dx, dy, bc, stencil)
+        field = mesh_field(u, mesh, "u", be)
         expect_out(out, u, field.dtype)
-        d_u = _on(be, u, field)
+        d_u = on_backend(be, u, field)
         res = fresh(be, out, d_u)
         be.spmv(be.upload_csr(mesh.laplacian, field.dtype), d_u, res)
         return give(res, u, out, "laplacian")
     if isinstance(stencil, bool) or stencil not in (5, 9):
         raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
-    field, grid = _grid_problem(u, "u", dx, dy, bc, be)
+    field, grid = grid_problem(u, "u", dx, dy, bc, be)
     if grid.ndim == 1:
         stencil = 5  # both stencils are the 3-point (E + W − 2u)/dx² in 1-D
     elif stencil == 9 and grid.dx != grid.dy:
         raise ValueError(f"the 9-point stencil needs dx == dy, got dx={grid.dx}, dy={grid.dy}")
     expect_out(out, u, field.dtype)
-    d_u = _on(be, u, field)
+    d_u = on_backend(be, u, field)
     res = fresh(be, out, d_u)
     be.laplacian(d_u, res, dx=grid.dx, dy=grid.dy, bc=grid.bcs, stencil=stencil)
     return give(res, u, out, "laplacian")
@@ -142,8 +145,6 @@ def laplacian(
 def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: Any,
                        mesh: Any, backend: BackendSpec, out: Any) -> Any:
     """``rdgpu.laplacian(u, height=h, ...)``: ``Δ_Γ u`` on the periodic graph surface of h."""
-    from rdgpu.domains.graph_surface import GraphSurface
-
     if mesh is not None:
         raise ValueError("height= and mesh= given together: height makes the graph surface "
                          "z = h(x, y) over the grid of u, a mesh is a surface of its own; "
@@ -151,12 +152,12 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
     if stencil != 5 or isinstance(stencil, bool):
         raise ValueError(f"stencil={stencil!r} given with height=: the surface operator has "
                          "its own 9-point form (rdgpu.GraphSurface); leave stencil at its default")
-    shape_u = _given_shape(u)
+    shape_u = given_shape(u)
     if len(shape_u) != 2:
         raise ValueError(f"with height= u must be a 2-D array [ny, nx] on the surface's "
                          f"parameter grid, got a {len(shape_u)}-D array of shape {shape_u}")
     be = get_backend(backend)
-    field, grid = _grid_problem(u, "u", dx, dy, bc, be)
+    field, grid = grid_problem(u, "u", dx, dy, bc, be)
     if grid.bcs.x.kind != PERIODIC or grid.bcs.y.kind != PERIODIC:
         raise ValueError(f"a graph surface (height=) is periodic on both axes; got bc={bc!r}, "
                          "allowed: 'periodic'")
@@ -171,7 +172,7 @@ def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: 
                          "finite")
     surface = GraphSurface(field.shape, dx=grid.dx, dy=grid.dy, height=h)
     expect_out(out, u, field.dtype)
-    d_u = _on(be, u, field)
+    d_u = on_backend(be, u, field)
     res = fresh(be, out, d_u)
     be.metric_laplacian(d_u, be.upload_metric(surface, field.dtype), res)
     return give(res, u, out, "laplacian")
@@ -194,12 +195,12 @@ def bernoulli_substep(
 
     Works on arrays of any shape (grid cells or mesh vertices).  ``out``: module doc."""
     be = get_backend(backend)
-    field = _host_field(u, "u", tuple(range(1, 8)), be)
+    field = host_field(u, "u", tuple(range(1, 8)), be)
     tau = check.scalar(tau, "tau")
     eps = check.scalar(eps, "eps", strict=True)
     decay = bernoulli_decay(tau, eps, field.dtype)
     expect_out(out, u, field.dtype)
-    d_u = _on(be, u, field)
+    d_u = on_backend(be, u, field)
     res = fresh(be, out, d_u)
     be.bernoulli(d_u, res, decay=decay)
     return give(res, u, out, "bernoulli_substep")
@@ -243,12 +244,12 @@ def gray_scott(
     check_stability, progress = (check.flag(check_stability, "check_stability"),
                                  check.flag(progress, "progress"))
     if mesh is not None:
-        _no_grid_args(dx, dy, bc)
-        gu, gv = _mesh_field(u, mesh, "u", be), _mesh_field(v, mesh, "v", be)
+        no_grid_args(dx, dy, bc)
+        gu, gv = mesh_field(u, mesh, "u", be), mesh_field(v, mesh, "v", be)
     else:
-        gu, grid = _grid_problem(u, "u", dx, dy, bc, be)
-        gv, _ = _grid_problem(v, "v", dx, dy, bc, be)
-        shape_u, shape_v = _given_shape(u), _given_shape(v)
+        gu, grid = grid_problem(u, "u", dx, dy, bc, be)
+        gv, _ = grid_problem(v, "v", dx, dy, bc, be)
+        shape_u, shape_v = given_shape(u), given_shape(v)
         if shape_u != shape_v:  # as given: a 1-D u and a 1-row v differ
             raise ValueError(f"v has shape {shape_v} but u has shape {shape_u}; they must "
                              "match")
@@ -265,8 +266,8 @@ def gray_scott(
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
-    F_ = _param(F, "F", gu)
-    k_ = _param(k, "k", gu)
+    F_ = param_value(F, "F", gu)
+    k_ = param_value(k, "k", gu)
     if mesh is not None:
         d = max(Du, Dv)
         limit = mesh.max_stable_dt(d) if d > 0 else math.inf
@@ -293,7 +294,7 @@ def gray_scott(
             be.gray_scott(*cur, *nxt, Du=Du, Dv=Dv, F=d_F, k=d_k, dt=dt, dx=grid.dx,
                           dy=grid.dy, bc=grid.bcs)
     d_F, d_k = upload_optional(be, F_), upload_optional(be, k_)
-    start = (_on(be, u, gu), _on(be, v, gv))
+    start = (on_backend(be, u, gu), on_backend(be, v, gv))
     with ProgressBar(n, "gray-scott", progress) as bar:
         done = [0]
 
@@ -317,8 +318,6 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
     operator many times, upload it once with ``backend.upload_csr`` and call
     ``backend.spmv``.  Neither input is modified.  ``x``: any array kind; ``out``: an
     array of shape ``(n_rows,)`` and x's dtype that receives ``y`` (module doc)."""
-    from rdgpu.core.csr import checked_csr
-
     m = checked_csr(csr, "csr")  # type, real finite values, structure (indices in range)
     n_rows, n_cols = m.shape
     xa = np.asarray(x) if isinstance(x, (list, tuple)) else x
@@ -337,11 +336,11 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
             raise TypeError(f"x has unsupported dtype {dtype_x}; allowed: float32, float64")
         return give_host(np.zeros(n_rows, dtype=dtype_x), xa, out)
     be = get_backend(backend)
-    field = _host_field(xa, "x", (1,), be)
+    field = host_field(xa, "x", (1,), be)
     expect_out(out, xa, field.dtype, (n_rows,))
     A = be.upload_csr(m, field.dtype, name="csr")  # refuses values the dtype cannot hold
     y = be.empty((n_rows,), field.dtype)
-    be.spmv(A, _on(be, xa, field), y)
+    be.spmv(A, on_backend(be, xa, field), y)
     return give(y, xa, out, "spmv", shape=(n_rows,))
 
 
@@ -384,14 +383,12 @@ def diffusion_step(
     :class:`rdgpu.SurfaceMesh`; ``u`` has one value per vertex; the grid arguments must stay
     at their defaults.  On a closed mesh (or a periodic/Neumann grid) every method keeps
     ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step.  ``out``: module doc."""
-    from rdgpu.ops.implicit import ImplicitDiffusion, operator_matrix
-
     method = "backward-euler" if method == "implicit" else method
     if method not in DIFFUSION_METHODS:
         raise ValueError(f"method must be one of {tuple(DIFFUSION_METHODS)} (or 'implicit'), "
                          f"got {method!r}")
     be = get_backend(backend)
-    field, domain = _grid_or_mesh(u, mesh, dx, dy, bc, be=be)
+    field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=be)
     D = check.scalar(D, "D")
     dt = check.scalar(dt, "dt", strict=True)
     n = check.steps(steps)
@@ -400,9 +397,9 @@ def diffusion_step(
         raise ValueError(f"tol={tol!r} given with method='explicit', which solves nothing; "
                          "tol applies to 'backward-euler' and 'crank-nicolson'")
     tol = None if tol is None else check.scalar(tol, "tol", strict=True)
-    src = _param(source, "source", field)
+    src = param_value(source, "source", field)
     expect_out(out, u, field.dtype)
-    start = (_on(be, u, field),)
+    start = (on_backend(be, u, field),)
     scheme = get_scheme(DIFFUSION_METHODS[method])
     if not scheme.implicit:
         if mesh is not None:

@@ -24,7 +24,7 @@ from rdgpu.domains.grid import Grid
 
 class _Unread(np.ndarray):
     """A zero-strided stand-in of the shape and dtype of an array that stays on its device
-    (its values are not read: that would be the copy the caller avoids; :func:`_on` checks
+    (its values are not read: that would be the copy the caller avoids; :func:`on_backend` checks
     them there); ``what`` is the argument's name."""
 
     what = "the array"
@@ -33,7 +33,7 @@ class _Unread(np.ndarray):
         self.what = getattr(obj, "what", "the array")
 
 
-def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> np.ndarray:
+def host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> np.ndarray:
     """``check.as_field`` for an array of any kind: read in place where the host can (one
     copy for a device array elsewhere); an array resident on ``be`` that the host cannot
     see is checked for dtype, rank and size only, and given as an :class:`_Unread`.  The
@@ -69,7 +69,7 @@ def _host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) ->
                           backend=be)
 
 
-def _on(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
+def on_backend(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
     """The checked ``field`` of the caller's ``given`` array on ``be``: ``given``'s own
     memory where it lives there and the checks made no copy, else one upload.  An
     :class:`_Unread` array (resident on ``be``, unseen by the host) is checked for NaN and
@@ -82,12 +82,12 @@ def _on(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
     return d
 
 
-def _given_shape(x: Any) -> tuple[int, ...]:
+def given_shape(x: Any) -> tuple[int, ...]:
     """The shape of the caller's array of any kind (a list's as NumPy reads it)."""
     return interop.shape_dtype(x)[0] if interop.is_array(x) else np.shape(x)
 
 
-def _param(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
+def param_value(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
     """``check.scalar_or_field`` for a number or an array of any kind (read on the host,
     after its size is found to be ``like``'s: no copy of a device array of another size)."""
     if interop.is_array(x) and not isinstance(x, np.ndarray):
@@ -105,20 +105,20 @@ def _check_mesh(mesh: Any) -> Any:
     return mesh
 
 
-def _mesh_field(u: Any, mesh: Any, name: str, be: Backend | None = None) -> np.ndarray:
+def mesh_field(u: Any, mesh: Any, name: str, be: Backend | None = None) -> np.ndarray:
     """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite
-    (``be``: see :func:`_host_field`)."""
+    (``be``: see :func:`host_field`)."""
     n = _check_mesh(mesh).n_vertices
-    shape = _given_shape(u)
+    shape = given_shape(u)
     if len(shape) != 1 or shape[0] != n:
         raise ValueError(
             f"{name} has shape {shape}; on a mesh of {n} vertices it must be a 1-D array of "
             f"{n} values (one per vertex, in the order of mesh.vertices)"
         )
-    return _host_field(u, name, (1,), be)
+    return host_field(u, name, (1,), be)
 
 
-def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
+def no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
     """With ``mesh=``, the grid arguments must keep their defaults."""
     given = [name for name, value, default in (("dx", dx, 1.0), ("dy", dy, None),
                                                ("bc", bc, "periodic"), ("stencil", stencil, 5))
@@ -132,11 +132,11 @@ def _no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
         )
 
 
-def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
+def grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
                   be: Backend | None = None) -> tuple[np.ndarray, Grid]:
     """``(field [ny, nx], Grid)`` of a 1-D ``u[nx]`` or 2-D ``u[ny, nx]`` grid field
-    (``be``: see :func:`_host_field`)."""
-    field = _host_field(u, name, (1, 2), be)
+    (``be``: see :func:`host_field`)."""
+    field = host_field(u, name, (1, 2), be)
     dx, dy = check.spacing(dx, dy)
     if field.ndim == 1:
         if dy != dx:
@@ -149,18 +149,18 @@ def _grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
     return field.reshape(grid.shape), grid
 
 
-def _grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u",
+def grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u",
                   be: Backend | None = None):
     """``(field, domain)``: a per-vertex field and the mesh, or a grid field and its Grid."""
     if mesh is not None:
-        _no_grid_args(dx, dy, bc)
-        return _mesh_field(u, mesh, name, be), mesh
-    return _grid_problem(u, name, dx, dy, bc, be)
+        no_grid_args(dx, dy, bc)
+        return mesh_field(u, mesh, name, be), mesh
+    return grid_problem(u, name, dx, dy, bc, be)
 
 
-def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
+def sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
     """Checked SOR inputs: ``(c [ny, nx], mask uint8, omega, rhs or None, dx, dy, bcs)``."""
-    grid, domain = _grid_problem(c, "c", dx, dy, bc, be)
+    grid, domain = grid_problem(c, "c", dx, dy, bc, be)
     check.not_masked(fixed, "fixed")
     if isinstance(fixed, (list, tuple)) or interop.is_array(fixed):
         fixed = interop.to_numpy(fixed)
@@ -170,8 +170,8 @@ def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
     if fixed.dtype != bool and fixed.dtype.kind not in "iu":
         raise TypeError(f"fixed must be a boolean mask (or integers, non-zero = fixed), got "
                         f"dtype {fixed.dtype}")
-    if fixed.shape != _given_shape(c):
-        raise ValueError(f"fixed has shape {fixed.shape} but c has shape {_given_shape(c)}; "
+    if fixed.shape != given_shape(c):
+        raise ValueError(f"fixed has shape {fixed.shape} but c has shape {given_shape(c)}; "
                          "they must match")
     mask = np.ascontiguousarray((fixed != 0).reshape(grid.shape), dtype=np.uint8)
     omega = check.scalar(omega, "omega", minimum=None)
@@ -179,9 +179,9 @@ def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
         raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
     f = None
     if rhs is not None:
-        f = _host_field(rhs, "rhs", (1, 2), None)
-        if f.shape != _given_shape(c):
-            raise ValueError(f"rhs has shape {f.shape} but c has shape {_given_shape(c)}; "
+        f = host_field(rhs, "rhs", (1, 2), None)
+        if f.shape != given_shape(c):
+            raise ValueError(f"rhs has shape {f.shape} but c has shape {given_shape(c)}; "
                              "they must match")
         f = np.ascontiguousarray(f.reshape(grid.shape).astype(grid.dtype, copy=False))
     bcs = domain.bcs
@@ -197,15 +197,15 @@ def _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be=None):
     return grid, mask, omega, f, domain.dx, domain.dy, domain.bcs
 
 
-def _levelset_problem(phi: Any, dx: Any, dy: Any, dz: Any, bc: Any,
+def levelset_problem(phi: Any, dx: Any, dy: Any, dz: Any, bc: Any,
                       be: Backend | None = None) -> tuple[np.ndarray, Grid]:
     """``(field, Grid)`` of a 1-D, 2-D or (with ``dz``, default ``dx``) 3-D level-set field."""
-    field = _host_field(phi, "phi", (1, 2, 3), be)
+    field = host_field(phi, "phi", (1, 2, 3), be)
     if field.ndim < 3:
         if dz is not None:
             raise ValueError(f"dz={dz!r} given for a {field.ndim}-D phi of shape {field.shape}: "
                              "only a 3-D phi [nz, ny, nx] has a z axis; leave dz out")
-        return _grid_problem(field, "phi", dx, dy, bc)
+        return grid_problem(field, "phi", dx, dy, bc)
     dx, dy = check.spacing(dx, dy)
     grid = Grid(field.shape, dx=dx, dy=dy, dz=dz, bc=bc)
     check.spacing_fits(grid.dx, grid.dy, field.dtype)

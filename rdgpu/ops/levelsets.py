@@ -13,7 +13,7 @@ from rdgpu.core import validation as check
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.grid import Grid
 from rdgpu.ops.api import levelset_dt_limit
-from rdgpu.ops.inputs import _given_shape, _levelset_problem, _on, _param
+from rdgpu.ops.inputs import given_shape, levelset_problem, on_backend, param_value
 from rdgpu.ops.results import BackendSpec, advance, expect_out, give, upload_optional
 
 __all__ = ["levelset_advance", "reinitialize"]
@@ -51,8 +51,8 @@ def levelset_advance(
     ``(z_bc, y_bc, x_bc)``).  Raises :class:`StabilityError` if
     ``dt · max|F| · (1/dx + 1/dy (+ 1/dz)) > 1``.  ``out``: module doc."""
     be = get_backend(backend)
-    grid, domain = _levelset_problem(phi, dx, dy, dz, bc, be)
-    F = _param(speed, "speed", grid)
+    grid, domain = levelset_problem(phi, dx, dy, dz, bc, be)
+    F = param_value(speed, "speed", grid)
     dt = check.scalar(dt, "dt")
     n = check.steps(steps)
     check_stability = check.flag(check_stability, "check_stability")
@@ -71,7 +71,7 @@ def levelset_advance(
 
     def step(cur, nxt):
         be.levelset_step(cur[0], d_F, nxt[0], dt=dt, dx=dx, dy=dy, bc=bcs, **kw)
-    (res,) = advance(be, (_on(be, phi, grid),), n, step, (out,))
+    (res,) = advance(be, (on_backend(be, phi, grid),), n, step, (out,))
     return give(res, phi, out, "levelset_advance", stepping=True,
                  check_stability=check_stability)
 
@@ -101,7 +101,7 @@ def reinitialize(
     iterations run; without it the plain Godunov scheme moves the front by a fraction of
     a cell per ~100 steps.  ``out``: module doc."""
     be = get_backend(backend)
-    grid, domain = _levelset_problem(phi, dx, dy, dz, bc, be)
+    grid, domain = levelset_problem(phi, dx, dy, dz, bc, be)
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs
     formula, limit = _grid_formula(domain)
     dtau = limit if dtau is None else check.scalar(dtau, "dtau", strict=True)
@@ -111,10 +111,10 @@ def reinitialize(
     subcell_fix = check.flag(subcell_fix, "subcell_fix")
     kw = {"dz": domain.dz} if domain.ndim == 3 else {}
     expect_out(out, phi, grid.dtype)
-    phi0 = _on(be, phi, grid)
+    phi0 = on_backend(be, phi, grid)
 
     def step(cur, nxt):
         be.reinit_step(cur[0], phi0, nxt[0], dtau=dtau, width=dx, dx=dx, dy=dy, bc=bcs,
                        subcell=subcell_fix, **kw)
     (res,) = advance(be, (phi0,), n, step, (out,))
-    return interop.deliver(res, phi, _given_shape(phi), out)
+    return interop.deliver(res, phi, given_shape(phi), out)

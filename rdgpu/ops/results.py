@@ -11,7 +11,7 @@ import numpy as np
 
 from rdgpu.backends import interop
 from rdgpu.backends.base import Backend, DeviceArray
-from rdgpu.ops.inputs import _given_shape
+from rdgpu.ops.inputs import given_shape
 
 __all__ = ["BackendSpec", "ProgressBar", "advance", "check_finite", "expect_out", "fresh",
            "give", "give_host", "upload_optional", "writable_out"]
@@ -51,7 +51,7 @@ def upload_optional(backend: Backend, x: float | np.ndarray) -> float | DeviceAr
 def expect_out(out: Any, given: Any, dtype: np.dtype, shape: Any = None) -> None:
     """Check ``out`` (if given) against the result: ``given``'s shape (or ``shape``)."""
     if out is not None:
-        interop.check_out(out, _given_shape(given) if shape is None else shape,
+        interop.check_out(out, given_shape(given) if shape is None else shape,
                           dtype)
 
 
@@ -60,7 +60,7 @@ def give(d: DeviceArray, given: Any, out: Any, what: str, shape: Any = None,
     """The result ``d`` (a buffer of the call's own) as the kind of ``given``, in
     ``given``'s shape (or ``shape``), or written into ``out``; checked by :func:`check_finite`
     wherever the host sees it."""
-    shape = _given_shape(given) if shape is None else tuple(shape)
+    shape = given_shape(given) if shape is None else tuple(shape)
     return interop.deliver(d, given, shape, out,
                            check=lambda host: check_finite(host, what, **finite))
 

@@ -13,7 +13,8 @@ from rdgpu.backends import interop
 from rdgpu.backends.base import Backend
 from rdgpu.backends.registry import get_backend
 from rdgpu.core import validation as check
-from rdgpu.ops.inputs import _given_shape, _on, _sor_inputs
+from rdgpu.core.errors import ConvergenceError
+from rdgpu.ops.inputs import given_shape, on_backend, sor_inputs
 from rdgpu.ops.results import BackendSpec, expect_out
 
 __all__ = ["optimal_omega", "sor_solve", "sor_sweep"]
@@ -40,7 +41,7 @@ class _SOR:
     def __init__(self, be: Backend, given, grid, mask, f):
         self.be = be
         self.c = be.empty(grid.shape, grid.dtype)  # updated in place: never the caller's
-        be.copy(_on(be, given, grid), self.c)
+        be.copy(on_backend(be, given, grid), self.c)
         self.fixed = be.upload(mask)
         self.rhs = None if f is None else be.upload(f)
         self.change = be.empty((grid.shape[0],), grid.dtype)
@@ -73,11 +74,11 @@ def sor_sweep(
     ``fixed`` is a boolean mask of Dirichlet cells that keep their value.  ``out``: module
     doc."""
     be = get_backend(backend)
-    grid, mask, omega, f, dx, dy, bcs = _sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be)
+    grid, mask, omega, f, dx, dy, bcs = sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be)
     expect_out(out, c, grid.dtype)
     state = _SOR(be, c, grid, mask, f)
     state.sweep(omega, dx, dy, bcs)
-    return interop.deliver(state.c, c, _given_shape(c), out)
+    return interop.deliver(state.c, c, given_shape(c), out)
 
 
 def sor_solve(
@@ -108,10 +109,8 @@ def sor_solve(
     dtype resolves; the result is as accurate as it can be).  If ``max_sweeps`` ends the
     solve otherwise, :class:`rdgpu.core.errors.ConvergenceError` is raised.  ``out``: an array
     that receives ``c`` (module doc)."""
-    from rdgpu.core.errors import ConvergenceError
-
     be = get_backend(backend)
-    grid, mask, omega_, f, dx, dy, bcs = _sor_inputs(c, fixed, 1.0 if omega is None else omega,
+    grid, mask, omega_, f, dx, dy, bcs = sor_inputs(c, fixed, 1.0 if omega is None else omega,
                                                      rhs, dx, dy, bc, be)
     expect_out(out, c, grid.dtype)
     omega = optimal_omega(grid.shape) if omega is None else omega_
@@ -169,4 +168,4 @@ def sor_solve(
             RuntimeWarning,
             stacklevel=2,
         )
-    return interop.deliver(state.c, c, _given_shape(c), out), sweeps, residual
+    return interop.deliver(state.c, c, given_shape(c), out), sweeps, residual

@@ -18,6 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.core.optional import require
+from rdgpu.core.resources import check_memory, field_bytes, format_bytes
+
 __all__ = ["SweepStoreWarning", "check_sweep_memory", "load_store", "open_store",
            "read_done", "stored_batch", "verify_done"]
 
@@ -54,8 +57,6 @@ def read_settings(group: Any, path: Path) -> dict | None:
 
 
 def _open_group(path: Path, mode: str) -> Any:
-    from rdgpu.core.optional import require
-
     zarr = require("zarr", "rdgpu.sweep")
     try:
         return zarr.open_group(str(path), mode=mode)
@@ -222,8 +223,6 @@ def check_sweep_memory(n_members: int, space: tuple[int, ...], n_species: int,
     """Refuse a sweep whose results cannot be held (:func:`rdgpu.core.resources.check_memory`),
     before any work: the result Dataset (every member's fields, held in memory at the end,
     and as large in the store, uncompressed) and one batch at work."""
-    from rdgpu.core.resources import check_memory, field_bytes, format_bytes
-
     cells = int(np.prod(space, dtype=object))
     member = cells * n_species * itemsize
     dataset = n_members * (member + 80)  # + the class: code, index and name

@@ -30,12 +30,27 @@ from typing import Any
 
 import numpy as np
 
-from rdgpu.core.conventions import AXIS_NAMES, axis_names
+from rdgpu.analysis import classify_pattern
+from rdgpu.backends.registry import get_backend
+from rdgpu.core.conventions import AXIS_NAMES, VERSION, axis_names
 from rdgpu.core.optional import require
 from rdgpu.core.resources import check_memory
+from rdgpu.core.validation import scalar
 from rdgpu.domains.specs import build_domain
-from rdgpu.runs.store import SETTINGS_ATTR, open_store, stored_batch
-from rdgpu.simulation.checks import whole
+from rdgpu.models import MODELS, PRESETS, define_model
+from rdgpu.runs.store import (
+    SETTINGS_ATTR,
+    check_sweep_memory,
+    load_store,
+    open_store,
+    read_done,
+    stored_batch,
+    verify_done,
+)
+from rdgpu.simulation import default_dt, describe_domain, domain_defaults
+from rdgpu.simulation.checks import model_definition, whole
+from rdgpu.simulation.defaults import accepts, lookup_model
+from rdgpu.simulation.driver import Simulation
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
 
@@ -144,8 +159,6 @@ def _default_domain(model: Any, size: Any) -> dict:
 def pattern_species(model: Any) -> str:
     """The species whose pattern a sweep classifies and pictures by default: the one the
     model's presets classify (Gray-Scott ``v``, Brusselator ``u``, ...), else the first."""
-    from rdgpu.models import PRESETS
-
     for p in PRESETS.values():
         field = (p.classify or {}).get("field")
         if p.model == model.name and field in model.species:
@@ -158,18 +171,12 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
     re-run of a lost task changes nothing).  ``job``: the sweep's settings (see
     :func:`sweep`); ``values``: each swept parameter's value for every member.  Returns
     ``{"fields": {species: [B, *shape] array}, "pattern": [B] int8 codes}``."""
-    from rdgpu.analysis import classify_pattern
-    from rdgpu.simulation.defaults import accepts, lookup_model
-    from rdgpu.simulation.driver import Simulation
-
     names = list(values)
     count = len(values[names[0]]) if names else 1
     kwargs = {"dt": job["dt"], "backend": job["backend"], "dtype": job["dtype"],
               "seed": job["seed"], "init": job["init"], "options": job["options"] or None}
     model = job["model"]
     if isinstance(model, Mapping):  # a model defined by its equations
-        from rdgpu.models import define_model
-
         model = define_model(job["name"], dict(model["equations"]), dict(model["defaults"]))
     model = lookup_model(model)
     if accepts(model.stepper, "members"):  # one ensemble: all members in one launch a step
@@ -196,8 +203,6 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
 def _common_dt(model: Any, domain: Any, fixed: Mapping[str, Any],
                axes: Mapping[str, np.ndarray], options: Mapping[str, Any]) -> float:
     """The default time step that suits every member: the smallest of theirs."""
-    from rdgpu.simulation import default_dt, domain_defaults
-
     base = {**model.defaults, **domain_defaults(model, domain, options), **fixed}
     return min(default_dt(model, domain, {**base, **dict(zip(axes, combo, strict=True))},
                           options)
@@ -243,12 +248,10 @@ def _template(xr: Any, da: Any, settings: dict, axes: dict[str, np.ndarray],
 
 def _attrs(settings: dict) -> dict:
     """The Dataset's attributes: plain values, and the full settings as JSON."""
-    from rdgpu import __version__
-
     out = {"model": settings["name"], "steps": settings["steps"], "dt": settings["dt"],
            "dtype": settings["dtype"], "backend": settings["backend_name"],
            "seed": settings["seed"], "classify": settings["classify"],
-           "rdgpu_version": __version__, SETTINGS_ATTR: json.dumps(settings, sort_keys=True)}
+           "rdgpu_version": VERSION, SETTINGS_ATTR: json.dumps(settings, sort_keys=True)}
     for k, v in settings["fixed"].items():
         out[f"param_{k}"] = v
     return out
@@ -272,8 +275,6 @@ def open_sweep(path: str | os.PathLike) -> Any:
     xr, = _need("xarray")
     kind = _store_kind(path)
     if kind == "zarr":
-        from rdgpu.runs.store import load_store
-
         ds = load_store(xr, Path(path), PATTERN_CLASSES.index("diverged"))
     else:
         with xr.open_dataset(str(path)) as f:
@@ -368,8 +369,6 @@ def _check_names(axes: Mapping[str, Any], species: Sequence[str]) -> None:
 def _task_model(mdl: Any, definition: Any) -> Any:
     """What a task carries of the model: its name (a built-in), its equations, or (a model
     of Python code) the model itself, which must then pickle for a cluster."""
-    from rdgpu.models import MODELS
-
     builtin = MODELS.get(mdl.name) is mdl
     return definition or (mdl.name if builtin else mdl)
 
@@ -435,13 +434,6 @@ def sweep(
     δ) are ``"spots"``, islands of high ``v`` (Pearson's λ) ``"inverted-spots"``.
     """
     xr, da = _need("xarray", "dask.array")
-    from rdgpu.backends.registry import get_backend
-    from rdgpu.core.validation import scalar
-    from rdgpu.runs.store import check_sweep_memory
-    from rdgpu.simulation import describe_domain
-    from rdgpu.simulation.checks import model_definition
-    from rdgpu.simulation.defaults import lookup_model
-
     kind = _store_kind(store)
     _check_scheduler(scheduler)
     mdl = lookup_model(model)
@@ -529,8 +521,6 @@ class _Collector:
             self.pattern = np.full(self.counts, -1, dtype=np.int8)
             self.flags = np.zeros(template["done"].shape, dtype=bool)
         else:  # the flags as stored, each checked against the batch's data
-            from rdgpu.runs.store import read_done, verify_done
-
             self.flags = verify_done(group, Path(store), read_done(group, Path(store)),
                                      self.members, self.counts, tuple(species),
                                      PATTERN_CLASSES.index("diverged"), len(PATTERN_CLASSES))

@@ -18,9 +18,9 @@ import numpy as np
 
 from rdgpu.core import validation
 from rdgpu.core.resources import check_fields
+from rdgpu.ir.schemes import method_names
 
 __all__ = [
-    "FIELD_SPEC_KEYS",
     "GRID_KINDS",
     "MAX_STEPS",
     "check_checkpoint",
@@ -29,7 +29,6 @@ __all__ = [
     "check_run_memory",
     "check_simulation_memory",
     "checkpoint_model",
-    "field_spec",
     "init_spec",
     "model_definition",
     "model_differences",
@@ -65,52 +64,6 @@ def unit_fractions(values: tuple[float, ...], name: str) -> None:
     if not all(0.0 <= v <= 1.0 for v in values):
         raise ValueError(f"{name} is fractions of the sides in [0, 1], got {tuple(values)} "
                          "(a point outside the domain)")
-
-
-# -------------------------------------------------------------------- parameter fields
-#: per field-spec kind: (required keys, optional keys with defaults)
-FIELD_SPEC_KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
-    "random": (("low", "high"), {}),
-    "sine": (("mean", "amplitude"), {"axis": "x", "periods": 1.0}),
-    "linear": (("start", "stop"), {"axis": "x"}),
-}
-
-
-def field_spec(spec: Any, name: str | None = None) -> dict[str, Any]:
-    """A parameter field spec (``rdgpu.models.param_field``) checked and completed: a known
-    ``kind``, every required key, no unknown key, numbers that are numbers (finite),
-    ``low <= high``, an axis name.  ``name`` (the parameter) goes into the messages."""
-    what = "a parameter field spec" if name is None else f"parameter {name!r}"
-    kinds = ", ".join(repr(k) for k in FIELD_SPEC_KEYS)
-    if not isinstance(spec, Mapping):
-        raise TypeError(f"{what}: a field spec is a dict such as {{'kind': 'random', 'low': "
-                        f"0.01, 'high': 0.05}}, got {type(spec).__name__}")
-    kind = spec.get("kind")
-    if not isinstance(kind, str) or kind not in FIELD_SPEC_KEYS:
-        raise ValueError(f"{what}: unknown parameter field kind {kind!r}; allowed: {kinds}")
-    required, optional = FIELD_SPEC_KEYS[kind]
-    missing = [k for k in required if k not in spec]
-    if missing:
-        raise ValueError(f"{what}: a {kind!r} field spec needs {', '.join(map(repr, missing))}"
-                         f" (keys: {', '.join(required + tuple(optional))})")
-    unknown = sorted(set(spec) - {"kind", *required, *optional}, key=str)
-    if unknown:
-        raise ValueError(f"{what}: unknown key(s) {unknown} in a {kind!r} field spec; "
-                         f"allowed: {['kind', *required, *optional]}")
-    out: dict[str, Any] = {"kind": kind, **optional}
-    for key in (*required, *optional):
-        if key == "axis":
-            axis = spec.get(key, optional[key])
-            if not isinstance(axis, str):
-                raise ValueError(f"{what}: 'axis' of a {kind!r} field spec is 'x', 'y' or 'z',"
-                                 f" got {axis!r}")
-            out[key] = axis
-        elif key in spec:
-            out[key] = real(spec[key], f"{what}: {key!r} of a {kind!r} field spec")
-    if kind == "random" and out["low"] > out["high"]:
-        raise ValueError(f"{what}: a 'random' field spec needs low <= high, got low "
-                         f"{out['low']:g} > high {out['high']:g}")
-    return out
 
 
 # ------------------------------------------------------------------- initial conditions
@@ -183,8 +136,6 @@ def check_tol(method: Any, tol: Any, *, unused_ok: bool = False) -> float | None
     value = real(tol, "tol")
     if not value > 0:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
-    from rdgpu.ir.schemes import method_names
-
     if method in method_names(implicit=False) and not unused_ok:
         raise ValueError(f"tol={tol!r} is the accuracy of implicit solves; method {method!r} "
                          f"is explicit and does not use it (leave tol out, or use an IMEX "

@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.core.conventions import VERSION
+
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
@@ -27,9 +29,7 @@ def package_versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[name] = "missing"
     if out["rdgpu"] == "missing":
-        from rdgpu import __version__  # lazy: rdgpu/__init__ is the top layer
-
-        out["rdgpu"] = __version__
+        out["rdgpu"] = VERSION
     return out
 
 

@@ -260,11 +260,11 @@ def test_default_device_skips_a_driver_that_cannot_compile(monkeypatch):
     probed[first.int_ptr] = "error: unknown target CPU"
     monkeypatch.setattr(opencl_devices, "_PROBED", probed)
     if len(devices) > 1:
-        _platform, chosen = opencl_backend._select_device(None)
+        _platform, chosen = opencl_backend.select_device(None)
         assert chosen.int_ptr != first.int_ptr
     with pytest.raises(BackendUnavailableError, match="cannot compile kernels.*unknown target"):
-        opencl_backend._select_device(devices[0][0])
+        opencl_backend.select_device(devices[0][0])
     monkeypatch.setattr(opencl_devices, "_PROBED",
                         {d.int_ptr: "error: unknown target CPU" for _k, _p, d in devices})
     with pytest.raises(BackendUnavailableError, match="no OpenCL device here can compile"):
-        opencl_backend._select_device(None)
+        opencl_backend.select_device(None)

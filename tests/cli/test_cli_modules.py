@@ -19,7 +19,7 @@ from rdgpu.domains.grid import Grid
 CLI = Path(rdgpu.cli.__file__).parent
 #: the imports of rdgpu inside functions that the command line keeps, each for a reason
 #: written beside it (here: the --param parser of `rdgpu sweep`, loaded at parse time)
-LAZY = {("options.py", "_sweep_param", "rdgpu.runs.sweep")}
+LAZY = {("options.py", "parse_sweep_param", "rdgpu.runs.sweep")}
 
 
 def _imports(tree: ast.AST) -> list[tuple[str, str | None]]:

@@ -35,9 +35,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from rdgpu.core.optional import require as _require
-from rdgpu.domains import roughness, spectra
+from rdgpu.domains import spectra
 from rdgpu.domains.base import STENCILS
-from rdgpu.domains.mesh import generators
+from rdgpu.domains.mesh import generators, roughness
 from rdgpu.domains.mesh import io as mesh_io
 from rdgpu.domains.mesh.colouring import greedy_colouring
 from rdgpu.domains.mesh.geometry import (

@@ -88,7 +88,7 @@ from rdgpu.backends import registry as dispatch
 from rdgpu.core.conventions import REAL_DTYPES, axis_names
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.pypde import steppers as pypde_steppers
-from rdgpu.integrations.pypde.checks import check_overrides, check_solver
+from rdgpu.integrations.pypde.checks import UnsupportedPDE, check_overrides, check_solver
 from rdgpu.integrations.pypde.steppers import species_views
 from rdgpu.ir import equations as eq
 from rdgpu.models.device_rhs import DeviceRHS
@@ -103,11 +103,6 @@ _SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
         "derivative and mixed expressions affine in the field and free of t")
-
-
-class UnsupportedPDE(NotImplementedError):
-    """A py-pde problem (equation, grid, condition, solver) that the rdgpu backend does
-    not run; the message names the part."""
 
 
 def _refuse(what: str) -> UnsupportedPDE:

@@ -6,6 +6,9 @@
   giving another answer.  Such a PDE is refused, naming its class and the method.
 * :func:`check_solver`: the solver's step size, tolerance and step limits are finite
   positive numbers (py-pde itself divides by them, or loops forever on a negative step).
+
+Both raise :class:`UnsupportedPDE` (a ``NotImplementedError``; :mod:`~.backend` raises it
+too and exports it).
 """
 
 from __future__ import annotations
@@ -27,9 +30,12 @@ NOISE_MEMBERS = ("is_sde", "use_noise_variance", "use_noise_realization",
 HOOK_METHODS = ("make_post_step_hook",)
 
 
-def _refuse(what: str) -> Exception:
-    from rdgpu.integrations.pypde.backend import UnsupportedPDE
+class UnsupportedPDE(NotImplementedError):
+    """A py-pde problem (equation, grid, condition, solver) that the rdgpu backend does
+    not run; the message names the part."""
 
+
+def _refuse(what: str) -> UnsupportedPDE:
     return UnsupportedPDE(f"py-pde backend 'rdgpu' cannot run this: {what}")
 
 
