@@ -54,10 +54,7 @@ KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     'lazy: rdgpu.models.model -> rdgpu.integrators',
     'lazy: rdgpu.simulation.checks -> rdgpu.models',
     'lazy: rdgpu.simulation.result -> rdgpu.simulation.dataset',
-    # private (3)
-    'private: rdgpu.backends.opencl_backend -> rdgpu.backends.opencl_devices._PROGRAMS',
-    'private: rdgpu.backends.opencl_growth -> rdgpu.backends.opencl_devices._PROGRAMS',
-    'private: rdgpu.backends.warp_backend -> rdgpu.backends.warp_runtime._cpu_count',
+    # private (0)
     # long modules (0)
     # backend peeks (0)
     # domain isinstance (0)

@@ -45,8 +45,8 @@ from rdgpu.backends.base import (
 )
 from rdgpu.backends.opencl_codegen import OpenCLBlockedPass, OpenCLFusedPass
 from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: public here too
-    _PROGRAMS,
     OPENCL_LOCK,
+    PROGRAMS,
     describe_device,
     has_fp64,
     import_pyopencl,
@@ -256,12 +256,12 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         self._check_real(dtype)
         key = (self.context.int_ptr, dtype.char, self.layout, self.col_stride)
         with OPENCL_LOCK:
-            program = _PROGRAMS.get(key)
+            program = PROGRAMS.get(key)
             if program is None:
                 options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
                 program = self._cl.Program(self.context, self._program_source()).build(
                     options=options)
-                _PROGRAMS[key] = program
+                PROGRAMS[key] = program
         self._programs[dtype] = program
         return program
 

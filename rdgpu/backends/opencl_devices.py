@@ -17,7 +17,7 @@ _INSTALL_HINT = "pip install pyopencl pocl-binary-distribution"
 # (device int_ptr) -> (context, queue), and (context int_ptr, dtype, layout, stride) ->
 # built program: shared by every backend instance on the same device, filled under OPENCL_LOCK
 _CONTEXTS: dict[int, tuple[Any, Any]] = {}
-_PROGRAMS: dict[tuple, Any] = {}
+PROGRAMS: dict[tuple, Any] = {}
 OPENCL_LOCK = threading.RLock()
 
 

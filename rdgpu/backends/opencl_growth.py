@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
-from rdgpu.backends.opencl_devices import _PROGRAMS, OPENCL_LOCK
+from rdgpu.backends.opencl_devices import OPENCL_LOCK, PROGRAMS
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.families import load_module, read_source
 
@@ -34,14 +34,14 @@ class OpenCLGrowthKernels:
         if dtype not in mine:
             key = ("dla", self.context.int_ptr, dtype.char, self.layout, self.col_stride)
             with OPENCL_LOCK:
-                program = _PROGRAMS.get(key)
+                program = PROGRAMS.get(key)
                 if program is None:
                     source = ('#line 1 "common.cl"\n' + read_source("", "common.cl")
                               + '\n#line 1 "dla/dla.cl"\n' + read_source("dla", "dla.cl"))
                     options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}",
                                *self._options]
                     program = self._cl.Program(self.context, source).build(options=options)
-                    _PROGRAMS[key] = program
+                    PROGRAMS[key] = program
             weights = self._cl.Kernel(program, "dla_weights")
             weights.set_scalar_arg_dtypes([None, None, None, None, np.int32, np.int32,
                                            np.int32, np.float64, np.int32])
@@ -83,12 +83,12 @@ class OpenCLGrowthKernels:
         if mine is None:
             key = (self.context.int_ptr, "walkers")
             with OPENCL_LOCK:
-                program = _PROGRAMS.get(key)
+                program = PROGRAMS.get(key)
                 if program is None:
                     source = '#line 1 "walkers/walkers.cl"\n' + read_source("walkers",
                                                                              "walkers.cl")
                     program = self._cl.Program(self.context, source).build()
-                    _PROGRAMS[key] = program
+                    PROGRAMS[key] = program
             mine = {}
             for name, types in self._WALK_ARGS.items():
                 mine[name] = self._cl.Kernel(program, name)

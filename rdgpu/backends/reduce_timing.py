@@ -29,14 +29,14 @@ def scalar_opencl():
     builds."""
     be = ocl.OpenCLBackend(layout="row")
     be._options.append("-D RDGPU_REDUCE_SCALAR")
-    saved = dict(ocl._PROGRAMS)
-    ocl._PROGRAMS.clear()
+    saved = dict(ocl.PROGRAMS)
+    ocl.PROGRAMS.clear()
     try:
         for dtype in (np.float32, np.float64):
             be.kernels(dtype)
     finally:
-        ocl._PROGRAMS.clear()
-        ocl._PROGRAMS.update(saved)
+        ocl.PROGRAMS.clear()
+        ocl.PROGRAMS.update(saved)
     return be
 
 

@@ -57,8 +57,8 @@ from rdgpu.backends.warp_runtime import (
     REDUCE_THREADS,
     REDUCE_THREADS_2,
     WARP_LOCK,
-    _cpu_count,
     check_cells,
+    cpu_count,
     import_warp,
     native_stderr_silenced,
     quiet_warp,
@@ -108,7 +108,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         self.device = "cpu" if dev.is_cpu else f"{dev.alias} ({dev.name})"
         self._cells = launch == "cells" or (launch == "auto" and not dev.is_cpu)
         # row chunks run side by side only on a CPU device (a CUDA launch is asynchronous)
-        self._chunks = _cpu_count() if dev.is_cpu else 1
+        self._chunks = cpu_count() if dev.is_cpu else 1
         self._pool = (
             ThreadPoolExecutor(self._chunks - 1, thread_name_prefix="rdgpu-warp")
             if self._chunks > 1

@@ -84,7 +84,7 @@ def check_cells(n: int, shape: tuple[int, ...]) -> None:
                          f"they index with 32-bit ints, at most {MAX_CELLS} cells")
 
 
-def _cpu_count() -> int:
+def cpu_count() -> int:
     """Cores this process may run on."""
     try:
         return max(1, len(os.sched_getaffinity(0)))

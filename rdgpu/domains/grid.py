@@ -11,16 +11,15 @@ from typing import Any, ClassVar
 import numpy as np
 
 from rdgpu.core import validation
+from rdgpu.core.conventions import axis_names
 from rdgpu.domains import spectra
 from rdgpu.domains.base import STENCILS
 from rdgpu.domains.boundary import AxisBC, GridBC, parse_bc
 from rdgpu.domains.mesh.colouring import greedy_colouring
 from rdgpu.families import load_module
 
+
 #: the axis names of a grid's ``field_shape``, per dimension
-AXES = {1: ("x",), 2: ("y", "x"), 3: ("z", "y", "x")}
-
-
 def grid_shape(shape: Any) -> tuple[int, ...]:
     """A grid's shape: a tuple/list of 1 to 3 whole numbers >= 1 (ints, or floats with a
     whole value); a string, a bool or a fraction is an error, not a shape."""
@@ -169,7 +168,7 @@ class Grid:
     @property
     def axes(self) -> tuple[str, ...]:
         """``("x",)``, ``("y", "x")`` or ``("z", "y", "x")``: the axes of ``field_shape``."""
-        return AXES[self.ndim]
+        return axis_names(self.ndim)
 
     @property
     def spacings(self) -> tuple[float, ...]:

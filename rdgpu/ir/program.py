@@ -22,6 +22,7 @@ import numpy as np
 
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
+from rdgpu.domains.base import STENCILS  # the grid stencils, owned by the domains
 from rdgpu.ir.equations import Lap, Node, Ref, walk
 from rdgpu.ir.names import ident
 
@@ -30,8 +31,6 @@ __all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "P
 
 #: the dtypes a program runs in
 REALS = REAL_DTYPES
-#: the grid stencils: "compact" (3/5/7 points) or "isotropic" (9 points in 2-D, 19 in 3-D)
-STENCILS = ("compact", "isotropic")
 #: the metric coefficient arrays in the kernels' argument order (families/metric/reference.py)
 METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
 

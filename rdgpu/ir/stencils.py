@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 from rdgpu.ir.equations import Bin, Lap, Neg, Node, Num, Ref
 from rdgpu.ir.names import ident
-from rdgpu.ir.program import METRIC_COEFFICIENTS, STENCILS, Program
+from rdgpu.ir.program import METRIC_COEFFICIENTS, Program
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
@@ -94,28 +94,16 @@ STENCIL_KINDS: dict[str, StencilKind] = {k.name: k for k in (
 
 
 def stencil_kind(domain: Domain, stencil: str = "compact") -> str:
-    """The row of :data:`STENCIL_KINDS` of a pass on ``domain`` (by its ``kind``) with the
-    grid ``stencil``."""
-    if domain.kind == "mesh":
-        return "mesh"
-    if domain.kind == "graph-surface":
-        return "grid2metric"
-    iso = stencil == "isotropic" and domain.ndim > 1
-    return f"grid{domain.ndim}" + ("iso" if iso else "")
+    """The row of :data:`STENCIL_KINDS` of a pass on ``domain`` with the grid ``stencil``:
+    the domain's own answer (:meth:`Domain.stencil_kind
+    <rdgpu.domains.base.Domain.stencil_kind>`)."""
+    return domain.stencil_kind(stencil)
 
 
 def check_stencil(domain: Domain, stencil: str) -> None:
-    """``stencil`` is known, and an isotropic one has a uniform grid spacing."""
-    if stencil not in STENCILS:
-        raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
-    if stencil == "isotropic" and domain.kind == "graph-surface":
-        raise ValueError("the isotropic stencil is a flat-grid stencil; a graph surface has "
-                         "its own 9-point Laplace-Beltrami operator: use stencil='compact'")
-    if stencil == "isotropic" and domain.kind == "grid" and domain.ndim > 1:
-        hs = [domain.dx, domain.dy] + ([domain.dz] if domain.ndim > 2 else [])
-        if max(hs) != min(hs):
-            raise ValueError(f"the isotropic stencil needs equal spacings, got "
-                             f"{', '.join(f'{h:g}' for h in hs)}")
+    """``stencil`` is known and usable on ``domain`` (an isotropic one needs a flat grid of
+    equal spacings): the domain refuses it otherwise, naming why."""
+    domain.stencil_kind(stencil)
 
 
 # ---------------------------------------------------------------------------- expressions
