@@ -58,28 +58,7 @@ KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     # long modules (0)
     # backend peeks (0)
     # domain isinstance (0)
-    # any hints (21)
-    'any_hints: rdgpu/backends/base.py: 1',
-    'any_hints: rdgpu/cli/common.py: 1',
-    'any_hints: rdgpu/cli/domain.py: 2',
-    'any_hints: rdgpu/cli/listing.py: 1',
-    'any_hints: rdgpu/cli/outputs.py: 1',
-    'any_hints: rdgpu/cli/run.py: 4',
-    'any_hints: rdgpu/core/validation.py: 2',
-    'any_hints: rdgpu/domains/mesh/surface_mesh.py: 1',
-    'any_hints: rdgpu/domains/specs.py: 1',
-    'any_hints: rdgpu/growth/fronts.py: 4',
-    'any_hints: rdgpu/integrations/pypde/backend.py: 3',
-    'any_hints: rdgpu/integrators/allen_cahn.py: 1',
-    'any_hints: rdgpu/io/output.py: 2',
-    'any_hints: rdgpu/io/volumes.py: 1',
-    'any_hints: rdgpu/ops/api.py: 4',
-    'any_hints: rdgpu/ops/inputs.py: 3',
-    'any_hints: rdgpu/runs/sweep.py: 6',
-    'any_hints: rdgpu/simulation/checkpoints.py: 1',
-    'any_hints: rdgpu/simulation/checks.py: 6',
-    'any_hints: rdgpu/simulation/defaults.py: 10',
-    'any_hints: rdgpu/simulation/driver.py: 5',
+    # any hints (0)
 })
 
 

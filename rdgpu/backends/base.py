@@ -36,6 +36,7 @@ from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS
 
 if TYPE_CHECKING:
     from rdgpu.backends.target import BlockedPass, FusedPass, Target
+    from rdgpu.domains.graph_surface import GraphSurface
     from rdgpu.ir.program import Program
 
 Scalar = float
@@ -311,7 +312,7 @@ class Backend(ABC):
         when the coefficients are those of spacings in length units."""
         raise NotImplementedError(self._lacks('metric_laplacian'))
 
-    def upload_metric(self, surface: Any, dtype: Any) -> tuple[DeviceArray, ...]:
+    def upload_metric(self, surface: GraphSurface, dtype: Any) -> tuple[DeviceArray, ...]:
         """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
         rounded to ``dtype`` (subnormals flushed), on this backend.  Cached per backend for
         the last few ``(surface, dtype)`` pairs: surfaces compare by grid and height, so an

@@ -10,11 +10,14 @@ import os
 import re
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.files import check_writable
 from rdgpu.core.resources import check_fields
+
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
 
 DEFAULT_SIZE = (256, 256)
 #: steps of a model that has no default run length of its own
@@ -59,7 +62,7 @@ def io_message(exc: OSError, path: Any = None) -> str:
     return f"cannot write {where}: {why}" if where is not None else why
 
 
-def model_name(model: Any) -> str:
+def model_name(model: Model) -> str:
     """The name of a model given as a name or as a model (a preset's ``model``)."""
     return model if isinstance(model, str) else model.name
 

@@ -10,7 +10,7 @@ import argparse
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,6 +20,9 @@ from rdgpu.core.errors import ResourceLimitError
 from rdgpu.core.resources import check_memory
 from rdgpu.domains.specs import MESH_GENERATORS
 from rdgpu.simulation import default_init
+
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
 
 #: generators a --radius sets, and how
 _RADIUS = {"sphere": ("radius",), "icosphere": ("radius",), "uv-sphere": ("radius",),
@@ -34,7 +37,7 @@ def generator_names() -> list[str]:
     return [k for k in MESH_GENERATORS if "_" not in k and k != "disk"]
 
 
-def domain_spec(args: argparse.Namespace, preset: Any, model: Any, default_size: tuple,
+def domain_spec(args: argparse.Namespace, preset: Any, model: Model, default_size: tuple,
                 ) -> dict:
     """The domain spec of the command line (:func:`rdgpu.simulation.build_domain`)."""
     base = dict(preset.domain) if preset is not None else dict(
@@ -154,7 +157,7 @@ def check_init_file(args: argparse.Namespace) -> None:
 MAX_SPOTS = 100_000
 
 
-def init_for(args: argparse.Namespace, model: Any, params: dict, domain: dict | None = None,
+def init_for(args: argparse.Namespace, model: Model, params: dict, domain: dict | None = None,
              ) -> tuple[Any, Any]:
     """``(init, fields)`` of --init for ``model``: ``(None, None)`` without --init (the
     preset's or the model's default), an init dict, or fields read from a file.  With the

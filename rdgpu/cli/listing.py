@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING
 
 from rdgpu.backends.registry import available_backends
 from rdgpu.cli.common import UsageError, grid_text, model_name
 from rdgpu.models import MODELS, PRESETS
+
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
 
 
 def cmd_backends(args: argparse.Namespace) -> int:
@@ -64,7 +67,7 @@ def cmd_presets(args: argparse.Namespace) -> int:
     return 0
 
 
-def presets_of(model: Any) -> list:
+def presets_of(model: Model) -> list:
     """The presets of ``model`` (the very model: a user model named like a built-in has
     none)."""
     if MODELS.get(model.name) is not model:

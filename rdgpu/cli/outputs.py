@@ -23,6 +23,7 @@ from rdgpu.simulation import Result, describe_domain
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 #: a displayed field whose range is below this fraction of its scale is "uniform"
 UNIFORM_FRACTION = 0.05
@@ -36,7 +37,7 @@ def default_png(name: str) -> str:
     return f"{stem or 'rdgpu'}.png"
 
 
-def uniform_warning(result: Any, model: Any, field: str, has_presets: bool) -> str | None:
+def uniform_warning(result: Any, model: Model, field: str, has_presets: bool) -> str | None:
     """A warning when the pictured field has (nearly) no structure left, with a hint that
     works for this model (a user model has no presets)."""
     f = np.asarray(result.fields[field], dtype=np.float64)

@@ -16,7 +16,7 @@ import re
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rdgpu.cli.checks import (
     check_extras,
@@ -50,6 +50,9 @@ from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted, Stabili
 from rdgpu.io.output import MESH_FORMATS
 from rdgpu.models import MODELS, PRESETS, EquationError, define_model
 from rdgpu.simulation import Simulation
+
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -247,7 +250,7 @@ def _model_and_preset(args: argparse.Namespace) -> tuple[Any, Any, Any]:
     return models[name], preset, defined
 
 
-def _params(args: argparse.Namespace, model: Any, preset: Any, defined: Any) -> dict:
+def _params(args: argparse.Namespace, model: Model, preset: Any, defined: Any) -> dict:
     """The preset's parameters with the --param values over them."""
     params = dict(preset.params or {}) if preset is not None else {}
     # a model defined by --equation has the --param values as its defaults (so that on a
@@ -272,7 +275,7 @@ def _check_grid(args: argparse.Namespace, g: Any, n_species: int, itemsize: int,
     picture_scale(args, shape)
 
 
-def _stepper_options(args: argparse.Namespace, model: Any, preset: Any, domain: dict,
+def _stepper_options(args: argparse.Namespace, model: Model, preset: Any, domain: dict,
                      itemsize: int) -> dict:
     """The preset's stepper options with --method, --stencil and --block-steps, each
     checked against what the model's stepper takes."""
@@ -346,7 +349,7 @@ def _arithmetic(exc: ArithmeticError) -> str:
 
 
 # ------------------------------------------------------------------ what is pictured
-def display_field(model: Any, preset: Any, requested: str | None) -> str:
+def display_field(model: Model, preset: Any, requested: str | None) -> str:
     """--field, else the preset's classified field, else the model's own, else the first
     (Gray-Scott: v)."""
     species = tuple(model.species)
@@ -364,7 +367,7 @@ def display_field(model: Any, preset: Any, requested: str | None) -> str:
     return "v" if model.name == "gray-scott" else species[0]
 
 
-def colour_limits(args: argparse.Namespace, model: Any, field: str) -> tuple[float, float] | None:
+def colour_limits(args: argparse.Namespace, model: Model, field: str) -> tuple[float, float] | None:
     """--range, else the model's known range of ``field`` (a fixed colour scale), else None
     (the field's own range)."""
     if args.range is not None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -34,6 +34,13 @@ CHECK_BLOCK = 1 << 22
 UNCHECKED_BYTES = 1 << 26
 #: beyond this a float64 no longer holds every whole number (``whole(..., floats=True)``)
 _EXACT_FLOAT = 2**53
+
+
+class IndexLimited(Protocol):
+    """What the size check asks of a backend (the core sits below the backends): its name
+    and, where its kernels index with 32-bit ints, ``max_cells``."""
+
+    name: str
 
 
 def _shown(x: Any) -> str:
@@ -217,8 +224,8 @@ def has_subnormals(a: np.ndarray) -> bool:
     return any(bool(((b != 0) & (np.abs(b) < tiny)).any()) for b in _blocks(_distinct(a)))
 
 
-def check_size(shape: tuple[int, ...], dtype: Any, name: str, *, backend: Any = None,
-               memory: bool = True, copies: int = 2) -> None:
+def check_size(shape: tuple[int, ...], dtype: Any, name: str, *,
+               backend: IndexLimited | None = None, memory: bool = True, copies: int = 2) -> None:
     """Refuse an array of ``shape`` before anything is read, copied or allocated: more
     cells than the ``backend``'s kernels index (its ``max_cells``), or more memory than
     the shared estimate allows (:func:`rdgpu.core.resources.check_fields`, ``copies`` working
@@ -264,8 +271,8 @@ def field_values(a: np.ndarray, name: str) -> np.ndarray:
     return np.ascontiguousarray(a)
 
 
-def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2), backend: Any = None
-             ) -> np.ndarray:
+def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2),
+             backend: IndexLimited | None = None) -> np.ndarray:
     """Check a float32/float64, finite array of an allowed ndim; return it C-contiguous.
 
     Kind, dtype, rank and size come first (:func:`field_header`, :func:`check_size` with

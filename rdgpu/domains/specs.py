@@ -89,7 +89,7 @@ def build_domain(spec: Any) -> Domain:
     raise ValueError(f"a domain dict needs a 'grid' or a 'mesh' key, got {sorted(spec)}")
 
 
-def _roughened(mesh: Any, options: Any) -> Any:
+def _roughened(mesh: SurfaceMesh, options: Any) -> Any:
     """``mesh.roughen(**options)``, with the options checked."""
     if not isinstance(options, Mapping):
         raise ValueError(f"roughen must be a dict of SurfaceMesh.roughen options "

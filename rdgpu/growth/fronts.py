@@ -24,9 +24,10 @@ activator ``a = u``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +39,11 @@ from rdgpu.domains.grid import Grid
 from rdgpu.io.images import save_png
 from rdgpu.ops.api import laplacian, levelset_dt_limit
 from rdgpu.simulation.driver import Simulation
+
+if TYPE_CHECKING:
+    from rdgpu.backends.base import Backend
+    from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 SPEEDS = ("laplace", "offset")
 
@@ -251,8 +257,8 @@ class RDFront:
 
 
 def front_growth(
-    model: Any = None,
-    domain: Any = None,
+    model: Model | str | None = None,
+    domain: Domain | Mapping | None = None,
     params: dict | None = None,
     *,
     preset: Any = None,
@@ -265,7 +271,7 @@ def front_growth(
     steps: int = 1000,
     warmup: int = 0,
     dt: float | None = None,
-    backend: Any = None,
+    backend: Backend | str | None = None,
     dtype: Any = "float64",
     seed: int = 0,
     init: dict | None = None,
@@ -307,7 +313,7 @@ def front_growth(
     return front.run(steps, snapshot_every=snapshot_every)
 
 
-def seed003_front(*, backend: Any = None, steps: int | None = None,
+def seed003_front(*, backend: Backend | str | None = None, steps: int | None = None,
                   warmup: int | None = None, **overrides: Any) -> FrontResult:
     """:func:`front_growth` with :data:`SEED003_FRONT` (overridable by keyword)."""
     cfg = {**SEED003_FRONT, **overrides}

@@ -8,7 +8,7 @@ or implicit diffusion in between; :func:`allen_cahn`, its form in the functional
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,9 @@ from rdgpu.ops.api import bernoulli_decay
 from rdgpu.ops.implicit import ImplicitDiffusion
 from rdgpu.ops.inputs import given_shape, grid_or_mesh, param_value
 from rdgpu.ops.results import BackendSpec, check_finite, expect_out, give_host
+
+if TYPE_CHECKING:
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 __all__ = ["METHODS", "AllenCahnStepper", "allen_cahn"]
 
@@ -111,7 +114,7 @@ def allen_cahn(
     b: float | np.ndarray = 0.0,
     steps: int = 1,
     method: str = "explicit",
-    mesh: Any = None,
+    mesh: SurfaceMesh | None = None,
     dx: float = 1.0,
     dy: float | None = None,
     bc: Any = "periodic",

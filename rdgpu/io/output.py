@@ -88,12 +88,12 @@ MESH_FORMATS = (".vtk", ".vtp", ".vtu", ".ply", ".msh", ".xdmf", ".inp")
 PathLike = str | os.PathLike
 
 
-def _on_mesh(domain: Any) -> bool:
+def _on_mesh(domain: Domain | None) -> bool:
     """Whether ``domain`` is unstructured (a mesh: fields are per-vertex values)."""
     return is_domain(domain) and domain.unstructured
 
 
-def _on_grid(domain: Any) -> bool:
+def _on_grid(domain: Domain | None) -> bool:
     """Whether ``domain`` is a grid or a graph surface (fields on cells)."""
     return is_domain(domain) and not domain.unstructured
 

@@ -121,7 +121,7 @@ def render_volume(
                           camera=camera, window_size=window_size, background=background)[0]
 
 
-def _render_volume(frames: np.ndarray, grid: Any, level: float, *, cmap: str,
+def _render_volume(frames: np.ndarray, grid: Grid, level: float, *, cmap: str,
                    clim: tuple[float, float], camera: Any, window_size: tuple[int, int],
                    background: str = "white") -> np.ndarray:
     """Isosurface images ``[n, h, w, 3]`` of ``[n, nz, ny, nx]`` frames (one camera)."""

@@ -19,7 +19,7 @@ the level sets in :mod:`rdgpu.ops.levelsets`, the shared result handling in
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,6 +53,9 @@ from rdgpu.ops.results import (
     give_host,
     upload_optional,
 )
+
+if TYPE_CHECKING:
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 
 # ---------------------------------------------------------------------------- stability
@@ -92,7 +95,7 @@ def laplacian(
     dy: float | None = None,
     bc: Any = "periodic",
     stencil: int = 5,
-    mesh: Any = None,
+    mesh: SurfaceMesh | None = None,
     height: Any = None,
     backend: BackendSpec = None,
     out: Any = None,
@@ -143,7 +146,7 @@ def laplacian(
 
 
 def _surface_laplacian(u: Any, height: Any, dx: Any, dy: Any, bc: Any, stencil: Any,
-                       mesh: Any, backend: BackendSpec, out: Any) -> Any:
+                       mesh: SurfaceMesh | None, backend: BackendSpec, out: Any) -> Any:
     """``rdgpu.laplacian(u, height=h, ...)``: ``Δ_Γ u`` on the periodic graph surface of h."""
     if mesh is not None:
         raise ValueError("height= and mesh= given together: height makes the graph surface "
@@ -220,7 +223,7 @@ def gray_scott(
     dx: float = 1.0,
     dy: float | None = None,
     bc: Any = "periodic",
-    mesh: Any = None,
+    mesh: SurfaceMesh | None = None,
     check_stability: bool = True,
     progress: bool = False,
     backend: BackendSpec = None,
@@ -359,7 +362,7 @@ def diffusion_step(
     steps: int = 1,
     method: str = "explicit",
     source: float | np.ndarray = 0.0,
-    mesh: Any = None,
+    mesh: SurfaceMesh | None = None,
     dx: float = 1.0,
     dy: float | None = None,
     bc: Any = "periodic",

@@ -10,7 +10,7 @@ large is refused before anything is read, copied or uploaded.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,6 +20,9 @@ from rdgpu.core import validation as check
 from rdgpu.domains.base import is_domain
 from rdgpu.domains.boundary import PERIODIC
 from rdgpu.domains.grid import Grid
+
+if TYPE_CHECKING:
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
 
 class _Unread(np.ndarray):
@@ -99,13 +102,14 @@ def param_value(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
     return check.scalar_or_field(x, name, like)
 
 
-def _check_mesh(mesh: Any) -> Any:
+def _check_mesh(mesh: SurfaceMesh | None) -> Any:
     if not (is_domain(mesh) and mesh.unstructured):
         raise TypeError(f"mesh must be an rdgpu.SurfaceMesh, got {type(mesh).__name__}")
     return mesh
 
 
-def mesh_field(u: Any, mesh: Any, name: str, be: Backend | None = None) -> np.ndarray:
+def mesh_field(u: Any, mesh: SurfaceMesh | None, name: str,
+               be: Backend | None = None) -> np.ndarray:
     """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite
     (``be``: see :func:`host_field`)."""
     n = _check_mesh(mesh).n_vertices
@@ -149,7 +153,7 @@ def grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
     return field.reshape(grid.shape), grid
 
 
-def grid_or_mesh(u: Any, mesh: Any, dx: Any, dy: Any, bc: Any, name: str = "u",
+def grid_or_mesh(u: Any, mesh: SurfaceMesh | None, dx: Any, dy: Any, bc: Any, name: str = "u",
                   be: Backend | None = None):
     """``(field, domain)``: a per-vertex field and the mesh, or a grid field and its Grid."""
     if mesh is not None:

@@ -26,7 +26,7 @@ import sys
 import types
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -51,6 +51,10 @@ from rdgpu.simulation import default_dt, describe_domain, domain_defaults
 from rdgpu.simulation.checks import model_definition, whole
 from rdgpu.simulation.defaults import accepts, lookup_model
 from rdgpu.simulation.driver import Simulation
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
 
@@ -138,7 +142,7 @@ def parse_axis(text: str) -> tuple[str, np.ndarray | float]:
 
 
 # ------------------------------------------------------------------------ the job
-def _default_domain(model: Any, size: Any) -> dict:
+def _default_domain(model: Model | str, size: Any) -> dict:
     """A grid of ``size`` (``N``, ``(ny, nx)``, ...) with the model's spacing and boundary
     conditions (periodic unless its default domain says otherwise)."""
     base = dict(getattr(model, "default_domain", None) or {})
@@ -156,7 +160,7 @@ def _default_domain(model: Any, size: Any) -> dict:
     return {"grid": shape, **spec}
 
 
-def pattern_species(model: Any) -> str:
+def pattern_species(model: Model | str) -> str:
     """The species whose pattern a sweep classifies and pictures by default: the one the
     model's presets classify (Gray-Scott ``v``, Brusselator ``u``, ...), else the first."""
     for p in PRESETS.values():
@@ -200,7 +204,7 @@ def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> 
     return {"fields": fields, "pattern": codes}
 
 
-def _common_dt(model: Any, domain: Any, fixed: Mapping[str, Any],
+def _common_dt(model: Model | str, domain: Domain | Mapping | None, fixed: Mapping[str, Any],
                axes: Mapping[str, np.ndarray], options: Mapping[str, Any]) -> float:
     """The default time step that suits every member: the smallest of theirs."""
     base = {**model.defaults, **domain_defaults(model, domain, options), **fixed}
@@ -375,12 +379,12 @@ def _task_model(mdl: Any, definition: Any) -> Any:
 
 # ------------------------------------------------------------------------ sweep
 def sweep(
-    model: Any,
+    model: Model | str,
     params: Mapping[str, Any],
     *,
     steps: int,
     size: Any = 128,
-    domain: Any = None,
+    domain: Domain | Mapping | None = None,
     dt: float | None = None,
     dtype: str = "float32",
     backend: str | None = None,

@@ -29,6 +29,7 @@ from rdgpu.simulation.checks import check_checkpoint, model_record, refuse_other
 from rdgpu.simulation.result import package_versions
 
 if TYPE_CHECKING:
+    from rdgpu.backends.base import Backend
     from rdgpu.domains.base import Domain
     from rdgpu.simulation.driver import Simulation
 
@@ -69,7 +70,7 @@ def split_params(params: Mapping[str, Any]) -> tuple[dict, dict[str, np.ndarray]
     return scalars, arrays
 
 
-def backend_spec(be: Any) -> str:
+def backend_spec(be: Backend) -> str:
     """The backend as ``get_backend`` takes it back (Warp with its device)."""
     return be.spec
 

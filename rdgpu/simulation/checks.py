@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.core import validation
 from rdgpu.core.resources import check_fields
 from rdgpu.ir.schemes import method_names
+
+if TYPE_CHECKING:
+    from rdgpu.models.model import Model
 
 __all__ = [
     "GRID_KINDS",
@@ -93,7 +96,7 @@ def spots_count(count: Any, points: int) -> int:
 _OWN = {"domain", "params", "dt", "backend", "dtype", "check_stability", "seed", "members"}
 
 
-def check_options(model: Any, options: Any) -> dict[str, Any]:
+def check_options(model: Model, options: Any) -> dict[str, Any]:
     """``options`` (extra keyword arguments of ``model.stepper``) checked against what the
     stepper takes: names it knows, and for models built from equations a ``tol`` that is a
     positive number given only to a method that solves implicitly."""
@@ -275,7 +278,7 @@ def check_checkpoint(name: str, meta: dict, arrays: Mapping[str, np.ndarray]) ->
 
 
 
-def model_definition(model: Any) -> dict:
+def model_definition(model: Model) -> dict:
     """A checkpoint's record of a model defined by its equations (not a built-in): enough
     to rebuild it on resume."""
     equations = getattr(model, "equations", None)
@@ -298,7 +301,7 @@ def _builtin(name: str) -> Any:
     return MODELS.get(name)
 
 
-def model_record(model: Any) -> dict:
+def model_record(model: Model) -> dict:
     """What a checkpoint keeps of a model defined by its equations: the definition, and
     what else changes a run (its bounds, the method used where none is named)."""
     out = model_definition(model)
@@ -330,7 +333,7 @@ def _reference_equations(meta: Mapping[str, Any]) -> tuple[dict | None, str]:
     return None, ""
 
 
-def model_differences(meta: Mapping[str, Any], model: Any) -> list[str]:
+def model_differences(meta: Mapping[str, Any], model: Model) -> list[str]:
     """What differs between the model a checkpoint was written by (``meta``) and
     ``model``: name, species, parameters, equations (empty when they agree)."""
     out = []
@@ -385,7 +388,7 @@ def _is_builtin_record(meta: Mapping[str, Any]) -> bool:
     return not model_differences(meta, builtin)
 
 
-def checkpoint_model(meta: Mapping[str, Any], model: Any, path: Any) -> Any:
+def checkpoint_model(meta: Mapping[str, Any], model: Model, path: Any) -> Any:
     """The model to resume a checkpoint with: the checkpoint's own equations always win
     (a model defined by equations is rebuilt from them, whatever its name, even a
     built-in's); a ``model`` passed explicitly must be the checkpoint's (a ValueError
@@ -414,7 +417,7 @@ def checkpoint_model(meta: Mapping[str, Any], model: Any, path: Any) -> Any:
     return model
 
 
-def refuse_other_model(meta: Mapping[str, Any], model: Any, path: Any,
+def refuse_other_model(meta: Mapping[str, Any], model: Model, path: Any,
                        hint: str = "resume it with Simulation.resume(path), which rebuilds "
                                    "the checkpoint's own model") -> None:
     """A ValueError when ``model`` is not the model of the checkpoint ``path``."""

@@ -16,6 +16,7 @@ from rdgpu.models.steady_state import fit_to_domain, steady_start
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 __all__ = ["DEFAULT_BOUND", "DEFAULT_CHECKPOINT_EVERY", "DEFAULT_CHECK_EVERY", "FALLBACK_INITS",
            "accepts", "default_dt", "default_init", "default_steps", "domain_defaults",
@@ -29,7 +30,7 @@ DEFAULT_CHECK_EVERY = 200
 DEFAULT_CHECKPOINT_EVERY = 1000
 
 
-def lookup_model(model: Any) -> Any:
+def lookup_model(model: Model | str) -> Any:
     """The model of a name in ``rdgpu.models.MODELS``, or ``model`` itself (checked)."""
     if not isinstance(model, str):
         if not (hasattr(model, "stepper") and hasattr(model, "species")):
@@ -54,7 +55,7 @@ def lookup_preset(preset: Any) -> Any:
     return PRESETS[preset]
 
 
-def model_bound(model: Any, species: str) -> float:
+def model_bound(model: Model | str, species: str) -> float:
     """The blow-up bound of ``species``: the model's ``blowup_bound`` (a number or a
     per-species dict), else :data:`DEFAULT_BOUND`."""
     bound = getattr(model, "blowup_bound", None)
@@ -81,12 +82,12 @@ FALLBACK_INITS: dict[str, dict] = {
 }
 
 
-def presets_of(model: Any) -> list:
+def presets_of(model: Model | str) -> list:
     """The presets of ``model`` (by name)."""
     return [p for p in PRESETS.values() if model_name(p.model) == model.name]
 
 
-def default_init(model: Any, params: Mapping[str, Any] | None = None,
+def default_init(model: Model | str, params: Mapping[str, Any] | None = None,
                  domain: Domain | None = None) -> dict:
     """The initial condition of a model run without one: the model's ``default_init``,
     else :data:`FALLBACK_INITS`, else its first preset's, else its homogeneous steady state
@@ -115,7 +116,7 @@ def default_init(model: Any, params: Mapping[str, Any] | None = None,
                                                         "noise": 0.05}
 
 
-def dt_limit(model: Any, domain: Domain, params: Mapping[str, Any],
+def dt_limit(model: Model | str, domain: Domain, params: Mapping[str, Any],
               options: Mapping[str, Any] | None = None) -> float:
     """The model's stability limit of ``dt`` on ``domain`` (``options``: the stepper's,
     passed where ``model.dt_limit`` takes them)."""
@@ -123,7 +124,7 @@ def dt_limit(model: Any, domain: Domain, params: Mapping[str, Any],
     return float(model.dt_limit(domain, dict(params), **kwargs))
 
 
-def model_value(model: Any, name: str, params: Mapping[str, Any]) -> float | None:
+def model_value(model: Model | str, name: str, params: Mapping[str, Any]) -> float | None:
     """The model's optional ``name`` hook: a number, or a callable of the parameters."""
     value = getattr(model, name, None)
     if callable(value):
@@ -134,7 +135,7 @@ def model_value(model: Any, name: str, params: Mapping[str, Any]) -> float | Non
     return value if math.isfinite(value) and value > 0 else None
 
 
-def domain_defaults(model: Any, domain: Domain,
+def domain_defaults(model: Model | str, domain: Domain,
                     options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Parameter defaults that depend on the domain (the model's optional
     ``domain_defaults(domain)``; e.g. Allen-Cahn's ε relative to the spacing): they replace
@@ -147,7 +148,7 @@ def domain_defaults(model: Any, domain: Domain,
     return {k: v for k, v in dict(hook(domain, **kwargs)).items() if k in model.defaults}
 
 
-def default_dt(model: Any, domain: Domain, params: Mapping[str, Any],
+def default_dt(model: Model | str, domain: Domain, params: Mapping[str, Any],
                options: Mapping[str, Any] | None = None) -> float:
     """The time step of a run that names none: the smaller of 0.9 times the stability limit
     on ``domain`` and the model's own ``default_dt`` (a number or a function of the
@@ -163,7 +164,7 @@ def default_dt(model: Any, domain: Domain, params: Mapping[str, Any],
     return dt if math.isfinite(dt) else 1.0
 
 
-def default_steps(model: Any, dt: float, params: Mapping[str, Any]) -> int | None:
+def default_steps(model: Model | str, dt: float, params: Mapping[str, Any]) -> int | None:
     """Steps of a run that names none: the model's ``default_time`` (model time units, a
     number or a function of the parameters: long enough for its pattern to form) over
     ``dt``; ``None`` for a model without one."""
@@ -173,7 +174,7 @@ def default_steps(model: Any, dt: float, params: Mapping[str, Any]) -> int | Non
     return max(1, math.ceil(t / dt - 1e-9))
 
 
-def model_name(model: Any) -> str:
+def model_name(model: Model | str) -> str:
     """A model's name (a name is its own)."""
     return model if isinstance(model, str) else model.name
 

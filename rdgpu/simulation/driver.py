@@ -76,7 +76,9 @@ from rdgpu.simulation.result import Result
 from rdgpu.simulation.runner import Runner, restore
 
 if TYPE_CHECKING:
+    from rdgpu.backends.base import Backend
     from rdgpu.domains.base import Domain
+    from rdgpu.models.model import Model
 
 __all__ = ["Simulation"]
 
@@ -127,12 +129,12 @@ class Simulation:
 
     def __init__(
         self,
-        model: Any,
+        model: Model | str,
         domain: Domain | Mapping[str, Any],
         params: Mapping[str, Any] | None = None,
         *,
         dt: float | None = None,
-        backend: Any = None,
+        backend: Backend | str | None = None,
         dtype: Any = "float32",
         seed: int = 0,
         init: Mapping[str, Any] | None = None,
@@ -338,7 +340,7 @@ class Simulation:
         domain: Domain | Mapping[str, Any] | None = None,
         params: Mapping[str, Any] | None = None,
         dt: float | None = None,
-        backend: Any = None,
+        backend: Backend | str | None = None,
         dtype: Any = "float32",
         seed: int | None = None,
         init: Mapping[str, Any] | None = None,
@@ -394,7 +396,8 @@ class Simulation:
         return checkpoints.read_checkpoint(path)
 
     @classmethod
-    def resume(cls, path: str | os.PathLike, *, model: Any = None, backend: Any = None,
+    def resume(cls, path: str | os.PathLike, *, model: Model | str | None = None,
+               backend: Backend | str | None = None,
                check_stability: bool | None = None) -> Simulation:
         """A simulation rebuilt from a checkpoint, at its step.  ``run()`` (no ``steps``)
         then finishes the interrupted run with its settings.  A model defined by equations

@@ -29,7 +29,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from functools import cached_property
-from typing import Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -51,6 +51,9 @@ from rdgpu.domains.mesh.geometry import (
     min_image,
     rowwise_dot,
 )
+
+if TYPE_CHECKING:
+    import meshio
 
 __all__ = [
     "DegenerateMeshError",
@@ -406,7 +409,7 @@ class SurfaceMesh:
         return cls(*mesh_io._pyvista_arrays(pv, pd), repair=repair)
 
     @classmethod
-    def from_meshio(cls, mesh: Any, *, repair: bool = False) -> SurfaceMesh:
+    def from_meshio(cls, mesh: meshio.Mesh, *, repair: bool = False) -> SurfaceMesh:
         """From a ``meshio.Mesh``: its ``triangle`` cells, and its ``quad`` cells split into
         two triangles each (``(a, b, c, d)`` → ``(a, b, c)``, ``(a, c, d)``); other cell
         blocks (points, lines, volume cells) are ignored. 2-D points get ``z = 0``. A mesh

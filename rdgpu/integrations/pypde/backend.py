@@ -62,7 +62,7 @@ With a fixed-``dt`` Euler solver rdgpu checks the linear stability limit of ``dt
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -94,6 +94,9 @@ from rdgpu.ir import equations as eq
 from rdgpu.models.device_rhs import DeviceRHS
 from rdgpu.models.model import define_model
 
+if TYPE_CHECKING:
+    from pde import CartesianGrid
+
 __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 
 NAME = "rdgpu"
@@ -124,7 +127,7 @@ class Translation:
         self.uses_time = any(eq.names(t, "time") for t in self.model.trees.values())
 
 
-def _grid(grid: Any) -> tuple[tuple[int, ...], dict[str, float]]:
+def _grid(grid: CartesianGrid) -> tuple[tuple[int, ...], dict[str, float]]:
     """``(shape, spacings)`` of rdgpu's :class:`Grid` for py-pde's ``grid``."""
     if not isinstance(grid, pde.CartesianGrid):
         raise _refuse(f"the grid {type(grid).__name__} (only CartesianGrid is supported)")
@@ -206,7 +209,7 @@ def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
                  for v, what in ((const, "constant"), (factor, "factor")))
 
 
-def _conditions(grid: Any, data: Any, what: str) -> list[Any]:
+def _conditions(grid: CartesianGrid, data: Any, what: str) -> list[Any]:
     """Per axis ``"periodic"`` or a pair of :func:`_side` results (low, high)."""
     try:
         bcs = grid.get_boundary_conditions(data)
@@ -331,7 +334,7 @@ def _expression_pde(pde_obj: Any) -> tuple[dict[str, str], dict[str, Any],
     return dict(pde_obj.rhs), dict(pde_obj.consts), bcs
 
 
-def _coordinate_map(grid: Any) -> Callable[[eq.Node], eq.Node | None]:
+def _coordinate_map(grid: CartesianGrid) -> Callable[[eq.Node], eq.Node | None]:
     """py-pde's coordinates (axis ``k`` named ``grid.axes[k]``, from its lower bound)
     in rdgpu's names (from 0)."""
     ours = axis_names(grid.num_axes)
