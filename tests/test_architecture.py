@@ -48,12 +48,9 @@ KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     # upward (2)
     'upward: rdgpu.models.allen_cahn -> rdgpu.integrators.allen_cahn',
     'upward: rdgpu.models.model -> rdgpu.integrators',
-    # lazy (5)
-    'lazy: rdgpu.analysis.isometry -> rdgpu.models.library',
+    # lazy (2)
     'lazy: rdgpu.models.allen_cahn -> rdgpu.integrators.allen_cahn',
     'lazy: rdgpu.models.model -> rdgpu.integrators',
-    'lazy: rdgpu.simulation.checks -> rdgpu.models',
-    'lazy: rdgpu.simulation.result -> rdgpu.simulation.dataset',
     # private (0)
     # long modules (0)
     # backend peeks (0)

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+from rdgpu.models.library import MODELS
 
 __all__ = ["bend", "cylinder", "interface_width", "isometry_experiment", "phase_overlap"]
 
@@ -135,8 +136,6 @@ def isometry_experiment(
     Returns ``dice_same`` (same data, straight vs bent), ``dice_baseline`` (different data,
     both straight), their Jaccard forms, ``dt``, ``steps``, ``eps`` and the three final
     fields ``u_straight``, ``u_bent``, ``u_other``."""
-    from rdgpu.models.library import MODELS
-
     model = MODELS["allen-cahn"]
     eps = float(ratio) * float(straight.mean_edge_length)
     dt = min(0.5 * eps * eps, 0.5 * model.dt_limit(straight), 0.5 * model.dt_limit(bent))

@@ -15,7 +15,10 @@ import subprocess
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-__all__ = ["CacheLevel", "Caches", "allowed_cpus", "cache_sizes", "cpu_caches", "parse_size"]
+from rdgpu.core.conventions import VERSION
+
+__all__ = ["CacheLevel", "Caches", "allowed_cpus", "cache_sizes", "cpu_caches",
+           "package_versions", "parse_size"]
 
 _MiB = 1 << 20
 
@@ -154,3 +157,20 @@ def cache_sizes() -> dict[int, int]:
         if c.type != "Instruction":
             sizes[c.level] = min(sizes.get(c.level, c.size), c.size)
     return sizes
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of rdgpu, Python, NumPy, SciPy, Warp and PyOpenCL (``"missing"`` if absent)."""
+    import platform
+    from importlib import metadata
+
+    out = {"python": platform.python_version()}
+    for name, dist in (("rdgpu", "rdgpu"), ("numpy", "numpy"), ("scipy", "scipy"),
+                       ("warp", "warp-lang"), ("pyopencl", "pyopencl")):
+        try:
+            out[name] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[name] = "missing"
+    if out["rdgpu"] == "missing":
+        out["rdgpu"] = VERSION
+    return out

@@ -23,10 +23,10 @@ import numpy as np
 
 from rdgpu.core.conventions import axis_names
 from rdgpu.core.files import atomic_savez
+from rdgpu.core.hardware import package_versions
 from rdgpu.core.npzread import read_archive
 from rdgpu.domains.base import is_domain
 from rdgpu.simulation.checks import check_checkpoint, model_record, refuse_other_model
-from rdgpu.simulation.result import package_versions
 
 if TYPE_CHECKING:
     from rdgpu.backends.base import Backend

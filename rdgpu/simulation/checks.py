@@ -19,6 +19,7 @@ import numpy as np
 from rdgpu.core import validation
 from rdgpu.core.resources import check_fields
 from rdgpu.ir.schemes import method_names
+from rdgpu.models import MODELS, define_model
 
 if TYPE_CHECKING:
     from rdgpu.models.model import Model
@@ -285,8 +286,6 @@ def model_definition(model: Model) -> dict:
     defaults = getattr(model, "defaults", None)
     if not isinstance(equations, dict):
         return {}
-    from rdgpu.models import MODELS  # lazy: rdgpu.models imports this module
-
     if MODELS.get(model.name) is model:
         return {}
     plain = {k: v for k, v in (defaults or {}).items() if isinstance(v, (int, float, str))}
@@ -296,8 +295,6 @@ def model_definition(model: Model) -> dict:
 
 
 def _builtin(name: str) -> Any:
-    from rdgpu.models import MODELS  # lazy: rdgpu.models imports this module
-
     return MODELS.get(name)
 
 
@@ -324,8 +321,6 @@ def _reference_equations(meta: Mapping[str, Any]) -> tuple[dict | None, str]:
     (``None`` when neither is known), and where they come from."""
     if isinstance(meta.get("equations"), Mapping):
         return dict(meta["equations"]), "the checkpoint's equations"
-    from rdgpu.models import MODELS  # lazy: rdgpu.models imports this module
-
     builtin = MODELS.get(meta.get("model"))
     equations = getattr(builtin, "equations", None)
     if isinstance(equations, Mapping):
@@ -395,8 +390,6 @@ def checkpoint_model(meta: Mapping[str, Any], model: Model, path: Any) -> Any:
     says what differs)."""
     if model is None:
         if isinstance(meta.get("equations"), Mapping) and not _is_builtin_record(meta):
-            from rdgpu.models import define_model
-
             try:
                 options: dict[str, Any] = {}
                 if isinstance(meta.get("bounds"), Mapping):

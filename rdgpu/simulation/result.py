@@ -8,29 +8,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rdgpu.core.conventions import VERSION
+from rdgpu.core.hardware import package_versions
+from rdgpu.simulation.dataset import result_dataset
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
 __all__ = ["Result", "package_versions"]
-
-
-def package_versions() -> dict[str, str]:
-    """Versions of rdgpu, Python, NumPy, SciPy, Warp and PyOpenCL (``"missing"`` if absent)."""
-    import platform
-    from importlib import metadata
-
-    out = {"python": platform.python_version()}
-    for name, dist in (("rdgpu", "rdgpu"), ("numpy", "numpy"), ("scipy", "scipy"),
-                       ("warp", "warp-lang"), ("pyopencl", "pyopencl")):
-        try:
-            out[name] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            out[name] = "missing"
-    if out["rdgpu"] == "missing":
-        out["rdgpu"] = VERSION
-    return out
 
 
 @dataclass
@@ -78,7 +62,6 @@ class Result:
         last one); parameter fields as ``param_<name>``, a graph surface's ``height``; the
         model, parameters, dt, backend, dtype and domain as attributes. Needs xarray. See
         :mod:`rdgpu.simulation.dataset` for the full layout."""
-        from rdgpu.simulation.dataset import result_dataset  # lazy: dataset imports this
 
         return result_dataset(self)
 

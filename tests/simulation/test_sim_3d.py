@@ -494,14 +494,14 @@ def toy_cli(monkeypatch, capsys):
 
 
 def test_cli_size_forms():
-    assert cli._size("32") == (32, 32)
-    assert cli._size("32x48") == (32, 48)
-    assert cli._size("32x48x64") == (32, 48, 64)
+    assert cli.parse_size("32") == (32, 32)
+    assert cli.parse_size("32x48") == (32, 48)
+    assert cli.parse_size("32x48x64") == (32, 48, 64)
     for bad in ("2x3x4x5", "0x4x4", "4x4x", "ax4"):
         with pytest.raises(Exception, match=re.escape(
                 "size must look like 256 or 256x128 (rows x columns), or 32x48x64 "
                 "(planes x rows x columns) for a 3-D grid")):
-            cli._size(bad)
+            cli.parse_size(bad)
 
 
 def test_cli_runs_a_3d_grid(toy_cli, tmp_path):
