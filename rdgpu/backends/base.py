@@ -18,10 +18,12 @@ the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as N
 
 from __future__ import annotations
 
+import importlib
 import math
 import threading
 from abc import ABC, abstractmethod
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -124,6 +126,50 @@ class Backend(ABC):
     def _lacks(self, kernel: str) -> str:
         return (f"the {self.name!r} backend ({type(self).__name__}) has no {kernel} kernel; "
                 "use a backend that has (rdgpu.available_backends())")
+
+    # ------------------------------------------------------------------ kernel families
+    #: the launcher module this backend runs in every kernel family's folder
+    #: (``rdgpu/families/<family>/<launchers>.py``: ``"numpy"``, ``"warp"``, ``"opencl"``);
+    #: None: it runs no hand-written family
+    launchers: str | None = None
+
+    def kernel(self, family: str, op: str) -> Callable[..., Any]:
+        """The launcher ``op`` of the kernel family ``family`` on this backend, bound to it:
+        ``backend.kernel("bernoulli", "bernoulli")(u, out, decay=d)`` runs
+        ``rdgpu.families.bernoulli.<launchers>.bernoulli(backend, u, out, decay=d)``.
+
+        A family's launchers live in its own folder, one module per backend, and use only
+        the backend's public runtime methods; adding a family touches no backend.  A
+        backend without the launcher raises :class:`NotImplementedError` naming both."""
+        found = self._kernel_cache().get((family, op))
+        if found is not None:
+            return found
+        fn = None
+        if self.launchers is not None:
+            try:
+                module = importlib.import_module(
+                    f"rdgpu.families.{family}.{self.launchers}")
+            except ModuleNotFoundError as exc:
+                if not (exc.name or "").startswith(f"rdgpu.families.{family}"):
+                    raise
+            else:
+                fn = getattr(module, op, None)
+        if fn is None:
+            raise NotImplementedError(self._lacks(f"{family}.{op}"))
+
+        def bound(*args: Any, **kwargs: Any) -> Any:
+            return fn(self, *args, **kwargs)
+
+        bound.__name__ = bound.__qualname__ = f"{family}.{op}"
+        bound.__doc__ = fn.__doc__
+        self._kernel_cache()[(family, op)] = bound
+        return bound
+
+    def _kernel_cache(self) -> dict[tuple[str, str], Callable[..., Any]]:
+        cache = self.__dict__.get("_kernels_bound")
+        if cache is None:
+            cache = self.__dict__["_kernels_bound"] = {}
+        return cache
 
     # ------------------------------------------------------------------ memory
     @abstractmethod
@@ -364,7 +410,7 @@ class Backend(ABC):
         """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
         Works on arrays of any shape (grid or mesh vertices)."""
-        raise NotImplementedError(self._lacks('bernoulli'))
+        self.kernel("bernoulli", "bernoulli")(u, out, decay=decay)
 
     def gray_scott(
         self,

@@ -31,11 +31,11 @@ class NumpyBackend(Backend):
     """Reference backend; its "device" is host memory."""
 
     name = "numpy"
+    launchers = "numpy"
 
     def __init__(self) -> None:
         self.device = "cpu (host memory)"
         self._lap = load_module("laplacian", "reference.py")
-        self._ber = load_module("bernoulli", "reference.py")
         self._gs = load_module("gray_scott", "reference.py")
         self._sor = load_module("sor", "reference.py")
         self._ls = load_module("levelset", "reference.py")
@@ -85,9 +85,6 @@ class NumpyBackend(Backend):
         self._check_metric(u, coefficients, out)
         out.handle[...] = self._metric.metric_laplacian(u.handle,
                                                         *(c.handle for c in coefficients))
-
-    def bernoulli(self, u, out, *, decay):
-        out.handle[...] = self._ber.bernoulli(u.handle, decay)
 
     def gray_scott(self, u, v, u_out, v_out, *, Du, Dv, F, k, dt, dx, dy, bc):
         un, vn = self._gs.gray_scott_step(

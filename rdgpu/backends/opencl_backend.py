@@ -29,6 +29,7 @@ commands from all threads share the device's one in-order queue.
 
 from __future__ import annotations
 
+import importlib
 import os
 import threading
 from typing import Any
@@ -76,7 +77,6 @@ _KERNEL_ARGS = {
     "laplacian5": "BB" + _GRID + "rr",
     "laplacian9": "BB" + _GRID + "r",
     "metric_laplacian": "BBBBBBiii",  # u, ex, ny, bx, w, out; nx, ny, nm
-    "bernoulli": "BBllrr",
     "gray_scott_ss": "BBBBBB" + _GRID + "rrrrrrr",
     "gray_scott_fs": "BBBBBB" + _GRID + "rrrrrrr",
     "gray_scott_sf": "BBBBBB" + _GRID + "rrrrrrr",
@@ -102,9 +102,25 @@ _KERNEL_ARGS = {
     "max_abs_partial": "BBllB",  # u, partial; n, chunk; __local scratch
     "sum_squares_partial": "BBllB",  # u, partial (double); n, chunk; __local scratch
 }
+
+
+def kernel_args() -> dict[str, str]:
+    """The argument types of every kernel of the shared program: the table above, then
+    each family's own (``KERNEL_ARGS`` of ``rdgpu/families/<family>/opencl.py``)."""
+    found = dict(_KERNEL_ARGS)
+    for family in _FAMILIES:
+        try:
+            module = importlib.import_module(f"rdgpu.families.{family}.opencl")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"rdgpu.families.{family}.opencl":
+                raise
+            continue
+        found.update(module.KERNEL_ARGS)
+    return found
+
+
 _LAYOUTS = ("row", "strided")
 _MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
-_BERNOULLI_CHUNK = 16384  # elements per work-item in the row layout
 # CSR kernels in the row layout: rows per work-item at least, and work-items per compute
 # unit at most (fewer, longer work-items: PoCL costs about a microsecond per work-group)
 _CSR_MIN_BLOCK = 512
@@ -129,13 +145,14 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     """
 
     name = "opencl"
+    launchers = "opencl"
     max_cells = _MAX_CELLS
 
     def __init__(
         self, device: str | None = None, *, layout: str | None = None, col_stride: int | None = None
     ):
         cl = import_pyopencl()
-        self._cl = cl
+        self.cl = cl
         if device is None:
             device = os.environ.get("RDGPU_OPENCL_DEVICE") or None
         platform, dev = select_device(device)
@@ -215,7 +232,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
 
     @property
     def on_cpu(self) -> bool:
-        return bool(self.cl_device.type & self._cl.device_type.CPU)
+        return bool(self.cl_device.type & self.cl.device_type.CPU)
 
     @property
     def compute_units(self) -> int:
@@ -241,10 +258,10 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
             mine = self._local.kernels = {}
         entry = mine.get(dtype)
         if entry is None or entry[0] is not program:
-            cl = self._cl
+            cl = self.cl
             codes = {"B": None, "i": np.int32, "l": np.int64, "r": dtype}
             kernels = {}
-            for name, spec in _KERNEL_ARGS.items():
+            for name, spec in kernel_args().items():
                 kernel = cl.Kernel(program, name)
                 kernel.set_scalar_arg_dtypes([codes[c] for c in spec])
                 kernels[name] = kernel
@@ -253,19 +270,19 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
 
     def _program(self, dtype: np.dtype) -> Any:
         """The program for ``dtype``, built once per (context, dtype, layout, stride)."""
-        self._check_real(dtype)
+        self.check_real(dtype)
         key = (self.context.int_ptr, dtype.char, self.layout, self.col_stride)
         with OPENCL_LOCK:
             program = PROGRAMS.get(key)
             if program is None:
                 options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
-                program = self._cl.Program(self.context, self._program_source()).build(
+                program = self.cl.Program(self.context, self._program_source()).build(
                     options=options)
                 PROGRAMS[key] = program
         self._programs[dtype] = program
         return program
 
-    def _check_real(self, dtype: np.dtype) -> None:
+    def check_real(self, dtype: np.dtype) -> None:
         if dtype not in _REALS:
             raise TypeError(f"rdgpu kernels take float32 or float64 arrays, got {dtype}")
         if dtype == np.float64 and not self.fp64:
@@ -276,7 +293,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
 
     # ------------------------------------------------------------------ memory
     def _buffer(self, nbytes: int, host: np.ndarray | None = None):
-        cl = self._cl
+        cl = self.cl
         mf = cl.mem_flags
         if host is not None and nbytes > 0:
             return cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=host)
@@ -284,7 +301,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
 
     def _check_alloc_dtype(self, dtype: np.dtype) -> None:
         if dtype == np.float64 and not self.fp64:
-            self._check_real(dtype)
+            self.check_real(dtype)
         if dtype.hasobject:
             raise TypeError(f"cannot put an object array on an OpenCL device ({dtype})")
 
@@ -297,7 +314,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     def download(self, d: DeviceArray) -> np.ndarray:
         out = np.empty(d.shape, dtype=d.dtype)
         if out.nbytes:
-            self._cl.enqueue_copy(self.queue, out, d.handle, is_blocking=True)
+            self.cl.enqueue_copy(self.queue, out, d.handle, is_blocking=True)
         else:
             self.queue.finish()
         return out
@@ -317,13 +334,13 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
                 f"{dst.shape} {dst.dtype}"
             )
         if src.nbytes and src.handle is not dst.handle:
-            self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=src.nbytes)
+            self.cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=src.nbytes)
 
     def copy_range(self, src, src_start, dst, dst_start, count) -> None:
         check_range(src, src_start, dst, dst_start, count)
         if count:
             size = src.dtype.itemsize
-            self._cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=count * size,
+            self.cl.enqueue_copy(self.queue, dst.handle, src.handle, byte_count=count * size,
                                   src_offset=src_start * size, dst_offset=dst_start * size)
 
     def synchronize(self) -> None:
@@ -334,7 +351,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     # rounded to the real type (the typed invoker packs them exactly like ``dtype.type(x)``)
     # and as NumPy scalars where the reference rounds intermediate results in the dtype.
 
-    def _grid(self, bc: GridBC, u: DeviceArray, *others: DeviceArray | None):
+    def grid(self, bc: GridBC, u: DeviceArray, *others: DeviceArray | None):
         """Check a grid kernel's arrays; return ``(ny, (nx, ny, y_kind, g_y, x_kind, g_x))``."""
         shape = u.shape
         if len(shape) != 2:
@@ -352,7 +369,14 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         y, x = bc.y, bc.x
         return (ny if nx else 0), (nx, ny, y.kind, y.value, x.kind, x.value)
 
-    def _launch_grid(self, kernel, ny: int, args) -> None:
+    def enqueue(self, kernel, args: tuple, global_size: tuple[int, ...],
+                local_size: tuple[int, ...]) -> None:
+        """Set ``kernel``'s arguments and enqueue it over ``global_size`` work-items in
+        work-groups of ``local_size`` (no wait)."""
+        kernel.set_args(*args)
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, global_size, local_size)
+
+    def launch_grid(self, kernel, ny: int, args) -> None:
         if ny == 0:
             return
         kernel.set_args(*args)
@@ -360,60 +384,41 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
             gsize, lsize = (1, ny), (1, 1)
         else:
             gsize, lsize = (self.col_stride, ny), (self.col_stride, 1)
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, lsize)
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, lsize)
 
     # ------------------------------------------------------------------ grid kernels
     def laplacian(
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
-        ny, grid = self._grid(bc, u, out)
+        ny, grid = self.grid(bc, u, out)
         ks = self.kernels(u.dtype)
         if stencil == 5:
             args = (u.handle, out.handle, *grid, 1.0 / dx**2, 1.0 / dy**2)
-            self._launch_grid(ks["laplacian5"], ny, args)
+            self.launch_grid(ks["laplacian5"], ny, args)
         elif stencil == 9:
             if dx != dy:
                 raise ValueError(f"the 9-point stencil needs dx == dy, got dx={dx}, dy={dy}")
             args = (u.handle, out.handle, *grid, 1.0 / (6.0 * dx * dx))
-            self._launch_grid(ks["laplacian9"], ny, args)
+            self.launch_grid(ks["laplacian9"], ny, args)
         else:
             raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
 
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
         nm = self._check_metric(u, coefficients, out)
-        self._check_on_device(u, out)
+        self.check_on_device(u, out)
         ny, nx = u.shape[-2:]
         if nm * ny * nx > _MAX_CELLS:
             raise ValueError(f"{nm} members of {ny}x{nx} cells are too many for the OpenCL "
                              "kernels")
         args = (u.handle, *(c.handle for c in coefficients), out.handle, nx, ny, nm)
-        self._launch_grid(self.kernels(u.dtype)["metric_laplacian"], nm * ny if nx else 0,
+        self.launch_grid(self.kernels(u.dtype)["metric_laplacian"], nm * ny if nx else 0,
                           args)
-
-    def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
-        if out.shape != u.shape or out.dtype != u.dtype:
-            raise ValueError(f"bernoulli: out {out.shape} {out.dtype} != u {u.shape} {u.dtype}")
-        n = u.size
-        if n == 0:
-            return
-        t = u.dtype.type
-        kernel = self.kernels(u.dtype)["bernoulli"]
-        d = t(decay)
-        # fixed local sizes: PoCL compiles one work-group function per local size
-        if self.layout == "row":
-            chunk, group = _BERNOULLI_CHUNK, 1
-        else:
-            chunk, group = 1, self.col_stride
-        items = -(-n // chunk)
-        kernel.set_args(u.handle, out.handle, n, chunk, d, t(1) - d)
-        gsize = (-(-items // group) * group,)
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
 
     # ------------------------------------------------------------------ reductions
     def max_abs(self, u: DeviceArray) -> float:
         bits = self._check_max_abs(u)
-        self._check_real(u.dtype)
+        self.check_real(u.dtype)
         if u.size == 0:
             return 0.0
         host = self._reduce(u, "max_abs_partial", bits)
@@ -421,7 +426,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
 
     def sum_squares(self, u: DeviceArray) -> float:
         self._check_reduce(u, "sum_squares")
-        self._check_real(u.dtype)
+        self.check_real(u.dtype)
         if not self.fp64:
             raise BackendUnavailableError(
                 f"sum_squares accumulates in float64, and OpenCL device {self.device} has no "
@@ -445,8 +450,8 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         partial, host, scratch = self._reduce_buffers(partial_dtype, group)
         kernel = self.kernels(u.dtype)[name]
         kernel.set_args(u.handle, partial, n, chunk, scratch)
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (parts * group,), (group,))
-        self._cl.enqueue_copy(self.queue, host[:parts], partial, is_blocking=True)
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (parts * group,), (group,))
+        self.cl.enqueue_copy(self.queue, host[:parts], partial, is_blocking=True)
         return host[:parts]
 
     def _reduce_buffers(self, dtype: np.dtype, group: int) -> tuple:
@@ -460,11 +465,11 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         if entry is None:
             host = np.empty(max(_REDUCE_MAX_PARTIALS, _REDUCE_MAX_GROUPS), dtype)
             entry = cache[dtype] = (self._buffer(host.nbytes), host,
-                                    self._cl.LocalMemory(group * dtype.itemsize))
+                                    self.cl.LocalMemory(group * dtype.itemsize))
         return entry
 
     @staticmethod
-    def _field_or_scalar(f: FieldOrScalar, u: DeviceArray, what: str):
+    def field_or_scalar(f: FieldOrScalar, u: DeviceArray, what: str):
         """``(is_field, buffer, scalar)`` for a scalar or a DeviceArray of u's shape."""
         if isinstance(f, DeviceArray):
             if f.shape != u.shape or f.dtype != u.dtype:
@@ -491,16 +496,16 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         dy: float,
         bc: GridBC,
     ) -> None:
-        ny, grid = self._grid(bc, u, v, u_out, v_out)
-        f_field, f_buf, f_val = self._field_or_scalar(F, u, "F")
-        k_field, k_buf, k_val = self._field_or_scalar(k, u, "k")
+        ny, grid = self.grid(bc, u, v, u_out, v_out)
+        f_field, f_buf, f_val = self.field_or_scalar(F, u, "F")
+        k_field, k_buf, k_val = self.field_or_scalar(k, u, "k")
         name = GS_NAMES[f_field, k_field]
         kernel = self.kernels(u.dtype)[name]
         args = (
             u.handle, v.handle, u_out.handle, v_out.handle, f_buf, k_buf, *grid,
             1.0 / dx**2, 1.0 / dy**2, Du, Dv, f_val, k_val, dt,
         )  # fmt: skip
-        self._launch_grid(kernel, ny, args)
+        self.launch_grid(kernel, ny, args)
 
     def sor_half_sweep(
         self,
@@ -515,7 +520,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         dy: float,
         bc: GridBC,
     ) -> None:
-        ny, grid = self._grid(bc, c, rhs)
+        ny, grid = self.grid(bc, c, rhs)
         if fixed.shape != c.shape or fixed.dtype not in _MASK_DTYPES:
             raise ValueError(
                 f"fixed must be a uint8 mask of shape {c.shape}, got {fixed.shape} {fixed.dtype}"
@@ -536,9 +541,9 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
             c.handle, fixed.handle, c.handle if rhs is None else rhs.handle, row_change.handle,
             color, *grid, wx, wy, wf, om, t(1) - om,
         )  # fmt: skip
-        self._launch_grid(kernel, ny, args)
+        self.launch_grid(kernel, ny, args)
 
-    def _grid3(self, bc: GridBC, u: DeviceArray, *others: DeviceArray):
+    def grid3(self, bc: GridBC, u: DeviceArray, *others: DeviceArray):
         """Check a 3-D grid kernel's arrays; return ``(rows, (nx, ny, nz, y_kind, g_y,
         x_kind, g_x, z_kind, g_z))`` with ``rows = nz·ny`` (0 when there are no cells)."""
         if not isinstance(u.backend, OpenCLBackend):
@@ -568,19 +573,19 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         bc: GridBC,
         dz: float | None = None,
     ) -> None:
-        is_field, f_buf, f_val = self._field_or_scalar(speed, phi, "speed")
+        is_field, f_buf, f_val = self.field_or_scalar(speed, phi, "speed")
         ks = self.kernels(phi.dtype)
         if len(phi.shape) == 3:
-            rows, grid = self._grid3(bc, phi, out)
+            rows, grid = self.grid3(bc, phi, out)
             kernel = ks["levelset_step3_f" if is_field else "levelset_step3_s"]
             args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, 1.0 / dz,
                     dt)
-            self._launch_grid(kernel, rows, args)
+            self.launch_grid(kernel, rows, args)
             return
-        ny, grid = self._grid(bc, phi, out)
+        ny, grid = self.grid(bc, phi, out)
         kernel = ks["levelset_step_f" if is_field else "levelset_step_s"]
         args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, dt)
-        self._launch_grid(kernel, ny, args)
+        self.launch_grid(kernel, ny, args)
 
     def reinit_step(
         self,
@@ -598,30 +603,30 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     ) -> None:
         ks = self.kernels(phi.dtype)
         if len(phi.shape) == 3:
-            rows, grid = self._grid3(bc, phi, phi0, out)
+            rows, grid = self.grid3(bc, phi, phi0, out)
             kernel = ks["reinit_step3_subcell" if subcell else "reinit_step3"]
             args = (
                 phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
                 1.0 / dz, dtau, 0.5 / dx, 0.5 / dy, 0.5 / dz, dtau / min(dx, dy, dz), 1e-30,
             )  # fmt: skip
-            self._launch_grid(kernel, rows, args)
+            self.launch_grid(kernel, rows, args)
             return
-        ny, grid = self._grid(bc, phi, phi0, out)
+        ny, grid = self.grid(bc, phi, phi0, out)
         kernel = ks["reinit_step_subcell" if subcell else "reinit_step"]
         args = (
             phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
             dtau, 0.5 / dx, 0.5 / dy, dtau / min(dx, dy), 1e-30,
         )  # fmt: skip
-        self._launch_grid(kernel, ny, args)
+        self.launch_grid(kernel, ny, args)
 
-    def _check_on_device(self, *arrays: DeviceArray) -> None:
+    def check_on_device(self, *arrays: DeviceArray) -> None:
         for a in arrays:
             if not isinstance(a.backend, OpenCLBackend):
                 raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")
-        self._check_real(arrays[0].dtype)
+        self.check_real(arrays[0].dtype)
 
     # ------------------------------------------------------------------ CSR / mesh kernels
-    def _launch_rows(self, kernel, n_rows: int, head: tuple, tail: tuple = ()) -> None:
+    def launch_rows(self, kernel, n_rows: int, head: tuple, tail: tuple = ()) -> None:
         """Launch a CSR kernel over ``n_rows`` rows with the arguments ``(*head, n,
         block, *tail)``: blocks of rows per work-item in the row layout, one row per
         work-item in work-groups of ``col_stride`` otherwise."""
@@ -636,5 +641,5 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         items = -(-n_rows // block)
         kernel.set_args(*head, n_rows, block, *tail)
         gsize = (-(-items // group) * group,)
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, (group,))
 

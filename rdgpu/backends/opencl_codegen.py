@@ -223,7 +223,7 @@ def opencl_kernel(program: Program, target: Target, fields: frozenset[str], name
            target.kind, fields, member, target.dtype.char)
     k = program.cache.get(key)
     if k is None:
-        be._check_real(target.dtype)
+        be.check_real(target.dtype)
         k = program.cache[key] = make()
     return k
 
@@ -239,7 +239,7 @@ def opencl_program(target: Target, src: str, name: str):
             options = [f"-D REAL_IS_DOUBLE={int(target.dtype == np.float64)}", *be._options]
             full = '#line 1 "common.cl"\n' + read_source("", "common.cl") + "\n"
             full += f'#line 1 "{name} (generated)"\n' + src
-            prog = be._cl.Program(be.context, full).build(options=options)
+            prog = be.cl.Program(be.context, full).build(options=options)
             _CL_PROGRAMS[pkey] = prog
     return prog
 
@@ -268,7 +268,7 @@ class OpenCLFusedPass(FusedPass):
             if src is None:
                 src = program.cache[skey] = opencl_source(program, target.kind, fields,
                                                           target.dtype, member)
-            k = target.backend._cl.Kernel(opencl_program(target, src, "model/model.cl"),
+            k = target.backend.cl.Kernel(opencl_program(target, src, "model/model.cl"),
                                           "rd_program")
             codes = opencl_arg_dtypes(program, fields, target.dtype, member)
             if target.kind == "mesh":
@@ -295,7 +295,7 @@ class OpenCLFusedPass(FusedPass):
             head = (A.indptr.handle, A.indices.handle, A.data.handle, *bufs)
             tail = (np.int32(n),
                     *(target.device_coordinate(c).handle for c in program.refs("coord")))
-            be._launch_rows(k, n * target.members, head, tail)
+            be.launch_rows(k, n * target.members, head, tail)
             return
         d = target.domain
         nz, ny, nx = d.shape3
@@ -307,7 +307,7 @@ class OpenCLFusedPass(FusedPass):
         nm = target.members
         args = [*bufs, *(c.handle for c in target.metric), nx, ny, nz, nm, b.x.kind,
                 b.x.value, b.y.kind, b.y.value, b.z.kind, b.z.value, cx, cy, cz, dx, dy, dz]
-        be._launch_grid(k, ny * nz * nm, args)
+        be.launch_grid(k, ny * nz * nm, args)
 
 
 class OpenCLBlockedPass(BlockedPass):
@@ -330,7 +330,7 @@ class OpenCLBlockedPass(BlockedPass):
 
         def make():
             src = blocked_source(program, target.kind, fields, target.dtype, member)
-            k = target.backend._cl.Kernel(opencl_program(target, src, "model/blocked.cl"),
+            k = target.backend.cl.Kernel(opencl_program(target, src, "model/blocked.cl"),
                                           "rd_blocked")
             dt = target.dtype
             k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt, member), None, None,
@@ -352,7 +352,7 @@ class OpenCLBlockedPass(BlockedPass):
         if times is not None:
             # the in-order queue runs the copy after the previous pass (pyopencl keeps
             # ``times`` alive until it is done)
-            be._cl.enqueue_copy(be.queue, self._times.handle, times, is_blocking=False)
+            be.cl.enqueue_copy(be.queue, self._times.handle, times, is_blocking=False)
         args = arguments(program, target, x, y, params, fields, scalars, time, member=member)
         b = target.domain.bcs
         dx, dy, _ = target.spacing()
@@ -362,4 +362,4 @@ class OpenCLBlockedPass(BlockedPass):
                  self.rows, self.items]
         k = self._kernel(fields, member)
         k.set_args(*args)
-        be._cl.enqueue_nd_range_kernel(be.queue, k, (self.items,), (1,))
+        be.cl.enqueue_nd_range_kernel(be.queue, k, (self.items,), (1,))

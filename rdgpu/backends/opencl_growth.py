@@ -23,7 +23,7 @@ class OpenCLGrowthKernels:
         """This thread's ``dla_weights`` / ``dla_pick`` kernels: a program of its own
         (``common.cl`` + ``dla/dla.cl``), built once per context and dtype; it needs fp64."""
         dtype = np.dtype(dtype)
-        self._check_real(dtype)
+        self.check_real(dtype)
         if not self.fp64:
             raise BackendUnavailableError(
                 f"OpenCL device {self.device} has no float64 support (cl_khr_fp64), which the "
@@ -40,12 +40,12 @@ class OpenCLGrowthKernels:
                               + '\n#line 1 "dla/dla.cl"\n' + read_source("dla", "dla.cl"))
                     options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}",
                                *self._options]
-                    program = self._cl.Program(self.context, source).build(options=options)
+                    program = self.cl.Program(self.context, source).build(options=options)
                     PROGRAMS[key] = program
-            weights = self._cl.Kernel(program, "dla_weights")
+            weights = self.cl.Kernel(program, "dla_weights")
             weights.set_scalar_arg_dtypes([None, None, None, None, np.int32, np.int32,
                                            np.int32, np.float64, np.int32])
-            pick = self._cl.Kernel(program, "dla_pick")
+            pick = self.cl.Kernel(program, "dla_pick")
             pick.set_scalar_arg_dtypes([None, None, None, None, None, np.int32, np.int32,
                                         np.int64, np.int32])
             mine[dtype] = {"weights": weights, "pick": pick}
@@ -58,7 +58,7 @@ class OpenCLGrowthKernels:
         kernel = self._dla_kernels(c.dtype)["weights"]
         kernel.set_args(c.handle, state.handle, weights.handle, row_sums.handle, nx, ny, mode,
                         float(eta), int(bool(wrap_x)))
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1, ny), (1, 1))
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (1, ny), (1, 1))
 
     def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                  arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
@@ -66,7 +66,7 @@ class OpenCLGrowthKernels:
         kernel = self._dla_kernels(c.dtype)["pick"]
         kernel.set_args(c.handle, state.handle, weights.handle, arrival.handle, out.handle,
                         c.shape[1], int(row), int(target), int(step))
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,))
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,))
 
     # ------------------------------------------------------------------ random walkers
     _WALK_ARGS = {
@@ -87,11 +87,11 @@ class OpenCLGrowthKernels:
                 if program is None:
                     source = '#line 1 "walkers/walkers.cl"\n' + read_source("walkers",
                                                                              "walkers.cl")
-                    program = self._cl.Program(self.context, source).build()
+                    program = self.cl.Program(self.context, source).build()
                     PROGRAMS[key] = program
             mine = {}
             for name, types in self._WALK_ARGS.items():
-                mine[name] = self._cl.Kernel(program, name)
+                mine[name] = self.cl.Kernel(program, name)
                 mine[name].set_scalar_arg_dtypes(types)
             self._local.walk = mine
         return mine
@@ -104,7 +104,7 @@ class OpenCLGrowthKernels:
         k0, k1 = seed & 0xFFFFFFFF, (seed >> 32) & 0xFFFFFFFF
         tables = (state.handle, ring_start.handle, ring_ij.handle, ny, nx, n)
         step, res = ks["walk_step"], ks["resolve"]
-        enqueue = self._cl.enqueue_nd_range_kernel
+        enqueue = self.cl.enqueue_nd_range_kernel
         for t in range(t0, t0 + n_steps):
             tt = (t & 0xFFFFFFFF, t >> 32, k0, k1, geometry)
             step.set_args(grid.handle, pos.handle, want.handle, *tables, *tt, thresh, margin)
@@ -119,4 +119,4 @@ class OpenCLGrowthKernels:
         kernel = self._walk_kernels()["philox_fill"]
         kernel.set_args(out.handle, out.shape[0], first, t & 0xFFFFFFFF, t >> 32, purpose,
                         seed & 0xFFFFFFFF, seed >> 32)
-        self._cl.enqueue_nd_range_kernel(self.queue, kernel, (out.shape[0],), None)
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (out.shape[0],), None)

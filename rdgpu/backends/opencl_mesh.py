@@ -16,7 +16,7 @@ GS_NAMES = {
 
 class OpenCLMeshKernels:
     """The CSR kernels of :class:`~rdgpu.backends.opencl_backend.OpenCLBackend` (a mixin):
-    ``mesh/mesh.cl`` launched over matrix rows (``_launch_rows``)."""
+    ``mesh/mesh.cl`` launched over matrix rows (``launch_rows``)."""
 
     @staticmethod
     def _csr_buffers(A) -> tuple:
@@ -36,9 +36,9 @@ class OpenCLMeshKernels:
 
     def spmv(self, A, x: DeviceArray, y: DeviceArray) -> None:
         self._check_csr(A, x, y, "spmv")
-        self._check_on_device(A.data, x, y)
+        self.check_on_device(A.data, x, y)
         kernel = self.kernels(A.dtype)["csr_spmv"]
-        self._launch_rows(kernel, A.shape[0], (*self._csr_buffers(A), x.handle, y.handle))
+        self.launch_rows(kernel, A.shape[0], (*self._csr_buffers(A), x.handle, y.handle))
 
     def mesh_gray_scott(
         self,
@@ -56,7 +56,7 @@ class OpenCLMeshKernels:
     ) -> None:
         for a in (u, v, u_out, v_out):
             self._check_csr(L, u, a, "mesh_gray_scott")
-        self._check_on_device(L.data, u, v, u_out, v_out)
+        self.check_on_device(L.data, u, v, u_out, v_out)
         f_field, f_buf, f_val = self._vertex_param(F, u, "F")
         k_field, k_buf, k_val = self._vertex_param(k, u, "k")
         name = "mesh_" + GS_NAMES[f_field, k_field]
@@ -65,7 +65,7 @@ class OpenCLMeshKernels:
             k_buf,
         )
         kernel = self.kernels(u.dtype)[name]
-        self._launch_rows(kernel, L.shape[0], args, (Du, Dv, f_val, k_val, dt))
+        self.launch_rows(kernel, L.shape[0], args, (Du, Dv, f_val, k_val, dt))
 
     def mesh_diffusion(
         self,
@@ -78,10 +78,10 @@ class OpenCLMeshKernels:
         source: FieldOrScalar = 0.0,
     ) -> None:
         self._check_csr(L, u, out, "mesh_diffusion")
-        self._check_on_device(L.data, u, out)
+        self.check_on_device(L.data, u, out)
         s_field, s_buf, s_val = self._vertex_param(source, u, "source")
         kernel = self.kernels(u.dtype)["mesh_diffusion_f" if s_field else "mesh_diffusion_s"]
-        self._launch_rows(
+        self.launch_rows(
             kernel, L.shape[0], (*self._csr_buffers(L), u.handle, out.handle, s_buf),
             (D, s_val, dt),
         )
@@ -97,11 +97,11 @@ class OpenCLMeshKernels:
         omega: float,
     ) -> None:
         self._check_sor(A, x, rhs, rows, change)
-        self._check_on_device(A.data, x, rhs, change)
+        self.check_on_device(A.data, x, rhs, change)
         t = x.dtype.type
         om = t(omega)
         kernel = self.kernels(x.dtype)["csr_sor_colour"]
-        self._launch_rows(
+        self.launch_rows(
             kernel, rows.size,
             (*self._csr_buffers(A), A.diagonal.handle, x.handle, rhs.handle, rows.handle,
              change.handle),

@@ -48,7 +48,6 @@ from rdgpu.backends.base import (
 from rdgpu.backends.warp_codegen import WarpFusedPass
 from rdgpu.backends.warp_mesh import WarpMeshKernels
 from rdgpu.backends.warp_runtime import (
-    BLOCK,
     CHUNK_MIN_CELLS,
     MAX_CELLS,
     REAL,
@@ -75,6 +74,7 @@ class WarpBackend(WarpMeshKernels, Backend):
     thread pool of its own for row chunks."""
 
     name = "warp"
+    launchers = "warp"
     max_cells = MAX_CELLS
 
     def __init__(self, device: str = "cpu", *, launch: str = "auto"):
@@ -106,7 +106,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         self._wp = wp
         self._dev = dev
         self.device = "cpu" if dev.is_cpu else f"{dev.alias} ({dev.name})"
-        self._cells = launch == "cells" or (launch == "auto" and not dev.is_cpu)
+        self.per_cell = launch == "cells" or (launch == "auto" and not dev.is_cpu)
         # row chunks run side by side only on a CPU device (a CUDA launch is asynchronous)
         self._chunks = cpu_count() if dev.is_cpu else 1
         self._pool = (
@@ -136,7 +136,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         return found
 
     # ------------------------------------------------------------------ plumbing
-    def _family(self, family: str) -> ModuleType:
+    def module(self, family: str) -> ModuleType:
         """The family's kernel module, compiled and loaded for this device on first use
         (under the lock: two threads never compile or load at once)."""
         mod = self._families.get(family)
@@ -150,7 +150,7 @@ class WarpBackend(WarpMeshKernels, Backend):
                     self._families[family] = mod
         return mod
 
-    def _launch(self, kernel, dim, args: list, key) -> None:
+    def launch(self, kernel, dim, args: list, key) -> None:
         """``wp.launch`` through a recorded :class:`warp.Launch` per ``(kernel, dim, key)``:
         only the arguments that differ from the previous call are re-packed, which makes
         a launch several times cheaper in Python than ``wp.launch`` (that packs all).
@@ -191,60 +191,60 @@ class WarpBackend(WarpMeshKernels, Backend):
                 last[idx] = a
         rec.launch()
 
-    def _run_grid(self, kernels, shape: tuple[int, ...], args: list) -> None:
+    def run_grid(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a ``(rows, cells)`` kernel pair over a ``[ny, nx]`` grid."""
         ny, nx = shape
         check_cells(ny * nx, shape)
         if ny == 0 or nx == 0:
             return
         rows, cells = kernels
-        if self._cells:
-            self._launch(cells, (ny, nx), args, 0)
+        if self.per_cell:
+            self.launch(cells, (ny, nx), args, 0)
             return
-        self._run_split(rows, ny, ny * nx, args)
+        self.run_split(rows, ny, ny * nx, args)
 
-    def _run_split(self, kernel, n_threads: int, work: int, args: list) -> None:
+    def run_split(self, kernel, n_threads: int, work: int, args: list) -> None:
         """Launch ``kernel`` over ``n_threads`` Warp threads (its last argument is the
         thread offset), cut into chunks run side by side when ``work`` is large."""
         n = min(self._chunks, n_threads, work // CHUNK_MIN_CELLS)
         if n <= 1:
-            self._launch(kernel, n_threads, [*args, 0], 0)
+            self.launch(kernel, n_threads, [*args, 0], 0)
             return
         bounds = [n_threads * c // n for c in range(n + 1)]
         futures = [
             self._pool.submit(
-                self._launch, kernel, bounds[c + 1] - bounds[c], [*args, bounds[c]], bounds[c]
+                self.launch, kernel, bounds[c + 1] - bounds[c], [*args, bounds[c]], bounds[c]
             )
             for c in range(1, n)
         ]
         try:
-            self._launch(kernel, bounds[1], [*args, 0], 0)
+            self.launch(kernel, bounds[1], [*args, 0], 0)
         finally:
             for f in futures:
                 f.result()
 
     @staticmethod
-    def _real(d: DeviceArray, what: str) -> type:
+    def real(d: DeviceArray, what: str) -> type:
         if d.dtype not in REAL:
             raise TypeError(f"{what} must be float32 or float64, got {d.dtype}")
         return d.dtype.type
 
     @staticmethod
-    def _same(a: DeviceArray, b: DeviceArray, what: str) -> None:
+    def same(a: DeviceArray, b: DeviceArray, what: str) -> None:
         if a.shape != b.shape or a.dtype != b.dtype:
             raise ValueError(
                 f"{what}: shape/dtype {b.shape} {b.dtype} does not match {a.shape} {a.dtype}"
             )
 
-    def _param(self, p: FieldOrScalar, like: DeviceArray, what: str):
+    def param(self, p: FieldOrScalar, like: DeviceArray, what: str):
         """``(value, is_field)`` for a scalar-or-field kernel parameter."""
         if isinstance(p, DeviceArray):
-            self._same(like, p, what)
+            self.same(like, p, what)
             return p.handle, True
         return like.dtype.type(p), False
 
     @staticmethod
-    def _bc_args(bc: GridBC, t: type) -> list:
+    def bc_args(bc: GridBC, t: type) -> list:
         return [bc.y.kind, t(bc.y.value), bc.x.kind, t(bc.x.value)]
 
     # ------------------------------------------------------------------ memory
@@ -271,7 +271,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         return DeviceArray(self, handle, shape, dtype)
 
     def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
-        self._same(src, dst, "copy destination")
+        self.same(src, dst, "copy destination")
         self._wp.copy(dst.handle, src.handle)
 
     def copy_range(self, src, src_start, dst, dst_start, count) -> None:
@@ -287,17 +287,17 @@ class WarpBackend(WarpMeshKernels, Backend):
     def laplacian(
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
-        t = self._real(u, "laplacian input")
-        self._same(u, out, "laplacian output")
+        t = self.real(u, "laplacian input")
+        self.same(u, out, "laplacian output")
         if stencil == 5:
             cx, cy = t(1.0 / dx**2), t(1.0 / dy**2)
         elif stencil == 9:
             cx, cy = t(1.0 / (6.0 * dx * dx)), t(0)
         else:
             raise ValueError(f"stencil must be 5 or 9, got {stencil}")
-        kernels = self._family("laplacian").KERNELS[(u.dtype, stencil)]
-        args = [u.handle, out.handle, cx, cy, *self._bc_args(bc, t)]
-        self._run_grid(kernels, u.shape, args)
+        kernels = self.module("laplacian").KERNELS[(u.dtype, stencil)]
+        args = [u.handle, out.handle, cx, cy, *self.bc_args(bc, t)]
+        self.run_grid(kernels, u.shape, args)
 
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
@@ -306,15 +306,15 @@ class WarpBackend(WarpMeshKernels, Backend):
         check_cells(nm * ny * nx, (nm, ny, nx))
         if nm * ny * nx == 0:
             return
-        rows, cells = self._family("metric").KERNELS[u.dtype]
-        args = [self._members(u, nm), *(c.handle for c in coefficients), self._members(out, nm)]
-        if self._cells:
-            self._launch(cells, (nm, ny, nx), args, 0)
+        rows, cells = self.module("metric").KERNELS[u.dtype]
+        args = [self.members(u, nm), *(c.handle for c in coefficients), self.members(out, nm)]
+        if self.per_cell:
+            self.launch(cells, (nm, ny, nx), args, 0)
             return
-        self._run_split(rows, nm * ny, nm * ny * nx, args)
+        self.run_split(rows, nm * ny, nm * ny * nx, args)
 
     @staticmethod
-    def _members(d: DeviceArray, nm: int):
+    def members(d: DeviceArray, nm: int):
         """A cached ``[nm, ny, nx]`` view of a ``[ny, nx]`` or ``[nm, ny, nx]`` array."""
         h = d.handle
         if h.ndim == 3:
@@ -325,27 +325,13 @@ class WarpBackend(WarpMeshKernels, Backend):
             d.meta["warp_members"] = view
         return view
 
-    def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
-        t = self._real(u, "bernoulli input")
-        self._same(u, out, "bernoulli output")
-        n = u.size
-        if n == 0:
-            return
-        d = t(decay)
-        blocks, cells = self._family("bernoulli").KERNELS[u.dtype]
-        args = [self._flat(u), self._flat(out), d, t(1) - d]
-        if self._cells:
-            self._launch(cells, n, args, 0)
-            return
-        self._run_split(blocks, -(-n // BLOCK), n, [*args, BLOCK])
-
     # ------------------------------------------------------------------ reductions
     def max_abs(self, u: DeviceArray) -> float:
         bits = self._check_max_abs(u)
         self._check_device(u, "max_abs")
         if u.size == 0:
             return 0.0
-        blocks, strided = self._family("reduce").MAX_ABS[u.dtype]
+        blocks, strided = self.module("reduce").MAX_ABS[u.dtype]
         partial = self._reduce(u, [self._bits(u, bits)], blocks, strided, strided, bits)
         return max_abs_of_partials(partial.numpy(), u.dtype)
 
@@ -354,17 +340,17 @@ class WarpBackend(WarpMeshKernels, Backend):
         self._check_device(u, "sum_squares")
         if u.size == 0:
             return 0.0
-        family = self._family("reduce")
+        family = self.module("reduce")
         blocks, strided = family.SUM_SQUARES[u.dtype]
-        flat = self._flat(u)
-        inputs = [flat] if self._cells else [flat, self._vec16(u)]
+        flat = self.flat(u)
+        inputs = [flat] if self.per_cell else [flat, self._vec16(u)]
         partial = self._reduce(u, inputs, blocks, strided, family.TOTAL, np.dtype(np.float64))
         return sum_of_partials(partial.numpy())
 
     def _vec16(self, d: DeviceArray):
         """A cached view of a float device array's first ``16·(size // 16)`` elements as
         vectors of 16 (the CPU sum_squares kernel loads one per iteration)."""
-        flat = self._flat(d)
+        flat = self.flat(d)
         cached = d.meta.get("warp_vec16")  # (the flat view it was made from, the view)
         if cached is None or cached[0] is not flat:
             wp = self._wp
@@ -385,24 +371,24 @@ class WarpBackend(WarpMeshKernels, Backend):
         ``blocks(*inputs, partial, block, b0)``; CUDA: ``strided(inputs[0], partial)``,
         then ``second`` over its partials when there are more than ``REDUCE_THREADS_2``."""
         n = u.size
-        if self._cells:
+        if self.per_cell:
             partial = self._partials(0, min(n, REDUCE_THREADS), partial_dtype)
-            self._launch(strided, partial.shape[0], [inputs[0], partial], 0)
+            self.launch(strided, partial.shape[0], [inputs[0], partial], 0)
             if partial.shape[0] > REDUCE_THREADS_2:
                 data, partial = partial, self._partials(1, REDUCE_THREADS_2, partial_dtype)
-                self._launch(second, partial.shape[0], [data, partial], 0)
+                self.launch(second, partial.shape[0], [data, partial], 0)
             return partial
         partial = self._partials(0, -(-n // REDUCE_BLOCK), partial_dtype)
         # one thread streams tens of GB/s, a hand-off to the pool costs tens of us:
         # one chunk per 8 MiB of data (measured on 2 cores, float32: at 1 MiB one
         # thread 16 us, split 67 us; even at 8 MiB; split faster from 16 MiB)
         work = u.nbytes // REDUCE_SPLIT_BYTES * CHUNK_MIN_CELLS
-        self._run_split(blocks, partial.shape[0], work, [*inputs, partial, REDUCE_BLOCK])
+        self.run_split(blocks, partial.shape[0], work, [*inputs, partial, REDUCE_BLOCK])
         return partial
 
     def _bits(self, d: DeviceArray, bits: np.dtype):
         """A cached flat view of a float device array as unsigned integers of its width."""
-        flat = self._flat(d)
+        flat = self.flat(d)
         view = d.meta.get("warp_bits")
         if view is None or view._ref is not flat:
             view = flat.view(self._wp.dtype_from_numpy(bits))
@@ -428,7 +414,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         return buf
 
     @staticmethod
-    def _flat(d: DeviceArray):
+    def flat(d: DeviceArray):
         """A cached 1-D view of a device array."""
         h = d.handle
         if h.ndim == 1:
@@ -455,17 +441,17 @@ class WarpBackend(WarpMeshKernels, Backend):
         dy: float,
         bc: GridBC,
     ) -> None:
-        t = self._real(u, "gray_scott u")
+        t = self.real(u, "gray_scott u")
         for other, what in ((v, "v"), (u_out, "u_out"), (v_out, "v_out")):
-            self._same(u, other, f"gray_scott {what}")
-        f_val, f_field = self._param(F, u, "gray_scott F")
-        k_val, k_field = self._param(k, u, "gray_scott k")
-        kernels = self._family("gray_scott").KERNELS[(u.dtype, f_field, k_field)]
+            self.same(u, other, f"gray_scott {what}")
+        f_val, f_field = self.param(F, u, "gray_scott F")
+        k_val, k_field = self.param(k, u, "gray_scott k")
+        kernels = self.module("gray_scott").KERNELS[(u.dtype, f_field, k_field)]
         args = [
             u.handle, v.handle, u_out.handle, v_out.handle, f_val, k_val,
-            t(1.0 / dx**2), t(1.0 / dy**2), t(Du), t(Dv), t(dt), *self._bc_args(bc, t),
+            t(1.0 / dx**2), t(1.0 / dy**2), t(Du), t(Dv), t(dt), *self.bc_args(bc, t),
         ]
-        self._run_grid(kernels, u.shape, args)
+        self.run_grid(kernels, u.shape, args)
 
     def sor_half_sweep(
         self,
@@ -480,7 +466,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         dy: float,
         bc: GridBC,
     ) -> None:
-        t = self._real(c, "sor c")
+        t = self.real(c, "sor c")
         if fixed.shape != c.shape or fixed.dtype != np.uint8:
             raise ValueError(f"sor fixed must be uint8 of shape {c.shape}, got "
                              f"{fixed.dtype} {fixed.shape}")
@@ -492,39 +478,39 @@ class WarpBackend(WarpMeshKernels, Backend):
         if rhs is None:
             r_val, r_field = t(0), False
         else:
-            r_val, r_field = self._param(rhs, c, "sor rhs")
+            r_val, r_field = self.param(rhs, c, "sor rhs")
         wx, wy, wf = self._sor_weights(dx, dy)
         om = t(omega)
-        rows, cells = self._family("sor").KERNELS[(c.dtype, r_field)]
+        rows, cells = self.module("sor").KERNELS[(c.dtype, r_field)]
         args = [
             c.handle, fixed.handle, r_val, row_change.handle, int(color),
-            t(wx), t(wy), t(wf), om, t(1) - om, *self._bc_args(bc, t),
+            t(wx), t(wy), t(wf), om, t(1) - om, *self.bc_args(bc, t),
         ]
         ny, nx = c.shape
         if ny == 0:
             return
-        if self._cells:
+        if self.per_cell:
             if color == 0:
                 row_change.handle.zero_()
             if nx:
-                self._launch(cells, (ny, nx), args, 0)
+                self.launch(cells, (ny, nx), args, 0)
             return
-        self._run_split(rows, ny, ny * nx, args)
+        self.run_split(rows, ny, ny * nx, args)
 
-    def _run_grid3(self, kernels, shape: tuple[int, ...], args: list) -> None:
+    def run_grid3(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a 3-D ``(rows, cells)`` kernel pair over a ``[nz, ny, nx]`` grid."""
         nz, ny, nx = shape
         check_cells(nz * ny * nx, shape)
         if nz * ny * nx == 0:
             return
         rows, cells = kernels
-        if self._cells:
-            self._launch(cells, (nz, ny, nx), args, 0)
+        if self.per_cell:
+            self.launch(cells, (nz, ny, nx), args, 0)
             return
-        self._run_split(rows, nz * ny, nz * ny * nx, args)
+        self.run_split(rows, nz * ny, nz * ny * nx, args)
 
-    def _bc3_args(self, bc: GridBC, t: type) -> list:
-        return [bc.z.kind, t(bc.z.value), *self._bc_args(bc, t)]
+    def bc3_args(self, bc: GridBC, t: type) -> list:
+        return [bc.z.kind, t(bc.z.value), *self.bc_args(bc, t)]
 
     def levelset_step(
         self,
@@ -538,20 +524,20 @@ class WarpBackend(WarpMeshKernels, Backend):
         bc: GridBC,
         dz: float | None = None,
     ) -> None:
-        t = self._real(phi, "levelset phi")
-        self._same(phi, out, "levelset output")
-        s_val, s_field = self._param(speed, phi, "levelset speed")
-        family = self._family("levelset")
+        t = self.real(phi, "levelset phi")
+        self.same(phi, out, "levelset output")
+        s_val, s_field = self.param(speed, phi, "levelset speed")
+        family = self.module("levelset")
         if len(phi.shape) == 3:
             args = [phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
-                    t(1.0 / dz), *self._bc3_args(bc, t)]
-            self._run_grid3(family.STEP3[(phi.dtype, s_field)], phi.shape, args)
+                    t(1.0 / dz), *self.bc3_args(bc, t)]
+            self.run_grid3(family.STEP3[(phi.dtype, s_field)], phi.shape, args)
             return
         args = [
             phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
-            *self._bc_args(bc, t),
+            *self.bc_args(bc, t),
         ]
-        self._run_grid(family.STEP[(phi.dtype, s_field)], phi.shape, args)
+        self.run_grid(family.STEP[(phi.dtype, s_field)], phi.shape, args)
 
     def reinit_step(
         self,
@@ -567,57 +553,57 @@ class WarpBackend(WarpMeshKernels, Backend):
         subcell: bool = True,
         dz: float | None = None,
     ) -> None:
-        t = self._real(phi, "reinit phi")
-        self._same(phi, phi0, "reinit phi0")
-        self._same(phi, out, "reinit output")
-        family = self._family("levelset")
+        t = self.real(phi, "reinit phi")
+        self.same(phi, phi0, "reinit phi0")
+        self.same(phi, out, "reinit output")
+        family = self.module("levelset")
         if len(phi.shape) == 3:
             args = [
                 phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
                 t(1.0 / dx), t(1.0 / dy), t(1.0 / dz), t(0.5 / dx), t(0.5 / dy), t(0.5 / dz),
-                t(dtau / min(dx, dy, dz)), *self._bc3_args(bc, t),
+                t(dtau / min(dx, dy, dz)), *self.bc3_args(bc, t),
             ]  # fmt: skip
-            self._run_grid3(family.REINIT3[(phi.dtype, bool(subcell))], phi.shape, args)
+            self.run_grid3(family.REINIT3[(phi.dtype, bool(subcell))], phi.shape, args)
             return
         args = [
             phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
             t(1.0 / dx), t(1.0 / dy), t(0.5 / dx), t(0.5 / dy), t(dtau / min(dx, dy)),
-            *self._bc_args(bc, t),
+            *self.bc_args(bc, t),
         ]
-        self._run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
+        self.run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
 
     # ------------------------------------------------------------------ DLA growth
     def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                     row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
-        self._real(c, "dla c")
+        self.real(c, "dla c")
         mode = load_module("dla", "reference.py").power_mode(eta)
-        kernel = self._family("dla").KERNELS[c.dtype][0]
+        kernel = self.module("dla").KERNELS[c.dtype][0]
         ny, nx = c.shape
         args = [c.handle, state.handle, weights.handle, row_sums.handle, mode,
                 np.float64(eta), int(bool(wrap_x))]
-        self._run_split(kernel, ny, ny * nx, args)
+        self.run_split(kernel, ny, ny * nx, args)
 
     def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                  arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
                  step: int) -> None:
-        kernel = self._family("dla").KERNELS[c.dtype][1]
+        kernel = self.module("dla").KERNELS[c.dtype][1]
         args = [c.handle, state.handle, weights.handle, arrival.handle, out.handle,
                 int(row), np.int64(target), int(step)]
-        self._launch(kernel, 1, args, 0)
+        self.launch(kernel, 1, args, 0)
 
     # ------------------------------------------------------------------ random walkers
     def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
                      n_steps, seed, geometry, thresh, margin, particles, limit) -> None:
         wp = self._wp
-        fam = self._family("walkers")
+        fam = self.module("walkers")
         k0, k1 = wp.uint32(seed & 0xFFFFFFFF), wp.uint32((seed >> 32) & 0xFFFFFFFF)
         tables = [state.handle, ring_start.handle, ring_ij.handle]
         n = pos.shape[0]
         for t in range(t0, t0 + n_steps):
             tt = [wp.uint32(t & 0xFFFFFFFF), wp.uint32(t >> 32), k0, k1, int(geometry)]
-            self._launch(fam.walk_step, n, [grid.handle, pos.handle, want.handle, *tables, *tt,
+            self.launch(fam.walk_step, n, [grid.handle, pos.handle, want.handle, *tables, *tt,
                                             wp.int64(thresh), int(margin)], 0)
-            self._launch(fam.resolve, 1, [grid.handle, arrival.handle, pos.handle, want.handle,
+            self.launch(fam.resolve, 1, [grid.handle, arrival.handle, pos.handle, want.handle,
                                           *tables, *tt, int(margin), int(particles),
                                           int(limit)], 0)
 
@@ -626,7 +612,7 @@ class WarpBackend(WarpMeshKernels, Backend):
         (``out`` uint32 ``[N, 4]``; for tests)."""
         wp = self._wp
         u = wp.uint32
-        self._launch(self._family("walkers").PHILOX, out.shape[0],
+        self.launch(self.module("walkers").PHILOX, out.shape[0],
                      [out.handle, u(first), u(t & 0xFFFFFFFF), u(t >> 32), u(purpose),
                       u(seed & 0xFFFFFFFF), u(seed >> 32)], 0)
 

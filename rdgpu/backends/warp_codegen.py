@@ -247,20 +247,20 @@ class WarpFusedPass(FusedPass):
         program, be, mod = self.program, target.backend, self.module
         mesh = target.kind == "mesh"
         bufs = arguments(program, target, inputs, outputs, params, fields, scalars, time,
-                         be._flat if mesh else _warp_rows, member)
+                         be.flat if mesh else _warp_rows, member)
         nm = target.members
         if mesh:
             A = target.csr
             n = A.shape[0]
             if n == 0:
                 return
-            coords = [be._flat(target.device_coordinate(c)) for c in program.refs("coord")]
+            coords = [be.flat(target.device_coordinate(c)) for c in program.refs("coord")]
             args = [A.indptr.handle, A.indices.handle, A.data.handle, *bufs, *coords, n]
             rows = n * nm
-            if be._cells:
-                be._launch(mod.rows, rows, args, 0)
+            if be.per_cell:
+                be.launch(mod.rows, rows, args, 0)
             else:
-                be._run_split(mod.blocks, -(-rows // ROW_BLOCK), (A.nnz + n) * nm,
+                be.run_split(mod.blocks, -(-rows // ROW_BLOCK), (A.nnz + n) * nm,
                               [*args, rows, ROW_BLOCK])
             return
         d = target.domain
@@ -276,7 +276,7 @@ class WarpFusedPass(FusedPass):
                 t(b.x.value), b.y.kind, t(b.y.value), b.z.kind, t(b.z.value), t(cx), t(cy),
                 t(cz), t(dx), t(dy), t(dz)]
         rows = ny * nz * nm
-        if be._cells:
-            be._launch(mod.cells, (rows, nx), args, 0)
+        if be.per_cell:
+            be.launch(mod.cells, (rows, nx), args, 0)
         else:
-            be._run_split(mod.rows, rows, rows * nx, args)
+            be.run_split(mod.rows, rows, rows * nx, args)

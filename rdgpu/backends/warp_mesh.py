@@ -16,17 +16,17 @@ class WarpMeshKernels:
     def _run_rows(self, kernels, n_rows: int, nnz: int, args: list) -> None:
         """Launch a ``(blocks, rows)`` CSR kernel pair over ``n_rows`` rows: one thread per
         row on CUDA; on the CPU one thread per ``ROW_BLOCK`` rows, in row chunks side by
-        side (``_run_split``) once the matrix is large."""
+        side (``run_split``) once the matrix is large."""
         if n_rows == 0:
             return
         blocks, rows = kernels
-        if self._cells:
-            self._launch(rows, n_rows, args, 0)
+        if self.per_cell:
+            self.launch(rows, n_rows, args, 0)
             return
-        self._run_split(blocks, -(-n_rows // ROW_BLOCK), nnz + n_rows,
+        self.run_split(blocks, -(-n_rows // ROW_BLOCK), nnz + n_rows,
                         [*args, n_rows, ROW_BLOCK])
 
-    def _csr_handles(self, A: DeviceCSR) -> list:
+    def csr_handles(self, A: DeviceCSR) -> list:
         return [A.indptr.handle, A.indices.handle, A.data.handle]
 
     def _vparam(self, p: FieldOrScalar, like: DeviceArray, what: str):
@@ -35,13 +35,13 @@ class WarpMeshKernels:
             if p.size != like.size or p.dtype != like.dtype:
                 raise ValueError(f"{what} field must have {like.size} elements of "
                                  f"{like.dtype}, got {p.shape} {p.dtype}")
-            return self._flat(p), True
+            return self.flat(p), True
         return like.dtype.type(p), False
 
     def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
         self._check_csr(A, x, y, "spmv")
-        kernels = self._family("mesh").SPMV[A.dtype]
-        args = [*self._csr_handles(A), self._flat(x), self._flat(y)]
+        kernels = self.module("mesh").SPMV[A.dtype]
+        args = [*self.csr_handles(A), self.flat(x), self.flat(y)]
         self._run_rows(kernels, A.shape[0], A.nnz, args)
 
     def mesh_gray_scott(
@@ -63,10 +63,10 @@ class WarpMeshKernels:
         t = u.dtype.type
         f_val, f_field = self._vparam(F, u, "mesh_gray_scott F")
         k_val, k_field = self._vparam(k, u, "mesh_gray_scott k")
-        kernels = self._family("mesh").GRAY_SCOTT[(u.dtype, f_field, k_field)]
+        kernels = self.module("mesh").GRAY_SCOTT[(u.dtype, f_field, k_field)]
         args = [
-            *self._csr_handles(L), self._flat(u), self._flat(v), self._flat(u_out),
-            self._flat(v_out), f_val, k_val, t(Du), t(Dv), t(dt),
+            *self.csr_handles(L), self.flat(u), self.flat(v), self.flat(u_out),
+            self.flat(v_out), f_val, k_val, t(Du), t(Dv), t(dt),
         ]
         self._run_rows(kernels, L.shape[0], L.nnz, args)
 
@@ -83,8 +83,8 @@ class WarpMeshKernels:
         self._check_csr(L, u, out, "mesh_diffusion")
         t = u.dtype.type
         s_val, s_field = self._vparam(source, u, "mesh_diffusion source")
-        kernels = self._family("mesh").DIFFUSION[(u.dtype, s_field)]
-        args = [*self._csr_handles(L), self._flat(u), self._flat(out), t(D), s_val, t(dt)]
+        kernels = self.module("mesh").DIFFUSION[(u.dtype, s_field)]
+        args = [*self.csr_handles(L), self.flat(u), self.flat(out), t(D), s_val, t(dt)]
         self._run_rows(kernels, L.shape[0], L.nnz, args)
 
     def csr_sor_colour(
@@ -100,10 +100,10 @@ class WarpMeshKernels:
         self._check_sor(A, x, rhs, rows, change)
         t = x.dtype.type
         om = t(omega)
-        kernels = self._family("mesh").SOR[x.dtype]
+        kernels = self.module("mesh").SOR[x.dtype]
         args = [
-            *self._csr_handles(A), A.diagonal.handle, self._flat(x), self._flat(rhs),
-            rows.handle, self._flat(change), om, t(1) - om,
+            *self.csr_handles(A), A.diagonal.handle, self.flat(x), self.flat(rhs),
+            rows.handle, self.flat(change), om, t(1) - om,
         ]
         n = rows.size
         # work: about nnz · n / n_rows matrix entries

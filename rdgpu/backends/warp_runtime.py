@@ -14,8 +14,6 @@ from rdgpu.core.errors import BackendUnavailableError
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
 #: thread costs tens of microseconds), larger ones in up to one chunk per core
 CHUNK_MIN_CELLS = 1 << 15
-#: elements per thread of the pointwise (Bernoulli) kernel on the CPU
-BLOCK = 4096
 #: matrix rows per thread of the CSR kernels on the CPU
 ROW_BLOCK = 256
 #: max_abs, sum_squares: elements per thread on the CPU (one partial each); threads of the

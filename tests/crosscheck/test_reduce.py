@@ -259,8 +259,8 @@ def test_warp_pool_chunks(dtype, monkeypatch):
     dtype = np.dtype(dtype)
     n = 3 * warp_backend.REDUCE_SPLIT_BYTES // dtype.itemsize + 17
     offsets = []
-    launch = be._launch
-    monkeypatch.setattr(be, "_launch", lambda k, dim, args, key: (offsets.append(key),
+    launch = be.launch
+    monkeypatch.setattr(be, "launch", lambda k, dim, args, key: (offsets.append(key),
                                                                    launch(k, dim, args, key)))
     a = np.random.default_rng(5).uniform(-1, 1, n).astype(dtype)
     for pos in (0, n // 3 + 5, n // 2, n - 1):

@@ -139,6 +139,6 @@ def test_grids_past_32_bit_indices_are_refused(shapes_of_launch):
     be = shapes_of_launch[0]
     # the launchers check before touching the (here absent) kernels and arguments
     with pytest.raises(ValueError, match="too large for the Warp kernels"):
-        be._run_grid((None, None), (2**16, 2**15), [])
+        be.run_grid((None, None), (2**16, 2**15), [])
     with pytest.raises(ValueError, match="2048x1024x1024 = 2147483648 cells"):
-        be._run_grid3((None, None), (2**11, 2**10, 2**10), [])
+        be.run_grid3((None, None), (2**11, 2**10, 2**10), [])

@@ -302,7 +302,7 @@ def test_gpu_launch_shapes_equal_row_shapes(variant, name, kind, dtype):
     be = _variant(variant)
     rows = _variant("warp-rows" if variant == "warp-cells" else "opencl-row")
     if variant == "warp-cells":
-        assert be._cells and not rows._cells
+        assert be.per_cell and not rows.per_cell
     else:
         assert be.layout == "strided" and rows.layout == "row"
     exact = CASES[name][2]
