@@ -98,6 +98,8 @@ class SurfaceMesh:
         :meth:`to_trimesh`, :meth:`save`) unwraps a periodic mesh: seam vertices are
         duplicated so that no triangle spans the domain.
 
+    Notes
+    -----
     Never repaired (always an error): NaN/Inf coordinates, face indices out of range,
     non-manifold edges (an edge shared by more than two faces). Open meshes (edges in
     one face) are fine; non-manifold *vertices* (two fans touching at a vertex) are
