@@ -9,6 +9,8 @@ Pick a backend per call (``backend="opencl"``), per block (``with rdgpu.use_back
 per process (``rdgpu.set_backend("numpy")`` or ``RDGPU_BACKEND``); ``"auto"`` otherwise.
 """
 
+import sys
+
 from rdgpu.backends.registry import available_backends, get_backend, set_backend, use_backend
 from rdgpu.core.conventions import VERSION
 from rdgpu.core.errors import (
@@ -72,6 +74,40 @@ def __getattr__(name: str):
     return module if attr is None else getattr(module, attr)
 
 
+def _result_png(result: object) -> bytes:
+    from rdgpu.io.display import result_png
+
+    return result_png(result)
+
+
+def _result_html(result: object) -> str:
+    from rdgpu.io.display import result_html
+
+    return result_html(result)
+
+
+def register_notebook_display(shell: object = None) -> bool:
+    """Make IPython/Jupyter draw a ``Result``: its final state as a PNG and as HTML with a
+    one-line summary of the run (:mod:`rdgpu.io.display`). ``import rdgpu`` calls it in a
+    running IPython; ``shell`` defaults to ``get_ipython()``. Returns whether it registered.
+
+    (The formatters are registered by the class's name, so neither the simulation layer
+    nor the pictures' libraries load before a ``Result`` is shown.)
+    """
+    if shell is None:
+        ipython = sys.modules.get("IPython")
+        shell = ipython.get_ipython() if ipython is not None else None
+    formatters = getattr(getattr(shell, "display_formatter", None), "formatters", None)
+    if not formatters:
+        return False
+    for mime, func in (("image/png", _result_png), ("text/html", _result_html)):
+        formatters[mime].for_type_by_name("rdgpu.simulation.result", "Result", func)
+    return True
+
+
+register_notebook_display()
+
+
 def __dir__() -> list[str]:
     """What ``import rdgpu`` offers, the names imported on first use included (tab
     completion, ``dir(rdgpu)``)."""
@@ -109,6 +145,7 @@ __all__ = [
     "optimal_omega",
     "output",
     "random_walk_dla",
+    "register_notebook_display",
     "reinitialize",
     "set_backend",
     "sor_solve",

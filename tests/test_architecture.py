@@ -37,6 +37,9 @@ LAZY_IMPORTS: dict[str, str] = {
     "rdgpu.backends.registry -> rdgpu.backends.opencl_backend":
         "pyopencl and PoCL load only when the OpenCL backend is asked for; missing, it is "
         "a BackendUnavailableError",
+    "rdgpu -> rdgpu.io.display":
+        "`import rdgpu` stays light: a notebook's picture of a Result loads matplotlib, "
+        "imageio and the io layer only when a Result is shown",
     "rdgpu.cli.options -> rdgpu.runs.sweep":
         "`rdgpu --help` and every other command stay fast: rdgpu.runs.sweep loads the "
         "simulation and model layers (0.1-0.2 s), needed only to parse `rdgpu sweep --param`",

@@ -141,18 +141,18 @@ def test_cli_help_lists_the_registry():
 
 def test_docs_table_is_the_registry():
     """docs/equations.md §7's table of methods names exactly the registry's schemes, with
-    their orders; the README's paragraph on time stepping names each."""
+    their orders; the time-stepping paragraph of docs/models.md names each."""
     text = (ROOT / "docs" / "equations.md").read_text(encoding="utf-8")
     table = text[text.index("| method | scheme | order |"):]
     table = table[:table.index("\n\n")]
     rows = re.findall(r"^\| `([^`]+)` \|.*\| (\d)[^|]*\|$", table, flags=re.M)
     assert [name for name, _ in rows] == list(method_names())
     assert all(int(order) == SCHEMES[name].order for name, order in rows)
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    readme = (ROOT / "docs" / "models.md").read_text(encoding="utf-8")
     start = readme.index("Time stepping (`options={\"method\": ...}`")
     paragraph = readme[start:readme.index("\n\n", start)]
     missing = [n for n in method_names() if f"`{n}`" not in paragraph]
-    assert not missing, f"README's time-stepping paragraph does not name {missing}"
+    assert not missing, f"docs/models.md's time-stepping paragraph does not name {missing}"
 
 
 def test_the_model_layer_does_not_import_the_integrators():

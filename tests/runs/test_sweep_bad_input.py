@@ -121,9 +121,9 @@ def _extra(name: str) -> set[str]:
 
 
 def test_readme_sweep_install_brings_the_map():
-    """The README's sweep section installs one extra and then draws ``--out map.png``:
+    """The sweep section of docs/many-runs.md installs one extra and then draws ``--out map.png``:
     that extra brings every package the sweep and its map import."""
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "many-runs.md").read_text()
     section = readme[readme.index("## Parameter maps"):]
     cmd = re.search(r'pip install "\.\[([a-z,]+)\]"', section) or re.search(
         r"pip install \"?'?\.\[([a-z,]+)\]", section)
@@ -137,7 +137,7 @@ def test_readme_sweep_install_brings_the_map():
     needed = {"dask", "distributed", "xarray", "zarr", "matplotlib"}
     missing = {PIP_NAMES.get(m, m) for m in needed} - {i.split("[")[0] for i in installed}
     missing -= {"distributed"} if "dask" in installed else set()  # dask[distributed]
-    assert not missing, f"the README's sweep install lacks {missing}"
+    assert not missing, f"the sweep section's install lacks {missing}"
 
 
 def test_missing_matplotlib_names_an_extra_that_brings_it(monkeypatch, tmp_path):
