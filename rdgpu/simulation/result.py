@@ -19,12 +19,34 @@ __all__ = ["Result", "package_versions"]
 
 @dataclass
 class Result:
-    """What a run produced.
+    """What a run produced (`Simulation.run` returns it; `rdgpu.output.load_npz` reads
+    one back). In a notebook it draws its final state (`rdgpu.io.display`).
 
-    ``fields`` are the final fields (the last good state if the run diverged);
-    ``snapshots[name]`` is an ``[n_snap, *shape]`` array, taken at ``snapshot_steps``
-    (times ``times``).  ``domain`` is the Grid or SurfaceMesh, ``domain_info`` its
-    description."""
+    Attributes
+    ----------
+    model : str
+        The model's name.
+    fields : dict of str to numpy.ndarray
+        The final fields, one per species, of the domain's field shape (``[ny, nx]`` on a
+        2-D grid, one value per vertex on a mesh; ``[members, *shape]`` for an ensemble);
+        the last good state if the run diverged.
+    snapshots : dict of str to numpy.ndarray
+        ``snapshots[name]`` is an ``[n_snap, *shape]`` array taken at ``snapshot_steps``,
+        at the times ``times`` (model time units).
+    step, time, dt : int, float, float
+        Steps done, the model time reached (``step * dt``) and the time step.
+    params : dict
+        The parameters the run used (numbers or per-cell fields).
+    domain, domain_info : Domain, dict
+        The Grid, graph surface or SurfaceMesh, and its description.
+    backend, device, dtype : str
+        Where and in what precision it ran.
+    members : int or None
+        An ensemble's member count; ``diverged_members`` names the members that diverged
+        and were frozen at their last good state.
+    diverged : str or None
+        Why the run stopped early, if it did.
+    """
 
     model: str
     fields: dict[str, np.ndarray]

@@ -1,4 +1,4 @@
-"""MkDocs hook: a page line ``<!-- rdgpu-help: run -->`` becomes the ``--help`` text of
+"""MkDocs hooks: a page line ``<!-- rdgpu-help: run -->`` becomes the ``--help`` text of
 ``rdgpu run`` (no argument: of ``rdgpu`` itself), taken from the CLI's own parser, so the
 reference never falls behind the options."""
 
@@ -24,3 +24,15 @@ def _help(command: str) -> str:
 
 def on_page_markdown(markdown: str, **kwargs) -> str:
     return MARKER.sub(lambda m: "```text\n" + _help(m.group(1)).rstrip() + "\n```", markdown)
+
+
+#: a Sphinx role left in a docstring (``:func:`name```): mkdocstrings shows it verbatim
+ROLE = re.compile(r":(?:func|class|meth|mod|data|attr|exc|obj|py:\w+):<code>(~?)([^<]*)</code>")
+
+
+def on_page_content(html: str, **kwargs) -> str:
+    """Docstrings written with Sphinx roles render as plain code (``~a.b.c`` as ``c``)
+    until each is converted to the numpydoc/Markdown convention (docs/architecture.md,
+    Docstrings)."""
+    return ROLE.sub(lambda m: "<code>" + (m.group(2).rsplit(".", 1)[-1] if m.group(1)
+                                          else m.group(2)) + "</code>", html)
