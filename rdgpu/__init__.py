@@ -9,8 +9,6 @@ Pick a backend per call (``backend="opencl"``), per block (``with rdgpu.use_back
 per process (``rdgpu.set_backend("numpy")`` or ``RDGPU_BACKEND``); ``"auto"`` otherwise.
 """
 
-import sys
-
 from rdgpu.backends.registry import available_backends, get_backend, set_backend, use_backend
 from rdgpu.core.conventions import VERSION
 from rdgpu.core.errors import (
@@ -20,6 +18,7 @@ from rdgpu.core.errors import (
     StabilityError,
 )
 from rdgpu.core.optional import MissingExtraError
+from rdgpu.core.renderers import register as register_renderer
 from rdgpu.ops.api import (
     bernoulli_substep,
     diffusion_step,
@@ -86,26 +85,10 @@ def _result_html(result: object) -> str:
     return result_html(result)
 
 
-def register_notebook_display(shell: object = None) -> bool:
-    """Make IPython/Jupyter draw a ``Result``: its final state as a PNG and as HTML with a
-    one-line summary of the run (:mod:`rdgpu.io.display`). ``import rdgpu`` calls it in a
-    running IPython; ``shell`` defaults to ``get_ipython()``. Returns whether it registered.
-
-    (The formatters are registered by the class's name, so neither the simulation layer
-    nor the pictures' libraries load before a ``Result`` is shown.)
-    """
-    if shell is None:
-        ipython = sys.modules.get("IPython")
-        shell = ipython.get_ipython() if ipython is not None else None
-    formatters = getattr(getattr(shell, "display_formatter", None), "formatters", None)
-    if not formatters:
-        return False
-    for mime, func in (("image/png", _result_png), ("text/html", _result_html)):
-        formatters[mime].for_type_by_name("rdgpu.simulation.result", "Result", func)
-    return True
-
-
-register_notebook_display()
+# a Result draws itself in Jupyter (Result._repr_png_/_repr_html_), by the io layer
+register_renderer("image/png", _result_png)
+register_renderer("text/html", _result_html)
+del register_renderer
 
 
 def __dir__() -> list[str]:
@@ -145,7 +128,6 @@ __all__ = [
     "optimal_omega",
     "output",
     "random_walk_dla",
-    "register_notebook_display",
     "reinitialize",
     "set_backend",
     "sor_solve",

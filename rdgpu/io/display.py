@@ -2,9 +2,10 @@
 (a mosaic for an ensemble, the rendering for a mesh, the mid-plane slices for a 3-D grid)
 and a one-line summary of the run.
 
-``import rdgpu`` inside IPython/Jupyter registers :func:`result_png` and
-:func:`result_html` as the notebook's ``image/png`` and ``text/html`` formatters of
-``Result`` (see ``rdgpu/__init__.py``), so a cell ending in ``result`` draws it."""
+``Result._repr_png_`` and ``Result._repr_html_`` call :func:`result_png` and
+:func:`result_html` (registered in ``rdgpu.core.renderers`` by ``rdgpu/__init__.py``), so a
+notebook cell ending in ``result`` draws it. The last picture is kept, so the two views of
+one result render it once (a mesh rendering takes seconds)."""
 
 from __future__ import annotations
 
@@ -74,10 +75,17 @@ def result_image(result: Result, field: str | None = None) -> np.ndarray:
     return _enlarge(rgb)
 
 
+#: the last picture drawn: ((id, step, time, field), PNG bytes)
+_last: list = [None, b""]
+
+
 def result_png(result: Result, field: str | None = None) -> bytes:
     """:func:`result_image` encoded as PNG bytes (a notebook's ``image/png``)."""
     iio = require("imageio.v3", "drawing a Result")
-    return iio.imwrite("<bytes>", result_image(result, field), extension=".png")
+    key = (id(result), result.step, result.time, field)
+    if _last[0] != key:
+        _last[:] = [key, iio.imwrite("<bytes>", result_image(result, field), extension=".png")]
+    return _last[1]
 
 
 def result_summary(result: Result) -> str:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.core.hardware import package_versions
+from rdgpu.core.renderers import render
 from rdgpu.simulation.dataset import result_dataset
 
 if TYPE_CHECKING:
@@ -86,6 +87,16 @@ class Result:
         :mod:`rdgpu.simulation.dataset` for the full layout."""
 
         return result_dataset(self)
+
+    def _repr_png_(self) -> bytes | None:
+        """Jupyter's picture: the final state as PNG (`rdgpu.io.display.result_png`: a
+        mosaic for an ensemble, the rendering for a mesh)."""
+        return render("image/png", self)
+
+    def _repr_html_(self) -> str | None:
+        """Jupyter's rich view: the picture under a one-line summary of the run
+        (`rdgpu.io.display.result_html`)."""
+        return render("text/html", self)
 
     def __repr__(self) -> str:
         shape = next(iter(self.fields.values())).shape if self.fields else ()

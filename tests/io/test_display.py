@@ -1,11 +1,10 @@
 """A Result draws itself in a notebook: a valid, non-blank PNG of its final state for a
 grid, an ensemble (the mosaic) and a mesh (the rendering), HTML with the run's one-line
-summary, and ``import rdgpu`` registers both with IPython's formatters."""
+summary (``Result._repr_png_``, ``_repr_html_``)."""
 
 from __future__ import annotations
 
 import io
-import types
 
 import numpy as np
 import pytest
@@ -64,21 +63,20 @@ def test_unknown_field_is_named(grid_result):
         result_image(grid_result, "w")
 
 
-def test_import_registers_with_ipython(grid_result):
-    registered = {}
+def test_result_draws_itself_in_a_notebook(grid_result):
+    """Jupyter calls these: the PNG and the HTML with the summary, drawn by the io layer."""
+    _check_png(grid_result._repr_png_())
+    html = grid_result._repr_html_()
+    assert "<img" in html and result_summary(grid_result) in html
 
-    class Formatter:
-        def __init__(self, mime):
-            self.mime = mime
 
-        def for_type_by_name(self, module, name, func):
-            registered[self.mime] = (module, name, func)
+def test_no_picture_without_the_extra(grid_result, monkeypatch):
+    """Without rdgpu[media] a notebook falls back to the text repr (None), no traceback."""
+    from rdgpu.core import renderers
+    from rdgpu.core.optional import MissingExtraError
 
-    shell = types.SimpleNamespace(display_formatter=types.SimpleNamespace(
-        formatters={m: Formatter(m) for m in ("image/png", "text/html")}))
-    assert rdgpu.register_notebook_display(shell)
-    module, name, png = registered["image/png"]
-    assert f"{module}.{name}" == f"{type(grid_result).__module__}.{type(grid_result).__name__}"
-    _check_png(png(grid_result))
-    assert "<img" in registered["text/html"][2](grid_result)
-    assert not rdgpu.register_notebook_display(types.SimpleNamespace())
+    def missing(result):
+        raise MissingExtraError("drawing a Result needs imageio: pip install 'rdgpu[media]'")
+
+    monkeypatch.setitem(renderers.RENDERERS, "image/png", missing)
+    assert grid_result._repr_png_() is None
