@@ -67,8 +67,21 @@ def _explicit_limit_formula(grid: Grid, d: str) -> str:
 
 
 def gray_scott_dt_limit(Du: float, Dv: float, dx: float, dy: float) -> float:
-    """Forward-Euler limit of the 5-point diffusion: ``1 / (2 max(Du, Dv) (1/dx² + 1/dy²))``
-    (``dy = inf`` for a 1-D grid: ``dx²/(2 max(Du, Dv))``)."""
+    """The forward-Euler time-step limit of Gray-Scott's 5-point diffusion.
+
+    Parameters
+    ----------
+    Du, Dv : float
+        Diffusion coefficients (length²/time).
+    dx, dy : float
+        Grid spacings (length); ``dy = inf`` for a 1-D grid.
+
+    Returns
+    -------
+    float
+        ``1 / (2 max(Du, Dv) (1/dx² + 1/dy²))`` (time; ``dx²/(2 max(Du, Dv))`` in 1-D,
+        ``inf`` when both coefficients are 0).
+    """
     Du, Dv = check.scalar(Du, "Du"), check.scalar(Dv, "Dv")
     dx = check.scalar(dx, "dx", strict=True)
     dy = math.inf if dy == math.inf else check.scalar(dy, "dy", strict=True)
@@ -77,8 +90,20 @@ def gray_scott_dt_limit(Du: float, Dv: float, dx: float, dy: float) -> float:
 
 
 def levelset_dt_limit(max_speed: float, dx: float, dy: float, dz: float = math.inf) -> float:
-    """Upwind CFL limit: ``Δt · max|F| · (1/dx + 1/dy (+ 1/dz)) ≤ 1`` (``dz`` for a 3-D
-    grid; ``dy = inf`` for a 1-D one)."""
+    """The upwind CFL limit of a level-set step: ``Δt · max|F| · (1/dx + 1/dy (+ 1/dz)) ≤ 1``.
+
+    Parameters
+    ----------
+    max_speed : float
+        The largest normal speed ``max|F|`` (length/time).
+    dx, dy, dz : float
+        Grid spacings (length); ``dz`` only for a 3-D grid, ``dy = inf`` for a 1-D one.
+
+    Returns
+    -------
+    float
+        The largest stable ``Δt`` (``inf`` for a speed of 0).
+    """
     max_speed = check.scalar(max_speed, "max_speed")
     dx = check.scalar(dx, "dx", strict=True)
     dy = math.inf if dy == math.inf else check.scalar(dy, "dy", strict=True)
@@ -100,25 +125,42 @@ def laplacian(
     backend: BackendSpec = None,
     out: Any = None,
 ) -> Any:
-    """Discrete Laplacian ``Δu`` with the 5-point or isotropic 9-point stencil (equations §1),
-    on a triangle mesh (equations §6), or on the graph surface ``z = h(x, y)`` (``height``).
+    """The discrete Laplacian ``Δu``: 5-point or isotropic 9-point stencil on a grid
+    (equations §1), cotangent operator on a triangle mesh (§6), or Laplace-Beltrami
+    operator on the graph surface ``z = h(x, y)``.
 
-    ``bc`` is one condition or a pair ``(y_bc, x_bc)``: ``"periodic"``, ``"neumann"`` or
-    ``("dirichlet", g)``.  The 9-point stencil needs ``dx == dy``.  Units: ``[u]/length²``.
+    Parameters
+    ----------
+    u : array
+        ``u[nx]`` (1-D) or ``u[ny, nx]`` (row index y), float32 or float64, of any array
+        library; on a mesh one value per vertex.
+    dx, dy : float
+        Grid spacings (length); ``dy`` defaults to ``dx``.
+    bc : str, tuple or pair of them
+        One condition or a pair ``(y_bc, x_bc)``: ``"periodic"``, ``"neumann"`` (zero
+        flux) or ``("dirichlet", g)``.
+    stencil : {5, 9}
+        The 9-point stencil needs ``dx == dy``.
+    mesh : SurfaceMesh, optional
+        The result is then ``L u`` with the cotangent operator ``L = A⁻¹W``
+        (``mesh.laplacian``; open boundaries are zero-flux); ``dx``, ``dy``, ``bc`` and
+        ``stencil`` must stay at their defaults.
+    height : array, optional
+        ``h[ny, nx]`` at the cell centres (in the units of ``dx``): the result is the
+        Laplace-Beltrami operator ``Δ_Γ u = (1/√g) ∂_i(√g g^{ij} ∂_j u)`` of the surface
+        ``z = h(x, y)`` over the parameter grid of a 2-D ``u`` (the conservative 9-point
+        form of `rdgpu.GraphSurface`; ``h = 0`` gives the 5-point Laplacian to
+        round-off). The surface is periodic: ``bc`` must be ``"periodic"``; ``stencil``
+        does not apply and ``mesh`` cannot be given too.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it (default: the current default backend).
+    out : array, optional
+        An array of u's shape and dtype that receives the result and is returned.
 
-    ``mesh``: a :class:`rdgpu.SurfaceMesh`; ``u`` is then one value per vertex (1-D, length
-    ``n_vertices``) and the result is ``L u`` with the cotangent operator ``L = A⁻¹W``
-    (``mesh.laplacian``; open boundaries are zero-flux).  ``dx``, ``dy``, ``bc`` and
-    ``stencil`` do not apply to a mesh and must be left at their defaults.
-
-    ``height``: ``h[ny, nx]`` at the cell centres (in the units of ``dx``); the result is
-    then the Laplace-Beltrami operator ``Δ_Γ u = (1/√g) ∂_i(√g g^{ij} ∂_j u)`` of the
-    surface ``z = h(x, y)`` over the parameter grid of ``u[ny, nx]`` (the conservative
-    9-point form of :class:`rdgpu.domains.graph_surface.GraphSurface`; ``h = 0`` gives the 5-point
-    Laplacian to round-off).  The surface is periodic: ``bc`` must be ``"periodic"`` on both
-    axes; ``stencil`` does not apply and ``mesh`` cannot be given too.  ``u`` must be 2-D.
-
-    ``out``: an array of u's shape and dtype that receives the result (module doc).
+    Returns
+    -------
+    array
+        ``Δu`` (units ``[u]/length²``), the same kind of array as ``u``.
     """
     if height is not None:
         return _surface_laplacian(u, height, dx, dy, bc, stencil, mesh, backend, out)
@@ -194,9 +236,27 @@ def bernoulli_decay(tau: float, eps: float, dtype: Any) -> float:
 def bernoulli_substep(
     u: Any, *, tau: float, eps: float, backend: BackendSpec = None, out: Any = None
 ) -> Any:
-    """Exact solution of ``u_t = (u − u³)/ε²`` after a time ``tau`` (equations §2), pointwise.
+    """The exact solution of ``u_t = (u − u³)/ε²`` after a time ``tau``, pointwise
+    (equations §2): Allen-Cahn's reaction substep.
 
-    Works on arrays of any shape (grid cells or mesh vertices).  ``out``: module doc."""
+    Parameters
+    ----------
+    u : array
+        Any shape (grid cells or mesh vertices), float32 or float64.
+    tau : float
+        The time advanced (time units).
+    eps : float
+        The interface width ε (length), > 0.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Receives the result (u's shape and dtype) and is returned.
+
+    Returns
+    -------
+    array
+        ``u`` after ``tau``, the same kind of array as ``u``.
+    """
     be = get_backend(backend)
     field = host_field(u, "u", tuple(range(1, 8)), be)
     tau = check.scalar(tau, "tau")
@@ -229,19 +289,42 @@ def gray_scott(
     backend: BackendSpec = None,
     out: tuple[Any, Any] | None = None,
 ) -> tuple[Any, Any]:
-    """Advance Gray-Scott ``steps`` forward-Euler steps of ``dt`` (equations §3).
+    """Advance Gray-Scott by ``steps`` forward-Euler steps of ``dt`` (equations §3), one
+    fused kernel per step:
+    ``u_t = Du Δu − u v² + F (1 − u)``, ``v_t = Dv Δv + u v² − (F + k) v``.
 
-    ``u_t = Du Δu − u v² + F (1 − u)``, ``v_t = Dv Δv + u v² − (F + k) v``.  ``F`` and ``k``
-    are scalars or per-cell arrays.  Raises :class:`StabilityError` when
-    ``dt > 1 / (2 max(Du, Dv)(1/dx² + 1/dy²))`` unless ``check_stability=False``.
-    ``progress=True`` shows a progress bar (tqdm) on stderr.
+    Parameters
+    ----------
+    u, v : array
+        ``[nx]`` or ``[ny, nx]`` (row index y), float32 or float64, the same shape; on a
+        mesh one value per vertex. Never modified.
+    Du, Dv : float
+        Diffusion coefficients (length²/time).
+    F, k : float or array
+        Feed and kill rates (1/time), numbers or per-cell (per-vertex) arrays.
+    dt : float
+        The time step (time units).
+    steps : int
+        Steps to take; all run on the device between one upload and one download.
+    dx, dy, bc
+        Grid spacings and boundary conditions, as `laplacian` takes them.
+    mesh : SurfaceMesh, optional
+        In place of ``dx``/``dy``/``bc``: ``Δ`` is the cotangent operator (equations §6).
+    check_stability : bool
+        Raise `rdgpu.StabilityError` when ``dt`` passes the limit: on a grid
+        ``1 / (2 max(Du, Dv)(1/dx² + 1/dy²))`` (`gray_scott_dt_limit`), on a mesh
+        ``mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L))``.
+    progress : bool
+        Show a progress bar (tqdm) on stderr.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : pair of arrays, optional
+        ``(u_out, v_out)`` that receive the result and are returned.
 
-    ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``: ``u``, ``v``
-    (and field ``F``, ``k``) hold one value per vertex and ``Δ`` is the cotangent operator
-    (equations §6), one fused kernel per step; the limit is then
-    ``mesh.max_stable_dt(max(Du, Dv)) = 2/(max(Du, Dv) λ_max(−L))``.
-
-    ``out``: a pair ``(u_out, v_out)`` that receives the result (module doc).
+    Returns
+    -------
+    tuple of array
+        ``(u, v)`` after ``steps`` steps, the same kind of arrays as the inputs.
     """
     be = get_backend(backend)
     check_stability, progress = (check.flag(check_stability, "check_stability"),
@@ -313,14 +396,29 @@ def gray_scott(
 
 # ---------------------------------------------------------------------------- SpMV
 def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> Any:
-    """``y = A x`` on a backend for any ``scipy.sparse`` matrix or array ``A`` (any format,
-    square or not): a drop-in for ``A @ x`` with a 1-D ``x``.
+    """``y = A x`` on a backend: a drop-in for ``A @ x`` with a 1-D ``x``.
 
-    The result has ``x``'s dtype (float32 or float64); ``A`` is cast to it.  Each row is
-    summed in index order in that dtype.  ``A`` is uploaded on every call: to apply one
-    operator many times, upload it once with ``backend.upload_csr`` and call
-    ``backend.spmv``.  Neither input is modified.  ``x``: any array kind; ``out``: an
-    array of shape ``(n_rows,)`` and x's dtype that receives ``y`` (module doc)."""
+    Parameters
+    ----------
+    csr : scipy.sparse matrix or array
+        ``A``, any format, square or not; cast to x's dtype, its indices checked first.
+    x : array
+        1-D, float32 or float64, any array kind.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Shape ``(n_rows,)`` and x's dtype; receives ``y`` and is returned.
+
+    Returns
+    -------
+    array
+        ``y`` in x's dtype, each row summed in index order in that dtype.
+
+    Notes
+    -----
+    ``A`` is uploaded on every call: to apply one operator many times, upload it once with
+    ``backend.upload_csr`` and call ``backend.spmv``. Neither input is modified.
+    """
     m = checked_csr(csr, "csr")  # type, real finite values, structure (indices in range)
     n_rows, n_cols = m.shape
     xa = np.asarray(x) if isinstance(x, (list, tuple)) else x
@@ -373,19 +471,43 @@ def diffusion_step(
 ) -> Any:
     """Advance ``u_t = D Δu + source`` by ``steps`` steps of ``dt`` on a grid or a mesh.
 
-    ``method``: ``"explicit"`` (forward Euler ``u + dt (D Δu + source)``; raises
-    :class:`StabilityError` above ``1/(2D(1/dx² + 1/dy²))`` on a grid,
-    ``mesh.max_stable_dt(D)`` on a mesh, unless ``check_stability=False``),
-    ``"backward-euler"`` (alias ``"implicit"``) or ``"crank-nicolson"``: the θ-scheme
-    ``(I − θ dt D L) u' = u + (1 − θ) dt D L u + dt source``, solved by multicolour SOR on
-    the device to ``tol`` (default 1e-8 in float64, 1e-5 in float32; see
-    :class:`rdgpu.ops.implicit.ImplicitDiffusion`), stable at any ``dt``.
+    Parameters
+    ----------
+    u : array
+        ``[nx]`` or ``[ny, nx]`` on a grid, one value per vertex on a mesh.
+    D : float
+        The diffusion coefficient (length²/time).
+    dt : float
+        The time step (time units).
+    steps : int
+        Steps to take.
+    method : {"explicit", "backward-euler", "implicit", "crank-nicolson"}
+        ``"explicit"``: forward Euler ``u + dt (D Δu + source)``. ``"backward-euler"``
+        (alias ``"implicit"``) and ``"crank-nicolson"``: the θ-scheme
+        ``(I − θ dt D L) u' = u + (1 − θ) dt D L u + dt source``, solved by multicolour
+        SOR on the device to ``tol`` (`rdgpu.ImplicitDiffusion`), stable at any ``dt``.
+    source : float or array
+        A number or a field of u's shape ([u]/time).
+    mesh : SurfaceMesh, optional
+        Run on the mesh; the grid arguments must stay at their defaults.
+    dx, dy, bc
+        As `laplacian` takes them (5-point stencil, Dirichlet ghosts included).
+    tol : float, optional
+        The implicit solve's tolerance (default 1e-8 in float64, 1e-5 in float32).
+    check_stability : bool
+        ``"explicit"`` raises `rdgpu.StabilityError` above ``1/(2D(1/dx² + 1/dy²))`` on a
+        grid, ``mesh.max_stable_dt(D)`` on a mesh, unless ``False``.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Receives the result and is returned.
 
-    ``source`` is a number or a field of u's shape.  Grid: ``dx``, ``dy``, ``bc`` as in
-    :func:`laplacian` (5-point stencil, Dirichlet ghosts included).  ``mesh``: a
-    :class:`rdgpu.SurfaceMesh`; ``u`` has one value per vertex; the grid arguments must stay
-    at their defaults.  On a closed mesh (or a periodic/Neumann grid) every method keeps
-    ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step.  ``out``: module doc."""
+    Returns
+    -------
+    array
+        ``u`` after ``steps`` steps. On a closed mesh (or a periodic/Neumann grid) every
+        method keeps ``Σ A_i u_i`` (``Σ u``) up to ``dt Σ A_i source_i`` per step.
+    """
     method = "backward-euler" if method == "implicit" else method
     if method not in DIFFUSION_METHODS:
         raise ValueError(f"method must be one of {tuple(DIFFUSION_METHODS)} (or 'implicit'), "

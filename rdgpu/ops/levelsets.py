@@ -43,13 +43,38 @@ def levelset_advance(
     backend: BackendSpec = None,
     out: Any = None,
 ) -> Any:
-    """Advance ``φ_t + F|∇φ| = 0`` by first-order upwinding (equations §5).
+    """Advance ``φ_t + F|∇φ| = 0`` by first-order (Godunov) upwinding (equations §5).
 
-    ``φ < 0`` is inside; ``F > 0`` moves the front outward.  ``speed`` is a scalar or a
-    per-cell field.  ``phi`` is ``[nx]``, ``[ny, nx]`` or ``[nz, ny, nx]`` (3-D, seed 003
-    eq. 3.11: plane spacing ``dz``, default ``dx``; ``bc`` one condition or a triple
-    ``(z_bc, y_bc, x_bc)``).  Raises :class:`StabilityError` if
-    ``dt · max|F| · (1/dx + 1/dy (+ 1/dz)) > 1``.  ``out``: module doc."""
+    Parameters
+    ----------
+    phi : array
+        ``[nx]``, ``[ny, nx]`` or ``[nz, ny, nx]`` (3-D, seed 003 eq. 3.11); ``φ < 0`` is
+        inside.
+    speed : float or array
+        The normal speed ``F`` (length/time), a number or a per-cell field; ``F > 0``
+        moves the front outward.
+    dt : float
+        The time step (time units).
+    steps : int
+        Steps to take.
+    dx, dy, dz : float
+        Spacings (length); ``dy`` and ``dz`` default to ``dx``, ``dz`` only in 3-D.
+    bc
+        One condition or one per axis (``(z_bc, y_bc, x_bc)`` in 3-D), as
+        `rdgpu.laplacian` takes them; default ``"neumann"``.
+    check_stability : bool
+        Raise `rdgpu.StabilityError` if ``dt · max|F| · (1/dx + 1/dy (+ 1/dz)) > 1``
+        (`rdgpu.levelset_dt_limit`).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Receives the result and is returned.
+
+    Returns
+    -------
+    array
+        ``φ`` after ``steps`` steps.
+    """
     be = get_backend(backend)
     grid, domain = levelset_problem(phi, dx, dy, dz, bc, be)
     F = param_value(speed, "speed", grid)
@@ -91,6 +116,32 @@ def reinitialize(
 ) -> Any:
     """Make ``φ`` a signed distance function without moving its zero level set (equations §5).
 
+    Parameters
+    ----------
+    phi : array
+        ``[nx]``, ``[ny, nx]`` or ``[nz, ny, nx]``.
+    dx, dy, dz : float
+        Spacings (length), as in `levelset_advance`.
+    iterations : int, optional
+        Pseudo-time iterations; default ``max(shape)``.
+    dtau : float, optional
+        The pseudo-time step; default and maximum ``1/(1/dx + 1/dy (+ 1/dz))``.
+    bc
+        As in `levelset_advance`.
+    subcell_fix : bool
+        Anchor the cells next to the front (Russo & Smereka 2000, below).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Receives the result and is returned.
+
+    Returns
+    -------
+    array
+        The reinitialised ``φ``.
+
+    Notes
+    -----
     Iterates ``φ_τ + S(φ₀)(|∇φ| − 1) = 0`` with ``S = φ₀/sqrt(φ₀² + dx²)`` and pseudo-time
     step ``dtau`` (default and maximum ``1/(1/dx + 1/dy)``, i.e. ``dx/2`` on a square
     grid; ``1/(1/dx + 1/dy + 1/dz)`` on a 3-D ``[nz, ny, nx]`` grid, ``dx/3`` on a cubic
@@ -99,7 +150,8 @@ def reinitialize(
     ``N/2`` (``N/3``) cells.  ``subcell_fix`` (Russo & Smereka 2000) anchors the cells next
     to the front to φ₀'s own distance estimate, so the front does not drift however many
     iterations run; without it the plain Godunov scheme moves the front by a fraction of
-    a cell per ~100 steps.  ``out``: module doc."""
+    a cell per ~100 steps.
+    """
     be = get_backend(backend)
     grid, domain = levelset_problem(phi, dx, dy, dz, bc, be)
     dx, dy, bcs = domain.dx, domain.dy, domain.bcs

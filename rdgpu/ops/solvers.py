@@ -21,7 +21,13 @@ __all__ = ["optimal_omega", "sor_solve", "sor_sweep"]
 
 
 def optimal_omega(shape: tuple[int, ...]) -> float:
-    """``2 / (1 + sin(π/N))`` with ``N`` the larger side: the optimal ω of the model problem."""
+    """The optimal SOR relaxation factor of the model problem on a grid of ``shape``.
+
+    Returns
+    -------
+    float
+        ``2 / (1 + sin(π/N))`` with ``N`` the larger side.
+    """
     if isinstance(shape, (int, np.integer)) and not isinstance(shape, bool):
         shape = (shape,)
     try:
@@ -69,10 +75,31 @@ def sor_sweep(
     backend: BackendSpec = None,
     out: Any = None,
 ) -> Any:
-    """One red-black SOR sweep for ``Δc = rhs`` (red ``(i + j)`` even, then black; equations §4).
+    """One red-black SOR sweep for ``Δc = rhs``: the red cells (``i + j`` even), then the
+    black ones (equations §4).
 
-    ``fixed`` is a boolean mask of Dirichlet cells that keep their value.  ``out``: module
-    doc."""
+    Parameters
+    ----------
+    c : array
+        The current field ``[ny, nx]`` (or ``[nx]``), float32 or float64.
+    fixed : array of bool
+        Dirichlet cells that keep their value.
+    omega : float
+        The relaxation factor, in (0, 2) (`optimal_omega`).
+    rhs : array, optional
+        The right-hand side ``f`` of ``Δc = f`` (default 0).
+    dx, dy, bc
+        As `rdgpu.laplacian` takes them (default ``"neumann"``).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Receives the result and is returned.
+
+    Returns
+    -------
+    array
+        ``c`` after the sweep, the same kind of array as the input.
+    """
     be = get_backend(backend)
     grid, mask, omega, f, dx, dy, bcs = sor_inputs(c, fixed, omega, rhs, dx, dy, bc, be)
     expect_out(out, c, grid.dtype)
@@ -97,18 +124,51 @@ def sor_solve(
 ) -> tuple[Any, int, float]:
     """Solve ``Δc = rhs`` by red-black SOR from the initial guess ``c`` (equations §4).
 
-    Stops after the first sweep whose max change is below ``tol``; returns
-    ``(c, sweeps, residual)`` where ``residual`` is that last max change.  ``omega``
-    defaults to :func:`optimal_omega`; ``max_sweeps`` to ``max(1000, 50 N)``.
+    Parameters
+    ----------
+    c : array
+        The initial guess ``[ny, nx]`` (or ``[nx]``), float32 or float64.
+    fixed : array of bool
+        Dirichlet cells that keep their value.
+    omega : float, optional
+        The relaxation factor in (0, 2); default `optimal_omega`.
+    rhs : array, optional
+        The right-hand side (default 0).
+    tol : float
+        Stop after the first sweep whose largest change is below ``tol``.
+    max_sweeps : int, optional
+        Default ``max(1000, 50 N)``, ``N`` the larger side.
+    dx, dy, bc
+        As `rdgpu.laplacian` takes them (default ``"neumann"``).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        Receives ``c`` and is returned.
 
+    Returns
+    -------
+    c : array
+        The solution, the same kind of array as the input.
+    sweeps : int
+        Sweeps done.
+    residual : float
+        The last sweep's largest change.
+
+    Raises
+    ------
+    rdgpu.ConvergenceError
+        When ``max_sweeps`` ends the solve before ``tol`` or the round-off floor.
+
+    Notes
+    -----
     Round-off floor: the changes cannot fall below a few ``eps·max|c|`` (in float32 at
     256² they wander around ``13 eps``).  When they stop falling there -- no halving of
     the max change over ``3/(1 − ρ)`` sweeps, ``ρ`` Young's contraction at this ``omega``
     for the Jacobi radius ``cos(π/N)``, while it is ``<= 64 eps max|c|`` -- the solve
     stops with a ``RuntimeWarning`` that names the floor reached (``tol`` is below what the
     dtype resolves; the result is as accurate as it can be).  If ``max_sweeps`` ends the
-    solve otherwise, :class:`rdgpu.core.errors.ConvergenceError` is raised.  ``out``: an array
-    that receives ``c`` (module doc)."""
+    solve otherwise, `rdgpu.ConvergenceError` is raised.
+    """
     be = get_backend(backend)
     grid, mask, omega_, f, dx, dy, bcs = sor_inputs(c, fixed, 1.0 if omega is None else omega,
                                                      rhs, dx, dy, bc, be)
