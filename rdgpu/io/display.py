@@ -34,7 +34,7 @@ MESH_WINDOW = (360, 360)
 
 
 def _enlarge(rgb: np.ndarray) -> np.ndarray:
-    factor = max(1, min(8, MIN_SIDE // max(1, min(rgb.shape[:2]))))
+    factor = max(1, min(8, -(-MIN_SIDE // max(1, min(rgb.shape[:2])))))  # ceil
     return np.repeat(np.repeat(rgb, factor, axis=0), factor, axis=1) if factor > 1 else rgb
 
 
