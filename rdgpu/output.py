@@ -1,4 +1,4 @@
-"""Public facade: ``rdgpu.output`` is :mod:`rdgpu.io.output`."""
+"""Public facade: ``rdgpu.output`` is `rdgpu.io.output`."""
 
 from rdgpu.io.output import *  # noqa: F403
 from rdgpu.io.output import (

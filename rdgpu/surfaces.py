@@ -1,4 +1,4 @@
-"""Public facade: ``rdgpu.surfaces`` is :mod:`rdgpu.domains.surfaces`."""
+"""Public facade: ``rdgpu.surfaces`` is `rdgpu.domains.surfaces`."""
 
 from rdgpu.domains.surfaces import *  # noqa: F403
 from rdgpu.domains.surfaces import __all__  # noqa: F401

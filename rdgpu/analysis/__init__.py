@@ -1,15 +1,15 @@
 """Measures of patterns and of their theory, one module per idea:
 
-* :mod:`~rdgpu.analysis.linear` — steady states, the reaction Jacobian, dispersion
+* `linear` — steady states, the reaction Jacobian, dispersion
   relations (linear stability of a homogeneous state);
-* :mod:`~rdgpu.analysis.patterns` — the phases' connected regions and the pattern class;
-* :mod:`~rdgpu.analysis.spots` — spot statistics and stripe orientation;
-* :mod:`~rdgpu.analysis.defects` — spiral tips and phase defects;
-* :mod:`~rdgpu.analysis.fractal` — the fractal dimension of a cluster;
-* :mod:`~rdgpu.analysis.isometry` — the isometry experiment of seed 000;
-* studies: :mod:`~rdgpu.analysis.convergence` (manufactured solutions, measured orders),
-  :mod:`~rdgpu.analysis.pinning` (seed 000's pinned spots),
-  :mod:`~rdgpu.analysis.rough_patterns` (seed 002's patterns on rough surfaces).
+* `patterns` — the phases' connected regions and the pattern class;
+* `spots` — spot statistics and stripe orientation;
+* `defects` — spiral tips and phase defects;
+* `fractal` — the fractal dimension of a cluster;
+* `isometry` — the isometry experiment of seed 000;
+* studies: `convergence` (manufactured solutions, measured orders),
+  `pinning` (seed 000's pinned spots),
+  `rough_patterns` (seed 002's patterns on rough surfaces).
 
 Every measure is a name of this package (``rdgpu.analysis.classify_pattern``, ...).
 """

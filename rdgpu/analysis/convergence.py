@@ -1,12 +1,12 @@
 """Convergence studies: manufactured solutions and the measured order of a time stepper.
 
-* :func:`forced_mode` — a linear two-species system on a periodic 1-D grid, forced so that
+* `forced_mode` — a linear two-species system on a periodic 1-D grid, forced so that
   ``u = cos(t) φ``, ``v = sin(t) φ`` solve it exactly (``φ`` a discrete Fourier mode);
-* :func:`spot` — Gray-Scott's Gaussian spot on a grid or on a unit sphere;
-* :func:`run_fixed_steps`, :func:`reference` (SSP-RK3 at a tiny step), :func:`errors` and
-  :func:`orders` — the error at ``T`` for steps ``h = T/n`` and the observed order between
+* `spot` — Gray-Scott's Gaussian spot on a grid or on a unit sphere;
+* `run_fixed_steps`, `reference` (SSP-RK3 at a tiny step), `errors` and
+  `orders` — the error at ``T`` for steps ``h = T/n`` and the observed order between
   neighbouring ``n``;
-* :func:`space_time_error` — seed 002 §4's manufactured reaction-diffusion system on a
+* `space_time_error` — seed 002 §4's manufactured reaction-diffusion system on a
   rough surface (``rdgpu/families/metric/exact.py``), space and time refined together.
 
 ``perf/bdf2_order.py`` and ``perf/surface_rds.py`` print the tables; the tests
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 __all__ = ["errors", "forced_mode", "orders", "reference", "run_fixed_steps",
            "space_time_error", "spot", "SURFACE_T"]
 
-#: the final time of :func:`space_time_error`
+#: the final time of `space_time_error`
 SURFACE_T = 0.5
 
 
@@ -109,7 +109,7 @@ def space_time_error(n: int, method: str, backend: str = "numpy",
                      dtype: str = "float64") -> float:
     """Seed 002 §4's manufactured two-species system (``manufactured_rds``: a graph surface
     over ``[0, 2π]²``, exact solution ``u = e^{−t}φ``, ``v = e^{−t}ψ``) on ``n²`` cells,
-    ``n/4`` steps to :data:`SURFACE_T` (``dt ∝ dx``) by ``method``: the max over the species
+    ``n/4`` steps to `SURFACE_T` (``dt ∝ dx``) by ``method``: the max over the species
     of the relative ℓ² error."""
     problem = load_module("metric", "exact.py").manufactured_rds(n)
     model = define_model("manufactured", problem["equations"],

@@ -1,6 +1,6 @@
-"""Phase singularities of a pair of fields: how many spiral tips (:func:`spiral_tips`, on
+"""Phase singularities of a pair of fields: how many spiral tips (`spiral_tips`, on
 a grid or a mesh) and where the vortices of ``u + iv`` are, with their charges ±1
-(:func:`phase_defects`, on a 2-D grid)."""
+(`phase_defects`, on a 2-D grid)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The fractal dimension of a cluster (a boolean mask): mass-radius or box counting, the
-log-log slope over a stated fit range (:func:`fractal_dimension`)."""
+log-log slope over a stated fit range (`fractal_dimension`)."""
 
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def fractal_dimension(
 
     ``"mass-radius"``: ``N(r)`` = object cells whose centre lies within ``r`` of
     ``center`` (default: the object's centroid; pass the seed, e.g. ``result.center`` of
-    :func:`rdgpu.dla`) at 24 log-spaced radii from 1 to the cluster radius ``R`` (the
+    `rdgpu.dla`) at 24 log-spaced radii from 1 to the cluster radius ``R`` (the
     farthest object cell); ``D`` is the slope of ``log N`` on ``log r`` over
     ``fit = (rmin, rmax)``, default ``(2, R/3)``: below 2 cells the lattice dominates,
     beyond ``R/3`` the still-growing outer branches are not yet filled in.

@@ -1,5 +1,5 @@
 """The domain as the pattern measures see it, asked through the Domain protocol
-(:mod:`rdgpu.domains.base`): a field as a float64 array, which grid axes wrap, and the
+(`rdgpu.domains.base`): a field as a float64 array, which grid axes wrap, and the
 neighbour pairs of the domain's graph.  ``domain=None`` stands for a non-periodic grid of
 the field's own shape."""
 

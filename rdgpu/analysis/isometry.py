@@ -4,11 +4,11 @@ measures it needs.
 The same modified Allen-Cahn run on a surface and on a nearly isometric deformation of it,
 from the same initial data (vertex ``i`` of one mesh is vertex ``i`` of the other: the
 correspondence), should put its spots in corresponding places, because the Laplace-Beltrami
-operator depends only on the metric.  :func:`cylinder` builds an open tube,
-:func:`bend` bends it into a circular arc (lengths along the axis and around it kept; the
+operator depends only on the metric.  `cylinder` builds an open tube,
+`bend` bends it into a circular arc (lengths along the axis and around it kept; the
 inner side is compressed and the outer stretched by ``r/ρ`` at most, ``ρ`` the bend
-radius), and :func:`phase_overlap` measures how well two fields' phases ``u > 0`` agree
-through the correspondence.  :func:`interface_width` counts how many vertices an interface
+radius), and `phase_overlap` measures how well two fields' phases ``u > 0`` agree
+through the correspondence.  `interface_width` counts how many vertices an interface
 spans (pinned interfaces: well under one; resolved ones: several).
 """
 
@@ -54,7 +54,7 @@ def cylinder(radius: float, length: float, n_around: int, n_along: int) -> Surfa
 
 
 def bend(mesh: SurfaceMesh, angle: float) -> SurfaceMesh:
-    """``mesh`` (a :func:`cylinder`: axis z from 0 to ``L``) with its axis bent into a
+    """``mesh`` (a `cylinder`: axis z from 0 to ``L``) with its axis bent into a
     circular arc of total ``angle`` (radians, 0 < angle ≤ 2π; radius ``ρ = L/angle``) in
     the x-z plane.  Arc length along the axis is kept; a point at distance ``x`` from the
     axis on the bend's inner/outer side has its axial lengths scaled by ``1 − x/ρ``: nearly

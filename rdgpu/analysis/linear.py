@@ -1,19 +1,19 @@
 """Linear stability of a homogeneous state: the steady state, the reaction Jacobian and the
 dispersion relation.
 
-* :func:`steady_state` — the homogeneous steady state ``R(x*) = 0`` of a model (Newton /
-  Powell hybrid from the model's guess), :func:`jacobian` — ``∂R/∂x`` there, exact to
+* `steady_state` — the homogeneous steady state ``R(x*) = 0`` of a model (Newton /
+  Powell hybrid from the model's guess), `jacobian` — ``∂R/∂x`` there, exact to
   round-off by the complex-step derivative (the functions of the equation language are
   analytic, so evaluating them with complex numbers is legitimate, except ``abs``, which
   is evaluated as ``sqrt(a*a)`` there, and ``min``/``max``, which select an argument);
-* :func:`dispersion` — the growth rate ``Re γ(k)`` of a Fourier mode of wavenumber ``k``:
-  the largest real part of the eigenvalues of ``J − k² D + k⁴ B`` (:func:`dispersion_matrix`;
+* `dispersion` — the growth rate ``Re γ(k)`` of a Fourier mode of wavenumber ``k``:
+  the largest real part of the eigenvalues of ``J − k² D + k⁴ B`` (`dispersion_matrix`;
   Quillen 2025, eq. 18, with cross-diffusion and fourth order), ``D`` and ``B`` the
   matrices of the coefficients of ``laplace`` and ``laplace(laplace(·))``
-  (:meth:`rdgpu.models.Model.linear_operators`: ``D[s, r]`` multiplies ``laplace(r)`` in
+  (`rdgpu.models.Model.linear_operators`: ``D[s, r]`` multiplies ``laplace(r)`` in
   the equation of ``s``), since the symbol of ``laplace`` is ``−k²`` and that of the
   bilaplacian ``+k⁴``.  On a grid the 3-point (per axis) stencil's mode ``m`` of ``n``
-  cells has ``k = (2/dx) sin(π m / n)`` (:func:`grid_wavenumber`), not ``2π m/(n dx)``;
+  cells has ``k = (2/dx) sin(π m / n)`` (`grid_wavenumber`), not ``2π m/(n dx)``;
   the generated bilaplacian is that stencil applied twice, so its symbol is exactly the
   square; ``dispersion(..., dx=h)`` maps continuous wavenumbers to the grid's.
 
@@ -153,7 +153,7 @@ def steady_state(
 
 def _spatial_operators(model: Model, params: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """``(D, B)``: the coefficients of ``laplace(r)`` and ``laplace(laplace(r))`` in the
-    equation of each species (rows) — :meth:`Model.linear_operators`, or the diagonal of
+    equation of each species (rows) — `Model.linear_operators`, or the diagonal of
     ``diffusion_coefficients`` for a model object without it."""
     n = len(model.species)
     if hasattr(model, "linear_operators"):
@@ -189,7 +189,7 @@ def dispersion_matrix(
 ) -> np.ndarray:
     """The linearisation ``J − k² D + k⁴ B`` about the homogeneous steady state (or
     ``state``) acting on a Fourier mode ``e^{ik·x}`` of every species: shape ``k.shape +
-    (n, n)``, ``n`` the number of species; ``J`` the reaction Jacobian (:func:`jacobian`),
+    (n, n)``, ``n`` the number of species; ``J`` the reaction Jacobian (`jacobian`),
     ``D[s, r]`` / ``B[s, r]`` the coefficients of ``laplace(r)`` / ``laplace(laplace(r))``
     in the equation of ``s``.  ``dx``: the grid's symbol instead, ``k² → (4/dx²)
     sin²(k dx/2)`` (the 3-point stencil along one axis; for a mode of several axes pass
@@ -218,10 +218,10 @@ def dispersion(
     dx: float | None = None,
 ) -> np.ndarray:
     """Growth rate ``Re γ(k)``: the largest real part of the eigenvalues of
-    ``J − k² D + k⁴ B`` (:func:`dispersion_matrix`: cross-diffusion and bilaplacians
+    ``J − k² D + k⁴ B`` (`dispersion_matrix`: cross-diffusion and bilaplacians
     included) at the homogeneous steady state (or at ``state``), for each wavenumber in
     ``k`` (any shape; the result has the same shape).  ``dx``: with the grid's symbol
-    (:func:`dispersion_matrix`); equivalently pass ``k = grid_wavenumber(m, n, dx)``."""
+    (`dispersion_matrix`); equivalently pass ``k = grid_wavenumber(m, n, dx)``."""
     A = dispersion_matrix(model, params, k, state=state, dx=dx)
     return np.asarray(np.linalg.eigvals(A).real.max(axis=-1))
 

@@ -1,5 +1,5 @@
 """Pattern classification: the connected regions of the two phases of a field
-(:func:`phase_components`) and the class they make (:func:`classify_pattern`):
+(`phase_components`) and the class they make (`classify_pattern`):
 ``"spots"``, ``"inverted-spots"``, ``"stripes"`` or ``"uniform"`` (optionally ``"mixed"``,
 ``"diverged"``), of one field or of each member of a stack."""
 
@@ -94,10 +94,10 @@ def classify_pattern(
     for a field whose phases are its signs) and a low phase; their connected regions are
     found on the domain's graph
     (4-neighbours on a grid, wrapped across periodic boundaries; mesh edges on a
-    :class:`~rdgpu.domains.mesh.SurfaceMesh`; ``domain=None``: a non-periodic grid).  Components
+    `SurfaceMesh`; ``domain=None``: a non-periodic grid).  Components
     smaller than ``min_size`` points are ignored.  A phase is *connected* when its largest
     component holds at least ``connected`` (0.9) of it; a component is *elongated* when
-    its elongation (:func:`phase_components`) exceeds ``elongated`` (6: longer than about
+    its elongation (`phase_components`) exceeds ``elongated`` (6: longer than about
     twice its width; a round island gives 2 to 3.5).
 
     * ``uniform``: a phase is absent, or (``threshold=None``) the field's range is below
@@ -143,7 +143,7 @@ def classify_pattern(
 def _classify_one(f: np.ndarray, domain: Domain | None, threshold: float | None, *,
                   connected: float, elongated: float, min_size: int, rtol: float,
                   atol: float, mixed: float | None, nonfinite: str, lone: float) -> str:
-    """:func:`classify_pattern` of one field."""
+    """`classify_pattern` of one field."""
     if not np.isfinite(f).all():
         if nonfinite == "diverged":
             return "diverged"

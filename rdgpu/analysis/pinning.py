@@ -1,11 +1,11 @@
 """Seed 000's pinning study: are a mesh's Allen-Cahn spots pinned, transient or stable?
 
-One run (:func:`run_case`) of the modified Allen-Cahn equation ``u_t = Δ_Γ u − (u³ − u +
+One run (`run_case`) of the modified Allen-Cahn equation ``u_t = Δ_Γ u − (u³ − u +
 b)/ε²`` (Dascal, Pai & Kimmel) on a surface mesh, ε a multiple of the mean edge length h,
 from random data uniform in [−1, 1], sampled at times in units of ε² (the natural time of
-the reaction): pattern class (:func:`rdgpu.analysis.classify_pattern`, threshold 0),
-number of phase components (:func:`rdgpu.analysis.phase_components`, both phases),
-interface width in vertices (:func:`rdgpu.analysis.isometry.interface_width`) and the
+the reaction): pattern class (`rdgpu.analysis.classify_pattern`, threshold 0),
+number of phase components (`rdgpu.analysis.phase_components`, both phases),
+interface width in vertices (`rdgpu.analysis.isometry.interface_width`) and the
 largest change of ``u`` since the last sample.  A run's verdict:
 
 * ``uniform``: one phase is gone (u > 0 everywhere or nowhere); the time is the first
@@ -14,7 +14,7 @@ largest change of ``u`` since the last sample.  A run's verdict:
   pinned by the mesh: a discrete equilibrium that the continuous equation does not have);
 * ``coarsening``: still changing at T ("not by T").
 
-:func:`table` prints a grid of runs (level, ε/h, b) as markdown.  The whole study, its
+`table` prints a grid of runs (level, ε/h, b) as markdown.  The whole study, its
 figure and the JSON are ``examples/seed000_study.py``'s.
 """
 
@@ -108,7 +108,7 @@ def verdict_cell(r: dict[str, Any]) -> str:
 
 def table(results: dict[str, Any]) -> str:
     """Markdown: one table per level, rows ε/h, columns b, of ``results["runs"]`` (runs of
-    :func:`run_case` with their ``level``, keyed ``"level/ratio/b"``)."""
+    `run_case` with their ``level``, keyed ``"level/ratio/b"``)."""
     runs = results["runs"]
     out = []
     for level in sorted({r["level"] for r in runs.values()}):

@@ -3,12 +3,12 @@
 The seed (Realistic pattern formations on surfaces by adding arbitrary roughness) grows
 patterns on graph surfaces ``z = h(x, y)`` of random waves and concludes that "the number
 of spots increases as the frequencies and the amplitude increase".  Here the reaction is
-the BVAM system (``rdgpu.models.MODELS["bvam"]``) with the :data:`PATTERNS` parameters, on
+the BVAM system (``rdgpu.models.MODELS["bvam"]``) with the `PATTERNS` parameters, on
 an ``n × n`` periodic grid over the square ``[0, SIDE)²``, IMEX Euler with ``dt =``
-:data:`DT`, float64, every run from the same random data.  :func:`experiment` runs every
+`DT`, float64, every run from the same random data.  `experiment` runs every
 (pattern, amplitude, frequency) of a configuration and measures the final ``u``
-(:func:`measure`: :func:`rdgpu.analysis.spot_statistics` and
-:func:`rdgpu.analysis.stripe_orientation` on the surface).  The whole study, its table and
+(`measure`: `rdgpu.analysis.spot_statistics` and
+`rdgpu.analysis.stripe_orientation` on the surface).  The whole study, its table and
 mosaic are ``examples/seed002_roughness.py``'s (``docs/data/seed002_roughness.md``).
 """
 
@@ -40,7 +40,7 @@ WAVELENGTH = 0.256
 
 
 def surface_height(n: int, amplitude: float, frequency: tuple[int, int], seed: int) -> np.ndarray:
-    """The random-wave height over the ``n × n`` grid of side :data:`SIDE` (absolute units:
+    """The random-wave height over the ``n × n`` grid of side `SIDE` (absolute units:
     ``max|h| = amplitude · SIDE``)."""
     if amplitude == 0.0:
         return np.zeros((n, n))
@@ -50,7 +50,7 @@ def surface_height(n: int, amplitude: float, frequency: tuple[int, int], seed: i
 
 def run_simulation(height: np.ndarray, params: dict[str, float], u0: np.ndarray,
                    v0: np.ndarray, steps: int, backend: str) -> np.ndarray:
-    """The same run through :class:`rdgpu.Simulation` on the graph surface.  Returns u."""
+    """The same run through `rdgpu.Simulation` on the graph surface.  Returns u."""
     n = height.shape[0]
     sim = Simulation("bvam", {"grid": (n, n), "dx": SIDE / n, "height": height},
                      params, dt=DT, backend=backend, dtype="float64",
@@ -83,9 +83,9 @@ def slope_of(height: np.ndarray) -> float:
 def experiment(config: dict[str, Any], backend: str, seed: int,
                progress: bool = True) -> list[dict]:
     """Every (pattern, amplitude, frequency) run, flat once per pattern.  ``config``:
-    ``n`` (grid side), ``amplitudes`` (fractions of :data:`SIDE`, 0 is flat),
+    ``n`` (grid side), ``amplitudes`` (fractions of `SIDE`, 0 is flat),
     ``frequencies`` (``(M, N)`` pairs), optionally ``time_scale`` (a factor on the end
-    times) and ``patterns`` (names of :data:`PATTERNS`; default all).  One row per run: the
+    times) and ``patterns`` (names of `PATTERNS`; default all).  One row per run: the
     surface's slope and area, the measures, spots per area, ``u``; a line per run printed
     when ``progress``."""
     n = config["n"]

@@ -1,6 +1,6 @@
 """Spots and stripes of a 2-D field on a grid or a graph surface: the spots' count, surface
-areas, their spread and elongation (:func:`spot_statistics`); the stripes' mean direction
-and coherence from the structure tensor (:func:`stripe_orientation`)."""
+areas, their spread and elongation (`spot_statistics`); the stripes' mean direction
+and coherence from the structure tensor (`stripe_orientation`)."""
 
 from __future__ import annotations
 
@@ -20,10 +20,10 @@ __all__ = ["SpotStatistics", "spot_statistics", "stripe_orientation"]
 
 @dataclass
 class SpotStatistics:
-    """The spots of a field (:func:`spot_statistics`), largest first.
+    """The spots of a field (`spot_statistics`), largest first.
 
     ``count``: how many spots; ``areas``: each spot's area (surface area on a
-    :class:`~rdgpu.GraphSurface`, ``cells · dx · dy`` on a flat grid; units of
+    `GraphSurface`, ``cells · dx · dy`` on a flat grid; units of
     ``dx²``); ``size_spread``: the coefficient of variation ``std/mean`` of ``areas``
     (population std; 0 for one spot, NaN for none); ``elongations``: each spot's ratio
     ``a/b ≥ 1`` of its principal axes; ``elongation``: their mean (NaN for no spot);
@@ -91,8 +91,8 @@ def spot_statistics(
     high: bool | None = None,
     min_cells: int = 1,
 ) -> SpotStatistics:
-    """Count and measure the spots of a 2-D field on a :class:`~rdgpu.domains.Grid` or a
-    :class:`~rdgpu.GraphSurface` (``domain=None``: a non-periodic grid, ``dx = 1``).
+    """Count and measure the spots of a 2-D field on a `Grid` or a
+    `GraphSurface` (``domain=None``: a non-periodic grid, ``dx = 1``).
 
     A spot is a connected region (4-neighbours, wrapped across periodic boundaries) of the
     cells above ``threshold`` (``high=True``) or at/below it (``high=False``).
@@ -180,7 +180,7 @@ def stripe_orientation(field: Any, domain: Domain | None = None) -> tuple[float,
 
     From the area-weighted mean structure tensor ``J = ⟨∇f ∇fᵀ⟩`` over the domain, with
     ``∇f`` by centred differences in the parameter coordinates ``(x, y)`` (wrapped on
-    periodic axes; on a :class:`~rdgpu.GraphSurface` the cells are weighted by
+    periodic axes; on a `GraphSurface` the cells are weighted by
     their surface area).  Its leading eigenvector is the mean stripe normal; ``angle`` is
     the stripes' direction (normal + π/2) in radians from the x axis towards y, in
     ``[0, π)``; ``coherence = (λ1 − λ2)/(λ1 + λ2)`` in ``[0, 1]``: 1 for perfectly parallel

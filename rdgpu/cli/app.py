@@ -1,4 +1,4 @@
-"""The ``rdgpu`` command line: its parser and :func:`main`.
+"""The ``rdgpu`` command line: its parser and `main`.
 
     rdgpu run gray-scott --size 256 --steps 10000 --out gray_scott.png
     rdgpu run allen-cahn --preset NAME --mesh torus --out torus.png --movie torus.mp4
@@ -17,14 +17,14 @@ Every option is checked before the run starts.  Bad input gives one line
 ``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1 --
 also a file that cannot be written then (a full disk, a permission): the message names it
 and the other outputs are still written.  With ``--resume`` the checkpoint's model and
-settings win; an option that would change them is refused (:mod:`rdgpu.cli.resume`).
+settings win; an option that would change them is refused (`rdgpu.cli.resume`).
 A simulation that diverges writes its outputs from the last good state and exits with
 status 1; one interrupted by Ctrl-C writes them from the state where it stopped (and a
 checkpoint there, with ``--checkpoint``) and exits with status 130.  ``RDGPU_DEBUG=1``
 shows tracebacks instead.
 
-The commands live in their own modules -- :mod:`rdgpu.cli.run`, :mod:`rdgpu.cli.sweep`,
-:mod:`rdgpu.cli.listing` -- and are imported when one runs (:func:`_command`).
+The commands live in their own modules -- `rdgpu.cli.run`, `rdgpu.cli.sweep`,
+`rdgpu.cli.listing` -- and are imported when one runs (`_command`).
 """
 
 from __future__ import annotations
@@ -116,7 +116,7 @@ def _add_engine_options(group: Any, seed_note: str) -> None:
 
 
 def _add_run_parser(sub: Any) -> None:
-    """``rdgpu run`` (the command: :func:`rdgpu.cli.run.cmd_run`)."""
+    """``rdgpu run`` (the command: `rdgpu.cli.run.cmd_run`)."""
     run = sub.add_parser(
         "run", help="run a model (or a preset) and write a PNG, a movie, data files",
         description="Run a reaction-diffusion model on a grid or a mesh. Without --preset\n"
@@ -260,7 +260,7 @@ def _add_outputs(outs: Any) -> None:
 
 
 def _add_sweep_parser(sub: Any) -> None:
-    """``rdgpu sweep`` (the command: :func:`rdgpu.cli.sweep.cmd_sweep`)."""
+    """``rdgpu sweep`` (the command: `rdgpu.cli.sweep.cmd_sweep`)."""
     sw = sub.add_parser(
         "sweep", help="run a model over a grid of parameter values: a map and a Dataset",
         description="Run MODEL at every point of the Cartesian product of the swept\n"
@@ -309,7 +309,7 @@ def _add_sweep_parser(sub: Any) -> None:
 
 def _add_listing_parsers(sub: Any) -> None:
     """``rdgpu presets``, ``rdgpu models`` and ``rdgpu backends`` (the commands:
-    :mod:`rdgpu.cli.listing`)."""
+    `rdgpu.cli.listing`)."""
     presets = sub.add_parser("presets", help="list the presets: source and expected pattern",
                              description="List every preset with its model, domain, source "
                              "and the pattern it should give.")

@@ -1,8 +1,8 @@
 """The checks of ``rdgpu run`` made before the run starts: the output paths and formats,
 the optional packages the outputs need, the picture's size (``--scale``), ``--view`` and
 ``--level``; and the domain in words for the messages.  Each failure is a
-:class:`~rdgpu.cli.common.UsageError` (exit status 2) or a
-:class:`~rdgpu.core.optional.MissingExtraError` naming the extra."""
+`UsageError` (exit status 2) or a
+`MissingExtraError` naming the extra."""
 
 from __future__ import annotations
 
@@ -138,7 +138,7 @@ def check_view(args: argparse.Namespace, domain: Domain) -> None:
 
 def check_extras(args: argparse.Namespace, is_mesh: bool) -> None:
     """The optional packages that the asked-for outputs need, checked before the run: a
-    missing one raises :class:`MissingExtraError` naming the extra (``--data PATH.npz``
+    missing one raises `MissingExtraError` naming the extra (``--data PATH.npz``
     needs none)."""
     default_png = args.out is None and not args.movie and not args.data
     pictures = bool(args.out or args.movie or default_png)

@@ -1,7 +1,7 @@
 """Where and from what ``rdgpu run`` starts: the domain spec of ``--size``/``--mesh``
 (with ``--dx``/``--length``, ``--bc``, ``--height``, ``--mesh NAME:LEVEL``, ``--radius``,
 ``--roughen``) over the preset's or the model's default domain, and the initial condition
-of ``--init`` (:func:`init_for`).  Errors are :class:`rdgpu.cli.common.UsageError` (exit
+of ``--init`` (`init_for`).  Errors are `rdgpu.cli.common.UsageError` (exit
 2), raised before anything is built."""
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def generator_names() -> list[str]:
 
 def domain_spec(args: argparse.Namespace, preset: Any, model: Model, default_size: tuple,
                 ) -> dict:
-    """The domain spec of the command line (:func:`rdgpu.simulation.build_domain`)."""
+    """The domain spec of the command line (`rdgpu.simulation.build_domain`)."""
     base = dict(preset.domain) if preset is not None else dict(
         getattr(model, "default_domain", None) or {
             "grid": default_size, "dx": float(getattr(model, "spacing", 1.0)),
@@ -233,7 +233,7 @@ def _fields_from(path: str, species: tuple[str, ...]) -> dict:
 
 def check_block_memory(k: int | None, spec: dict, n_species: int, itemsize: int) -> None:
     """--block-steps K: the scratch rows of the blocked passes (``K - 1`` levels of 3 rows
-    per species for each work-item, two per core; :mod:`rdgpu.models.blocking`) through the
+    per species for each work-item, two per core; `rdgpu.models.blocking`) through the
     shared memory estimate."""
     if not k or k < 2 or "grid" not in spec:
         return

@@ -1,11 +1,11 @@
 """The argument types of ``rdgpu run`` and ``rdgpu sweep``: each turns one option's text
-into a value, or raises :class:`argparse.ArgumentTypeError` naming what is wrong and what
+into a value, or raises `argparse.ArgumentTypeError` naming what is wrong and what
 is allowed (argparse prefixes the option).  Nothing here imports NumPy or a model: the
 command line is checked before anything heavy loads.
 
-New with issue 19: ``--init`` (:func:`_init`), ``--bc`` (:func:`_bc`), ``--fps``
-(:func:`parse_fps`), ``--block-steps`` (:func:`parse_block_steps`) and ``--mesh NAME[:LEVEL]``
-(:func:`mesh_level`); ``--height`` and ``--roughen`` check every part of their specs.
+New with issue 19: ``--init`` (`_init`), ``--bc`` (`_bc`), ``--fps``
+(`parse_fps`), ``--block-steps`` (`parse_block_steps`) and ``--mesh NAME[:LEVEL]``
+(`mesh_level`); ``--height`` and ``--roughen`` check every part of their specs.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ _SIZE_FORMS = ("256 or 256x128 (rows x columns), or 32x48x64 (planes x rows x co
 def parse_size(text: str) -> tuple[int, ...]:
     """``--size``: ``N`` is an N x N grid, ``NxM`` a 2-D grid of N rows (y) and M columns
     (x), ``NxMxK`` a 3-D grid of N planes (z), M rows and K columns: the order of
-    :class:`~rdgpu.domains.Grid`'s shape, ``(ny, nx)`` or ``(nz, ny, nx)``."""
+    `Grid`'s shape, ``(ny, nx)`` or ``(nz, ny, nx)``."""
     try:
         parts = [int(p) for p in text.lower().split("x")]
     except ValueError:
@@ -80,7 +80,7 @@ def parse_param(text: str) -> tuple[str, float | str]:
 
 def parse_sweep_param(text: str) -> tuple[str, Any]:
     """``--param`` of ``rdgpu sweep``: ``NAME=START:STOP:N``, ``NAME=A,B,C`` or
-    ``NAME=VALUE`` (see :func:`rdgpu.sweep.parse_axis`)."""
+    ``NAME=VALUE`` (see `rdgpu.sweep.parse_axis`)."""
     # lazy: rdgpu.runs.sweep loads the simulation (about a second), which `rdgpu --help`
     # does not need; it needs no optional package to import
     from rdgpu.runs.sweep import parse_axis
@@ -279,7 +279,7 @@ def _init(text: str) -> dict:
     ``,SPECIES=VALUE`` parts (the values inside the square or spots; with noise, the
     uniform values), or ``FILE.npz`` (the fields of an rdgpu data file, or one array per
     species).  Returns ``{"kind": ..., "number": ..., "values": {...}}`` or
-    ``{"kind": "file", "path": ...}``; :mod:`rdgpu.cli.domain` makes the init of it."""
+    ``{"kind": "file", "path": ...}``; `rdgpu.cli.domain` makes the init of it."""
     if text.lower().endswith(".npz"):
         return {"kind": "file", "path": text}
     head, *pairs = text.split(",")
@@ -333,7 +333,7 @@ def _bc(text: str) -> tuple:
 
 
 def bc_value(bcs: tuple, ndim: int, text: str) -> Any:
-    """The ``bc`` of a grid of ``ndim`` axes from :func:`_bc`'s tuple (a ValueError where
+    """The ``bc`` of a grid of ``ndim`` axes from `_bc`'s tuple (a ValueError where
     the count does not fit)."""
     if len(bcs) == 1:
         return bcs[0]

@@ -1,11 +1,11 @@
 """``rdgpu run``: the model (a built-in, a preset's or one given by ``--equation``), its
-:class:`~rdgpu.simulation.Simulation` built from the options, the run, and its outputs.
+`Simulation` built from the options, the run, and its outputs.
 
 The order of the work is the order of the failures a user can meet: the options that
-need nothing built (:func:`rdgpu.cli.checks.check_options`), the optional packages, the
+need nothing built (`rdgpu.cli.checks.check_options`), the optional packages, the
 model and its parameters, the domain and the initial condition, the memory, the
 simulation, then the run; a run that diverges, is interrupted or cannot write its
-checkpoint still writes its outputs (:mod:`rdgpu.cli.outputs`)."""
+checkpoint still writes its outputs (`rdgpu.cli.outputs`)."""
 
 from __future__ import annotations
 

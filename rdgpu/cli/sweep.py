@@ -1,6 +1,6 @@
 """``rdgpu sweep``: a model over the Cartesian product of parameter values, as ensembles
 in Dask tasks, written as a mosaic PNG and/or a zarr/netCDF Dataset (the command; its
-options are in :mod:`rdgpu.cli.app`)."""
+options are in `rdgpu.cli.app`)."""
 
 from __future__ import annotations
 

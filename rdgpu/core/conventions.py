@@ -19,7 +19,7 @@ AXIS_NAMES: tuple[str, ...] = ("z", "y", "x")
 
 
 def is_real(dtype) -> bool:
-    """Whether ``dtype`` is one of :data:`REAL_DTYPES`."""
+    """Whether ``dtype`` is one of `REAL_DTYPES`."""
     if dtype is None:  # np.dtype(None) is float64
         return False
     try:

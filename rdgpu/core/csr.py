@@ -3,9 +3,9 @@
 A ``scipy.sparse`` matrix carries its structure in plain NumPy arrays that anyone can
 change (``m.indices[1] = 10**8``), and SciPy trusts them: its format conversions and our
 kernels then read or write outside the arrays (a wrong answer, or a crash of the whole
-process).  :func:`checked_csr` is the one door through which a user's matrix reaches a
-kernel (:func:`rdgpu.spmv`, every backend's ``upload_csr``,
-:func:`rdgpu.domains.mesh.greedy_colouring`):
+process).  `checked_csr` is the one door through which a user's matrix reaches a
+kernel (`rdgpu.spmv`, every backend's ``upload_csr``,
+`rdgpu.domains.mesh.greedy_colouring`):
 it checks the stored arrays of the matrix in its own format *before* SciPy converts it, then
 returns a canonical CSR matrix (sorted indices, no duplicates; the input is never modified).
 """
@@ -74,7 +74,7 @@ def _is_canonical(m: sp.csr_matrix) -> bool:
 
 def checked_csr(matrix: Any, name: str = "matrix", *, values: bool = True) -> sp.csr_matrix:
     """``matrix`` (any ``scipy.sparse`` matrix or array, any format) as a canonical
-    :class:`scipy.sparse.csr_matrix` of real, finite values, after checking its structure.
+    `scipy.sparse.csr_matrix` of real, finite values, after checking its structure.
 
     Raises ``TypeError`` for a non-sparse or non-real matrix and ``ValueError`` naming
     ``name``, the array and the first bad position for a broken structure (an index out of

@@ -1,20 +1,20 @@
 """Writing files safely: every writer of rdgpu (checkpoints, data files, pictures, movies,
 mesh files) goes through this module.
 
-* :func:`check_writable` -- refuse, before any work, a path that cannot be a file written
+* `check_writable` -- refuse, before any work, a path that cannot be a file written
   by rdgpu: empty, with a NUL byte, a name too long, a folder, an existing path that is
   not a regular file (a device such as ``/dev/full``, a named pipe, a socket -- rdgpu never
   replaces one), or a path under something that is not a folder.
-* :func:`writing` -- an ``OSError`` raised while writing names the file and what it is
+* `writing` -- an ``OSError`` raised while writing names the file and what it is
   (``[Errno 28] No space left on device (writing the checkpoint): 'ck.npz'``).
-* :func:`atomic_savez` and :func:`atomic_path` -- a file appears complete or not at all:
+* `atomic_savez` and `atomic_path` -- a file appears complete or not at all:
   written to a temporary file beside it (``.NAME.HOST.PID.RANDOM.tmp``), flushed to disk,
   then renamed over the target; on any error the temporary is removed and an existing
   target is left as it was.
-* :class:`CheckpointLock` -- one writer per checkpoint: a lock file ``.NAME.lock`` beside
+* `CheckpointLock` -- one writer per checkpoint: a lock file ``.NAME.lock`` beside
   it holds the writer's host and process id; a second writer is refused with
-  :class:`FileInUseError`; a lock left by a process that died is taken over.
-* :func:`remove_stale_temporaries` -- delete the temporaries killed writers left.
+  `FileInUseError`; a lock left by a process that died is taken over.
+* `remove_stale_temporaries` -- delete the temporaries killed writers left.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def _name_max(folder: Path) -> int:
 
 
 def check_writable(path: Any, what: str) -> Path:
-    """``path`` as a :class:`~pathlib.Path` when rdgpu may write ``what`` (e.g. ``"the
+    """``path`` as a `Path` when rdgpu may write ``what`` (e.g. ``"the
     checkpoint"``) there; otherwise a ``ValueError`` (``TypeError`` for a non-path) naming
     ``what``, the path and what is wrong.  A missing folder is fine (writers create it);
     an existing regular file is replaced; anything else that exists is refused."""
@@ -165,7 +165,7 @@ def _host_tag() -> str:
 def _temp_prefix(path: Path) -> str:
     """Temporary files of ``path`` are ``.NAME.HOST.PID.RANDOM.tmp`` beside it: the writer's
     machine and process id say whether the writer is still alive (see
-    :func:`remove_stale_temporaries`)."""
+    `remove_stale_temporaries`)."""
     return f".{path.name}.{_host_tag()}.{os.getpid()}."
 
 
@@ -268,7 +268,7 @@ def _commit(tmp: str, path: Path, folder: Path, what: str) -> None:
 def atomic_savez(path: PathLike, arrays: dict[str, np.ndarray], compressed: bool = False,
                  what: str = "the data file") -> None:
     """Write an NPZ atomically: temporary file in the same folder, fsync, ``os.replace``.
-    ``path`` is checked first (:func:`check_writable`); an ``OSError`` names it."""
+    ``path`` is checked first (`check_writable`); an ``OSError`` names it."""
     path = check_writable(path, what)
     with writing(path, what):
         folder = _folder(path)
@@ -330,7 +330,7 @@ def _read_holder(lock: Path) -> str:
 
 
 class CheckpointLock:
-    """Hold the lock file of a checkpoint (:func:`lock_path`) while a run writes it::
+    """Hold the lock file of a checkpoint (`lock_path`) while a run writes it::
 
         with CheckpointLock("ck.npz"):
             ...  # the run; a second CheckpointLock("ck.npz") raises FileInUseError

@@ -16,7 +16,7 @@ Where it is implemented:
   with ``-cl-denorms-are-zero`` (PoCL then sets the x86 FTZ/DAZ bits while a kernel runs)
   and the Warp CPU kernels set FTZ/DAZ for their body and restore the thread's MXCSR value
   at its end (nothing leaks into the caller's thread);
-* inputs: :func:`flush_subnormals` for arrays handed to the functional API.
+* inputs: `flush_subnormals` for arrays handed to the functional API.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def smallest_normal(dtype) -> float:
 
 def flush_subnormals(a: np.ndarray) -> np.ndarray:
     """``a`` itself (no copy) when it holds no subnormal number, else a copy in which every
-    value whose magnitude is below :func:`smallest_normal` is 0 (NaN and infinities kept).
+    value whose magnitude is below `smallest_normal` is 0 (NaN and infinities kept).
     Arrays that are not floating point (integers, booleans) are returned as they are; a
     complex array is flushed part by part."""
     a = np.asarray(a)

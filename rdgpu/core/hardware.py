@@ -1,9 +1,9 @@
 """The CPU's caches, read once for every user: the temporal-blocking policy
-(:mod:`rdgpu.models.blocking`) and the benchmarks (``perf/machine.py``).
+(`rdgpu.models.blocking`) and the benchmarks (``perf/machine.py``).
 
-:func:`cpu_caches` reads ``/sys/devices/system/cpu/cpu*/cache/index*`` (falling back to
+`cpu_caches` reads ``/sys/devices/system/cpu/cpu*/cache/index*`` (falling back to
 ``lscpu -B``, then ``getconf``) over the CPUs this process may run on, each distinct cache
-instance counted once; :func:`cache_sizes` is the per-instance size of each data level.
+instance counted once; `cache_sizes` is the per-instance size of each data level.
 """
 
 from __future__ import annotations

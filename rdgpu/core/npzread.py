@@ -1,11 +1,11 @@
 """Reading rdgpu's NPZ files (checkpoints and data files) without trusting them.
 
-:func:`read_archive` opens the ZIP archive itself and, before it decompresses any array,
+`read_archive` opens the ZIP archive itself and, before it decompresses any array,
 reads and checks the metadata (the JSON member ``meta``) and every array's ``.npy``
 header: a member must declare exactly the bytes its header describes (shape × item size:
 a ZIP member never decompresses past its declared size, so a "zip bomb" is refused here
 rather than unpacked), the fields must have the shape the metadata gives the domain, and
-the whole must fit in memory (:func:`rdgpu.core.resources.check_memory`).  Every failure --
+the whole must fit in memory (`rdgpu.core.resources.check_memory`).  Every failure --
 missing, empty, truncated or corrupt files, a flipped bit, bad JSON, pickled objects --
 is a ``ValueError`` naming the file and saying what is wrong.
 """

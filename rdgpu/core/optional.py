@@ -1,9 +1,9 @@
 """Optional packages, each from one extra of ``pip install rdgpu[...]``.
 
 The core install (NumPy, SciPy, Warp, PyOpenCL with PoCL, tqdm) runs every kernel, the model
-layer, :class:`~rdgpu.simulation.Simulation` and ``rdgpu run`` with ``--data PATH.npz``. Every
-other package is imported through :func:`require` (or tested first with :func:`check`), so
-that a missing one raises :class:`MissingExtraError`, an :class:`ImportError` naming the
+layer, `Simulation` and ``rdgpu run`` with ``--data PATH.npz``. Every
+other package is imported through `require` (or tested first with `check`), so
+that a missing one raises `MissingExtraError`, an `ImportError` naming the
 extra that installs it, e.g. ``writing PNG pictures needs imageio: pip install
 'rdgpu[media]'``.
 """
@@ -74,7 +74,7 @@ def available(module: str) -> bool:
 
 
 def check(module: str, purpose: str) -> None:
-    """Raise :class:`MissingExtraError` unless ``module`` can be found (nothing imported:
+    """Raise `MissingExtraError` unless ``module`` can be found (nothing imported:
     cheap, for checking a command line before a long run)."""
     extra_of(module)  # a typo in rdgpu's own code fails here, not only when missing
     if not available(module):
@@ -83,7 +83,7 @@ def check(module: str, purpose: str) -> None:
 
 def require(module: str, purpose: str) -> ModuleType:
     """Import the optional ``module`` (dotted names allowed, e.g. ``"imageio.v3"``) for
-    ``purpose`` (a phrase: "writing PNG pictures"), or raise :class:`MissingExtraError`
+    ``purpose`` (a phrase: "writing PNG pictures"), or raise `MissingExtraError`
     naming the extra to install."""
     extra_of(module)
     top = module.partition(".")[0]

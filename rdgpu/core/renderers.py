@@ -1,9 +1,9 @@
 """Rich pictures of results for notebooks, drawn by a higher layer than the results.
 
-A :class:`~rdgpu.simulation.result.Result` (the simulation layer) answers Jupyter's
-``_repr_png_``/``_repr_html_`` through :func:`render`; the pictures themselves are drawn in
+A `Result` (the simulation layer) answers Jupyter's
+``_repr_png_``/``_repr_html_`` through `render`; the pictures themselves are drawn in
 the io layer (``rdgpu.io.display``), which ``rdgpu/__init__.py`` registers here (with
-:func:`register`) by functions that import it only when a result is first shown. Importing
+`register`) by functions that import it only when a result is first shown. Importing
 any part of rdgpu runs ``rdgpu/__init__.py`` first, so the registration is always in place.
 """
 

@@ -1,7 +1,7 @@
 """One estimate of memory, checked before any work: the Python API and the CLI refuse a
 request that cannot fit with the same message.
 
-``check_memory(what, need)`` raises :class:`rdgpu.ResourceLimitError` (a ``ValueError``)
+``check_memory(what, need)`` raises `rdgpu.ResourceLimitError` (a ``ValueError``)
 when ``need`` bytes exceed what this machine (or its cgroup) can give; the estimators
 below size the usual requests (fields, snapshots, ensembles) so that every caller counts
 the same way.
@@ -87,7 +87,7 @@ def field_bytes(cells: int, n_fields: int, itemsize: int, *, copies: int = 4,
 
 def check_memory(what: str, need: int, detail: str = "") -> None:
     """Refuse ``what`` (e.g. ``"a 100000x100000 grid"``) when its estimated ``need`` in
-    bytes exceeds :func:`memory_limit`, before anything is allocated.
+    bytes exceeds `memory_limit`, before anything is allocated.
 
     The message is the same from the API and the CLI: ``<what> needs about <need> of memory
     (<detail>); this machine has <have>``."""
@@ -100,7 +100,7 @@ def check_memory(what: str, need: int, detail: str = "") -> None:
 
 def check_fields(what: str, cells: int, n_fields: int, itemsize: int, *, copies: int = 4,
                  snapshots: int = 0, frame_pixels: int = 0) -> None:
-    """:func:`check_memory` for fields sized by :func:`field_bytes`, the detail spelled out."""
+    """`check_memory` for fields sized by `field_bytes`, the detail spelled out."""
     need = field_bytes(cells, n_fields, itemsize, copies=copies, snapshots=snapshots,
                        frame_pixels=frame_pixels)
     detail = f"{int(n_fields)} field(s) of {int(cells):,} points in {int(itemsize) * 8}-bit floats"

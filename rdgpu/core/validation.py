@@ -1,12 +1,12 @@
 """Input checks shared by the public API: every message says what was wrong and what is allowed.
 
 The number rules, one place for every entry point (the functional API, the model layer,
-the CLI's and the sweeps' helpers): :func:`scalar` takes a finite real number and refuses
+the CLI's and the sweeps' helpers): `scalar` takes a finite real number and refuses
 a bool, a string, a complex value (never cast to real), a masked array and an array of
-more than one value; :func:`whole` takes an integer and refuses a float (never truncated),
-a bool and a string; :func:`flag` takes ``True``/``False`` only.  Arrays: :func:`as_field`
-checks kind, dtype, rank and size *before* it reads a value (:func:`check_size`: the
-backend's cell limit and the shared memory estimate of :mod:`rdgpu.core.resources`), then
+more than one value; `whole` takes an integer and refuses a float (never truncated),
+a bool and a string; `flag` takes ``True``/``False`` only.  Arrays: `as_field`
+checks kind, dtype, rank and size *before* it reads a value (`check_size`: the
+backend's cell limit and the shared memory estimate of `rdgpu.core.resources`), then
 checks the values in blocks, once per distinct element of a broadcast view, so no check
 materialises an array the caller did not.
 """
@@ -99,7 +99,7 @@ def real_number(x: Any, name: str) -> float:
 
 def scalar(x: Any, name: str, *, minimum: float | None = 0.0, strict: bool = False,
            maximum: float | None = None) -> float:
-    """A finite real number (:func:`real_number`), ``>= minimum`` (``> minimum`` when
+    """A finite real number (`real_number`), ``>= minimum`` (``> minimum`` when
     ``strict``) and ``<= maximum``."""
     value = real_number(x, name)
     if minimum is not None and (value < minimum or (strict and value == minimum)):
@@ -113,7 +113,7 @@ def scalar(x: Any, name: str, *, minimum: float | None = 0.0, strict: bool = Fal
 def whole(n: Any, name: str, *, minimum: int | None = 0, maximum: int | None = None,
           floats: bool = False) -> int:
     """An integer ``minimum <= n <= maximum`` as a Python int: rdgpu's one integer check
-    (:func:`rdgpu.simulation.checks.whole` is this with ``floats=True``).
+    (`rdgpu.simulation.checks.whole` is this with ``floats=True``).
 
     A float is a ``TypeError`` (never truncated: ``steps=2.5`` does not run 2 steps); with
     ``floats=True`` a float holding a whole number (``8.0``, ``1e6``) that a float holds
@@ -195,7 +195,7 @@ def _distinct(a: np.ndarray) -> np.ndarray:
 
 
 def _blocks(a: np.ndarray) -> Iterator[np.ndarray]:
-    """``a`` in views of about :data:`CHECK_BLOCK` elements (no copy)."""
+    """``a`` in views of about `CHECK_BLOCK` elements (no copy)."""
     if a.size <= CHECK_BLOCK:
         yield a
     elif a.ndim == 1 or a.flags.c_contiguous:
@@ -228,7 +228,7 @@ def check_size(shape: tuple[int, ...], dtype: Any, name: str, *,
                backend: IndexLimited | None = None, memory: bool = True, copies: int = 2) -> None:
     """Refuse an array of ``shape`` before anything is read, copied or allocated: more
     cells than the ``backend``'s kernels index (its ``max_cells``), or more memory than
-    the shared estimate allows (:func:`rdgpu.core.resources.check_fields`, ``copies`` working
+    the shared estimate allows (`rdgpu.core.resources.check_fields`, ``copies`` working
     copies; skipped with ``memory=False``, for an array already on its device)."""
     cells = math.prod(int(s) for s in shape)
     limit = getattr(backend, "max_cells", None)
@@ -243,7 +243,7 @@ def check_size(shape: tuple[int, ...], dtype: Any, name: str, *,
 
 
 def field_header(a: Any, name: str, ndim: tuple[int, ...]) -> np.ndarray:
-    """The checks of :func:`as_field` that read no value: an ndarray of a real float dtype
+    """The checks of `as_field` that read no value: an ndarray of a real float dtype
     (float32, float64), an allowed ndim, not empty."""
     a = real_array(a, name)
     if a.dtype not in DTYPES:
@@ -260,7 +260,7 @@ def field_header(a: Any, name: str, ndim: tuple[int, ...]) -> np.ndarray:
 
 
 def field_values(a: np.ndarray, name: str) -> np.ndarray:
-    """The value checks of :func:`as_field` on a checked header: finite (block by block,
+    """The value checks of `as_field` on a checked header: finite (block by block,
     once per distinct element); returned C-contiguous with subnormals flushed (a copy only
     where one is needed)."""
     bad = count_nonfinite(a)
@@ -275,8 +275,8 @@ def as_field(a: Any, name: str, *, ndim: tuple[int, ...] = (1, 2),
              backend: IndexLimited | None = None) -> np.ndarray:
     """Check a float32/float64, finite array of an allowed ndim; return it C-contiguous.
 
-    Kind, dtype, rank and size come first (:func:`field_header`, :func:`check_size` with
-    ``backend``'s cell limit and the memory estimate), values last (:func:`field_values`)."""
+    Kind, dtype, rank and size come first (`field_header`, `check_size` with
+    ``backend``'s cell limit and the memory estimate), values last (`field_values`)."""
     a = field_header(a, name, ndim)
     check_size(a.shape, a.dtype, name, backend=backend)
     return field_values(a, name)
@@ -323,7 +323,7 @@ def scalar_or_field(x: Any, name: str, like: np.ndarray) -> float | np.ndarray:
 
 
 def steps(n: Any, name: str = "steps") -> int:
-    """A count ``>= 0`` (:func:`whole`)."""
+    """A count ``>= 0`` (`whole`)."""
     return whole(n, name)
 
 

@@ -10,7 +10,7 @@ A user passes one condition for every axis, a pair ``(y_bc, x_bc)`` (2-D) or a t
 ``(z_bc, y_bc, x_bc)`` (3-D).  A 1-D problem has one axis and takes one condition; the
 kernels see it as a grid of one row whose y axis is absent (``dy = inf``, a Neumann y
 condition, so nothing flows along y).  An absent z axis (1-D, 2-D) is Neumann too.  Kernels receive
-each axis as an integer code plus a value (see :class:`AxisBC`).
+each axis as an integer code plus a value (see `AxisBC`).
 
 Corner ghosts (used only by the 9-point stencil) follow one rule on every backend: the
 y axis is resolved first.  If the row index is out of range and the y condition is
@@ -93,7 +93,7 @@ def _is_pair(bc: Any) -> bool:
 
 
 def parse_bc(bc: Any, ndim: int = 2) -> GridBC:
-    """Parse ``bc`` into a :class:`GridBC`.
+    """Parse ``bc`` into a `GridBC`.
 
     ``ndim = 2``: one condition for both axes, or a pair ``(y_bc, x_bc)``.
     ``ndim = 1``: one condition for the only axis (x); the absent y axis gets Neumann.

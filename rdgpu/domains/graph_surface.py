@@ -1,7 +1,7 @@
 """Graph surfaces ``z = h(x, y)`` over a periodic 2-D parameter grid, and the metric of
 their Laplace-Beltrami operator (seed 002 eqs. 2-5 and 13).
 
-A :class:`GraphSurface` is a periodic :class:`~rdgpu.domains.Grid` plus the height ``h`` at
+A `GraphSurface` is a periodic `Grid` plus the height ``h`` at
 its cell centres.  Fields live on the parameter grid; the surface's metric
 ``g_ij = δ_ij + ∂_i h ∂_j h`` enters through
 
@@ -9,7 +9,7 @@ its cell centres.  Fields live on the parameter grid; the surface's metric
     ``√g g⁻¹ = [[1 + h_y², −h_x h_y], [−h_x h_y, 1 + h_x²]] / √g``,
 
 discretised conservatively to second order (``rdgpu/families/metric/reference.py`` states the
-stencil).  :func:`metric_coefficients` turns ``h`` into the four coefficient arrays the
+stencil).  `metric_coefficients` turns ``h`` into the four coefficient arrays the
 kernels read; the derivatives of ``h`` are centred differences of the nodal heights (the
 seed's §5 does the same for surfaces known only by nodal values).  With ``h = 0`` the
 operator is the flat 5-point Laplacian (to round-off).
@@ -115,7 +115,7 @@ class GraphSurface(Grid):
 
     def describe(self, source: Any = None) -> dict:
         """The grid's description with ``kind`` ``graph-surface`` and ``height_digest``;
-        the height itself is kept as an array (:meth:`arrays`)."""
+        the height itself is kept as an array (`arrays`)."""
         return {**super().describe(source), "height_digest": self.digest}
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -162,7 +162,7 @@ class GraphSurface(Grid):
 
     @property
     def coefficients(self) -> dict[str, np.ndarray]:
-        """:func:`metric_coefficients` of this surface (float64, cached)."""
+        """`metric_coefficients` of this surface (float64, cached)."""
         if "coefficients" not in self._cache:
             self._cache["coefficients"] = metric_coefficients(self.height, self.dx, self.dy)
         return self._cache["coefficients"]
@@ -215,7 +215,7 @@ class GraphSurface(Grid):
 
     @property
     def point_weights(self) -> np.ndarray:
-        """The Domain protocol: the surface area of each cell, :attr:`area_weights`."""
+        """The Domain protocol: the surface area of each cell, `area_weights`."""
         return self.area_weights
 
     # ------------------------------------------------------------ the Domain protocol
@@ -230,25 +230,25 @@ class GraphSurface(Grid):
         return "grid2metric"
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
-        """:meth:`spectral_bound` (the isotropic stencil is refused)."""
+        """`spectral_bound` (the isotropic stencil is refused)."""
         self.stencil_kind(stencil)
         return self.spectral_bound()
 
     def explicit_diffusion_limit(self) -> float:
-        """``2/λ_max`` of ``Δ_Γ`` (its Gershgorin bound, :meth:`spectral_bound`)."""
+        """``2/λ_max`` of ``Δ_Γ`` (its Gershgorin bound, `spectral_bound`)."""
         return 2.0 / self.spectral_bound()
 
     def operator_matrix(self) -> tuple[Any, np.ndarray]:
-        """The 9-point ``Δ_Γ`` (:attr:`laplacian`) and ``b = 0``."""
+        """The 9-point ``Δ_Γ`` (`laplacian`) and ``b = 0``."""
         return self.laplacian, np.zeros(self.n_points)
 
     def mass_weights(self) -> np.ndarray:
-        """:attr:`area_weights`, flat (``√g dx dy Δ_Γ`` is symmetric)."""
+        """`area_weights`, flat (``√g dx dy Δ_Γ`` is symmetric)."""
         return np.asarray(self.area_weights, dtype=np.float64).ravel()
 
     def smallest_eigenvalue(self) -> tuple[float, bool]:
         """From the pencil ``(−√g Δ_Γ, √g)``, or above its size limit the flat grid's
-        scaled by the area (:func:`rdgpu.domains.spectra.surface_eigenvalue`)."""
+        scaled by the area (`rdgpu.domains.spectra.surface_eigenvalue`)."""
         return spectra.surface_eigenvalue(self, self._eigen_axes())
 
     def sor_colouring(self, matrix: Any) -> np.ndarray:

@@ -1,5 +1,5 @@
-"""A 1-D, 2-D or 3-D cell-centred :class:`Grid` and its part of the Domain protocol
-(:mod:`rdgpu.domains.base`); the graph surface (:mod:`rdgpu.domains.graph_surface`) is a
+"""A 1-D, 2-D or 3-D cell-centred `Grid` and its part of the Domain protocol
+(`rdgpu.domains.base`); the graph surface (`rdgpu.domains.graph_surface`) is a
 grid with a metric."""
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ class Grid:
     """A cell-centred grid: ``shape = (nx,)`` (1-D), ``(ny, nx)`` (2-D) or ``(nz, ny, nx)``
     (3-D); spacings ``dx`` (columns), ``dy`` (rows, defaults to ``dx``; not given for 1-D)
     and ``dz`` (planes, 3-D only, defaults to ``dx``); boundary conditions ``bc`` (see
-    :mod:`rdgpu.domains.boundary`: one condition, a pair ``(y_bc, x_bc)`` in 2-D or a triple
+    `rdgpu.domains.boundary`: one condition, a pair ``(y_bc, x_bc)`` in 2-D or a triple
     ``(z_bc, y_bc, x_bc)`` in 3-D).
 
     After construction ``shape`` is the kernels' shape: ``(ny, nx)`` for 1-D and 2-D (a 1-D
@@ -177,7 +177,7 @@ class Grid:
 
     @property
     def boundaries(self) -> tuple[AxisBC, ...]:
-        """The condition per axis of ``field_shape`` (:mod:`rdgpu.domains.boundary`)."""
+        """The condition per axis of ``field_shape`` (`rdgpu.domains.boundary`)."""
         b = self.bcs
         return {1: (b.x,), 2: (b.y, b.x), 3: (b.z, b.y, b.x)}[self.ndim]
 
@@ -239,7 +239,7 @@ class Grid:
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
         """``4 Σ 1/h²`` over the axes; the isotropic stencils: the maximum of their symbol
-        (``16/(3h²)`` in 2-D); the stencil is not checked here (:meth:`stencil_kind`)."""
+        (``16/(3h²)`` in 2-D); the stencil is not checked here (`stencil_kind`)."""
         if stencil == "isotropic" and self.ndim > 1:
             th = np.linspace(0.0, np.pi, 33)
             c = np.meshgrid(*([np.cos(th)] * self.ndim), indexing="ij")
@@ -281,7 +281,7 @@ class Grid:
         return axes
 
     def smallest_eigenvalue(self) -> tuple[float, bool]:
-        """Analytic (:func:`rdgpu.domains.spectra.grid_eigenvalue`): exact."""
+        """Analytic (`rdgpu.domains.spectra.grid_eigenvalue`): exact."""
         return spectra.grid_eigenvalue(self._eigen_axes()), True
 
     def sor_colouring(self, matrix: Any) -> np.ndarray:

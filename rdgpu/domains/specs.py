@@ -1,9 +1,9 @@
-"""Domains from their descriptions: :func:`build_domain` turns a preset's (or a user's)
-``{"grid": ...}`` / ``{"mesh": ...}`` dict into a :class:`~rdgpu.domains.Grid`, a
-:class:`~rdgpu.domains.graph_surface.GraphSurface` or a
-:class:`~rdgpu.domains.mesh.SurfaceMesh` (moved from ``rdgpu.simulation.driver``);
-:func:`from_description` rebuilds one from what a checkpoint or data file keeps
-(:meth:`Domain.describe <rdgpu.domains.base.Domain.describe>` and ``arrays``)."""
+"""Domains from their descriptions: `build_domain` turns a preset's (or a user's)
+``{"grid": ...}`` / ``{"mesh": ...}`` dict into a `Grid`, a
+`GraphSurface` or a
+`SurfaceMesh` (moved from ``rdgpu.simulation.driver``);
+`from_description` rebuilds one from what a checkpoint or data file keeps
+(`Domain.describe <rdgpu.domains.base.Domain.describe>` and ``arrays``)."""
 
 from __future__ import annotations
 
@@ -42,22 +42,22 @@ _MESH_DEFAULTS = {"icosphere": {"subdivisions": 4}, "torus": {"n_major": 96, "n_
 
 
 def build_domain(spec: Any) -> Domain:
-    """A :class:`Grid` or :class:`SurfaceMesh` from a preset's domain description.
+    """A `Grid` or `SurfaceMesh` from a preset's domain description.
 
     ``{"grid": (ny, nx), "dx": 1.0, "dy": None, "bc": "periodic"}`` gives a grid (a 3-D
     one from ``(nz, ny, nx)``, with the option ``dz``; an int ``n`` means ``(n, n)``); with
     ``"height": h`` (an ``[ny, nx]`` array) the graph surface ``z = h`` over that periodic
-    grid (:class:`~rdgpu.GraphSurface`);
+    grid (`GraphSurface`);
     ``{"mesh": NAME, **options}`` a mesh, where NAME is ``"sphere"`` (icosphere, options
     ``subdivisions`` = 4, ``radius``), ``"uv-sphere"``, ``"torus"`` (``R``, ``r``,
     ``n_major`` = 96, ``n_minor`` = 48), ``"plane"`` (jittered plane), ``"height-field"``,
     ``"disc"`` (``radius``, ``rings``), or a mesh file path (option ``repair``).
 
-    ``"height"`` may also describe a generated surface (:mod:`rdgpu.surfaces`):
+    ``"height"`` may also describe a generated surface (`rdgpu.surfaces`):
     ``{"kind": "random-waves", "amplitude": 0.1, "max_frequency": [5, 15], "seed": 0,
     "attenuation": 0}`` or ``{"kind": "heat-filtered", "amplitude": 0.1, "filter_steps":
     15, "seed": 0}``; a mesh takes ``"roughen": {"amplitude": a, "filter_steps": k,
-    "seed": s}`` (:meth:`~rdgpu.domains.mesh.SurfaceMesh.roughen` of the generated or loaded mesh).
+    "seed": s}`` (`roughen` of the generated or loaded mesh).
     A Grid or SurfaceMesh is returned as it is.
     """
     if is_domain(spec):
@@ -105,7 +105,7 @@ _MESH_FILE_HINT = ("OBJ, PLY, STL, OFF or VTK with triangle faces; repair=True m
 
 
 def _mesh_from(name: Any, spec: dict) -> Any:
-    """A mesh from a generator name or a file path (:func:`build_domain`)."""
+    """A mesh from a generator name or a file path (`build_domain`)."""
     if not isinstance(name, (str, os.PathLike)):
         raise ValueError(f"mesh must be a generator name or a file path, got {name!r}")
     key = str(name).lower()
@@ -134,7 +134,7 @@ def _mesh_from(name: Any, spec: dict) -> Any:
 
 
 def _graph_surface(shape: Any, spec: Mapping) -> Any:
-    """The :class:`~rdgpu.GraphSurface` of a ``{"grid": (ny, nx), "height": h}``
+    """The `GraphSurface` of a ``{"grid": (ny, nx), "height": h}``
     description (``dz`` not allowed; ``bc`` periodic only)."""
     if spec.get("dz") is not None:
         raise ValueError("a graph surface is 2-D: the 'dz' option is not allowed with "
@@ -173,8 +173,8 @@ def generated_height(shape: tuple[int, ...], options: Mapping, dx: float,
 
 
 def from_description(desc: Mapping, arrays: Mapping[str, np.ndarray]) -> Domain:
-    """The domain a description (:meth:`Domain.describe`) and its arrays
-    (:meth:`Domain.arrays`) were made from."""
+    """The domain a description (`Domain.describe`) and its arrays
+    (`Domain.arrays`) were made from."""
     kind = desc["kind"]
     if kind == "graph-surface":
         return GraphSurface(tuple(desc["shape"]), dx=desc["dx"], dy=desc["dy"],

@@ -1,7 +1,7 @@
 """The spectra the implicit solvers need (moved from ``rdgpu.ops.implicit``): connected
 components of an operator, and ``λ₁``, the smallest eigenvalue of ``−M`` past the constant
 null vectors, per domain kind (analytic on a grid, Lanczos or an estimate on a mesh or a
-graph surface); the domains' :meth:`smallest_eigenvalue` methods call these."""
+graph surface); the domains' `smallest_eigenvalue` methods call these."""
 
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ def grid_eigenvalue(axes: list[tuple[int, AxisBC, float]]) -> float:
 
 def mesh_eigenvalue(mesh: SurfaceMesh, labels: np.ndarray, count: int) -> tuple[float, bool]:
     """``(λ₁, computed)``: the smallest non-zero eigenvalue of the pencil ``(−W, A)``
-    (``computed``), or above :data:`EIGSH_MAX_VERTICES` vertices (or when Lanczos fails)
+    (``computed``), or above `EIGSH_MAX_VERTICES` vertices (or when Lanczos fails)
     the estimate ``π²/diam²`` from the largest component's geodesic diameter (exact order
     for convex shapes, not a bound).  Cached per mesh."""
     cached = _SPECTRA.get(mesh)
@@ -89,7 +89,7 @@ def mesh_eigenvalue(mesh: SurfaceMesh, labels: np.ndarray, count: int) -> tuple[
 def pencil_eigenvalue(W: Any, A: np.ndarray, count: int) -> float | None:
     """The smallest eigenvalue of the pencil ``(−W, diag(A))`` after the ``count``
     zeros (``W`` symmetric with zero row sums, ``A > 0``): dense up to 600 unknowns,
-    shift-invert Lanczos up to :data:`EIGSH_MAX_VERTICES`; None above that or on failure."""
+    shift-invert Lanczos up to `EIGSH_MAX_VERTICES`; None above that or on failure."""
     import scipy.sparse as sp
 
     n = len(A)
@@ -130,8 +130,8 @@ def pencil_eigenvalue(W: Any, A: np.ndarray, count: int) -> float | None:
 def surface_eigenvalue(surface: GraphSurface,
                        flat: list[tuple[int, AxisBC, float]]) -> tuple[float, bool]:
     """``(λ₁, exact)`` of ``−Δ_Γ`` on a graph surface: the pencil ``(−√g Δ_Γ, √g)``
-    (:func:`pencil_eigenvalue`; one closed component), or above its size limit the flat
-    grid's ``λ₁`` (its ``flat`` axes, :func:`grid_eigenvalue`) scaled by the flat over the
+    (`pencil_eigenvalue`; one closed component), or above its size limit the flat
+    grid's ``λ₁`` (its ``flat`` axes, `grid_eigenvalue`) scaled by the flat over the
     surface area (an estimate).  Cached."""
     cached = _SPECTRA.get(surface)
     if cached is not None:
@@ -169,7 +169,7 @@ def geodesic_estimate(mesh: SurfaceMesh, labels: np.ndarray) -> float:
 
 
 def mesh_spectral_radius(mesh: SurfaceMesh, method: str) -> float:
-    """:meth:`SurfaceMesh.spectral_radius <rdgpu.domains.mesh.SurfaceMesh.spectral_radius>`
+    """`SurfaceMesh.spectral_radius <rdgpu.domains.mesh.SurfaceMesh.spectral_radius>`
     (its doc says what each ``method`` computes), uncached."""
     if method == "gershgorin":
         L = mesh.laplacian

@@ -3,19 +3,19 @@
 Two constructions of the rough-surfaces paper (Realistic pattern formations on surfaces
 by adding arbitrary roughness, 2023):
 
-* type M, :func:`random_waves` (§2, eqs. 6-7): a superposition of random plane waves on a
+* type M, `random_waves` (§2, eqs. 6-7): a superposition of random plane waves on a
   periodic grid;
-* type S, :func:`heat_filtered` (§5): uniform random nodal values smoothed by a few
-  implicit heat steps, on the same grid; :func:`roughen` does the same on any
-  :class:`~rdgpu.domains.mesh.SurfaceMesh` with its own cotangent operator and moves the vertices
+* type S, `heat_filtered` (§5): uniform random nodal values smoothed by a few
+  implicit heat steps, on the same grid; `roughen` does the same on any
+  `SurfaceMesh` with its own cotangent operator and moves the vertices
   along their normals (the paper's rough closed manifolds, Fig. 14b).
 
-Grid conventions (those of :class:`rdgpu.domains.Grid` and
-:class:`rdgpu.GraphSurface`): ``h[ny, nx]``, row ``i`` is y, column ``j`` is x, the
+Grid conventions (those of `rdgpu.domains.Grid` and
+`rdgpu.GraphSurface`): ``h[ny, nx]``, row ``i`` is y, column ``j`` is x, the
 values sit at the cell centres ``x_j = (j + ½) dx``, ``y_i = (i + ½) dy`` of the periodic
 domain ``[0, Lx) × [0, Ly)``, ``Lx = nx·dx``, ``Ly = ny·dy``; heights are in the units
-of ``dx``. :func:`graph_mesh` turns such a height array into a closed (torus-topology)
-periodic :class:`~rdgpu.domains.mesh.SurfaceMesh`.
+of ``dx``. `graph_mesh` turns such a height array into a closed (torus-topology)
+periodic `SurfaceMesh`.
 """
 
 from __future__ import annotations
@@ -159,7 +159,7 @@ def heat_filtered(
     3. minus the mean, scaled to ``max|h| = amplitude`` (in the units of ``dx``).
 
     ``tau`` defaults to ``dx·dy``, the squared grid spacing (fill distance) on a square
-    grid, as :func:`roughen` uses ``(mean edge length)²``: one step then damps a mode of
+    grid, as `roughen` uses ``(mean edge length)²``: one step then damps a mode of
     wavenumber κ by ``1/(1 + τ f κ²)``, so the filter smooths over about
     ``dx·√(f·filter_steps)``, a length set by the resolution and the step count alone.
     """
@@ -199,7 +199,7 @@ def roughen(
        ``mean_edge_length·√filter_steps`` whatever the mesh's size;
     3. minus the area-weighted mean, scaled to ``max|x| = amplitude`` (an absolute length);
     4. every vertex moved by ``x_i`` along its unit area-weighted normal
-       (:func:`vertex_normals`).
+       (`vertex_normals`).
 
     Faces (and ``period``) are kept, so the face count is unchanged; works on closed and
     open meshes. Same arguments, same result.

@@ -77,7 +77,7 @@ def _check(shape, particles, sticking, geometry, walkers, max_steps, margin, bat
 
 
 def _check_memory(ny: int, nx: int, n_walk: int, ring: int) -> None:
-    """The shared memory estimate (:func:`rdgpu.core.resources.check_memory`) of a run, before
+    """The shared memory estimate (`rdgpu.core.resources.check_memory`) of a run, before
     anything is allocated."""
     side = 2 * ring + 3
     need = n_walk * WALKER_BYTES + ny * nx * CELL_BYTES + side * side * RING_BYTES

@@ -1,11 +1,11 @@
-"""One NPZ data file per run (``--data run.npz``): :func:`save_npz` and :func:`load_npz`
-(both also in :mod:`rdgpu.output`).
+"""One NPZ data file per run (``--data run.npz``): `save_npz` and `load_npz`
+(both also in `rdgpu.output`).
 
 The file holds ``final_<s>`` and ``snapshots_<s>`` per species, ``times``,
 ``snapshot_steps``, ``param_<name>`` for field-valued parameters, ``mesh_vertices`` and
 ``mesh_faces`` on a mesh, ``surface_height`` on a graph surface, and JSON strings ``meta``
 (everything else), ``params``, ``backend``, ``device`` and ``versions``.  It is written
-atomically and read without trusting it (:func:`rdgpu.core.npzread.read_archive`: sizes checked
+atomically and read without trusting it (`rdgpu.core.npzread.read_archive`: sizes checked
 before anything is unpacked; every defect a ``ValueError`` naming the file).
 """
 
@@ -89,7 +89,7 @@ def _json(arrays: dict, key: str, bad: str) -> Any:
 
 
 def load_npz(path: str | os.PathLike) -> Any:
-    """Read a :func:`save_npz` file back into a :class:`~rdgpu.simulation.Result`; a
+    """Read a `save_npz` file back into a `Result`; a
     ``ValueError`` naming the file says what is wrong with one that is missing, empty,
     damaged, a checkpoint or not rdgpu's."""
     path = Path(path)

@@ -1,9 +1,9 @@
-"""A :class:`~rdgpu.simulation.result.Result` in a notebook: a picture of its final state
+"""A `Result` in a notebook: a picture of its final state
 (a mosaic for an ensemble, the rendering for a mesh, the mid-plane slices for a 3-D grid)
 and a one-line summary of the run.
 
-``Result._repr_png_`` and ``Result._repr_html_`` call :func:`result_png` and
-:func:`result_html` (registered in ``rdgpu.core.renderers`` by ``rdgpu/__init__.py``), so a
+``Result._repr_png_`` and ``Result._repr_html_`` call `result_png` and
+`result_html` (registered in ``rdgpu.core.renderers`` by ``rdgpu/__init__.py``), so a
 notebook cell ending in ``result`` draws it. The last picture is kept, so the two views of
 one result render it once (a mesh rendering takes seconds)."""
 
@@ -53,8 +53,8 @@ def result_image(result: Result, field: str | None = None) -> np.ndarray:
     -------
     numpy.ndarray
         A 1-D or 2-D grid (or graph surface): the field, enlarged to at least
-        :data:`MIN_SIDE` pixels a side; an ensemble: the mosaic of its members
-        (:func:`rdgpu.output.ensemble_mosaic`); a 3-D grid: the three mid-plane slices; a
+        `MIN_SIDE` pixels a side; an ensemble: the mosaic of its members
+        (`rdgpu.output.ensemble_mosaic`); a 3-D grid: the three mid-plane slices; a
         mesh: its off-screen rendering (pyvista, member 0 of an ensemble).
     """
     name = next(iter(result.fields)) if field is None else field
@@ -80,7 +80,7 @@ _last: list = [None, b""]
 
 
 def result_png(result: Result, field: str | None = None) -> bytes:
-    """:func:`result_image` encoded as PNG bytes (a notebook's ``image/png``)."""
+    """`result_image` encoded as PNG bytes (a notebook's ``image/png``)."""
     iio = require("imageio.v3", "drawing a Result")
     key = (id(result), result.step, result.time, field)
     if _last[0] != key:
@@ -105,7 +105,7 @@ def result_summary(result: Result) -> str:
 
 
 def result_html(result: Result, field: str | None = None) -> str:
-    """The picture inline (a base64 PNG) under :func:`result_summary` (``text/html``)."""
+    """The picture inline (a base64 PNG) under `result_summary` (``text/html``)."""
     png = base64.b64encode(result_png(result, field)).decode("ascii")
     return (f"<div><p><code>{escape(result_summary(result))}</code></p>"
             f'<img src="data:image/png;base64,{png}" alt="{escape(result.model)}"/></div>')

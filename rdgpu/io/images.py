@@ -1,10 +1,10 @@
 """Pictures of fields: PNG files through imageio with Matplotlib colour maps.
 
 Colour range: a picture spans the field's range unless ``vmin``/``vmax`` fix it.  A field
-that is uniform to round-off -- its range at most :data:`FLAT_RELATIVE` of its largest
-magnitude (at least :data:`FLAT_FLOOR`) -- would have that round-off stretched over the
+that is uniform to round-off -- its range at most `FLAT_RELATIVE` of its largest
+magnitude (at least `FLAT_FLOOR`) -- would have that round-off stretched over the
 whole colour map and show bands that are not there; it is drawn flat instead, in the
-middle colour of the map, with a :class:`FlatFieldWarning` (see :func:`flat_field`).
+middle colour of the map, with a `FlatFieldWarning` (see `flat_field`).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def flat_field(a: np.ndarray, vmin: float | None = None, vmax: float | None = No
     """``(field, vmin, vmax)`` to draw: unchanged, except for a field uniform to round-off
     with no fixed colour range (``vmin`` and ``vmax`` both ``None``): then every finite
     value is replaced by their mean ``c`` and the range is ``c ± max(|c|, 1) / 2`` -- one
-    flat colour, the middle of the map -- and a :class:`FlatFieldWarning` says so."""
+    flat colour, the middle of the map -- and a `FlatFieldWarning` says so."""
     if vmin is not None or vmax is not None:
         return a, vmin, vmax
     data = np.asarray(a, dtype=np.float64)
@@ -71,7 +71,7 @@ def flat_field(a: np.ndarray, vmin: float | None = None, vmax: float | None = No
 def to_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
            vmax: float | None = None) -> np.ndarray:
     """Map a 2-D field to an ``(ny, nx, 3)`` uint8 image; row 0 is the top of the image.
-    A field uniform to round-off is one flat colour (see :func:`flat_field`)."""
+    A field uniform to round-off is one flat colour (see `flat_field`)."""
     colormaps = require("matplotlib", "colouring pictures").colormaps
     a = np.asarray(field, dtype=np.float64)
     if a.ndim == 1:
@@ -90,7 +90,7 @@ def save_png(path: str | Path, field: np.ndarray, cmap: str = "viridis",
              vmin: float | None = None, vmax: float | None = None, scale: int = 1) -> Path:
     """Write ``field`` as a colour-mapped PNG, each cell ``scale``×``scale`` pixels;
     atomically (a temporary file renamed over ``path``), refusing a path that is not a
-    regular file (:func:`rdgpu.core.files.check_writable`)."""
+    regular file (`rdgpu.core.files.check_writable`)."""
     path = check_writable(path, "the picture")
     iio = require("imageio.v3", "writing PNG pictures")
     rgb = to_rgb(field, cmap, vmin, vmax)

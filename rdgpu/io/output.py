@@ -1,21 +1,21 @@
 """Writing what a run produced: pictures, movies, mesh files and one data file per run.
 
-* :func:`save_png` -- a colour-mapped PNG of a field: a grid field pixel for pixel
-  (:mod:`rdgpu.io.images`), a mesh field rendered off-screen with pyvista
-  (:func:`render_mesh_png`), a 3-D grid field as an isosurface rendered with pyvista
-  (:func:`render_volume`) or as three mid-plane slices (:func:`slices_rgb`).
-* :func:`save_movie` -- a GIF or MP4 of the snapshots (imageio; MP4 needs
+* `save_png` -- a colour-mapped PNG of a field: a grid field pixel for pixel
+  (`rdgpu.io.images`), a mesh field rendered off-screen with pyvista
+  (`render_mesh_png`), a 3-D grid field as an isosurface rendered with pyvista
+  (`render_volume`) or as three mid-plane slices (`slices_rgb`).
+* `save_movie` -- a GIF or MP4 of the snapshots (imageio; MP4 needs
   ``imageio-ffmpeg``), with one colour scale and one renderer for all frames.
-* :func:`save_mesh` -- VTK/VTP/VTU or PLY files of a mesh with its fields attached.
-* :func:`save_npz` / :func:`load_npz` -- one NPZ per run with the final fields, the
+* `save_mesh` -- VTK/VTP/VTU or PLY files of a mesh with its fields attached.
+* `save_npz` / `load_npz` -- one NPZ per run with the final fields, the
   snapshots, their times and steps, the parameters, the model, the domain, the backend, the
   device, the dtype and the package versions.
-* :func:`write_outputs` -- all of the above for a :class:`~rdgpu.simulation.Result`, by
+* `write_outputs` -- all of the above for a `Result`, by
   file extension (what the command line uses).
 
-Every writer takes the path first (:mod:`rdgpu.io.writers`), writes atomically and refuses
-a path that is not a regular file (:mod:`rdgpu.core.files`); a field uniform to round-off is
-drawn in one flat colour (:func:`rdgpu.io.images.flat_field`).
+Every writer takes the path first (`rdgpu.io.writers`), writes atomically and refuses
+a path that is not a regular file (`rdgpu.core.files`); a field uniform to round-off is
+drawn in one flat colour (`rdgpu.io.images.flat_field`).
 """
 
 from __future__ import annotations
@@ -126,14 +126,14 @@ def save_png(
     level: float | None = None,
 ) -> Path:
     """A colour-mapped PNG of ``field``: on a mesh ``domain`` a pyvista rendering
-    (:func:`render_mesh_png`), on a 1-D grid a plot of the field against x, on a 3-D grid
+    (`render_mesh_png`), on a 1-D grid a plot of the field against x, on a 3-D grid
     (or a 3-D array without a domain) a picture chosen by ``view``, otherwise the grid
     field with each cell ``scale``×``scale`` pixels (row 0 at the top).
 
     3-D ``view``: ``"isosurface"`` -- the surface ``field = level`` rendered off-screen
-    with pyvista at ``window_size`` (:func:`render_volume`; ``level`` defaults to the
+    with pyvista at ``window_size`` (`render_volume`; ``level`` defaults to the
     middle of the colour range ``vmin``..``vmax``); ``"slices"`` -- the xy, xz and yz
-    mid-planes side by side, ``scale`` pixels a cell (:func:`slices_rgb`); ``"auto"``
+    mid-planes side by side, ``scale`` pixels a cell (`slices_rgb`); ``"auto"``
     (default) -- the isosurface, except the slices where it would show nothing or cannot be
     drawn: pyvista missing, a side of fewer than 2 cells, a field that does not reach the
     level (e.g. uniform), or a failed rendering (with a ``RuntimeWarning``)."""
@@ -202,7 +202,7 @@ def save_movie(
 ) -> Path:
     """A GIF or MP4 (by extension) of ``frames`` (``[n, ny, nx]`` grid fields,
     ``[n, n_vertices]`` on a mesh ``domain``, rendered with pyvista, or ``[n, nz, ny, nx]``
-    on a 3-D grid, pictured as :func:`save_png` does by ``view`` and ``level``, one
+    on a 3-D grid, pictured as `save_png` does by ``view`` and ``level``, one
     renderer and one camera for all frames; ``"auto"`` takes the isosurface when some frame
     reaches the level) with one colour scale (``vmin``/``vmax``, default the range over
     all frames).  MP4 needs ``imageio-ffmpeg`` (H.264, frames padded to even sizes)."""
@@ -249,7 +249,7 @@ def save_movie(
 # ------------------------------------------------------------------------ mesh files
 def save_mesh(path: PathLike, mesh: SurfaceMesh,
               fields: Mapping[str, np.ndarray] | None = None) -> Path:
-    """Write ``mesh`` with per-vertex ``fields`` attached (:data:`MESH_FORMATS`; see
+    """Write ``mesh`` with per-vertex ``fields`` attached (`MESH_FORMATS`; see
     ``SurfaceMesh.save``), atomically except XDMF (whose data goes to a ``.h5`` beside
     it).  The earlier order ``(mesh, path, fields)`` works, deprecated."""
     if earlier_order("save_mesh", path, "save_mesh(path, mesh, fields)"):
@@ -344,7 +344,7 @@ def write_outputs(
     ``.vtk``/``.vtp``/``.vtu``/``.ply`` meshes with every final field).  ``field`` defaults
     to the first species; ``vmin``/``vmax`` fix the colour scale (default: the field's
     range); ``view`` and ``level`` say how a 3-D grid field is pictured (see
-    :func:`save_png`)."""
+    `save_png`)."""
     species = list(result.fields)
     name = species[0] if field is None else field
     if name not in result.fields:

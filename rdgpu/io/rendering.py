@@ -1,7 +1,7 @@
-"""Off-screen pyvista rendering: per-vertex fields on meshes (:func:`render_mesh`), fields
-on graph surfaces (:func:`render_surface`), and the renderer of 3-D grid isosurfaces that
-:mod:`rdgpu.io.volumes` uses.  Every rendering runs in a child process
-(:func:`render_offscreen`)."""
+"""Off-screen pyvista rendering: per-vertex fields on meshes (`render_mesh`), fields
+on graph surfaces (`render_surface`), and the renderer of 3-D grid isosurfaces that
+`rdgpu.io.volumes` uses.  Every rendering runs in a child process
+(`render_offscreen`)."""
 
 from __future__ import annotations
 
@@ -84,7 +84,7 @@ def _is_planar(vertices: np.ndarray) -> bool:
 
 
 class _MeshRenderer:
-    """One off-screen pyvista plotter for a mesh; :meth:`image` renders a per-vertex field.
+    """One off-screen pyvista plotter for a mesh; `image` renders a per-vertex field.
 
     ``smooth=True`` (the default): the field is point data, its colours interpolated across
     every face (the scalars are interpolated before the colour map, so a face between a
@@ -136,7 +136,7 @@ class _MeshRenderer:
 class _VolumeRenderer:
     """One off-screen pyvista plotter for fields on a 3-D grid: the isosurface
     ``field = level`` (one colour, the colour map's at ``level`` within ``clim``) inside the
-    grid's grey outline; :meth:`image` renders a ``[nz, ny, nx]`` field.
+    grid's grey outline; `image` renders a ``[nz, ny, nx]`` field.
 
     The grid is a ``pv.ImageData`` whose points are the cell centres ``((j + ½) dx,
     (i + ½) dy, (k + ½) dz)``; a C-order ``[nz, ny, nx]`` field is VTK's x-fastest point
@@ -180,7 +180,7 @@ def _level_colour(cmap: str, clim: tuple[float, float], level: float) -> tuple:
 
 def render_frames(mesh: SurfaceMesh, frames: np.ndarray, options: dict) -> np.ndarray:
     """Render every frame (``[n, n_vertices]``) of a mesh field to ``[n, h, w, 3]`` uint8
-    (see :func:`render_offscreen`)."""
+    (see `render_offscreen`)."""
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim != 2 or frames.shape[1] != mesh.n_vertices:
         raise ValueError(f"a mesh field needs one value per vertex ({mesh.n_vertices}), got "
@@ -244,7 +244,7 @@ def _render_here(arrays: dict[str, np.ndarray], options: dict) -> np.ndarray:
 
 
 def render_main(src: str, dst: str) -> None:
-    """Entry point of the rendering child process (see :func:`render_offscreen`)."""
+    """Entry point of the rendering child process (see `render_offscreen`)."""
     with np.load(src, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files if k != "options"}
         options = json.loads(str(z["options"]))
@@ -280,9 +280,9 @@ def render_mesh(
     smooth: bool = True,
 ) -> np.ndarray:
     """Render a per-vertex ``field`` on ``mesh`` off-screen with pyvista; an ``(h, w, 3)``
-    uint8 image (rendered in a child process, see :func:`render_frames`).  ``smooth``:
+    uint8 image (rendered in a child process, see `render_frames`).  ``smooth``:
     colours interpolated across faces with smooth shading (default), or flat faces coloured
-    by their vertices' mean (see :class:`_MeshRenderer`).
+    by their vertices' mean (see `_MeshRenderer`).
 
     ``camera``: ``None`` (isometric view, zoomed 1.3), a pyvista view name (``"xy"``,
     ``"iso"``, ...), a ``[position, focal_point, viewup]`` triple, or a dict with any of
@@ -297,7 +297,7 @@ def render_mesh(
 
 def render_mesh_png(path: PathLike, field: np.ndarray, mesh: SurfaceMesh, *, cmap: str = "viridis",
                     camera: Any = None, **kwargs: Any) -> Path:
-    """Write :func:`render_mesh` of ``field`` on ``mesh`` to the PNG ``path`` (the earlier
+    """Write `render_mesh` of ``field`` on ``mesh`` to the PNG ``path`` (the earlier
     order ``(mesh, field, path)`` works, deprecated)."""
     if earlier_order("render_mesh_png", path, "render_mesh_png(path, field, mesh)"):
         path, mesh = mesh, path
@@ -343,10 +343,10 @@ def render_surface(
     background: str = "white",
 ) -> Path:
     """Write a PNG of ``field`` (``[ny, nx]``, on the parameter grid) drawn on the 3-D
-    surface ``z = warp_scale · h`` of the :class:`~rdgpu.GraphSurface` ``surface``:
-    the field as point data of :func:`surface_mesh`, rendered as a mesh is
-    (:func:`render_mesh`: pyvista, off-screen in a child process, smooth shading).
-    ``camera`` as in :func:`render_mesh`; ``vmin``/``vmax`` fix the colour scale.  The
+    surface ``z = warp_scale · h`` of the `GraphSurface` ``surface``:
+    the field as point data of `surface_mesh`, rendered as a mesh is
+    (`render_mesh`: pyvista, off-screen in a child process, smooth shading).
+    ``camera`` as in `render_mesh`; ``vmin``/``vmax`` fix the colour scale.  The
     earlier order ``(surface, field, path)`` works, deprecated."""
     if earlier_order("render_surface", path, "render_surface(path, field, surface)"):
         path, surface = surface, path

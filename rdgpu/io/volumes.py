@@ -1,7 +1,7 @@
 """Pictures of fields on 3-D grids: an isosurface rendered off-screen
-(:func:`render_volume`, :mod:`rdgpu.io.rendering`) or three mid-plane slices
-(:func:`slices_rgb`), chosen by ``view`` (:data:`VIEWS_3D`; see
-:func:`rdgpu.io.output.save_png`)."""
+(`render_volume`, `rdgpu.io.rendering`) or three mid-plane slices
+(`slices_rgb`), chosen by ``view`` (`VIEWS_3D`; see
+`rdgpu.io.output.save_png`)."""
 
 from __future__ import annotations
 
@@ -23,12 +23,12 @@ if TYPE_CHECKING:
 __all__ = ["VIEWS_3D", "is_volume", "render_volume", "slices_rgb", "slices_size",
            "volume_frames", "volume_images", "volume_view"]
 
-#: how a field on a 3-D grid is pictured (see :func:`rdgpu.io.output.save_png`)
+#: how a field on a 3-D grid is pictured (see `rdgpu.io.output.save_png`)
 VIEWS_3D = ("auto", "isosurface", "slices")
 
 
 def is_volume(field: np.ndarray, domain: Domain | None) -> bool:
-    """Whether ``field`` is pictured as a 3-D grid field: on a 3-D :class:`Grid`, or an
+    """Whether ``field`` is pictured as a 3-D grid field: on a 3-D `Grid`, or an
     array of three dimensions without a domain."""
     if is_domain(domain):
         return len(domain.kernel_shape) == 3
@@ -53,7 +53,7 @@ def _spacing(domain: Domain | None) -> tuple[float, float, float]:
 
 
 def slices_size(shape: Sequence[int], scale: int = 1) -> tuple[int, int]:
-    """``(height, width)`` in pixels of :func:`slices_rgb` of a field of ``shape``
+    """``(height, width)`` in pixels of `slices_rgb` of a field of ``shape``
     ``(nz, ny, nx)``."""
     nz, ny, nx = (int(n) for n in shape)
     gap = 2 * scale
@@ -63,7 +63,7 @@ def slices_size(shape: Sequence[int], scale: int = 1) -> tuple[int, int]:
 def slices_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
                vmax: float | None = None, scale: int = 1) -> np.ndarray:
     """Three orthogonal mid-plane slices of a ``[nz, ny, nx]`` field side by side, as an
-    ``(h, w, 3)`` uint8 image (sizes: :func:`slices_size`), on one colour scale
+    ``(h, w, 3)`` uint8 image (sizes: `slices_size`), on one colour scale
     (``vmin``/``vmax``, default the field's range).
 
     Left to right: the xy plane at ``z = nz // 2`` (rows y, columns x: a 2-D picture of
@@ -112,9 +112,9 @@ def render_volume(
 
     ``level`` defaults to the middle of the colour range (``vmin``/``vmax``, default the
     field's range); the surface takes the colour map's colour at ``level``, inside the
-    grid's grey outline.  ``camera`` as in :func:`rdgpu.io.rendering.render_mesh`
+    grid's grey outline.  ``camera`` as in `rdgpu.io.rendering.render_mesh`
     (default: the isometric view).  Rendered in a child process (see
-    :func:`rdgpu.io.rendering.render_offscreen`)."""
+    `rdgpu.io.rendering.render_offscreen`)."""
     frames, vmin, vmax = flat_field(volume_frames(np.asarray(field)[None], grid), vmin, vmax)
     lo, hi = colour_limits(frames, vmin, vmax)
     return _render_volume(frames, grid, _iso_level(level, lo, hi), cmap=cmap, clim=(lo, hi),
@@ -156,7 +156,7 @@ def volume_images(frames: np.ndarray, domain: Domain | None, *, view: str, level
                    cmap: str, lo: float, hi: float, scale: int, camera: Any,
                    window_size: tuple[int, int]) -> list[np.ndarray]:
     """One picture per ``[nz, ny, nx]`` frame, all by one renderer (see
-    :func:`rdgpu.io.output.save_png`); with ``view="auto"`` a failed isosurface rendering
+    `rdgpu.io.output.save_png`); with ``view="auto"`` a failed isosurface rendering
     warns and falls back to slices."""
     level = _iso_level(level, lo, hi)
     if volume_view(view, frames, level) == "isosurface":

@@ -1,4 +1,4 @@
-"""Shared rules of the output writers (:mod:`rdgpu.output`).
+"""Shared rules of the output writers (`rdgpu.output`).
 
 * One argument order for every public writer: **the destination path first**, then what
   is written (a field, frames, a result, a mesh), then the domain it lives on, then
@@ -12,9 +12,9 @@
   The order of earlier versions (``render_mesh_png(mesh, field, path)``,
   ``render_surface(surface, field, path)``, ``save_mesh(mesh, path, fields)``,
   ``save_npz(result, path)``) still works -- a path is told from a mesh or a result by its
-  type -- with a ``DeprecationWarning`` (:func:`earlier_order`).
-* :func:`check_fps` -- a movie's frame rate, checked before any work.
-* :func:`write_image` -- an RGB image written atomically as a PNG.
+  type -- with a ``DeprecationWarning`` (`earlier_order`).
+* `check_fps` -- a movie's frame rate, checked before any work.
+* `write_image` -- an RGB image written atomically as a PNG.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ FPS_RANGE = (0.01, 100.0)
 
 def check_fps(fps: Any) -> float:
     """``fps`` as a float, or a ``TypeError``/``ValueError`` naming ``fps`` and the allowed
-    range :data:`FPS_RANGE` (a number, not a bool or a string)."""
+    range `FPS_RANGE` (a number, not a bool or a string)."""
     lo, hi = FPS_RANGE
     allowed = f"a number of frames per second from {lo:g} to {hi:g}"
     if isinstance(fps, (bool, np.bool_)) or not isinstance(fps, numbers.Real):
@@ -71,7 +71,7 @@ def earlier_order(func: str, first: Any, new_order: str) -> bool:
 
 def write_image(path: Any, img: np.ndarray, what: str = "the picture") -> Path:
     """Write an ``(h, w, 3)`` uint8 image as a PNG, atomically (see
-    :func:`rdgpu.core.files.atomic_path`)."""
+    `rdgpu.core.files.atomic_path`)."""
     path = check_writable(path, what)
     iio = require("imageio.v3", "writing PNG pictures")
     with atomic_path(path, what) as tmp:

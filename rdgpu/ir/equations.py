@@ -5,32 +5,32 @@ Each species' equation is ``∂s/∂t = <expression>`` written as py-pde's ``PDE
     {"u": "Du*laplace(u) - u*v**2 + F*(1 - u)",
      "v": "Dv*laplace(v) + u*v**2 - (F + k)*v"}
 
-Allowed (checked with :mod:`ast`; anything else raises :class:`EquationError` naming the
+Allowed (checked with `ast`; anything else raises `EquationError` naming the
 token and listing what is allowed):
 
-* ``+ - * /``, ``**`` (an integer exponent of at most :data:`MAX_EXPANDED_POWER` in size
+* ``+ - * /``, ``**`` (an integer exponent of at most `MAX_EXPANDED_POWER` in size
   becomes repeated multiplication, ``u**3 → (u*u)*u``, ``u**-2 → 1/(u*u)``, while the
-  expansion has at most :data:`MAX_EXPANDED_NODES` nodes; any other exponent is ``pow``),
+  expansion has at most `MAX_EXPANDED_NODES` nodes; any other exponent is ``pow``),
   unary ``-``/``+``, parentheses;
 * numbers (every literal is a real number of the fields' dtype: ``1/2`` is 0.5);
 * names: the species, the parameters, the cell-centre (grid) or vertex (mesh) coordinates
   ``x``, ``y``, ``z``, the time ``t``, the domain's extents ``Lx``, ``Ly``, ``Lz`` and the
   constant ``pi``;
-* the functions :data:`FUNCTIONS` (``min``/``max`` of two arguments, NaN-propagating like
+* the functions `FUNCTIONS` (``min``/``max`` of two arguments, NaN-propagating like
   ``numpy.minimum``);
 * ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion) and the
   bilaplacian ``laplace(laplace(s))``.
 
 Nothing else: a character outside the language (``#``, a newline...) is refused, naming
-it, as is an expression nested more than :data:`MAX_DEPTH` levels deep or of more than
-:data:`MAX_NODES` nodes, and a number too large for a float.
+it, as is an expression nested more than `MAX_DEPTH` levels deep or of more than
+`MAX_NODES` nodes, and a number too large for a float.
 
-The tree (:class:`Num`, :class:`Ref`, :class:`Lap`, :class:`Bin`, :class:`Neg`,
-:class:`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
+The tree (`Num`, `Ref`, `Lap`, `Bin`, `Neg`,
+`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
 emits it fully parenthesised, so the three implementations evaluate the same operations in
-the same order (:mod:`rdgpu.models.compiler`).
+the same order (`rdgpu.models.compiler`).
 
-:func:`linear_parts` splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
+`linear_parts` splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
 laplace(laplace(r)) + rest`` where it can (coefficients made of numbers and scalar
 parameters): the diffusion matrix of stability limits, dispersion relations and implicit
 time steps.
@@ -375,7 +375,7 @@ def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> N
 
 def _power(base: Node, exponent: Node) -> Node:
     """``base ** exponent``: repeated multiplication for small integer exponents (while
-    the expansion has at most :data:`MAX_EXPANDED_NODES` nodes: ``((u**16)**16)**16``
+    the expansion has at most `MAX_EXPANDED_NODES` nodes: ``((u**16)**16)**16``
     would have 2¹² factors), else ``pow``."""
     if isinstance(exponent, Neg) and isinstance(exponent.a, Num):
         exponent = Num(-exponent.a.value)
@@ -396,7 +396,7 @@ def _power(base: Node, exponent: Node) -> Node:
 def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
              literal: Callable[[float], Any] | None = None,
              lap: Callable[[str, int], Any] | None = None) -> Any:
-    """Evaluate with NumPy (``lib``, default :mod:`numpy`): ``env`` maps every name to a
+    """Evaluate with NumPy (``lib``, default `numpy`): ``env`` maps every name to a
     value, ``literal`` turns a number into a value of the working dtype, ``lap(name,
     order)`` returns a Laplacian.  The same operations in the same order as every
     generated kernel."""
@@ -498,7 +498,7 @@ def _constant(node: Node) -> bool:
 
 
 def linear_parts(node: Node) -> Linear | None:
-    """Split ``node`` (see :class:`Linear`); None when a Laplacian appears other than as a
+    """Split ``node`` (see `Linear`); None when a Laplacian appears other than as a
     constant multiple in the top-level sum (``u*laplace(u)``, ``exp(laplace(u))``); a
     constant factor of a sum, ``D*(laplace(u) - u)``, is distributed first."""
     diffusion: dict[str, Node] = {}

@@ -1,10 +1,10 @@
 """The identifiers of generated kernels (Warp, OpenCL C): unable to collide with one another,
 with a template's own names or with a word of the target language.
 
-A user's names (species, parameters) never start with ``_`` (:func:`rdgpu.models.model.
+A user's names (species, parameters) never start with ``_`` (`rdgpu.models.model.
 _identifier` refuses them), and a program's other buffers are ``_``-prefixed internal names
 (``_lap_u``, ``_base_u``...).  Every identifier the generators build from such a name is
-``_{role}_{name}`` (:func:`ident`), the role a lowercase word without ``_`` (``in``, ``out``,
+``_{role}_{name}`` (`ident`), the role a lowercase word without ``_`` (``in``, ``out``,
 ``pf``, ``c``, ``qw``...).  The role ends at the second ``_``, so two different (role, name)
 pairs never give the same identifier; the templates' own names (``r``, ``j``, ``nx``,
 ``flat``, ``real``, ``b_t``, ``len_x``...) do not start with ``_``, or (the Warp constants
@@ -32,7 +32,7 @@ def ident(role: str, name: str) -> str:
 
 
 def split(identifier: str) -> tuple[str, str]:
-    """``(role, name)`` of an identifier made by :func:`ident`."""
+    """``(role, name)`` of an identifier made by `ident`."""
     role, sep, name = identifier[1:].partition("_")
     if not identifier.startswith("_") or not sep or not _ROLE.match(role) or not name:
         raise ValueError(f"{identifier!r} is not a generated identifier")

@@ -1,14 +1,14 @@
-"""A :class:`Program`: what one fused pass over a domain computes, as data.
+"""A `Program`: what one fused pass over a domain computes, as data.
 
 A program says which buffers a pass reads (``inputs``, read at each cell and, where the
 expressions take their Laplacian, at its neighbours), which parameters it reads, and one
 expression per output buffer.  A time step of a model is such a program (``out_s = s +
-h·f_s``; see :mod:`rdgpu.models.integrators` for the other forms); so is the pre-pass that
+h·f_s``; see `rdgpu.models.integrators` for the other forms); so is the pre-pass that
 stores ``laplace(s)`` for a bilaplacian.  Every cell reads each input once and writes each
 output once: the stencils and the reaction in the same pass.
 
-The program's meaning on the host is :func:`rdgpu.ir.reference.run_numpy`; the backends
-print it as kernels (:meth:`rdgpu.backends.base.Backend.fused_pass`) that agree with it bit
+The program's meaning on the host is `rdgpu.ir.reference.run_numpy`; the backends
+print it as kernels (`rdgpu.backends.base.Backend.fused_pass`) that agree with it bit
 for bit where only ``+ − × ÷`` are used.
 """
 
@@ -120,7 +120,7 @@ def signature(program: Program, fields: frozenset[str],
               member: frozenset[str] = frozenset()) -> list[tuple[str, str]]:
     """A pass's buffer/scalar arguments in order: (kind, name) with kind in in/out/field/
     member/scalar (``fields``: the parameters given as fields; ``member``: one number per
-    member, read as ``_p_{name}``; :mod:`rdgpu.ir.names`)."""
+    member, read as ``_p_{name}``; `rdgpu.ir.names`)."""
     args = [("in", ident("in", s)) for s in program.inputs]
     args += [("out", ident("out", o.name)) for o in program.outputs]
     params = program.refs("param")

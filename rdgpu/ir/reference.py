@@ -1,9 +1,9 @@
-"""The NumPy semantics of a :class:`~rdgpu.ir.program.Program`: what one pass computes,
+"""The NumPy semantics of a `Program`: what one pass computes,
 on host arrays, in the kernels' operation order (every backend's fused pass agrees with it
 bit for bit where only ``+ − × ÷`` are used, and to a few ulps where a function is).
 
-The Laplacians are those of :mod:`rdgpu.ir.stencils`: on grids the kernels' 3/5/7-point or
-isotropic stencils, ghosts by :mod:`rdgpu.domains.boundary` (a Dirichlet ghost of a
+The Laplacians are those of `rdgpu.ir.stencils`: on grids the kernels' 3/5/7-point or
+isotropic stencils, ghosts by `rdgpu.domains.boundary` (a Dirichlet ghost of a
 ``zero_ghost`` input is 0), on graph surfaces the metric operator of
 ``families/metric/reference.py``, on meshes the CSR rows of ``L`` in index order.
 """

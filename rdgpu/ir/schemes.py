@@ -2,21 +2,21 @@
 
 A scheme is what a method name (``options={"method": ...}``, ``--method``) stands for:
 
-* :class:`ExplicitScheme` — an explicit Runge-Kutta method as its Butcher tableau ``(a, b,
+* `ExplicitScheme` — an explicit Runge-Kutta method as its Butcher tableau ``(a, b,
   c)``: ``k_i = f(x + h Σ_j a_ij k_j, t + c_i h)``, ``x' = x + h Σ_i b_i k_i``.  The model
-  layer (:class:`rdgpu.integrators.ModelStepper`) steps any tableau; a scheme that also
+  layer (`rdgpu.integrators.ModelStepper`) steps any tableau; a scheme that also
   gives ``shu_osher`` stages is stepped in that form instead (each stage one fused pass
   ``a·x + b·(y + h f(y, t + c h))`` after a first Euler stage), which is how Euler, Heun
   and SSP-RK3 have always run (their results stay bit for bit).
-* :class:`ImexScheme` — an implicit-explicit scheme: each species' own linear spatial
-  terms implicit, the rest explicit (:mod:`rdgpu.integrators.stepper`).  ``steps=1``: the
+* `ImexScheme` — an implicit-explicit scheme: each species' own linear spatial
+  terms implicit, the rest explicit (`rdgpu.integrators.stepper`).  ``steps=1``: the
   θ-scheme ``P (x' − x) = h f(x)`` (``θ = 1`` backward Euler, ``½`` Crank-Nicolson);
   ``steps=2``: the semi-implicit BDF2 (SBDF2), whose first step is the ``θ = 1`` one.
 
-Adding a scheme is one entry here (or :func:`register_scheme` from a user's script); the
-method lists of the CLI help, the error messages and the docs come from :data:`SCHEMES`.
+Adding a scheme is one entry here (or `register_scheme` from a user's script); the
+method lists of the CLI help, the error messages and the docs come from `SCHEMES`.
 This module is pure data (no rdgpu imports): the model layer, the functional API's
-``diffusion_step``, the py-pde steppers and :mod:`rdgpu.integrators` all read it.
+``diffusion_step``, the py-pde steppers and `rdgpu.integrators` all read it.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ _ALIASES: dict[str, str] = {}
 
 
 def register_scheme(scheme: Scheme, *, replace: bool = False) -> Scheme:
-    """Add ``scheme`` to :data:`SCHEMES` (its name and aliases become method names of every
+    """Add ``scheme`` to `SCHEMES` (its name and aliases become method names of every
     model).  A name already taken is refused unless ``replace``."""
     if not isinstance(scheme, (ExplicitScheme, ImexScheme)):
         raise TypeError(f"a scheme is an ExplicitScheme or an ImexScheme, got "

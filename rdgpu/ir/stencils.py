@@ -1,7 +1,7 @@
 """The one stencil table per domain kind, and the stencil walk both kernel printers use.
 
-A pass's *stencil kind* (:func:`stencil_kind`) follows from the domain's ``kind`` (the
-Domain protocol, :mod:`rdgpu.domains.base`) and the grid stencil:
+A pass's *stencil kind* (`stencil_kind`) follows from the domain's ``kind`` (the
+Domain protocol, `rdgpu.domains.base`) and the grid stencil:
 
 * ``grid1``, ``grid2``, ``grid3``: the 3-, 5- or 7-point Laplacian ``((e + w) − 2c)/dx² +
   ((n + s) − 2c)/dy² + ((t + b) − 2c)/dz²`` (terms of absent axes left out);
@@ -11,12 +11,12 @@ Domain protocol, :mod:`rdgpu.domains.base`) and the grid stencil:
 * ``mesh``: ``laplace(s)_i = Σ_q L_iq s_q`` over the CSR row of ``L``, in index order (one
   "neighbour": the row's column, read in a loop).
 
-:data:`STENCIL_KINDS` says for each which neighbours a cell reads (:class:`Neighbour`:
+`STENCIL_KINDS` says for each which neighbours a cell reads (`Neighbour`:
 its row and column offsets and the ghost rules that replace it at a boundary).
-:func:`neighbour_values` walks them for a program, :func:`laplacian_text` writes the
-Laplacian from them in the reference's operation order, and :func:`emit` writes an
+`neighbour_values` walks them for a program, `laplacian_text` writes the
+Laplacian from them in the reference's operation order, and `emit` writes an
 expression fully parenthesised; the Warp and OpenCL printers
-(:mod:`rdgpu.backends.warp_codegen`, :mod:`rdgpu.backends.opencl_codegen`) differ only in
+(`rdgpu.backends.warp_codegen`, `rdgpu.backends.opencl_codegen`) differ only in
 how they spell a load, a select and a literal.
 """
 
@@ -61,7 +61,7 @@ def _neighbour(name: str) -> Neighbour:
 
 @dataclass(frozen=True)
 class StencilKind:
-    """One row of :data:`STENCIL_KINDS`: the dimension, the form of the Laplacian
+    """One row of `STENCIL_KINDS`: the dimension, the form of the Laplacian
     (``compact``, ``isotropic``, ``metric`` or ``csr``) and the neighbours, in the order the
     kernels read them."""
 
@@ -94,8 +94,8 @@ STENCIL_KINDS: dict[str, StencilKind] = {k.name: k for k in (
 
 
 def stencil_kind(domain: Domain, stencil: str = "compact") -> str:
-    """The row of :data:`STENCIL_KINDS` of a pass on ``domain`` with the grid ``stencil``:
-    the domain's own answer (:meth:`Domain.stencil_kind
+    """The row of `STENCIL_KINDS` of a pass on ``domain`` with the grid ``stencil``:
+    the domain's own answer (`Domain.stencil_kind
     <rdgpu.domains.base.Domain.stencil_kind>`)."""
     return domain.stencil_kind(stencil)
 
@@ -219,7 +219,7 @@ _METRIC_LOADS = {
     "nys": ("_me_ny", "s", 0), "bx": ("_me_bx", "c", 0), "bxsw": ("_me_bx", "s", -1),
     "bxs": ("_me_bx", "s", 0), "bxw": ("_me_bx", "c", -1), "w": ("_me_w", "c", 0),
 }
-#: the metric coefficient arguments, after the program's own (:func:`~rdgpu.ir.program.
+#: the metric coefficient arguments, after the program's own (`
 #: signature`)
 METRIC_ARGS = tuple(ident("me", k) for k in METRIC_COEFFICIENTS)
 

@@ -1,22 +1,22 @@
 """The model layer: a model is its equations.
 
-Time stepping (the schemes, the steppers, stability) is :mod:`rdgpu.integrators`, a layer
+Time stepping (the schemes, the steppers, stability) is `rdgpu.integrators`, a layer
 above this one.
 
 Where things are:
 
-* :mod:`~rdgpu.ir.equations` — the equation language (py-pde's ``PDE`` spelling),
+* `equations` — the equation language (py-pde's ``PDE`` spelling),
   parsed into a small expression tree, and its linear spatial part;
-* :mod:`~rdgpu.models.model` — :func:`define_model` / :class:`Model`: equations,
+* `model` — `define_model` / `Model`: equations,
   parameters (numbers, fields, expressions of ``x, y, z, t``), stability limits;
-* :mod:`~rdgpu.models.compiler` — the tree turned into one fused kernel per backend (NumPy
+* `compiler` — the tree turned into one fused kernel per backend (NumPy
   reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
   ``rdgpu/families/model/``;
   ``rdgpu/families/model/``;
-* :mod:`~rdgpu.models.library` — the built-in models (a few lines each);
-  :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
-  :mod:`rdgpu.integrators.allen_cahn`);
-* :mod:`~rdgpu.models.presets` — the papers' runs, as data.
+* `library` — the built-in models (a few lines each);
+  `allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
+  `rdgpu.integrators.allen_cahn`);
+* `presets` — the papers' runs, as data.
 """
 
 from __future__ import annotations

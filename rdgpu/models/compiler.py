@@ -1,15 +1,15 @@
 """Equations → one fused pass per backend: the model layer's entry to the compiler.
 
-A :class:`~rdgpu.ir.program.Program` says what one pass over the domain computes (its
-inputs, parameters and one expression per output); :class:`~rdgpu.backends.target.Target`
-binds a domain to a backend and dtype; :func:`launch` runs one pass through the backend's
+A `Program` says what one pass over the domain computes (its
+inputs, parameters and one expression per output); `Target`
+binds a domain to a backend and dtype; `launch` runs one pass through the backend's
 interface (``Backend.fused_pass``), never by the backend's name.  Where the parts live:
 
-* :mod:`rdgpu.ir.program` — ``Program``, ``Output``, ``PerMember``, literals, the kernel
+* `rdgpu.ir.program` — ``Program``, ``Output``, ``PerMember``, literals, the kernel
   signature;
-* :mod:`rdgpu.ir.stencils` — the one stencil table per domain kind and the stencil walk;
-* :mod:`rdgpu.ir.reference` — the NumPy semantics (:func:`run_numpy`);
-* :mod:`rdgpu.backends.warp_codegen`, :mod:`rdgpu.backends.opencl_codegen` — the printers
+* `rdgpu.ir.stencils` — the one stencil table per domain kind and the stencil walk;
+* `rdgpu.ir.reference` — the NumPy semantics (`run_numpy`);
+* `rdgpu.backends.warp_codegen`, `rdgpu.backends.opencl_codegen` — the printers
   (one per target) and their passes; the NumPy backend runs the semantics in place.
 
 Values are emitted fully parenthesised in the tree's operation order with ``FP_CONTRACT
@@ -38,7 +38,7 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
            scalars: Mapping[str, float], time: float = 0.0) -> None:
     """One pass of ``program`` on ``target``: ``inputs``/``outputs`` in the program's
     order, each of ``target.field_shape``; ``params`` maps each parameter to a number, a
-    DeviceArray of ``target.field_shape`` (a field) or a :class:`PerMember`; ``scalars``
+    DeviceArray of ``target.field_shape`` (a field) or a `PerMember`; ``scalars``
     the builtins (``_h``...).  The target's backend compiles the pass
     (``Backend.fused_pass``; a backend that cannot says so)."""
     if len(inputs) != len(program.inputs) or len(outputs) != len(program.outputs):

@@ -1,25 +1,25 @@
 """A model's right-hand side on the device, and the field arithmetic explicit solvers need.
 
-:class:`DeviceRHS` binds a :class:`~rdgpu.models.Model` to a domain, a backend and a dtype
-(through a forward-Euler :class:`~rdgpu.integrators.ModelStepper`, which uploads the
+`DeviceRHS` binds a `Model` to a domain, a backend and a dtype
+(through a forward-Euler `ModelStepper`, which uploads the
 parameters and lowers bilaplacians) and offers fused passes over device buffers, none of
 which crosses to the host:
 
-* :meth:`DeviceRHS.stage`: one pass that evaluates ``f`` at a stage state ``y`` given as a
+* `DeviceRHS.stage`: one pass that evaluates ``f`` at a stage state ``y`` given as a
   pointwise expression of fields (``"x + 0.5*k1"``) and writes expressions of ``F =
   f(y, t)``, ``Y = y`` and the fields (``"h*F"``, ``"Y + c*F"``, ``"x + h*r - (Y +
   c*F)"``).  ``y`` is never stored: the pass evaluates it at each cell and at each
-  neighbour its Laplacians read (a derived field of :class:`~rdgpu.ir.program.Program`),
+  neighbour its Laplacians read (a derived field of `Program`),
   the same value bit for bit as a stored one.  A ``y`` of more than two fields (a
   Runge-Kutta stage) is stored first by one elementwise pass, since every neighbour
   would reload them all; so is any ``y`` of a model with a bilaplacian (its pre-pass
   reads it);
-* :meth:`DeviceRHS.rate` (``out = c·f(x, t)``) and :meth:`DeviceRHS.euler` (``out = x +
+* `DeviceRHS.rate` (``out = c·f(x, t)``) and `DeviceRHS.euler` (``out = x +
   h·f(x, t)``), the two simplest stages;
-* :meth:`DeviceRHS.pointwise`: ``out = expr`` elementwise, an expression of named fields
+* `DeviceRHS.pointwise`: ``out = expr`` elementwise, an expression of named fields
   and scalars in Python's operation order (``"x + 0.5*dt*k"``), one pass per species;
-* :meth:`DeviceRHS.max_abs`: ``max |a|`` over fields, a host float, NaN if any value is NaN;
-  :meth:`DeviceRHS.sum_squares`: ``Σ a²`` likewise.
+* `DeviceRHS.max_abs`: ``max |a|`` over fields, a host float, NaN if any value is NaN;
+  `DeviceRHS.sum_squares`: ``Σ a²`` likewise.
 
 A field is a list of device buffers, one per species, each of the stepper's shape.
 Expressions are evaluated in Python's operation order, fully parenthesised, without
@@ -58,7 +58,7 @@ Field = list[DeviceArray]
 
 
 def _as_builtin(n: eq.Node) -> eq.Node | None:
-    """A scalar of :meth:`DeviceRHS.stage`/:meth:`~DeviceRHS.pointwise` (parsed as a
+    """A scalar of `DeviceRHS.stage`/`pointwise` (parsed as a
     parameter) as the kernel argument ``_<name>``."""
     if isinstance(n, eq.Ref) and n.kind == "param":
         return eq.Ref("builtin", f"_{n.name}")
@@ -68,8 +68,8 @@ def _as_builtin(n: eq.Node) -> eq.Node | None:
 class DeviceRHS:
     """``model``'s right-hand side on ``domain`` with ``params``, on ``backend`` in
     ``dtype`` (module doc); ``check_dt``: a forward-Euler step to check against the
-    model's linear stability limit (:class:`rdgpu.StabilityError`), None for none.
-    ``species``, ``shape`` (each buffer's) and :meth:`empty` describe the fields it works on."""
+    model's linear stability limit (`rdgpu.StabilityError`), None for none.
+    ``species``, ``shape`` (each buffer's) and `empty` describe the fields it works on."""
 
     def __init__(self, model: Model, domain: Domain, params: Mapping[str, Any], backend: Backend,
                  dtype: Any, check_dt: float | None = None):
@@ -156,7 +156,7 @@ class DeviceRHS:
 
     def _stage_program(self, state: str | None, names: tuple[str, ...],
                        scalars: tuple[str, ...], outputs: tuple[str, ...]) -> Program:
-        """The program of :meth:`stage`; ``state`` None: ``y`` is an input (stored)."""
+        """The program of `stage`; ``state`` None: ``y`` is an input (stored)."""
         key = ("stage", state, names, scalars, outputs)
         program = self._programs.get(key)
         if program is not None:

@@ -1,13 +1,13 @@
 """Why a run diverged, when the cause is in the equations rather than the time step.
 
-:func:`cause` evaluates a model's right-hand sides on the last good state in float64 and
+`cause` evaluates a model's right-hand sides on the last good state in float64 and
 looks for where a NaN or an infinity first appears: the innermost operation whose operands
 are finite and whose result is not (a division by zero, ``log`` of 0 or of a negative
 number, ``sqrt`` of a negative number, an overflow), or whose result the run's dtype cannot
 hold (float32 past 3.4e38).  A parameter given as an expression of ``t`` is followed into
 its expression (``F = 1/t`` at ``t = 0``).  None when every value is finite and fits: then
 the divergence grew over the steps (a time step or a reaction too fast), which the caller
-reports.  Used by :class:`rdgpu.simulation.Simulation` (issue 19: such runs were reported as
+reports.  Used by `rdgpu.simulation.Simulation` (issue 19: such runs were reported as
 a time-step problem).
 """
 
@@ -30,7 +30,7 @@ _CELLS = 64
 
 def cause(sim: Any, state: Mapping[str, np.ndarray], step: int,
           first: str | None = None) -> str | None:
-    """The cause of a divergence of ``sim`` (a :class:`~rdgpu.simulation.Simulation`) from
+    """The cause of a divergence of ``sim`` (a `Simulation`) from
     ``state`` at ``step`` (module doc), or None; ``first``: the species to look at first.
     Never raises: a diagnosis that fails is no diagnosis."""
     try:

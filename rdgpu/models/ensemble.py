@@ -8,10 +8,10 @@ A member's parameters are given once for the ensemble: a value is
 * an array of shape ``(M, *domain shape)``: one field per member.
 
 (When the domain's shape is itself ``(M,)``, an array of that shape is read as one number
-per member.)  :func:`split_members` turns that into one plain parameter dict per member,
-:func:`stack_members` the members' resolved dicts back into what an ensemble kernel reads:
+per member.)  `split_members` turns that into one plain parameter dict per member,
+`stack_members` the members' resolved dicts back into what an ensemble kernel reads:
 numbers the same for all stay numbers, numbers that differ become a
-:class:`~rdgpu.ir.program.PerMember` vector, fields are stacked (or shared when every
+`PerMember` vector, fields are stacked (or shared when every
 member has the same one).  Each member runs exactly as it would alone.
 """
 

@@ -1,6 +1,6 @@
 """The built-in models, each its equations (py-pde's spelling) and the defaults and run
 settings of the papers it comes from (README, References).  New models are added the same
-way, here or in a user's script with :func:`rdgpu.define_model`."""
+way, here or in a user's script with `rdgpu.define_model`."""
 
 from __future__ import annotations
 

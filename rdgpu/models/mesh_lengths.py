@@ -6,10 +6,10 @@ mesh, with ``ratio = (mean edge / spacing)²``, the model's own spatial coeffici
 scaled as if the mesh's lengths were measured in cells:
 
 * each species' own diffusion coefficient that is a parameter left at its default is
-  multiplied by ``ratio`` (:meth:`rdgpu.models.Model.domain_defaults`);
+  multiplied by ``ratio`` (`rdgpu.models.Model.domain_defaults`);
 * a Laplacian whose coefficient is written with numbers only (no parameter among its
   factors: ``-2*laplace(u)``, ``laplace(u)``, ``0.1*u*laplace(u)``) is multiplied by
-  ``ratio`` and ``laplace(laplace(u))`` by ``ratio²`` (:func:`fit_to_mesh`).
+  ``ratio`` and ``laplace(laplace(u))`` by ``ratio²`` (`fit_to_mesh`).
 
 A parameter the caller gives is used as given; grids are untouched.  The stepper's option
 ``lengths="model"`` says the mesh is already in the model's lengths (a preset's disc of
@@ -75,7 +75,7 @@ def scale_written_laplacians(node: eq.Node, ratio: float, named: bool = False) -
 def fit_to_mesh(model: Model, domain: Domain, lengths: str = "cells") -> Any:
     """``model`` itself on a grid (or where nothing changes); on a mesh a shallow copy whose
     equation trees (``trees``, ``linear``) have their number-written Laplacians scaled by
-    :func:`length_ratio` (module doc).  The copy keeps the equations' text, name and
+    `length_ratio` (module doc).  The copy keeps the equations' text, name and
     parameters: it is what the stepper and the stability limit use, never stored."""
     if getattr(model, "fits_domain_itself", False):
         return model

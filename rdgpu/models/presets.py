@@ -21,7 +21,7 @@ __all__ = ["PRESETS", "Preset", "build_domain"]
 
 
 def build_domain(spec: Mapping[str, Any]) -> Domain:
-    """A domain from a preset's dict (:func:`rdgpu.domains.specs.build_domain`):
+    """A domain from a preset's dict (`rdgpu.domains.specs.build_domain`):
     ``{"grid": (ny, nx), "dx": 1.0, "bc": "periodic"}`` (``(nx,)`` 1-D, ``(nz, ny, nx)``
     3-D with ``"dz"``; ``"height"``: a graph surface), ``{"mesh": "sphere", "subdivisions":
     4, "radius": 1.0}``, ``{"mesh": "disc", "radius": 30, "rings": 50}`` (``"roughen"``:
@@ -34,11 +34,11 @@ def build_domain(spec: Mapping[str, Any]) -> Domain:
 class Preset:
     """A run that reproduces a pattern from a seed paper.
 
-    ``model``: a key of :data:`MODELS`; ``params``: values or field specs
-    (:func:`param_field`); ``domain``: a :func:`build_domain` spec; ``init``: the initial
+    ``model``: a key of `MODELS`; ``params``: values or field specs
+    (`param_field`); ``domain``: a `build_domain` spec; ``init``: the initial
     condition spec of the simulation driver; ``expect``: the pattern class it should give
     (``"spots"``, ``"inverted-spots"``, ``"stripes"``, ``"uniform"`` — what
-    :func:`rdgpu.analysis.classify_pattern` measures — or ``"spirals"``); ``classify``:
+    `rdgpu.analysis.classify_pattern` measures — or ``"spirals"``); ``classify``:
     how to measure it (``field`` and ``threshold`` for ``classify_pattern``);
     ``options``: extra keyword arguments of ``model.stepper`` (e.g. ``method``)."""
 

@@ -3,7 +3,7 @@ working dtype must hold (checked when it is bound to a dtype, before anything ru
 
 A literal, a parameter or a bound that the dtype cannot hold (``1e39`` in float32) would
 become ``inf`` in the kernels: Warp then fails on the name ``inf``, OpenCL on ``inff``,
-NumPy runs into a divergence blamed on ``dt`` (issue 19).  :func:`check_fits` refuses it,
+NumPy runs into a divergence blamed on ``dt`` (issue 19).  `check_fits` refuses it,
 naming the number, where it is and the dtype's range.
 """
 

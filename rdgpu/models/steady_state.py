@@ -8,7 +8,7 @@ the domain, one of ``t`` at ``t = 0``).  Their roots are found by
 each root's linear stability is the largest real part of the eigenvalues of
 ``J - q² D + q⁴ B`` over wavenumbers ``q ≥ 0`` (``J`` the reaction Jacobian, ``D`` and
 ``B`` the coefficients of the Laplacians and bilaplacians).  The rule
-(:func:`steady_start`):
+(`steady_start`):
 
 1. a state that patterns grow from -- stable without diffusion but unstable at some
    ``q > 0`` (Turing), unstable fastest at some ``q > 0``, or oscillatory-unstable -- is
@@ -200,7 +200,7 @@ def _key(model: Model, params: Mapping[str, Any]) -> tuple | None:
 
 def steady_start(model: Model, params: Mapping[str, Any]) -> dict | None:
     """The initial condition of the module doc's rule, as an init spec for
-    :func:`rdgpu.simulation.initial_state`; ``None`` when no steady state is found."""
+    `rdgpu.simulation.initial_state`; ``None`` when no steady state is found."""
     key = _key(model, params)
     if key is not None and key in _CACHE:
         found = _CACHE[key]
@@ -247,7 +247,7 @@ def _steady_start(model: Model, params: Mapping[str, Any]) -> dict | None:
 
 def fit_to_domain(init: dict, domain: Domain | None) -> dict:
     """``init`` with a ``"square"`` seed widened on a mesh to at least
-    :data:`MESH_SEED_EDGES` mean edge lengths (the model's defaults are scaled so that a
+    `MESH_SEED_EDGES` mean edge lengths (the model's defaults are scaled so that a
     mesh's mean edge plays a grid cell's part, and a seed a few edges wide dies out)."""
     if domain is None or init.get("kind") != "square" or not domain.unstructured:
         return init

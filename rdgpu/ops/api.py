@@ -1,7 +1,7 @@
 """The functional API: arrays of any library in, the same kind out, any backend.
 
 Every function checks its input, uploads it once, runs all its steps on the device and
-downloads once.  Arrays of any kind are accepted (:mod:`rdgpu.interop`: NumPy, lists,
+downloads once.  Arrays of any kind are accepted (`rdgpu.interop`: NumPy, lists,
 Warp, pyopencl, PyTorch, DLPack); one already in the backend's memory is used in place
 (no copy), and the result comes back as the kind of the input (a list gives a NumPy
 array).  ``out=`` takes an array of the result's shape and dtype (any writable kind)
@@ -10,10 +10,10 @@ that receives the result and is returned, so a loop can reuse it.
 Inputs are never modified; results keep the input dtype (float32 or float64).  Grid
 arrays are ``u[ny, nx]`` (row index is y); a 1-D array ``u[nx]`` is a 1-D problem:
 ``bc`` is its one condition, ``dy`` does not apply, and the stability limits are the 1-D
-ones (the kernels run it as one row with no y axis, see :class:`rdgpu.domains.Grid`).
-See docs/equations.md for every scheme.  The SOR solvers are in :mod:`rdgpu.ops.solvers`,
-the level sets in :mod:`rdgpu.ops.levelsets`, the shared result handling in
-:mod:`rdgpu.ops.results`.
+ones (the kernels run it as one row with no y axis, see `rdgpu.domains.Grid`).
+See docs/equations.md for every scheme.  The SOR solvers are in `rdgpu.ops.solvers`,
+the level sets in `rdgpu.ops.levelsets`, the shared result handling in
+`rdgpu.ops.results`.
 """
 
 from __future__ import annotations
@@ -446,7 +446,7 @@ def spmv(csr: Any, x: Any, backend: BackendSpec = None, *, out: Any = None) -> A
 
 
 # ---------------------------------------------------------------------------- diffusion
-#: diffusion_step's methods and the scheme of :data:`rdgpu.ir.schemes.SCHEMES` each is for
+#: diffusion_step's methods and the scheme of `rdgpu.ir.schemes.SCHEMES` each is for
 #: ``u_t = D Δu + source``: forward Euler, and the IMEX θ-schemes (with nothing explicit
 #: but the source) whose θ the implicit solve takes
 DIFFUSION_METHODS = {"explicit": "euler", "backward-euler": "imex", "crank-nicolson": "imex-cn"}

@@ -1,9 +1,9 @@
-"""The input checks of the functional API (:mod:`rdgpu.ops.api`): fields of any array kind,
+"""The input checks of the functional API (`rdgpu.ops.api`): fields of any array kind,
 per-cell parameters, meshes, grids, SOR and level-set problems.
 
 Every check runs before any work: a field's kind, dtype, rank and size first -- the
-backend's cell limit and the shared memory estimate (:func:`rdgpu.core.validation.check_size`)
--- and its values only then, in place (:mod:`rdgpu.core.validation`), so that a request too
+backend's cell limit and the shared memory estimate (`rdgpu.core.validation.check_size`)
+-- and its values only then, in place (`rdgpu.core.validation`), so that a request too
 large is refused before anything is read, copied or uploaded.
 """
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 
 class _Unread(np.ndarray):
     """A zero-strided stand-in of the shape and dtype of an array that stays on its device
-    (its values are not read: that would be the copy the caller avoids; :func:`on_backend` checks
+    (its values are not read: that would be the copy the caller avoids; `on_backend` checks
     them there); ``what`` is the argument's name."""
 
     what = "the array"
@@ -39,7 +39,7 @@ class _Unread(np.ndarray):
 def host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> np.ndarray:
     """``check.as_field`` for an array of any kind: read in place where the host can (one
     copy for a device array elsewhere); an array resident on ``be`` that the host cannot
-    see is checked for dtype, rank and size only, and given as an :class:`_Unread`.  The
+    see is checked for dtype, rank and size only, and given as an `_Unread`.  The
     size (``be``'s cell limit, the memory estimate) is checked before any value is read
     or copied."""
     try:
@@ -75,7 +75,7 @@ def host_field(u: Any, name: str, ndim: tuple[int, ...], be: Backend | None) -> 
 def on_backend(be: Backend, given: Any, field: np.ndarray) -> DeviceArray:
     """The checked ``field`` of the caller's ``given`` array on ``be``: ``given``'s own
     memory where it lives there and the checks made no copy, else one upload.  An
-    :class:`_Unread` array (resident on ``be``, unseen by the host) is checked for NaN and
+    `_Unread` array (resident on ``be``, unseen by the host) is checked for NaN and
     Inf here, by one reduction on the device."""
     unread = isinstance(field, _Unread)
     d = interop.to_device(given, None if unread else field, be, field.shape)
@@ -111,7 +111,7 @@ def _check_mesh(mesh: SurfaceMesh | None) -> Any:
 def mesh_field(u: Any, mesh: SurfaceMesh | None, name: str,
                be: Backend | None = None) -> np.ndarray:
     """A per-vertex field of ``mesh``: 1-D, ``n_vertices`` long, float32/float64, finite
-    (``be``: see :func:`host_field`)."""
+    (``be``: see `host_field`)."""
     n = _check_mesh(mesh).n_vertices
     shape = given_shape(u)
     if len(shape) != 1 or shape[0] != n:
@@ -139,7 +139,7 @@ def no_grid_args(dx: Any, dy: Any, bc: Any, stencil: int = 5) -> None:
 def grid_problem(u: Any, name: str, dx: Any, dy: Any, bc: Any,
                   be: Backend | None = None) -> tuple[np.ndarray, Grid]:
     """``(field [ny, nx], Grid)`` of a 1-D ``u[nx]`` or 2-D ``u[ny, nx]`` grid field
-    (``be``: see :func:`host_field`)."""
+    (``be``: see `host_field`)."""
     field = host_field(u, name, (1, 2), be)
     dx, dy = check.spacing(dx, dy)
     if field.ndim == 1:

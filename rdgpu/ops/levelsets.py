@@ -1,5 +1,5 @@
-"""Upwind level sets of the functional API: :func:`levelset_advance` and
-:func:`reinitialize` (docs/equations.md §5)."""
+"""Upwind level sets of the functional API: `levelset_advance` and
+`reinitialize` (docs/equations.md §5)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""What every function of the functional API (:mod:`rdgpu.ops.api`) shares after its
-input checks (:mod:`rdgpu.ops.inputs`): ``out=`` handling, the result delivered as the
+"""What every function of the functional API (`rdgpu.ops.api`) shares after its
+input checks (`rdgpu.ops.inputs`): ``out=`` handling, the result delivered as the
 kind of the input and checked for NaN/Inf, the ping-pong stepping loop, a progress bar."""
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def expect_out(out: Any, given: Any, dtype: np.dtype, shape: Any = None) -> None
 def give(d: DeviceArray, given: Any, out: Any, what: str, shape: Any = None,
           **finite: Any) -> Any:
     """The result ``d`` (a buffer of the call's own) as the kind of ``given``, in
-    ``given``'s shape (or ``shape``), or written into ``out``; checked by :func:`check_finite`
+    ``given``'s shape (or ``shape``), or written into ``out``; checked by `check_finite`
     wherever the host sees it."""
     shape = given_shape(given) if shape is None else tuple(shape)
     return interop.deliver(d, given, shape, out,
@@ -85,7 +85,7 @@ def writable_out(be: Backend, out: Any, like: DeviceArray,
 
 def fresh(be: Backend, out: Any, like: DeviceArray) -> DeviceArray:
     """The result buffer of a one-kernel call: ``out`` itself where a kernel can write it
-    (:func:`writable_out`), else a new array."""
+    (`writable_out`), else a new array."""
     return writable_out(be, out, like, (like,)) or be.empty_like(like)
 
 
@@ -94,7 +94,7 @@ def advance(be: Backend, start: tuple[DeviceArray, ...], n: int, step: Any,
     """``n`` calls of ``step(cur, nxt)`` (tuples of device arrays) from ``start``, which is
     only read (it may be the caller's memory), ping-ponging between buffers of the call's
     own; the last step writes the caller's ``outs`` directly where a kernel can (see
-    :func:`writable_out`).  The result is never ``start`` (a copy of it when ``n == 0``)."""
+    `writable_out`).  The result is never ``start`` (a copy of it when ``n == 0``)."""
     final = None
     if outs is not None and n > 0:
         final = tuple(writable_out(be, o, d, start) for o, d in zip(outs, start, strict=True))

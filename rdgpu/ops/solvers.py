@@ -1,5 +1,5 @@
-"""Red-black SOR of the functional API: :func:`optimal_omega`, :func:`sor_sweep`,
-:func:`sor_solve` (docs/equations.md §4)."""
+"""Red-black SOR of the functional API: `optimal_omega`, `sor_sweep`,
+`sor_solve` (docs/equations.md §4)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
-"""The zarr store of a sweep (:func:`rdgpu.sweep`): opened or created, checked, and its
+"""The zarr store of a sweep (`rdgpu.sweep`): opened or created, checked, and its
 ``done`` flags verified against the data before they are trusted.
 
 A store is a folder that anything can damage.  What can be recomputed is: a batch marked
 done whose data is missing (a deleted chunk reads as NaN) or unreadable (a corrupted
-chunk) is run again, with a :class:`SweepStoreWarning` naming the store and the batches;
+chunk) is run again, with a `SweepStoreWarning` naming the store and the batches;
 so is every batch when the ``pattern`` or ``done`` chunk is lost.  What cannot is a clear
 ``ValueError`` naming the store and what to do: settings or metadata that are not valid
 JSON, a missing or reshaped array.
@@ -105,7 +105,7 @@ def open_store(path: Path, template: Any, settings: dict) -> Any:
 
 def stored_batch(path: Path) -> int | None:
     """The batch size of the sweep stored at ``path`` (None: no readable sweep there;
-    :func:`open_store` says why)."""
+    `open_store` says why)."""
     if not path.is_dir():
         return None
     try:
@@ -134,7 +134,7 @@ def _whole(arr: Any) -> bool:
 def verify_done(group: Any, path: Path, flags: np.ndarray, members: Any, counts: tuple,
                 species: tuple[str, ...], diverged: int, n_classes: int) -> np.ndarray:
     """``flags`` (``done`` per batch as stored) with every batch whose data is missing or
-    unreadable cleared (those run again, with a :class:`SweepStoreWarning`).
+    unreadable cleared (those run again, with a `SweepStoreWarning`).
     ``members(b)``: the members of batch ``b``; ``counts``: the swept axes' sizes."""
     flags = np.array(flags, dtype=bool)
     done = [b for b in range(flags.size) if flags[b]]
@@ -220,7 +220,7 @@ def load_store(xr: Any, path: Path, diverged: int) -> Any:
 def check_sweep_memory(n_members: int, space: tuple[int, ...], n_species: int,
                        itemsize: int, batch: int | None, batch_memory: int,
                        store: Any) -> None:
-    """Refuse a sweep whose results cannot be held (:func:`rdgpu.core.resources.check_memory`),
+    """Refuse a sweep whose results cannot be held (`rdgpu.core.resources.check_memory`),
     before any work: the result Dataset (every member's fields, held in memory at the end,
     and as large in the store, uncompressed) and one batch at work."""
     cells = int(np.prod(space, dtype=object))

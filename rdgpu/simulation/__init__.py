@@ -1,8 +1,8 @@
-"""A model bound to a domain and run: initial conditions (:mod:`~rdgpu.simulation.initial`),
-defaults (:mod:`~rdgpu.simulation.defaults`), the result (:mod:`~rdgpu.simulation.result`),
-checkpoints (:mod:`~rdgpu.simulation.checkpoints`), the time loop
-(:mod:`~rdgpu.simulation.runner`) and the driver (:class:`Simulation`,
-:mod:`~rdgpu.simulation.driver`)."""
+"""A model bound to a domain and run: initial conditions (`initial`),
+defaults (`defaults`), the result (`result`),
+checkpoints (`checkpoints`), the time loop
+(`runner`) and the driver (`Simulation`,
+`driver`)."""
 
 from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted
 from rdgpu.core.files import remove_stale_temporaries

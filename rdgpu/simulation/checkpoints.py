@@ -1,14 +1,14 @@
-"""Checkpoints: what a :class:`~rdgpu.simulation.Simulation` writes to go on later, how it
+"""Checkpoints: what a `Simulation` writes to go on later, how it
 is read back and checked against the simulation that resumes it.
 
-A checkpoint is an NPZ file written atomically (:func:`rdgpu.core.files.atomic_savez`):
-``meta`` (JSON: format :data:`CHECKPOINT_FORMAT`, model, species, step, dt, dtype, seed,
+A checkpoint is an NPZ file written atomically (`rdgpu.core.files.atomic_savez`):
+``meta`` (JSON: format `CHECKPOINT_FORMAT`, model, species, step, dt, dtype, seed,
 init, options, scalar parameters, the domain's description, backend, run settings,
 versions), ``field__<s>``, ``snap__<s>``, ``snap_steps``, ``history__<k>`` (a multistep
 method's previous levels), ``param__<k>`` (parameter fields) and the domain's arrays
-(:meth:`Domain.arrays <rdgpu.domains.base.Domain.arrays>`).  Data files
-(:mod:`rdgpu.io.datafile`) keep their JSON the same way (:func:`json_str`,
-:func:`split_params`).
+(`Domain.arrays <rdgpu.domains.base.Domain.arrays>`).  Data files
+(`rdgpu.io.datafile`) keep their JSON the same way (`json_str`,
+`split_params`).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def backend_spec(be: Backend) -> str:
 
 
 def describe_domain(domain: Domain, source: Any = None) -> dict:
-    """A JSON-able description of a domain (:meth:`Domain.describe
+    """A JSON-able description of a domain (`Domain.describe
     <rdgpu.domains.base.Domain.describe>`; meshes: the generator/path if known, sizes)."""
     if not is_domain(domain):
         raise TypeError(f"domain must be a Grid or a SurfaceMesh, got {type(domain).__name__}")
@@ -97,7 +97,7 @@ def domain_differences(desc: Mapping, arrays: Mapping[str, np.ndarray],
 
 def _grid_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], mine: dict,
                       ours: Mapping[str, np.ndarray]) -> list[str]:
-    """:func:`domain_differences` of grids and graph surfaces (``ours``: the arrays of the
+    """`domain_differences` of grids and graph surfaces (``ours``: the arrays of the
     domain here, a graph surface's ``surface_height``)."""
     out = []
     if "surface_height" in ours and mine["shape"] == desc.get("shape") and \
@@ -122,7 +122,7 @@ def _grid_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], mine: dic
 
 def _mesh_differences(desc: Mapping, arrays: Mapping[str, np.ndarray], mine: dict,
                       ours: Mapping[str, np.ndarray]) -> list[str]:
-    """:func:`domain_differences` of meshes (``ours``: the vertices and faces here)."""
+    """`domain_differences` of meshes (``ours``: the vertices and faces here)."""
     out = []
     V, F = arrays["mesh_vertices"], arrays["mesh_faces"]
     V_here, F_here = ours["mesh_vertices"], ours["mesh_faces"]
@@ -201,7 +201,7 @@ def checkpoint_arrays(sim: Simulation, state: Mapping[str, np.ndarray], run: dic
 
 
 def write_checkpoint(path: str | os.PathLike, arrays: Mapping[str, np.ndarray]) -> None:
-    """Write ``arrays`` (:func:`checkpoint_arrays`) to ``path`` atomically."""
+    """Write ``arrays`` (`checkpoint_arrays`) to ``path`` atomically."""
     atomic_savez(Path(path), arrays, what="the checkpoint")
 
 

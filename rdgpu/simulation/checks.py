@@ -1,11 +1,11 @@
-"""Checks of what a :class:`~rdgpu.simulation.Simulation` is given -- numbers, grid shapes,
+"""Checks of what a `Simulation` is given -- numbers, grid shapes,
 parameter field specs, initial-condition specs, stepper options, run lengths, the memory a
 request needs, a checkpoint's run settings and model -- made before any work is done.
 
 Every check raises a ``TypeError`` (wrong kind of value: a bool, a string, bytes where a
 number belongs) or a ``ValueError`` (right kind, wrong value) that names the argument, says
 what it got and what is allowed; nothing is cast, truncated or ignored silently.  Huge
-requests are refused through the one shared estimate (:mod:`rdgpu.core.resources`).
+requests are refused through the one shared estimate (`rdgpu.core.resources`).
 """
 
 from __future__ import annotations
@@ -53,12 +53,12 @@ MAX_STEPS = 2**53
 def whole(value: Any, name: str, minimum: int = 0, maximum: int | None = None) -> int:
     """``value`` as an int >= ``minimum`` (and <= ``maximum``): an int (not a bool) or a
     float with a whole value (``1e4``) that a float holds exactly -- the shared check
-    :func:`rdgpu.core.validation.whole` with ``floats=True``."""
+    `rdgpu.core.validation.whole` with ``floats=True``."""
     return validation.whole(value, name, minimum=minimum, maximum=maximum, floats=True)
 
 
 def real(value: Any, name: str) -> float:
-    """``value`` as a finite float -- the shared check :func:`rdgpu.core.validation.real_number`
+    """``value`` as a finite float -- the shared check `rdgpu.core.validation.real_number`
     (no bool, text, bytes or complex number)."""
     return validation.real_number(value, name)
 
@@ -72,7 +72,7 @@ def unit_fractions(values: tuple[float, ...], name: str) -> None:
 
 # ------------------------------------------------------------------- initial conditions
 def init_spec(init: Any) -> dict[str, Any]:
-    """An initial-condition spec as :func:`~rdgpu.simulation.initial_state` takes it: a dict
+    """An initial-condition spec as `initial_state` takes it: a dict
     (``None``: uniform), or a list of them (one per ensemble member)."""
     if init is None:
         return {"kind": "uniform"}

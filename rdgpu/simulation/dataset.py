@@ -1,4 +1,4 @@
-"""A run's :class:`~rdgpu.simulation.Result` as an xarray ``Dataset`` (``Result.to_xarray``).
+"""A run's `Result` as an xarray ``Dataset`` (``Result.to_xarray``).
 
 Layout
 ------
@@ -26,7 +26,7 @@ Layout
 These names are a fixed layout: a species named like a coordinate, a dimension, another
 variable (``param_F`` beside a parameter field ``F``, ``height`` on a graph surface) or a
 scalar parameter ``fields`` (attribute ``param_fields``) is refused with a ``ValueError``
-naming both, never silently overwritten; :func:`rdgpu.output.save_npz` keeps such names
+naming both, never silently overwritten; `rdgpu.output.save_npz` keeps such names
 apart (``final_<s>``, ``param_<k>``).
 """
 

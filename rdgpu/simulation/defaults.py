@@ -1,7 +1,7 @@
 """What a run takes when the caller leaves it out: the model behind a name
-(:func:`lookup_model`, :func:`lookup_preset`), its initial condition (:func:`default_init`),
-time step (:func:`default_dt`), run length (:func:`default_steps`), parameters that depend
-on the domain (:func:`domain_defaults`) and blow-up bound (:func:`model_bound`), and the
+(`lookup_model`, `lookup_preset`), its initial condition (`default_init`),
+time step (`default_dt`), run length (`default_steps`), parameters that depend
+on the domain (`domain_defaults`) and blow-up bound (`model_bound`), and the
 run settings' defaults."""
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def lookup_preset(preset: Any) -> Any:
 
 def model_bound(model: Model | str, species: str) -> float:
     """The blow-up bound of ``species``: the model's ``blowup_bound`` (a number or a
-    per-species dict), else :data:`DEFAULT_BOUND`."""
+    per-species dict), else `DEFAULT_BOUND`."""
     bound = getattr(model, "blowup_bound", None)
     if isinstance(bound, Mapping):
         bound = bound.get(species)
@@ -90,12 +90,12 @@ def presets_of(model: Model | str) -> list:
 def default_init(model: Model | str, params: Mapping[str, Any] | None = None,
                  domain: Domain | None = None) -> dict:
     """The initial condition of a model run without one: the model's ``default_init``,
-    else :data:`FALLBACK_INITS`, else its first preset's, else its homogeneous steady state
+    else `FALLBACK_INITS`, else its first preset's, else its homogeneous steady state
     (``model.steady_guess(params)``) plus noise 0.05, else the start that
-    :func:`rdgpu.models.steady_state.steady_start` derives from the model's steady states
+    `rdgpu.models.steady_state.steady_start` derives from the model's steady states
     (found numerically from its reaction terms; a model defined by equations), else zero
     plus noise 0.05.  On a mesh (``domain``) a square seed spans at least 15 mean edge
-    lengths (:func:`rdgpu.models.steady_state.fit_to_domain`)."""
+    lengths (`rdgpu.models.steady_state.fit_to_domain`)."""
     init = getattr(model, "default_init", None) or FALLBACK_INITS.get(model.name)
     if init:
         return fit_to_domain(dict(init), domain)

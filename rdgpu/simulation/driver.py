@@ -1,7 +1,7 @@
-"""Running a model: :class:`Simulation`, its construction, checkpoints and ``run``.
+"""Running a model: `Simulation`, its construction, checkpoints and ``run``.
 
-A :class:`Simulation` binds a model (:mod:`rdgpu.models`) to a domain (any
-:class:`~rdgpu.domains.base.Domain`: a grid, a graph surface, a mesh), parameter
+A `Simulation` binds a model (`rdgpu.models`) to a domain (any
+`Domain`: a grid, a graph surface, a mesh), parameter
 values, a time step, a backend and a dtype, and runs it::
 
     sim = Simulation("gray-scott", Grid((128, 128)), {"F": 0.03, "k": 0.055}, dt=1.0)
@@ -10,22 +10,22 @@ values, a time step, a backend and a dtype, and runs it::
 While it runs, the fields stay on the device.  Snapshots are device-to-device copies into
 preallocated buffers, downloaded in batches (when the batch is full, at a checkpoint and at
 the end).  Every ``check_every`` steps the state is downloaded and checked for NaN, Inf and
-blow-up (``|x| >`` :data:`~rdgpu.simulation.defaults.DEFAULT_BOUND`, or the model's
+blow-up (``|x| >`` `DEFAULT_BOUND`, or the model's
 optional ``blowup_bound``: a number or a per-species dict); a bad state stops the run with
-:class:`~rdgpu.core.errors.SimulationDiverged`, naming the first bad step (found by replaying
+`SimulationDiverged`, naming the first bad step (found by replaying
 from the last good state), the field and a likely cause, and keeping the last good state
 in ``exc.result``.
 
 Checkpoints (``checkpoint=PATH``) are NPZ files written atomically (temporary file in the
 same folder, ``fsync``, ``os.replace``): the state, the step, the parameters, the model,
 the domain, the run settings and the snapshots taken so far.  ``run(steps, resume=PATH)``
-(or :meth:`Simulation.resume`) continues from one and ends with the same result, bitwise,
+(or `Simulation.resume`) continues from one and ends with the same result, bitwise,
 as the uninterrupted run on the same backend: step boundaries fall on the same absolute
 step numbers in both runs, and a model's stepper must give the same
 arithmetic for ``advance(a); advance(b)`` as for ``advance(a + b)``.
 
-The loop itself is :mod:`rdgpu.simulation.runner`; the checkpoint files
-:mod:`rdgpu.simulation.checkpoints`.
+The loop itself is `rdgpu.simulation.runner`; the checkpoint files
+`rdgpu.simulation.checkpoints`.
 """
 
 from __future__ import annotations
@@ -91,27 +91,27 @@ class Simulation:
     model : Model or str
         A model (``rdgpu.define_model``) or a name in ``rdgpu.models.MODELS``.
     domain : Grid, SurfaceMesh or dict
-        Where it runs (a dict as in :func:`build_domain`).
+        Where it runs (a dict as in `build_domain`).
     params : dict
         Parameter values over ``model.defaults``: numbers, per-cell/per-vertex arrays or
         field specs (``rdgpu.models.param_field``, drawn with ``seed``).
     dt : float
-        The time step (default: :func:`default_dt`).
+        The time step (default: `default_dt`).
     backend : str or Backend
         As ``rdgpu.get_backend`` takes it (default: the current default backend).
     dtype : "float32" or "float64"
     seed : int
-        Seed of the initial condition (see :func:`initial_state`) and of random
+        Seed of the initial condition (see `initial_state`) and of random
         parameter fields.
     init : dict
-        The initial condition (default: :func:`default_init`); ignored if ``fields`` given.
+        The initial condition (default: `default_init`); ignored if ``fields`` given.
     fields : dict of arrays
         Explicit initial fields, one per species: NumPy arrays, lists, or any library's
-        arrays (:mod:`rdgpu.interop`: Warp, pyopencl, PyTorch, DLPack), read once on the
+        arrays (`rdgpu.interop`: Warp, pyopencl, PyTorch, DLPack), read once on the
         host (in place where the host can; ``Result`` holds NumPy arrays).  Parameter
         fields in ``params`` may be any such array too.
     check_stability : bool
-        With ``True`` the model raises :class:`~rdgpu.StabilityError` when
+        With ``True`` the model raises `StabilityError` when
         ``dt > model.dt_limit(domain, params)``; with ``False`` it is asked to run anyway.
     options : dict
         Extra keyword arguments of ``model.stepper`` (and of ``model.dt_limit`` where it
@@ -153,7 +153,7 @@ class Simulation:
         if self.members is not None and not accepts(self.model.stepper, "members"):
             raise ValueError(f"model {self.model.name!r} cannot run as an ensemble (its "
                              "stepper takes no members); run the members one by one")
-        #: every field's shape: ``(members, *shape)`` for an ensemble, else :attr:`shape`
+        #: every field's shape: ``(members, *shape)`` for an ensemble, else `shape`
         self.field_shape = self.shape if self.members is None else (self.members, *self.shape)
         self.species = tuple(self.model.species)
         try:
@@ -200,7 +200,7 @@ class Simulation:
 
     # ------------------------------------------------------------------ construction
     def _set_params(self, params: Mapping[str, Any] | None) -> list[dict[str, Any]]:
-        """Set :attr:`params` (a member's own values stacked for an ensemble) and return
+        """Set `params` (a member's own values stacked for an ensemble) and return
         each member's parameters (one dict without members)."""
         if params is not None and not isinstance(params, Mapping):
             raise TypeError(f"params must be a dict of parameter values, got "
@@ -215,8 +215,8 @@ class Simulation:
         return each
 
     def _set_dt(self, dt: Any, distinct: list[dict[str, Any]], check_stability: bool) -> None:
-        """Set :attr:`dt` (default: the smallest default of the ``distinct`` parameter
-        sets), ``check_stability`` and :attr:`dt_limit`."""
+        """Set `dt` (default: the smallest default of the ``distinct`` parameter
+        sets), ``check_stability`` and `dt_limit`."""
         if dt is None:
             dt = min(default_dt(self.model, self.domain, p, self.options) for p in distinct)
         if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, numbers.Real):
@@ -349,7 +349,7 @@ class Simulation:
     ) -> Simulation:
         """A simulation of a preset (a ``rdgpu.models.Preset`` or its name); ``domain``,
         ``params`` (merged over the preset's), ``dt``, ``seed`` and ``init`` override it;
-        ``members`` makes it an ensemble (see :class:`Simulation`).
+        ``members`` makes it an ensemble (see `Simulation`).
         ``run()`` then defaults to the preset's ``steps`` and ``snapshot_every``."""
         p = lookup_preset(preset)
         sim = cls(
@@ -371,9 +371,9 @@ class Simulation:
         return self.host_state()
 
     def host_state(self, history: bool = False) -> dict[str, np.ndarray]:
-        """The current fields, downloaded, each of :attr:`shape`; ``history``: also what a
+        """The current fields, downloaded, each of `shape`; ``history``: also what a
         multistep method carries between steps (BDF2's previous level, ``"_prev_<s>"``:
-        :meth:`rdgpu.integrators.ModelStepper.get_state`), so that ``stepper.set_state`` of it
+        `rdgpu.integrators.ModelStepper.get_state`), so that ``stepper.set_state`` of it
         goes on bit for bit."""
         get = self.stepper.get_state
         state = get(history=True) if history and accepts(get, "history") else get()
@@ -407,7 +407,7 @@ class Simulation:
         equations, bounds: a ValueError says what differs); ``backend`` defaults to the
         checkpoint's.
         Temporary files of killed writers of the checkpoint are removed
-        (:func:`remove_stale_temporaries`)."""
+        (`remove_stale_temporaries`)."""
         remove_stale_temporaries(path)
         meta, arrays = cls.read_checkpoint(path)
         # a model defined by equations is rebuilt from them, whatever its name (a built-in's
@@ -458,7 +458,7 @@ class Simulation:
     @property
     def default_steps(self) -> int | None:
         """What ``run()`` does without ``steps``: the preset's steps, else the model's
-        ``default_time`` over ``dt`` (see :func:`default_steps`), else ``None``."""
+        ``default_time`` over ``dt`` (see `default_steps`), else ``None``."""
         steps = getattr(self.preset, "steps", None)
         if steps is not None:
             return int(steps)
@@ -475,30 +475,30 @@ class Simulation:
         progress: bool = True,
         resume: str | os.PathLike | None = None,
     ) -> Result:
-        """Advance ``steps`` steps and return a :class:`Result`.
+        """Advance ``steps`` steps and return a `Result`.
 
-        ``steps`` (a whole number >= 0) defaults to :attr:`default_steps`: the preset's,
+        ``steps`` (a whole number >= 0) defaults to `default_steps`: the preset's,
         else the model's default run length in its time units over ``dt``.
         ``snapshot_every``: keep a snapshot at every step that is a multiple of it (the
         first at the start of the run if its step is a multiple, and always the last).
         ``check_every`` (default 200, 0 disables): check for NaN/Inf/blow-up at multiples
-        of it and at the end; a bad state raises :class:`SimulationDiverged` with the last
+        of it and at the end; a bad state raises `SimulationDiverged` with the last
         good state in ``exc.result`` and the simulation left at that state.
         ``checkpoint``: path of a checkpoint written atomically at multiples of
         ``checkpoint_every`` (default 1000) and at the end; every state written is checked
         first, so a checkpoint never holds a diverged state; a path that cannot be written
-        (:func:`rdgpu.core.files.check_writable`) is refused before the first step, as
+        (`rdgpu.core.files.check_writable`) is refused before the first step, as
         are steps past 2**53 and snapshots that cannot fit in memory.  Temporary files that
         killed writers of that checkpoint left behind are removed (see
-        :func:`remove_stale_temporaries`).  ``progress``: a tqdm bar on stderr for runs
+        `remove_stale_temporaries`).  ``progress``: a tqdm bar on stderr for runs
         lasting more than a second.
 
         Ctrl-C: in the main thread, SIGINT is taken at the end of the chunk of steps that
         is running (at most 100 steps; a second Ctrl-C interrupts at once); that state is
         checked, written as a checkpoint if ``checkpoint`` is given, and
-        :class:`SimulationInterrupted` (a ``KeyboardInterrupt``) is raised with it in
+        `SimulationInterrupted` (a ``KeyboardInterrupt``) is raised with it in
         ``exc.result``.  Any other ``KeyboardInterrupt`` during the run also becomes
-        :class:`SimulationInterrupted`, with the last checked state (the simulation goes
+        `SimulationInterrupted`, with the last checked state (the simulation goes
         back to it).
 
         ``resume=PATH`` repeats an interrupted ``run`` call from its last checkpoint: the
@@ -507,7 +507,7 @@ class Simulation:
         what that call asked for), and checkpoints go on to PATH unless ``checkpoint`` is
         given.  The simulation must be the checkpoint's: same model, parameters, dt,
         options and domain (grid shape, dx, dy, boundary conditions; mesh vertices and
-        faces).  After :meth:`resume`, ``run()`` does the same.
+        faces).  After `resume`, ``run()`` does the same.
         """
         if steps is not None:
             steps = whole(steps, "steps", 0, MAX_STEPS)
@@ -549,7 +549,7 @@ class Simulation:
         ``snapshot_every``, ``check_every``, ``checkpoint_every``) and its checkpoint path,
         from those given, else the interrupted run's (``run0``, after a resume), else the
         defaults (the preset's, the model's, ``DEFAULT_CHECK_EVERY``,
-        ``DEFAULT_CHECKPOINT_EVERY`` of :mod:`rdgpu.simulation.defaults`)."""
+        ``DEFAULT_CHECKPOINT_EVERY`` of `rdgpu.simulation.defaults`)."""
         if run0 is not None:
             start = int(run0["start"])
             target = int(run0["target"]) if steps is None else start + steps

@@ -1,8 +1,8 @@
-"""Initial conditions: :func:`initial_state` draws a run's first fields from an ``init``
+"""Initial conditions: `initial_state` draws a run's first fields from an ``init``
 spec (``uniform``, ``square``, ``spots``, ``patch``, ``halves``) on any domain.
 
 Grids place seeds by cell index (periodic sides wrapped); unstructured domains
-(:attr:`Domain.unstructured <rdgpu.domains.base.Domain.unstructured>`, a mesh) by vertex
+(`Domain.unstructured <rdgpu.domains.base.Domain.unstructured>`, a mesh) by vertex
 position.  Random numbers come from ``numpy.random.default_rng(seed)`` in float64 on the
 host, so the same seed gives the same fields on every backend.
 """
@@ -174,7 +174,7 @@ def _ball_mask(domain: Domain, rng: np.random.Generator, count: int, radius: flo
 def _set_seed(fields: dict[str, np.ndarray], init: Mapping[str, Any], kind: str,
               domain: Domain, species: tuple[str, ...], rng: np.random.Generator) -> None:
     """Apply the ``inside`` values of a ``"square"`` or ``"spots"`` init to ``fields``
-    (see :func:`initial_state`)."""
+    (see `initial_state`)."""
     if kind == "square":
         mask = _square_mask(domain, _number(init.get("size", 0.1), "size"),
                             init.get("center"))
@@ -197,7 +197,7 @@ def _set_seed(fields: dict[str, np.ndarray], init: Mapping[str, Any], kind: str,
 
 def _set_patch(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Domain,
                species: tuple[str, ...], rng: np.random.Generator) -> None:
-    """Apply a ``"patch"`` init to ``fields`` (see :func:`initial_state`)."""
+    """Apply a ``"patch"`` init to ``fields`` (see `initial_state`)."""
     radius = _number(init.get("radius", 0.3), "radius")
     if radius <= 0:
         raise ValueError(f"init patch radius must be > 0, got {radius}")
@@ -223,7 +223,7 @@ def _set_patch(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: D
 def _set_halves(fields: dict[str, np.ndarray], init: Mapping[str, Any], domain: Domain,
                 species: tuple[str, ...]) -> None:
     """Apply the ``y_low``, ``x_low`` (and on a 3-D grid ``z_low``) values of a
-    ``"halves"`` init to ``fields`` (see :func:`initial_state`)."""
+    ``"halves"`` init to ``fields`` (see `initial_state`)."""
     masks = _half_masks(domain, init.get("center"))
     if init.get("z_low") is not None and "z_low" not in masks:
         raise ValueError("init halves z_low needs a 3-D grid (nz, ny, nx); this domain has "

@@ -1,5 +1,5 @@
-"""What a run produced: :class:`Result` (fields, snapshots, times, the settings it ran
-with) and :func:`package_versions` (recorded with it)."""
+"""What a run produced: `Result` (fields, snapshots, times, the settings it ran
+with) and `package_versions` (recorded with it)."""
 
 from __future__ import annotations
 
@@ -84,7 +84,7 @@ class Result:
         by ``time`` when snapshots were taken (the final state appended if it is not the
         last one); parameter fields as ``param_<name>``, a graph surface's ``height``; the
         model, parameters, dt, backend, dtype and domain as attributes. Needs xarray. See
-        :mod:`rdgpu.simulation.dataset` for the full layout."""
+        `rdgpu.simulation.dataset` for the full layout."""
 
         return result_dataset(self)
 

@@ -1,5 +1,5 @@
-"""The time loop of one :meth:`Simulation.run <rdgpu.simulation.Simulation.run>` call
-(:class:`Runner`): advancing in chunks, device-side snapshot buffers downloaded in batches,
+"""The time loop of one `Simulation.run <rdgpu.simulation.Simulation.run>` call
+(`Runner`): advancing in chunks, device-side snapshot buffers downloaded in batches,
 NaN/Inf/blow-up checks (replaying from the last good state to name the first bad step;
 freezing diverged ensemble members), checkpoints, and Ctrl-C taken at the end of a chunk.
 """
@@ -153,7 +153,7 @@ class Runner:
     def freeze(self, step: int, state: dict[str, np.ndarray],
                bad: dict[int, tuple[str, str]]) -> None:
         """Put the diverged members back to their last good state and freeze them there;
-        raise :class:`SimulationDiverged` when no member is left running."""
+        raise `SimulationDiverged` when no member is left running."""
         sim = self.sim
         good_step, good = self.last_good
         for m, (s, what) in sorted(bad.items()):

@@ -1,4 +1,4 @@
-"""Triangle meshes: :class:`SurfaceMesh` (``surface_mesh``: the validated mesh and its
+"""Triangle meshes: `SurfaceMesh` (``surface_mesh``: the validated mesh and its
 cotangent Laplace-Beltrami operator), ``geometry`` (input checks, repair, assembly),
 ``colouring`` (greedy colouring of an operator's graph), ``generators`` (disc, spheres,
 torus, planes), ``io`` (mesh files), ``roughness`` (random roughness, also of grid heights)

@@ -1,5 +1,5 @@
 """Greedy (Jones-Plassmann) colouring of a sparse matrix's graph: the colours of
-multicolour SOR (:meth:`rdgpu.domains.mesh.SurfaceMesh.colouring`, implicit solves)."""
+multicolour SOR (`rdgpu.domains.mesh.SurfaceMesh.colouring`, implicit solves)."""
 
 from __future__ import annotations
 

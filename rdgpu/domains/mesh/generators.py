@@ -1,7 +1,7 @@
-"""The vertices and faces of the generated meshes (:meth:`SurfaceMesh.disc
+"""The vertices and faces of the generated meshes (`SurfaceMesh.disc
 <rdgpu.domains.mesh.SurfaceMesh.disc>`, ``icosphere``, ``uv_sphere``, ``torus``,
 ``jittered_plane``, ``height_field``): each function returns ``(vertices, faces)``; the
-classmethods of :class:`~rdgpu.domains.mesh.SurfaceMesh` build the mesh from them."""
+classmethods of `SurfaceMesh` build the mesh from them."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The geometry of triangle meshes: input checks and repair, minimum-image edge vectors of
 periodic meshes, the cotangent/Voronoi assembly, and the element bound of the spectrum
-(the conventions are :mod:`rdgpu.domains.mesh.surface_mesh`'s).  Vectorised NumPy/SciPy."""
+(the conventions are `rdgpu.domains.mesh.surface_mesh`'s).  Vectorised NumPy/SciPy."""
 
 from __future__ import annotations
 
@@ -143,7 +143,7 @@ def face_cross(
 def face_geometry(
     V: np.ndarray, F: np.ndarray, period: Period = None
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """Edge vectors ``e_k`` as in :func:`face_cross` and twice the area of each face."""
+    """Edge vectors ``e_k`` as in `face_cross` and twice the area of each face."""
     e, c = face_cross(V, F, period)
     return e, np.sqrt(rowwise_dot(c, c))
 
@@ -205,7 +205,7 @@ def assemble(
 
     ``edges`` are the unique undirected edges (i < j, lexicographically sorted) and
     ``corner_edge[3*f + k]`` is the index into ``edges`` of the edge opposite corner k of
-    face f. ``period``: minimum-image edge vectors (see :class:`SurfaceMesh`).
+    face f. ``period``: minimum-image edge vectors (see `SurfaceMesh`).
     """
     n = V.shape[0]
     e, dbl = face_geometry(V, F, period)  # dbl = 2·area, > 0 after validation
@@ -313,7 +313,7 @@ def check_periodic_faces(V: np.ndarray, F: np.ndarray, period: tuple[float, floa
 
 
 class CheckedMesh(NamedTuple):
-    """What :func:`checked_mesh` found: the (repaired) arrays, the maps from input indices
+    """What `checked_mesh` found: the (repaired) arrays, the maps from input indices
     to output ones (−1: dropped), what was repaired, and the edges (``edge_keys``: ``lo · n
     + hi`` per edge, sorted; ``corner_edge``: the edge of each face corner, flat;
     ``edge_face_count``: the faces per edge)."""
@@ -413,7 +413,7 @@ def _drop_unused_vertices(V: np.ndarray, F: np.ndarray, vid: np.ndarray, n_merge
 
 def checked_mesh(vertices: Any, faces: Any, *, repair: bool, area_rtol: float,
                  period: Any) -> CheckedMesh:
-    """The checks (and with ``repair`` the repairs) of :class:`SurfaceMesh
+    """The checks (and with ``repair`` the repairs) of `SurfaceMesh
     <rdgpu.domains.mesh.SurfaceMesh>`'s input, in its documented order."""
     V = as_vertices(vertices)
     F = as_faces(faces, V.shape[0])

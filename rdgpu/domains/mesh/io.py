@@ -1,8 +1,8 @@
-"""Reading and writing :class:`~rdgpu.domains.mesh.SurfaceMesh` files (moved out of ``mesh.py``).
+"""Reading and writing `SurfaceMesh` files (moved out of ``mesh.py``).
 
 OBJ, PLY, STL and OFF go through trimesh, VTK/VTP/VTU through pyvista, every other format
-meshio knows through meshio.  A file that cannot be used is a :class:`MeshFileError` (a
-:class:`~rdgpu.domains.mesh.DegenerateMeshError`, so a ``ValueError``) whose message names the
+meshio knows through meshio.  A file that cannot be used is a `MeshFileError` (a
+`DegenerateMeshError`, so a ``ValueError``) whose message names the
 file and says what is wrong with it -- never a reader's raw exception: a path that is not
 a file is refused before a reader opens it, an OBJ file's ``v``/``f`` lines are checked
 first (trimesh silently drops a truncated face line such as ``f 2 4``), and what a reader
@@ -110,7 +110,7 @@ def _scan_obj(path: Path) -> None:
     truncated face line such as ``f 2 4`` without a word and takes index 0 as the last
     vertex): a vertex has 3 coordinates, a face at least 3 vertex indices, each naming a
     vertex of the file; the file has vertices and faces.  A quick vectorised pass; on any
-    doubt :func:`_scan_obj_exactly` goes line by line and names the bad line."""
+    doubt `_scan_obj_exactly` goes line by line and names the bad line."""
     data = path.read_bytes()
     faces = _OBJ_FACE.findall(data)
     vertices = _OBJ_VERTEX.findall(data)
@@ -131,7 +131,7 @@ def _scan_obj(path: Path) -> None:
 
 def _scan_obj_exactly(path: Path) -> None:
     """Check every ``v`` and ``f`` line of an OBJ file, one by one, and raise the error
-    naming the first bad line (slow: run when :func:`_scan_obj` found a fault)."""
+    naming the first bad line (slow: run when `_scan_obj` found a fault)."""
     n_vertices = n_faces = 0
     ahead: tuple[str, int] | None = None  # the first face naming a vertex not yet read
     with open(path, encoding="utf-8", errors="replace") as fh:
@@ -490,8 +490,8 @@ def _reader_failed(path: Path, ext: str, exc: BaseException) -> NoReturn:
 
 def read_mesh_file(path: PathLike) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """``(vertices, faces, fields)`` of a mesh file, as its reader gives them (not yet
-    checked as a mesh: :func:`rdgpu.domains.mesh.load_with_fields` builds the
-    :class:`SurfaceMesh`).  A file that cannot be read raises :class:`MeshFileError`
+    checked as a mesh: `rdgpu.domains.mesh.load_with_fields` builds the
+    `SurfaceMesh`).  A file that cannot be read raises `MeshFileError`
     naming it."""
     path = Path(path)
     ext = path.suffix.lower()
@@ -533,7 +533,7 @@ def save_mesh(
     *,
     file_format: str | None = None,
 ) -> None:
-    """:meth:`SurfaceMesh.save`: the path and the writer's packages are checked before
+    """`SurfaceMesh.save`: the path and the writer's packages are checked before
     anything is written."""
     path = Path(path)
     ext = path.suffix.lower()

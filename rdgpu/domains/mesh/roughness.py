@@ -1,7 +1,7 @@
 """Random roughness, shared by grid heights and meshes: the checks of its options, the
-implicit heat filter, the scaling, vertex normals, and :func:`roughened_vertices` (what
-:meth:`SurfaceMesh.roughen <rdgpu.domains.mesh.SurfaceMesh.roughen>` and
-:func:`rdgpu.surfaces.roughen` move a mesh by).  Below both ``surfaces`` and the mesh
+implicit heat filter, the scaling, vertex normals, and `roughened_vertices` (what
+`SurfaceMesh.roughen <rdgpu.domains.mesh.SurfaceMesh.roughen>` and
+`rdgpu.surfaces.roughen` move a mesh by).  Below both ``surfaces`` and the mesh
 class, so neither imports the other inside a function."""
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def vertex_normals(mesh: SurfaceMesh) -> np.ndarray:
 
 def roughened_vertices(mesh: SurfaceMesh, amplitude: float = 0.1, filter_steps: int = 15,
                        seed: int = 0, *, tau: float | None = None) -> np.ndarray:
-    """The vertices of :func:`rdgpu.surfaces.roughen`'s rough copy of ``mesh`` (its doc
+    """The vertices of `rdgpu.surfaces.roughen`'s rough copy of ``mesh`` (its doc
     states the four steps)."""
     amplitude = check_amplitude(amplitude)
     steps = check_steps(filter_steps)

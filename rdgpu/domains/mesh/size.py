@@ -1,6 +1,6 @@
-"""How big a :class:`~rdgpu.domains.mesh.SurfaceMesh` may be: its generators' size knobs are checked
+"""How big a `SurfaceMesh` may be: its generators' size knobs are checked
 (whole numbers, no bools or strings) and the mesh they ask for is refused from the one shared
-memory estimate (:func:`rdgpu.core.resources.check_memory`) before anything is allocated."""
+memory estimate (`rdgpu.core.resources.check_memory`) before anything is allocated."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def check_mesh_size(what: str, n_vertices: int, n_faces: int | None = None, *,
                     at_least: bool = False) -> None:
     """Refuse ``what`` (e.g. ``"SurfaceMesh.icosphere(99)"``), a mesh of ``n_vertices``
     vertices (and ``n_faces`` faces, when more than two per vertex), when it cannot fit in
-    this machine's memory: :class:`rdgpu.ResourceLimitError`, before any allocation.
+    this machine's memory: `rdgpu.ResourceLimitError`, before any allocation.
     ``at_least``: the counts are a lower bound (the message says so)."""
     n_vertices = int(n_vertices)
     size = max(n_vertices, (int(n_faces) + 1) // 2 if n_faces is not None else 0)

@@ -4,23 +4,23 @@ Conventions
 -----------
 * ``vertices`` is an ``(n, 3)`` float64 array, ``faces`` an ``(m, 3)`` int64 array of
   vertex indices. Face orientation is not used by the operators.
-* ``W`` (:attr:`SurfaceMesh.weights`) is the cotangent matrix in libigl's
+* ``W`` (`SurfaceMesh.weights`) is the cotangent matrix in libigl's
   ``igl.cotmatrix`` convention: ``W_ij = ½(cot α_ij + cot β_ij)`` for an edge ``ij``
   (only the one opposite angle on a boundary edge), ``W_ii = −Σ_j W_ij``. It is symmetric
   and negative semidefinite; rows sum to zero.
-* ``A`` (:attr:`SurfaceMesh.areas`) are the mixed Voronoi vertex areas of Meyer et al.
+* ``A`` (`SurfaceMesh.areas`) are the mixed Voronoi vertex areas of Meyer et al.
   (2003), in length² units: the Voronoi region for non-obtuse triangles; in an obtuse
   triangle the obtuse corner gets half the triangle's area and the other two a quarter.
   They equal the diagonal of ``igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI)`` and sum
   to the total surface area.
-* ``L = A⁻¹ W`` (:attr:`SurfaceMesh.laplacian`) approximates the Laplace-Beltrami
+* ``L = A⁻¹ W`` (`SurfaceMesh.laplacian`) approximates the Laplace-Beltrami
   operator Δu (so ``L`` is negative semidefinite: ``L x ≈ −2x`` for the coordinate
   functions on the unit sphere). On an open mesh it carries the natural (zero-flux)
   boundary condition. Stored as ``scipy.sparse.csr_matrix`` with sorted int32 indices and
   an explicit diagonal entry in every row; its sparsity pattern is exactly the vertex
   graph plus the diagonal (an edge whose weight happens to be 0 keeps an explicit 0).
 
-Validation (see :class:`SurfaceMesh`) guarantees that no operator entry is NaN or Inf.
+Validation (see `SurfaceMesh`) guarantees that no operator entry is NaN or Inf.
 Everything here is vectorised NumPy/SciPy; no Python loop runs over faces or vertices.
 """
 
@@ -79,7 +79,7 @@ class SurfaceMesh:
     faces : (m, 3) array of int
         Vertex indices, 0-based. Triangles only.
     repair : bool
-        If ``False`` (default) every defect below raises :class:`DegenerateMeshError`
+        If ``False`` (default) every defect below raises `DegenerateMeshError`
         (a ``ValueError``) naming the problem. If ``True`` the repairable ones are fixed,
         in this order: duplicate vertices (bitwise-identical coordinates) are merged into
         the lowest-indexed copy; faces of zero area (including faces that repeat a vertex)
@@ -91,11 +91,11 @@ class SurfaceMesh:
         A face is "zero-area" when ``2·area <= area_rtol · (longest edge)²``.
     period : (Lx, Ly) or None
         A mesh periodic in x and y (e.g. a torus-topology rough plane,
-        :func:`rdgpu.surfaces.graph_mesh`): every edge vector used for cotangents, areas
+        `rdgpu.surfaces.graph_mesh`): every edge vector used for cotangents, areas
         and lengths is the minimum image modulo ``(Lx, Ly)`` in x and y, so triangles may
         wrap across the domain (every edge must be shorter than half a period along each
-        axis). ``None`` (default): plain coordinates. Export (:meth:`to_pyvista`,
-        :meth:`to_trimesh`, :meth:`save`) unwraps a periodic mesh: seam vertices are
+        axis). ``None`` (default): plain coordinates. Export (`to_pyvista`,
+        `to_trimesh`, `save`) unwraps a periodic mesh: seam vertices are
         duplicated so that no triangle spans the domain.
 
     Notes
@@ -177,7 +177,7 @@ class SurfaceMesh:
     def describe(self, source: Any = None) -> dict:
         """``kind``, ``n_vertices``, ``n_faces``, a periodic mesh's ``period``, and the
         generator or path it came from (``source``, a preset's ``{"mesh": ...}``) if known;
-        the vertices and faces are kept as arrays (:meth:`arrays`)."""
+        the vertices and faces are kept as arrays (`arrays`)."""
         out: dict[str, Any] = {"kind": self.kind, "n_vertices": int(self.n_vertices),
                                "n_faces": int(self.n_faces)}
         if self.period is not None:  # a periodic (torus-topology) mesh
@@ -310,7 +310,7 @@ class SurfaceMesh:
     ) -> float:
         """Largest forward-Euler step for ``u_t = D Δu``: ``2 / (D · λ_max(−L))``.
 
-        λ_max comes from :meth:`spectral_radius`: by default (``"auto"``) a short Lanczos
+        λ_max comes from `spectral_radius`: by default (``"auto"``) a short Lanczos
         run (``eigsh`` on ``A^{-1/2}(−W)A^{-1/2}``, Ritz value + residual, ~1e-3 relative),
         capped by and falling back to a rigorous bound (Gershgorin / element bound) when
         ARPACK does not converge. ``method="bound"`` or ``"gershgorin"`` give a step that is
@@ -324,7 +324,7 @@ class SurfaceMesh:
 
     def colouring(self, seed: int = 0) -> np.ndarray:
         """Greedy colouring (int32 per vertex) of the operator's graph: no two vertices that
-        share an edge get the same colour (see :func:`greedy_colouring`). Cached per seed."""
+        share an edge get the same colour (see `greedy_colouring`). Cached per seed."""
         if seed not in self._colourings:
             c = greedy_colouring(self.laplacian, seed=seed, symmetric=True)
             c.flags.writeable = False
@@ -341,7 +341,7 @@ class SurfaceMesh:
 
     @property
     def spacing_scale(self) -> float:
-        """The mean edge length (:attr:`mean_edge_length`)."""
+        """The mean edge length (`mean_edge_length`)."""
         return float(self.mean_edge_length)
 
     def kernel_coordinate(self, name: str, dtype: Any) -> np.ndarray:
@@ -365,15 +365,15 @@ class SurfaceMesh:
         return "mesh"
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
-        """``λ_max(−L)`` as :meth:`max_stable_dt` estimates it."""
+        """``λ_max(−L)`` as `max_stable_dt` estimates it."""
         return 2.0 / self.max_stable_dt(1.0)
 
     def explicit_diffusion_limit(self) -> float:
-        """:meth:`max_stable_dt` of ``D = 1``."""
+        """`max_stable_dt` of ``D = 1``."""
         return self.max_stable_dt(1.0)
 
     def operator_matrix(self) -> tuple[Any, np.ndarray]:
-        """``A⁻¹W`` (:attr:`laplacian`) and ``b = 0``."""
+        """``A⁻¹W`` (`laplacian`) and ``b = 0``."""
         return self.laplacian, np.zeros(self.n_vertices)
 
     def mass_weights(self) -> np.ndarray:
@@ -382,13 +382,13 @@ class SurfaceMesh:
 
     def smallest_eigenvalue(self) -> tuple[float, bool]:
         """From the pencil ``(−W, A)`` (Lanczos), or the geodesic estimate above
-        :data:`~rdgpu.domains.spectra.EIGSH_MAX_VERTICES` vertices
-        (:func:`rdgpu.domains.spectra.mesh_eigenvalue`)."""
+        `EIGSH_MAX_VERTICES` vertices
+        (`rdgpu.domains.spectra.mesh_eigenvalue`)."""
         labels, count, _ = spectra.components(self.laplacian)
         return spectra.mesh_eigenvalue(self, labels, count)
 
     def sor_colouring(self, matrix: Any) -> np.ndarray:
-        """:meth:`colouring` (greedy, proper for the mesh's own operator)."""
+        """`colouring` (greedy, proper for the mesh's own operator)."""
         colour = np.asarray(self.colouring())
         if not spectra.valid_colouring(matrix, colour):  # pragma: no cover - it is proper
             colour = greedy_colouring(matrix, symmetric=False)
@@ -416,14 +416,14 @@ class SurfaceMesh:
         two triangles each (``(a, b, c, d)`` → ``(a, b, c)``, ``(a, c, d)``); other cell
         blocks (points, lines, volume cells) are ignored. 2-D points get ``z = 0``. A mesh
         with no triangles or quads is refused. Its ``point_data`` is not kept here; use
-        :func:`load_with_fields` (files) or read ``mesh.point_data`` yourself."""
+        `load_with_fields` (files) or read ``mesh.point_data`` yourself."""
         V, F, _ = mesh_io._meshio_arrays(mesh)
         return cls(V, F, repair=repair)
 
     def to_meshio(self, fields: Mapping[str, np.ndarray] | None = None) -> Any:
         """A ``meshio.Mesh`` with one ``triangle`` cell block and the per-vertex ``fields``
         (shape (n,) or (n, k)) as ``point_data``; a periodic mesh is unwrapped first
-        (:meth:`unwrapped`), its fields copied to the seam copies."""
+        (`unwrapped`), its fields copied to the seam copies."""
         meshio = _require("meshio", "SurfaceMesh.to_meshio")
         V, F, flds = self._export(fields)
         return meshio.Mesh(V, [("triangle", F)], point_data=flds)
@@ -432,12 +432,12 @@ class SurfaceMesh:
     def load(cls, path: PathLike, *, repair: bool = False) -> SurfaceMesh:
         """Read OBJ, PLY, STL, OFF (via trimesh), VTK/VTP/VTU (via pyvista), or any other
         format meshio reads (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...; see
-        :meth:`from_meshio` for the cells taken).
+        `from_meshio` for the cells taken).
 
         Vertex order is kept. STL stores a triangle soup, so its bitwise-identical vertices
-        are always merged. Use :func:`load_with_fields` to get per-vertex data too.  A file
+        are always merged. Use `load_with_fields` to get per-vertex data too.  A file
         that cannot be used (missing, a folder, a truncated face line, an index past the
-        vertices, ...) raises :class:`MeshFileError` naming the file and what is wrong.
+        vertices, ...) raises `MeshFileError` naming the file and what is wrong.
         """
         return load_with_fields(path, repair=repair)[0]
 
@@ -478,14 +478,14 @@ class SurfaceMesh:
 
     def to_trimesh(self) -> Any:
         """A ``trimesh.Trimesh`` with the same vertices and faces (``process=False``); a
-        periodic mesh is unwrapped first (:meth:`unwrapped`)."""
+        periodic mesh is unwrapped first (`unwrapped`)."""
         trimesh = _require("trimesh", "SurfaceMesh.to_trimesh")
         V, F, _ = self.unwrapped()
         return trimesh.Trimesh(V, F, process=False)
 
     def to_pyvista(self, fields: Mapping[str, np.ndarray] | None = None) -> Any:
         """A pyvista ``PolyData`` with the per-vertex ``fields`` as point data; a periodic
-        mesh is unwrapped first (:meth:`unwrapped`), its fields copied to the seam copies."""
+        mesh is unwrapped first (`unwrapped`), its fields copied to the seam copies."""
         pv = _require("pyvista", "SurfaceMesh.to_pyvista")
         V, F, flds = self._export(fields)
         cells = np.hstack([np.full((F.shape[0], 1), 3, dtype=np.int64), F]).ravel()
@@ -518,10 +518,10 @@ class SurfaceMesh:
         is stored as properties ``name_0..name_{k-1}``). ``.obj``/``.off`` (17 significant
         digits) and ``.stl`` (float32, via trimesh) hold geometry only and refuse fields.
         Any other extension meshio writes (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...)
-        goes through :meth:`to_meshio`, fields as point data (``.msh`` is written as gmsh
+        goes through `to_meshio`, fields as point data (``.msh`` is written as gmsh
         4.1 binary, not ANSYS); ``file_format`` (a meshio format name such as ``"gmsh22"``)
         always writes through meshio in that format.
-        A periodic mesh is written unwrapped (:meth:`unwrapped`); the period is not stored.
+        A periodic mesh is written unwrapped (`unwrapped`); the period is not stored.
         HDF5-based formats (``.xdmf``, ``.med``, ...) need h5py, in the ``mesh`` extra.
         A folder, or a file in a folder that does not exist, is refused before writing."""
         mesh_io.save_mesh(self, path, fields, file_format=file_format)
@@ -536,7 +536,7 @@ class SurfaceMesh:
     ) -> SurfaceMesh:
         """A new mesh with heat-filtered random roughness of ``max`` displacement
         ``amplitude`` (absolute length) along the vertex normals; see
-        :func:`rdgpu.surfaces.roughen` (uniform random values, ``filter_steps`` implicit
+        `rdgpu.surfaces.roughen` (uniform random values, ``filter_steps`` implicit
         heat steps ``(A − τW) x_{k+1} = A x_k``, ``τ`` = mean edge length² by default,
         minus the area-weighted mean). Same faces; reproducible per ``seed``."""
         V = roughness.roughened_vertices(self, amplitude, filter_steps, seed, tau=tau)
@@ -548,19 +548,19 @@ class SurfaceMesh:
     @classmethod
     def disc(cls, radius: float = 1.0, rings: int = 16) -> SurfaceMesh:
         """Planar disc (z = 0) of ``radius`` centred at the origin, ``rings`` concentric
-        rings of near-equilateral triangles (:func:`~rdgpu.domains.mesh.generators.disc`)."""
+        rings of near-equilateral triangles (`disc`)."""
         return cls(*generators.disc(radius, rings))
 
     @classmethod
     def icosphere(cls, subdivisions: int = 3, radius: float = 1.0) -> SurfaceMesh:
         """Geodesic sphere: an icosahedron subdivided ``subdivisions`` times, ``10·4^s + 2``
-        vertices (:func:`~rdgpu.domains.mesh.generators.icosphere`, trimesh)."""
+        vertices (`icosphere`, trimesh)."""
         return cls(*generators.icosphere(subdivisions, radius))
 
     @classmethod
     def uv_sphere(cls, n_lat: int = 16, n_lon: int = 32, radius: float = 1.0) -> SurfaceMesh:
         """Latitude-longitude sphere of ``n_lat`` bands and ``n_lon`` meridians, no
-        duplicated seam or pole vertices (:func:`~rdgpu.domains.mesh.generators.uv_sphere`)."""
+        duplicated seam or pole vertices (`uv_sphere`)."""
         return cls(*generators.uv_sphere(n_lat, n_lon, radius))
 
     @classmethod
@@ -568,7 +568,7 @@ class SurfaceMesh:
         cls, R: float = 1.0, r: float = 0.3, n_major: int = 48, n_minor: int = 24
     ) -> SurfaceMesh:
         """Torus around the z axis: tube radius ``r`` at distance ``R`` from the axis,
-        ``n_major × n_minor`` vertices (:func:`~rdgpu.domains.mesh.generators.torus`)."""
+        ``n_major × n_minor`` vertices (`torus`)."""
         return cls(*generators.torus(R, r, n_major, n_minor))
 
     @classmethod
@@ -584,7 +584,7 @@ class SurfaceMesh:
     ) -> SurfaceMesh:
         """Open planar mesh (z = 0) of ``[0, width] × [0, height]``: an ``nx × ny`` vertex
         grid, every vertex moved by up to ``jitter · spacing`` (``0 <= jitter < 0.25``;
-        :func:`~rdgpu.domains.mesh.generators.jittered_plane`)."""
+        `jittered_plane`)."""
         return cls(*generators.jittered_plane(nx, ny, jitter, seed, width=width,
                                               height=height))
 
@@ -603,14 +603,14 @@ class SurfaceMesh:
     ) -> SurfaceMesh:
         """Open rough surface ``z = h(x, y)`` over an ``nx × ny`` grid of ``[0, size]²``:
         ``func(x, y)``, or the sum of random waves of the rough-surfaces paper
-        (:func:`~rdgpu.domains.mesh.generators.height_field`)."""
+        (`height_field`)."""
         return cls(*generators.height_field(nx, ny, func, amplitude=amplitude,
                                             frequency=frequency, decay=decay, seed=seed,
                                             size=size))
 
     @property
     def point_weights(self) -> np.ndarray:
-        """The Domain protocol: the vertex areas :attr:`areas`."""
+        """The Domain protocol: the vertex areas `areas`."""
         return self.areas
 
 
@@ -620,10 +620,10 @@ def load_with_fields(
     """Read a mesh and its per-vertex fields: VTK/VTP/VTU point data (pyvista), the extra
     vertex properties of a PLY file, ASCII or binary (``name_0..name_{k-1}`` regrouped into
     an (n, k) array) or, for the formats only meshio reads (``.msh``, ``.xdmf``, ...),
-    meshio's point data (:func:`rdgpu.domains.mesh.io.read_mesh_file`). OBJ, OFF and STL
+    meshio's point data (`rdgpu.domains.mesh.io.read_mesh_file`). OBJ, OFF and STL
     give no fields. If ``repair`` changed the vertex numbering the fields are renumbered
     with ``mesh.vertex_map`` (for merged duplicates the last copy wins).  A file that
-    cannot be used raises :class:`MeshFileError` naming it."""
+    cannot be used raises `MeshFileError` naming it."""
     V, F, fields = mesh_io.read_mesh_file(path)
     try:
         mesh = SurfaceMesh(V, F, repair=repair)

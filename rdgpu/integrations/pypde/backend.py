@@ -5,17 +5,17 @@ device) and ``"rdgpu:numpy"``, ``"rdgpu:warp"``, ``"rdgpu:opencl"`` (any rdgpu b
 spelling after the colon: ``"rdgpu:opencl:0:1"``, ``"rdgpu:warp:cpu"``).  py-pde 0.59 has
 no entry point for third-party backends, so the import is what registers it.
 
-What it runs (anything else raises :class:`UnsupportedPDE`, a ``NotImplementedError``
+What it runs (anything else raises `UnsupportedPDE`, a ``NotImplementedError``
 naming the part it cannot run; it never falls back to another backend):
 
-* ``pde.PDE`` expression equations (rdgpu's equation language, :mod:`rdgpu.models.
+* ``pde.PDE`` expression equations (rdgpu's equation language, `rdgpu.models.
   equations`: arithmetic, ``exp log sqrt sin cos tan tanh abs min max``, ``laplace(s)``,
   ``laplace(laplace(s))``, the coordinates and ``t``) with number or array constants
   (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
   ``SwiftHohenbergPDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
   real fields only, and no subclass replacing what py-pde's solvers call besides the
   equations (``make_post_step_hook``, ``evolution_rate``, the noise:
-  :mod:`rdgpu.integrations.pypde.checks`);
+  `rdgpu.integrations.pypde.checks`);
 * on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
   rdgpu's field, so ``[i, j]`` is ``[y, x]`` in 2-D; py-pde's coordinate ``x`` of axis 0
   becomes rdgpu's name for that axis, shifted by the grid's lower bound);
@@ -42,10 +42,10 @@ naming the part it cannot run; it never falls back to another backend):
   py-pde's default when ``solve`` gets no ``dt``), ``RungeKuttaSolver`` (RK4 at a fixed
   ``dt``, adaptive Runge-Kutta-Fehlberg 4(5)), ``AdamsBashforthSolver``, ``ImplicitSolver``
   and ``CrankNicolsonSolver`` (py-pde's fixed-point iterations), the deprecated
-  ``ExplicitSolver``, all on the device (:mod:`rdgpu.integrations.pypde.steppers`): each right-hand
+  ``ExplicitSolver``, all on the device (`rdgpu.integrations.pypde.steppers`): each right-hand
   side one fused pass compiled once per ``solve``, py-pde's step-size control and
   operation order, the same accepted steps; and ``ScipySolver``, which calls
-  :meth:`RdgpuBackend.make_pde_rhs` (host arrays in and out: SciPy's integrators live on
+  `RdgpuBackend.make_pde_rhs` (host arrays in and out: SciPy's integrators live on
   the host).  ``MilsteinSolver`` and ``ExplicitMPISolver`` are refused.
 
 Data crosses between host and device only where py-pde's controller hands control back,
@@ -55,7 +55,7 @@ solver also reads one number per try back (the error or the change, a reduction 
 device).
 
 With a fixed-``dt`` Euler solver rdgpu checks the linear stability limit of ``dt``
-(:class:`rdgpu.StabilityError`); set ``check_stability = False`` on the backend object
+(`rdgpu.StabilityError`); set ``check_stability = False`` on the backend object
 (``pde.backends.get_backend("rdgpu")``) to run anyway.
 """
 
@@ -114,8 +114,8 @@ def _refuse(what: str) -> UnsupportedPDE:
 
 # ---------------------------------------------------------------------------- translation
 class Translation:
-    """A py-pde problem as rdgpu sees it: ``grid`` (:class:`~rdgpu.domains.Grid`),
-    ``model`` (:class:`~rdgpu.models.Model`), ``params`` (numbers and per-cell float64
+    """A py-pde problem as rdgpu sees it: ``grid`` (`Grid`),
+    ``model`` (`Model`), ``params`` (numbers and per-cell float64
     arrays) and ``species`` in the order of py-pde's state."""
 
     def __init__(self, grid: Grid, species: tuple[str, ...], equations: dict[str, str],
@@ -128,7 +128,7 @@ class Translation:
 
 
 def _grid(grid: CartesianGrid) -> tuple[tuple[int, ...], dict[str, float]]:
-    """``(shape, spacings)`` of rdgpu's :class:`Grid` for py-pde's ``grid``."""
+    """``(shape, spacings)`` of rdgpu's `Grid` for py-pde's ``grid``."""
     if not isinstance(grid, pde.CartesianGrid):
         raise _refuse(f"the grid {type(grid).__name__} (only CartesianGrid is supported)")
     if grid.num_axes not in (1, 2, 3):
@@ -210,7 +210,7 @@ def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
 
 
 def _conditions(grid: CartesianGrid, data: Any, what: str) -> list[Any]:
-    """Per axis ``"periodic"`` or a pair of :func:`_side` results (low, high)."""
+    """Per axis ``"periodic"`` or a pair of `_side` results (low, high)."""
     try:
         bcs = grid.get_boundary_conditions(data)
     except Exception as exc:  # py-pde's own message says what is wrong with the data
@@ -356,7 +356,7 @@ def _coordinate_map(grid: CartesianGrid) -> Callable[[eq.Node], eq.Node | None]:
 
 
 def translate(pde_obj: Any, state: Any) -> Translation:
-    """The rdgpu problem of ``pde_obj`` on ``state``'s grid, or :class:`UnsupportedPDE`."""
+    """The rdgpu problem of ``pde_obj`` on ``state``'s grid, or `UnsupportedPDE`."""
     fields = list(state) if isinstance(state, pde.FieldCollection) else [state]
     for f in fields:
         if not isinstance(f, pde.ScalarField):
@@ -442,7 +442,7 @@ class RdgpuBackend(BackendBase):
 
     implementation = "rdgpu"
     copy_data = True
-    #: rdgpu's linear stability check of ``dt`` (:class:`rdgpu.StabilityError`)
+    #: rdgpu's linear stability check of ``dt`` (`rdgpu.StabilityError`)
     check_stability: bool = True
 
     def __init__(self, config: Any = None, *, name: str | None = None, device: str = ""):
@@ -475,7 +475,7 @@ class RdgpuBackend(BackendBase):
         """``rhs(state_data, t)``: the PDE's rate, one fused pass on the rdgpu device, as a
         host function (NumPy in, NumPy out: each call uploads the state and downloads the
         rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
-        :func:`make_stepper` keep their fields on the device instead."""
+        `make_stepper` keep their fields on the device instead."""
         check_overrides(eq, _classes(), hook=False)  # ScipySolver calls no post-step hook
         tr = translate(eq, state)
         rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state))
@@ -493,7 +493,7 @@ class RdgpuBackend(BackendBase):
 
     def make_stepper(self, solver: Any, state: Any) -> Callable[[Any, float, float], float]:
         """The stepper py-pde's controller calls between tracker times, for any solver of
-        :data:`rdgpu.integrations.pypde.steppers.SUPPORTED`, on the device."""
+        `rdgpu.integrations.pypde.steppers.SUPPORTED`, on the device."""
         name = type(solver).__name__
         if name not in pypde_steppers.SUPPORTED:
             raise _refuse(f"the solver {name} (supported: "
@@ -522,7 +522,7 @@ class RdgpuBackend(BackendBase):
                        ) -> Callable[[Any, float, float], float]:
         """Fixed-step Euler of an equation that does not read ``t``: rdgpu's own
         forward-Euler stepper (temporal blocking where it pays; checks ``dt``).  (With
-        ``t`` it runs in :mod:`rdgpu.integrations.pypde.steppers`, at py-pde's times ``t_start +
+        ``t`` it runs in `rdgpu.integrations.pypde.steppers`, at py-pde's times ``t_start +
         i·dt``.)"""
         dt = float(solver.info["dt"])
         st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,

@@ -1,13 +1,13 @@
-"""Checks of a py-pde problem before the rdgpu backend runs it (used by :mod:`rdgpu.pypde`).
+"""Checks of a py-pde problem before the rdgpu backend runs it (used by `rdgpu.pypde`).
 
-* :func:`check_overrides`: rdgpu runs a PDE from its equations (or a built-in class's
+* `check_overrides`: rdgpu runs a PDE from its equations (or a built-in class's
   parameters), so a PDE class that overrides what py-pde's solvers call besides them (the
   post-step hook, the evolution rate, the noise) would run without that code, silently
   giving another answer.  Such a PDE is refused, naming its class and the method.
-* :func:`check_solver`: the solver's step size, tolerance and step limits are finite
+* `check_solver`: the solver's step size, tolerance and step limits are finite
   positive numbers (py-pde itself divides by them, or loops forever on a negative step).
 
-Both raise :class:`UnsupportedPDE` (a ``NotImplementedError``; :mod:`~.backend` raises it
+Both raise `UnsupportedPDE` (a ``NotImplementedError``; `backend` raises it
 too and exports it).
 """
 

@@ -1,12 +1,12 @@
-"""py-pde's solvers on an rdgpu device (used by :mod:`rdgpu.pypde`).
+"""py-pde's solvers on an rdgpu device (used by `rdgpu.pypde`).
 
 The stepping loops of py-pde 0.59's ``EulerSolver`` (fixed and adaptive ``dt``),
 ``RungeKuttaSolver`` (fixed: classic RK4, its stages from the tableau of the scheme
-registry :data:`rdgpu.ir.schemes.SCHEMES`; adaptive: Runge-Kutta-Fehlberg 4(5)),
+registry `rdgpu.ir.schemes.SCHEMES`; adaptive: Runge-Kutta-Fehlberg 4(5)),
 ``AdamsBashforthSolver`` (two-step, fixed), ``ImplicitSolver`` and
 ``CrankNicolsonSolver`` (fixed, by fixed-point iteration), written again over device
 fields: every right-hand side is one fused rdgpu pass
-(:class:`~rdgpu.models.device_rhs.DeviceRHS`), every vector update one elementwise pass in
+(`DeviceRHS`), every vector update one elementwise pass in
 py-pde's operation order, the adaptive error ``max |·|`` and the iterations' mean square
 change one reduction each, whose single number is all that reaches the host per try (the
 sum's order differs from py-pde's sequential one: its last bits may).  The step-size
@@ -16,7 +16,7 @@ steps match the ``numpy``/``numba`` backends' as long as the rates agree
 to round-off.  The fields cross to the host once per call, i.e. per tracker interval.
 
 Fixed-step Euler of an equation that does not read ``t`` runs as rdgpu's own
-forward-Euler stepper (:meth:`~rdgpu.models.Model.stepper`, in :mod:`rdgpu.pypde`): one
+forward-Euler stepper (`stepper`, in `rdgpu.pypde`): one
 fused pass per step, temporal blocking where it pays; with ``t`` it runs here, the same
 pass at py-pde's times ``t_start + i·dt``.  Both check ``dt`` against rdgpu's linear
 stability limit; the other fixed-step schemes are not checked (py-pde checks none).
@@ -105,7 +105,7 @@ def species_views(data: np.ndarray, count: int, several: bool) -> list[np.ndarra
 def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[int, ...]
                  ) -> Stepper:
     """The ``stepper(state, t_start, t_end) -> t`` of a py-pde ``solver`` (one of
-    :data:`SUPPORTED`; :mod:`rdgpu.pypde` runs fixed-step Euler of an equation that does
+    `SUPPORTED`; `rdgpu.pypde` runs fixed-step Euler of an equation that does
     not read ``t`` as rdgpu's own stepper instead);
     ``several``: the state is a FieldCollection; ``field_shape``: one species' data."""
     name = type(solver).__name__
@@ -374,5 +374,5 @@ _MAKERS: dict[tuple[str, bool], Callable[[Any, DeviceRHS, _Fields], Stepper]] = 
     ("AdamsBashforthSolver", False): _adams_bashforth,
     ("ImplicitSolver", False): _implicit_euler, ("CrankNicolsonSolver", False): _crank_nicolson,
 }
-#: the solvers :func:`make_stepper` runs, by class name
+#: the solvers `make_stepper` runs, by class name
 SUPPORTED = tuple(dict.fromkeys(name for name, _ in _MAKERS))
