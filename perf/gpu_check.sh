@@ -29,9 +29,10 @@ STEP_S=${STEP_S:-150}
 BENCH_S=${BENCH_S:-150}
 export PYTHONUNBUFFERED=1 PYTHONPATH=${PYTHONPATH:+$PYTHONPATH:}$PWD
 mkdir -p "$OUT"
-FILES=${FILES:-"test_crosscheck test_mesh_kernels test_model_layer test_ensembles test_sim_3d
-  test_reduce test_metric_kernels test_temporal_blocking test_levelset_3d test_walkers test_dla
-  test_subnormals"}
+FILES=${FILES:-"crosscheck/test_crosscheck crosscheck/test_mesh_kernels models/test_generated_kernels
+  models/test_ensembles simulation/test_sim_3d crosscheck/test_reduce crosscheck/test_metric_kernels
+  models/test_temporal_blocking crosscheck/test_levelset_3d crosscheck/test_one_d growth/test_walkers
+  growth/test_dla core/test_subnormals backends/test_warp_backend_smoke backends/test_opencl_backend_smoke"}
 paths() { for f in $FILES; do printf 'tests/%s.py ' "$f"; done; }
 # a pytest plugin leaving out the tests parametrized with a backend named in $DROP_BACKENDS
 # ("-k 'not numpy'" would also drop test_generated_kernels_equal_numpy[...-opencl-...])
