@@ -1,6 +1,7 @@
 """The NumPy backend: runs the references in ``rdgpu/families/*/reference.py`` on host arrays
 (which flush subnormal results to 0 like every kernel: docs/equations.md,
-:mod:`rdgpu.core.fpenv`)."""
+:mod:`rdgpu.core.fpenv`); a family with a launcher module ``rdgpu/families/<family>/numpy.py``
+runs through it (``Backend.kernel``), the others here."""
 
 from __future__ import annotations
 

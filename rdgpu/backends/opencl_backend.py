@@ -1,8 +1,13 @@
 """OpenCL backend (PyOpenCL): the kernels of ``families/<family>/<family>.cl`` on any device.
 
 One program per (context, dtype, layout) is built from ``families/common.cl`` followed by
-every family source, and its kernel objects are cached.  Launches go to one in-order
-queue without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
+every family source in ``_FAMILIES``, and its kernel objects are cached; dla and walkers
+are programs of their own (:meth:`OpenCLBackend.own_program`).  A family with a launcher
+module ``rdgpu/families/<family>/opencl.py`` (bernoulli, mesh, reduce, dla, walkers) is
+launched by it through the public runtime methods (``enqueue``, ``launch_rows`` for CSR
+rows, the generated mesh passes' launch too, ...), and its ``KERNEL_ARGS`` join the shared
+program's table (:func:`kernel_args`); the others here.  Launches go to one in-order queue
+without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
 
 Two launch layouts run the same inline cell functions (see ``families/common.cl``):
 

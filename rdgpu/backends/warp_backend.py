@@ -18,7 +18,10 @@ are zeroed, so ``warp.config.verify_fp`` runs clean.
 
 Each kernel family is one Warp module holding the float32 and float64 versions of its
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
-backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
+backend uses it (:meth:`WarpBackend.module`).  ``DeviceArray.handle`` is a ``warp.array``.
+A family with a launcher module ``rdgpu/families/<family>/warp.py`` (bernoulli, mesh,
+reduce, dla, walkers) is launched by it through the public runtime methods (``launch``,
+``run_split``, ``run_rows`` for CSR rows, ``flat``, ...); the others here.
 
 Threads: one backend may be driven from several threads at once.  Warp's process-wide
 state -- ``wp.init``, module compilation and loading, the first (recording) launch of a

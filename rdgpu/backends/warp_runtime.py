@@ -1,6 +1,7 @@
 """Warp's process-wide runtime pieces shared by :mod:`rdgpu.backends.warp_backend` and
-:mod:`rdgpu.backends.warp_codegen`: the launch-shape constants, the lock around Warp's
-global state, the helpers that keep Warp quiet, the 32-bit cell limit."""
+:mod:`rdgpu.backends.warp_codegen`: the launch-shape constants of both (a family's own
+live in its launcher, ``rdgpu/families/<family>/warp.py``), the lock around Warp's global
+state, the helpers that keep Warp quiet, the 32-bit cell limit."""
 
 from __future__ import annotations
 
