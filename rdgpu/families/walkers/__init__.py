@@ -8,6 +8,6 @@ conventions are in ``reference.py``).
 ``reference.py`` (NumPy), ``warp_kernels.py`` + ``warp.py`` (Warp kernels and their
 launchers), ``walkers.cl`` + ``opencl.py`` (OpenCL C, integer only and built as a program
 of its own without ``common.cl``, and its launchers), ``numpy.py`` (the reference as the
-NumPy backend's launchers).  The arrays are the driver's own (it allocates and checks
-them), so the launchers take them unchecked.
+NumPy backend's launchers).  The arrays are the driver's own (it builds them with the
+dtypes and shapes of ``Backend.walker_steps``), so the launchers take them unchecked.
 """
