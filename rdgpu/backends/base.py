@@ -18,6 +18,7 @@ the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as N
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import threading
@@ -141,9 +142,10 @@ class Backend(ABC):
         A family's launchers live in its own folder, one module per backend, and use only
         the backend's public runtime methods; adding a family touches no backend.  A
         backend without the launcher raises :class:`NotImplementedError` naming both."""
-        found = self._kernel_cache().get((family, op))
-        if found is not None:
-            return found
+        try:  # (the fast path: the reductions and SpMV run every step of a solver)
+            return self.__dict__["_kernels_bound"][family, op]
+        except KeyError:
+            pass
         fn = None
         if self.launchers is not None:
             try:
@@ -156,20 +158,21 @@ class Backend(ABC):
                 fn = getattr(module, op, None)
         if fn is None:
             raise NotImplementedError(self._lacks(f"{family}.{op}"))
-
-        def bound(*args: Any, **kwargs: Any) -> Any:
-            return fn(self, *args, **kwargs)
-
-        bound.__name__ = bound.__qualname__ = f"{family}.{op}"
+        bound = functools.partial(fn, self)  # (a C call: cheaper than a closure)
         bound.__doc__ = fn.__doc__
-        self._kernel_cache()[(family, op)] = bound
+        self.__dict__.setdefault("_kernels_bound", {})[(family, op)] = bound
         return bound
 
-    def _kernel_cache(self) -> dict[tuple[str, str], Callable[..., Any]]:
-        cache = self.__dict__.get("_kernels_bound")
-        if cache is None:
-            cache = self.__dict__["_kernels_bound"] = {}
-        return cache
+    def thread_cache(self, name: str) -> dict:
+        """This thread's dict ``name`` on this backend, for a launcher's per-thread buffers
+        and kernel objects (threads never share them; made empty on first use)."""
+        try:
+            return getattr(self.__dict__["_launcher_local"], name)
+        except (KeyError, AttributeError):
+            local = self.__dict__.setdefault("_launcher_local", threading.local())
+            cache: dict = {}
+            setattr(local, name, cache)
+            return cache
 
     # ------------------------------------------------------------------ memory
     @abstractmethod
@@ -225,29 +228,6 @@ class Backend(ABC):
             shape=(n_rows, n_cols),
         )
 
-    @staticmethod
-    def _check_csr(A: DeviceCSR, x: DeviceArray, y: DeviceArray, what: str) -> None:
-        """Check the operands of a CSR kernel: ``x`` has ``A.shape[1]`` elements, ``y``
-        ``A.shape[0]`` (any array shape: a grid field is its flat C-order vector), all of
-        A's real dtype, on the same backend."""
-        dtype = A.data.dtype
-        if dtype not in _REAL_DTYPES:
-            raise TypeError(f"{what}: the matrix must be float32 or float64, got {dtype}")
-        if A.indptr.dtype != np.int32 or A.indices.dtype != np.int32:
-            raise TypeError(f"{what}: CSR indptr/indices must be int32")
-        if A.indptr.size != A.shape[0] + 1 or A.data.size != A.indices.size:
-            raise ValueError(f"{what}: inconsistent CSR arrays for shape {A.shape}")
-        for d, n, name in ((x, A.shape[1], "input"), (y, A.shape[0], "output")):
-            if d.backend is not A.data.backend:
-                raise ValueError(f"{what}: the {name} array is on another backend")
-            if d.dtype != dtype:
-                raise TypeError(f"{what}: {name} dtype {d.dtype} != matrix dtype {dtype}")
-            if d.size != n:
-                raise ValueError(
-                    f"{what}: {name} has {d.size} elements (shape {d.shape}), the matrix of "
-                    f"shape {A.shape} needs {n}"
-                )
-
     def synchronize(self) -> None:  # noqa: B027 - optional hook
         """Wait until every queued kernel has finished (for timing)."""
 
@@ -302,15 +282,14 @@ class Backend(ABC):
         return 1
 
     # ------------------------------------------------------------------ reductions
-    @abstractmethod
     def max_abs(self, u: DeviceArray) -> float:
         """``max |u|`` over every element of ``u`` (float32 or float64, any shape), as a
         host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (families/reduce): exact,
         NaN if any element is NaN, ``inf`` if any is ±inf and none NaN, subnormals count
         (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
         queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
+        return self.kernel("reduce", "max_abs")(u)
 
-    @abstractmethod
     def sum_squares(self, u: DeviceArray) -> float:
         """``Σ u²`` over every element of ``u`` (float32 or float64, any shape), as a host
         float (families/reduce), for mean-square convergence tests.  Accumulated in float64
@@ -323,21 +302,7 @@ class Backend(ABC):
         inputs may be read as 0 (FTZ/DAZ), and float64 squares below the smallest normal
         may be flushed: a change far below any convergence tolerance.  An empty array
         gives 0.0.  Waits for the queued kernels.  Other dtypes raise ``TypeError``."""
-
-    def _check_max_abs(self, u: DeviceArray) -> np.dtype:
-        """Check ``max_abs``'s operand; return the unsigned integer dtype of its width
-        (the kernels compare the bit patterns of ``|u|``)."""
-        self._check_reduce(u, "max_abs")
-        return np.dtype(np.uint32 if u.dtype == np.float32 else np.uint64)
-
-    def _check_reduce(self, u: DeviceArray, what: str) -> None:
-        """A reduction's operand is a float32 or float64 DeviceArray of this backend."""
-        if not isinstance(u, DeviceArray) or not isinstance(u.backend, type(self)):
-            where = u.backend.name if isinstance(u, DeviceArray) else type(u).__name__
-            raise TypeError(f"{what} takes a DeviceArray of the {self.name} backend, got "
-                            f"{where} (upload it with backend.upload first)")
-        if u.dtype not in _REAL_DTYPES:
-            raise TypeError(f"{what} takes float32 or float64 arrays, got {u.dtype}")
+        return self.kernel("reduce", "sum_squares")(u)
 
     # ------------------------------------------------------------------ grid kernels
     def laplacian(
@@ -496,7 +461,7 @@ class Backend(ABC):
 
     def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
         """``y = A x`` for any CSR matrix (square or not; empty rows give 0)."""
-        raise NotImplementedError(self._lacks('spmv'))
+        self.kernel("mesh", "spmv")(A, x, y)
 
     def mesh_gray_scott(
         self,
@@ -515,7 +480,8 @@ class Backend(ABC):
         """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (equations §3, §6):
         ``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``.
         ``F``, ``k``: numbers or DeviceArrays of u's shape."""
-        raise NotImplementedError(self._lacks('mesh_gray_scott'))
+        self.kernel("mesh", "mesh_gray_scott")(L, u, v, u_out, v_out, Du=Du, Dv=Dv, F=F, k=k,
+                                                dt=dt)
 
     def mesh_diffusion(
         self,
@@ -529,7 +495,7 @@ class Backend(ABC):
     ) -> None:
         """``out = u + dt (D (L u) + source)`` (``source`` a number or a DeviceArray of u's
         shape): the explicit diffusion step of Allen-Cahn with its ``−b/ε²`` source."""
-        raise NotImplementedError(self._lacks('mesh_diffusion'))
+        self.kernel("mesh", "mesh_diffusion")(L, u, out, D=D, dt=dt, source=source)
 
     def csr_sor_colour(
         self,
@@ -546,17 +512,17 @@ class Backend(ABC):
         ``x_i ← (1 − ω) x_i + ω (rhs_i − Σ_{j≠i} a_ij x_j) / a_ii`` (``a_ii`` from
         ``A.diagonal``) and ``change[i] = |Δx_i|``; other entries of ``change`` are left as
         they are.  A is square; x, rhs and change have n elements."""
-        raise NotImplementedError(self._lacks('csr_sor_colour'))
+        self.kernel("mesh", "csr_sor_colour")(A, x, rhs, rows, change, omega=omega)
 
     # ------------------------------------------------------------------ DLA growth
-    # (families/dla; driven by rdgpu.dla.  Not abstract: a backend without them cannot grow.)
+    # (families/dla; driven by rdgpu.growth.dla.  A backend without them cannot grow.)
     def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                     row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
         """``weights`` (int64 ``[ny, nx]``) = the quantised candidate weights
         ``trunc(min(max(c, 0), 1)^η · 2^40)`` of the empty cells (``state`` uint8 0) with a
         4-neighbour in the object (state 1; x wraps if ``wrap_x``), 0 elsewhere;
         ``row_sums`` (int64 ``[ny]``) their exact row sums (families/dla/reference.py)."""
-        raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
+        self.kernel("dla", "dla_weights")(c, state, weights, row_sums, eta=eta, wrap_x=wrap_x)
 
     def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
                  arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
@@ -564,7 +530,8 @@ class Backend(ABC):
         """The first cell ``j`` of ``row`` whose inclusive running weight exceeds ``target``
         joins the object (state 1, ``c = 0``, ``arrival = step``, weight 0);
         ``out`` (int64 ``[2]``) = ``[j, its weight]``, or ``[-1, 0]``."""
-        raise NotImplementedError(f"the {self.name} backend has no DLA kernels")
+        self.kernel("dla", "dla_pick")(c, state, weights, arrival, out, row=row, target=target,
+                                       step=step)
 
     # ------------------------------------------------------------------ random walkers
     def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *,
@@ -574,16 +541,16 @@ class Backend(ABC):
         (uint8), ``arrival`` and the walkers (``pos`` int32 ``[W, 2]``, ``want`` int32
         ``[W]``, ``state`` int32 ``[4]``): each step moves every walker once, then adds
         the cells of those that stick in walker id order (families/walkers/reference.py)."""
-        raise NotImplementedError(f"the {self.name} backend has no random-walker kernels")
+        self.kernel("walkers", "walker_steps")(
+            grid, arrival, pos, want, state, ring_start, ring_ij, t0=t0, n_steps=n_steps,
+            seed=seed, geometry=geometry, thresh=thresh, margin=margin, particles=particles,
+            limit=limit)
 
-    def _check_sor(self, A, x, rhs, rows, change) -> None:
-        if A.shape[0] != A.shape[1]:
-            raise ValueError(f"csr_sor_colour needs a square matrix, got shape {A.shape}")
-        self._check_csr(A, x, rhs, "csr_sor_colour")
-        self._check_csr(A, x, change, "csr_sor_colour change")
-        if rows.dtype != np.int32 or len(rows.shape) != 1:
-            raise TypeError(f"csr_sor_colour rows must be a 1-D int32 array, got {rows.dtype} "
-                            f"{rows.shape}")
+    def philox(self, out: DeviceArray, *, first: int, t: int, purpose: int,
+               seed: int) -> None:
+        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``, the
+        walkers' random stream (``out`` uint32 ``[N, 4]``; for tests)."""
+        self.kernel("walkers", "philox")(out, first=first, t=t, purpose=purpose, seed=seed)
 
 
 def check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
@@ -595,21 +562,3 @@ def check_range(src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: i
             or dst_start + count > dst.size:
         raise ValueError(f"copy_range of {count} elements from {src_start} (of {src.size}) "
                          f"to {dst_start} (of {dst.size}) is out of range")
-
-
-def max_abs_of_partials(partials: np.ndarray, dtype: np.dtype) -> float:
-    """The host's last step of ``max_abs``: ``partials`` are the bit patterns (unsigned, of
-    ``dtype``'s width, sign bits clear) of partial maxima of ``|u|``; their unsigned max
-    is the pattern of ``max |u|`` (or of a NaN), returned as a float."""
-    if partials.size <= 1:  # (np.max costs microseconds: the solver calls this every step)
-        return float(partials[0].view(dtype)) if partials.size else 0.0
-    return float(partials.max().view(dtype))
-
-
-def sum_of_partials(partials: np.ndarray) -> float:
-    """The host's last step of ``sum_squares``: the float64 sum of the partial sums, in
-    NumPy's pairwise order (fixed for a given count, so a result is reproducible)."""
-    if partials.size <= 1:  # (np.sum costs microseconds: a solver calls this every iteration)
-        return float(partials[0]) if partials.size else 0.0
-    with np.errstate(over="ignore"):  # a float64 overflow is inf, as on the device
-        return float(np.sum(partials, dtype=np.float64))

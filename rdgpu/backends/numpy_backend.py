@@ -1,6 +1,7 @@
 """The NumPy backend: runs the references in ``rdgpu/families/*/reference.py`` on host arrays
 (which flush subnormal results to 0 like every kernel: docs/equations.md,
-:mod:`rdgpu.core.fpenv`)."""
+:mod:`rdgpu.core.fpenv`); a family with a launcher module ``rdgpu/families/<family>/numpy.py``
+runs through it (``Backend.kernel``), the others here."""
 
 from __future__ import annotations
 
@@ -18,15 +19,6 @@ def _value(x):
     return x.handle if isinstance(x, DeviceArray) else x
 
 
-def _flat(x):
-    """A scalar stays a scalar; a DeviceArray gives a flat view of its NumPy handle."""
-    return x.handle.reshape(-1) if isinstance(x, DeviceArray) else x
-
-
-def _csr(A):
-    return A.indptr.handle, A.indices.handle, A.data.handle
-
-
 class NumpyBackend(Backend):
     """Reference backend; its "device" is host memory."""
 
@@ -39,10 +31,7 @@ class NumpyBackend(Backend):
         self._gs = load_module("gray_scott", "reference.py")
         self._sor = load_module("sor", "reference.py")
         self._ls = load_module("levelset", "reference.py")
-        self._mesh = load_module("mesh", "reference.py")
-        self._walk = load_module("walkers", "reference.py")
         self._metric = load_module("metric", "reference.py")
-        self._reduce = load_module("reduce", "reference.py")
 
     def fused_pass(self, program, target, fields, member) -> FusedPass:
         """The program's NumPy semantics on the host arrays themselves."""
@@ -67,15 +56,6 @@ class NumpyBackend(Backend):
         check_range(src, src_start, dst, dst_start, count)
         dst.handle.reshape(-1)[dst_start:dst_start + count] = \
             src.handle.reshape(-1)[src_start:src_start + count]
-
-    # reductions
-    def max_abs(self, u: DeviceArray) -> float:
-        self._check_max_abs(u)
-        return self._reduce.max_abs(u.handle)
-
-    def sum_squares(self, u: DeviceArray) -> float:
-        self._check_reduce(u, "sum_squares")
-        return self._reduce.sum_squares(u.handle)
 
     # kernels
     def laplacian(self, u, out, *, dx, dy, bc: GridBC, stencil):
@@ -110,82 +90,6 @@ class NumpyBackend(Backend):
         out.handle[...] = self._ls.reinit_step(
             phi.handle, phi0.handle, dtau, width, dx, dy, bc, subcell, dz
         )
-
-    # CSR / mesh kernels (vectors are flat views of the handles)
-    def spmv(self, A, x, y):
-        self._check_csr(A, x, y, "spmv")
-        y.handle.reshape(-1)[...] = self._mesh.spmv(*_csr(A), _flat(x), A.shape)
-
-    def mesh_gray_scott(self, L, u, v, u_out, v_out, *, Du, Dv, F, k, dt):
-        for a in (u, v, u_out, v_out):
-            self._check_csr(L, u, a, "mesh_gray_scott")
-        un, vn = self._mesh.mesh_gray_scott(
-            *_csr(L), _flat(u), _flat(v), Du, Dv, _param(F, u, "F"), _param(k, u, "k"), dt
-        )
-        u_out.handle.reshape(-1)[...] = un
-        v_out.handle.reshape(-1)[...] = vn
-
-    def mesh_diffusion(self, L, u, out, *, D, dt, source=0.0):
-        self._check_csr(L, u, out, "mesh_diffusion")
-        out.handle.reshape(-1)[...] = self._mesh.mesh_diffusion(
-            *_csr(L), _flat(u), D, dt, _param(source, u, "source")
-        )
-
-    def csr_sor_colour(self, A, x, rhs, rows, change, *, omega):
-        self._check_sor(A, x, rhs, rows, change)
-        r = rows.handle
-        new, delta = self._mesh.csr_sor_colour(
-            *_csr(A), A.diagonal.handle, _flat(x), _flat(rhs), r, omega
-        )
-        x.handle.reshape(-1)[r] = new[r]
-        change.handle.reshape(-1)[r] = delta[r]
-
-    # DLA growth (families/dla)
-    def dla_weights(self, c, state, weights, row_sums, *, eta, wrap_x):
-        q, sums = load_module("dla", "reference.py").dla_weights(
-            c.handle, state.handle, eta, wrap_x)
-        weights.handle[...] = q
-        row_sums.handle[...] = sums
-
-    def dla_pick(self, c, state, weights, arrival, out, *, row, target, step):
-        j = load_module("dla", "reference.py").dla_pick(weights.handle, row, target)
-        if j < 0:
-            out.handle[:] = (-1, 0)
-            return
-        out.handle[:] = (j, weights.handle[row, j])
-        weights.handle[row, j] = 0
-        state.handle[row, j] = 1
-        c.handle[row, j] = 0
-        arrival.handle[row, j] = step
-
-    # random-walker DLA (families/walkers)
-    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
-                     n_steps, seed, geometry, thresh, margin, particles, limit):
-        ref = self._walk
-        key = ref.key_of(seed)
-        tables = (ring_start.handle, ring_ij.handle)
-        for t in range(t0, t0 + n_steps):
-            ref.walk_step(grid.handle, pos.handle, want.handle, state.handle, *tables, t=t,
-                          key=key, geometry=geometry, thresh=thresh, margin=margin)
-            ref.resolve(grid.handle, arrival.handle, pos.handle, want.handle, state.handle,
-                        *tables, t=t, key=key, geometry=geometry, margin=margin,
-                        particles=particles, limit=limit)
-
-    def philox(self, out, *, first, t, purpose, seed):
-        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``."""
-        ref = self._walk
-        w = np.arange(first, first + out.shape[0], dtype=np.uint64)
-        out.handle[...] = np.stack(ref.draw(w, t, purpose, ref.key_of(seed)), axis=1)
-
-
-def _param(p, like, what):
-    """A scalar, or the flat NumPy view of a DeviceArray with like's size and dtype."""
-    if isinstance(p, DeviceArray):
-        if p.size != like.size or p.dtype != like.dtype:
-            raise ValueError(f"{what} field must have {like.size} elements of {like.dtype}, "
-                             f"got {p.shape} {p.dtype}")
-        return p.handle.reshape(-1)
-    return float(p)
 
 
 class _NumpyPass(FusedPass):

@@ -1,8 +1,13 @@
 """OpenCL backend (PyOpenCL): the kernels of ``families/<family>/<family>.cl`` on any device.
 
 One program per (context, dtype, layout) is built from ``families/common.cl`` followed by
-every family source, and its kernel objects are cached.  Launches go to one in-order
-queue without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
+every family source in ``_FAMILIES``, and its kernel objects are cached; dla and walkers
+are programs of their own (:meth:`OpenCLBackend.own_program`).  A family with a launcher
+module ``rdgpu/families/<family>/opencl.py`` (bernoulli, mesh, reduce, dla, walkers) is
+launched by it through the public runtime methods (``enqueue``, ``launch_rows`` for CSR
+rows, the generated mesh passes' launch too, ...), and its ``KERNEL_ARGS`` join the shared
+program's table (:func:`kernel_args`); the others here.  Launches go to one in-order queue
+without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
 
 Two launch layouts run the same inline cell functions (see ``families/common.cl``):
 
@@ -41,8 +46,6 @@ from rdgpu.backends.base import (
     DeviceArray,
     FieldOrScalar,
     check_range,
-    max_abs_of_partials,
-    sum_of_partials,
 )
 from rdgpu.backends.opencl_codegen import OpenCLBlockedPass, OpenCLFusedPass
 from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: public here too
@@ -57,8 +60,6 @@ from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: pub
     probe_compiler,
     select_device,
 )
-from rdgpu.backends.opencl_growth import OpenCLGrowthKernels
-from rdgpu.backends.opencl_mesh import GS_NAMES, OpenCLMeshKernels
 from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
@@ -91,16 +92,6 @@ _KERNEL_ARGS = {
     "levelset_step3_f": "BBB" + _GRID3 + "rrrrr",
     "reinit_step3": "BBB" + _GRID3 + "rrrrrrrrrr",
     "reinit_step3_subcell": "BBB" + _GRID3 + "rrrrrrrrrr",
-    "csr_spmv": "BBBBBii",
-    "mesh_gray_scott_ss": "BBBBBBBBBiirrrrr",
-    "mesh_gray_scott_fs": "BBBBBBBBBiirrrrr",
-    "mesh_gray_scott_sf": "BBBBBBBBBiirrrrr",
-    "mesh_gray_scott_ff": "BBBBBBBBBiirrrrr",
-    "mesh_diffusion_s": "BBBBBBiirrr",
-    "mesh_diffusion_f": "BBBBBBiirrr",
-    "csr_sor_colour": "BBBBBBBBiirr",
-    "max_abs_partial": "BBllB",  # u, partial; n, chunk; __local scratch
-    "sum_squares_partial": "BBllB",  # u, partial (double); n, chunk; __local scratch
 }
 
 
@@ -121,20 +112,20 @@ def kernel_args() -> dict[str, str]:
 
 _LAYOUTS = ("row", "strided")
 _MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
+#: the Gray-Scott kernel for (F is a field, k is a field)
+GS_NAMES = {
+    (False, False): "gray_scott_ss",
+    (True, False): "gray_scott_fs",
+    (False, True): "gray_scott_sf",
+    (True, True): "gray_scott_ff",
+}
 # CSR kernels in the row layout: rows per work-item at least, and work-items per compute
 # unit at most (fewer, longer work-items: PoCL costs about a microsecond per work-group)
 _CSR_MIN_BLOCK = 512
 _CSR_ITEMS_PER_CU = 32
-# max_abs, sum_squares: elements per work-item in the row layout at least (a multiple of 64: whole
-# vectors), and partials at most (longer chunks beyond that); the strided layout's
-# work-group size and number of work-groups (partials) at most
-_REDUCE_CHUNK = 1 << 16
-_REDUCE_MAX_PARTIALS = 4096
-_REDUCE_GROUP = 256
-_REDUCE_MAX_GROUPS = 1024
 _MAX_CELLS = 2**31 - 1  # the grid kernels index with 32-bit ints
 
-class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
+class OpenCLBackend(Backend):
     """The rdgpu kernels in OpenCL C on one device.
 
     ``device``: None (the first GPU, else the first device; the Oclgrind simulator only
@@ -238,6 +229,11 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
     def compute_units(self) -> int:
         return max(1, int(self.cl_device.max_compute_units))
 
+    @property
+    def max_group(self) -> int:
+        """The largest power-of-two work-group size the device takes."""
+        return pow2_floor(self.cl_device.max_work_group_size)
+
     # ------------------------------------------------------------------ programs
     def _program_source(self) -> str:
         parts = ['#line 1 "common.cl"\n' + read_source("", "common.cl")]
@@ -281,6 +277,43 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
                 PROGRAMS[key] = program
         self._programs[dtype] = program
         return program
+
+    def own_program(self, family: str, kernel_args: dict[str, str],
+                    dtype: np.dtype | None = None) -> dict[str, Any]:
+        """This thread's kernel objects of a program of ``family``'s own source
+        (``<family>/<family>.cl``) rather than the shared program.  With a real ``dtype``:
+        ``common.cl`` then the source, built with the shared options for ``dtype`` once per
+        (context, dtype, layout, stride); with None: the source alone, built without
+        options once per context (an integer-only family).  ``kernel_args``: each kernel's
+        argument types (B buffer, i int32, l int64, u uint32, d float64, r the real type)."""
+        char = None if dtype is None else np.dtype(dtype).char
+        mine = self.thread_cache("own programs")
+        found = mine.get((family, char))
+        if found is not None:
+            return found
+        source = f'#line 1 "{family}/{family}.cl"\n' + read_source(family, f"{family}.cl")
+        options = None
+        if dtype is None:
+            key = (family, self.context.int_ptr)
+        else:
+            dtype = np.dtype(dtype)
+            self.check_real(dtype)
+            key = (family, self.context.int_ptr, char, self.layout, self.col_stride)
+            source = '#line 1 "common.cl"\n' + read_source("", "common.cl") + "\n" + source
+            options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
+        with OPENCL_LOCK:
+            program = PROGRAMS.get(key)
+            if program is None:
+                program = self.cl.Program(self.context, source).build(options=options)
+                PROGRAMS[key] = program
+        codes = {"B": None, "i": np.int32, "l": np.int64, "u": np.uint32, "d": np.float64,
+                 "r": dtype}
+        found = {}
+        for name, spec in kernel_args.items():
+            kernel = found[name] = self.cl.Kernel(program, name)
+            kernel.set_scalar_arg_dtypes([codes[c] for c in spec])
+        mine[(family, char)] = found
+        return found
 
     def check_real(self, dtype: np.dtype) -> None:
         if dtype not in _REALS:
@@ -370,9 +403,9 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         return (ny if nx else 0), (nx, ny, y.kind, y.value, x.kind, x.value)
 
     def enqueue(self, kernel, args: tuple, global_size: tuple[int, ...],
-                local_size: tuple[int, ...]) -> None:
+                local_size: tuple[int, ...] | None) -> None:
         """Set ``kernel``'s arguments and enqueue it over ``global_size`` work-items in
-        work-groups of ``local_size`` (no wait)."""
+        work-groups of ``local_size`` (None: the device's choice; no wait)."""
         kernel.set_args(*args)
         self.cl.enqueue_nd_range_kernel(self.queue, kernel, global_size, local_size)
 
@@ -414,59 +447,6 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         args = (u.handle, *(c.handle for c in coefficients), out.handle, nx, ny, nm)
         self.launch_grid(self.kernels(u.dtype)["metric_laplacian"], nm * ny if nx else 0,
                           args)
-
-    # ------------------------------------------------------------------ reductions
-    def max_abs(self, u: DeviceArray) -> float:
-        bits = self._check_max_abs(u)
-        self.check_real(u.dtype)
-        if u.size == 0:
-            return 0.0
-        host = self._reduce(u, "max_abs_partial", bits)
-        return max_abs_of_partials(host, u.dtype)
-
-    def sum_squares(self, u: DeviceArray) -> float:
-        self._check_reduce(u, "sum_squares")
-        self.check_real(u.dtype)
-        if not self.fp64:
-            raise BackendUnavailableError(
-                f"sum_squares accumulates in float64, and OpenCL device {self.device} has no "
-                "float64 support (cl_khr_fp64); use a device with fp64 or another backend")
-        if u.size == 0:
-            return 0.0
-        return sum_of_partials(self._reduce(u, "sum_squares_partial", np.dtype(np.float64)))
-
-    def _reduce(self, u: DeviceArray, name: str, partial_dtype: np.dtype) -> np.ndarray:
-        """Run the reduction kernel ``name`` over the (non-empty) ``u``; return its partials
-        (a view of this thread's host buffer: use it before the next call)."""
-        n = u.size
-        if self.layout == "row":
-            chunk = max(_REDUCE_CHUNK, -(-n // _REDUCE_MAX_PARTIALS))
-            chunk = -(-chunk // 64) * 64
-            parts, group = -(-n // chunk), 1
-        else:
-            chunk = 0
-            group = min(_REDUCE_GROUP, pow2_floor(self.cl_device.max_work_group_size))
-            parts = min(-(-n // group), _REDUCE_MAX_GROUPS)
-        partial, host, scratch = self._reduce_buffers(partial_dtype, group)
-        kernel = self.kernels(u.dtype)[name]
-        kernel.set_args(u.handle, partial, n, chunk, scratch)
-        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (parts * group,), (group,))
-        self.cl.enqueue_copy(self.queue, host[:parts], partial, is_blocking=True)
-        return host[:parts]
-
-    def _reduce_buffers(self, dtype: np.dtype, group: int) -> tuple:
-        """This thread's ``(device partials, host partials, local scratch)`` of ``dtype``
-        for the reductions (threads never share the partials; the buffers hold the most
-        partials any call writes)."""
-        cache = getattr(self._local, "reduce", None)
-        if cache is None:
-            cache = self._local.reduce = {}
-        entry = cache.get(dtype)
-        if entry is None:
-            host = np.empty(max(_REDUCE_MAX_PARTIALS, _REDUCE_MAX_GROUPS), dtype)
-            entry = cache[dtype] = (self._buffer(host.nbytes), host,
-                                    self.cl.LocalMemory(group * dtype.itemsize))
-        return entry
 
     @staticmethod
     def field_or_scalar(f: FieldOrScalar, u: DeviceArray, what: str):

@@ -18,7 +18,10 @@ are zeroed, so ``warp.config.verify_fp`` runs clean.
 
 Each kernel family is one Warp module holding the float32 and float64 versions of its
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
-backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
+backend uses it (:meth:`WarpBackend.module`).  ``DeviceArray.handle`` is a ``warp.array``.
+A family with a launcher module ``rdgpu/families/<family>/warp.py`` (bernoulli, mesh,
+reduce, dla, walkers) is launched by it through the public runtime methods (``launch``,
+``run_split``, ``run_rows`` for CSR rows, ``flat``, ...); the others here.
 
 Threads: one backend may be driven from several threads at once.  Warp's process-wide
 state -- ``wp.init``, module compilation and loading, the first (recording) launch of a
@@ -42,19 +45,13 @@ from rdgpu.backends.base import (
     DeviceArray,
     FieldOrScalar,
     check_range,
-    max_abs_of_partials,
-    sum_of_partials,
 )
 from rdgpu.backends.warp_codegen import WarpFusedPass
-from rdgpu.backends.warp_mesh import WarpMeshKernels
 from rdgpu.backends.warp_runtime import (
     CHUNK_MIN_CELLS,
     MAX_CELLS,
     REAL,
-    REDUCE_BLOCK,
-    REDUCE_SPLIT_BYTES,
-    REDUCE_THREADS,
-    REDUCE_THREADS_2,
+    ROW_BLOCK,
     WARP_LOCK,
     check_cells,
     cpu_count,
@@ -67,7 +64,7 @@ from rdgpu.domains.boundary import GridBC
 from rdgpu.families import load_module
 
 
-class WarpBackend(WarpMeshKernels, Backend):
+class WarpBackend(Backend):
     """rdgpu kernels on one Warp device (``"cpu"``, ``"cuda"``, ``"cuda:0"``, …).
 
     Safe to drive from several Python threads at once (module doc); it owns a small
@@ -190,6 +187,33 @@ class WarpBackend(WarpMeshKernels, Backend):
                 rec.set_param_at_index(idx, a)
                 last[idx] = a
         rec.launch()
+
+    #: cells per row chunk at least (``run_split``: less work runs as one launch)
+    chunk_min_cells = CHUNK_MIN_CELLS
+
+    @property
+    def wp(self) -> ModuleType:
+        """The ``warp`` module (for launchers: its scalar types and views)."""
+        return self._wp
+
+    @property
+    def wp_device(self):
+        """The Warp device the kernels run on."""
+        return self._dev
+
+    def run_rows(self, kernels, n_rows: int, nnz: int, args: list) -> None:
+        """Launch a ``(blocks, rows)`` CSR kernel pair over ``n_rows`` rows of a matrix of
+        ``nnz`` entries: one thread per row on CUDA; on the CPU one thread per
+        ``ROW_BLOCK`` rows (arguments ``(*args, n_rows, ROW_BLOCK)``), in row chunks side
+        by side (``run_split``) once the matrix is large."""
+        if n_rows == 0:
+            return
+        blocks, rows = kernels
+        if self.per_cell:
+            self.launch(rows, n_rows, args, 0)
+            return
+        self.run_split(blocks, -(-n_rows // ROW_BLOCK), nnz + n_rows,
+                       [*args, n_rows, ROW_BLOCK])
 
     def run_grid(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a ``(rows, cells)`` kernel pair over a ``[ny, nx]`` grid."""
@@ -324,94 +348,6 @@ class WarpBackend(WarpMeshKernels, Backend):
             view = h.reshape((nm, *h.shape))
             d.meta["warp_members"] = view
         return view
-
-    # ------------------------------------------------------------------ reductions
-    def max_abs(self, u: DeviceArray) -> float:
-        bits = self._check_max_abs(u)
-        self._check_device(u, "max_abs")
-        if u.size == 0:
-            return 0.0
-        blocks, strided = self.module("reduce").MAX_ABS[u.dtype]
-        partial = self._reduce(u, [self._bits(u, bits)], blocks, strided, strided, bits)
-        return max_abs_of_partials(partial.numpy(), u.dtype)
-
-    def sum_squares(self, u: DeviceArray) -> float:
-        self._check_reduce(u, "sum_squares")
-        self._check_device(u, "sum_squares")
-        if u.size == 0:
-            return 0.0
-        family = self.module("reduce")
-        blocks, strided = family.SUM_SQUARES[u.dtype]
-        flat = self.flat(u)
-        inputs = [flat] if self.per_cell else [flat, self._vec16(u)]
-        partial = self._reduce(u, inputs, blocks, strided, family.TOTAL, np.dtype(np.float64))
-        return sum_of_partials(partial.numpy())
-
-    def _vec16(self, d: DeviceArray):
-        """A cached view of a float device array's first ``16·(size // 16)`` elements as
-        vectors of 16 (the CPU sum_squares kernel loads one per iteration)."""
-        flat = self.flat(d)
-        cached = d.meta.get("warp_vec16")  # (the flat view it was made from, the view)
-        if cached is None or cached[0] is not flat:
-            wp = self._wp
-            whole = flat[: d.size // 16 * 16].reshape((d.size // 16, 16))
-            cached = (flat, whole.view(wp.types.vector(16, wp.dtype_from_numpy(d.dtype))))
-            d.meta["warp_vec16"] = cached
-        return cached[1]
-
-    def _check_device(self, u: DeviceArray, what: str) -> None:
-        if u.handle.device != self._dev:
-            raise ValueError(f"{what}: the array is on Warp device {u.handle.device}, this "
-                             f"backend runs on {self._dev}; copy it there first")
-
-    def _reduce(self, u: DeviceArray, inputs: list, blocks, strided, second,
-                partial_dtype: np.dtype):
-        """Launch a reduction over the (non-empty) ``u``; return its partials of
-        ``partial_dtype`` (this thread's buffer: read it before the next call).  CPU:
-        ``blocks(*inputs, partial, block, b0)``; CUDA: ``strided(inputs[0], partial)``,
-        then ``second`` over its partials when there are more than ``REDUCE_THREADS_2``."""
-        n = u.size
-        if self.per_cell:
-            partial = self._partials(0, min(n, REDUCE_THREADS), partial_dtype)
-            self.launch(strided, partial.shape[0], [inputs[0], partial], 0)
-            if partial.shape[0] > REDUCE_THREADS_2:
-                data, partial = partial, self._partials(1, REDUCE_THREADS_2, partial_dtype)
-                self.launch(second, partial.shape[0], [data, partial], 0)
-            return partial
-        partial = self._partials(0, -(-n // REDUCE_BLOCK), partial_dtype)
-        # one thread streams tens of GB/s, a hand-off to the pool costs tens of us:
-        # one chunk per 8 MiB of data (measured on 2 cores, float32: at 1 MiB one
-        # thread 16 us, split 67 us; even at 8 MiB; split faster from 16 MiB)
-        work = u.nbytes // REDUCE_SPLIT_BYTES * CHUNK_MIN_CELLS
-        self.run_split(blocks, partial.shape[0], work, [*inputs, partial, REDUCE_BLOCK])
-        return partial
-
-    def _bits(self, d: DeviceArray, bits: np.dtype):
-        """A cached flat view of a float device array as unsigned integers of its width."""
-        flat = self.flat(d)
-        view = d.meta.get("warp_bits")
-        if view is None or view._ref is not flat:
-            view = flat.view(self._wp.dtype_from_numpy(bits))
-            d.meta["warp_bits"] = view
-        return view
-
-    def _partials(self, slot: int, size: int, bits: np.dtype):
-        """This thread's partials buffer ``slot`` of ``size`` elements of ``bits`` (a
-        reduction's partial dtype; the strided kernels read their thread count from the
-        buffer's length, so the length is exact); a few sizes are kept per thread (an
-        array's size recurs from call to call)."""
-        try:
-            cache = self._local.partials
-        except AttributeError:
-            cache = self._local.partials = {}
-        key = (slot, size, bits)
-        buf = cache.get(key)
-        if buf is None:
-            if len(cache) >= 16:
-                cache.clear()
-            buf = cache[key] = self._wp.zeros(size, dtype=self._wp.dtype_from_numpy(bits),
-                                              device=self._dev)
-        return buf
 
     @staticmethod
     def flat(d: DeviceArray):
@@ -571,50 +507,6 @@ class WarpBackend(WarpMeshKernels, Backend):
             *self.bc_args(bc, t),
         ]
         self.run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
-
-    # ------------------------------------------------------------------ DLA growth
-    def dla_weights(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
-                    row_sums: DeviceArray, *, eta: float, wrap_x: bool) -> None:
-        self.real(c, "dla c")
-        mode = load_module("dla", "reference.py").power_mode(eta)
-        kernel = self.module("dla").KERNELS[c.dtype][0]
-        ny, nx = c.shape
-        args = [c.handle, state.handle, weights.handle, row_sums.handle, mode,
-                np.float64(eta), int(bool(wrap_x))]
-        self.run_split(kernel, ny, ny * nx, args)
-
-    def dla_pick(self, c: DeviceArray, state: DeviceArray, weights: DeviceArray,
-                 arrival: DeviceArray, out: DeviceArray, *, row: int, target: int,
-                 step: int) -> None:
-        kernel = self.module("dla").KERNELS[c.dtype][1]
-        args = [c.handle, state.handle, weights.handle, arrival.handle, out.handle,
-                int(row), np.int64(target), int(step)]
-        self.launch(kernel, 1, args, 0)
-
-    # ------------------------------------------------------------------ random walkers
-    def walker_steps(self, grid, arrival, pos, want, state, ring_start, ring_ij, *, t0,
-                     n_steps, seed, geometry, thresh, margin, particles, limit) -> None:
-        wp = self._wp
-        fam = self.module("walkers")
-        k0, k1 = wp.uint32(seed & 0xFFFFFFFF), wp.uint32((seed >> 32) & 0xFFFFFFFF)
-        tables = [state.handle, ring_start.handle, ring_ij.handle]
-        n = pos.shape[0]
-        for t in range(t0, t0 + n_steps):
-            tt = [wp.uint32(t & 0xFFFFFFFF), wp.uint32(t >> 32), k0, k1, int(geometry)]
-            self.launch(fam.walk_step, n, [grid.handle, pos.handle, want.handle, *tables, *tt,
-                                            wp.int64(thresh), int(margin)], 0)
-            self.launch(fam.resolve, 1, [grid.handle, arrival.handle, pos.handle, want.handle,
-                                          *tables, *tt, int(margin), int(particles),
-                                          int(limit)], 0)
-
-    def philox(self, out, *, first: int, t: int, purpose: int, seed: int) -> None:
-        """``out[n] = philox4x32((first + n, t low, t high, purpose), seed words)``
-        (``out`` uint32 ``[N, 4]``; for tests)."""
-        wp = self._wp
-        u = wp.uint32
-        self.launch(self.module("walkers").PHILOX, out.shape[0],
-                     [out.handle, u(first), u(t & 0xFFFFFFFF), u(t >> 32), u(purpose),
-                      u(seed & 0xFFFFFFFF), u(seed >> 32)], 0)
 
 
 def cuda_device_count() -> int:

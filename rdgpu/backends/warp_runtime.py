@@ -1,6 +1,7 @@
 """Warp's process-wide runtime pieces shared by :mod:`rdgpu.backends.warp_backend` and
-:mod:`rdgpu.backends.warp_codegen`: the launch-shape constants, the lock around Warp's
-global state, the helpers that keep Warp quiet, the 32-bit cell limit."""
+:mod:`rdgpu.backends.warp_codegen`: the launch-shape constants of both (a family's own
+live in its launcher, ``rdgpu/families/<family>/warp.py``), the lock around Warp's global
+state, the helpers that keep Warp quiet, the 32-bit cell limit."""
 
 from __future__ import annotations
 
@@ -14,16 +15,9 @@ from rdgpu.core.errors import BackendUnavailableError
 #: cells per row chunk at least: smaller grids run as one launch (a hand-off to a pool
 #: thread costs tens of microseconds), larger ones in up to one chunk per core
 CHUNK_MIN_CELLS = 1 << 15
-#: matrix rows per thread of the CSR kernels on the CPU
+#: matrix rows per thread of the CSR kernels on the CPU (the mesh family's and the
+#: generated mesh passes')
 ROW_BLOCK = 256
-#: max_abs, sum_squares: elements per thread on the CPU (one partial each); threads of the
-#: CUDA shape's first pass over the array, and of its second pass over the first's partials
-#: (REDUCE_BLOCK: a multiple of 16, the vectors sum_squares loads)
-REDUCE_BLOCK = 1 << 16
-REDUCE_THREADS = 1 << 18
-REDUCE_THREADS_2 = 1 << 10
-#: max_abs, sum_squares on the CPU: bytes per row chunk run side by side (at least)
-REDUCE_SPLIT_BYTES = 8 << 20
 #: cells of one grid launch at most: the grid kernels index flat views with 32-bit ints
 MAX_CELLS = 2**31 - 1
 

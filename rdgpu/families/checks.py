@@ -14,6 +14,12 @@ import numpy as np
 from rdgpu.core.conventions import REAL_DTYPES
 
 
+def is_device_array(d: Any) -> bool:
+    """Whether ``d`` is a device array of some backend (a ``DeviceArray``: it has a
+    ``backend``, a ``handle``, a ``shape`` and a ``dtype``), not a number."""
+    return all(hasattr(d, name) for name in ("backend", "handle", "shape", "dtype"))
+
+
 def real_type(d: Any, what: str) -> type:
     """The NumPy scalar type of a float32/float64 device array ``d``; a TypeError otherwise."""
     if d.dtype not in REAL_DTYPES:

@@ -19,6 +19,7 @@ from conftest import tolerance
 from scipy.sparse.linalg import spsolve
 
 import rdgpu
+from rdgpu.backends.numpy_backend import NumpyBackend
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 from rdgpu.families import load_module
@@ -176,6 +177,25 @@ def test_kernels_on_grid_shaped_arrays(backend):
         backend.spmv(backend.upload_csr(M, np.float64), backend.upload(u[:5]), y)
     with pytest.raises(TypeError, match="dtype"):
         backend.spmv(backend.upload_csr(M, np.float32), backend.upload(u), y)
+
+
+def test_shared_checks_refuse_alike(backend):
+    """The mesh family's checks are written once (rdgpu/families/mesh/__init__.py): every
+    backend refuses a field of the wrong size, a foreign vector and a bad SOR row list
+    with the same error."""
+    M = sp.identity(6, format="csr") * 2.0
+    A, u = backend.upload_csr(M, np.float64), backend.upload(np.ones(6))
+    out = backend.empty((6,), np.float64)
+    with pytest.raises(ValueError, match=r"mesh_gray_scott k field must have 6 elements"):
+        backend.mesh_gray_scott(A, u, u, out, out, Du=1.0, Dv=1.0, F=0.03,
+                                k=backend.upload(np.ones(5)), dt=0.1)
+    with pytest.raises(ValueError, match=r"mesh_diffusion source field must have 6"):
+        backend.mesh_diffusion(A, u, out, D=1.0, dt=0.1, source=backend.upload(np.ones(7)))
+    other = NumpyBackend()  # (another backend, also for the numpy one)
+    with pytest.raises(ValueError, match="spmv: the input array is on another backend"):
+        backend.spmv(A, other.upload(np.ones(6)), out)
+    with pytest.raises(TypeError, match="csr_sor_colour rows must be a 1-D int32 array"):
+        backend.csr_sor_colour(A, u, u, backend.upload(np.arange(3)), out, omega=1.0)
 
 
 # ---------------------------------------------------------------------------- rdgpu.spmv

@@ -254,10 +254,11 @@ def test_warp_pool_chunks(dtype, monkeypatch):
     """Warp's CPU reduction over an array large enough for the thread pool (one chunk per
     8 MiB): every chunk's blocks count, a NaN or the largest value in any chunk is found."""
     from rdgpu.backends import warp_backend
+    from rdgpu.families.reduce import warp as reduce_warp
 
     be = backend_or_skip("warp:cpu")  # the CPU thread pool, whatever RDGPU_TEST_WARP_DEVICE says
     dtype = np.dtype(dtype)
-    n = 3 * warp_backend.REDUCE_SPLIT_BYTES // dtype.itemsize + 17
+    n = 3 * reduce_warp.SPLIT_BYTES // dtype.itemsize + 17
     offsets = []
     launch = be.launch
     monkeypatch.setattr(be, "launch", lambda k, dim, args, key: (offsets.append(key),
@@ -402,12 +403,13 @@ def test_sum_squares_same_order_on_warp_and_opencl_rows(noise, dtype):
     """Warp's CPU blocks and OpenCL's row layout sum in the same documented order (16 lanes
     per 65 536-element chunk, a tree over the lanes, the host's float64 sum of the
     partials): the same bits."""
-    from rdgpu.backends import opencl_backend, warp_backend
+    from rdgpu.families.reduce import opencl as reduce_opencl
+    from rdgpu.families.reduce import warp as reduce_warp
 
     warp, ocl = variant_or_skip("warp"), variant_or_skip("opencl")
     if ocl.layout != "row":
         pytest.skip("the OpenCL device runs the strided layout")
-    assert warp_backend.REDUCE_BLOCK == opencl_backend._REDUCE_CHUNK
+    assert reduce_warp.BLOCK == reduce_opencl.CHUNK
     for n in (9, 17, 65_551, LONG):
         a = noise[np.dtype(dtype)][:n]
         assert bits(warp.sum_squares(warp.upload(a))) == bits(ocl.sum_squares(ocl.upload(a)))

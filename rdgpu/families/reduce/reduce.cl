@@ -109,7 +109,7 @@ __kernel void max_abs_partial(__global const bits *RESTRICT u, __global bits *RE
  *
  * Doubles are needed on the device; where it has none (no cl_khr_fp64) the kernel is an
  * empty stub of the same signature, so the rest of the program still builds, and the host
- * refuses the call (OpenCLBackend.sum_squares).  -D RDGPU_REDUCE_SCALAR makes the row
+ * refuses the call (reduce/opencl.py).  -D RDGPU_REDUCE_SCALAR makes the row
  * loop one sequential accumulator, not vectorised (perf/reduce.py measures the lanes).
  */
 

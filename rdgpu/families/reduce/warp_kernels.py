@@ -20,7 +20,7 @@ takes the max of the partials:
   the array, once over the first pass's partials, so few come back to the host.
 
 ``MAX_ABS[np.dtype]`` is ``(blocks, strided)`` (over the array viewed as the unsigned
-integers of its width, ``Backend._check_max_abs``).
+integers of its width, ``rdgpu.families.reduce.check_max_abs``).
 
 sum_squares.  Partial sums of ``u²`` in float64 for both dtypes (a float32 square is exact
 in float64); the host adds the partials in float64.  The order is fixed by this code:
