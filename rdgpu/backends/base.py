@@ -344,7 +344,7 @@ class Backend(ABC):
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
         """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
-        raise NotImplementedError(self._lacks('laplacian'))
+        self.kernel("laplacian", "laplacian")(u, out, dx=dx, dy=dy, bc=bc, stencil=stencil)
 
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
@@ -356,7 +356,7 @@ class Backend(ABC):
         surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
         dtype, e.g. from :meth:`upload_metric` (upload once, reuse).  Units: ``[u]/length²``
         when the coefficients are those of spacings in length units."""
-        raise NotImplementedError(self._lacks('metric_laplacian'))
+        self.kernel("metric", "metric_laplacian")(u, coefficients, out)
 
     def upload_metric(self, surface: GraphSurface, dtype: Any) -> tuple[DeviceArray, ...]:
         """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
@@ -382,30 +382,6 @@ class Backend(ABC):
             cache.move_to_end(key)
         return found
 
-    @staticmethod
-    def _check_metric(u: DeviceArray, coefficients: Any, out: DeviceArray) -> int:
-        """Check ``metric_laplacian``'s operands (module doc of the method); return the
-        number of members ``nm``."""
-        if len(u.shape) not in (2, 3):
-            raise ValueError(f"metric_laplacian takes u of shape [ny, nx] or [nm, ny, nx], "
-                             f"got {u.shape}")
-        if u.dtype not in _REAL_DTYPES:
-            raise TypeError(f"metric_laplacian: u must be float32 or float64, got {u.dtype}")
-        if out.shape != u.shape or out.dtype != u.dtype or out.backend is not u.backend:
-            raise ValueError(f"metric_laplacian: out ({out.shape} {out.dtype}) must match u "
-                             f"({u.shape} {u.dtype}) on the same backend")
-        if not isinstance(coefficients, (tuple, list)) or len(coefficients) != 4:
-            raise TypeError("metric_laplacian: coefficients must be the 4 device arrays "
-                            "(ex, ny, bx, w), e.g. backend.upload_metric(surface, dtype)")
-        for name, c in zip(METRIC_COEFFICIENTS, coefficients, strict=True):
-            if not isinstance(c, DeviceArray) or c.backend is not u.backend:
-                raise TypeError(f"metric_laplacian: coefficient {name} must be a DeviceArray "
-                                f"of u's backend ({u.backend.name})")
-            if c.shape != u.shape[-2:] or c.dtype != u.dtype:
-                raise ValueError(f"metric_laplacian: coefficient {name} is {c.shape} {c.dtype}; "
-                                 f"u {u.shape} {u.dtype} needs {u.shape[-2:]} {u.dtype}")
-        return u.shape[0] if len(u.shape) == 3 else 1
-
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
@@ -429,7 +405,8 @@ class Backend(ABC):
         bc: GridBC,
     ) -> None:
         """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3)."""
-        raise NotImplementedError(self._lacks('gray_scott'))
+        self.kernel("gray_scott", "gray_scott")(u, v, u_out, v_out, Du=Du, Dv=Dv, F=F, k=k,
+                                                dt=dt, dx=dx, dy=dy, bc=bc)
 
     def sor_half_sweep(
         self,
@@ -451,7 +428,8 @@ class Backend(ABC):
 
         ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
         colour 0 overwrites it, colour 1 takes the max with what is there."""
-        raise NotImplementedError(self._lacks('sor_half_sweep'))
+        self.kernel("sor", "sor_half_sweep")(c, fixed, rhs, row_change, color=color,
+                                             omega=omega, dx=dx, dy=dy, bc=bc)
 
     def levelset_step(
         self,
@@ -467,7 +445,8 @@ class Backend(ABC):
     ) -> None:
         """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5) on
         a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid."""
-        raise NotImplementedError(self._lacks('levelset_step'))
+        self.kernel("levelset", "levelset_step")(phi, speed, out, dt=dt, dx=dx, dy=dy, bc=bc,
+                                                 dz=dz)
 
     def reinit_step(
         self,
@@ -487,7 +466,8 @@ class Backend(ABC):
         ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (equations §5); with ``subcell``,
         cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py).
         A 3-D ``[nz, ny, nx]`` grid needs ``dz``."""
-        raise NotImplementedError(self._lacks('reinit_step'))
+        self.kernel("levelset", "reinit_step")(phi, phi0, out, dtau=dtau, width=width, dx=dx,
+                                               dy=dy, bc=bc, subcell=subcell, dz=dz)
 
     # ------------------------------------------------------------------ CSR / mesh kernels
     # A CSR kernel's vector operands may have any shape: they are read as flat C-order
