@@ -14,10 +14,20 @@ Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md,
 :mod:`rdgpu.core.fpenv`);
 the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as NumPy gives it),
 :meth:`Backend.sum_squares` sums in float64.
+
+The hand-written kernel families launch from their own folders: a family method of
+:class:`Backend` (``laplacian``, ``metric_laplacian``, ``bernoulli``, ``gray_scott``,
+``sor_half_sweep``, ``levelset_step``, ``reinit_step``...) is a one-line delegate through
+:meth:`Backend.kernel`, which binds ``rdgpu/families/<family>/<launchers>.py`` (the
+backend's :attr:`Backend.launchers`: ``numpy.py``, ``warp.py``, ``opencl.py``).  A
+family's ``__init__.py`` holds its argument checks, written once for every backend; its
+launchers take the backend as their first argument and use only its public runtime
+methods (listed in the docstrings of ``warp_backend.py`` and ``opencl_backend.py``).
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import threading
@@ -140,10 +150,15 @@ class Backend(ABC):
 
         A family's launchers live in its own folder, one module per backend, and use only
         the backend's public runtime methods; adding a family touches no backend.  A
-        backend without the launcher raises :class:`NotImplementedError` naming both."""
-        found = self._kernel_cache().get((family, op))
-        if found is not None:
-            return found
+        backend without the launcher raises :class:`NotImplementedError` naming both.
+        Bound once per backend (a ``functools.partial``), then one dict lookup a call."""
+        try:
+            return self._kernels_bound[family, op]
+        except (AttributeError, KeyError):
+            return self._bind_kernel(family, op)
+
+    def _bind_kernel(self, family: str, op: str) -> Callable[..., Any]:
+        """Import and bind the launcher :meth:`kernel` asks for; keep it on the instance."""
         fn = None
         if self.launchers is not None:
             try:
@@ -156,20 +171,11 @@ class Backend(ABC):
                 fn = getattr(module, op, None)
         if fn is None:
             raise NotImplementedError(self._lacks(f"{family}.{op}"))
-
-        def bound(*args: Any, **kwargs: Any) -> Any:
-            return fn(self, *args, **kwargs)
-
+        bound = functools.partial(fn, self)
         bound.__name__ = bound.__qualname__ = f"{family}.{op}"
         bound.__doc__ = fn.__doc__
-        self._kernel_cache()[(family, op)] = bound
+        self.__dict__.setdefault("_kernels_bound", {})[family, op] = bound
         return bound
-
-    def _kernel_cache(self) -> dict[tuple[str, str], Callable[..., Any]]:
-        cache = self.__dict__.get("_kernels_bound")
-        if cache is None:
-            cache = self.__dict__["_kernels_bound"] = {}
-        return cache
 
     # ------------------------------------------------------------------ memory
     @abstractmethod

@@ -1,6 +1,11 @@
 """The NumPy backend: runs the references in ``rdgpu/families/*/reference.py`` on host arrays
 (which flush subnormal results to 0 like every kernel: docs/equations.md,
-:mod:`rdgpu.core.fpenv`)."""
+:mod:`rdgpu.core.fpenv`).
+
+The hand-written families' launchers are ``rdgpu/families/<family>/numpy.py`` (bound by
+:meth:`~rdgpu.backends.base.Backend.kernel`): each checks its arguments and runs its
+reference on the arrays' handles, which here are the NumPy arrays themselves; the
+methods below run the rest."""
 
 from __future__ import annotations
 

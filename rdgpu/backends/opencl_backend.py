@@ -19,6 +19,16 @@ Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the va
 writes (``FLUSH`` in ``common.cl``): subnormals are flushed (docs/equations.md,
 :mod:`rdgpu.core.fpenv`).
 
+The hand-written families launch from ``rdgpu/families/<family>/opencl.py`` (bound by
+:meth:`~rdgpu.backends.base.Backend.kernel`); each declares its kernels' argument types
+(``KERNEL_ARGS``, merged by :func:`kernel_args`).  The runtime interface those launchers
+use, this class's public members: ``cl``, ``queue``, ``layout``, ``col_stride``,
+``max_cells``, :meth:`~OpenCLBackend.kernels` (this thread's kernel objects),
+:meth:`~OpenCLBackend.enqueue`, :meth:`~OpenCLBackend.grid` / :meth:`~OpenCLBackend.grid3`
+(a grid launch's device checks and arguments), :meth:`~OpenCLBackend.launch_grid`,
+:meth:`~OpenCLBackend.launch_rows`, :meth:`~OpenCLBackend.check_on_device` and
+:meth:`~OpenCLBackend.check_real`.
+
 Threads: contexts, queues and built programs are shared by every backend instance on
 one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
 per thread: a launch is ``set_args`` then enqueue, and ``clSetKernelArg`` on one kernel
@@ -260,6 +270,7 @@ class OpenCLBackend(OpenCLMeshKernels, OpenCLGrowthKernels, Backend):
         return program
 
     def check_real(self, dtype: np.dtype) -> None:
+        """``dtype`` is float32, or float64 on a device with fp64 (else a clear error)."""
         if dtype not in _REALS:
             raise TypeError(f"rdgpu kernels take float32 or float64 arrays, got {dtype}")
         if dtype == np.float64 and not self.fp64:

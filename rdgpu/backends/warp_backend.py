@@ -20,6 +20,15 @@ Each kernel family is one Warp module holding the float32 and float64 versions o
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
 backend uses it.  ``DeviceArray.handle`` is a ``warp.array``.
 
+The hand-written families launch from ``rdgpu/families/<family>/warp.py`` (bound by
+:meth:`~rdgpu.backends.base.Backend.kernel`; the grid families, bernoulli...).  The
+runtime interface those launchers use, this class's public methods: :meth:`~WarpBackend.module`
+(a family's compiled kernels), :meth:`~WarpBackend.launch`, :meth:`~WarpBackend.run_grid`,
+:meth:`~WarpBackend.run_grid3`, :meth:`~WarpBackend.run_split`, the flag ``per_cell`` (the
+launch shape), the cached views :meth:`~WarpBackend.flat` and :meth:`~WarpBackend.members`,
+the boundary arguments :meth:`~WarpBackend.bc_args` and :meth:`~WarpBackend.bc3_args`, and
+the checks :meth:`~WarpBackend.real` and :meth:`~WarpBackend.same`.
+
 Threads: one backend may be driven from several threads at once.  Warp's process-wide
 state -- ``wp.init``, module compilation and loading, the first (recording) launch of a
 kernel, the log settings and file descriptor 2 that the quiet helpers flip -- is touched
