@@ -14,6 +14,15 @@ Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md,
 :mod:`rdgpu.core.fpenv`);
 the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as NumPy gives it),
 :meth:`Backend.sum_squares` sums in float64.
+
+The hand-written kernel families launch from their own folders: a family method of
+:class:`Backend` (``laplacian``, ``metric_laplacian``, ``bernoulli``, ``gray_scott``,
+``sor_half_sweep``, ``levelset_step``, ``reinit_step``...) is a one-line delegate through
+:meth:`Backend.kernel`, which binds ``rdgpu/families/<family>/<launchers>.py`` (the
+backend's :attr:`Backend.launchers`: ``numpy.py``, ``warp.py``, ``opencl.py``).  A
+family's ``__init__.py`` holds its argument checks, written once for every backend; its
+launchers take the backend as their first argument and use only its public runtime
+methods (listed in the docstrings of ``warp_backend.py`` and ``opencl_backend.py``).
 """
 
 from __future__ import annotations
@@ -141,11 +150,15 @@ class Backend(ABC):
 
         A family's launchers live in its own folder, one module per backend, and use only
         the backend's public runtime methods; adding a family touches no backend.  A
-        backend without the launcher raises :class:`NotImplementedError` naming both."""
-        try:  # (the fast path: the reductions and SpMV run every step of a solver)
-            return self.__dict__["_kernels_bound"][family, op]
-        except KeyError:
-            pass
+        backend without the launcher raises :class:`NotImplementedError` naming both.
+        Bound once per backend (a ``functools.partial``), then one dict lookup a call."""
+        try:
+            return self._kernels_bound[family, op]
+        except (AttributeError, KeyError):
+            return self._bind_kernel(family, op)
+
+    def _bind_kernel(self, family: str, op: str) -> Callable[..., Any]:
+        """Import and bind the launcher :meth:`kernel` asks for; keep it on the instance."""
         fn = None
         if self.launchers is not None:
             try:
@@ -160,7 +173,7 @@ class Backend(ABC):
             raise NotImplementedError(self._lacks(f"{family}.{op}"))
         bound = functools.partial(fn, self)  # (a C call: cheaper than a closure)
         bound.__doc__ = fn.__doc__
-        self.__dict__.setdefault("_kernels_bound", {})[(family, op)] = bound
+        self.__dict__.setdefault("_kernels_bound", {})[family, op] = bound
         return bound
 
     def thread_cache(self, name: str) -> dict:
@@ -309,7 +322,7 @@ class Backend(ABC):
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
         """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
-        raise NotImplementedError(self._lacks('laplacian'))
+        self.kernel("laplacian", "laplacian")(u, out, dx=dx, dy=dy, bc=bc, stencil=stencil)
 
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
@@ -321,7 +334,7 @@ class Backend(ABC):
         surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
         dtype, e.g. from :meth:`upload_metric` (upload once, reuse).  Units: ``[u]/length²``
         when the coefficients are those of spacings in length units."""
-        raise NotImplementedError(self._lacks('metric_laplacian'))
+        self.kernel("metric", "metric_laplacian")(u, coefficients, out)
 
     def upload_metric(self, surface: GraphSurface, dtype: Any) -> tuple[DeviceArray, ...]:
         """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
@@ -347,30 +360,6 @@ class Backend(ABC):
             cache.move_to_end(key)
         return found
 
-    @staticmethod
-    def _check_metric(u: DeviceArray, coefficients: Any, out: DeviceArray) -> int:
-        """Check ``metric_laplacian``'s operands (module doc of the method); return the
-        number of members ``nm``."""
-        if len(u.shape) not in (2, 3):
-            raise ValueError(f"metric_laplacian takes u of shape [ny, nx] or [nm, ny, nx], "
-                             f"got {u.shape}")
-        if u.dtype not in _REAL_DTYPES:
-            raise TypeError(f"metric_laplacian: u must be float32 or float64, got {u.dtype}")
-        if out.shape != u.shape or out.dtype != u.dtype or out.backend is not u.backend:
-            raise ValueError(f"metric_laplacian: out ({out.shape} {out.dtype}) must match u "
-                             f"({u.shape} {u.dtype}) on the same backend")
-        if not isinstance(coefficients, (tuple, list)) or len(coefficients) != 4:
-            raise TypeError("metric_laplacian: coefficients must be the 4 device arrays "
-                            "(ex, ny, bx, w), e.g. backend.upload_metric(surface, dtype)")
-        for name, c in zip(METRIC_COEFFICIENTS, coefficients, strict=True):
-            if not isinstance(c, DeviceArray) or c.backend is not u.backend:
-                raise TypeError(f"metric_laplacian: coefficient {name} must be a DeviceArray "
-                                f"of u's backend ({u.backend.name})")
-            if c.shape != u.shape[-2:] or c.dtype != u.dtype:
-                raise ValueError(f"metric_laplacian: coefficient {name} is {c.shape} {c.dtype}; "
-                                 f"u {u.shape} {u.dtype} needs {u.shape[-2:]} {u.dtype}")
-        return u.shape[0] if len(u.shape) == 3 else 1
-
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
@@ -394,7 +383,8 @@ class Backend(ABC):
         bc: GridBC,
     ) -> None:
         """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3)."""
-        raise NotImplementedError(self._lacks('gray_scott'))
+        self.kernel("gray_scott", "gray_scott")(u, v, u_out, v_out, Du=Du, Dv=Dv, F=F, k=k,
+                                                dt=dt, dx=dx, dy=dy, bc=bc)
 
     def sor_half_sweep(
         self,
@@ -416,7 +406,8 @@ class Backend(ABC):
 
         ``row_change`` (shape ``(ny,)``, c's dtype) receives each row's max ``|Δc|``:
         colour 0 overwrites it, colour 1 takes the max with what is there."""
-        raise NotImplementedError(self._lacks('sor_half_sweep'))
+        self.kernel("sor", "sor_half_sweep")(c, fixed, rhs, row_change, color=color,
+                                             omega=omega, dx=dx, dy=dy, bc=bc)
 
     def levelset_step(
         self,
@@ -432,7 +423,8 @@ class Backend(ABC):
     ) -> None:
         """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5) on
         a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid."""
-        raise NotImplementedError(self._lacks('levelset_step'))
+        self.kernel("levelset", "levelset_step")(phi, speed, out, dt=dt, dx=dx, dy=dy, bc=bc,
+                                                 dz=dz)
 
     def reinit_step(
         self,
@@ -452,7 +444,8 @@ class Backend(ABC):
         ``S = φ₀ / sqrt(φ₀² + width²)`` and Godunov upwinding (equations §5); with ``subcell``,
         cells at the front of φ₀ use the Russo-Smereka fix (see levelset/reference.py).
         A 3-D ``[nz, ny, nx]`` grid needs ``dz``."""
-        raise NotImplementedError(self._lacks('reinit_step'))
+        self.kernel("levelset", "reinit_step")(phi, phi0, out, dtau=dtau, width=width, dx=dx,
+                                               dy=dy, bc=bc, subcell=subcell, dz=dz)
 
     # ------------------------------------------------------------------ CSR / mesh kernels
     # A CSR kernel's vector operands may have any shape: they are read as flat C-order

@@ -1,13 +1,10 @@
 """OpenCL backend (PyOpenCL): the kernels of ``families/<family>/<family>.cl`` on any device.
 
 One program per (context, dtype, layout) is built from ``families/common.cl`` followed by
-every family source in ``_FAMILIES``, and its kernel objects are cached; dla and walkers
-are programs of their own (:meth:`OpenCLBackend.own_program`).  A family with a launcher
-module ``rdgpu/families/<family>/opencl.py`` (bernoulli, mesh, reduce, dla, walkers) is
-launched by it through the public runtime methods (``enqueue``, ``launch_rows`` for CSR
-rows, the generated mesh passes' launch too, ...), and its ``KERNEL_ARGS`` join the shared
-program's table (:func:`kernel_args`); the others here.  Launches go to one in-order queue
-without waiting; :meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
+the source of every family that joins it (:func:`rdgpu.families.shared_opencl_families`),
+and its kernel objects are cached; dla and walkers are programs of their own
+(:meth:`OpenCLBackend.own_program`).  Launches go to one in-order queue without waiting;
+:meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
 
 Two launch layouts run the same inline cell functions (see ``families/common.cl``):
 
@@ -23,6 +20,16 @@ The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment v
 Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the values it
 writes (``FLUSH`` in ``common.cl``): subnormals are flushed (docs/equations.md,
 :mod:`rdgpu.core.fpenv`).
+
+The hand-written families launch from ``rdgpu/families/<family>/opencl.py`` (bound by
+:meth:`~rdgpu.backends.base.Backend.kernel`); each declares its kernels' argument types
+(``KERNEL_ARGS``, merged by :func:`kernel_args`).  The runtime interface those launchers
+use, this class's public members: ``cl``, ``queue``, ``layout``, ``col_stride``,
+``max_cells``, :meth:`~OpenCLBackend.kernels` (this thread's kernel objects),
+:meth:`~OpenCLBackend.enqueue`, :meth:`~OpenCLBackend.grid` / :meth:`~OpenCLBackend.grid3`
+(a grid launch's device checks and arguments), :meth:`~OpenCLBackend.launch_grid`,
+:meth:`~OpenCLBackend.launch_rows`, :meth:`~OpenCLBackend.check_on_device` and
+:meth:`~OpenCLBackend.check_real`.
 
 Threads: contexts, queues and built programs are shared by every backend instance on
 one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
@@ -44,7 +51,6 @@ import numpy as np
 from rdgpu.backends.base import (
     Backend,
     DeviceArray,
-    FieldOrScalar,
     check_range,
 )
 from rdgpu.backends.opencl_codegen import OpenCLBlockedPass, OpenCLFusedPass
@@ -63,62 +69,24 @@ from rdgpu.backends.opencl_devices import (  # list_devices, probe_compiler: pub
 from rdgpu.core.conventions import REAL_DTYPES as _REALS
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.domains.boundary import GridBC
-from rdgpu.families import load_module, read_source
+from rdgpu.families import read_source, shared_opencl_families
 
 __all__ = ["OpenCLBackend", "list_devices", "probe_compiler"]
 
-_FAMILIES = ("laplacian", "bernoulli", "gray_scott", "sor", "levelset", "mesh", "metric",
-             "reduce")
-# Argument types of every kernel (must match the .cl signatures): B = buffer, i = int32,
-# l = int64, r = the real type.  Declaring them lets PyOpenCL pack scalars fast (untyped
-# scalar arguments cost ~15 us each on PoCL).
-_GRID = "iiirir"  # nx, ny, y_kind, g_y, x_kind, g_x
-_GRID3 = "iiiiririr"  # nx, ny, nz, y_kind, g_y, x_kind, g_x, z_kind, g_z
-_KERNEL_ARGS = {
-    "laplacian5": "BB" + _GRID + "rr",
-    "laplacian9": "BB" + _GRID + "r",
-    "metric_laplacian": "BBBBBBiii",  # u, ex, ny, bx, w, out; nx, ny, nm
-    "gray_scott_ss": "BBBBBB" + _GRID + "rrrrrrr",
-    "gray_scott_fs": "BBBBBB" + _GRID + "rrrrrrr",
-    "gray_scott_sf": "BBBBBB" + _GRID + "rrrrrrr",
-    "gray_scott_ff": "BBBBBB" + _GRID + "rrrrrrr",
-    "sor_half_sweep": "BBBBi" + _GRID + "rrrrr",
-    "sor_half_sweep_rhs": "BBBBi" + _GRID + "rrrrr",
-    "levelset_step_s": "BBB" + _GRID + "rrrr",
-    "levelset_step_f": "BBB" + _GRID + "rrrr",
-    "reinit_step": "BBB" + _GRID + "rrrrrrrr",
-    "reinit_step_subcell": "BBB" + _GRID + "rrrrrrrr",
-    "levelset_step3_s": "BBB" + _GRID3 + "rrrrr",
-    "levelset_step3_f": "BBB" + _GRID3 + "rrrrr",
-    "reinit_step3": "BBB" + _GRID3 + "rrrrrrrrrr",
-    "reinit_step3_subcell": "BBB" + _GRID3 + "rrrrrrrrrr",
-}
 
 
 def kernel_args() -> dict[str, str]:
-    """The argument types of every kernel of the shared program: the table above, then
-    each family's own (``KERNEL_ARGS`` of ``rdgpu/families/<family>/opencl.py``)."""
-    found = dict(_KERNEL_ARGS)
-    for family in _FAMILIES:
-        try:
-            module = importlib.import_module(f"rdgpu.families.{family}.opencl")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"rdgpu.families.{family}.opencl":
-                raise
-            continue
-        found.update(module.KERNEL_ARGS)
+    """The argument types of every kernel of the shared program (must match the .cl
+    signatures): each family's ``KERNEL_ARGS`` (``rdgpu/families/<family>/opencl.py``; B =
+    buffer, i = int32, l = int64, r = the real type).  Declaring them lets PyOpenCL pack
+    scalars fast (untyped scalar arguments cost ~15 us each on PoCL)."""
+    found: dict[str, str] = {}
+    for family in shared_opencl_families():
+        found.update(importlib.import_module(f"rdgpu.families.{family}.opencl").KERNEL_ARGS)
     return found
 
 
 _LAYOUTS = ("row", "strided")
-_MASK_DTYPES = (np.dtype(np.uint8), np.dtype(np.bool_))
-#: the Gray-Scott kernel for (F is a field, k is a field)
-GS_NAMES = {
-    (False, False): "gray_scott_ss",
-    (True, False): "gray_scott_fs",
-    (False, True): "gray_scott_sf",
-    (True, True): "gray_scott_ff",
-}
 # CSR kernels in the row layout: rows per work-item at least, and work-items per compute
 # unit at most (fewer, longer work-items: PoCL costs about a microsecond per work-group)
 _CSR_MIN_BLOCK = 512
@@ -188,8 +156,6 @@ class OpenCLBackend(Backend):
             self._options.append("-cl-fp32-correctly-rounded-divide-sqrt")
         self._programs: dict[np.dtype, Any] = {}  # dtype -> the shared program
         self._local = threading.local()  # .kernels: dtype -> (program, this thread's kernels)
-        # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
-        self._sor_weights = load_module("sor", "reference.py").weights
 
     def __repr__(self) -> str:
         return f"OpenCLBackend({self.device!r}, layout={self.layout!r})"
@@ -237,7 +203,7 @@ class OpenCLBackend(Backend):
     # ------------------------------------------------------------------ programs
     def _program_source(self) -> str:
         parts = ['#line 1 "common.cl"\n' + read_source("", "common.cl")]
-        for family in _FAMILIES:
+        for family in shared_opencl_families():
             parts.append(f'#line 1 "{family}/{family}.cl"\n' + read_source(family, f"{family}.cl"))
         return "\n".join(parts)
 
@@ -316,6 +282,7 @@ class OpenCLBackend(Backend):
         return found
 
     def check_real(self, dtype: np.dtype) -> None:
+        """``dtype`` is float32, or float64 on a device with fp64 (else a clear error)."""
         if dtype not in _REALS:
             raise TypeError(f"rdgpu kernels take float32 or float64 arrays, got {dtype}")
         if dtype == np.float64 and not self.fp64:
@@ -385,18 +352,13 @@ class OpenCLBackend(Backend):
     # and as NumPy scalars where the reference rounds intermediate results in the dtype.
 
     def grid(self, bc: GridBC, u: DeviceArray, *others: DeviceArray | None):
-        """Check a grid kernel's arrays; return ``(ny, (nx, ny, y_kind, g_y, x_kind, g_x))``."""
-        shape = u.shape
-        if len(shape) != 2:
-            raise ValueError(f"grid kernels take 2-D [ny, nx] arrays, got shape {shape}")
-        if not isinstance(u.backend, OpenCLBackend):
-            raise TypeError(f"array belongs to the {u.backend.name} backend, not opencl")
-        for o in others:
-            if o is not None and (o.shape != shape or o.dtype != u.dtype):
-                raise ValueError(
-                    f"array shape/dtype mismatch: {o.shape} {o.dtype} vs {shape} {u.dtype}"
-                )
-        ny, nx = shape
+        """A 2-D grid launch's device checks -- every array (None skipped) on an OpenCL
+        backend, at most ``max_cells`` cells (32-bit indices); the shapes and dtypes are the
+        family's own check -- and ``(ny, (nx, ny, y_kind, g_y, x_kind, g_x))``."""
+        for a in (u, *others):
+            if a is not None and not isinstance(a.backend, OpenCLBackend):
+                raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")
+        ny, nx = u.shape
         if ny * nx > _MAX_CELLS:
             raise ValueError(f"a grid of {ny}x{nx} cells is too large for the OpenCL kernels")
         y, x = bc.y, bc.x
@@ -410,6 +372,8 @@ class OpenCLBackend(Backend):
         self.cl.enqueue_nd_range_kernel(self.queue, kernel, global_size, local_size)
 
     def launch_grid(self, kernel, ny: int, args) -> None:
+        """Launch a grid kernel over ``ny`` rows: one work-item per row (row layout) or one
+        work-group of ``col_stride`` items per row (strided); nothing when ``ny`` is 0."""
         if ny == 0:
             return
         kernel.set_args(*args)
@@ -419,120 +383,13 @@ class OpenCLBackend(Backend):
             gsize, lsize = (self.col_stride, ny), (self.col_stride, 1)
         self.cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, lsize)
 
-    # ------------------------------------------------------------------ grid kernels
-    def laplacian(
-        self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
-    ) -> None:
-        ny, grid = self.grid(bc, u, out)
-        ks = self.kernels(u.dtype)
-        if stencil == 5:
-            args = (u.handle, out.handle, *grid, 1.0 / dx**2, 1.0 / dy**2)
-            self.launch_grid(ks["laplacian5"], ny, args)
-        elif stencil == 9:
-            if dx != dy:
-                raise ValueError(f"the 9-point stencil needs dx == dy, got dx={dx}, dy={dy}")
-            args = (u.handle, out.handle, *grid, 1.0 / (6.0 * dx * dx))
-            self.launch_grid(ks["laplacian9"], ny, args)
-        else:
-            raise ValueError(f"stencil must be 5 or 9, got {stencil!r}")
-
-    def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
-                         out: DeviceArray) -> None:
-        nm = self._check_metric(u, coefficients, out)
-        self.check_on_device(u, out)
-        ny, nx = u.shape[-2:]
-        if nm * ny * nx > _MAX_CELLS:
-            raise ValueError(f"{nm} members of {ny}x{nx} cells are too many for the OpenCL "
-                             "kernels")
-        args = (u.handle, *(c.handle for c in coefficients), out.handle, nx, ny, nm)
-        self.launch_grid(self.kernels(u.dtype)["metric_laplacian"], nm * ny if nx else 0,
-                          args)
-
-    @staticmethod
-    def field_or_scalar(f: FieldOrScalar, u: DeviceArray, what: str):
-        """``(is_field, buffer, scalar)`` for a scalar or a DeviceArray of u's shape."""
-        if isinstance(f, DeviceArray):
-            if f.shape != u.shape or f.dtype != u.dtype:
-                raise ValueError(
-                    f"{what} field must have the grid's shape {u.shape} and dtype {u.dtype}, "
-                    f"got {f.shape} {f.dtype}"
-                )
-            return True, f.handle, 0.0
-        return False, u.handle, float(f)
-
-    def gray_scott(
-        self,
-        u: DeviceArray,
-        v: DeviceArray,
-        u_out: DeviceArray,
-        v_out: DeviceArray,
-        *,
-        Du: float,
-        Dv: float,
-        F: FieldOrScalar,
-        k: FieldOrScalar,
-        dt: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-    ) -> None:
-        ny, grid = self.grid(bc, u, v, u_out, v_out)
-        f_field, f_buf, f_val = self.field_or_scalar(F, u, "F")
-        k_field, k_buf, k_val = self.field_or_scalar(k, u, "k")
-        name = GS_NAMES[f_field, k_field]
-        kernel = self.kernels(u.dtype)[name]
-        args = (
-            u.handle, v.handle, u_out.handle, v_out.handle, f_buf, k_buf, *grid,
-            1.0 / dx**2, 1.0 / dy**2, Du, Dv, f_val, k_val, dt,
-        )  # fmt: skip
-        self.launch_grid(kernel, ny, args)
-
-    def sor_half_sweep(
-        self,
-        c: DeviceArray,
-        fixed: DeviceArray,
-        rhs: DeviceArray | None,
-        row_change: DeviceArray,
-        *,
-        color: int,
-        omega: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-    ) -> None:
-        ny, grid = self.grid(bc, c, rhs)
-        if fixed.shape != c.shape or fixed.dtype not in _MASK_DTYPES:
-            raise ValueError(
-                f"fixed must be a uint8 mask of shape {c.shape}, got {fixed.shape} {fixed.dtype}"
-            )
-        if row_change.shape != (c.shape[0],) or row_change.dtype != c.dtype:
-            raise ValueError(
-                f"row_change must have shape ({c.shape[0]},) and dtype {c.dtype}, "
-                f"got {row_change.shape} {row_change.dtype}"
-            )
-        if color not in (0, 1):
-            raise ValueError(f"color must be 0 or 1, got {color!r}")
-        t = c.dtype.type
-        ks = self.kernels(c.dtype)
-        wx, wy, wf = self._sor_weights(dx, dy)
-        om = t(omega)
-        kernel = ks["sor_half_sweep"] if rhs is None else ks["sor_half_sweep_rhs"]
-        args = (
-            c.handle, fixed.handle, c.handle if rhs is None else rhs.handle, row_change.handle,
-            color, *grid, wx, wy, wf, om, t(1) - om,
-        )  # fmt: skip
-        self.launch_grid(kernel, ny, args)
 
     def grid3(self, bc: GridBC, u: DeviceArray, *others: DeviceArray):
-        """Check a 3-D grid kernel's arrays; return ``(rows, (nx, ny, nz, y_kind, g_y,
-        x_kind, g_x, z_kind, g_z))`` with ``rows = nz·ny`` (0 when there are no cells)."""
-        if not isinstance(u.backend, OpenCLBackend):
-            raise TypeError(f"array belongs to the {u.backend.name} backend, not opencl")
-        for o in others:
-            if o.shape != u.shape or o.dtype != u.dtype:
-                raise ValueError(
-                    f"array shape/dtype mismatch: {o.shape} {o.dtype} vs {u.shape} {u.dtype}"
-                )
+        """:meth:`grid` for a 3-D grid: ``(rows, (nx, ny, nz, y_kind, g_y, x_kind, g_x,
+        z_kind, g_z))`` with ``rows = nz·ny`` (0 when there are no cells)."""
+        for a in (u, *others):
+            if not isinstance(a.backend, OpenCLBackend):
+                raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")
         nz, ny, nx = u.shape
         if nz * ny * nx > _MAX_CELLS:
             raise ValueError(f"a grid of {nz}x{ny}x{nx} cells is too large for the OpenCL "
@@ -541,65 +398,8 @@ class OpenCLBackend(Backend):
         return rows, (nx, ny, nz, bc.y.kind, bc.y.value, bc.x.kind, bc.x.value, bc.z.kind,
                       bc.z.value)
 
-    def levelset_step(
-        self,
-        phi: DeviceArray,
-        speed: FieldOrScalar,
-        out: DeviceArray,
-        *,
-        dt: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-        dz: float | None = None,
-    ) -> None:
-        is_field, f_buf, f_val = self.field_or_scalar(speed, phi, "speed")
-        ks = self.kernels(phi.dtype)
-        if len(phi.shape) == 3:
-            rows, grid = self.grid3(bc, phi, out)
-            kernel = ks["levelset_step3_f" if is_field else "levelset_step3_s"]
-            args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, 1.0 / dz,
-                    dt)
-            self.launch_grid(kernel, rows, args)
-            return
-        ny, grid = self.grid(bc, phi, out)
-        kernel = ks["levelset_step_f" if is_field else "levelset_step_s"]
-        args = (phi.handle, f_buf, out.handle, *grid, f_val, 1.0 / dx, 1.0 / dy, dt)
-        self.launch_grid(kernel, ny, args)
-
-    def reinit_step(
-        self,
-        phi: DeviceArray,
-        phi0: DeviceArray,
-        out: DeviceArray,
-        *,
-        dtau: float,
-        width: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-        subcell: bool = True,
-        dz: float | None = None,
-    ) -> None:
-        ks = self.kernels(phi.dtype)
-        if len(phi.shape) == 3:
-            rows, grid = self.grid3(bc, phi, phi0, out)
-            kernel = ks["reinit_step3_subcell" if subcell else "reinit_step3"]
-            args = (
-                phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
-                1.0 / dz, dtau, 0.5 / dx, 0.5 / dy, 0.5 / dz, dtau / min(dx, dy, dz), 1e-30,
-            )  # fmt: skip
-            self.launch_grid(kernel, rows, args)
-            return
-        ny, grid = self.grid(bc, phi, phi0, out)
-        kernel = ks["reinit_step_subcell" if subcell else "reinit_step"]
-        args = (
-            phi.handle, phi0.handle, out.handle, *grid, width * width, 1.0 / dx, 1.0 / dy,
-            dtau, 0.5 / dx, 0.5 / dy, dtau / min(dx, dy), 1e-30,
-        )  # fmt: skip
-        self.launch_grid(kernel, ny, args)
-
     def check_on_device(self, *arrays: DeviceArray) -> None:
+        """Every array is on an OpenCL backend, the first of a real type this device runs."""
         for a in arrays:
             if not isinstance(a.backend, OpenCLBackend):
                 raise TypeError(f"array belongs to the {a.backend.name} backend, not opencl")

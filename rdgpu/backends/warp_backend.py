@@ -19,9 +19,16 @@ are zeroed, so ``warp.config.verify_fp`` runs clean.
 Each kernel family is one Warp module holding the float32 and float64 versions of its
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
 backend uses it (:meth:`WarpBackend.module`).  ``DeviceArray.handle`` is a ``warp.array``.
-A family with a launcher module ``rdgpu/families/<family>/warp.py`` (bernoulli, mesh,
-reduce, dla, walkers) is launched by it through the public runtime methods (``launch``,
-``run_split``, ``run_rows`` for CSR rows, ``flat``, ...); the others here.
+
+The hand-written families launch from ``rdgpu/families/<family>/warp.py`` (bound by
+:meth:`~rdgpu.backends.base.Backend.kernel`).  The
+runtime interface those launchers use, this class's public methods: :meth:`~WarpBackend.module`
+(a family's compiled kernels), :meth:`~WarpBackend.launch`, :meth:`~WarpBackend.run_grid`,
+:meth:`~WarpBackend.run_grid3`, :meth:`~WarpBackend.run_split`, the flag ``per_cell`` (the
+launch shape), the cached views :meth:`~WarpBackend.flat` and :meth:`~WarpBackend.members`,
+the boundary arguments :meth:`~WarpBackend.bc_args` and :meth:`~WarpBackend.bc3_args`, and
+the checks :meth:`~WarpBackend.real` and :meth:`~WarpBackend.same`; for CSR rows
+:meth:`~WarpBackend.run_rows`.
 
 Threads: one backend may be driven from several threads at once.  Warp's process-wide
 state -- ``wp.init``, module compilation and loading, the first (recording) launch of a
@@ -43,7 +50,6 @@ import numpy as np
 from rdgpu.backends.base import (
     Backend,
     DeviceArray,
-    FieldOrScalar,
     check_range,
 )
 from rdgpu.backends.warp_codegen import WarpFusedPass
@@ -112,8 +118,6 @@ class WarpBackend(Backend):
             else None
         )
         self._families: dict[str, ModuleType] = {}
-        # SOR weights (wx, wy, wf) from dx, dy: the reference's, so all backends round alike
-        self._sor_weights = load_module("sor", "reference.py").weights
         # recorded launches, one per (kernel, dim, chunk offset) and thread: see _launch
         self._local = threading.local()
 
@@ -249,26 +253,22 @@ class WarpBackend(Backend):
 
     @staticmethod
     def real(d: DeviceArray, what: str) -> type:
+        """The scalar type of a float32/float64 array ``d`` (a TypeError naming ``what``)."""
         if d.dtype not in REAL:
             raise TypeError(f"{what} must be float32 or float64, got {d.dtype}")
         return d.dtype.type
 
     @staticmethod
     def same(a: DeviceArray, b: DeviceArray, what: str) -> None:
+        """``b`` has ``a``'s shape and dtype (a ValueError naming ``what``)."""
         if a.shape != b.shape or a.dtype != b.dtype:
             raise ValueError(
                 f"{what}: shape/dtype {b.shape} {b.dtype} does not match {a.shape} {a.dtype}"
             )
 
-    def param(self, p: FieldOrScalar, like: DeviceArray, what: str):
-        """``(value, is_field)`` for a scalar-or-field kernel parameter."""
-        if isinstance(p, DeviceArray):
-            self.same(like, p, what)
-            return p.handle, True
-        return like.dtype.type(p), False
-
     @staticmethod
     def bc_args(bc: GridBC, t: type) -> list:
+        """A 2-D grid kernel's boundary arguments ``y_kind, g_y, x_kind, g_x`` (``t`` values)."""
         return [bc.y.kind, t(bc.y.value), bc.x.kind, t(bc.x.value)]
 
     # ------------------------------------------------------------------ memory
@@ -307,36 +307,7 @@ class WarpBackend(Backend):
     def synchronize(self) -> None:
         self._wp.synchronize_device(self._dev)
 
-    # ------------------------------------------------------------------ grid kernels
-    def laplacian(
-        self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
-    ) -> None:
-        t = self.real(u, "laplacian input")
-        self.same(u, out, "laplacian output")
-        if stencil == 5:
-            cx, cy = t(1.0 / dx**2), t(1.0 / dy**2)
-        elif stencil == 9:
-            cx, cy = t(1.0 / (6.0 * dx * dx)), t(0)
-        else:
-            raise ValueError(f"stencil must be 5 or 9, got {stencil}")
-        kernels = self.module("laplacian").KERNELS[(u.dtype, stencil)]
-        args = [u.handle, out.handle, cx, cy, *self.bc_args(bc, t)]
-        self.run_grid(kernels, u.shape, args)
-
-    def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
-                         out: DeviceArray) -> None:
-        nm = self._check_metric(u, coefficients, out)
-        ny, nx = u.shape[-2:]
-        check_cells(nm * ny * nx, (nm, ny, nx))
-        if nm * ny * nx == 0:
-            return
-        rows, cells = self.module("metric").KERNELS[u.dtype]
-        args = [self.members(u, nm), *(c.handle for c in coefficients), self.members(out, nm)]
-        if self.per_cell:
-            self.launch(cells, (nm, ny, nx), args, 0)
-            return
-        self.run_split(rows, nm * ny, nm * ny * nx, args)
-
+    # ------------------------------------------------------------------ grid launchers' views
     @staticmethod
     def members(d: DeviceArray, nm: int):
         """A cached ``[nm, ny, nx]`` view of a ``[ny, nx]`` or ``[nm, ny, nx]`` array."""
@@ -361,78 +332,6 @@ class WarpBackend(Backend):
             d.meta["warp_flat"] = flat
         return flat
 
-    def gray_scott(
-        self,
-        u: DeviceArray,
-        v: DeviceArray,
-        u_out: DeviceArray,
-        v_out: DeviceArray,
-        *,
-        Du: float,
-        Dv: float,
-        F: FieldOrScalar,
-        k: FieldOrScalar,
-        dt: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-    ) -> None:
-        t = self.real(u, "gray_scott u")
-        for other, what in ((v, "v"), (u_out, "u_out"), (v_out, "v_out")):
-            self.same(u, other, f"gray_scott {what}")
-        f_val, f_field = self.param(F, u, "gray_scott F")
-        k_val, k_field = self.param(k, u, "gray_scott k")
-        kernels = self.module("gray_scott").KERNELS[(u.dtype, f_field, k_field)]
-        args = [
-            u.handle, v.handle, u_out.handle, v_out.handle, f_val, k_val,
-            t(1.0 / dx**2), t(1.0 / dy**2), t(Du), t(Dv), t(dt), *self.bc_args(bc, t),
-        ]
-        self.run_grid(kernels, u.shape, args)
-
-    def sor_half_sweep(
-        self,
-        c: DeviceArray,
-        fixed: DeviceArray,
-        rhs: DeviceArray | None,
-        row_change: DeviceArray,
-        *,
-        color: int,
-        omega: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-    ) -> None:
-        t = self.real(c, "sor c")
-        if fixed.shape != c.shape or fixed.dtype != np.uint8:
-            raise ValueError(f"sor fixed must be uint8 of shape {c.shape}, got "
-                             f"{fixed.dtype} {fixed.shape}")
-        if row_change.shape != (c.shape[0],) or row_change.dtype != c.dtype:
-            raise ValueError(f"sor row_change must be {c.dtype} of shape ({c.shape[0]},), got "
-                             f"{row_change.dtype} {row_change.shape}")
-        if color not in (0, 1):
-            raise ValueError(f"color must be 0 or 1, got {color}")
-        if rhs is None:
-            r_val, r_field = t(0), False
-        else:
-            r_val, r_field = self.param(rhs, c, "sor rhs")
-        wx, wy, wf = self._sor_weights(dx, dy)
-        om = t(omega)
-        rows, cells = self.module("sor").KERNELS[(c.dtype, r_field)]
-        args = [
-            c.handle, fixed.handle, r_val, row_change.handle, int(color),
-            t(wx), t(wy), t(wf), om, t(1) - om, *self.bc_args(bc, t),
-        ]
-        ny, nx = c.shape
-        if ny == 0:
-            return
-        if self.per_cell:
-            if color == 0:
-                row_change.handle.zero_()
-            if nx:
-                self.launch(cells, (ny, nx), args, 0)
-            return
-        self.run_split(rows, ny, ny * nx, args)
-
     def run_grid3(self, kernels, shape: tuple[int, ...], args: list) -> None:
         """Launch a 3-D ``(rows, cells)`` kernel pair over a ``[nz, ny, nx]`` grid."""
         nz, ny, nx = shape
@@ -446,67 +345,9 @@ class WarpBackend(Backend):
         self.run_split(rows, nz * ny, nz * ny * nx, args)
 
     def bc3_args(self, bc: GridBC, t: type) -> list:
+        """A 3-D grid kernel's boundary arguments: ``z_kind, g_z``, then :meth:`bc_args`."""
         return [bc.z.kind, t(bc.z.value), *self.bc_args(bc, t)]
 
-    def levelset_step(
-        self,
-        phi: DeviceArray,
-        speed: FieldOrScalar,
-        out: DeviceArray,
-        *,
-        dt: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-        dz: float | None = None,
-    ) -> None:
-        t = self.real(phi, "levelset phi")
-        self.same(phi, out, "levelset output")
-        s_val, s_field = self.param(speed, phi, "levelset speed")
-        family = self.module("levelset")
-        if len(phi.shape) == 3:
-            args = [phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
-                    t(1.0 / dz), *self.bc3_args(bc, t)]
-            self.run_grid3(family.STEP3[(phi.dtype, s_field)], phi.shape, args)
-            return
-        args = [
-            phi.handle, s_val, out.handle, t(dt), t(1.0 / dx), t(1.0 / dy),
-            *self.bc_args(bc, t),
-        ]
-        self.run_grid(family.STEP[(phi.dtype, s_field)], phi.shape, args)
-
-    def reinit_step(
-        self,
-        phi: DeviceArray,
-        phi0: DeviceArray,
-        out: DeviceArray,
-        *,
-        dtau: float,
-        width: float,
-        dx: float,
-        dy: float,
-        bc: GridBC,
-        subcell: bool = True,
-        dz: float | None = None,
-    ) -> None:
-        t = self.real(phi, "reinit phi")
-        self.same(phi, phi0, "reinit phi0")
-        self.same(phi, out, "reinit output")
-        family = self.module("levelset")
-        if len(phi.shape) == 3:
-            args = [
-                phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
-                t(1.0 / dx), t(1.0 / dy), t(1.0 / dz), t(0.5 / dx), t(0.5 / dy), t(0.5 / dz),
-                t(dtau / min(dx, dy, dz)), *self.bc3_args(bc, t),
-            ]  # fmt: skip
-            self.run_grid3(family.REINIT3[(phi.dtype, bool(subcell))], phi.shape, args)
-            return
-        args = [
-            phi.handle, phi0.handle, out.handle, t(dtau), t(width * width),
-            t(1.0 / dx), t(1.0 / dy), t(0.5 / dx), t(0.5 / dy), t(dtau / min(dx, dy)),
-            *self.bc_args(bc, t),
-        ]
-        self.run_grid(family.REINIT[(phi.dtype, bool(subcell))], phi.shape, args)
 
 
 def cuda_device_count() -> int:

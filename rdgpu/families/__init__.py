@@ -30,3 +30,17 @@ def load_module(family: str, filename: str) -> ModuleType:
     """Import ``rdgpu/families/<family>/<filename>`` as ``rdgpu.families.<family>.<stem>``."""
     parts = [p for p in (family, Path(filename).stem) if p]
     return importlib.import_module(".".join([__name__, *parts]))
+
+
+def shared_opencl_families() -> tuple[str, ...]:
+    """The families whose OpenCL kernels join the one shared program (each declares
+    ``KERNEL_ARGS`` in its ``opencl.py``; a family built as a program of its own, like
+    ``dla`` and ``walkers``, declares ``PROGRAM_ARGS`` instead), in name order."""
+    found = []
+    for folder in sorted(p for p in _KERNEL_DIR.iterdir() if p.is_dir()):
+        name = folder.name
+        if not (folder / f"{name}.cl").is_file() or not (folder / "opencl.py").is_file():
+            continue
+        if hasattr(importlib.import_module(f"{__name__}.{name}.opencl"), "KERNEL_ARGS"):
+            found.append(name)
+    return tuple(found)

@@ -13,6 +13,9 @@ import numpy as np
 
 from rdgpu.core.conventions import REAL_DTYPES
 
+#: the NumPy scalar type of each real dtype (one dict lookup: launches check on every call)
+_SCALAR_TYPES = {d: d.type for d in REAL_DTYPES}
+
 
 def is_device_array(d: Any) -> bool:
     """Whether ``d`` is a device array of some backend (a ``DeviceArray``: it has a
@@ -22,9 +25,12 @@ def is_device_array(d: Any) -> bool:
 
 def real_type(d: Any, what: str) -> type:
     """The NumPy scalar type of a float32/float64 device array ``d``; a TypeError otherwise."""
-    if d.dtype not in REAL_DTYPES:
-        raise TypeError(f"{what} must be float32 or float64, got {d.dtype}")
-    return np.dtype(d.dtype).type
+    t = _SCALAR_TYPES.get(d.dtype)
+    if t is None:
+        if d.dtype not in REAL_DTYPES:
+            raise TypeError(f"{what} must be float32 or float64, got {d.dtype}")
+        t = np.dtype(d.dtype).type
+    return t
 
 
 def same_layout(a: Any, b: Any, what: str) -> None:
