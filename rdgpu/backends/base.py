@@ -172,6 +172,7 @@ class Backend(ABC):
         if fn is None:
             raise NotImplementedError(self._lacks(f"{family}.{op}"))
         bound = functools.partial(fn, self)  # (a C call: cheaper than a closure)
+        bound.__name__ = bound.__qualname__ = f"{family}.{op}"
         bound.__doc__ = fn.__doc__
         self.__dict__.setdefault("_kernels_bound", {})[family, op] = bound
         return bound
