@@ -45,12 +45,8 @@ LAZY_IMPORTS: dict[str, str] = {
 #: "<check>: <finding>" for every violation the code has today (see the module docstring)
 KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     # cycle (0)
-    # upward (2)
-    'upward: rdgpu.models.allen_cahn -> rdgpu.integrators.allen_cahn',
-    'upward: rdgpu.models.model -> rdgpu.integrators',
-    # lazy (2)
-    'lazy: rdgpu.models.allen_cahn -> rdgpu.integrators.allen_cahn',
-    'lazy: rdgpu.models.model -> rdgpu.integrators',
+    # upward (0)
+    # lazy (0)
     # private (0)
     # long modules (0)
     # backend peeks (0)

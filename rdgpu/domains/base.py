@@ -141,3 +141,9 @@ def require_domain(obj: Any, what: str = "domain") -> Any:
             f"rdgpu.domains.mesh.SurfaceMesh, got {type(obj).__name__}"
         )
     return obj
+
+
+def domain_shape(domain: Domain) -> tuple[int, ...]:
+    """The kernels' shape: ``(ny, nx)`` / ``(nz, ny, nx)`` of a grid, ``(n_vertices,)`` of a
+    mesh (:attr:`Domain.kernel_shape`); a ``TypeError`` for anything but a domain."""
+    return require_domain(domain).kernel_shape

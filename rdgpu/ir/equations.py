@@ -28,7 +28,7 @@ it, as is an expression nested more than :data:`MAX_DEPTH` levels deep or of mor
 The tree (:class:`Num`, :class:`Ref`, :class:`Lap`, :class:`Bin`, :class:`Neg`,
 :class:`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
 emits it fully parenthesised, so the three implementations evaluate the same operations in
-the same order (:mod:`rdgpu.models.compiler`).
+the same order (:mod:`rdgpu.integrators.passes`).
 
 :func:`linear_parts` splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
 laplace(laplace(r)) + rest`` where it can (coefficients made of numbers and scalar

@@ -1,7 +1,8 @@
 """The model layer: a model is its equations.
 
-Time stepping (the schemes, the steppers, stability) is :mod:`rdgpu.integrators`, a layer
-above this one.
+Time stepping (the schemes, the steppers, stability, temporal blocking) is
+:mod:`rdgpu.integrators`, the layer below this one: ``Model.stepper`` binds a model to a
+domain as one of its steppers.
 
 Where things are:
 
@@ -9,13 +10,13 @@ Where things are:
   parsed into a small expression tree, and its linear spatial part;
 * :mod:`~rdgpu.models.model` — :func:`define_model` / :class:`Model`: equations,
   parameters (numbers, fields, expressions of ``x, y, z, t``), stability limits;
-* :mod:`~rdgpu.models.compiler` — the tree turned into one fused kernel per backend (NumPy
-  reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
-  ``rdgpu/families/model/``;
+* the tree is turned into one fused kernel per backend (NumPy reference, Warp, OpenCL C)
+  on 1-D/2-D/3-D grids and meshes by the steppers (:mod:`rdgpu.integrators`) through
+  :mod:`rdgpu.ir.program` and the backends' printers; templates in
   ``rdgpu/families/model/``;
 * :mod:`~rdgpu.models.library` — the built-in models (a few lines each);
   :mod:`~rdgpu.models.allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
-  :mod:`rdgpu.integrators.allen_cahn`);
+  :mod:`rdgpu.integrators.allen_cahn`) and ``rdgpu.allen_cahn``, its functional form;
 * :mod:`~rdgpu.models.presets` — the papers' runs, as data.
 """
 
