@@ -121,8 +121,8 @@ GROWTH_ENTRIES: dict[str, tuple[str, str, list[str]]] = {
     "walkers-sticking01": ("Random walkers, sticking 0.1: denser, not thinner", "seed 001 §2",
                            ["random-walk-dla", "--param", "sticking=0.1", "--param",
                             "walkers=64", "--size", "256", "--steps", "4000"]),
-    "seed003-front": ("A level-set front driven by Turing's spots (β = Δu): the region "
-                      "φ < 0 in black", "seed 003 §4.2", ["seed003-front", "--scale", "4"]),
+    "turing-front": ("A level-set front driven by Turing's spots (β = Δu): the region "
+                     "φ < 0 in black", "seed 003 §4.2", ["turing-front", "--scale", "4"]),
 }
 
 
@@ -135,7 +135,7 @@ def growth_command(name: str, backend: str) -> list[str]:
 
 def growth_measure(name: str, data: Path) -> str:
     z = np.load(data)
-    if name == "seed003-front":
+    if name == "turing-front":
         return f"{z['mask'].mean():.0%} inside the front"
     mask = z["mask"]
     if "geometry=radial" in GROWTH_ENTRIES[name][2] or name.startswith("walkers"):

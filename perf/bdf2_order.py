@@ -85,7 +85,7 @@ def timing(backend: str, size: int = 128, steps: int = 20) -> str:
     """Wall time per step of ``imex`` and ``bdf2`` (and of their explicit passes alone) for
     Gray-Scott on a periodic ``size²`` grid, float32, dt = 1, after two warm-up steps;
     best of three runs of ``steps`` steps."""
-    from rdgpu.models.compiler import launch
+    from rdgpu.integrators.passes import launch
 
     gs = MODELS["gray-scott"]
     grid = Grid((size, size), dx=1.0, bc="periodic")

@@ -8,7 +8,7 @@ once) on a periodic grid whose fields are ``factor`` × the last-level cache, fr
 default initial condition run ``warmup`` steps (a real state: a pattern growing in a
 decayed background, where the kernels flush subnormals).  In one run it times:
 
-* the single-step OpenCL rate (Mcell·steps/s) and the blocked rates (``rdgpu.models.blocking``)
+* the single-step OpenCL rate (Mcell·steps/s) and the blocked rates (``rdgpu.integrators.blocking``)
   for every K in ``--steps`` and band height B in ``--rows``;
 * the single-step memory roofline: the bandwidth of an OpenCL triad ``a = b + s·c`` over
   three arrays each the size of the state (3 arrays counted, as STREAM does; as many
@@ -38,7 +38,7 @@ except ImportError:  # a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from real_states import subnormal_fraction, timed
 
-from rdgpu.models.blocking import BlockedEuler, last_level_cache
+from rdgpu.integrators.blocking import BlockedEuler, last_level_cache
 from rdgpu.simulation.driver import Simulation
 
 TRIAD = """

@@ -50,7 +50,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "random_walk_dla": ("rdgpu.growth.walkers", "random_walk_dla"),
     "Simulation": ("rdgpu.simulation", "Simulation"),
     "define_model": ("rdgpu.models", "define_model"),
-    "allen_cahn": ("rdgpu.integrators.allen_cahn", "allen_cahn"),  # steps the model layer
+    "allen_cahn": ("rdgpu.models.allen_cahn", "allen_cahn"),  # the model layer
     # submodules as attributes: rdgpu.output, rdgpu.analysis, ...
     "analysis": ("rdgpu.analysis", None),
     "fronts": ("rdgpu.growth.fronts", None),

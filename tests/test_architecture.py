@@ -5,7 +5,8 @@ reads the imports with :mod:`ast`; nothing is imported).
 * no import cycle between modules at import time (a shrinking known list), not even
   through the allowed lazy imports;
 * imports of rdgpu modules inside functions only where :data:`LAZY_IMPORTS` says why;
-* no relative imports; no module over 700 lines;
+* no relative imports; no module over 700 lines; no function over 100 lines
+  (:data:`LONG_FUNCTIONS` lists the exceptions, each with its reason);
 * outside ``rdgpu/backends/`` nothing compares a backend's name or reads its private
   members; outside ``rdgpu/domains/`` no ``isinstance`` on a domain class; no private name
   taken from another module;
@@ -48,12 +49,8 @@ LAZY_IMPORTS: dict[str, str] = {
 #: "<check>: <finding>" for every violation the code has today (see the module docstring)
 KNOWN_VIOLATIONS: frozenset[str] = frozenset({
     # cycle (0)
-    # upward (2)
-    'upward: rdgpu.models.allen_cahn -> rdgpu.integrators.allen_cahn',
-    'upward: rdgpu.models.model -> rdgpu.integrators',
-    # lazy (2)
-    'lazy: rdgpu.models.allen_cahn -> rdgpu.integrators.allen_cahn',
-    'lazy: rdgpu.models.model -> rdgpu.integrators',
+    # upward (0)
+    # lazy (0)
     # private (0)
     # long modules (0)
     # backend peeks (0)
@@ -125,6 +122,43 @@ def test_no_private_names_across_modules(found):
 
 def test_no_module_over_700_lines(found):
     _compare("long_modules", found["LONG_MODULES"])
+
+
+#: functions allowed over :data:`MAX_FUNCTION_LINES` lines ("path::name": the reason)
+LONG_FUNCTIONS: dict[str, str] = {
+    **{f"rdgpu/families/{family}/warp_kernels.py::{name}":
+       "Warp kernels built per dtype (the nested @wp.kernel/@wp.func count); rdgpu/families "
+       "is being moved (the launchers' move): revisit after it"
+       for family, name in (("gray_scott", "_build"), ("laplacian", "_build"),
+                            ("levelset", "_build_reinit"), ("sor", "_build"))},
+}
+#: the longest a function of rdgpu may be (its whole span, nested functions included)
+MAX_FUNCTION_LINES = 100
+
+
+def long_functions(limit: int = MAX_FUNCTION_LINES) -> dict[str, int]:
+    """``"path::name": lines`` of every function of rdgpu/ longer than ``limit``."""
+    import ast
+
+    out = {}
+    for path in sorted(ig.PACKAGE.rglob("*.py")):
+        rel = path.relative_to(ig.ROOT).as_posix()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > limit:
+                    out[f"{rel}::{node.name}"] = lines
+    return out
+
+
+def test_no_function_over_100_lines():
+    found = long_functions()
+    new = sorted(f"{k} ({found[k]} lines)" for k in set(found) - set(LONG_FUNCTIONS))
+    assert not new, ("split these functions where they mix ideas (or list one in "
+                     f"LONG_FUNCTIONS with its reason): {new}")
+    gone = sorted(set(LONG_FUNCTIONS) - set(found))
+    assert not gone, f"remove from LONG_FUNCTIONS (now <= {MAX_FUNCTION_LINES} lines): {gone}"
+    assert all(reason.strip() for reason in LONG_FUNCTIONS.values())
 
 
 def test_backend_seam_outside_backends(found):

@@ -280,7 +280,7 @@ class Backend(ABC):
     def blocked_pass(self, program: Program, target: Target, *, steps: int, rows: int,
                      items: int) -> BlockedPass:
         """A blocked pass of an explicit Euler ``program`` on a 2-D grid ``target``
-        (:mod:`rdgpu.models.blocking`): ``steps`` steps per pass in bands of ``rows`` rows,
+        (`rdgpu.integrators.blocking`): ``steps`` steps per pass in bands of ``rows`` rows,
         ``items`` work-items (a :class:`~rdgpu.backends.target.BlockedPass`)."""
         raise NotImplementedError(self.blocked_pass_support() or
                                   f"the {self.name} backend has no blocked kernel")

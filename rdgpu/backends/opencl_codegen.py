@@ -7,7 +7,7 @@ exact in the dtype, ``FP_CONTRACT OFF``); :func:`opencl_source` puts it in the s
 ``rd_program`` of ``families/model/model.cl`` (one work-item per row, CPU: edge columns
 peeled and a branch-free interior; or strided columns, GPU; CSR rows in blocks on meshes),
 :func:`blocked_source` in ``rd_blocked`` of ``families/model/blocked.cl`` (``steps`` Euler
-steps per pass over bands of rows: :mod:`rdgpu.models.blocking`).  Programs are built per
+steps per pass over bands of rows: `rdgpu.integrators.blocking`).  Programs are built per
 context, build options and dtype (:func:`opencl_program`), kernels cached in the program per
 thread (:func:`opencl_kernel`).
 """
@@ -313,7 +313,7 @@ class OpenCLFusedPass(FusedPass):
 class OpenCLBlockedPass(BlockedPass):
     """``steps`` Euler steps of ``program`` per pass over a 2-D grid ``target``, in bands of
     ``rows`` rows over ``items`` work-items, each with its scratch rings
-    (:mod:`rdgpu.models.blocking`; :meth:`OpenCLBackend.blocked_pass`)."""
+    (`rdgpu.integrators.blocking`; :meth:`OpenCLBackend.blocked_pass`)."""
 
     def __init__(self, program: Program, target: Target, steps: int, rows: int, items: int):
         self.program, self.target = program, target

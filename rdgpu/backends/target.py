@@ -87,7 +87,7 @@ class FusedPass(ABC):
 
 class BlockedPass(ABC):
     """``steps`` explicit Euler steps of one program per pass over a 2-D grid, in bands of
-    rows (temporal blocking, :mod:`rdgpu.models.blocking`; ``Backend.blocked_pass``)."""
+    rows (temporal blocking, `rdgpu.integrators.blocking`; ``Backend.blocked_pass``)."""
 
     @abstractmethod
     def run(self, x: Sequence[DeviceArray], y: Sequence[DeviceArray],

@@ -143,7 +143,8 @@ def _add_run_parser(sub: Any) -> None:
                      "name); the growth "
                      "models dla and random-walk-dla (--param eta=1, sticking=0.5, "
                      "geometry=slab|radial; --steps: growth steps / particles); "
-                     "seed003-front, a level-set front driven by seed 003's Turing spots")
+                     "turing-front (alias seed003-front), a level-set front driven by "
+                     "Turing's spots (seed 003)")
     _add_what_to_run(run.add_argument_group("what to run"))
     _add_outputs(run.add_argument_group("outputs"))
     long = run.add_argument_group("long runs")

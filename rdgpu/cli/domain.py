@@ -233,7 +233,7 @@ def _fields_from(path: str, species: tuple[str, ...]) -> dict:
 
 def check_block_memory(k: int | None, spec: dict, n_species: int, itemsize: int) -> None:
     """--block-steps K: the scratch rows of the blocked passes (``K - 1`` levels of 3 rows
-    per species for each work-item, two per core; `rdgpu.models.blocking`) through the
+    per species for each work-item, two per core; `rdgpu.integrators.blocking`) through the
     shared memory estimate."""
     if not k or k < 2 or "grid" not in spec:
         return

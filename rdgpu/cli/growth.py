@@ -1,13 +1,13 @@
-"""``rdgpu run dla``, ``rdgpu run random-walk-dla`` and ``rdgpu run seed003-front``: the
+"""``rdgpu run dla``, ``rdgpu run random-walk-dla`` and ``rdgpu run turing-front``: the
 growth models (seed 001) and the level-set front driven by a Turing pattern (seed 003
-§4.2, :func:`rdgpu.fronts.seed003_front`) on the command line, beside the
-reaction-diffusion models of ``rdgpu run``.
+§4.2, :func:`rdgpu.fronts.turing_front`; seed 003's label ``seed003-front`` is accepted as
+an alias) on the command line, beside the reaction-diffusion models of ``rdgpu run``.
 
 ``--size NxM`` is the grid, ``--steps`` the growth steps (DLA by the nutrient field: cells
 joining, ``k`` a step) or the particles (random walkers), ``--param`` their parameters
 (``eta``, ``k``, ``tol`` / ``sticking``, ``walkers``; ``geometry=slab|radial`` for
 both), ``--seed``, ``--backend``; ``--out`` a PNG coloured by arrival (empty cells white),
-``--data`` an NPZ with the mask, the arrival steps and the settings.  ``seed003-front``:
+``--data`` an NPZ with the mask, the arrival steps and the settings.  ``turing-front``:
 ``--steps`` front steps, ``--param warmup=``, ``reinit_every=``, ``beta_scale=``,
 ``speed=laplace|offset``; ``--out`` the region ``φ < 0`` (black), ``--data`` φ and it.
 """
@@ -26,7 +26,7 @@ import numpy as np
 from rdgpu import growth
 from rdgpu.analysis import fractal_dimension
 from rdgpu.growth.dla import dla, dla_image
-from rdgpu.growth.fronts import seed003_front
+from rdgpu.growth.fronts import turing_front
 from rdgpu.growth.walkers import random_walk_dla
 
 GEOMETRIES = (*growth.GEOMETRIES, *growth.GEOMETRY_ALIASES)
@@ -37,14 +37,23 @@ GROWTH: dict[str, tuple[int, dict[str, tuple[Any, Any]]]] = {
                    "geometry": (GEOMETRIES, "slab")}),
     "random-walk-dla": (1000, {"sticking": ("float", 1.0), "walkers": ("int", None),
                                "geometry": (GEOMETRIES, "radial")}),
-    "seed003-front": (1000, {"warmup": ("int", 8000), "reinit_every": ("int", 20),
-                             "beta_scale": ("float", 1.0),
-                             "speed": (("laplace", "offset"), "laplace")}),
+    "turing-front": (1000, {"warmup": ("int", 8000), "reinit_every": ("int", 20),
+                            "beta_scale": ("float", 1.0),
+                            "speed": (("laplace", "offset"), "laplace")}),
 }
+#: the papers' labels accepted for a growth model's name
+GROWTH_ALIASES = {"seed003-front": "turing-front"}
+
+
+def growth_name(name: str | None) -> str | None:
+    """``name`` (``rdgpu run``'s MODEL) with a paper's label (:data:`GROWTH_ALIASES`)
+    replaced by the growth model's name."""
+    return GROWTH_ALIASES.get(name, name) if isinstance(name, str) else name
 
 
 def is_growth(args: argparse.Namespace) -> bool:
-    return getattr(args, "model", None) in GROWTH and not getattr(args, "equation", None)
+    return growth_name(getattr(args, "model", None)) in GROWTH \
+        and not getattr(args, "equation", None)
 
 
 def _params(args: argparse.Namespace, usage: type[Exception]) -> dict[str, Any]:
@@ -93,7 +102,8 @@ def _unsupported(args: argparse.Namespace, usage: type[Exception]) -> None:
 
 
 def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
-    """Run ``args.model`` (a key of :data:`GROWTH`) and write its outputs."""
+    """Run ``args.model`` (a key of :data:`GROWTH`, or an alias) and write its outputs."""
+    args.model = growth_name(args.model)
     _unsupported(args, usage)
     size = args.size if args.size is not None else (256, 256)
     if len(size) != 2:
@@ -101,7 +111,7 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
     params = _params(args, usage)
     steps = args.steps if args.steps is not None else GROWTH[args.model][0]
     seed = args.seed if args.seed is not None else 0
-    if args.model == "seed003-front":
+    if args.model == "turing-front":
         return _front(args, params, steps, say, usage)
     t0 = time.perf_counter()
     try:
@@ -147,18 +157,18 @@ def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
 
 def _front(args: argparse.Namespace, params: dict, steps: int, say,
            usage: type[Exception]) -> int:
-    """``rdgpu run seed003-front``: the seed's Turing spots, then a front driven by Δu."""
+    """``rdgpu run turing-front``: the seed's Turing spots, then a front driven by Δu."""
     if args.size is not None or args.seed is not None:
-        raise usage("seed003-front runs the seed's own grid and initial state (preset "
+        raise usage("turing-front runs the seed's own grid and initial state (preset "
                     "turing-seed003-spots): --size and --seed do not apply")
     t0 = time.perf_counter()
     try:
-        result = seed003_front(backend=args.backend, steps=steps, warmup=params["warmup"],
-                               reinit_every=params["reinit_every"],
-                               beta_scale=params["beta_scale"], speed=params["speed"])
+        result = turing_front(backend=args.backend, steps=steps, warmup=params["warmup"],
+                              reinit_every=params["reinit_every"],
+                              beta_scale=params["beta_scale"], speed=params["speed"])
     except ValueError as exc:
         raise usage(str(exc)) from None
-    say(args, "seed003-front: " + ", ".join(f"{k}={v}" for k, v in params.items())
+    say(args, "turing-front: " + ", ".join(f"{k}={v}" for k, v in params.items())
         + f", {steps} front steps")
     _write(args, say, lambda out: result.save_png(out, scale=args.scale or 4),
            {"phi": result.phi, "mask": result.mask}, {"steps": steps, **params})

@@ -18,7 +18,7 @@ from typing import Any
 from rdgpu.io.writers import FPS_RANGE, check_fps
 
 #: --block-steps: a pass recomputes 2 (K - 1) halo rows around each band of 512 rows
-#: (rdgpu.models.blocking.ROWS), so K past that recomputes more than it advances
+#: (rdgpu.integrators.blocking.ROWS), so K past that recomputes more than it advances
 MAX_BLOCK_STEPS = 512
 #: --height AMPLITUDE (units of dx): beyond this the surface's metric overflows long
 #: before a pattern could be resolved on it

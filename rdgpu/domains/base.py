@@ -26,12 +26,6 @@ KINDS = ("grid", "graph-surface", "mesh")
 #: (9 points in 2-D, 19 in 3-D)
 STENCILS = ("compact", "isotropic")
 
-#: what :meth:`Domain.stencil_kind` answers, and the number of grid axes of each (0: the
-#: unstructured mesh): the code generators key their per-kind stencil table on it
-STENCIL_KINDS = {"grid1": 1, "grid2": 2, "grid3": 3, "grid2iso": 2, "grid3iso": 3,
-                 "grid2metric": 2, "mesh": 0}
-
-
 @runtime_checkable
 class Domain(Protocol):
     """Where fields live (see the module doc for the shapes).  Everything code outside
@@ -94,9 +88,10 @@ class Domain(Protocol):
         """Coordinate ``axis`` of every point (``kernel_shape``) scaled to [0, 1]."""
 
     def stencil_kind(self, stencil: str = "compact") -> str:
-        """The key of the code generators' per-kind stencil table (:data:`STENCIL_KINDS`)
-        for ``stencil`` (:data:`STENCILS`) on this domain; a stencil the domain cannot
-        use is a ``ValueError``."""
+        """The key of the code generators' per-kind stencil table
+        (:data:`rdgpu.ir.stencils.STENCIL_KINDS`, which owns the kinds) for ``stencil``
+        (:data:`STENCILS`) on this domain; a stencil the domain cannot use is a
+        ``ValueError``."""
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
         """An upper bound of the largest eigenvalue of ``−Δ_h`` (explicit stability)."""
@@ -141,3 +136,9 @@ def require_domain(obj: Any, what: str = "domain") -> Any:
             f"rdgpu.domains.mesh.SurfaceMesh, got {type(obj).__name__}"
         )
     return obj
+
+
+def domain_shape(domain: Domain) -> tuple[int, ...]:
+    """The kernels' shape: ``(ny, nx)`` / ``(nz, ny, nx)`` of a grid, ``(n_vertices,)`` of a
+    mesh (:attr:`Domain.kernel_shape`); a ``TypeError`` for anything but a domain."""
+    return require_domain(domain).kernel_shape

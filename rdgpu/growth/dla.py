@@ -175,17 +175,7 @@ def dla(
     steps, seed = check.whole(steps, "steps"), check.whole(seed, "seed")
     k = check.whole(k, "k", minimum=1)  # cells joining per growth step
     tol = check.scalar(tol, "tol", strict=True)
-    omega = optimal_omega((ny, nx)) if omega is None else check.scalar(omega, "omega")
-    if not 0.0 < omega < 2.0:
-        raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
-    try:
-        dt = np.dtype(dtype)
-    except TypeError:
-        dt = None
-    if dt not in REAL_DTYPES:
-        raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
-    max_sweeps = (max(1000, 50 * max(ny, nx)) if max_sweeps is None
-                  else check.whole(max_sweeps, "max_sweeps", minimum=1))
+    omega, dt, max_sweeps = _solver_settings((ny, nx), omega, dtype, max_sweeps)
     warm_start = check.flag(warm_start, "warm_start")
     check_fields(f"dla on a {ny}x{nx} grid", ny * nx, FIELDS, dt.itemsize, copies=2)
     state, c0, source, center, bc, wrap = _setup((ny, nx), geometry)
@@ -196,7 +186,41 @@ def dla(
 
     be = get_backend(backend)
     grower = _Grower(be, state, c0.astype(dt), bc, wrap, omega, tol, max_sweeps, source)
-    rng = np.random.default_rng(seed)
+    sweeps, stopped, done = _grow(grower, source, wrap, eta=eta, steps=steps, k=k,
+                                  rng=np.random.default_rng(seed), warm_start=warm_start)
+    final_state = grower.state.numpy()
+    return DLAResult(
+        mask=final_state == _OBJECT, arrival=grower.arrival.numpy(), c=grower.c.numpy(),
+        sweeps=np.asarray(sweeps, dtype=np.int64), stopped=stopped, steps_done=done,
+        center=center, shape=(ny, nx), eta=eta, steps=int(steps), geometry=geometry,
+        seed=int(seed), k=int(k), tol=tol, omega=omega, dtype=dt.name, backend=be.name,
+        warm_start=bool(warm_start),
+    )
+
+
+def _solver_settings(shape: tuple[int, int], omega: Any, dtype: Any,
+                     max_sweeps: Any) -> tuple[float, np.dtype, int]:
+    """:func:`dla`'s SOR settings checked, defaults filled in: ``omega`` in (0, 2), the
+    field's real dtype and ``max_sweeps``."""
+    omega = optimal_omega(shape) if omega is None else check.scalar(omega, "omega")
+    if not 0.0 < omega < 2.0:
+        raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
+    try:
+        dt = np.dtype(dtype)
+    except TypeError:
+        dt = None
+    if dt not in REAL_DTYPES:
+        raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
+    max_sweeps = (max(1000, 50 * max(shape)) if max_sweeps is None
+                  else check.whole(max_sweeps, "max_sweeps", minimum=1))
+    return omega, dt, max_sweeps
+
+
+def _grow(grower: _Grower, source: np.ndarray | None, wrap: bool, *, eta: float, steps: int,
+          k: int, rng: np.random.Generator, warm_start: bool) -> tuple[list[int], str, int]:
+    """The growth loop of :func:`dla`: per step a solve and ``k`` cells joining, until
+    ``steps``, no candidate left or a joined cell touching a source cell; returns the
+    sweeps per solve, why it stopped and the steps done."""
     sweeps: list[int] = []
     stopped = "steps"
     done = 0
@@ -212,14 +236,7 @@ def dla(
         if any(_touches(source, i, j, wrap) for i, j in joined):
             stopped = "boundary"
             break
-    final_state = grower.state.numpy()
-    return DLAResult(
-        mask=final_state == _OBJECT, arrival=grower.arrival.numpy(), c=grower.c.numpy(),
-        sweeps=np.asarray(sweeps, dtype=np.int64), stopped=stopped, steps_done=done,
-        center=center, shape=(ny, nx), eta=eta, steps=int(steps), geometry=geometry,
-        seed=int(seed), k=int(k), tol=tol, omega=omega, dtype=dt.name, backend=be.name,
-        warm_start=bool(warm_start),
-    )
+    return sweeps, stopped, done
 
 
 class _Grower:

@@ -16,9 +16,9 @@ Each driver step advances the model by one step ``dt`` and the front by the same
 scheme, with the subcell fix, on the device).  The region ``φ < 0`` is the pattern (the
 seed stops "when we get a stable pattern"; the front settles where ``β = 0``).
 
-:data:`SEED003_FRONT` is a default configuration: the seed's own reaction-diffusion model
-(Turing's spots, eq. 2.15, the ``turing-seed003-spots`` preset) with β = Δa of the
-activator ``a = u``.
+:data:`TURING_FRONT` is a default configuration (:func:`turing_front`; seed 003's label,
+``seed003_front``, is an alias): the seed's own reaction-diffusion model (Turing's spots,
+eq. 2.15, the ``turing-seed003-spots`` preset) with β = Δa of the activator ``a = u``.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ SPEEDS = ("laplace", "offset")
 #: then the front from a small circle (radius 3 cells) driven by β = Δa of ``a = u`` for
 #: ``steps`` more steps.  The front runs out along the valleys of ``a`` (Δa > 0) and stops
 #: at the spots' rims (Δa = 0): the region φ < 0 is the sea around ~100 spots.
-SEED003_FRONT: dict[str, Any] = {
+TURING_FRONT: dict[str, Any] = {
     "preset": "turing-seed003-spots",
     "field": "u",
     "speed": "laplace",
@@ -63,6 +63,8 @@ SEED003_FRONT: dict[str, Any] = {
     "reinit_every": 20,
     "radius": 3.0,
 }
+#: seed 003's label for :data:`TURING_FRONT` (an alias)
+SEED003_FRONT = TURING_FRONT
 
 
 @dataclass
@@ -313,12 +315,18 @@ def front_growth(
     return front.run(steps, snapshot_every=snapshot_every)
 
 
-def seed003_front(*, backend: Backend | str | None = None, steps: int | None = None,
-                  warmup: int | None = None, **overrides: Any) -> FrontResult:
-    """:func:`front_growth` with :data:`SEED003_FRONT` (overridable by keyword)."""
-    cfg = {**SEED003_FRONT, **overrides}
+def turing_front(*, backend: Backend | str | None = None, steps: int | None = None,
+                 warmup: int | None = None, **overrides: Any) -> FrontResult:
+    """:func:`front_growth` with :data:`TURING_FRONT` (overridable by keyword): Turing's
+    spots formed first, then a front from a small circle driven by their Laplacian, which
+    fills the sea around the spots (seed 003 §4.2; ``seed003_front`` is an alias)."""
+    cfg = {**TURING_FRONT, **overrides}
     if steps is not None:
         cfg["steps"] = steps
     if warmup is not None:
         cfg["warmup"] = warmup
     return front_growth(backend=backend, **cfg)
+
+
+#: seed 003's label for :func:`turing_front` (an alias)
+seed003_front = turing_front

@@ -9,10 +9,14 @@
 * :mod:`~rdgpu.integrators.stability` — the largest stable step of a scheme for a model's
   linear part (:meth:`rdgpu.models.Model.dt_limit`);
 * :mod:`~rdgpu.integrators.allen_cahn` — Allen-Cahn's Strang splitting with its exact
-  Bernoulli substep.
+  Bernoulli substep;
+* :mod:`~rdgpu.integrators.blocking` — temporal blocking: K Euler steps per pass over the
+  grid, and the policy that decides K;
+* :mod:`~rdgpu.integrators.passes` — one fused pass of a program on a target (``launch``).
 
-This package sits above :mod:`rdgpu.models` (it compiles a model's equations); the model
-layer reaches it only when a model is stepped (``Model.stepper``, ``Model.dt_limit``).
+This package sits below :mod:`rdgpu.models`: a stepper takes a model as data (its
+species, equations' trees, linear parts and bounds) and imports nothing of the model
+layer, which reaches it through ``Model.stepper`` and ``Model.dt_limit``.
 """
 
 from __future__ import annotations

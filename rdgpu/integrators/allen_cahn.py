@@ -1,33 +1,24 @@
 """Strang splitting of the modified Allen-Cahn model (:class:`rdgpu.models.allen_cahn.AllenCahn`)
 on the device: the exact Bernoulli substep (:func:`rdgpu.ops.api.bernoulli_decay`), explicit
-or implicit diffusion in between; :func:`allen_cahn`, its form in the functional API
-(``rdgpu.allen_cahn``).  Its methods are its own (``explicit``, ``implicit``,
-``crank-nicolson``); the implicit ones take θ from the IMEX schemes of
+or implicit diffusion in between (its form in the functional API, ``rdgpu.allen_cahn``, is
+:func:`rdgpu.models.allen_cahn.allen_cahn`).  Its methods are its own (``explicit``,
+``implicit``, ``crank-nicolson``); the implicit ones take θ from the IMEX schemes of
 :data:`rdgpu.ir.schemes.SCHEMES` (``imex``: θ = 1, ``imex-cn``: θ = ½)."""
 
 from __future__ import annotations
 
-import math
-from typing import TYPE_CHECKING, Any
-
 import numpy as np
 
-from rdgpu.backends.registry import get_backend
-from rdgpu.core import validation as check
+from rdgpu.backends.target import Target
+from rdgpu.integrators.passes import launch
 from rdgpu.integrators.stepper import FieldStepper
 from rdgpu.ir import equations as eq
+from rdgpu.ir.program import Output, Program
 from rdgpu.ir.schemes import get_scheme
-from rdgpu.models.allen_cahn import AllenCahn
-from rdgpu.models.compiler import Output, Program, Target, launch
 from rdgpu.ops.api import bernoulli_decay
 from rdgpu.ops.implicit import ImplicitDiffusion
-from rdgpu.ops.inputs import given_shape, grid_or_mesh, param_value
-from rdgpu.ops.results import BackendSpec, check_finite, expect_out, give_host
 
-if TYPE_CHECKING:
-    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
-
-__all__ = ["METHODS", "AllenCahnStepper", "allen_cahn"]
+__all__ = ["METHODS", "AllenCahnStepper"]
 
 #: Allen-Cahn's diffusion methods and the scheme whose θ each takes (explicit: Euler)
 METHODS = {"explicit": "euler", "implicit": "imex", "crank-nicolson": "imex-cn"}
@@ -57,7 +48,7 @@ _STRANG = _strang_program()
 
 class AllenCahnStepper(FieldStepper):
     """Strang splitting of the modified Allen-Cahn equation on the device (see
-    :class:`AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
+    :class:`rdgpu.models.AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
     ``dt/2``; three device buffers, no host transfer (the implicit methods download the
     SOR's per-vertex change to test convergence)."""
 
@@ -104,56 +95,3 @@ def _implicit_solver(domain, backend, dtype, dt, method):
     (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on a grid)."""
     theta = get_scheme(METHODS[method]).theta
     return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)
-
-
-def allen_cahn(
-    u: np.ndarray,
-    *,
-    eps: float,
-    dt: float,
-    b: float | np.ndarray = 0.0,
-    steps: int = 1,
-    method: str = "explicit",
-    mesh: SurfaceMesh | None = None,
-    dx: float = 1.0,
-    dy: float | None = None,
-    bc: Any = "periodic",
-    check_stability: bool = True,
-    backend: BackendSpec = None,
-    out: Any = None,
-) -> Any:
-    """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
-    equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
-    source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (:class:`AllenCahnStepper`, the
-    stepper of :class:`rdgpu.models.AllenCahn`).
-
-    ``method``: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
-    ``mesh.max_stable_dt(1)`` on a mesh; :class:`StabilityError` above it unless
-    ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
-    (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
-    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
-    ``out``: as in :mod:`rdgpu.ops.api` (the state crosses the host once each way: the
-    stepper's own)."""
-    field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
-    eps = check.scalar(eps, "eps", strict=True)
-    check_stability = check.flag(check_stability, "check_stability")
-    if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
-        raise ValueError(
-            f"eps={eps:g} is too small for {field.dtype}: the reaction term (u³ − u + b)/eps² "
-            f"overflows; allowed: eps > {1 / math.sqrt(float(np.finfo(field.dtype).max)):.3g}"
-        )
-    dt = check.scalar(dt, "dt", strict=True)
-    n = check.steps(steps)
-    b_ = param_value(b, "b", field)
-    expect_out(out, u, field.dtype)
-    if method not in AllenCahn.methods:
-        raise ValueError(f"method must be one of {AllenCahn.methods}, got {method!r}")
-    stepper = AllenCahn().stepper(
-        domain, {"eps": eps, "b": b_}, dt=dt, backend=get_backend(backend), dtype=field.dtype,
-        check_stability=check_stability, method=method,
-    )
-    stepper.set_state({"u": field})
-    stepper.advance(n)
-    res = check_finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
-                       check_stability=check_stability)
-    return give_host(res.reshape(given_shape(u)), u, out)

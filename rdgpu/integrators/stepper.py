@@ -1,5 +1,6 @@
 """The stepper of the model layer: the equations of a :class:`~rdgpu.models.Model`
-lowered to fused programs (:mod:`rdgpu.models.compiler`) and stepped on the device by a
+lowered to fused programs (:mod:`rdgpu.ir.program`, run by
+:func:`rdgpu.integrators.passes.launch`) and stepped on the device by a
 scheme of :data:`rdgpu.ir.schemes.SCHEMES` (the registry says what each method is).
 
 Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand side and
@@ -70,14 +71,16 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.backends.target import Target
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.validation import real_number
+from rdgpu.domains.base import domain_shape
+from rdgpu.integrators.blocking import setup as setup_blocking
+from rdgpu.integrators.passes import launch
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
+from rdgpu.ir.program import Output, PerMember, Program, expression_tree
 from rdgpu.ir.schemes import EULER, SCHEMES, ExplicitScheme, ImexScheme, get_scheme
-from rdgpu.models.blocking import setup as setup_blocking
-from rdgpu.models.compiler import Output, PerMember, Program, Target, launch
-from rdgpu.models.model import domain_shape, expression_tree
 from rdgpu.ops.implicit import ImplicitDiffusion
 
 __all__ = ["FieldStepper", "ModelStepper"]
@@ -205,7 +208,7 @@ class ModelStepper(FieldStepper):
             self._setup_imex(trees, tol, inline)
         else:
             self._setup_explicit(trees, self.scheme)
-        #: temporal blocking (:mod:`rdgpu.models.blocking`): None, or the passes' kernel
+        #: temporal blocking (:mod:`rdgpu.integrators.blocking`): None, or the passes' kernel
         self.blocked = setup_blocking(self, block_steps)
 
     # ------------------------------------------------------------------ programs

@@ -28,7 +28,7 @@ it, as is an expression nested more than `MAX_DEPTH` levels deep or of more than
 The tree (`Num`, `Ref`, `Lap`, `Bin`, `Neg`,
 `Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
 emits it fully parenthesised, so the three implementations evaluate the same operations in
-the same order (`rdgpu.models.compiler`).
+the same order (`rdgpu.integrators.passes`).
 
 `linear_parts` splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
 laplace(laplace(r)) + rest`` where it can (coefficients made of numbers and scalar
@@ -263,20 +263,7 @@ def parse(
                 raise fail(f"the constant {v!r} (only real numbers are allowed)")
             return Num(_real(v, ast.get_source_segment(source, node) or repr(v), fail))
         if isinstance(node, ast.Name):
-            n = node.id
-            if n in species:
-                return Ref("species", n)
-            if n in params:
-                return Ref("param", n)
-            if n in COORDINATES:
-                return Ref("coord", n)
-            if n == TIME:
-                return Ref("time", n)
-            if n in LENGTHS:
-                return Ref("length", n)
-            if n in CONSTANTS:
-                return Num(CONSTANTS[n])
-            raise fail(f"the unknown name {n!r}")
+            return _name(node.id, species, params, fail)
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.keywords:
                 raise fail(f"the call {ast.unparse(node)!r}")
@@ -300,6 +287,24 @@ def parse(
     if depth > MAX_DEPTH:
         raise deep
     return out
+
+
+def _name(n: str, species: tuple[str, ...], params: tuple[str, ...], fail) -> Node:
+    """The node a name stands for: a species, a parameter, a coordinate, the time, a length
+    or a constant's number; any other name is ``fail``'s error."""
+    if n in species:
+        return Ref("species", n)
+    if n in params:
+        return Ref("param", n)
+    if n in COORDINATES:
+        return Ref("coord", n)
+    if n == TIME:
+        return Ref("time", n)
+    if n in LENGTHS:
+        return Ref("length", n)
+    if n in CONSTANTS:
+        return Num(CONSTANTS[n])
+    raise fail(f"the unknown name {n!r}")
 
 
 def _ast_depth(tree: ast.AST) -> int:

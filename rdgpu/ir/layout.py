@@ -33,7 +33,7 @@ class Layout:
     @property
     def is_grid(self) -> bool:
         """Whether the domain is a grid (a graph surface is one), not a mesh."""
-        return self.domain.kind != "mesh"
+        return not self.domain.unstructured
 
     @property
     def kind(self) -> str:
@@ -53,26 +53,16 @@ class Layout:
         return (self.members, *self.shape) if self.members > 1 else self.shape
 
     def lengths(self) -> dict[str, float]:
-        """``Lx, Ly, Lz``: the grid's extents (0 along absent axes), or the mesh's
-        bounding box (cached)."""
+        """``Lx, Ly, Lz``: the domain's :attr:`~rdgpu.domains.base.Domain.extents` (a grid's,
+        0 along absent axes; a mesh's bounding box), cached."""
         if "lengths" not in self.host:
-            self.host["lengths"] = self._lengths()
+            self.host["lengths"] = self.domain.extents
         return self.host["lengths"]
 
-    def _lengths(self) -> dict[str, float]:
-        d = self.domain
-        if self.is_grid:
-            nz, ny, nx = d.shape3
-            return {"Lx": nx * d.dx, "Ly": ny * d.dy if d.ndim > 1 else 0.0,
-                    "Lz": nz * d.dz if d.ndim > 2 else 0.0}
-        v = np.asarray(d.vertices, dtype=np.float64)
-        ext = v.max(axis=0) - v.min(axis=0) if len(v) else np.zeros(3)
-        return {"Lx": float(ext[0]), "Ly": float(ext[1]), "Lz": float(ext[2])}
-
     def spacing(self) -> tuple[float, float, float]:
-        """``(dx, dy, dz)`` for coordinates: 0 along absent axes (so y = z = 0 in 1-D)."""
-        d = self.domain
-        return d.dx, (d.dy if d.ndim > 1 else 0.0), (d.dz if d.ndim > 2 else 0.0)
+        """A grid's ``(dx, dy, dz)`` for coordinates: 0 along absent axes (so y = z = 0 in
+        1-D; :meth:`Grid.kernel_spacings <rdgpu.domains.grid.Grid.kernel_spacings>`)."""
+        return self.domain.kernel_spacings()
 
     def grid_coefficients(self) -> tuple[float, float, float]:
         """``(cx, cy, cz)`` of the kernels: ``1/h²`` per axis (0 along absent axes), or
@@ -84,22 +74,9 @@ class Layout:
                 1.0 / d.dz**2 if d.ndim > 2 else 0.0)
 
     def coordinate(self, name: str) -> np.ndarray:
-        """Coordinate ``name`` of every cell/vertex, in the dtype, the kernels' way."""
+        """Coordinate ``name`` of every cell/vertex, in the dtype, the kernels' way
+        (:meth:`~rdgpu.domains.base.Domain.kernel_coordinate`), cached."""
         key = ("coord", name)
         if key not in self.host:
-            t = self.dtype.type
-            if self.is_grid:
-                nz, ny, nx = self.domain.shape3
-                axis = {"x": 2, "y": 1, "z": 0}[name]
-                h = t(self.spacing()[{"x": 0, "y": 1, "z": 2}[name]])
-                n = (nz, ny, nx)[axis]
-                c = (np.arange(n).astype(self.dtype) + t(0.5)) * h
-                shape = [1, 1, 1]
-                shape[axis] = n
-                full = np.broadcast_to(c.reshape(shape), (nz, ny, nx)).reshape(self.shape)
-                self.host[key] = np.ascontiguousarray(full)
-            else:
-                k = {"x": 0, "y": 1, "z": 2}[name]
-                self.host[key] = np.ascontiguousarray(
-                    np.asarray(self.domain.vertices[:, k], dtype=self.dtype))
+            self.host[key] = self.domain.kernel_coordinate(name, self.dtype)
         return self.host[key]

@@ -3,7 +3,7 @@
 A program says which buffers a pass reads (``inputs``, read at each cell and, where the
 expressions take their Laplacian, at its neighbours), which parameters it reads, and one
 expression per output buffer.  A time step of a model is such a program (``out_s = s +
-h·f_s``; see `rdgpu.models.integrators` for the other forms); so is the pre-pass that
+h·f_s``; see `rdgpu.integrators.stepper` for the other forms); so is the pre-pass that
 stores ``laplace(s)`` for a bilaplacian.  Every cell reads each input once and writes each
 output once: the stencils and the reaction in the same pass.
 
@@ -15,6 +15,7 @@ for bit where only ``+ − × ÷`` are used.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,11 +24,11 @@ import numpy as np
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.domains.base import STENCILS  # the grid stencils, owned by the domains
-from rdgpu.ir.equations import Lap, Node, Ref, walk
+from rdgpu.ir.equations import Lap, Node, Num, Ref, parse, substitute, walk
 from rdgpu.ir.names import ident
 
 __all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "Program",
-           "literal", "signature"]
+           "expression_tree", "literal", "signature"]
 
 #: the dtypes a program runs in
 REALS = REAL_DTYPES
@@ -104,6 +105,21 @@ class PerMember:
     for the NumPy reference, an array) of shape ``(members,)``."""
 
     values: Any
+
+
+def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> Node:
+    """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
+    replaced by their numbers (what a program inlines for a parameter that is an
+    expression)."""
+    scalars = {k: v for k, v in params.items()
+               if np.ndim(v) == 0 and not isinstance(v, (str, Node, PerMember))}
+    # an ensemble's per-member numbers stay parameters (read per member by the kernel)
+    members = [k for k, v in params.items() if isinstance(v, PerMember)]
+    tree = parse(text, params=[*scalars, *members], what=f"parameter {name!r}",
+                 laplace=False)
+    return substitute(tree, lambda n: Num(float(scalars[n.name]))
+                      if isinstance(n, Ref) and n.kind == "param"
+                      and n.name in scalars else None)
 
 
 def literal(v: float, dtype: np.dtype):

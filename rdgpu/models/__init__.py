@@ -1,7 +1,8 @@
 """The model layer: a model is its equations.
 
-Time stepping (the schemes, the steppers, stability) is `rdgpu.integrators`, a layer
-above this one.
+Time stepping (the schemes, the steppers, stability, temporal blocking) is
+`rdgpu.integrators`, the layer below this one: ``Model.stepper`` binds a model to a
+domain as one of its steppers.
 
 Where things are:
 
@@ -9,14 +10,14 @@ Where things are:
   parsed into a small expression tree, and its linear spatial part;
 * `model` — `define_model` / `Model`: equations,
   parameters (numbers, fields, expressions of ``x, y, z, t``), stability limits;
-* `compiler` — the tree turned into one fused kernel per backend (NumPy
-  reference, Warp, OpenCL C) on 1-D/2-D/3-D grids and meshes; templates in
+* the tree is turned into one fused kernel per backend (NumPy reference, Warp, OpenCL C)
+  on 1-D/2-D/3-D grids and meshes by the steppers (`rdgpu.integrators`) through
+  `rdgpu.ir.program` and the backends' printers; templates in
   ``rdgpu/families/model/``;
-  ``rdgpu/families/model/``;
-* `library` — the built-in models (a few lines each);
-  `allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
-  `rdgpu.integrators.allen_cahn`);
-* `presets` — the papers' runs, as data.
+* `rdgpu.models.library` — the built-in models (a few lines each);
+  `rdgpu.models.allen_cahn` — Allen-Cahn (stepped by the Strang splitting of
+  `rdgpu.integrators.allen_cahn`) and ``rdgpu.allen_cahn``, its functional form;
+* `rdgpu.models.presets` — the papers' runs, as data.
 """
 
 from __future__ import annotations

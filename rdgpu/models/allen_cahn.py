@@ -1,7 +1,7 @@
 """The modified Allen-Cahn model (Dascal, Pai & Kimmel, equations §2): defined by its
 equation like every model, stepped by Strang splitting with the exact Bernoulli substep
 (:class:`rdgpu.integrators.allen_cahn.AllenCahnStepper`), explicit or implicit diffusion in
-between."""
+between; :func:`allen_cahn`, its form in the functional API (``rdgpu.allen_cahn``)."""
 
 from __future__ import annotations
 
@@ -13,14 +13,18 @@ import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
+from rdgpu.core import validation as check
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
+from rdgpu.integrators.allen_cahn import AllenCahnStepper
 from rdgpu.models.model import Model, check_dt, domain_shape, resolve_params, scalar_param
+from rdgpu.ops.inputs import given_shape, grid_or_mesh, param_value
+from rdgpu.ops.results import BackendSpec, check_finite, expect_out, give_host
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
-    from rdgpu.integrators.allen_cahn import AllenCahnStepper
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
 
-__all__ = ["AllenCahn"]
+__all__ = ["AllenCahn", "allen_cahn"]
 
 
 def _is_surface(domain: Domain) -> bool:
@@ -124,9 +128,6 @@ class AllenCahn(Model):
         what = ("explicit diffusion, dx²/4 on a grid, 2/λ_max(−L) on a mesh or a graph "
                 "surface")
         dt = check_dt(dt, self.dt_limit(domain, p, method), what, check_stability)
-        # integrators/ is a layer above models/: the stepper is imported when one is made
-        from rdgpu.integrators.allen_cahn import AllenCahnStepper
-
         return AllenCahnStepper(self, domain, p, dt, get_backend(backend), np.dtype(dtype),
                                 method)
 
@@ -178,3 +179,56 @@ class AllenCahn(Model):
         pot = ((u * u - 1.0) ** 2 / 4.0 + b.ravel() * u) / eps**2 if b.size > 1 else \
             ((u * u - 1.0) ** 2 / 4.0 + float(b) * u) / eps**2
         return grad + float(np.sum(domain.areas * pot))
+
+
+def allen_cahn(
+    u: np.ndarray,
+    *,
+    eps: float,
+    dt: float,
+    b: float | np.ndarray = 0.0,
+    steps: int = 1,
+    method: str = "explicit",
+    mesh: SurfaceMesh | None = None,
+    dx: float = 1.0,
+    dy: float | None = None,
+    bc: Any = "periodic",
+    check_stability: bool = True,
+    backend: BackendSpec = None,
+    out: Any = None,
+) -> Any:
+    """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
+    equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
+    source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (:class:`AllenCahn`'s stepper,
+    :class:`~rdgpu.integrators.allen_cahn.AllenCahnStepper`).
+
+    ``method``: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
+    ``mesh.max_stable_dt(1)`` on a mesh; :class:`StabilityError` above it unless
+    ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
+    (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
+    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
+    ``out``: as in :mod:`rdgpu.ops.api` (the state crosses the host once each way: the
+    stepper's own)."""
+    field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
+    eps = check.scalar(eps, "eps", strict=True)
+    check_stability = check.flag(check_stability, "check_stability")
+    if not 1.0 / (eps * eps) < float(np.finfo(field.dtype).max) if eps * eps > 0 else True:
+        raise ValueError(
+            f"eps={eps:g} is too small for {field.dtype}: the reaction term (u³ − u + b)/eps² "
+            f"overflows; allowed: eps > {1 / math.sqrt(float(np.finfo(field.dtype).max)):.3g}"
+        )
+    dt = check.scalar(dt, "dt", strict=True)
+    n = check.steps(steps)
+    b_ = param_value(b, "b", field)
+    expect_out(out, u, field.dtype)
+    if method not in AllenCahn.methods:
+        raise ValueError(f"method must be one of {AllenCahn.methods}, got {method!r}")
+    stepper = AllenCahn().stepper(
+        domain, {"eps": eps, "b": b_}, dt=dt, backend=get_backend(backend), dtype=field.dtype,
+        check_stability=check_stability, method=method,
+    )
+    stepper.set_state({"u": field})
+    stepper.advance(n)
+    res = check_finite(stepper.get_state()["u"], "allen_cahn", stepping=True,
+                       check_stability=check_stability)
+    return give_host(res.reshape(given_shape(u)), u, out)

@@ -37,9 +37,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.integrators.passes import launch
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import Output, Program
-from rdgpu.models.compiler import launch
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain

@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.backends.target import Target
 from rdgpu.ir import equations as eq
-from rdgpu.models.compiler import Output, Program, Target, run_numpy
-from rdgpu.models.model import expression_tree
+from rdgpu.ir.program import Output, Program, expression_tree
+from rdgpu.ir.reference import run_numpy
 
 __all__ = ["cause"]
 

@@ -8,9 +8,10 @@
     )
 
 The language is :mod:`rdgpu.ir.equations` (py-pde's ``PDE`` spelling); the kernels
-come from :mod:`rdgpu.models.compiler`; the time integrators from
-:mod:`rdgpu.integrators` (the schemes: :data:`rdgpu.ir.schemes.SCHEMES`).  A model is
-accepted wherever a model name is (``Simulation``, presets, ``rdgpu run --equation``).
+come from the programs of :mod:`rdgpu.ir.program` (run by :mod:`rdgpu.integrators.passes`);
+the time integrators from :mod:`rdgpu.integrators` (the schemes:
+:data:`rdgpu.ir.schemes.SCHEMES`).  A model is accepted wherever a model name is
+(``Simulation``, presets, ``rdgpu run --equation``).
 
 Parameter values (defaults, or what a run passes): a number; an array of the domain's
 shape (a per-cell / per-vertex field); a field spec (:func:`param_field`); or an
@@ -46,10 +47,13 @@ from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
 from rdgpu.core.validation import real_number
-from rdgpu.domains.base import require_domain
+from rdgpu.domains.base import domain_shape, require_domain
+from rdgpu.integrators.stability import stability_limit
+from rdgpu.integrators.stepper import ModelStepper
 from rdgpu.ir import equations as eq
+from rdgpu.ir.program import expression_tree
 from rdgpu.ir.schemes import get_scheme, method_names
-from rdgpu.models.compiler import PerMember, check_stencil
+from rdgpu.ir.stencils import check_stencil
 from rdgpu.models.ensemble import resolve_members, stack_members
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 from rdgpu.models.ranges import check_bounds, check_fits
@@ -65,12 +69,6 @@ _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
 
 
 # ---------------------------------------------------------------------------- domains
-def domain_shape(domain: Domain) -> tuple[int, ...]:
-    """The kernels' shape: ``(ny, nx)`` / ``(nz, ny, nx)`` of a grid, ``(n_vertices,)`` of a
-    mesh (:attr:`Domain.kernel_shape <rdgpu.domains.base.Domain.kernel_shape>`)."""
-    return require_domain(domain).kernel_shape
-
-
 def _coordinates(domain: Domain, axis: str) -> np.ndarray:
     """Coordinate ``axis`` of every cell / vertex, scaled to [0, 1] over the domain."""
     return domain.unit_coordinate(axis)
@@ -212,20 +210,6 @@ def resolve_params(
     if exprs:
         out.update(_expression_params(model, domain, exprs, out))
     return out
-
-
-def expression_tree(name: str, text: str, params: Mapping[str, Any]) -> eq.Node:
-    """The tree of parameter ``name``'s expression ``text``, the scalar parameters it uses
-    replaced by their numbers."""
-    scalars = {k: v for k, v in params.items()
-               if np.ndim(v) == 0 and not isinstance(v, (str, eq.Node, PerMember))}
-    # an ensemble's per-member numbers stay parameters (read per member by the kernel)
-    members = [k for k, v in params.items() if isinstance(v, PerMember)]
-    tree = eq.parse(text, params=[*scalars, *members], what=f"parameter {name!r}",
-                    laplace=False)
-    return eq.substitute(tree, lambda n: eq.Num(float(scalars[n.name]))
-                         if isinstance(n, eq.Ref) and n.kind == "param"
-                         and n.name in scalars else None)
 
 
 def _expression_params(model, domain, exprs: dict[str, str], resolved: dict[str, Any]):
@@ -551,8 +535,7 @@ class Model:
                     raise ValueError(
                         f"method {method!r}: the bilaplacian of {s!r} has the coefficient "
                         f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
-        return _integrators().stability_limit(ops[0], ops[1], _largest_mode(domain, stencil),
-                                              method)
+        return stability_limit(ops[0], ops[1], _largest_mode(domain, stencil), method)
 
     def stepper(
         self,
@@ -579,7 +562,7 @@ class Model:
         ``members``: an ensemble of that many members, fields ``[members, *shape]``, each
         parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
         member; ``dt`` must be stable for every member.
-        ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.models.blocking`;
+        ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.integrators.blocking`;
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
         lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
         method = _method(method or self.default_method, self.methods)
@@ -601,7 +584,7 @@ class Model:
         check_fits(self, p, dtype)  # before the limit, which a huge parameter makes tiny
         dt = check_dt(dt, limit, f"the linear spatial part of {self.name!r} with method "
                       f"{method!r}", check_stability)
-        return _integrators().ModelStepper(
+        return ModelStepper(
             fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
             block_steps=block_steps)
@@ -618,13 +601,6 @@ def _method(method: str, allowed: Sequence[str]) -> str:
     """The canonical name of ``method`` (an alias resolved), one of ``allowed``."""
     m = str(method).lower()
     return m if m in allowed else get_scheme(method, tuple(allowed)).name
-
-
-def _integrators() -> Any:
-    """:mod:`rdgpu.integrators`, a layer above this one: imported when a model is stepped."""
-    import rdgpu.integrators
-
-    return rdgpu.integrators
 
 
 def _largest_mode(domain: Domain, stencil: str = "compact") -> float:

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.ir import equations as eq
-from rdgpu.models.compiler import PerMember
+from rdgpu.ir.program import PerMember
 
 if TYPE_CHECKING:
     from rdgpu.models.model import Model

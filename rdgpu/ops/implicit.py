@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -120,6 +121,30 @@ def _sor_rate(omega: float, rho_j: float) -> float:
         return omega - 1.0
     disc = max(0.0, (omega * rho_j) ** 2 - 4.0 * (omega - 1.0))
     return ((omega * rho_j + math.sqrt(disc)) / 2.0) ** 2
+
+
+@dataclass
+class _Progress:
+    """Where one solve stands at its checks: the sweeps done and when the next check is,
+    the max changes seen (``history``; their lowest, ``low``; the last one that halved
+    them, ``anchor_m`` at ``anchor_at``), the latest change ``m``, the contraction per sweep
+    (``observed`` over the last window, ``rho`` the one used), the error ``estimate``, no
+    stopping test before ``guard_from``, ``umax`` for the round-off bounds and whether it
+    stopped at the round-off ``floor``."""
+
+    umax: float | None
+    next_check: int
+    sweeps: int = 0
+    history: list[tuple[int, float]] = field(default_factory=list)
+    anchor_m: float = math.inf
+    anchor_at: int = 0
+    low: float = math.inf
+    guard_from: int = 0
+    m: float = math.nan
+    estimate: float = math.nan
+    observed: float | None = None
+    rho: float = math.nan
+    floor: bool = False
 
 
 class ImplicitDiffusion:
@@ -346,6 +371,11 @@ class ImplicitDiffusion:
         be.mesh_diffusion(self._zero, out, self._tmp, D=0.0, dt=self.dt, source=extra)
         be.copy(self._tmp, _reshaped(out, self.shape))
 
+    def _component_means(self, v: np.ndarray) -> np.ndarray:
+        """Per component, the weighted mean ``Σ w v / Σ w`` of the flat float64 ``v``."""
+        return np.bincount(self._labels, weights=self.weights * v,
+                           minlength=self._count) / self._wsum
+
     def means(self, source: Any = 0.0) -> np.ndarray:
         """Per component, the weighted mean ``Σ w δ / Σ w`` that the increment has
         (``dt`` times the source's; used on closed components only)."""
@@ -369,8 +399,7 @@ class ImplicitDiffusion:
         """Give ``x`` the weighted mean ``target`` on every closed component (the exact
         coarse-grid correction on the constant vectors); returns ``max|x|``."""
         xh = x.numpy().reshape(-1).astype(np.float64)
-        means = np.bincount(self._labels, weights=self.weights * xh,
-                            minlength=self._count) / self._wsum
+        means = self._component_means(xh)
         alpha = np.where(self._closed, target - means, 0.0)
         if np.any(alpha != 0.0):
             self._add(x, alpha)
@@ -396,9 +425,7 @@ class ImplicitDiffusion:
         level of its own evaluation (where it cannot tell)."""
         r = self.residual(rhs, x)
         if np.any(self._closed):
-            means = np.bincount(self._labels, weights=self.weights * r,
-                                minlength=self._count) / self._wsum
-            r = r - np.where(self._closed, means, 0.0)[self._labels]
+            r = r - np.where(self._closed, self._component_means(r), 0.0)[self._labels]
         big = float(np.max(np.abs(r))) if r.size else 0.0
         self.last_residual = big
         eps = float(np.finfo(self.dtype).eps)
@@ -431,91 +458,114 @@ class ImplicitDiffusion:
         self._check(x, "x")
         closed = bool(np.any(self._closed))
         if closed and target is None:
-            rh = rhs.numpy().reshape(-1).astype(np.float64)
-            target = np.bincount(self._labels, weights=self.weights * rh,
-                                 minlength=self._count) / self._wsum
-        eps = float(np.finfo(self.dtype).eps)
-        tol = self.tol
-        rate = self.rate
-        history: list[tuple[int, float]] = []
-        anchor_m, anchor_at, low = math.inf, 0, math.inf
-        sweeps, next_check, guard_from = 0, min(self.check_every, self.max_sweeps), 0
-        m = estimate = math.nan
+            target = self._component_means(rhs.numpy().reshape(-1).astype(np.float64))
+        run = _Progress(umax=umax, next_check=min(self.check_every, self.max_sweeps))
         self.last_residual = math.nan
-        floor = False
         while True:
             self.sweep(x, rhs)
-            sweeps += 1
-            if sweeps < next_check:
+            run.sweeps += 1
+            if run.sweeps < run.next_check:
                 continue
-            m = float(np.max(self._change.numpy())) if self.n else 0.0
-            if not math.isfinite(m):
-                raise FloatingPointError(
-                    f"implicit diffusion: SOR produced {m} after {sweeps} sweeps (non-finite "
-                    "input or overflow)"
-                )
-            xmax = self._project(x, target) if closed else math.nan
-            history.append((sweeps, m))
-            low = min(low, m)
-            if m <= 0.5 * anchor_m:
-                anchor_m, anchor_at = m, sweeps
-            observed = self._observed_rate(history)
-            rho = rate if observed is None else max(rate, observed)
-            estimate = m * rho / (1.0 - rho) if rho < 1.0 else math.inf
-            if m == 0.0:
-                estimate = 0.0
+            xmax = self._measure(run, x, target if closed else None)
+            if self._done(run, rhs, x, xmax):
                 break
-            if observed is not None and sweeps >= guard_from:
-                if math.isnan(xmax):
-                    xmax = float(np.max(np.abs(x.numpy())))
-                if umax is None:
-                    umax = float(np.max(np.abs(rhs.numpy()))) / max(self._K_inf, 1.0)
-                if estimate <= 0.5 * tol:
-                    if self._residual_ok(rhs, x, xmax, umax, tol):
-                        break
-                    guard_from = sweeps + self._window  # the estimate was fooled: go on
-                elif (sweeps - anchor_at >= self._window
-                      and low <= 64.0 * eps * (xmax + umax)):
-                    # the changes stopped falling at round-off level: the floor
-                    at_floor = low * rate / (1.0 - rate)
-                    if self._residual_ok(rhs, x, xmax, umax, max(tol, at_floor)):
-                        estimate = at_floor
-                        floor = at_floor > tol
-                        break
-                    guard_from = sweeps + self._window
-            if sweeps >= self.max_sweeps:
-                self._finish(sweeps, m, estimate, False)
-                more = (math.log(0.5 * tol / estimate) / math.log(rho)
-                        if 0.0 < rho < 1.0 and math.isfinite(estimate) else math.inf)
-                raise ConvergenceError(
-                    f"implicit diffusion ({self._describe()}): SOR did not reach tol="
-                    f"{tol:.3g} within max_sweeps={self.max_sweeps}: error estimate "
-                    f"{estimate:.3g} after {sweeps} sweeps (last max change {m:.3g}, "
-                    f"contraction {rho:.6f} per sweep, about {more:.0f} more sweeps needed, "
-                    f"omega={self.omega:.4f}); raise max_sweeps, raise tol, or reduce dt",
-                    sweeps=sweeps, reached=estimate, tol=tol,
-                )
-            gap = self.check_every
-            if observed is not None and math.isfinite(estimate) and 0.0 < rho < 1.0:
-                need = math.log(0.5 * tol / estimate) / math.log(rho)
-                gap = int(min(max(need / 2.0, self.check_every),
-                              max(MAX_CHECK_GAP, self.check_every)))
-            next_check = min(sweeps + gap, self.max_sweeps)
-        self._finish(sweeps, m, estimate, True)
-        self.last_floor = floor
-        if floor:
-            wider = ", or float64" if self.dtype == np.float32 else ""
-            warnings.warn(
-                f"implicit diffusion ({self._describe()}): tol={tol:.3g} is below the "
-                f"{self.dtype} round-off floor of this system at max|u| = {umax:.3g}: "
-                f"SOR's changes stalled at {low:.3g} after {sweeps} sweeps, an error of "
-                f"about {estimate:.3g}; the step is as accurate as {self.dtype} allows "
-                f"(use tol >= {2 * estimate:.2g}{wider}; where max|u| is far above the "
-                "field's scale, the run is diverging: reduce dt)",
-                RuntimeWarning,
-                stacklevel=3,
+            if run.sweeps >= self.max_sweeps:
+                self._finish(run.sweeps, run.m, run.estimate, False)
+                raise self._unconverged(run)
+            run.next_check = min(run.sweeps + self._check_gap(run), self.max_sweeps)
+        self._finish(run.sweeps, run.m, run.estimate, True)
+        self.last_floor = run.floor
+        if run.floor:
+            self._warn_floor(run)
+        return run.sweeps
+
+    def _measure(self, run: _Progress, x: DeviceArray, target: np.ndarray | None) -> float:
+        """At a check: the last sweep's max change, the contraction per sweep and the error
+        estimate into ``run`` (``x`` projected onto ``target`` on closed components, where
+        given); returns ``max|x|`` where the projection measured it, else NaN."""
+        m = float(np.max(self._change.numpy())) if self.n else 0.0
+        run.m = m
+        if not math.isfinite(m):
+            raise FloatingPointError(
+                f"implicit diffusion: SOR produced {m} after {run.sweeps} sweeps (non-finite "
+                "input or overflow)"
             )
-        return sweeps
+        xmax = self._project(x, target) if target is not None else math.nan
+        run.history.append((run.sweeps, m))
+        run.low = min(run.low, m)
+        if m <= 0.5 * run.anchor_m:
+            run.anchor_m, run.anchor_at = m, run.sweeps
+        run.observed = self._observed_rate(run.history)
+        run.rho = self.rate if run.observed is None else max(self.rate, run.observed)
+        run.estimate = m * run.rho / (1.0 - run.rho) if run.rho < 1.0 else math.inf
+        return xmax
+
+    def _done(self, run: _Progress, rhs: DeviceArray, x: DeviceArray, xmax: float) -> bool:
+        """Whether the solve stops at this check: nothing changed, or the estimate is below
+        ``tol`` (or the changes stalled at the round-off floor) and the true residual
+        agrees; a residual that disagrees holds the next tests off for a window."""
+        if run.m == 0.0:
+            run.estimate = 0.0
+            return True
+        if run.observed is None or run.sweeps < run.guard_from:
+            return False
+        if math.isnan(xmax):
+            xmax = float(np.max(np.abs(x.numpy())))
+        if run.umax is None:
+            run.umax = float(np.max(np.abs(rhs.numpy()))) / max(self._K_inf, 1.0)
+        tol, eps = self.tol, float(np.finfo(self.dtype).eps)
+        if run.estimate <= 0.5 * tol:
+            if self._residual_ok(rhs, x, xmax, run.umax, tol):
+                return True
+            run.guard_from = run.sweeps + self._window  # the estimate was fooled: go on
+        elif (run.sweeps - run.anchor_at >= self._window
+              and run.low <= 64.0 * eps * (xmax + run.umax)):
+            # the changes stopped falling at round-off level: the floor
+            at_floor = run.low * self.rate / (1.0 - self.rate)
+            if self._residual_ok(rhs, x, xmax, run.umax, max(tol, at_floor)):
+                run.estimate = at_floor
+                run.floor = at_floor > tol
+                return True
+            run.guard_from = run.sweeps + self._window
+        return False
+
+    def _check_gap(self, run: _Progress) -> int:
+        """Sweeps to the next check: half of what the contraction says is left to ``tol``,
+        within ``[check_every, max(MAX_CHECK_GAP, check_every)]``."""
+        gap = self.check_every
+        if run.observed is not None and math.isfinite(run.estimate) and 0.0 < run.rho < 1.0:
+            need = math.log(0.5 * self.tol / run.estimate) / math.log(run.rho)
+            gap = int(min(max(need / 2.0, self.check_every),
+                          max(MAX_CHECK_GAP, self.check_every)))
+        return gap
+
+    def _unconverged(self, run: _Progress) -> ConvergenceError:
+        """The error of a solve that ``max_sweeps`` ended unconverged."""
+        tol, rho, estimate = self.tol, run.rho, run.estimate
+        more = (math.log(0.5 * tol / estimate) / math.log(rho)
+                if 0.0 < rho < 1.0 and math.isfinite(estimate) else math.inf)
+        return ConvergenceError(
+            f"implicit diffusion ({self._describe()}): SOR did not reach tol="
+            f"{tol:.3g} within max_sweeps={self.max_sweeps}: error estimate "
+            f"{estimate:.3g} after {run.sweeps} sweeps (last max change {run.m:.3g}, "
+            f"contraction {rho:.6f} per sweep, about {more:.0f} more sweeps needed, "
+            f"omega={self.omega:.4f}); raise max_sweeps, raise tol, or reduce dt",
+            sweeps=run.sweeps, reached=estimate, tol=tol,
+        )
+
+    def _warn_floor(self, run: _Progress) -> None:
+        """The warning of a solve stopped at the dtype's round-off floor above ``tol``."""
+        wider = ", or float64" if self.dtype == np.float32 else ""
+        warnings.warn(
+            f"implicit diffusion ({self._describe()}): tol={self.tol:.3g} is below the "
+            f"{self.dtype} round-off floor of this system at max|u| = {run.umax:.3g}: "
+            f"SOR's changes stalled at {run.low:.3g} after {run.sweeps} sweeps, an error of "
+            f"about {run.estimate:.3g}; the step is as accurate as {self.dtype} allows "
+            f"(use tol >= {2 * run.estimate:.2g}{wider}; where max|u| is far above the "
+            "field's scale, the run is diverging: reduce dt)",
+            RuntimeWarning,
+            stacklevel=4,  # the frame named before this was split out of solve: its caller's caller
+        )
 
     @staticmethod
     def _finite(d: DeviceArray) -> bool:

@@ -25,6 +25,7 @@ import os
 import sys
 import types
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +39,7 @@ from rdgpu.core.resources import check_memory
 from rdgpu.core.validation import scalar
 from rdgpu.domains.specs import build_domain
 from rdgpu.models import MODELS, PRESETS, define_model
+from rdgpu.runs.mosaic import sweep_map
 from rdgpu.runs.store import (
     SETTINGS_ATTR,
     check_sweep_memory,
@@ -53,6 +55,7 @@ from rdgpu.simulation.defaults import accepts, lookup_model
 from rdgpu.simulation.driver import Simulation
 
 if TYPE_CHECKING:
+    from rdgpu.backends.base import Backend
     from rdgpu.domains.base import Domain
     from rdgpu.models.model import Model
 
@@ -440,6 +443,68 @@ def sweep(
     xr, da = _need("xarray", "dask.array")
     kind = _store_kind(store)
     _check_scheduler(scheduler)
+    plan = _plan(model, params, steps=steps, size=size, domain=domain, dt=dt, dtype=dtype,
+                 seed=seed, init=init, options=options, batch=batch, workers=workers,
+                 store=store, classify=classify)
+    be = get_backend(backend)
+    plan.dtype = str(np.dtype(dtype))
+    definition, desc = model_definition(plan.model), describe_domain(plan.grid)
+    if plan.batch is None and kind == "zarr":  # resuming: the store's batches
+        plan.batch = stored_batch(Path(store))
+    client, close = None, _nothing
+    try:
+        if plan.batch is None:  # about 4 batches a worker: ask the cluster how many it has
+            client, close = _client(scheduler, plan.workers, plan.n_members)
+            n_workers = 1 if client is None else len(client.scheduler_info()["workers"])
+            plan.batch = _default_batch(plan.n_members, math.prod(plan.grid.field_shape),
+                                        len(plan.species), np.dtype(plan.dtype).itemsize,
+                                        n_workers)
+        plan.batch = int(plan.batch)
+        n_batches = math.ceil(plan.n_members / plan.batch)
+        settings, job = _settings_and_job(plan, be, backend, definition, desc)
+        result = _collector(xr, da, plan, settings, n_batches, store if kind == "zarr" else None)
+        todo = [b for b in range(n_batches) if not result.done(b)]
+        if todo and client is None:  # no cluster is started for a finished sweep
+            client, close = _client(scheduler, plan.workers, len(todo))
+        _run(client, job, result, todo, n_batches, progress, on_batch)
+    finally:
+        close()
+    if kind == "zarr":
+        return open_sweep(store)
+    ds = result.dataset()
+    if kind == "netcdf":
+        ds.to_netcdf(str(store))  # pattern as codes, as in a zarr store
+    return _decode(ds)
+
+
+@dataclass
+class _Plan:
+    """A sweep's arguments, checked, with what follows from them: the model, the swept
+    ``axes`` and ``fixed`` parameters, the grid, the members and the run's settings."""
+
+    model: Model
+    axes: dict[str, np.ndarray]
+    fixed: dict[str, float]
+    grid: Domain
+    n_members: int
+    species: tuple[str, ...]
+    classify: str
+    steps: int
+    seed: int
+    dt: float
+    dtype: Any
+    init: Mapping[str, Any] | None
+    options: dict[str, Any]
+    batch: int | None
+    workers: int | None
+
+
+def _plan(model: Model | str, params: Mapping[str, Any], *, steps: Any, size: Any,
+          domain: Domain | Mapping | None, dt: Any, dtype: Any, seed: Any, init: Any,
+          options: Any, batch: Any, workers: Any, store: Any,
+          classify: str | None) -> _Plan:
+    """:func:`sweep`'s arguments checked, in the order its errors come, and the defaults
+    that follow from them (the grid, ``classify``, the common ``dt``)."""
     mdl = lookup_model(model)
     axes, fixed = _swept_and_fixed(mdl, params)
     steps, seed = whole(steps, "steps", 0), whole(seed, "seed", 0)
@@ -463,51 +528,44 @@ def sweep(
     options = dict(options or {})
     if dt is None:
         dt = _common_dt(mdl, grid, fixed, axes, options)
-    be = get_backend(backend)
-    dtype = str(np.dtype(dtype))
-    definition = model_definition(mdl)
-    desc = describe_domain(grid)
-    space = tuple(grid.field_shape)
-    if batch is None and kind == "zarr":  # resuming: the store's batches
-        batch = stored_batch(Path(store))
-    client, close = None, _nothing
-    try:
-        if batch is None:  # about 4 batches a worker: ask the cluster how many it has
-            client, close = _client(scheduler, workers, n_members)
-            n_workers = 1 if client is None else len(client.scheduler_info()["workers"])
-            batch = _default_batch(n_members, math.prod(space), len(species),
-                                   np.dtype(dtype).itemsize, n_workers)
-        batch = int(batch)
-        n_batches = math.ceil(n_members / batch)
-        settings = {
-            "name": mdl.name, "model": definition or mdl.name, "axes":
-            {k: v.tolist() for k, v in axes.items()}, "fixed": fixed, "domain": desc,
-            "steps": steps, "dt": float(dt), "dtype": dtype, "seed": int(seed),
-            "init": None if init is None else json.loads(json.dumps(init)),
-            "options": json.loads(json.dumps(options)), "batch": batch,
-            "backend_name": be.name, "classify": classify, "species": list(species),
-        }
-        job = {"name": mdl.name, "model": _task_model(mdl, definition), "domain": grid,
-               "fixed": fixed, "steps": steps, "dt": float(dt), "dtype": dtype,
-               "seed": int(seed), "init": init, "options": options,
-               "backend": backend if isinstance(backend, str) or backend is None else be.name,
-               "classify": classify}
-        dx = {"x": grid.dx, "y": grid.dy or grid.dx, "z": grid.dz}
-        template = _template(xr, da, settings, axes, space, dx, species, n_batches)
-        group = open_store(Path(store), template, settings) if kind == "zarr" else None
-        result = _Collector(template, group, axes, species, batch, store)
-        todo = [b for b in range(n_batches) if not result.done(b)]
-        if todo and client is None:  # no cluster is started for a finished sweep
-            client, close = _client(scheduler, workers, len(todo))
-        _run(client, job, result, todo, n_batches, progress, on_batch)
-    finally:
-        close()
-    if kind == "zarr":
-        return open_sweep(store)
-    ds = result.dataset()
-    if kind == "netcdf":
-        ds.to_netcdf(str(store))  # pattern as codes, as in a zarr store
-    return _decode(ds)
+    return _Plan(mdl, axes, fixed, grid, n_members, species, classify, steps, seed, dt,
+                 dtype, init, options, batch, workers)
+
+
+def _settings_and_job(plan: _Plan, be: Backend, backend: Backend | str | None,
+                      definition: dict, desc: dict) -> tuple[dict, dict]:
+    """The sweep's settings (kept with its data; a resumed store must match them) and the
+    job every batch's task runs (:func:`run_batch`); ``definition``, ``desc``: the model's
+    and the grid's descriptions."""
+    mdl = plan.model
+    settings = {
+        "name": mdl.name, "model": definition or mdl.name, "axes":
+        {k: v.tolist() for k, v in plan.axes.items()}, "fixed": plan.fixed,
+        "domain": desc, "steps": plan.steps, "dt": float(plan.dt),
+        "dtype": plan.dtype, "seed": int(plan.seed),
+        "init": None if plan.init is None else json.loads(json.dumps(plan.init)),
+        "options": json.loads(json.dumps(plan.options)), "batch": plan.batch,
+        "backend_name": be.name, "classify": plan.classify, "species": list(plan.species),
+    }
+    job = {"name": mdl.name, "model": _task_model(mdl, definition), "domain": plan.grid,
+           "fixed": plan.fixed, "steps": plan.steps, "dt": float(plan.dt),
+           "dtype": plan.dtype, "seed": int(plan.seed), "init": plan.init,
+           "options": plan.options,
+           "backend": backend if isinstance(backend, str) or backend is None else be.name,
+           "classify": plan.classify}
+    return settings, job
+
+
+def _collector(xr: Any, da: Any, plan: _Plan, settings: dict, n_batches: int,
+               store: Any) -> _Collector:
+    """Where the batches go: the zarr ``store`` created (or opened to resume), else
+    arrays in memory, on the Dataset's template."""
+    grid = plan.grid
+    dx = {"x": grid.dx, "y": grid.dy or grid.dx, "z": grid.dz}
+    template = _template(xr, da, settings, plan.axes, tuple(grid.field_shape), dx,
+                         plan.species, n_batches)
+    group = open_store(Path(store), template, settings) if store is not None else None
+    return _Collector(template, group, plan.axes, plan.species, plan.batch, store)
 
 
 class _Collector:
@@ -604,81 +662,6 @@ def _token(result: _Collector) -> str:
 
     text = json.dumps([result.template.attrs[SETTINGS_ATTR]], sort_keys=True)
     return hashlib.sha1(text.encode()).hexdigest()[:12]
-
-
-# ------------------------------------------------------------------------ the map image
-def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
-              cmap: str = "viridis", scale: int | None = None) -> Path:
-    """A PNG of the members laid out on the swept axes: the first swept parameter along x,
-    the second along y (increasing upwards; one row with one swept parameter), each
-    member's final ``species`` (default: the classified one, see :func:`pattern_species`)
-    as a tile with thin gaps, on one colour scale; the axes labelled with the parameter
-    values.  More than two swept parameters: the first value of the others is shown.
-    ``scale``: pixels per grid cell (default: a mosaic at least 1200 pixels across); NaN
-    (a diverged member) is white."""
-    matplotlib = require("matplotlib", "drawing the sweep's map")
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    axes = [d for d in ds["pattern"].dims]
-    names = [v for v in ds.data_vars if v not in ("pattern", "done")]
-    if species is None:
-        species = ds.attrs.get("classify") if ds.attrs.get("classify") in names else names[0]
-    if species not in names:
-        raise ValueError(f"species {species!r}: the sweep has {', '.join(names)}")
-    field = ds[species].isel({d: 0 for d in axes[2:]})
-    px, py = axes[0], (axes[1] if len(axes) > 1 else None)
-    space = [d for d in field.dims if d not in axes]
-    if len(space) == 3:  # the middle plane of a 3-D grid
-        field = field.isel({space[0]: field.sizes[space[0]] // 2})
-    data = np.asarray(field.transpose(px, *([py] if py else []), ...).values,
-                      dtype=np.float64)
-    if py is None:
-        data = data[:, None]
-    if data.ndim == 3:  # 1-D grids: a strip a few pixels high
-        data = np.repeat(data[:, :, None, :], max(1, data.shape[-1] // 8), axis=2)
-    nx_, ny_, h, w = data.shape
-    gap = max(1, round(0.06 * max(h, w)))
-    mosaic = np.full((ny_ * (h + gap) - gap, nx_ * (w + gap) - gap), np.nan)
-    for i in range(nx_):
-        for j in range(ny_):
-            r = (ny_ - 1 - j) * (h + gap)  # the second axis increases upwards
-            mosaic[r: r + h, i * (w + gap): i * (w + gap) + w] = data[i, j]
-    finite = mosaic[np.isfinite(mosaic)]
-    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
-    scale = scale or max(1, math.ceil(1200 / max(mosaic.shape)))  # pixels per cell
-    width, height = mosaic.shape[1] * scale, mosaic.shape[0] * scale  # of the tiles, pixels
-    font = min(14.0, max(7.0, 7.0 * max(width, height) / 1100))
-    fig, ax = plt.subplots(figsize=(width / 100 + 0.2 * font, height / 100 + 0.14 * font),
-                           dpi=100)
-    colours = matplotlib.colormaps[cmap].with_extremes(bad="white")  # NaN: diverged
-    ax.imshow(np.ma.masked_invalid(mosaic), cmap=colours, vmin=lo, vmax=hi if hi > lo
-              else lo + 1, interpolation="nearest", origin="upper")
-    xs = _ticks(nx_)
-    ax.set_xticks([i * (w + gap) + (w - 1) / 2 for i in xs],
-                  [f"{float(ds[px].values[i]):.4g}" for i in xs])
-    ax.set_xlabel(px, fontsize=font * 1.2)
-    if py is not None:
-        ys = _ticks(ny_)
-        ax.set_yticks([(ny_ - 1 - j) * (h + gap) + (h - 1) / 2 for j in ys],
-                      [f"{float(ds[py].values[j]):.4g}" for j in ys])
-        ax.set_ylabel(py, fontsize=font * 1.2)
-    else:
-        ax.set_yticks([])
-    shown = "".join(f", {d} = {float(ds[d].values[0]):.4g}" for d in axes[2:])
-    ax.set_title(f"{ds.attrs.get('model', '')}: final {species} after "
-                 f"{ds.attrs.get('steps', '?')} steps{shown}", fontsize=font * 1.2)
-    ax.tick_params(labelsize=font)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out)
-    plt.close(fig)
-    return out
-
-
-def _ticks(n: int) -> list[int]:
-    """The indices of at most about 8 labelled tiles of an axis of ``n``."""
-    return list(range(0, n, max(1, math.ceil(n / 8))))
 
 
 class _CallableModule(types.ModuleType):

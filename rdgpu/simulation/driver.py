@@ -46,8 +46,8 @@ from rdgpu.backends.registry import get_backend
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.files import CheckpointLock, check_writable, remove_stale_temporaries
 from rdgpu.domains.specs import build_domain, from_description
+from rdgpu.ir.program import PerMember
 from rdgpu.models import resolve_params
-from rdgpu.models.compiler import PerMember
 from rdgpu.models.ensemble import member_seeds, resolve_members, stack_members
 from rdgpu.simulation import checkpoints
 from rdgpu.simulation.checks import (

@@ -53,18 +53,28 @@ def test_errors(capsys, tmp_path, argv, match):
     assert code == 2 and match in err, err
 
 
-def test_seed003_front(capsys, tmp_path):
+def test_turing_front(capsys, tmp_path):
     """The level-set preset: the seed's Turing spots, then a front driven by Δu (short)."""
-    code, _, err = run(capsys, "run", "seed003-front", "--steps", "100", "--param",
+    code, _, err = run(capsys, "run", "turing-front", "--steps", "100", "--param",
                        "warmup=3000", "--backend", "numpy", "--out", tmp_path / "f.png",
                        "--data", tmp_path / "f.npz", "--scale", "1")
     assert code == 0, err
-    from rdgpu.growth.fronts import seed003_front
+    from rdgpu.growth.fronts import turing_front
 
-    ref = seed003_front(backend="opencl", steps=100, warmup=3000)
+    ref = turing_front(backend="opencl", steps=100, warmup=3000)
     data = np.load(tmp_path / "f.npz")
     np.testing.assert_array_equal(data["mask"], ref.mask)
     assert 0.0 < ref.mask.mean() < 1.0 and "inside the front" in err
     assert iio.imread(tmp_path / "f.png").shape[:2] == ref.mask.shape
-    code, _, err = run(capsys, "run", "seed003-front", "--size", "32")
+    code, _, err = run(capsys, "run", "turing-front", "--size", "32")
     assert code == 2 and "--size and --seed do not apply" in err
+
+
+def test_turing_front_accepts_the_paper_label(capsys):
+    """``seed003-front`` (seed 003's label) runs ``turing-front``; the help names both."""
+    code, _, err = run(capsys, "run", "seed003-front", "--size", "32")
+    assert code == 2 and "turing-front runs the seed's own grid" in err, err
+    code, _, err = run(capsys, "run", "seed003-front", "--param", "eta=1")
+    assert code == 2 and "turing-front has the parameters warmup" in err, err
+    code, out, _ = run(capsys, "run", "--help")
+    assert code == 0 and "turing-front (alias seed003-front)" in " ".join(out.split())

@@ -14,11 +14,11 @@ from rdgpu.backends.target import Target
 from rdgpu.backends.warp_codegen import warp_source
 from rdgpu.domains import Grid
 from rdgpu.domains.graph_surface import GraphSurface
+from rdgpu.integrators.passes import launch
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import Output, Program
 from rdgpu.ir.reference import run_numpy
 from rdgpu.ir.stencils import STENCIL_KINDS, neighbour_values, stencil_kind
-from rdgpu.models.compiler import launch
 
 
 def _program(zero=frozenset()):

@@ -16,11 +16,11 @@ import pytest
 from conftest import backend_or_skip, variant_or_skip
 
 from rdgpu import Simulation
+from rdgpu.backends.target import Target
 from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.grid import Grid
 from rdgpu.io.output import load_npz, render_surface, save_npz, save_png
 from rdgpu.models import MODELS, define_model
-from rdgpu.models.compiler import Target
 
 GS = MODELS["gray-scott"]
 SCHNAKENBERG = MODELS["schnakenberg"]

@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import warnings
@@ -22,6 +23,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu, spsolve
+from step_checks import check_step, device_step
 
 from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC, parse_bc
 from rdgpu.domains.grid import Grid
@@ -259,16 +261,6 @@ def allowed(grid, theta, dt, D, u, source, expect, dtype, tol) -> float:
     return tol + green * k * eps * data + rounding + conservation
 
 
-def _step(solver, backend, u, source, dtype):
-    """One step on the device; returns ``(out, warnings caught)``."""
-    d_src = backend.upload(source) if isinstance(source, np.ndarray) else source
-    out = backend.empty(solver.shape, dtype)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        solver.step(backend.upload(u), out, source=d_src)
-    return out.numpy(), caught
-
-
 @pytest.mark.parametrize("factor", [50, 5000])
 @pytest.mark.parametrize("theta", [1.0, 0.5], ids=["BE", "CN"])
 @pytest.mark.parametrize("where", sorted(DOMAINS))
@@ -285,24 +277,9 @@ def test_3d_step_equals_spsolve(backend, dtype, where, theta, factor):
     field = (scale * rng.uniform(-0.5, 0.5, grid.shape)).astype(dtype)
     for source in (0.25 * scale, field):
         expect = spsolve_step(grid, theta, dt, D, u, source)
-        got, caught = _step(solver, backend, u, source, dtype)
-        assert solver.last_converged
-        tol = solver.tol
-        if solver.last_floor:
-            # float32 only: the changes stalled at round-off above tol = 1e-5, which the
-            # step names; its estimate is the geometric tail of <= 64 eps (max|δ| + max|u|)
-            assert dtype == np.float32
-            assert len(caught) == 1 and "round-off floor" in str(caught[0].message)
-            eps = float(np.finfo(dtype).eps)
-            size = float(np.abs(expect - u).max() + np.abs(u).max())
-            assert solver.last_error <= 64 * eps * size / (1 - solver.rate)
-            tol = 2 * solver.last_error
-        else:
-            assert not caught, [str(w.message) for w in caught]
-            assert solver.last_error <= solver.tol
-        limit = allowed(grid, theta, dt, D, u, source, expect, dtype, tol)
-        err = float(np.abs(got.astype(np.float64) - expect).max())
-        assert err <= limit, (err, limit, solver.last_sweeps)
+        got, caught = device_step(solver, backend, u, source, dtype)
+        check_step(solver, dtype, u, expect, got, caught, functools.partial(
+            allowed, grid, theta, dt, D, u, source, expect, dtype))
 
 
 @pytest.mark.parametrize("theta", [1.0, 0.5], ids=["BE", "CN"])

@@ -26,7 +26,7 @@ test_model_theory: Linear theory of the model layer, and py-pde as an independen
   ``("dirichlet", g)`` is given to py-pde as its mixed condition ``∂ₙc + γc = β`` with
   ``γ = 2/h`` and ``β = 2g/h``, whose ghost ``2hβ/(2 + hγ) + (2 − hγ)/(2 + hγ)·u`` is ``g``
   to round-off.
-* rdgpu's generated 7-point Laplacian (a :class:`~rdgpu.models.compiler.Program` that
+* rdgpu's generated 7-point Laplacian (a :class:`~rdgpu.ir.program.Program` that
   outputs ``laplace(u)``) equals py-pde's ``ScalarField.laplace`` on a 3-D
   ``CartesianGrid`` with periodic, Neumann, per-axis mixed and Dirichlet conditions.
 
@@ -71,11 +71,13 @@ from rdgpu.analysis import (
     jacobian,
     steady_state,
 )
+from rdgpu.backends.target import Target
 from rdgpu.domains.boundary import parse_bc
 from rdgpu.domains.grid import Grid
+from rdgpu.integrators.passes import launch
 from rdgpu.ir.equations import Lap
+from rdgpu.ir.program import Output, Program
 from rdgpu.models import define_model
-from rdgpu.models.compiler import Output, Program, Target, launch
 
 
 @pytest.mark.parametrize("m", [1, 3, 7])

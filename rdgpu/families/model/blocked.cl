@@ -1,4 +1,4 @@
-/* Temporal blocking of a model's explicit Euler step on a 2-D grid (rdgpu/models/blocking.py):
+/* Temporal blocking of a model's explicit Euler step on a 2-D grid (rdgpu/integrators/blocking.py):
  * `steps` = K steps per pass over the grid, bit for bit the K single steps of rd_program
  * (model.cl).  Needs common.cl, the head of model.cl and the row layout (one work-item walks
  * whole rows).

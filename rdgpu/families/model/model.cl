@@ -1,4 +1,4 @@
-/* One pass of a model's generated program (rdgpu/models/compiler.py).  Needs common.cl.
+/* One pass of a model's generated program (rdgpu/integrators/passes.py, printed by rdgpu/backends/opencl_codegen.py).  Needs common.cl.
  *
  * The compiler fills in this template per program, domain kind and dtype: @ARGS@ becomes
  * the buffers (inputs _in_*, outputs _out_*, parameter fields _pf_*) and scalars (_p_*

@@ -1,4 +1,4 @@
-"""Temporal blocking (rdgpu.models.blocking): K Euler steps per pass on OpenCL, bit for bit
+"""Temporal blocking (rdgpu.integrators.blocking): K Euler steps per pass on OpenCL, bit for bit
 K single steps (``block_steps=1``): odd, tiny and non-square grids, both dtypes, every
 boundary kind on each axis, K ∈ {2, 3, 8}, band heights that do not divide ny, step counts
 that are not multiples of K, Gray-Scott and a model with parameter fields and a
@@ -13,8 +13,9 @@ from oclgrind_check import check_clean_under_oclgrind, oclgrind_available
 
 import rdgpu
 from rdgpu.domains.grid import Grid
-from rdgpu.models import MODELS, blocking, define_model
-from rdgpu.models.blocking import BlockedEuler
+from rdgpu.integrators import blocking
+from rdgpu.integrators.blocking import BlockedEuler
+from rdgpu.models import MODELS, define_model
 
 
 @pytest.fixture(autouse=True)
@@ -250,7 +251,7 @@ for dtype in (np.float32, np.float64):
             st = MODELS["gray-scott"].stepper(Grid(shape, bc=bc), dt=0.5, backend=be,
                                               dtype=dtype, block_steps=k)
             if k > 1:
-                from rdgpu.models.blocking import BlockedEuler
+                from rdgpu.integrators.blocking import BlockedEuler
                 st.blocked = BlockedEuler(st, k, 2)
             st.set_state(start)
             st.advance(4)

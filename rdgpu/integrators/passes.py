@@ -1,14 +1,16 @@
-"""Equations → one fused pass per backend: the model layer's entry to the compiler.
+"""One fused pass of a :class:`~rdgpu.ir.program.Program` on a
+:class:`~rdgpu.backends.target.Target`: how the steppers (and the model layer's device
+right-hand sides) run what they compiled from a model's equations.
 
-A `Program` says what one pass over the domain computes (its
-inputs, parameters and one expression per output); `Target`
-binds a domain to a backend and dtype; `launch` runs one pass through the backend's
-interface (``Backend.fused_pass``), never by the backend's name.  Where the parts live:
+A ``Program`` says what one pass over the domain computes (its inputs, parameters and one
+expression per output); a ``Target`` binds a domain to a backend and dtype; `launch`
+runs one pass through the backend's interface (``Backend.fused_pass``), never by the
+backend's name.  Where the rest of the compiler lives:
 
 * `rdgpu.ir.program` — ``Program``, ``Output``, ``PerMember``, literals, the kernel
   signature;
 * `rdgpu.ir.stencils` — the one stencil table per domain kind and the stencil walk;
-* `rdgpu.ir.reference` — the NumPy semantics (`run_numpy`);
+* `rdgpu.ir.reference` — the NumPy semantics (`rdgpu.ir.reference.run_numpy`);
 * `rdgpu.backends.warp_codegen`, `rdgpu.backends.opencl_codegen` — the printers
   (one per target) and their passes; the NumPy backend runs the semantics in place.
 
@@ -25,12 +27,9 @@ from typing import Any
 
 from rdgpu.backends.base import DeviceArray
 from rdgpu.backends.target import Target
-from rdgpu.ir.program import METRIC_COEFFICIENTS, STENCILS, Output, PerMember, Program, literal
-from rdgpu.ir.reference import run_numpy
-from rdgpu.ir.stencils import check_stencil
+from rdgpu.ir.program import PerMember, Program
 
-__all__ = ["METRIC_COEFFICIENTS", "STENCILS", "Output", "PerMember", "Program", "Target",
-           "check_stencil", "launch", "literal", "run_numpy"]
+__all__ = ["launch"]
 
 
 def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
