@@ -94,7 +94,7 @@ def triad_sweep(max_bytes: int, seconds: float = 0.05, min_bytes: int = MiB) -> 
         n = size // 12
         b = np.random.default_rng(0).random(n, dtype=np.float32)
         c, a, s = b[::-1].copy(), np.empty_like(b), np.float32(3.0)
-        t = _best_seconds(lambda a=a, b=b, c=c: triad(a, b, c, s), seconds)
+        t = _best_seconds(lambda a=a, b=b, c=c, s=s: triad(a, b, c, s), seconds)
         points.append([12 * n, 12 * n / t / 1e9])
         size *= 2
     return {"how": how, "points": points}

@@ -14,6 +14,7 @@ reported as such.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from importlib import metadata
 
@@ -46,6 +47,7 @@ def peer_status(name: str) -> str | None:
     return None
 
 
+@functools.cache
 def _numba_kernels():
     import numba
 

@@ -37,6 +37,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rdgpu.backends.registry import backend_names
+from rdgpu.cli.bench_options import add_bench_parser
 from rdgpu.cli.common import (
     DEFAULT_SIZE,
     DEFAULT_STEPS,
@@ -329,6 +330,7 @@ def _add_listing_parsers(sub: Any) -> None:
                           help="exit with status 1 unless backend NAME can run here "
                           "(repeatable)")
     backends.set_defaults(func=_command("rdgpu.cli.listing", "cmd_backends"))
+    add_bench_parser(sub, _command("rdgpu.cli.bench", "cmd_bench"))
 
 
 # ---------------------------------------------------------------------------- main
