@@ -12,6 +12,7 @@
     rdgpu presets
     rdgpu models
     rdgpu backends
+    rdgpu bench --peers       # rdgpu against numba, py-pde, ... (`rdgpu.cli.bench`)
 
 Every option is checked before the run starts.  Bad input gives one line
 ``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1 --
