@@ -1,5 +1,5 @@
 """``rdgpu bench``: rdgpu's backends and the peers a user would pick instead (numba,
-py-pde; pystencils, Devito, Taichi named) on the same Gray-Scott step, each checked against
+py-pde, pystencils; Devito, Taichi named) on the same Gray-Scott step, each checked against
 rdgpu's NumPy reference before it is timed, at grid sizes read off the machine's measured
 cache, with the triad roofline.
 

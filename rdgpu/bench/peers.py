@@ -8,8 +8,11 @@ missing is listed with the reason and not run.
 * ``py-pde``: ``pde.PDE`` with the same expressions on a periodic ``CartesianGrid``,
   ``EulerSolver`` (numba backend, fixed step); float64 only (py-pde computes in float64).
 
-pystencils, Devito and Taichi are named in `PEERS` but not implemented yet: they are
-reported as such.
+* ``pystencils``: the same assignments as symbolic field accesses, compiled to C with
+  OpenMP; periodic through one ghost layer its data handling synchronises each step;
+  float32 or float64.
+
+Devito and Taichi are named in `PEERS` but not implemented yet: they are reported as such.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ __all__ = ["PEERS", "peer_contenders", "peer_status"]
 #: peer name -> the distribution providing it
 PEERS = {"numba": "numba", "py-pde": "py-pde", "pystencils": "pystencils",
          "devito": "devito", "taichi": "taichi"}
-_IMPLEMENTED = ("numba", "py-pde")
+_IMPLEMENTED = ("numba", "py-pde", "pystencils")
 
 
 def _version(dist: str) -> str | None:
@@ -126,9 +129,51 @@ def _pypde_make(u: np.ndarray, v: np.ndarray) -> Runner:
     return Runner(advance, lambda: (state[0].data.copy(), state[1].data.copy()))
 
 
+def _laplacian(f, dims: int):
+    """The 5-/7-point Laplacian (dx = 1) of pystencils field ``f``, axis by axis."""
+    c, total = f.center, 0
+    for axis in range(dims):
+        ahead, behind = [0] * dims, [0] * dims
+        ahead[axis], behind[axis] = 1, -1
+        total = total + (f[tuple(ahead)] + f[tuple(behind)] - 2 * c)
+    return total
+
+
+def _pystencils_make(u0: np.ndarray, v0: np.ndarray) -> Runner:
+    import pystencils as ps
+
+    dims, dtype, p = u0.ndim, str(u0.dtype), PARAMS
+    dh = ps.create_data_handling(u0.shape, periodicity=True, default_target=ps.Target.CPU)
+    for name in ("u", "v", "u2", "v2"):
+        dh.add_array(name, values_per_cell=1, dtype=dtype)
+    u, v, u2, v2 = (dh.fields[n] for n in ("u", "v", "u2", "v2"))
+    dt, uvv = dt_for(dims), u.center * v.center * v.center
+    step = [ps.Assignment(u2.center, u.center + dt * (p["Du"] * _laplacian(u, dims) - uvv
+                                                      + p["F"] * (1 - u.center))),
+            ps.Assignment(v2.center, v.center + dt * (p["Dv"] * _laplacian(v, dims) + uvv
+                                                      - (p["F"] + p["k"]) * v.center))]
+    config = ps.CreateKernelConfig(target=ps.Target.CPU, default_dtype=dtype)
+    config.cpu.openmp.enable = True
+    kernel = ps.create_kernel(step, config).compile()
+    inner = (slice(1, -1),) * dims
+    dh.cpu_arrays["u"][inner], dh.cpu_arrays["v"][inner] = u0, v0
+    sync = dh.synchronization_function(["u", "v"])
+
+    def advance(n):
+        for _ in range(n):
+            sync()
+            dh.run_kernel(kernel)
+            dh.swap("u", "u2")
+            dh.swap("v", "v2")
+
+    return Runner(advance, lambda: (dh.cpu_arrays["u"][inner].copy(),
+                                    dh.cpu_arrays["v"][inner].copy()))
+
+
 def peer_contenders(names: list[str]) -> tuple[list[Contender], dict[str, str]]:
     """The runnable peers among ``names`` and ``{name: why not}`` for the others."""
     makers = {"numba": (_numba_make, lambda d, t: None),
+              "pystencils": (_pystencils_make, lambda d, t: None),
               "py-pde": (_pypde_make,
                          lambda d, t: None if t == "float64" else "float64 only")}
     out, skipped = [], {}
