@@ -136,12 +136,17 @@ def _machine(opts: Options) -> tuple[dict, int, float, list[str]]:
     _say(f"triad sweep up to {opts.triad_max / MiB:.0f} MiB ...")
     record = machine_record(triad_sweep(opts.triad_max, opts.triad_seconds))
     notes = []
-    llc = record["llc"]
+    llc, caches = record["llc"], cpu_caches()
     if llc is None:
-        llc = cpu_caches().llc or 32 * MiB
+        llc = caches.llc or 32 * MiB
         notes.append(f"the triad sweep (up to {opts.triad_max / MiB:.0f} MiB) did not leave "
                      f"the cache: the OS-reported LLC ({llc / MiB:.0f} MiB) is used, and the "
                      "roofline is the sweep's largest point")
+    elif llc <= caches.l2:
+        notes.append(f"the triad sweep saw a cache of {llc / MiB:.0f} MiB, no more than one "
+                     f"L2 ({caches.l2 / MiB:.0f} MiB): a busy machine disturbed it; the "
+                     f"OS-reported LLC ({(caches.llc or 32 * MiB) / MiB:.0f} MiB) is used")
+        llc = caches.llc or 32 * MiB
     _say(f"effective LLC {llc / MiB:.0f} MiB; triad {record['dram_GBps']:.1f} GB/s out of "
          f"cache, {record['cache_GBps']:.1f} GB/s in it")
     return record, llc, record["dram_GBps"], notes
