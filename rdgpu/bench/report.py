@@ -93,13 +93,16 @@ def plot(record: dict, path: Path) -> str | None:
         return "no plot: matplotlib is missing (pip install rdgpu[media])"
     cases = list(dict.fromkeys((r["dims"], r["dtype"]) for r in record["rows"]))
     fig, axes = plt.subplots(1, len(cases), figsize=(6 * len(cases), 4.5), squeeze=False)
+    names = list(dict.fromkeys(r["contender"] for r in record["rows"]))
+    colour = {n: f"C{i % 10}" for i, n in enumerate(names)}  # alike in every panel
     for ax, (dims, dtype) in zip(axes[0], cases, strict=True):
         rows = [r for r in record["rows"] if (r["dims"], r["dtype"]) == (dims, dtype)]
-        for name in dict.fromkeys(r["contender"] for r in rows):
+        for name in names:
             pts = sorted((r["cells"], r["mcells"]) for r in rows
                          if r["contender"] == name and r["status"] == "ok")
             if pts:
-                ax.plot(*zip(*pts, strict=True), marker="o", label=name)
+                ax.plot(*zip(*pts, strict=True), marker="o", label=name, color=colour[name],
+                        ls="-" if name.startswith("rdgpu") else "--")
         ax.axhline(rows[0]["roofline_mcells"], color="k", ls="--", label="triad roofline")
         ax.axvline(record["llc_used"] / rows[0]["bytes_per_cell"], color="grey", ls=":",
                    label="effective LLC")
