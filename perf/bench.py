@@ -5,6 +5,11 @@
                          [--members 1024] [--member-size 64] [--model-size N] [--real-size N]
                          [--mesh-vertices N]
 
+The users' benchmark -- rdgpu against the peers (numba, py-pde, ...) on the same
+Gray-Scott step, sizes from the measured cache -- is ``rdgpu bench`` (`rdgpu.bench`); this
+script is the developers' benchmark of every kernel family, the mesh kernels, models,
+ensembles, growth and real states.
+
 Writes ``bench.json``, ``bench.md`` and ``bench.png`` (Mcell/s against cells, log-log, one
 line per backend, one panel per grid kernel, the last-level cache marked) to ``--out``.
 

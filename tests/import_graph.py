@@ -37,7 +37,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("models",),
     ("simulation",),
     ("io", "analysis", "growth"),
-    ("runs", "integrations"),
+    ("runs", "integrations", "bench"),
     ("cli",),
     ("rdgpu",),  # rdgpu/__init__.py and the facades
 )

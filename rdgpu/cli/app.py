@@ -12,6 +12,7 @@
     rdgpu presets
     rdgpu models
     rdgpu backends
+    rdgpu bench --peers       # rdgpu against numba, py-pde, ... (`rdgpu.cli.bench`)
 
 Every option is checked before the run starts.  Bad input gives one line
 ``rdgpu: error: ...`` on stderr and exit status 2; a failure during the run, status 1 --
@@ -37,6 +38,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rdgpu.backends.registry import backend_names
+from rdgpu.cli.bench_options import add_bench_parser
 from rdgpu.cli.common import (
     DEFAULT_SIZE,
     DEFAULT_STEPS,
@@ -330,6 +332,7 @@ def _add_listing_parsers(sub: Any) -> None:
                           help="exit with status 1 unless backend NAME can run here "
                           "(repeatable)")
     backends.set_defaults(func=_command("rdgpu.cli.listing", "cmd_backends"))
+    add_bench_parser(sub, _command("rdgpu.cli.bench", "cmd_bench"))
 
 
 # ---------------------------------------------------------------------------- main

@@ -1,0 +1,10 @@
+"""``rdgpu bench``: rdgpu's backends and the peers a user would pick instead (numba,
+py-pde, pystencils; Devito, Taichi named) on the same Gray-Scott step, each checked against
+rdgpu's NumPy reference before it is timed, at grid sizes read off the machine's measured
+cache, with the triad roofline.
+
+* `rdgpu.bench.machine`: the triad sweep, the effective LLC, grid sizes, the machine record;
+* `rdgpu.bench.problem`: the problem, its real state and its NumPy reference;
+* `rdgpu.bench.contenders`: rdgpu's contenders and the check; `rdgpu.bench.peers`: the peers;
+* `rdgpu.bench.run`: one run as a record; `rdgpu.bench.report`: JSON, Markdown, plot.
+"""

@@ -1,0 +1,187 @@
+"""The peers: the tools a user would pick instead of rdgpu, each doing exactly the
+problem of `rdgpu.bench.problem` (Gray-Scott, 5-/7-point, periodic, forward Euler, dx = 1)
+as a `Contender`.  Installed with ``pip install rdgpu[bench]``; a peer whose package is
+missing is listed with the reason and not run.
+
+* ``numba``: a hand-written ``@njit(parallel=True)`` kernel (rows shared among the cores
+  with ``prange``), the reference's operation order, float32 or float64;
+* ``py-pde``: ``pde.PDE`` with the same expressions on a periodic ``CartesianGrid``,
+  ``EulerSolver`` (numba backend, fixed step); float64 only (py-pde computes in float64).
+
+* ``pystencils``: the same assignments as symbolic field accesses, compiled to C with
+  OpenMP; periodic through one ghost layer its data handling synchronises each step;
+  float32 or float64.
+
+Devito and Taichi are named in `PEERS` but not implemented yet: they are reported as such.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+from importlib import metadata
+
+import numpy as np
+
+from rdgpu.bench.contenders import Contender
+from rdgpu.bench.problem import PARAMS, Runner, dt_for
+
+__all__ = ["PEERS", "peer_contenders", "peer_status"]
+
+#: peer name -> the distribution providing it
+PEERS = {"numba": "numba", "py-pde": "py-pde", "pystencils": "pystencils",
+         "devito": "devito", "taichi": "taichi"}
+_IMPLEMENTED = ("numba", "py-pde", "pystencils")
+
+
+def _version(dist: str) -> str | None:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def peer_status(name: str) -> str | None:
+    """None when peer ``name`` can run here, else why not."""
+    if _version(PEERS[name]) is None:
+        return f"not installed (pip install {PEERS[name]}, or rdgpu[bench])"
+    if name not in _IMPLEMENTED:
+        return "not implemented in rdgpu bench yet"
+    return None
+
+
+@functools.cache
+def _numba_kernels():
+    import numba
+
+    @numba.njit(parallel=True)
+    def step2(u, v, uo, vo, du, dv, f, fk, dt, one, two):  # pragma: no cover - compiled
+        ny, nx = u.shape
+        for i in numba.prange(ny):
+            n, s = (i + 1) % ny, (i - 1 + ny) % ny
+            for j in range(nx):
+                e, w = (j + 1) % nx, (j - 1 + nx) % nx
+                uc, vc = u[i, j], v[i, j]
+                lu = (u[i, e] + u[i, w] - two * uc) + (u[n, j] + u[s, j] - two * uc)
+                lv = (v[i, e] + v[i, w] - two * vc) + (v[n, j] + v[s, j] - two * vc)
+                uvv = uc * vc * vc
+                uo[i, j] = uc + dt * (du * lu - uvv + f * (one - uc))
+                vo[i, j] = vc + dt * (dv * lv + uvv - fk * vc)
+
+    @numba.njit(parallel=True)
+    def step3(u, v, uo, vo, du, dv, f, fk, dt, one, two):  # pragma: no cover - compiled
+        nz, ny, nx = u.shape
+        for p in numba.prange(nz):
+            a, b = (p + 1) % nz, (p - 1 + nz) % nz
+            for i in range(ny):
+                n, s = (i + 1) % ny, (i - 1 + ny) % ny
+                for j in range(nx):
+                    e, w = (j + 1) % nx, (j - 1 + nx) % nx
+                    uc, vc = u[p, i, j], v[p, i, j]
+                    lu = ((u[p, i, e] + u[p, i, w] - two * uc)
+                          + (u[p, n, j] + u[p, s, j] - two * uc)
+                          + (u[a, i, j] + u[b, i, j] - two * uc))
+                    lv = ((v[p, i, e] + v[p, i, w] - two * vc)
+                          + (v[p, n, j] + v[p, s, j] - two * vc)
+                          + (v[a, i, j] + v[b, i, j] - two * vc))
+                    uvv = uc * vc * vc
+                    uo[p, i, j] = uc + dt * (du * lu - uvv + f * (one - uc))
+                    vo[p, i, j] = vc + dt * (dv * lv + uvv - fk * vc)
+
+    return step2, step3
+
+
+def _numba_make(u: np.ndarray, v: np.ndarray) -> Runner:
+    step = _numba_kernels()[u.ndim - 2]
+    t = u.dtype.type
+    p = PARAMS
+    args = (t(p["Du"]), t(p["Dv"]), t(p["F"]), t(p["F"] + p["k"]), t(dt_for(u.ndim)), t(1),
+            t(2))
+    bufs = [u, v, np.empty_like(u), np.empty_like(v)]
+
+    def advance(n):
+        for _ in range(n):
+            step(*bufs, *args)
+            bufs[:] = [bufs[2], bufs[3], bufs[0], bufs[1]]
+
+    return Runner(advance, lambda: (bufs[0].copy(), bufs[1].copy()))
+
+
+def _pypde_make(u: np.ndarray, v: np.ndarray) -> Runner:
+    import pde
+
+    p = PARAMS
+    grid = pde.CartesianGrid([[0, n] for n in u.shape], list(u.shape), periodic=True)
+    eq = pde.PDE({"u": f"{p['Du']}*laplace(u) - u*v**2 + {p['F']}*(1 - u)",
+                  "v": f"{p['Dv']}*laplace(v) + u*v**2 - ({p['F']} + {p['k']})*v"})
+    state = pde.FieldCollection([pde.ScalarField(grid, u), pde.ScalarField(grid, v)])
+    dt = dt_for(u.ndim)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        solver_class = getattr(pde, "EulerSolver", None) or pde.ExplicitSolver
+        solver = solver_class(eq, backend="numba", adaptive=False)
+        stepper = solver.make_stepper(state, dt=dt)
+    t = [0.0]
+
+    def advance(n):
+        t[0] = stepper(state, t[0], t[0] + n * dt)
+
+    return Runner(advance, lambda: (state[0].data.copy(), state[1].data.copy()))
+
+
+def _laplacian(f, dims: int):
+    """The 5-/7-point Laplacian (dx = 1) of pystencils field ``f``, axis by axis."""
+    c, total = f.center, 0
+    for axis in range(dims):
+        ahead, behind = [0] * dims, [0] * dims
+        ahead[axis], behind[axis] = 1, -1
+        total = total + (f[tuple(ahead)] + f[tuple(behind)] - 2 * c)
+    return total
+
+
+def _pystencils_make(u0: np.ndarray, v0: np.ndarray) -> Runner:
+    import pystencils as ps
+
+    dims, dtype, p = u0.ndim, str(u0.dtype), PARAMS
+    dh = ps.create_data_handling(u0.shape, periodicity=True, default_target=ps.Target.CPU)
+    for name in ("u", "v", "u2", "v2"):
+        dh.add_array(name, values_per_cell=1, dtype=dtype)
+    u, v, u2, v2 = (dh.fields[n] for n in ("u", "v", "u2", "v2"))
+    dt, uvv = dt_for(dims), u.center * v.center * v.center
+    step = [ps.Assignment(u2.center, u.center + dt * (p["Du"] * _laplacian(u, dims) - uvv
+                                                      + p["F"] * (1 - u.center))),
+            ps.Assignment(v2.center, v.center + dt * (p["Dv"] * _laplacian(v, dims) + uvv
+                                                      - (p["F"] + p["k"]) * v.center))]
+    config = ps.CreateKernelConfig(target=ps.Target.CPU, default_dtype=dtype)
+    config.cpu.openmp.enable = True
+    kernel = ps.create_kernel(step, config).compile()
+    inner = (slice(1, -1),) * dims
+    dh.cpu_arrays["u"][inner], dh.cpu_arrays["v"][inner] = u0, v0
+    sync = dh.synchronization_function(["u", "v"])
+
+    def advance(n):
+        for _ in range(n):
+            sync()
+            dh.run_kernel(kernel)
+            dh.swap("u", "u2")
+            dh.swap("v", "v2")
+
+    return Runner(advance, lambda: (dh.cpu_arrays["u"][inner].copy(),
+                                    dh.cpu_arrays["v"][inner].copy()))
+
+
+def peer_contenders(names: list[str]) -> tuple[list[Contender], dict[str, str]]:
+    """The runnable peers among ``names`` and ``{name: why not}`` for the others."""
+    makers = {"numba": (_numba_make, lambda d, t: None),
+              "pystencils": (_pystencils_make, lambda d, t: None),
+              "py-pde": (_pypde_make,
+                         lambda d, t: None if t == "float64" else "float64 only")}
+    out, skipped = [], {}
+    for name in names:
+        why = peer_status(name)
+        if why is not None:
+            skipped[name] = why
+            continue
+        make, lacks = makers[name]
+        out.append(Contender(name, "peer", _version(PEERS[name]), make, lacks))
+    return out, skipped

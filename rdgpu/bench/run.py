@@ -1,0 +1,174 @@
+"""One benchmark run: the machine measured, the sizes chosen, every contender checked then
+timed, all gathered in one JSON-ready record (`run_bench`).
+
+A row is one contender on one case (dimensions, dtype, grid edge): ``status`` is ``"ok"``
+(``mcells``: Mcell·steps/s, the best batch of steps over ``seconds``), ``"refused"`` (it
+disagreed with the NumPy reference: ``note`` says how; it is never timed) or ``"skipped"``
+(it cannot run that case: ``note`` says why).  ``compile_s`` is the first step's time in
+the check (compilation, apart from the timing).  The roofline is the out-of-cache triad
+bandwidth ÷ the bytes a step moves per cell; ``pct_roofline`` is given only for grids
+whose state exceeds the effective LLC.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+
+from rdgpu.bench.contenders import CHECK_SHAPE, CHECK_STEPS, Contender, check, rdgpu_contenders
+from rdgpu.bench.machine import MiB, grid_sizes, machine_record, triad_sweep
+from rdgpu.bench.peers import PEERS, peer_contenders
+from rdgpu.bench.problem import TILE, bytes_per_cell, real_state
+from rdgpu.core.hardware import cpu_caches
+
+__all__ = ["Options", "QUICK_SIZES", "check_options", "run_bench", "time_rate"]
+
+#: the edges of a ``--quick`` run
+QUICK_SIZES = {2: [128], 3: [32]}
+
+
+@dataclass
+class Options:
+    """What to run: rdgpu ``backends`` (specs), ``peers`` (names of `PEERS`), ``dims``,
+    ``dtypes``, grid edges (``sizes``: ``{dims: [edge, ...]}``; None: from the cache),
+    ``seconds`` of timing per row, the triad sweep up to ``triad_max`` bytes."""
+
+    backends: list[str] = field(default_factory=lambda: ["opencl", "warp"])
+    peers: list[str] = field(default_factory=list)
+    dims: list[int] = field(default_factory=lambda: [2, 3])
+    dtypes: list[str] = field(default_factory=lambda: ["float32"])
+    sizes: dict[int, list[int]] | None = None
+    seconds: float = 0.5
+    triad_max: int = 2048 * MiB
+    triad_seconds: float = 0.1
+
+
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def time_rate(runner, cells: int, seconds: float) -> float:
+    """Best Mcell·steps/s of ``runner``: warmed up, then batches of at least 50 ms until
+    ``seconds`` have passed."""
+    runner.advance(1)
+    t0 = time.perf_counter()
+    runner.advance(1)
+    batch = max(1, int(0.05 / max(time.perf_counter() - t0, 1e-7)))
+    best, end = math.inf, time.perf_counter() + seconds
+    while best == math.inf or time.perf_counter() < end:
+        t0 = time.perf_counter()
+        runner.advance(batch)
+        best = min(best, (time.perf_counter() - t0) / batch)
+    return cells / best / 1e6
+
+
+def check_options(opts: Options) -> None:
+    """ValueError naming the option when ``opts`` cannot run (before any work)."""
+    if not opts.dims or any(d not in TILE for d in opts.dims):
+        raise ValueError(f"dims: expected 2 and/or 3, got {opts.dims}")
+    if not opts.dtypes or any(t not in ("float32", "float64") for t in opts.dtypes):
+        raise ValueError(f"dtype: expected float32 and/or float64, got {opts.dtypes}")
+    unknown = [p for p in opts.peers if p not in PEERS]
+    if unknown:
+        raise ValueError(f"peers: unknown {unknown}; known: {', '.join(PEERS)}")
+    if not opts.seconds > 0:
+        raise ValueError(f"seconds: expected a positive number, got {opts.seconds}")
+    for dims in opts.dims if opts.sizes else ():
+        bad = [n for n in opts.sizes.get(dims, []) if n <= 0 or n % TILE[dims]]
+        if bad or not opts.sizes.get(dims):
+            raise ValueError(f"sizes: a {dims}-D grid's edge must be a positive multiple of "
+                             f"{TILE[dims]} (the real state's tile); got {bad or 'none'}")
+
+
+def _sizes(opts: Options, dims: int, llc: int) -> list[int]:
+    if opts.sizes:
+        return list(opts.sizes[dims])
+    worst = max(bytes_per_cell(t) for t in opts.dtypes)
+    return grid_sizes(llc, dims, worst, TILE[dims])
+
+
+def _checked(c: Contender, dims: int, dtype: str) -> tuple[str | None, float | None]:
+    """``(why refused or skipped, compile seconds)``: the contender's first step timed on
+    a check-sized grid (its compilation), then the check."""
+    lacks = c.lacks(dims, dtype)
+    if lacks is not None:
+        return lacks, None
+    u, v = real_state(CHECK_SHAPE[dims], dtype)
+    t0 = time.perf_counter()
+    try:
+        c.make(u, v).advance(1)
+    except Exception as exc:  # noqa: BLE001 - reported by the check below
+        _say(f"  {c.name}: first step failed: {exc}")
+    compile_s = time.perf_counter() - t0
+    return check(c, dims, dtype), compile_s
+
+
+def _case_rows(c: Contender, dims: int, dtype: str, sizes: list[int], llc: int,
+               roof_bw: float, seconds: float) -> list[dict]:
+    why, compile_s = _checked(c, dims, dtype)
+    status = "ok" if why is None else ("skipped" if compile_s is None else "refused")
+    rows = []
+    for n in sizes:
+        cells = n ** dims
+        nbytes = bytes_per_cell(dtype)
+        row = dict(dims=dims, dtype=dtype, size=n, cells=cells, contender=c.name,
+                   family=c.family, version=c.version, status=status, note=why,
+                   compile_s=compile_s, bytes_per_cell=nbytes,
+                   in_cache=cells * nbytes <= llc,
+                   roofline_mcells=roof_bw * 1e9 / nbytes / 1e6)
+        if status == "ok":
+            runner = c.make(*real_state((n,) * dims, dtype))
+            row["mcells"] = time_rate(runner, cells, seconds)
+            del runner
+            if not row["in_cache"]:
+                row["pct_roofline"] = 100 * row["mcells"] / row["roofline_mcells"]
+            _say(f"  {dims}-D {dtype} {n:>5} {c.name:24s} {row['mcells']:9.0f} Mcell/s")
+        else:
+            _say(f"  {dims}-D {dtype} {n:>5} {c.name:24s} {status}: {why}")
+        rows.append(row)
+    return rows
+
+
+def _machine(opts: Options) -> tuple[dict, int, float, list[str]]:
+    """The machine record, the LLC used for sizes and marks, the roofline's GB/s, notes."""
+    _say(f"triad sweep up to {opts.triad_max / MiB:.0f} MiB ...")
+    record = machine_record(triad_sweep(opts.triad_max, opts.triad_seconds))
+    notes = []
+    llc, caches = record["llc"], cpu_caches()
+    if llc is None:
+        llc = caches.llc or 32 * MiB
+        notes.append(f"the triad sweep (up to {opts.triad_max / MiB:.0f} MiB) did not leave "
+                     f"the cache: the OS-reported LLC ({llc / MiB:.0f} MiB) is used, and the "
+                     "roofline is the sweep's largest point")
+    elif llc <= caches.l2:
+        notes.append(f"the triad sweep saw a cache of {llc / MiB:.0f} MiB, no more than one "
+                     f"L2 ({caches.l2 / MiB:.0f} MiB): a busy machine disturbed it; the "
+                     f"OS-reported LLC ({(caches.llc or 32 * MiB) / MiB:.0f} MiB) is used")
+        llc = caches.llc or 32 * MiB
+    _say(f"effective LLC {llc / MiB:.0f} MiB; triad {record['dram_GBps']:.1f} GB/s out of "
+         f"cache, {record['cache_GBps']:.1f} GB/s in it")
+    return record, llc, record["dram_GBps"], notes
+
+
+def run_bench(opts: Options, contenders: list[Contender] | None = None) -> dict:
+    """Measure the machine, then check and time every contender (rdgpu's ``opts.backends``
+    and ``opts.peers``, or ``contenders`` as given) on every case: the record."""
+    record, llc, bw, notes = _machine(opts)
+    skipped: dict[str, str] = {}
+    if contenders is None:
+        contenders = rdgpu_contenders(opts.backends)
+        peers, skipped = peer_contenders(opts.peers)
+        contenders += peers
+    rows = []
+    for dims in opts.dims:
+        sizes = _sizes(opts, dims, llc)
+        for dtype in opts.dtypes:
+            _say(f"{dims}-D {dtype}: edges {sizes}")
+            for c in contenders:
+                rows += _case_rows(c, dims, dtype, sizes, llc, bw, opts.seconds)
+    return {"machine": record, "llc_used": llc, "roofline_GBps": bw,
+            "options": asdict(opts), "peers_not_run": skipped, "notes": notes,
+            "check": {"steps": CHECK_STEPS, "shapes": CHECK_SHAPE},
+            "peers_known": list(PEERS), "rows": rows}

@@ -1,0 +1,50 @@
+"""``rdgpu bench``: `rdgpu.bench` from the command line (options: `rdgpu.cli.bench_options`).
+Everything is checked before any work; progress goes to stderr, the table to stdout."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rdgpu.backends.registry import get_backend
+from rdgpu.bench.machine import MiB
+from rdgpu.bench.peers import PEERS
+from rdgpu.bench.report import markdown, write
+from rdgpu.bench.run import QUICK_SIZES, Options, check_options, run_bench
+from rdgpu.cli.common import UsageError
+
+__all__ = ["cmd_bench", "options_from"]
+
+
+def options_from(args: argparse.Namespace) -> Options:
+    """The run's `Options`; UsageError for what cannot run."""
+    peers = [] if args.peers is None else (list(args.peers) or list(PEERS))
+    sizes = ({d: list(args.sizes) for d in args.dims} if args.sizes
+             else dict(QUICK_SIZES) if args.quick else None)
+    opts = Options(backends=list(args.backends), peers=peers, dims=list(args.dims),
+                   dtypes=list(args.dtype), sizes=sizes, seconds=args.seconds)
+    if args.quick:
+        opts.seconds = min(opts.seconds, 0.1)
+        opts.triad_max, opts.triad_seconds = 64 * MiB, 0.01
+    try:
+        check_options(opts)
+    except ValueError as exc:
+        raise UsageError(f"--{exc}") from None
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {args.out}: exists and is not a folder")
+    return opts
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Run the benchmark; the Markdown table on stdout."""
+    opts = options_from(args)
+    for spec in opts.backends:
+        get_backend(spec)  # BackendUnavailableError (exit 2) before any work
+    record = run_bench(opts)
+    for note in write(record, Path(args.out)):
+        print(f"rdgpu: {note}", file=sys.stderr)
+    print(markdown(record))
+    print(f"rdgpu: wrote bench.json, bench.md, bench.png to {args.out}", file=sys.stderr)
+    return 0

@@ -1,0 +1,42 @@
+"""The options of ``rdgpu bench`` (the command: `rdgpu.cli.bench`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rdgpu.cli.options import at_least_1, positive_float
+
+__all__ = ["PEER_NAMES", "add_bench_parser"]
+
+#: the peers ``--peers`` accepts (`rdgpu.bench.peers.PEERS`; a test keeps them equal)
+PEER_NAMES = ("numba", "py-pde", "pystencils", "devito", "taichi")
+
+
+def add_bench_parser(sub: Any, command: Any) -> None:
+    """``rdgpu bench``; ``command`` runs it."""
+    b = sub.add_parser(
+        "bench", help="time rdgpu's backends (and peers) on the same Gray-Scott step",
+        description="Check, then time, rdgpu's backends and the installed peers (pip "
+        "install rdgpu[bench]) on the same Gray-Scott step (periodic, forward Euler, a "
+        "real state) at grid sizes chosen from the cache a triad sweep measures; writes "
+        "bench.json, bench.md and bench.png to --out, the table to stdout and progress "
+        "to stderr.")
+    b.add_argument("--backends", nargs="+", default=["opencl", "warp"], metavar="SPEC",
+                   help="rdgpu backends to time (default: opencl warp)")
+    b.add_argument("--peers", nargs="*", choices=PEER_NAMES, metavar="NAME",
+                   help="peers to time; alone: every peer (" + ", ".join(PEER_NAMES)
+                   + "); those not installed are listed, not run")
+    b.add_argument("--sizes", nargs="+", type=at_least_1, metavar="N",
+                   help="grid edges (multiples of 64 in 2-D, 16 in 3-D; default: in cache "
+                   "and 4x the measured last-level cache)")
+    b.add_argument("--dtype", nargs="+", choices=("float32", "float64"),
+                   default=["float32"], help="default float32")
+    b.add_argument("--dims", nargs="+", type=int, choices=(2, 3), default=[2, 3],
+                   help="2-D (5-point) and/or 3-D (7-point); default both")
+    b.add_argument("--seconds", type=positive_float, default=0.5,
+                   help="timing per row (default 0.5)")
+    b.add_argument("--out", default="bench-results", metavar="DIR",
+                   help="folder for bench.json, bench.md, bench.png (default bench-results)")
+    b.add_argument("--quick", action="store_true",
+                   help="a short run: small grids (128², 32³), 0.1 s a row, a short sweep")
+    b.set_defaults(func=command)
