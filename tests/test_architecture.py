@@ -138,7 +138,8 @@ MAX_FUNCTION_LINES = 100
 
 
 def long_functions(limit: int = MAX_FUNCTION_LINES) -> dict[str, int]:
-    """``"path::name": lines`` of every function of rdgpu/ longer than ``limit``."""
+    """``"path::name": lines`` of every function of rdgpu/ longer than ``limit``: its whole
+    span (nested functions included) less its docstring, which is documentation, not code."""
     import ast
 
     out = {}
@@ -147,6 +148,10 @@ def long_functions(limit: int = MAX_FUNCTION_LINES) -> dict[str, int]:
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 lines = node.end_lineno - node.lineno + 1
+                first = node.body[0]
+                if (isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)
+                        and isinstance(first.value.value, str)):
+                    lines -= first.end_lineno - first.lineno + 1
                 if lines > limit:
                     out[f"{rel}::{node.name}"] = lines
     return out
