@@ -31,13 +31,14 @@ The θ-step (:class:`rdgpu.ops.implicit.ImplicitDiffusion`) is solved for the in
 so that no ``u`` is ever subtracted from a term ``dt D/dx²`` times larger (every multiplier
 is bounded by ``1/θ``); then ``out = u + δ``.
 
-Precision: the transforms and the sum ``u + δ`` run in float64 for both working dtypes,
-and the result is rounded to the working dtype once.  A float64 solve errs by a few
-``eps₆₄ log₂ N`` relative to ``max|u|``, far below float32's ``eps``, so a float32 result
-is the float64 solve rounded (one rounding), and a float64 result is accurate to the
-round-off of float64 (pocketfft's transforms are accurate to ``O(eps log N)``).  Running
-the transforms in float32 would add ``O(eps₃₂ log N)`` per step; float64 costs about twice
-the time of a float32 transform, which the host-device copies dominate anyway.
+Precision: the transforms run in the working dtype (``scipy.fft`` has single-precision
+transforms), the multipliers computed in float64 and rounded once.  pocketfft's transforms
+err by ``O(eps log N)``, so a float64 step is accurate to float64's round-off and a
+float32 step to float32's: measured against the float64 solve rounded to float32, at
+most 3 ulps of the result at 64², 5 at 256², 7 at 1024² (relative to ``max|x|``:
+2–5 eps).  Running float32 steps through float64 transforms would gain those few ulps
+and cost 2.8× the transform time (256², measured), while the SOR solve it replaces
+stopped at ``tol = 1e-5``.
 
 Symmetry: a field constant along a periodic or Neumann axis is, to round-off, a multiple
 of that axis' zero mode, but a transform of a constant is not exactly a single mode at
@@ -175,14 +176,21 @@ class TransformSolver:
     ----------
     axes : sequence of (int, int, float)
         ``(n, kind, h)`` per axis of the field (:func:`grid_axes`), 1 to 3 axes.
+    dtype : numpy.dtype
+        The precision the transforms run in, float32 or float64 (module doc); results
+        are in it.
     workers : int
         ``scipy.fft`` threads (default: every core).
     """
 
-    def __init__(self, axes: Sequence[tuple[int, int, float]], *, workers: int = WORKERS):
+    def __init__(self, axes: Sequence[tuple[int, int, float]], *, dtype: Any = np.float64,
+                 workers: int = WORKERS):
         axes = [(int(n), int(kind), float(h)) for n, kind, h in axes]
         if not 1 <= len(axes) <= 3 or any(n < 1 for n, _, _ in axes):
             raise ValueError(f"axes must be 1 to 3 (n >= 1, kind, h) triples, got {axes}")
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.float32, np.float64):
+            raise TypeError(f"dtype must be float32 or float64, got {self.dtype}")
         self.axes = axes
         self.shape = tuple(n for n, _, _ in axes)
         self.workers = workers
@@ -201,11 +209,13 @@ class TransformSolver:
         return groups
 
     def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
-        """The coefficients of the float64 field ``a`` (dropped axes of length 1)."""
+        """The coefficients of the field ``a`` (dropped axes of length 1), a new array."""
         import scipy.fft as fft
 
         periodic, neumann, dirichlet = self._groups(kept)
         w = self.workers
+        if not (periodic or neumann or dirichlet):
+            return a.copy()
         if neumann:
             a = fft.dctn(a, type=2, axes=neumann, workers=w)
         if dirichlet:
@@ -248,8 +258,11 @@ class TransformSolver:
         which every one of ``fields`` is bit for bit constant (module doc: symmetry)."""
         kept = []
         for i, (n, kind, _) in enumerate(self.axes):
+            # slice 1 against slice 0 first: a field that varies is told in O(N/n)
             same = kind != DIRICHLET and n > 1 and all(
-                f.shape[i] == 1 or bool(np.all(f == np.take(f, [0], axis=i))) for f in fields)
+                f.shape[i] == 1 or (np.array_equal(np.take(f, 1, axis=i), np.take(f, 0, axis=i))
+                                    and bool(np.all(f == np.take(f, [0], axis=i))))
+                for f in fields)
             kept.append(not same)
         return tuple(kept)
 
@@ -260,13 +273,14 @@ class TransformSolver:
 
     def _factor(self, kept: tuple[bool, ...], c: float, k: float) -> tuple[np.ndarray,
                                                                             np.ndarray]:
-        """``(k λ / (1 − c λ), 1/(1 − c λ))`` on the coefficients' grid, cached."""
+        """``(k λ / (1 − c λ), 1/(1 − c λ))`` on the coefficients' grid (computed in
+        float64, kept in :attr:`dtype`), cached."""
         key = (kept, c, k)
         got = self._factors.get(key)
         if got is None:
             lam = self.spectrum(kept)
             inv = 1.0 / (1.0 - c * lam)
-            got = ((k * lam) * inv, inv)
+            got = (((k * lam) * inv).astype(self.dtype), inv.astype(self.dtype))
             if len(self._factors) > 8:
                 self._factors.clear()
             self._factors[key] = got
@@ -274,24 +288,25 @@ class TransformSolver:
 
     # ------------------------------------------------------------------ solves
     def solve(self, rhs: np.ndarray, c: float) -> np.ndarray:
-        """``x`` (float64) with ``(I − c M) x = rhs``.
+        """``x`` (:attr:`dtype`) with ``(I − c M) x = rhs``.
 
         Parameters
         ----------
         rhs : numpy.ndarray
-            A field of :attr:`shape` (any real dtype; computed in float64).
+            A field of :attr:`shape` (any real dtype; computed in :attr:`dtype`).
         c : float
             The coefficient (``θ dt D``), ``>= 0``.
         """
         r = self._field(rhs, "rhs")
         kept = self._constant_axes([r])
         inv = self._factor(kept, float(c), 0.0)[1]
-        x = self.inverse(self.forward(self._drop(r, kept), kept) * inv, kept)
-        return np.broadcast_to(x, self.shape)
+        spec = self.forward(self._drop(r, kept), kept)
+        spec *= inv
+        return np.broadcast_to(self.inverse(spec, kept), self.shape)
 
     def increment(self, u: np.ndarray, h: np.ndarray | float, c: float,
                   k: float) -> np.ndarray:
-        """``δ`` (float64) with ``(I − c M) δ = k M u + h``: per mode
+        """``δ`` (:attr:`dtype`) with ``(I − c M) δ = k M u + h``: per mode
         ``(k λ û + ĥ)/(1 − c λ)`` (module doc).
 
         Parameters
@@ -309,13 +324,16 @@ class TransformSolver:
             h = self._field(h, "h")
             fields.append(h)
         elif h != 0.0:
-            h = np.full(self.shape, float(h))
+            h = np.full(self.shape, float(h), dtype=self.dtype)
             fields.append(h)
         kept = self._constant_axes(fields)
         mul, inv = self._factor(kept, float(c), float(k))
-        spec = self.forward(self._drop(u, kept), kept) * mul
+        spec = self.forward(self._drop(u, kept), kept)
+        spec *= mul
         if len(fields) > 1:
-            spec += self.forward(self._drop(fields[1], kept), kept) * inv
+            more = self.forward(self._drop(fields[1], kept), kept)
+            more *= inv
+            spec += more
         return np.broadcast_to(self.inverse(spec, kept), self.shape)
 
     def _field(self, a: Any, what: str) -> np.ndarray:
@@ -323,7 +341,7 @@ class TransformSolver:
         if a.size != math.prod(self.shape):
             raise ValueError(f"{what} must have {math.prod(self.shape)} values (shape "
                              f"{self.shape}), got shape {a.shape}")
-        return a.reshape(self.shape).astype(np.float64)
+        return a.reshape(self.shape).astype(self.dtype, copy=False)
 
 
 class DirectDiffusion:
@@ -350,11 +368,11 @@ class DirectDiffusion:
         why = transform_unavailable(domain)
         if why is not None:
             raise ValueError(why)
-        self.solver = TransformSolver(grid_axes(domain))
+        self.dtype = np.dtype(dtype)
+        self.solver = TransformSolver(grid_axes(domain), dtype=self.dtype)
         self.shape = self.solver.shape
         self.D, self.dt, self.theta = float(D), float(dt), float(theta)
         self.backend = backend
-        self.dtype = np.dtype(dtype)
         b = np.asarray(dirichlet, dtype=np.float64).reshape(self.shape)
         #: ``D b`` where any Dirichlet value is non-zero, else None
         self.Db = self.D * b if np.any(b != 0.0) and self.D != 0.0 else None
@@ -368,7 +386,7 @@ class DirectDiffusion:
         """``out`` = one θ-step from ``u`` (module doc; ``source`` a number or a
         DeviceArray).  Returns whether ``out`` is finite (a non-finite ``u`` or source
         gives a non-finite ``out``, as an explicit step would)."""
-        uh = u.numpy().reshape(self.shape).astype(np.float64)
+        uh = u.numpy().reshape(self.shape)
         if isinstance(source, DeviceArray):
             h: Any = source.numpy().reshape(self.shape).astype(np.float64)
         else:
