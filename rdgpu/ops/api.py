@@ -484,8 +484,9 @@ def diffusion_step(
     method : {"explicit", "backward-euler", "implicit", "crank-nicolson"}
         ``"explicit"``: forward Euler ``u + dt (D Δu + source)``. ``"backward-euler"``
         (alias ``"implicit"``) and ``"crank-nicolson"``: the θ-scheme
-        ``(I − θ dt D L) u' = u + (1 − θ) dt D L u + dt source``, solved by multicolour
-        SOR on the device to ``tol`` (`rdgpu.ImplicitDiffusion`), stable at any ``dt``.
+        ``(I − θ dt D L) u' = u + (1 − θ) dt D L u + dt source``, stable at any ``dt``
+        (`rdgpu.ImplicitDiffusion`): on a grid solved directly by fast transforms
+        (`rdgpu.ops.transforms`), on a mesh by multicolour SOR on the device to ``tol``.
     source : float or array
         A number or a field of u's shape ([u]/time).
     mesh : SurfaceMesh, optional
@@ -493,7 +494,8 @@ def diffusion_step(
     dx, dy, bc
         As `laplacian` takes them (5-point stencil, Dirichlet ghosts included).
     tol : float, optional
-        The implicit solve's tolerance (default 1e-8 in float64, 1e-5 in float32).
+        The SOR solve's tolerance (default 1e-8 in float64, 1e-5 in float32); the
+        transforms are exact to round-off.
     check_stability : bool
         ``"explicit"`` raises `rdgpu.StabilityError` above ``1/(2D(1/dx² + 1/dy²))`` on a
         grid, ``mesh.max_stable_dt(D)`` on a mesh, unless ``False``.

@@ -1,5 +1,6 @@
 """Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
-device (equations §2, §4, §6).
+device (equations §2, §4, §6), or on rectangular grids directly by fast transforms
+(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; everything below is the SOR path).
 
 One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
 Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest
@@ -85,6 +86,7 @@ from rdgpu.core.errors import ConvergenceError
 from rdgpu.domains.base import require_domain
 from rdgpu.domains.spectra import components
 from rdgpu.families import load_module
+from rdgpu.ops import transforms
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
@@ -159,7 +161,11 @@ class ImplicitDiffusion:
     ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past which a step raises
     :class:`~rdgpu.core.errors.ConvergenceError`; ``check_every``: sweeps between the first
     convergence checks (default 1; later checks are spaced by the predicted remaining
-    sweeps, at most 16 apart).
+    sweeps, at most 16 apart).  ``solver``: ``"auto"`` (default) solves directly by fast
+    transforms where that applies (a rectangular grid with periodic, Neumann or Dirichlet
+    axes: :mod:`rdgpu.ops.transforms`, exact to round-off, 0 sweeps) and by SOR elsewhere;
+    ``"transform"`` or ``"sor"`` force one; ``None`` reads the environment variable
+    ``RDGPU_IMPLICIT_SOLVER`` (else ``"auto"``).  The one chosen is ``solver``.
 
     After each :meth:`step`: ``last_sweeps`` (sweeps used), ``last_change`` (max ``|Δx|``
     of the last checked sweep), ``last_error`` (the error estimate it stopped at),
@@ -182,6 +188,7 @@ class ImplicitDiffusion:
         omega: float | None = None,
         max_sweeps: int | None = None,
         check_every: int | None = None,
+        solver: str | None = None,
     ):
         self._check_numbers(D, dt, theta, dtype, tol)
         self.domain = require_domain(domain)
@@ -196,6 +203,11 @@ class ImplicitDiffusion:
         self._set_spectrum(M, K, S, omega, max_sweeps)
         self._upload(M, K, S, b)
         self._reset_statistics()
+        #: "transform" (direct, rdgpu.ops.transforms) or "sor" (class doc)
+        self.solver = transforms.pick_solver(self.domain, solver)
+        self.transform = None if self.solver == "sor" else transforms.DirectDiffusion(
+            self.domain, D=self.D, dt=self.dt, theta=self.theta, backend=self.backend,
+            dtype=self.dtype, dirichlet=b)
 
     def _check_numbers(self, D: Any, dt: Any, theta: Any, dtype: Any, tol: Any) -> None:
         """``dtype``, ``D``, ``dt``, ``theta`` and ``tol`` checked and kept."""
@@ -456,6 +468,10 @@ class ImplicitDiffusion:
         ends it unconverged."""
         self._check(rhs, "rhs")
         self._check(x, "x")
+        if self.transform is not None:  # the direct solve
+            self.transform.solve(rhs, x)
+            self._finish(0, 0.0, 0.0, True)
+            return 0
         closed = bool(np.any(self._closed))
         if closed and target is None:
             target = self._component_means(rhs.numpy().reshape(-1).astype(np.float64))
@@ -597,6 +613,10 @@ class ImplicitDiffusion:
         explicit step would: the run's divergence check reports it."""
         self._check(u, "u")
         self._check(out, "out")
+        if self.transform is not None:  # the direct solve
+            self.last_nonfinite = not self.transform.step(u, out, source)
+            self._finish(0, 0.0, 0.0, True)
+            return 0
         be = self.backend
         self.increment_rhs(u, self._g, source)
         target = self.means(source)

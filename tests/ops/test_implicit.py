@@ -208,7 +208,8 @@ def weighted_mean_change(domain, u, out, dt, source) -> tuple[float, float]:
 def test_step_equals_spsolve_at_any_dt(backend, dtype, where, theta, dt):
     domain = DOMAINS[where]()
     D = 1.0
-    solver = ImplicitDiffusion(domain, D=D, dt=dt, theta=theta, backend=backend, dtype=dtype)
+    solver = ImplicitDiffusion(domain, D=D, dt=dt, theta=theta, backend=backend, dtype=dtype,
+                               solver="sor")  # the transforms: tests/ops/test_transforms.py
     rng = np.random.default_rng(20)
     u = rng.uniform(-1.0, 1.0, solver.shape).astype(dtype)
     # sources that change u by O(1) in one step, at every dt
@@ -280,10 +281,10 @@ def test_mesh_huge_dt_and_separate_components(backend, dtype, theta):
             assert abs(drift) / w[on].sum() <= 2 * np.finfo(dtype).eps * scale + 1e-13
 
 
-def test_unconverged_step_raises_and_leaves_out_alone():
+def test_unconverged_step_raises_and_leaves_out_alone(monkeypatch):
     grid = Grid((32, 32), bc="neumann")
     solver = ImplicitDiffusion(grid, D=1.0, dt=1e6, theta=0.5, backend="numpy",
-                               max_sweeps=20)
+                               max_sweeps=20, solver="sor")
     be = solver.backend
     out = be.upload(np.full(grid.shape, -5.0))
     with pytest.raises(rdgpu.ConvergenceError) as info:
@@ -297,6 +298,7 @@ def test_unconverged_step_raises_and_leaves_out_alone():
     np.testing.assert_array_equal(out.numpy(), -5.0)
     assert not solver.last_converged
     # a tolerance no float64 can meet is not a convergence failure: the round-off floor
+    monkeypatch.setenv("RDGPU_IMPLICIT_SOLVER", "sor")  # the solver that diffusion_step uses
     with pytest.warns(RuntimeWarning, match="below the float64 round-off floor"):
         rdgpu.diffusion_step(np.random.default_rng(2).random((16, 16)), D=1.0, dt=1e6,
                              method="backward-euler", bc="neumann", tol=1e-300,
@@ -308,7 +310,7 @@ def test_float32_tolerance_below_round_off_stops_at_the_floor(backend):
     warns with the floor it reached, and is as accurate as that floor says."""
     grid = Grid((16, 16), bc="neumann")
     solver = ImplicitDiffusion(grid, D=1.0, dt=1e4, theta=1.0, backend=backend,
-                               dtype=np.float32, tol=1e-9)
+                               dtype=np.float32, tol=1e-9, solver="sor")
     u = np.random.default_rng(3).random(grid.shape).astype(np.float32)
     out = backend.empty(grid.shape, np.float32)
     with pytest.warns(RuntimeWarning, match="round-off floor") as record:

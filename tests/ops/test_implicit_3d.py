@@ -268,7 +268,8 @@ def test_3d_step_equals_spsolve(backend, dtype, where, theta, factor):
     grid = DOMAINS[where]()
     D = 0.7
     dt = factor * explicit_limit(grid, D)
-    solver = ImplicitDiffusion(grid, D=D, dt=dt, theta=theta, backend=backend, dtype=dtype)
+    solver = ImplicitDiffusion(grid, D=D, dt=dt, theta=theta, backend=backend, dtype=dtype,
+                               solver="sor")  # the transforms: tests/ops/test_transforms.py
     assert solver.shape == grid.shape and solver.n == grid.n_points
     assert solver.lambda1 == smallest_eigenvalue(grid)[0]
     rng = np.random.default_rng(30 + factor)
