@@ -21,8 +21,9 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   − a₁Δ)(I − a₂Δ)``, everything else (reactions, cross-diffusion, any other term) stays
   explicit: ``y = x + h f(x) + (P − I) x`` in one fused pass (its expression leaves ``α Δs
   + β Δ²s`` out and adds what is left of ``(P − I)x/h``), then ``x' = P⁻¹ y``, i.e. ``P
-  (x' − x) = h f(x)``, by one or two backward-Euler diffusion solves on the device
-  (multicolour SOR, :class:`rdgpu.ops.implicit.ImplicitDiffusion`). Without a bilaplacian,
+  (x' − x) = h f(x)``, by one or two backward-Euler diffusion solves
+  (`rdgpu.ops.implicit.ImplicitDiffusion`: fast transforms on rectangular grids, solved
+  directly on the host, `rdgpu.ops.transforms`; multicolour SOR on the device elsewhere). Without a bilaplacian,
   ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1) or Crank-Nicolson
   (``"imex-cn"``, θ = ½) diffusion with explicit reaction, stable far beyond the explicit
   limit. With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
