@@ -214,6 +214,10 @@ def _add_what_to_run(what: Any) -> None:
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
     what.add_argument("--method", metavar="NAME", help=f"time stepping: {', '.join(methods())}"
                       " (default euler; Allen-Cahn: explicit, implicit, crank-nicolson)")
+    what.add_argument("--solver", choices=["auto", "transform", "sor"],
+                      help="the implicit methods' diffusion solves: auto (default: fast "
+                      "transforms on rectangular grids, exact to round-off; SOR elsewhere), "
+                      "transform or sor")
     what.add_argument("--block-steps", type=parse_block_steps, metavar="K",
                       help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "

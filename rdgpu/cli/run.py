@@ -290,6 +290,11 @@ def _stepper_options(args: argparse.Namespace, model: Model, preset: Any, domain
         if "stencil" not in inspect.signature(model.stepper).parameters:
             raise UsageError(f"--stencil: model {model.name} has no choice of stencil")
         options["stencil"] = args.stencil
+    if getattr(args, "solver", None) is not None:
+        if "solver" not in inspect.signature(model.stepper).parameters:
+            raise UsageError(f"--solver: model {model.name} takes no choice of implicit "
+                             "solver; only the models defined by equations do")
+        options["solver"] = args.solver
     if args.block_steps is not None:
         if "block_steps" not in inspect.signature(model.stepper).parameters:
             raise UsageError(f"--block-steps: model {model.name} has no blocked kernel; "

@@ -23,7 +23,8 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   + β Δ²s`` out and adds what is left of ``(P − I)x/h``), then ``x' = P⁻¹ y``, i.e. ``P
   (x' − x) = h f(x)``, by one or two backward-Euler diffusion solves
   (`rdgpu.ops.implicit.ImplicitDiffusion`: fast transforms on rectangular grids, solved
-  directly on the host, `rdgpu.ops.transforms`; multicolour SOR on the device elsewhere). Without a bilaplacian,
+  directly on the host, `rdgpu.ops.transforms`; multicolour SOR on the device elsewhere).
+  Without a bilaplacian,
   ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1) or Crank-Nicolson
   (``"imex-cn"``, θ = ½) diffusion with explicit reaction, stable far beyond the explicit
   limit. With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
@@ -172,9 +173,11 @@ class ModelStepper(FieldStepper):
     def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
-                 block_steps: int | None = None):
+                 block_steps: int | None = None, solver: str | None = None):
         # a positive number for every method (explicit ones do not use it)
         tol = None if tol is None else _positive_tol(tol)
+        #: the implicit solves' solver (`rdgpu.ops.transforms.SOLVERS`; None: the default)
+        self.solver = solver
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
         #: the scheme (:data:`rdgpu.ir.schemes.SCHEMES`) and its canonical name
@@ -372,7 +375,7 @@ class ModelStepper(FieldStepper):
                     if a not in cache:
                         cache[a] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
                                                      backend=self.backend, dtype=self.dtype,
-                                                     tol=tol)
+                                                     tol=tol, solver=self.solver)
                     solvers[s].append(cache[a])
         return explicit, solvers
 

@@ -57,6 +57,7 @@ from rdgpu.ir.stencils import check_stencil
 from rdgpu.models.ensemble import resolve_members, stack_members
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
 from rdgpu.models.ranges import check_bounds, check_fits
+from rdgpu.ops.transforms import SOLVERS
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
@@ -553,6 +554,7 @@ class Model:
         members: int | None = None,
         block_steps: int | None = None,
         lengths: str = "cells",
+        solver: str | None = None,
     ):
         """Bind the model to a domain: a :class:`rdgpu.integrators.ModelStepper`; field
         specs in ``params`` are drawn with ``seed``.  ``method``: a name (or alias) of
@@ -564,7 +566,13 @@ class Model:
         member; ``dt`` must be stable for every member.
         ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.integrators.blocking`;
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
-        lengths (:mod:`~rdgpu.models.mesh_lengths`).  The fields start at zero."""
+        lengths (:mod:`~rdgpu.models.mesh_lengths`).  ``solver``: the implicit methods'
+        diffusion solves, ``"auto"`` (fast transforms on grids, else SOR), ``"transform"``
+        or ``"sor"`` (`rdgpu.ops.transforms`; None: ``$RDGPU_IMPLICIT_SOLVER``, else
+        ``"auto"``).  The fields start at zero."""
+        if solver is not None and solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {', '.join(map(repr, SOLVERS))} or None, "
+                             f"got {solver!r}")
         method = _method(method or self.default_method, self.methods)
         check_stencil(domain, stencil)
         if members is None:
@@ -587,7 +595,7 @@ class Model:
         return ModelStepper(
             fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
-            block_steps=block_steps)
+            block_steps=block_steps, solver=solver)
 
 
 def _members(members: Any) -> int:

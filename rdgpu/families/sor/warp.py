@@ -1,12 +1,16 @@
 """The sor family's Warp launcher: the ``(rows, cells)`` kernel pair of ``warp_kernels.py``
 (without a right-hand side the kernels take the number ``f = 0``): one thread per row in
-row chunks on the CPU (``run_split``), one per cell on CUDA after zeroing ``row_change``
-for colour 0 (the cells kernel takes atomic maxima)."""
+row chunks on the CPU (``run_split``); on CUDA, after zeroing ``row_change`` for colour 0,
+one thread per run of ``CELLS_PER_THREAD`` cells of the colour in a row (one atomic max
+each)."""
 
 from __future__ import annotations
 
 from rdgpu.families.sor import check
 from rdgpu.families.sor.reference import weights
+
+#: cells of the swept colour per thread in the CUDA shape (one atomic max per thread)
+CELLS_PER_THREAD = 8
 
 
 def sor_half_sweep(rt, c, fixed, rhs, row_change, *, color: int, omega: float, dx: float,
@@ -31,6 +35,8 @@ def sor_half_sweep(rt, c, fixed, rhs, row_change, *, color: int, omega: float, d
         if color == 0:
             row_change.handle.zero_()
         if nx:
-            rt.launch(cells, (ny, nx), args, 0)
+            colour_cells = (nx + 1) // 2  # in a row, at most
+            per_row = -(-colour_cells // CELLS_PER_THREAD)
+            rt.launch(cells, (ny, per_row), [*args, per_row], 0)
         return
     rt.run_split(rows, ny, ny * nx, args)
