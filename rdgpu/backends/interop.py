@@ -1,7 +1,7 @@
 """Arrays from any library: recognise them, put them on a backend without a copy where
 their memory already lives there, and give results back as the same kind.
 
-Kinds (see :func:`kind_of`):
+Kinds (see `kind_of`):
 
 * ``"numpy"``: a NumPy array; ``"list"``: anything else NumPy reads (lists, tuples,
   objects with ``__array__``), whose results come back as NumPy arrays;
@@ -20,7 +20,7 @@ a Warp CPU backend.  Everything else makes one copy through the host.
 
 Value checks (finite, no subnormals) read host memory in place; a device-only array
 (Warp CUDA, pyopencl, CUDA DLPack) that stays on its device is checked for finiteness by
-one reduction there (:meth:`~rdgpu.backends.base.Backend.max_abs`, one number back to the
+one reduction there (`rdgpu.backends.base.Backend.max_abs`, one number back to the
 host): its values are not copied, and its subnormals are not flushed.
 """
 
@@ -51,8 +51,8 @@ def _is(x: Any, module: str, name: str) -> bool:
 
 
 def kind_of(x: Any) -> str:
-    """The kind of array ``x`` is (one of :data:`KINDS`); raises ``TypeError`` for an
-    object that is no array: :class:`NotAnArray` for a string, a dict, ``None``..., and
+    """The kind of array ``x`` is (one of `KINDS`); raises ``TypeError`` for an
+    object that is no array: `NotAnArray` for a string, a dict, ``None``..., and
     for a ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it."""
     if isinstance(x, np.ndarray):
         return "numpy"
@@ -181,7 +181,7 @@ def resident(x: Any, be: Backend) -> bool:
 
 
 def wrap(x: Any, be: Backend, shape: tuple[int, ...] | None = None) -> DeviceArray:
-    """A :class:`DeviceArray` on ``be`` sharing ``x``'s memory (``resident(x, be)`` must
+    """A `DeviceArray` on ``be`` sharing ``x``'s memory (``resident(x, be)`` must
     hold), seen with ``shape`` (same size; default x's own)."""
     shape_x, dtype = shape_dtype(x)
     shape = shape_x if shape is None else tuple(shape)
@@ -275,7 +275,7 @@ def check_out(out: Any, shape: tuple[int, ...], dtype: np.dtype, name: str = "ou
 def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = None,
             check: Any = None) -> Any:
     """The result on ``result``'s backend as the kind of ``like`` (the caller's input), in
-    ``shape``; with ``out`` (already checked by :func:`check_out`), written into ``out``,
+    ``shape``; with ``out`` (already checked by `check_out`), written into ``out``,
     which is returned.  ``result`` must be a buffer of the call's own (never the input's
     memory): a Warp or pyopencl result on its own device is handed over as it is.
     ``check(host_array)`` runs on the result wherever the host sees it (in place, or the

@@ -1,9 +1,9 @@
-"""Strang splitting of the modified Allen-Cahn model (:class:`rdgpu.models.allen_cahn.AllenCahn`)
-on the device: the exact Bernoulli substep (:func:`rdgpu.ops.api.bernoulli_decay`), explicit
+"""Strang splitting of the modified Allen-Cahn model (`rdgpu.models.allen_cahn.AllenCahn`)
+on the device: the exact Bernoulli substep (`rdgpu.ops.api.bernoulli_decay`), explicit
 or implicit diffusion in between (its form in the functional API, ``rdgpu.allen_cahn``, is
-:func:`rdgpu.models.allen_cahn.allen_cahn`).  Its methods are its own (``explicit``,
+`rdgpu.models.allen_cahn.allen_cahn`).  Its methods are its own (``explicit``,
 ``implicit``, ``crank-nicolson``); the implicit ones take θ from the IMEX schemes of
-:data:`rdgpu.ir.schemes.SCHEMES` (``imex``: θ = 1, ``imex-cn``: θ = ½)."""
+`rdgpu.ir.schemes.SCHEMES` (``imex``: θ = 1, ``imex-cn``: θ = ½)."""
 
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ _STRANG = _strang_program()
 
 class AllenCahnStepper(FieldStepper):
     """Strang splitting of the modified Allen-Cahn equation on the device (see
-    :class:`rdgpu.models.AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
+    `rdgpu.models.AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
     ``dt/2``; three device buffers, no host transfer (the implicit methods download the
     SOR's per-vertex change to test convergence)."""
 
@@ -90,8 +90,8 @@ class AllenCahnStepper(FieldStepper):
 
 def _implicit_solver(domain, backend, dtype, dt, method):
     """The θ-step solver of ``ū_t = Δū + s``: ``(I − θ dt L) out = u + (1 − θ) dt L u +
-    dt s`` with the θ of :data:`METHODS`' scheme (backward Euler for ``"implicit"``, ½ for
+    dt s`` with the θ of `METHODS`' scheme (backward Euler for ``"implicit"``, ½ for
     ``"crank-nicolson"``), by multicolour SOR on the device
-    (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on a grid)."""
+    (`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on a grid)."""
     theta = get_scheme(METHODS[method]).theta
     return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)
