@@ -282,18 +282,60 @@ def front_growth(
     snapshot_every: int = 0,
     substep: bool = True,
 ) -> FrontResult:
-    """Run ``model`` on the 2-D grid ``domain`` (or a ``preset``) and move a front with
-    ``β = beta_scale·Δa`` (``speed="laplace"``) or ``β = beta_scale·(a − a0)``
-    (``"offset"``) of the species ``field`` (default: the first), seed 003 §4.2.
+    """Run ``model`` on the 2-D grid ``domain`` (or a ``preset``) and move a front driven by
+    one of its species (seed 003 §4.2).
 
     ``warmup`` model steps run first (the pattern forms), then ``steps`` driver steps of
-    the model and the front together; φ is reinitialised every ``reinit_every`` steps (0:
-    never) with ``reinit_iterations`` iterations.  The front's step is the model's ``dt``,
-    cut into substeps when the CFL limit asks (``substep=False``: a
-    `StabilityError` instead).  ``phi0`` is the initial φ (negative inside; default
-    a centred circle of ``radius``, default a quarter of the shorter side).  The other
-    arguments go to `rdgpu.Simulation` (``from_preset`` with ``preset``).  Returns
-    a `FrontResult`."""
+    the model and the front together.
+
+    Parameters
+    ----------
+    model : Model or str, optional
+        The reaction-diffusion model (with ``domain``), or give ``preset``.
+    domain : Grid or dict, optional
+        A 2-D grid or a grid spec.
+    params : dict, optional
+        The model's parameters, as `rdgpu.Simulation` takes them.
+    preset : str, optional
+        A preset's name in place of ``model``/``domain`` (`rdgpu.Simulation.from_preset`).
+    speed : {"laplace", "offset"}
+        The front's normal speed: ``β = beta_scale·Δa`` (``"laplace"``) or
+        ``β = beta_scale·(a − a0)`` (``"offset"``).
+    field : str, optional
+        The species ``a`` (default: the first).
+    a0 : float
+        The offset of ``"offset"``.
+    beta_scale : float
+        The factor of β.
+    reinit_every, reinit_iterations : int
+        φ is reinitialised every ``reinit_every`` steps (0: never) with
+        ``reinit_iterations`` iterations.
+    steps, warmup : int
+        Driver steps with the front moving; model steps before it.
+    dt : float, optional
+        The model's step, also the front's (cut into substeps when the CFL limit asks).
+    backend, dtype, seed, init
+        As `rdgpu.Simulation` takes them.
+    phi0 : array, optional
+        The initial φ ``[ny, nx]``, negative inside (default: a centred circle of
+        ``radius``).
+    radius : float, optional
+        The default circle's radius (default: a quarter of the shorter side).
+    snapshot_every : int
+        Keep φ every this many steps (0: none).
+    substep : bool
+        False raises `StabilityError` instead of cutting a step into substeps.
+
+    Returns
+    -------
+    FrontResult
+        The final φ and region, the snapshots and the model's final fields.
+
+    Raises
+    ------
+    ValueError
+        Both or neither of a model and a preset, no domain, or a bad argument.
+    """
     check.steps(steps)
     warm = check.steps(warmup, "warmup")
     check.steps(snapshot_every, "snapshot_every")

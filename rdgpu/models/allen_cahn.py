@@ -198,17 +198,52 @@ def allen_cahn(
     out: Any = None,
 ) -> Any:
     """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
-    equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
-    source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (`AllenCahn`'s stepper,
+    equations §2) by ``steps`` Strang-split steps.
+
+    Each step is Bernoulli ``dt/2`` → diffusion with the source ``−b/ε²`` for ``dt`` →
+    Bernoulli ``dt/2`` (`AllenCahn`'s stepper,
     `rdgpu.integrators.allen_cahn.AllenCahnStepper`).
 
-    ``method``: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
-    ``mesh.max_stable_dt(1)`` on a mesh; `StabilityError` above it unless
-    ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
-    (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
-    shape.  ``mesh``: a `rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
-    ``out``: as in `rdgpu.ops.api` (the state crosses the host once each way: the
-    stepper's own)."""
+    Parameters
+    ----------
+    u : array
+        ``[nx]`` or ``[ny, nx]`` on a grid, one value per vertex on a mesh.
+    eps : float
+        The interface width ε (length), > 0.
+    dt : float
+        The time step (time units).
+    b : float or array
+        A number or a field of u's shape.
+    steps : int
+        Steps to take.
+    method : {"explicit", "implicit", "crank-nicolson"}
+        The diffusion step: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
+        ``mesh.max_stable_dt(1)`` on a mesh), ``"implicit"`` (backward Euler) or
+        ``"crank-nicolson"`` (multicolour SOR on the device; any ``dt``).
+    mesh : SurfaceMesh, optional
+        A `rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
+    dx, dy, bc
+        As `rdgpu.laplacian` takes them.
+    check_stability : bool
+        ``"explicit"`` raises `rdgpu.StabilityError` above its limit unless ``False``.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        As in `rdgpu.ops.api` (the state crosses the host once each way: the stepper's
+        own).
+
+    Returns
+    -------
+    array
+        ``u`` after ``steps`` steps.
+
+    Raises
+    ------
+    ValueError
+        ``eps`` so small that ``1/ε²`` overflows the dtype, or an unknown ``method``.
+    StabilityError
+        An explicit ``dt`` above the limit, or a state that is no longer finite.
+    """
     field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
     eps = check.scalar(eps, "eps", strict=True)
     check_stability = check.flag(check_stability, "check_stability")
