@@ -28,13 +28,9 @@ def _strang_program() -> Program:
     """The rest of an explicit Strang step after the first Bernoulli substep ``ū = B(u)``
     (``backend.bernoulli``), in one fused pass: ``B(ū + h (1·Δū + (−b)/ε²))`` with
     ``B(x) = x/√(d + x²(1 − d))`` the exact substep for ``h/2`` (``d = e^{−h/ε²}``; the
-    operations of rdgpu/families/bernoulli).  Two passes per step where the former form took three
-    (applying ``B`` at every neighbour instead, one pass, computes it five times per cell:
-    slower, measured).  Regrouping ``B B`` into one exact full substep ``B_h`` would make
-    it one pass with one square root (measured 1.1× the hand-written Gray-Scott on Warp,
-    against 0.7× for this form), but a run resumed from a checkpoint, which holds ``u`` and
-    not the intermediate ``ū``, would then differ in the last bit from an uninterrupted
-    one; resumes are bit for bit, so this form stays."""
+    operations of rdgpu/families/bernoulli).  Two passes per step; a resumed run stays bit
+    for bit equal to an uninterrupted one (why this form, and what the others measured:
+    docs/performance.md, "Models: one fused kernel per step")."""
     names = ("h", "b", "eps2", "d", "omd")
     y = "(u + h*(1.0*laplace(u) + (-b)/eps2))"
     tree = eq.parse(f"{y}/sqrt(d + {y}*{y}*omd)", species=("u",), params=names)
