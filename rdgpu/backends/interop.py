@@ -51,9 +51,24 @@ def _is(x: Any, module: str, name: str) -> bool:
 
 
 def kind_of(x: Any) -> str:
-    """The kind of array ``x`` is (one of `KINDS`); raises ``TypeError`` for an
-    object that is no array: `NotAnArray` for a string, a dict, ``None``..., and
-    for a ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it."""
+    """The kind of array ``x`` is.
+
+    Parameters
+    ----------
+    x : object
+        An array of any library, or a list/tuple of numbers.
+
+    Returns
+    -------
+    str
+        One of `KINDS` (module doc).
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no array: `NotAnArray` for a string, a dict, ``None``..., and for a
+        ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it.
+    """
     if isinstance(x, np.ndarray):
         return "numpy"
     if _is(x, "warp", "array"):
@@ -91,8 +106,19 @@ def _dlpack_device(x: Any) -> int | None:
 
 
 def host_view(x: Any) -> np.ndarray | None:
-    """A NumPy view of ``x``'s memory when the host can read it in place (NumPy, Warp
-    CPU, a CPU DLPack or torch array), else None.  Never copies."""
+    """A NumPy view of ``x``'s memory when the host can read it in place.  Never copies.
+
+    Parameters
+    ----------
+    x : object
+        An array of any kind `kind_of` knows.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        The view for NumPy, Warp CPU, a CPU DLPack or torch array; None for memory the
+        host cannot read in place (a device array).
+    """
     kind = kind_of(x)
     if kind == "numpy":
         return x
@@ -108,8 +134,19 @@ def host_view(x: Any) -> np.ndarray | None:
 
 
 def to_numpy(x: Any) -> np.ndarray:
-    """``x`` as a NumPy array: its host view, else one copy to the host.  Lists and
-    tuples become arrays as NumPy reads them."""
+    """``x`` as a NumPy array.
+
+    Parameters
+    ----------
+    x : object
+        An array of any kind `kind_of` knows; lists and tuples become arrays as NumPy
+        reads them.
+
+    Returns
+    -------
+    numpy.ndarray
+        Its host view (`host_view`), else one copy to the host.
+    """
     view = host_view(x)
     if view is not None:
         return view
