@@ -242,7 +242,30 @@ def _auto() -> Backend:
 
 
 def get_backend(backend: str | Backend | None = None) -> Backend:
-    """The `Backend` that a call with ``backend=`` would use (instances are cached)."""
+    """The `Backend` that a call with ``backend=`` would use (instances are cached).
+
+    Parameters
+    ----------
+    backend : str or Backend, optional
+        A spec ``"name"`` or ``"name:device"`` (``"numpy"``, ``"warp:cpu"``,
+        ``"opencl:0"``, ``"auto"``) or a Backend (returned as it is).  None: the backend
+        of the enclosing `use_backend` block, else `set_backend`'s, else the
+        ``RDGPU_BACKEND`` environment variable, else ``"auto"``.
+
+    Returns
+    -------
+    Backend
+        One instance per spec, constructed on first use.
+
+    Raises
+    ------
+    ValueError
+        An unknown name or a device the backend does not take.
+    TypeError
+        ``backend`` is neither a string nor a Backend.
+    BackendUnavailableError
+        The backend cannot run here (its library or device is missing).
+    """
     if isinstance(backend, Backend):
         return backend
     if backend is None:
@@ -264,9 +287,15 @@ def get_backend(backend: str | Backend | None = None) -> Backend:
 
 
 def set_backend(backend: str | Backend | None) -> None:
-    """Set the process-wide default backend (``None`` returns to env/auto).
+    """Set the process-wide default backend.
 
-    The backend is constructed now, so an unavailable one fails here, not later."""
+    The backend is constructed now, so an unavailable one fails here, not later.
+
+    Parameters
+    ----------
+    backend : str or Backend, optional
+        As `get_backend` takes it; None returns to ``RDGPU_BACKEND`` or ``"auto"``.
+    """
     global _default
     if backend is not None:
         get_backend(backend)
@@ -275,7 +304,18 @@ def set_backend(backend: str | Backend | None) -> None:
 
 @contextlib.contextmanager
 def use_backend(backend: str | Backend) -> Iterator[Backend]:
-    """Use ``backend`` for every call inside the ``with`` block; yields the Backend."""
+    """Use ``backend`` for every call inside the ``with`` block (this thread or task only).
+
+    Parameters
+    ----------
+    backend : str or Backend
+        As `get_backend` takes it.
+
+    Yields
+    ------
+    Backend
+        The backend in use.
+    """
     instance = get_backend(backend)
     token = _context.set(instance)
     try:
@@ -285,8 +325,14 @@ def use_backend(backend: str | Backend) -> Iterator[Backend]:
 
 
 def available_backends() -> list[BackendInfo]:
-    """Every registered backend, whether it can run here, on which device, or why not (and
-    the variants a backend reports, e.g. Warp on CUDA where a CUDA device exists)."""
+    """Every registered backend, whether it can run here, on which device, or why not.
+
+    Returns
+    -------
+    list of BackendInfo
+        One per registered backend, then the variants a backend reports (e.g. Warp on
+        CUDA where a CUDA device exists).
+    """
     infos = []
     for name in list(_REGISTRY):
         try:
