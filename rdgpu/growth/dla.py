@@ -354,9 +354,27 @@ class _Grower:
 
 def dla_image(result: DLAResult, path: str | Path, cmap: str = "viridis",
               scale: int = 1) -> Path:
-    """Write ``result`` as a PNG coloured by arrival step (Matplotlib ``cmap``), empty
-    cells white; the slab geometry's bottom row is drawn at the bottom (row 0 of
-    the array is the bottom of the picture)."""
+    """Write ``result`` as a PNG coloured by arrival step, empty cells white.
+
+    The slab geometry's bottom row is drawn at the bottom (row 0 of the array is the
+    bottom of the picture).
+
+    Parameters
+    ----------
+    result : DLAResult
+        A grown cluster (`dla`).
+    path : str or pathlib.Path
+        The PNG file to write.
+    cmap : str
+        A Matplotlib colour map.
+    scale : int
+        Pixels per cell, ≥ 1.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     iio = require("imageio.v3", "writing PNG pictures")
     colormaps = require("matplotlib", "colouring pictures").colormaps
 

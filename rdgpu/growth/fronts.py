@@ -119,11 +119,22 @@ def _front_bc(grid: Grid) -> GridBC:
 class RDFront:
     """A model and a front moved by one of its fields (see the module doc).
 
-    ``sim``: a `rdgpu.Simulation` on a 2-D grid (its stepper is advanced in place);
-    ``field``: the species giving ``a``; ``speed``, ``a0``, ``beta_scale``,
-    ``reinit_every`` (0: never), ``reinit_iterations`` as in `front_growth`;
-    ``phi0``: the initial φ (default `circle_phi` of ``radius``); ``substep=False`` raises
-    `StabilityError` instead of cutting a step that breaks the CFL limit."""
+    Parameters
+    ----------
+    sim : rdgpu.Simulation
+        A simulation on a 2-D grid (its stepper is advanced in place).
+    field : str, optional
+        The species giving ``a`` (default: the first).
+    speed, a0, beta_scale, reinit_every, reinit_iterations
+        As in `front_growth` (``reinit_every=0``: never).
+    phi0 : array, optional
+        The initial φ (default: `circle_phi` of ``radius``).
+    radius : float, optional
+        The default circle's radius.
+    substep : bool
+        False raises `StabilityError` instead of cutting a step that breaks the CFL
+        limit.
+    """
 
     def __init__(self, sim: Any, *, field: str | None = None, speed: str = "laplace",
                  a0: float = 0.0, beta_scale: float = 1.0, reinit_every: int = 10,
