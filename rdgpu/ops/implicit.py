@@ -152,21 +152,49 @@ class ImplicitDiffusion:
     ``u_t = D Δu + source`` on a `rdgpu.domains.mesh.SurfaceMesh` or a
     `rdgpu.domains.Grid`, solved on the device by multicolour SOR (module doc).
 
-    ``tol``: the accuracy of a step, the max error of ``out`` against the exact solution
-    of the θ-system (default 1e-8 in float64, 1e-5 in float32; see the module doc for how
-    it is estimated and for the round-off floor); ``omega``: the relaxation factor
-    (default: Young's optimum, see the module doc); ``max_sweeps``: cap per step (default
-    ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past which a step raises
-    `rdgpu.core.errors.ConvergenceError`; ``check_every``: sweeps between the first
-    convergence checks (default 1; later checks are spaced by the predicted remaining
-    sweeps, at most 16 apart).
+    Parameters
+    ----------
+    domain : Grid or SurfaceMesh
+        Where ``u`` lives.
+    D : float
+        The diffusion coefficient (length²/time).
+    dt : float
+        The time step (time units).
+    theta : float
+        1 (backward Euler) or 0.5 (Crank-Nicolson).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    dtype : numpy dtype
+        float64 or float32.
+    tol : float, optional
+        The accuracy of a step: the max error of ``out`` against the exact solution of the
+        θ-system (default 1e-8 in float64, 1e-5 in float32; see the module doc for how it
+        is estimated and for the round-off floor).
+    omega : float, optional
+        The relaxation factor (default: Young's optimum, see the module doc).
+    max_sweeps : int, optional
+        Cap per step (default ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past
+        which a step raises `rdgpu.core.errors.ConvergenceError`.
+    check_every : int, optional
+        Sweeps between the first convergence checks (default 1; later checks are spaced
+        by the predicted remaining sweeps, at most 16 apart).
 
-    After each `step`: ``last_sweeps`` (sweeps used), ``last_change`` (max ``|Δx|``
-    of the last checked sweep), ``last_error`` (the error estimate it stopped at),
-    ``last_residual`` (max of the true residual ``|g − S δ|`` where checked, else nan),
-    ``last_floor`` (stopped at the round-off floor above ``tol``, with a warning),
-    ``last_converged`` (True: a step that does not converge raises); ``total_sweeps``
-    over all steps.
+    Attributes
+    ----------
+    last_sweeps : int
+        Sweeps the last `step` used.
+    last_change : float
+        Max ``|Δx|`` of its last checked sweep.
+    last_error : float
+        The error estimate it stopped at.
+    last_residual : float
+        Max of the true residual ``|g − S δ|`` where checked, else nan.
+    last_floor : bool
+        It stopped at the round-off floor above ``tol`` (with a warning).
+    last_converged : bool
+        True (a step that does not converge raises).
+    total_sweeps : int
+        Sweeps over all steps.
     """
 
     def __init__(
