@@ -292,19 +292,40 @@ def _identifier(name: Any, what: str) -> str:
 class Model:
     """A reaction-diffusion system ``∂s/∂t = f_s(...)`` for each species ``s``.
 
-    ``equations``: species → right-hand side (the language of
-    `rdgpu.ir.equations`); ``parameters``: every parameter and its default
-    (module doc for the kinds of value).  Optional: ``bounds`` (clamps ``{species: (low,
-    high)}`` applied after each update, e.g. ``{"v": (0, None)}``), ``steady_guess(params)
-    -> [x_s]`` (the homogeneous state of interest, for `rdgpu.analysis`), and what a
-    run that names nothing else uses: ``spacing`` (the grid spacing the defaults are made
-    for; on a mesh the default diffusion parameters and number-written Laplacians are
-    scaled by ``(mean edge / spacing)²``: `rdgpu.models.mesh_lengths`),
-    ``default_dt`` and ``default_time`` (numbers or functions of the parameters),
-    ``value_range`` (``{species: (lo, hi)}`` for pictures),
-    ``default_init``, ``default_fields`` (parameters whose default in a run is a field
-    spec), ``default_method``, ``dt_share`` (of the stability limit a default dt may take;
-    0.9)."""
+    Parameters
+    ----------
+    name : str
+        The model's name (non-empty).
+    equations : mapping
+        Species → right-hand side (the language of `rdgpu.ir.equations`).
+    parameters : mapping, optional
+        Every parameter and its default (module doc for the kinds of value).
+    description, source : str
+        What it models and where it comes from (a reference).
+    bounds : mapping, optional
+        Clamps ``{species: (low, high)}`` applied after each update, e.g.
+        ``{"v": (0, None)}``.
+    steady_guess : callable, optional
+        ``steady_guess(params) -> [x_s]``: the homogeneous state of interest, for
+        `rdgpu.analysis`.
+    spacing : float
+        The grid spacing the defaults are made for; on a mesh the default diffusion
+        parameters and number-written Laplacians are scaled by ``(mean edge / spacing)²``
+        (`rdgpu.models.mesh_lengths`).
+    default_dt, default_time : float or callable, optional
+        What a run that names no step or duration uses (numbers or functions of the
+        parameters; time units).
+    value_range : mapping, optional
+        ``{species: (lo, hi)}`` for pictures.
+    default_init : mapping, optional
+        The initial condition of a run that names none.
+    default_fields : mapping, optional
+        Parameters whose default in a run is a field spec.
+    default_method : str
+        The time-stepping scheme of a run that names none.
+    dt_share : float, optional
+        The share of the stability limit a default dt may take (None: 0.9).
+    """
 
     @property
     def methods(self) -> tuple[str, ...]:
