@@ -1,4 +1,4 @@
-"""Where kernels run: the device-array layer and the :class:`~rdgpu.backends.base.Backend`
+"""Where kernels run: the device-array layer and the `rdgpu.backends.base.Backend`
 interface (``base.py``), the registry (``registry.py``: ``get_backend``, ``set_backend``,
 ``use_backend``, ``available_backends``, ``register_backend``), a domain bound to a backend
 and the compiled fused pass of a Program (``target.py``: ``Target``, ``FusedPass``,

@@ -1,6 +1,6 @@
 """The device-array layer and the interface every backend implements.
 
-A :class:`DeviceArray` is a backend's buffer plus its shape and dtype.  The functional
+A `DeviceArray` is a backend's buffer plus its shape and dtype.  The functional
 API (``rdgpu.ops.api``) uploads its inputs once, calls backend kernels any number of times on
 device arrays (ping-ponging buffers between steps) and downloads once: nothing returns to
 the host between the steps of one call.
@@ -11,15 +11,15 @@ without a y axis (a 1-D problem) is one row with ``dy = math.inf`` and a Neumann
 condition: every grid kernel then computes its 1-D formula.
 
 Every value a kernel writes has its subnormals flushed to 0 (docs/equations.md,
-:mod:`rdgpu.core.fpenv`);
-the reductions write nothing: :meth:`Backend.max_abs` is exact (``max |u|`` as NumPy gives it),
-:meth:`Backend.sum_squares` sums in float64.
+`rdgpu.core.fpenv`);
+the reductions write nothing: `Backend.max_abs` is exact (``max |u|`` as NumPy gives it),
+`Backend.sum_squares` sums in float64.
 
 The hand-written kernel families launch from their own folders: a family method of
-:class:`Backend` (``laplacian``, ``metric_laplacian``, ``bernoulli``, ``gray_scott``,
+`Backend` (``laplacian``, ``metric_laplacian``, ``bernoulli``, ``gray_scott``,
 ``sor_half_sweep``, ``levelset_step``, ``reinit_step``...) is a one-line delegate through
-:meth:`Backend.kernel`, which binds ``rdgpu/families/<family>/<launchers>.py`` (the
-backend's :attr:`Backend.launchers`: ``numpy.py``, ``warp.py``, ``opencl.py``).  A
+`Backend.kernel`, which binds ``rdgpu/families/<family>/<launchers>.py`` (the
+backend's `Backend.launchers`: ``numpy.py``, ``warp.py``, ``opencl.py``).  A
 family's ``__init__.py`` holds its argument checks, written once for every backend; its
 launchers take the backend as their first argument and use only its public runtime
 methods (listed in the docstrings of ``warp_backend.py`` and ``opencl_backend.py``).
@@ -110,9 +110,9 @@ class Backend(ABC):
     A backend stores arrays (``upload``, ``download``, ``empty``, ``copy``), reduces them
     (``max_abs``, ``sum_squares``) and runs kernels: the hand-written families
     (``laplacian``, ``gray_scott``...) and the model layer's generated passes
-    (:meth:`fused_pass`; :meth:`blocked_pass` for temporal blocking).  A backend that lacks
+    (`fused_pass`; `blocked_pass` for temporal blocking).  A backend that lacks
     one raises an error naming itself and what it lacks.  A new backend registers itself
-    with :func:`rdgpu.backends.registry.register_backend`."""
+    with `rdgpu.backends.registry.register_backend`."""
 
     #: the name it is registered under ("numpy", "warp", "opencl"...)
     name: str = ""
@@ -124,8 +124,8 @@ class Backend(ABC):
     max_cells: int | None = None
 
     def check_cells(self, shape: tuple[int, ...], what: str = "an array") -> None:
-        """Refuse an array of ``shape`` over :attr:`max_cells` elements, before any
-        allocation (a :class:`rdgpu.ResourceLimitError`)."""
+        """Refuse an array of ``shape`` over `max_cells` elements, before any
+        allocation (a `rdgpu.ResourceLimitError`)."""
         n = math.prod(int(s) for s in shape)
         if self.max_cells is not None and n > self.max_cells:
             dims = "x".join(str(int(s)) for s in shape)
@@ -150,7 +150,7 @@ class Backend(ABC):
 
         A family's launchers live in its own folder, one module per backend, and use only
         the backend's public runtime methods; adding a family touches no backend.  A
-        backend without the launcher raises :class:`NotImplementedError` naming both.
+        backend without the launcher raises `NotImplementedError` naming both.
         Bound once per backend (a ``functools.partial``), then one dict lookup a call."""
         try:
             return self._kernels_bound[family, op]
@@ -158,7 +158,7 @@ class Backend(ABC):
             return self._bind_kernel(family, op)
 
     def _bind_kernel(self, family: str, op: str) -> Callable[..., Any]:
-        """Import and bind the launcher :meth:`kernel` asks for; keep it on the instance."""
+        """Import and bind the launcher `kernel` asks for; keep it on the instance."""
         fn = None
         if self.launchers is not None:
             try:
@@ -219,9 +219,9 @@ class Backend(ABC):
         self.copy(self.upload(out.reshape(dst.shape)), dst)
 
     def upload_csr(self, matrix: Any, dtype: np.dtype, *, name: str = "matrix") -> DeviceCSR:
-        """Upload a ``scipy.sparse`` matrix (any format) as a :class:`DeviceCSR` of ``dtype``.
+        """Upload a ``scipy.sparse`` matrix (any format) as a `DeviceCSR` of ``dtype``.
 
-        Its structure is checked first (:func:`rdgpu.core.csr.checked_csr`: indices in range,
+        Its structure is checked first (`rdgpu.core.csr.checked_csr`: indices in range,
         ``indptr`` sound, finite real values that ``dtype`` can hold), so that no kernel
         reads outside the arrays; errors name the matrix as ``name``."""
         m = checked_csr(matrix, name)  # canonical: sorted, no duplicates; input untouched
@@ -261,10 +261,10 @@ class Backend(ABC):
     # ------------------------------------------------------------------ generated passes
     def fused_pass(self, program: Program, target: Target, fields: frozenset[str],
                    member: frozenset[str]) -> FusedPass:
-        """``program`` compiled for ``target`` (a :class:`~rdgpu.backends.target.FusedPass`,
+        """``program`` compiled for ``target`` (a `rdgpu.backends.target.FusedPass`,
         cached by the backend): ``fields`` are the parameters given as field buffers,
         ``member`` those given per ensemble member.  A backend without kernels of its own
-        may return :class:`~rdgpu.backends.target.HostFusedPass` (the NumPy semantics on the
+        may return `rdgpu.backends.target.HostFusedPass` (the NumPy semantics on the
         host); this default refuses."""
         raise NotImplementedError(
             f"the {self.name!r} backend ({type(self).__name__}) cannot run a model's fused "
@@ -274,14 +274,14 @@ class Backend(ABC):
 
     def blocked_pass_support(self) -> str | None:
         """Why this backend cannot run temporally blocked Euler passes
-        (:meth:`blocked_pass`), or None when it can."""
+        (`blocked_pass`), or None when it can."""
         return f"the {self.name} backend has no blocked kernel (only opencl has)"
 
     def blocked_pass(self, program: Program, target: Target, *, steps: int, rows: int,
                      items: int) -> BlockedPass:
         """A blocked pass of an explicit Euler ``program`` on a 2-D grid ``target``
         (`rdgpu.integrators.blocking`): ``steps`` steps per pass in bands of ``rows`` rows,
-        ``items`` work-items (a :class:`~rdgpu.backends.target.BlockedPass`)."""
+        ``items`` work-items (a `rdgpu.backends.target.BlockedPass`)."""
         raise NotImplementedError(self.blocked_pass_support() or
                                   f"the {self.name} backend has no blocked kernel")
 
@@ -333,12 +333,12 @@ class Backend(ABC):
 
         ``u``, ``out``: ``[ny, nx]``, or ``[nm, ny, nx]`` for ``nm`` members sharing one
         surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
-        dtype, e.g. from :meth:`upload_metric` (upload once, reuse).  Units: ``[u]/length²``
+        dtype, e.g. from `upload_metric` (upload once, reuse).  Units: ``[u]/length²``
         when the coefficients are those of spacings in length units."""
         self.kernel("metric", "metric_laplacian")(u, coefficients, out)
 
     def upload_metric(self, surface: GraphSurface, dtype: Any) -> tuple[DeviceArray, ...]:
-        """The coefficients ``(ex, ny, bx, w)`` of a :class:`rdgpu.GraphSurface`
+        """The coefficients ``(ex, ny, bx, w)`` of a `rdgpu.GraphSurface`
         rounded to ``dtype`` (subnormals flushed), on this backend.  Cached per backend for
         the last few ``(surface, dtype)`` pairs: surfaces compare by grid and height, so an
         equal surface built again reuses the upload.  Treat the arrays as read-only."""

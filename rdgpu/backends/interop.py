@@ -1,7 +1,7 @@
 """Arrays from any library: recognise them, put them on a backend without a copy where
 their memory already lives there, and give results back as the same kind.
 
-Kinds (see :func:`kind_of`):
+Kinds (see `kind_of`):
 
 * ``"numpy"``: a NumPy array; ``"list"``: anything else NumPy reads (lists, tuples,
   objects with ``__array__``), whose results come back as NumPy arrays;
@@ -20,7 +20,7 @@ a Warp CPU backend.  Everything else makes one copy through the host.
 
 Value checks (finite, no subnormals) read host memory in place; a device-only array
 (Warp CUDA, pyopencl, CUDA DLPack) that stays on its device is checked for finiteness by
-one reduction there (:meth:`~rdgpu.backends.base.Backend.max_abs`, one number back to the
+one reduction there (`rdgpu.backends.base.Backend.max_abs`, one number back to the
 host): its values are not copied, and its subnormals are not flushed.
 """
 
@@ -51,9 +51,24 @@ def _is(x: Any, module: str, name: str) -> bool:
 
 
 def kind_of(x: Any) -> str:
-    """The kind of array ``x`` is (one of :data:`KINDS`); raises ``TypeError`` for an
-    object that is no array: :class:`NotAnArray` for a string, a dict, ``None``..., and
-    for a ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it."""
+    """The kind of array ``x`` is.
+
+    Parameters
+    ----------
+    x : object
+        An array of any library, or a list/tuple of numbers.
+
+    Returns
+    -------
+    str
+        One of `KINDS` (module doc).
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no array: `NotAnArray` for a string, a dict, ``None``..., and for a
+        ``pyopencl.Buffer`` (which has no shape) a message saying how to wrap it.
+    """
     if isinstance(x, np.ndarray):
         return "numpy"
     if _is(x, "warp", "array"):
@@ -91,8 +106,19 @@ def _dlpack_device(x: Any) -> int | None:
 
 
 def host_view(x: Any) -> np.ndarray | None:
-    """A NumPy view of ``x``'s memory when the host can read it in place (NumPy, Warp
-    CPU, a CPU DLPack or torch array), else None.  Never copies."""
+    """A NumPy view of ``x``'s memory when the host can read it in place.  Never copies.
+
+    Parameters
+    ----------
+    x : object
+        An array of any kind `kind_of` knows.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        The view for NumPy, Warp CPU, a CPU DLPack or torch array; None for memory the
+        host cannot read in place (a device array).
+    """
     kind = kind_of(x)
     if kind == "numpy":
         return x
@@ -108,8 +134,19 @@ def host_view(x: Any) -> np.ndarray | None:
 
 
 def to_numpy(x: Any) -> np.ndarray:
-    """``x`` as a NumPy array: its host view, else one copy to the host.  Lists and
-    tuples become arrays as NumPy reads them."""
+    """``x`` as a NumPy array.
+
+    Parameters
+    ----------
+    x : object
+        An array of any kind `kind_of` knows; lists and tuples become arrays as NumPy
+        reads them.
+
+    Returns
+    -------
+    numpy.ndarray
+        Its host view (`host_view`), else one copy to the host.
+    """
     view = host_view(x)
     if view is not None:
         return view
@@ -181,7 +218,7 @@ def resident(x: Any, be: Backend) -> bool:
 
 
 def wrap(x: Any, be: Backend, shape: tuple[int, ...] | None = None) -> DeviceArray:
-    """A :class:`DeviceArray` on ``be`` sharing ``x``'s memory (``resident(x, be)`` must
+    """A `DeviceArray` on ``be`` sharing ``x``'s memory (``resident(x, be)`` must
     hold), seen with ``shape`` (same size; default x's own)."""
     shape_x, dtype = shape_dtype(x)
     shape = shape_x if shape is None else tuple(shape)
@@ -275,7 +312,7 @@ def check_out(out: Any, shape: tuple[int, ...], dtype: np.dtype, name: str = "ou
 def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = None,
             check: Any = None) -> Any:
     """The result on ``result``'s backend as the kind of ``like`` (the caller's input), in
-    ``shape``; with ``out`` (already checked by :func:`check_out`), written into ``out``,
+    ``shape``; with ``out`` (already checked by `check_out`), written into ``out``,
     which is returned.  ``result`` must be a buffer of the call's own (never the input's
     memory): a Warp or pyopencl result on its own device is handed over as it is.
     ``check(host_array)`` runs on the result wherever the host sees it (in place, or the

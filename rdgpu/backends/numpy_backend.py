@@ -1,9 +1,9 @@
 """The NumPy backend: runs the references in ``rdgpu/families/*/reference.py`` on host arrays
 (which flush subnormal results to 0 like every kernel: docs/equations.md,
-:mod:`rdgpu.core.fpenv`).
+`rdgpu.core.fpenv`).
 
 The hand-written families' launchers are ``rdgpu/families/<family>/numpy.py`` (bound by
-:meth:`~rdgpu.backends.base.Backend.kernel`): each checks its arguments and runs its
+`rdgpu.backends.base.Backend.kernel`): each checks its arguments and runs its
 reference on the arrays' handles, which here are the NumPy arrays themselves; this class
 holds the memory methods and runs the model layer's passes.
 """
@@ -57,7 +57,7 @@ class NumpyBackend(Backend):
 
 
 class _NumpyPass(FusedPass):
-    """A program run by :func:`rdgpu.ir.reference.run_numpy` on the buffers in place."""
+    """A program run by `rdgpu.ir.reference.run_numpy` on the buffers in place."""
 
     def __init__(self, program):
         self.program = program

@@ -1,10 +1,10 @@
 """OpenCL backend (PyOpenCL): the kernels of ``families/<family>/<family>.cl`` on any device.
 
 One program per (context, dtype, layout) is built from ``families/common.cl`` followed by
-the source of every family that joins it (:func:`rdgpu.families.shared_opencl_families`),
+the source of every family that joins it (`rdgpu.families.shared_opencl_families`),
 and its kernel objects are cached; dla and walkers are programs of their own
-(:meth:`OpenCLBackend.own_program`).  Launches go to one in-order queue without waiting;
-:meth:`OpenCLBackend.download` and :meth:`synchronize` wait.
+(`OpenCLBackend.own_program`).  Launches go to one in-order queue without waiting;
+`OpenCLBackend.download` and `synchronize` wait.
 
 Two launch layouts run the same inline cell functions (see ``families/common.cl``):
 
@@ -19,17 +19,17 @@ The layout can be forced with ``OpenCLBackend(layout=...)`` or the environment v
 
 Programs are built with ``-cl-denorms-are-zero`` and every kernel flushes the values it
 writes (``FLUSH`` in ``common.cl``): subnormals are flushed (docs/equations.md,
-:mod:`rdgpu.core.fpenv`).
+`rdgpu.core.fpenv`).
 
 The hand-written families launch from ``rdgpu/families/<family>/opencl.py`` (bound by
-:meth:`~rdgpu.backends.base.Backend.kernel`); each declares its kernels' argument types
-(``KERNEL_ARGS``, merged by :func:`kernel_args`).  The runtime interface those launchers
+`rdgpu.backends.base.Backend.kernel`); each declares its kernels' argument types
+(``KERNEL_ARGS``, merged by `kernel_args`).  The runtime interface those launchers
 use, this class's public members: ``cl``, ``queue``, ``layout``, ``col_stride``,
-``max_cells``, :meth:`~OpenCLBackend.kernels` (this thread's kernel objects),
-:meth:`~OpenCLBackend.enqueue`, :meth:`~OpenCLBackend.grid` / :meth:`~OpenCLBackend.grid3`
-(a grid launch's device checks and arguments), :meth:`~OpenCLBackend.launch_grid`,
-:meth:`~OpenCLBackend.launch_rows`, :meth:`~OpenCLBackend.check_on_device` and
-:meth:`~OpenCLBackend.check_real`.
+``max_cells``, `OpenCLBackend.kernels` (this thread's kernel objects),
+`OpenCLBackend.enqueue`, `OpenCLBackend.grid` / `OpenCLBackend.grid3`
+(a grid launch's device checks and arguments), `OpenCLBackend.launch_grid`,
+`OpenCLBackend.launch_rows`, `OpenCLBackend.check_on_device` and
+`OpenCLBackend.check_real`.
 
 Threads: contexts, queues and built programs are shared by every backend instance on
 one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
@@ -385,7 +385,7 @@ class OpenCLBackend(Backend):
 
 
     def grid3(self, bc: GridBC, u: DeviceArray, *others: DeviceArray):
-        """:meth:`grid` for a 3-D grid: ``(rows, (nx, ny, nz, y_kind, g_y, x_kind, g_x,
+        """`grid` for a 3-D grid: ``(rows, (nx, ny, nz, y_kind, g_y, x_kind, g_x,
         z_kind, g_z))`` with ``rows = nz·ny`` (0 when there are no cells)."""
         for a in (u, *others):
             if not isinstance(a.backend, OpenCLBackend):

@@ -1,15 +1,15 @@
-"""The OpenCL C printer of a :class:`~rdgpu.ir.program.Program`, its fused pass and its
+"""The OpenCL C printer of a `rdgpu.ir.program.Program`, its fused pass and its
 temporally blocked pass.
 
-:func:`opencl_cell` writes one cell of a program (the stencil walk of
-:mod:`rdgpu.ir.stencils`, values fully parenthesised in the tree's operation order, literals
-exact in the dtype, ``FP_CONTRACT OFF``); :func:`opencl_source` puts it in the step kernel
+`opencl_cell` writes one cell of a program (the stencil walk of
+`rdgpu.ir.stencils`, values fully parenthesised in the tree's operation order, literals
+exact in the dtype, ``FP_CONTRACT OFF``); `opencl_source` puts it in the step kernel
 ``rd_program`` of ``families/model/model.cl`` (one work-item per row, CPU: edge columns
 peeled and a branch-free interior; or strided columns, GPU; CSR rows in blocks on meshes),
-:func:`blocked_source` in ``rd_blocked`` of ``families/model/blocked.cl`` (``steps`` Euler
+`blocked_source` in ``rd_blocked`` of ``families/model/blocked.cl`` (``steps`` Euler
 steps per pass over bands of rows: `rdgpu.integrators.blocking`).  Programs are built per
-context, build options and dtype (:func:`opencl_program`), kernels cached in the program per
-thread (:func:`opencl_kernel`).
+context, build options and dtype (`opencl_program`), kernels cached in the program per
+thread (`opencl_kernel`).
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
                 member: frozenset[str] = frozenset(), field_index: str = "k_",
                 out_index: str = "k_") -> tuple[list[str], list[str]]:
     """``(arguments, statements)`` of one cell of ``program`` in OpenCL C: the kernel's
-    argument declarations (:func:`~rdgpu.ir.program.signature`'s order) and the cell body.
+    argument declarations (`rdgpu.ir.program.signature`'s order) and the cell body.
     The body reads input ``s`` as ``in_s[k_]`` and its neighbours at the row offsets
     ``rc, rs, rn...`` plus ``j``/``cc_.w``/``cc_.e``, parameter fields at
     ``[field_index]``, and stores output ``o`` to ``out_o[out_index]`` (the step kernel:
@@ -313,7 +313,7 @@ class OpenCLFusedPass(FusedPass):
 class OpenCLBlockedPass(BlockedPass):
     """``steps`` Euler steps of ``program`` per pass over a 2-D grid ``target``, in bands of
     ``rows`` rows over ``items`` work-items, each with its scratch rings
-    (`rdgpu.integrators.blocking`; :meth:`OpenCLBackend.blocked_pass`)."""
+    (`rdgpu.integrators.blocking`; `OpenCLBackend.blocked_pass`)."""
 
     def __init__(self, program: Program, target: Target, steps: int, rows: int, items: int):
         self.program, self.target = program, target

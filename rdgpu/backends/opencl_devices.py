@@ -1,4 +1,4 @@
-"""OpenCL devices for :mod:`rdgpu.backends.opencl_backend`: listing them, choosing one
+"""OpenCL devices for `rdgpu.backends.opencl_backend`: listing them, choosing one
 (``OpenCLBackend(device=...)``, ``RDGPU_OPENCL_DEVICE``), probing that its compiler can build
 a kernel, and the contexts and queues shared by every backend on one device."""
 
@@ -116,7 +116,7 @@ _BROKEN_HINT = (
 
 def select_device(spec: str | None):
     """The device named by ``spec`` (``"P:D"`` or part of a name), or by default the first
-    GPU, else the first CPU device whose compiler works (see :func:`probe_compiler`)."""
+    GPU, else the first CPU device whose compiler works (see `probe_compiler`)."""
     cl = import_pyopencl()
     devices = list_devices()
     if spec is None or not str(spec).strip():

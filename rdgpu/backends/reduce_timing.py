@@ -1,6 +1,6 @@
 """Timing of the reductions ``Backend.max_abs`` and ``Backend.sum_squares``: microseconds
 per call and GB/s of any backends, every result checked, and an OpenCL backend built with
-LLVM's loop vectoriser off (:func:`scalar_opencl`) to see what vectorisation gives.
+LLVM's loop vectoriser off (`scalar_opencl`) to see what vectorisation gives.
 ``perf/reduce.py`` runs them at sizes from the machine's caches and writes the report.
 """
 
@@ -66,7 +66,7 @@ def check(op: str, got: float, u: np.ndarray) -> bool:
 def measure(backends: dict, size_bytes: dict[str, int], seconds: float) -> list[dict]:
     """One row per (size, dtype, op, backend) of ``backends`` (name → Backend) and
     ``size_bytes`` (label → bytes per array; at least one element): microseconds per call
-    and GB/s; every result is checked (see :func:`check`; a wrong one raises
+    and GB/s; every result is checked (see `check`; a wrong one raises
     AssertionError)."""
     rng = np.random.default_rng(0)
     rows = []
@@ -90,7 +90,7 @@ def measure(backends: dict, size_bytes: dict[str, int], seconds: float) -> list[
 
 
 def table(rows: list[dict], triad: float) -> str:
-    """The rows of :func:`measure` as markdown; ``% triad``: GB/s over ``triad`` (GB/s)."""
+    """The rows of `measure` as markdown; ``% triad``: GB/s over ``triad`` (GB/s)."""
     lines = ["| size | dtype | elements | MiB | op | backend | µs per call | GB/s | % triad |",
              "|---|---|---:|---:|---|---|---:|---:|---:|"]
     for r in rows:

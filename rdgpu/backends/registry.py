@@ -5,7 +5,7 @@ Precedence, highest first: the per-call ``backend=`` argument, the innermost
 variable, and finally ``"auto"``.
 
 A backend is named ``"numpy"``, ``"warp"``, ``"opencl"`` (the built-ins, registered here
-like any other: :func:`register_backend`) or ``"auto"``, optionally with a device after a
+like any other: `register_backend`) or ``"auto"``, optionally with a device after a
 colon: ``"warp:cpu"``, ``"warp:cuda:0"``, ``"opencl:0:1"`` (platform:device indices) or
 ``"opencl:nvidia"`` (a substring of the platform or device name).  The OpenCL device may
 also come from ``RDGPU_OPENCL_DEVICE``.  ``"auto"`` picks Warp on CUDA where a CUDA device
@@ -28,7 +28,7 @@ from rdgpu.core.errors import BackendUnavailableError
 
 @dataclass(frozen=True)
 class BackendEntry:
-    """A registered backend (:func:`register_backend`)."""
+    """A registered backend (`register_backend`)."""
 
     name: str
     #: ``factory(device)`` constructs the backend (``device``: the text after ':', or None)
@@ -53,11 +53,31 @@ def register_backend(name: str, factory: Callable[[str | None], Backend], *,
                      variants: Callable[[], list[str]] | None = None,
                      replace: bool = False) -> None:
     """Make ``get_backend(name)`` (and ``backend=name`` everywhere, the CLI's ``--backend``)
-    construct ``factory(device)``: ``device`` is the text after ``name:``, or None.
-    ``devices`` describes the devices it takes (None: it takes none); ``check_device``
-    normalises one or raises a ValueError; ``runs_on`` ("runs on this CPU") words the
-    refusal of a device; ``variants`` lists more specs :func:`available_backends` reports.
-    A name already registered is refused unless ``replace``."""
+    construct ``factory(device)``.
+
+    Parameters
+    ----------
+    name : str
+        The backend's name (the text before ``:`` in a spec such as ``"warp:cpu"``).
+    factory : callable
+        ``factory(device)`` returns the `rdgpu.backends.base.Backend`; ``device`` is the
+        text after ``name:``, or None.
+    devices : str, optional
+        Words describing the devices it takes (None: it takes none).
+    check_device : callable, optional
+        ``check_device(device)`` returns the normalised device or raises a ValueError.
+    runs_on : str, optional
+        Words for the refusal of a device (``"runs on this CPU"``).
+    variants : callable, optional
+        ``variants()`` lists more specs that `available_backends` reports.
+    replace : bool
+        Replace a backend already registered under ``name``.
+
+    Raises
+    ------
+    ValueError
+        ``name`` is registered already and ``replace`` is false.
+    """
     key = name.strip().lower() if isinstance(name, str) else name
     if not isinstance(key, str) or not re.fullmatch(r"[a-z][a-z0-9_-]*", key) or key == "auto":
         raise ValueError(f"register_backend: name must be a lowercase word (letters, digits, "
@@ -74,7 +94,7 @@ def register_backend(name: str, factory: Callable[[str | None], Backend], *,
 
 
 def unregister_backend(name: str) -> None:
-    """Forget a backend registered with :func:`register_backend` (and its instances)."""
+    """Forget a backend registered with `register_backend` (and its instances)."""
     key = name.strip().lower()
     if key not in _REGISTRY:
         raise ValueError(f"no backend named {name!r} is registered; registered: "
@@ -222,7 +242,30 @@ def _auto() -> Backend:
 
 
 def get_backend(backend: str | Backend | None = None) -> Backend:
-    """The :class:`Backend` that a call with ``backend=`` would use (instances are cached)."""
+    """The `Backend` that a call with ``backend=`` would use (instances are cached).
+
+    Parameters
+    ----------
+    backend : str or Backend, optional
+        A spec ``"name"`` or ``"name:device"`` (``"numpy"``, ``"warp:cpu"``,
+        ``"opencl:0"``, ``"auto"``) or a Backend (returned as it is).  None: the backend
+        of the enclosing `use_backend` block, else `set_backend`'s, else the
+        ``RDGPU_BACKEND`` environment variable, else ``"auto"``.
+
+    Returns
+    -------
+    Backend
+        One instance per spec, constructed on first use.
+
+    Raises
+    ------
+    ValueError
+        An unknown name or a device the backend does not take.
+    TypeError
+        ``backend`` is neither a string nor a Backend.
+    BackendUnavailableError
+        The backend cannot run here (its library or device is missing).
+    """
     if isinstance(backend, Backend):
         return backend
     if backend is None:
@@ -244,9 +287,15 @@ def get_backend(backend: str | Backend | None = None) -> Backend:
 
 
 def set_backend(backend: str | Backend | None) -> None:
-    """Set the process-wide default backend (``None`` returns to env/auto).
+    """Set the process-wide default backend.
 
-    The backend is constructed now, so an unavailable one fails here, not later."""
+    The backend is constructed now, so an unavailable one fails here, not later.
+
+    Parameters
+    ----------
+    backend : str or Backend, optional
+        As `get_backend` takes it; None returns to ``RDGPU_BACKEND`` or ``"auto"``.
+    """
     global _default
     if backend is not None:
         get_backend(backend)
@@ -255,7 +304,18 @@ def set_backend(backend: str | Backend | None) -> None:
 
 @contextlib.contextmanager
 def use_backend(backend: str | Backend) -> Iterator[Backend]:
-    """Use ``backend`` for every call inside the ``with`` block; yields the Backend."""
+    """Use ``backend`` for every call inside the ``with`` block (this thread or task only).
+
+    Parameters
+    ----------
+    backend : str or Backend
+        As `get_backend` takes it.
+
+    Yields
+    ------
+    Backend
+        The backend in use.
+    """
     instance = get_backend(backend)
     token = _context.set(instance)
     try:
@@ -265,8 +325,14 @@ def use_backend(backend: str | Backend) -> Iterator[Backend]:
 
 
 def available_backends() -> list[BackendInfo]:
-    """Every registered backend, whether it can run here, on which device, or why not (and
-    the variants a backend reports, e.g. Warp on CUDA where a CUDA device exists)."""
+    """Every registered backend, whether it can run here, on which device, or why not.
+
+    Returns
+    -------
+    list of BackendInfo
+        One per registered backend, then the variants a backend reports (e.g. Warp on
+        CUDA where a CUDA device exists).
+    """
     infos = []
     for name in list(_REGISTRY):
         try:

@@ -1,10 +1,10 @@
-"""A domain bound to a backend and a dtype (:class:`Target`), and the interface of a compiled
-fused pass (:class:`FusedPass`): what the model layer hands a backend to run a
-:class:`~rdgpu.ir.program.Program`.
+"""A domain bound to a backend and a dtype (`Target`), and the interface of a compiled
+fused pass (`FusedPass`): what the model layer hands a backend to run a
+`rdgpu.ir.program.Program`.
 
-``Backend.fused_pass(program, target, fields, member)`` returns a :class:`FusedPass`; its
-:meth:`~FusedPass.launch` runs one pass.  :class:`HostFusedPass` runs a program through
-its NumPy semantics (:func:`rdgpu.ir.reference.run_numpy`) with a download and an upload:
+``Backend.fused_pass(program, target, fields, member)`` returns a `FusedPass`; its
+`FusedPass.launch` runs one pass.  `HostFusedPass` runs a program through
+its NumPy semantics (`rdgpu.ir.reference.run_numpy`) with a download and an upload:
 a backend without kernels of its own may return it, explicitly; nothing falls back to it.
 """
 
@@ -31,7 +31,7 @@ __all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
 
 class Target(Layout):
     """A domain bound to a backend and dtype: what a launch needs besides the buffers
-    (:class:`~rdgpu.ir.layout.Layout` for the host side).
+    (`rdgpu.ir.layout.Layout` for the host side).
 
     ``csr``: the mesh Laplacian on the device; ``metric``: a graph surface's coefficients
     ``ex, ny, bx, w`` (DeviceArrays ``[ny, nx]``); ``coords``: the coordinates uploaded so
@@ -81,7 +81,7 @@ class FusedPass(ABC):
                scalars: Mapping[str, float], time: float) -> None:
         """One pass: ``inputs``/``outputs`` in the program's order, each of
         ``target.field_shape``; ``params`` maps each parameter to a number, a DeviceArray
-        (the names in ``fields``) or a :class:`~rdgpu.ir.program.PerMember` (``member``);
+        (the names in ``fields``) or a `rdgpu.ir.program.PerMember` (``member``);
         ``scalars`` the builtins (``_h``...)."""
 
 
@@ -135,7 +135,7 @@ def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
               outputs: Sequence[DeviceArray], params: Mapping[str, Any],
               fields: frozenset[str], scalars: Mapping[str, float], time: float,
               flat=_handle, member: frozenset[str] = frozenset()) -> list[Any]:
-    """The kernel arguments of :func:`rdgpu.ir.program.signature`: buffers through
+    """The kernel arguments of `rdgpu.ir.program.signature`: buffers through
     ``flat``, scalars in the target's dtype."""
     t = target.dtype.type
     bufs: list[Any] = [flat(a) for a in inputs] + [flat(a) for a in outputs]

@@ -4,36 +4,36 @@ Every grid kernel exists in two launch shapes sharing one ``@wp.func`` cell form
 
 * on a CPU device, ``rows``: one Warp thread per row with a serial inner loop over the
   columns, which indexes flat views of the arrays so that LLVM vectorises it (see
-  ``families/warp_common.py``; grids are limited to :data:`MAX_CELLS` cells).  Warp runs
+  ``families/warp_common.py``; grids are limited to `MAX_CELLS` cells).  Warp runs
   a CPU launch as one serial loop on one core and releases the GIL while it runs, so a
   large grid is cut into ``os.cpu_count()`` row chunks launched at the same time from a
   thread pool (one chunk in the calling thread);
 * on a CUDA device, ``cells``: one thread per cell, ``dim = (ny, nx)``.
 
 Subnormals are flushed (docs/equations.md,
-:mod:`rdgpu.core.fpenv`): every kernel flushes what it writes,
+`rdgpu.core.fpenv`): every kernel flushes what it writes,
 and the CPU shapes run their bodies with the x86 FTZ/DAZ bits on, restoring each thread's
-MXCSR at the end (see ``families/warp_common.py``).  Buffers from :meth:`WarpBackend.empty`
+MXCSR at the end (see ``families/warp_common.py``).  Buffers from `WarpBackend.empty`
 are zeroed, so ``warp.config.verify_fp`` runs clean.
 
 Each kernel family is one Warp module holding the float32 and float64 versions of its
 kernels; it is compiled once per device (and cached by Warp on disk) the first time the
-backend uses it (:meth:`WarpBackend.module`).  ``DeviceArray.handle`` is a ``warp.array``.
+backend uses it (`WarpBackend.module`).  ``DeviceArray.handle`` is a ``warp.array``.
 
 The hand-written families launch from ``rdgpu/families/<family>/warp.py`` (bound by
-:meth:`~rdgpu.backends.base.Backend.kernel`).  The
-runtime interface those launchers use, this class's public methods: :meth:`~WarpBackend.module`
-(a family's compiled kernels), :meth:`~WarpBackend.launch`, :meth:`~WarpBackend.run_grid`,
-:meth:`~WarpBackend.run_grid3`, :meth:`~WarpBackend.run_split`, the flag ``per_cell`` (the
-launch shape), the cached views :meth:`~WarpBackend.flat` and :meth:`~WarpBackend.members`,
-the boundary arguments :meth:`~WarpBackend.bc_args` and :meth:`~WarpBackend.bc3_args`, and
-the checks :meth:`~WarpBackend.real` and :meth:`~WarpBackend.same`; for CSR rows
-:meth:`~WarpBackend.run_rows`.
+`rdgpu.backends.base.Backend.kernel`).  The
+runtime interface those launchers use, this class's public methods: `WarpBackend.module`
+(a family's compiled kernels), `WarpBackend.launch`, `WarpBackend.run_grid`,
+`WarpBackend.run_grid3`, `WarpBackend.run_split`, the flag ``per_cell`` (the
+launch shape), the cached views `WarpBackend.flat` and `WarpBackend.members`,
+the boundary arguments `WarpBackend.bc_args` and `WarpBackend.bc3_args`, and
+the checks `WarpBackend.real` and `WarpBackend.same`; for CSR rows
+`WarpBackend.run_rows`.
 
 Threads: one backend may be driven from several threads at once.  Warp's process-wide
 state -- ``wp.init``, module compilation and loading, the first (recording) launch of a
 kernel, the log settings and file descriptor 2 that the quiet helpers flip -- is touched
-under one lock (:data:`WARP_LOCK`); recorded launches (whose parameters each launch
+under one lock (`WARP_LOCK`); recorded launches (whose parameters each launch
 rewrites) are kept per thread, so a replay never sees another thread's arguments.
 """
 
@@ -152,7 +152,7 @@ class WarpBackend(Backend):
         return mod
 
     def launch(self, kernel, dim, args: list, key) -> None:
-        """``wp.launch`` through a recorded :class:`warp.Launch` per ``(kernel, dim, key)``:
+        """``wp.launch`` through a recorded `warp.Launch` per ``(kernel, dim, key)``:
         only the arguments that differ from the previous call are re-packed, which makes
         a launch several times cheaper in Python than ``wp.launch`` (that packs all).
         Arrays compare by identity, scalars by value.  The record keeps no reference to
@@ -345,7 +345,7 @@ class WarpBackend(Backend):
         self.run_split(rows, nz * ny, nz * ny * nx, args)
 
     def bc3_args(self, bc: GridBC, t: type) -> list:
-        """A 3-D grid kernel's boundary arguments: ``z_kind, g_z``, then :meth:`bc_args`."""
+        """A 3-D grid kernel's boundary arguments: ``z_kind, g_z``, then `bc_args`."""
         return [bc.z.kind, t(bc.z.value), *self.bc_args(bc, t)]
 
 

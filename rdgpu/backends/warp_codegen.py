@@ -1,13 +1,13 @@
-"""The Warp printer of a :class:`~rdgpu.ir.program.Program`, and its fused pass.
+"""The Warp printer of a `rdgpu.ir.program.Program`, and its fused pass.
 
-:func:`warp_source` fills ``families/model/warp_model.py.in`` with the kernels of one
+`warp_source` fills ``families/model/warp_model.py.in`` with the kernels of one
 program: on grids ``rows`` (one thread per row in row chunks, CPU) and ``cells`` (one per
 cell, CUDA), each cell in two bodies (one with the boundary selects, one for interior
 columns, which LLVM vectorises); on meshes ``rows`` (one vertex per thread, CUDA) and
 ``blocks`` (CSR rows in blocks, CPU).  The neighbours come from the stencil walk of
-:mod:`rdgpu.ir.stencils`, values fully parenthesised in the tree's operation order with
-literals exact in the dtype.  :func:`warp_module` imports the generated module (Warp needs a
-source file: it goes under :func:`cache_dir`) and :class:`WarpFusedPass` launches it.
+`rdgpu.ir.stencils`, values fully parenthesised in the tree's operation order with
+literals exact in the dtype.  `warp_module` imports the generated module (Warp needs a
+source file: it goes under `cache_dir`) and `WarpFusedPass` launches it.
 """
 
 from __future__ import annotations
@@ -194,7 +194,7 @@ _LOADED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def warp_module(src: str, backend: Backend, prefix: str = "rdgpu_model"):
-    """Import a generated Warp module (written under :func:`cache_dir`, since Warp needs a
+    """Import a generated Warp module (written under `cache_dir`, since Warp needs a
     source file) and load it on the backend's device, once each."""
     digest = hashlib.sha256(src.encode()).hexdigest()[:24]
     with _MODULES_LOCK:
@@ -235,7 +235,7 @@ def _warp_rows(a: DeviceArray) -> Any:
 
 
 class WarpFusedPass(FusedPass):
-    """A program's generated Warp module on one backend (:meth:`WarpBackend.fused_pass`)."""
+    """A program's generated Warp module on one backend (`WarpBackend.fused_pass`)."""
 
     def __init__(self, program: Program, target: Target, fields: frozenset[str],
                  member: frozenset[str]):

@@ -1,5 +1,5 @@
-"""Warp's process-wide runtime pieces shared by :mod:`rdgpu.backends.warp_backend` and
-:mod:`rdgpu.backends.warp_codegen`: the launch-shape constants of both (a family's own
+"""Warp's process-wide runtime pieces shared by `rdgpu.backends.warp_backend` and
+`rdgpu.backends.warp_codegen`: the launch-shape constants of both (a family's own
 live in its launcher, ``rdgpu/families/<family>/warp.py``), the lock around Warp's global
 state, the helpers that keep Warp quiet, the 32-bit cell limit."""
 
@@ -68,7 +68,7 @@ def quiet_warp(wp):
 
 
 def check_cells(n: int, shape: tuple[int, ...]) -> None:
-    """Refuse a grid launch over more than :data:`MAX_CELLS` cells (``shape``: for the
+    """Refuse a grid launch over more than `MAX_CELLS` cells (``shape``: for the
     message)."""
     if n > MAX_CELLS:
         dims = "x".join(str(d) for d in shape)

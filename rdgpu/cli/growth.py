@@ -1,6 +1,6 @@
 """``rdgpu run dla``, ``rdgpu run random-walk-dla`` and ``rdgpu run turing-front``: the
 growth models (seed 001) and the level-set front driven by a Turing pattern (seed 003
-§4.2, :func:`rdgpu.fronts.turing_front`; seed 003's label ``seed003-front`` is accepted as
+§4.2, `rdgpu.fronts.turing_front`; seed 003's label ``seed003-front`` is accepted as
 an alias) on the command line, beside the reaction-diffusion models of ``rdgpu run``.
 
 ``--size NxM`` is the grid, ``--steps`` the growth steps (DLA by the nutrient field: cells
@@ -46,7 +46,7 @@ GROWTH_ALIASES = {"seed003-front": "turing-front"}
 
 
 def growth_name(name: str | None) -> str | None:
-    """``name`` (``rdgpu run``'s MODEL) with a paper's label (:data:`GROWTH_ALIASES`)
+    """``name`` (``rdgpu run``'s MODEL) with a paper's label (`GROWTH_ALIASES`)
     replaced by the growth model's name."""
     return GROWTH_ALIASES.get(name, name) if isinstance(name, str) else name
 
@@ -102,7 +102,7 @@ def _unsupported(args: argparse.Namespace, usage: type[Exception]) -> None:
 
 
 def run_growth(args: argparse.Namespace, say, usage: type[Exception]) -> int:
-    """Run ``args.model`` (a key of :data:`GROWTH`, or an alias) and write its outputs."""
+    """Run ``args.model`` (a key of `GROWTH`, or an alias) and write its outputs."""
     args.model = growth_name(args.model)
     _unsupported(args, usage)
     size = args.size if args.size is not None else (256, 256)

@@ -1,5 +1,5 @@
 """The Domain protocol: what every domain (grid, graph surface, triangle mesh) tells the
-rest of rdgpu, so that no code outside :mod:`rdgpu.domains` asks which class it holds.
+rest of rdgpu, so that no code outside `rdgpu.domains` asks which class it holds.
 
 Shapes (the glossary of ``docs/architecture.md``):
 
@@ -29,9 +29,9 @@ STENCILS = ("compact", "isotropic")
 @runtime_checkable
 class Domain(Protocol):
     """Where fields live (see the module doc for the shapes).  Everything code outside
-    :mod:`rdgpu.domains` needs to know about a domain is asked here, never by its class."""
+    `rdgpu.domains` needs to know about a domain is asked here, never by its class."""
 
-    #: one of :data:`KINDS`
+    #: one of `KINDS`
     kind: ClassVar[str]
     #: True where fields live on the vertices of an unstructured mesh (CSR operators)
     unstructured: ClassVar[bool]
@@ -54,12 +54,12 @@ class Domain(Protocol):
 
     @property
     def spacings(self) -> tuple[float, ...]:
-        """The spacing per axis of :attr:`axes` (``()`` on a mesh)."""
+        """The spacing per axis of `axes` (``()`` on a mesh)."""
 
     @property
     def boundaries(self) -> tuple[AxisBC, ...]:
-        """The boundary condition per axis of :attr:`axes`
-        (:class:`~rdgpu.domains.boundary.AxisBC`; ``()`` on a mesh)."""
+        """The boundary condition per axis of `axes`
+        (`rdgpu.domains.boundary.AxisBC`; ``()`` on a mesh)."""
 
     @property
     def extents(self) -> dict[str, float]:
@@ -89,8 +89,8 @@ class Domain(Protocol):
 
     def stencil_kind(self, stencil: str = "compact") -> str:
         """The key of the code generators' per-kind stencil table
-        (:data:`rdgpu.ir.stencils.STENCIL_KINDS`, which owns the kinds) for ``stencil``
-        (:data:`STENCILS`) on this domain; a stencil the domain cannot use is a
+        (`rdgpu.ir.stencils.STENCIL_KINDS`, which owns the kinds) for ``stencil``
+        (`STENCILS`) on this domain; a stencil the domain cannot use is a
         ``ValueError``."""
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
@@ -113,7 +113,7 @@ class Domain(Protocol):
         """A colouring (int32 per row) of ``matrix``'s graph for multicolour SOR."""
 
 
-#: the members of :class:`Domain` (looked up on the class: no property is evaluated)
+#: the members of `Domain` (looked up on the class: no property is evaluated)
 _MEMBERS = ("kind", "unstructured", "label", "field_shape", "kernel_shape", "n_points",
             "axes", "spacings", "boundaries", "extents", "spacing_scale", "describe",
             "arrays", "kernel_coordinate", "unit_coordinate", "stencil_kind", "largest_eigenvalue",
@@ -122,8 +122,8 @@ _MEMBERS = ("kind", "unstructured", "label", "field_shape", "kernel_shape", "n_p
 
 
 def is_domain(obj: Any) -> bool:
-    """Whether ``obj`` is a domain (a :class:`Grid`, graph surface or mesh): its class has
-    a known ``kind`` and every member of :class:`Domain`."""
+    """Whether ``obj`` is a domain (a `Grid`, graph surface or mesh): its class has
+    a known ``kind`` and every member of `Domain`."""
     cls = type(obj)
     return getattr(cls, "kind", None) in KINDS and all(hasattr(cls, m) for m in _MEMBERS)
 
@@ -140,5 +140,5 @@ def require_domain(obj: Any, what: str = "domain") -> Any:
 
 def domain_shape(domain: Domain) -> tuple[int, ...]:
     """The kernels' shape: ``(ny, nx)`` / ``(nz, ny, nx)`` of a grid, ``(n_vertices,)`` of a
-    mesh (:attr:`Domain.kernel_shape`); a ``TypeError`` for anything but a domain."""
+    mesh (`Domain.kernel_shape`); a ``TypeError`` for anything but a domain."""
     return require_domain(domain).kernel_shape

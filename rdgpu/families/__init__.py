@@ -3,7 +3,7 @@
 (``<family>.cl``) side by side; ``common.cl``, ``grid_common.py`` and ``warp_common.py``
 are shared by all of them, and ``model/`` holds the templates the model compiler fills.
 
-The folders are ordinary subpackages of :mod:`rdgpu`, so the installed wheel carries them
+The folders are ordinary subpackages of `rdgpu`, so the installed wheel carries them
 like any other module; this module finds the OpenCL sources and imports the Python ones.
 """
 

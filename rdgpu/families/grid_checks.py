@@ -1,6 +1,6 @@
 """The argument checks the grid families' launchers share (``laplacian``, ``metric``,
 ``gray_scott``, ``sor``, ``levelset``), written once for all backends on top of
-:mod:`rdgpu.families.checks`.
+`rdgpu.families.checks`.
 
 Like those, they read only what every device array has (``shape``, ``dtype``; a field
 parameter is told from a number by the ``backend`` and ``handle`` every device array

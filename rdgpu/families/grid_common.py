@@ -1,5 +1,5 @@
 """NumPy helpers shared by the references: ghost-cell padding of the grid kernels (see
-rdgpu.domains.boundary) and :func:`flush`, the subnormal rule every reference applies to the values
+rdgpu.domains.boundary) and `flush`, the subnormal rule every reference applies to the values
 it returns (as every Warp and OpenCL kernel does to the values it writes)."""
 
 from __future__ import annotations

@@ -7,14 +7,14 @@ just outside the grid is resolved along y first (Dirichlet ``g_y`` wins, else wr
 clamp the row), then along x.  Kernels pass each axis as ``(kind, value)``.
 
 Subnormals (docs/equations.md): a value whose magnitude is below the dtype's smallest normal number
-becomes 0.  Every kernel passes each value it writes through :func:`flush` (a select, on
+becomes 0.  Every kernel passes each value it writes through `flush` (a select, on
 every device and launch shape).  The CPU-shaped kernels (``rows``/``blocks``) also switch
 the x86 FTZ/DAZ bits on for their body -- ``saved = ftz_begin()`` first, ``ftz_end(saved)``
 last -- so that intermediate subnormals are flushed too and no loop runs at the speed of
 subnormal arithmetic.  Warp runs CPU kernels in the calling thread (and the backend's pool
 threads), so the exact MXCSR value is restored at the end of every thread's body: nothing
 leaks into the user's thread.  On CUDA (which ignores MXCSR; nvrtc does not flush by
-default) and on non-x86 CPUs the two calls compile to nothing and :func:`flush` alone
+default) and on non-x86 CPUs the two calls compile to nothing and `flush` alone
 makes the outputs follow the rule.
 """
 
@@ -60,8 +60,8 @@ def ghost(
 # strides of a 2-D/3-D argument are runtime values (so a row loop reads with gathers), and a
 # negative index wraps (``i += shape``), which stays in the loop until LLVM can prove the
 # index >= 0 (then the loop stays scalar or gathers).  The CPU row loops therefore index a
-# flat view (:func:`flat`, its stride a compile-time constant) at ``row_base + column``,
-# every term provably >= 0 (:func:`row_base`): the loops vectorise with contiguous loads.
+# flat view (`flat`, its stride a compile-time constant) at ``row_base + column``,
+# every term provably >= 0 (`row_base`): the loops vectorise with contiguous loads.
 @wp.func
 def flat(a: wp.array2d(dtype=Any)):
     """A 1-D view of the C-contiguous 2-D array ``a``: element ``[i, j]`` is ``[i·nx + j]``.
@@ -91,7 +91,7 @@ def row_bases(i: int, nx: int):
 
 @wp.func
 def same(x: Any):
-    """``x`` itself (a scalar parameter's stand-in for :func:`flat`)."""
+    """``x`` itself (a scalar parameter's stand-in for `flat`)."""
     return x
 
 
@@ -103,7 +103,7 @@ def flat_field_at(f: wp.array(dtype=Any), k: int):
 
 @wp.func
 def flat_scalar_at(f: Any, k: int):
-    """Uniform parameter (same signature as :func:`flat_field_at`)."""
+    """Uniform parameter (same signature as `flat_field_at`)."""
     return f
 
 
@@ -112,7 +112,7 @@ def param_kit(dtype, is_field: bool, ndim: int = 2):
     the grid's shape) or a uniform scalar of ``dtype``: ``(type, load, flat type, flat
     load, view)`` -- the kernel argument's type, ``load(p, i, j)`` (2-D), the type the flat
     interior cell functions take, ``flat_load(p, k)`` at flat index ``k``, and ``view(p)``
-    turning the kernel argument into that flat form (:func:`flat`, or the scalar itself)."""
+    turning the kernel argument into that flat form (`flat`, or the scalar itself)."""
     if is_field:
         return (wp.array(dtype=dtype, ndim=ndim), field_at, wp.array(dtype=dtype),
                 flat_field_at, flat)
@@ -127,7 +127,7 @@ def field_at(f: wp.array2d(dtype=Any), i: int, j: int):
 
 @wp.func
 def scalar_at(f: Any, i: int, j: int):
-    """Uniform parameter (same signature as :func:`field_at`)."""
+    """Uniform parameter (same signature as `field_at`)."""
     return f
 
 
@@ -176,7 +176,7 @@ _X86_HOST = "#if !defined(__CUDA_ARCH__) && (defined(__x86_64__) || defined(__i3
 )
 def ftz_begin() -> int:
     """Switch FTZ/DAZ on in this thread (x86 CPU); return the previous MXCSR for
-    :func:`ftz_end`.  Elsewhere: nothing, returns 0."""
+    `ftz_end`.  Elsewhere: nothing, returns 0."""
     ...
 
 
@@ -188,5 +188,5 @@ def ftz_begin() -> int:
 """
 )
 def ftz_end(saved: int):
-    """Restore the MXCSR value :func:`ftz_begin` returned (x86 CPU; elsewhere nothing)."""
+    """Restore the MXCSR value `ftz_begin` returned (x86 CPU; elsewhere nothing)."""
     ...

@@ -50,14 +50,29 @@ FIELDS = 8
 
 @dataclass
 class DLAResult:
-    """A grown cluster.
+    """A grown cluster (`dla`'s result).
 
-    ``mask``: bool ``[ny, nx]``, the object; ``arrival``: int32, the growth step at which
-    each cell joined (0 for the seed, -1 for empty cells); ``c``: the final nutrient field;
-    ``sweeps``: int array, SOR sweeps of each growth step's solve; ``stopped``: ``"steps"``
-    (all growth steps ran), ``"boundary"`` (the object reached a ``c = 1`` cell) or
-    ``"candidates"`` (no candidate with positive weight); ``steps_done``: growth steps run;
-    ``center``: the seed cell ``(i, j)``; the remaining fields are the settings."""
+    Attributes
+    ----------
+    mask : numpy.ndarray
+        bool ``[ny, nx]``, the object.
+    arrival : numpy.ndarray
+        int32, the growth step at which each cell joined (0 for the seed, -1 for empty
+        cells).
+    c : numpy.ndarray
+        The final nutrient field.
+    sweeps : numpy.ndarray
+        int, SOR sweeps of each growth step's solve.
+    stopped : str
+        ``"steps"`` (all growth steps ran), ``"boundary"`` (the object reached a
+        ``c = 1`` cell) or ``"candidates"`` (no candidate with positive weight).
+    steps_done : int
+        Growth steps run.
+    center : tuple of int
+        The seed cell ``(i, j)``.
+    shape, eta, steps, geometry, seed, k, tol, omega, dtype, backend, warm_start
+        The settings `dla` ran with.
+    """
 
     mask: np.ndarray
     arrival: np.ndarray
@@ -154,20 +169,54 @@ def dla(
 ) -> DLAResult:
     """Grow a DLA cluster on a ``shape = (ny, nx)`` grid by the nutrient field (module doc).
 
-    ``geometry``: ``"slab"`` (seed 001's set-up, ``"seed001"`` too: the seed cell in the
-    middle of the bottom row 0, the rest of which is held at ``c = 0``; ``c = 1`` on the top row; x
-    periodic, so nx must be even) or ``"radial"`` (the seed cell at ``(ny//2, nx//2)``,
-    ``c = 1`` on and outside the circle of radius ``0.45 min(shape)`` around it).
-    ``steps``: growth steps; each joins ``k`` cells (fewer if there are fewer candidates of
-    positive weight).  Growth stops early when a joined cell touches a ``c = 1`` cell.
-    ``tol``: SOR stops when the max change of a sweep is below it (``ConvergenceError``
-    after ``max_sweeps``, default ``max(1000, 50 max(shape))``); ``omega`` defaults to
-    :func:`rdgpu.optimal_omega`.  The first solve starts from the field without the object
-    (linear in y for the slab, ``log(1 + r)/log(1 + R)`` for radial); every later one from
-    the previous step's field.  ``warm_start=False`` starts every later solve from scratch
-    instead (``c = 1`` on the source cells, 0 elsewhere): only for measuring what the warm
-    start saves.
-    ``dtype``: of the field and SOR, ``"float64"`` or ``"float32"``.
+    The first solve starts from the field without the object (linear in y for the slab,
+    ``log(1 + r)/log(1 + R)`` for radial); every later one from the previous step's field.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(ny, nx)`` cells.
+    eta : float
+        The growth exponent η: a candidate cell's weight is ``max(c, 0)^η`` (module doc).
+    steps : int
+        Growth steps; each joins ``k`` cells (fewer if there are fewer candidates of
+        positive weight).  Growth stops early when a joined cell touches a ``c = 1`` cell.
+    geometry : {"slab", "radial"}
+        ``"slab"`` (seed 001's set-up, ``"seed001"`` too): the seed cell in the middle of
+        the bottom row 0, the rest of which is held at ``c = 0``; ``c = 1`` on the top
+        row; x periodic, so nx must be even.  ``"radial"``: the seed cell at
+        ``(ny//2, nx//2)``, ``c = 1`` on and outside the circle of radius
+        ``0.45 min(shape)`` around it.
+    seed : int
+        Seed of the random choice of the joining cells.
+    backend : str or Backend, optional
+        Where SOR runs (default: the current backend).
+    tol : float
+        SOR stops when the max change of a sweep is below it.
+    k : int
+        Cells joined per growth step.
+    omega : float, optional
+        SOR's relaxation factor (default: `rdgpu.optimal_omega`).
+    dtype : {"float64", "float32"}
+        Of the field and SOR.
+    max_sweeps : int, optional
+        SOR sweeps per solve before a ``ConvergenceError`` (default
+        ``max(1000, 50 max(shape))``).
+    warm_start : bool
+        False starts every later solve from scratch (``c = 1`` on the source cells, 0
+        elsewhere): only for measuring what the warm start saves.
+
+    Returns
+    -------
+    DLAResult
+        The cluster, its arrival steps, the final field and the SOR sweeps of each step.
+
+    Raises
+    ------
+    ValueError
+        A bad ``shape`` or ``geometry``.
+    ConvergenceError
+        SOR did not reach ``tol`` within ``max_sweeps``.
     """
     geometry = geometry_name(geometry)
     ny, nx = _check_shape(shape, geometry)
@@ -200,7 +249,7 @@ def dla(
 
 def _solver_settings(shape: tuple[int, int], omega: Any, dtype: Any,
                      max_sweeps: Any) -> tuple[float, np.dtype, int]:
-    """:func:`dla`'s SOR settings checked, defaults filled in: ``omega`` in (0, 2), the
+    """`dla`'s SOR settings checked, defaults filled in: ``omega`` in (0, 2), the
     field's real dtype and ``max_sweeps``."""
     omega = optimal_omega(shape) if omega is None else check.scalar(omega, "omega")
     if not 0.0 < omega < 2.0:
@@ -218,7 +267,7 @@ def _solver_settings(shape: tuple[int, int], omega: Any, dtype: Any,
 
 def _grow(grower: _Grower, source: np.ndarray | None, wrap: bool, *, eta: float, steps: int,
           k: int, rng: np.random.Generator, warm_start: bool) -> tuple[list[int], str, int]:
-    """The growth loop of :func:`dla`: per step a solve and ``k`` cells joining, until
+    """The growth loop of `dla`: per step a solve and ``k`` cells joining, until
     ``steps``, no candidate left or a joined cell touching a source cell; returns the
     sweeps per solve, why it stopped and the steps done."""
     sweeps: list[int] = []
@@ -305,9 +354,27 @@ class _Grower:
 
 def dla_image(result: DLAResult, path: str | Path, cmap: str = "viridis",
               scale: int = 1) -> Path:
-    """Write ``result`` as a PNG coloured by arrival step (Matplotlib ``cmap``), empty
-    cells white; the slab geometry's bottom row is drawn at the bottom (row 0 of
-    the array is the bottom of the picture)."""
+    """Write ``result`` as a PNG coloured by arrival step, empty cells white.
+
+    The slab geometry's bottom row is drawn at the bottom (row 0 of the array is the
+    bottom of the picture).
+
+    Parameters
+    ----------
+    result : DLAResult
+        A grown cluster (`dla`).
+    path : str or pathlib.Path
+        The PNG file to write.
+    cmap : str
+        A Matplotlib colour map.
+    scale : int
+        Pixels per cell, ≥ 1.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     iio = require("imageio.v3", "writing PNG pictures")
     colormaps = require("matplotlib", "colouring pictures").colormaps
 

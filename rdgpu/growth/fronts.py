@@ -1,22 +1,22 @@
 """Level sets driven by reaction-diffusion (seed 003, §4.2).
 
-A model runs on a 2-D grid (through :class:`rdgpu.Simulation`'s stepper, on any backend)
+A model runs on a 2-D grid (through `rdgpu.Simulation`'s stepper, on any backend)
 while a front ``φ_t + β|∇φ| = 0`` (equations §5, first-order upwind, ``φ < 0`` inside)
 moves with a speed taken from one of the model's fields ``a``:
 
 * ``speed="laplace"``: ``β = beta_scale · Δa`` (the seed's choice, Step 2 of §4.2: the
   gradient-descent direction of the energy ``∫|∇a|²``), ``Δa`` the 5-point Laplacian
-  (:func:`rdgpu.laplacian`, the grid's boundary conditions);
+  (`rdgpu.laplacian`, the grid's boundary conditions);
 * ``speed="offset"``: ``β = beta_scale · (a − a0)``.
 
 Each driver step advances the model by one step ``dt`` and the front by the same time
 ``dt``, cut into as many equal substeps as the upwind CFL limit
-``Δt · max|β| · (1/dx + 1/dy) ≤ 1`` (:func:`rdgpu.levelset_dt_limit`) asks for.  Every
-``reinit_every`` steps φ is reinitialised to a signed distance (:func:`rdgpu.reinitialize`'s
+``Δt · max|β| · (1/dx + 1/dy) ≤ 1`` (`rdgpu.levelset_dt_limit`) asks for.  Every
+``reinit_every`` steps φ is reinitialised to a signed distance (`rdgpu.reinitialize`'s
 scheme, with the subcell fix, on the device).  The region ``φ < 0`` is the pattern (the
 seed stops "when we get a stable pattern"; the front settles where ``β = 0``).
 
-:data:`TURING_FRONT` is a default configuration (:func:`turing_front`; seed 003's label,
+`TURING_FRONT` is a default configuration (`turing_front`; seed 003's label,
 ``seed003_front``, is an alias): the seed's own reaction-diffusion model (Turing's spots,
 eq. 2.15, the ``turing-seed003-spots`` preset) with β = Δa of the activator ``a = u``.
 """
@@ -63,13 +63,13 @@ TURING_FRONT: dict[str, Any] = {
     "reinit_every": 20,
     "radius": 3.0,
 }
-#: seed 003's label for :data:`TURING_FRONT` (an alias)
+#: seed 003's label for `TURING_FRONT` (an alias)
 SEED003_FRONT = TURING_FRONT
 
 
 @dataclass
 class FrontResult:
-    """What :func:`front_growth` returns.
+    """What `front_growth` returns.
 
     ``phi``: the final level-set function ``[ny, nx]``; ``mask``: the region ``φ < 0``
     (bool); ``snapshots``: φ every ``snapshot_every`` steps (with ``snapshot_steps``);
@@ -86,7 +86,7 @@ class FrontResult:
     max_speed: float = 0.0
 
     def save_png(self, path: str | Path, *, scale: int = 4) -> Path:
-        """Write the pattern (the region ``φ < 0``) as a PNG; see :func:`save_pattern_png`."""
+        """Write the pattern (the region ``φ < 0``) as a PNG; see `save_pattern_png`."""
         return save_pattern_png(path, self.mask, scale=scale)
 
 
@@ -119,11 +119,22 @@ def _front_bc(grid: Grid) -> GridBC:
 class RDFront:
     """A model and a front moved by one of its fields (see the module doc).
 
-    ``sim``: a :class:`rdgpu.Simulation` on a 2-D grid (its stepper is advanced in place);
-    ``field``: the species giving ``a``; ``speed``, ``a0``, ``beta_scale``,
-    ``reinit_every`` (0: never), ``reinit_iterations`` as in :func:`front_growth`;
-    ``phi0``: the initial φ (default :func:`circle_phi` of ``radius``); ``substep=False`` raises
-    :class:`StabilityError` instead of cutting a step that breaks the CFL limit."""
+    Parameters
+    ----------
+    sim : rdgpu.Simulation
+        A simulation on a 2-D grid (its stepper is advanced in place).
+    field : str, optional
+        The species giving ``a`` (default: the first).
+    speed, a0, beta_scale, reinit_every, reinit_iterations
+        As in `front_growth` (``reinit_every=0``: never).
+    phi0 : array, optional
+        The initial φ (default: `circle_phi` of ``radius``).
+    radius : float, optional
+        The default circle's radius.
+    substep : bool
+        False raises `StabilityError` instead of cutting a step that breaks the CFL
+        limit.
+    """
 
     def __init__(self, sim: Any, *, field: str | None = None, speed: str = "laplace",
                  a0: float = 0.0, beta_scale: float = 1.0, reinit_every: int = 10,
@@ -282,18 +293,60 @@ def front_growth(
     snapshot_every: int = 0,
     substep: bool = True,
 ) -> FrontResult:
-    """Run ``model`` on the 2-D grid ``domain`` (or a ``preset``) and move a front with
-    ``β = beta_scale·Δa`` (``speed="laplace"``) or ``β = beta_scale·(a − a0)``
-    (``"offset"``) of the species ``field`` (default: the first), seed 003 §4.2.
+    """Run ``model`` on the 2-D grid ``domain`` (or a ``preset``) and move a front driven by
+    one of its species (seed 003 §4.2).
 
     ``warmup`` model steps run first (the pattern forms), then ``steps`` driver steps of
-    the model and the front together; φ is reinitialised every ``reinit_every`` steps (0:
-    never) with ``reinit_iterations`` iterations.  The front's step is the model's ``dt``,
-    cut into substeps when the CFL limit asks (``substep=False``: a
-    :class:`StabilityError` instead).  ``phi0`` is the initial φ (negative inside; default
-    a centred circle of ``radius``, default a quarter of the shorter side).  The other
-    arguments go to :class:`rdgpu.Simulation` (``from_preset`` with ``preset``).  Returns
-    a :class:`FrontResult`."""
+    the model and the front together.
+
+    Parameters
+    ----------
+    model : Model or str, optional
+        The reaction-diffusion model (with ``domain``), or give ``preset``.
+    domain : Grid or dict, optional
+        A 2-D grid or a grid spec.
+    params : dict, optional
+        The model's parameters, as `rdgpu.Simulation` takes them.
+    preset : str, optional
+        A preset's name in place of ``model``/``domain`` (`rdgpu.Simulation.from_preset`).
+    speed : {"laplace", "offset"}
+        The front's normal speed: ``β = beta_scale·Δa`` (``"laplace"``) or
+        ``β = beta_scale·(a − a0)`` (``"offset"``).
+    field : str, optional
+        The species ``a`` (default: the first).
+    a0 : float
+        The offset of ``"offset"``.
+    beta_scale : float
+        The factor of β.
+    reinit_every, reinit_iterations : int
+        φ is reinitialised every ``reinit_every`` steps (0: never) with
+        ``reinit_iterations`` iterations.
+    steps, warmup : int
+        Driver steps with the front moving; model steps before it.
+    dt : float, optional
+        The model's step, also the front's (cut into substeps when the CFL limit asks).
+    backend, dtype, seed, init
+        As `rdgpu.Simulation` takes them.
+    phi0 : array, optional
+        The initial φ ``[ny, nx]``, negative inside (default: a centred circle of
+        ``radius``).
+    radius : float, optional
+        The default circle's radius (default: a quarter of the shorter side).
+    snapshot_every : int
+        Keep φ every this many steps (0: none).
+    substep : bool
+        False raises `StabilityError` instead of cutting a step into substeps.
+
+    Returns
+    -------
+    FrontResult
+        The final φ and region, the snapshots and the model's final fields.
+
+    Raises
+    ------
+    ValueError
+        Both or neither of a model and a preset, no domain, or a bad argument.
+    """
     check.steps(steps)
     warm = check.steps(warmup, "warmup")
     check.steps(snapshot_every, "snapshot_every")
@@ -317,7 +370,7 @@ def front_growth(
 
 def turing_front(*, backend: Backend | str | None = None, steps: int | None = None,
                  warmup: int | None = None, **overrides: Any) -> FrontResult:
-    """:func:`front_growth` with :data:`TURING_FRONT` (overridable by keyword): Turing's
+    """`front_growth` with `TURING_FRONT` (overridable by keyword): Turing's
     spots formed first, then a front from a small circle driven by their Laplacian, which
     fills the sea around the spots (seed 003 §4.2; ``seed003_front`` is an alias)."""
     cfg = {**TURING_FRONT, **overrides}
@@ -328,5 +381,5 @@ def turing_front(*, backend: Backend | str | None = None, steps: int | None = No
     return front_growth(backend=backend, **cfg)
 
 
-#: seed 003's label for :func:`turing_front` (an alias)
+#: seed 003's label for `turing_front` (an alias)
 seed003_front = turing_front

@@ -1,20 +1,20 @@
 """Time stepping: the schemes as data and the steppers that run them.
 
-* :data:`SCHEMES` / :func:`get_scheme` / :func:`register_scheme` — every method by name:
+* `SCHEMES` / `get_scheme` / `register_scheme` — every method by name:
   explicit Runge-Kutta schemes as Butcher tableaux (``euler``, ``heun``, ``rk3``, ``rk4``)
   and the IMEX schemes (``imex``, ``imex-cn``, ``bdf2``), each with its order; the data
-  live in :mod:`rdgpu.ir.schemes` (below the model layer, which validates method names);
-* :mod:`~rdgpu.integrators.stepper` — :class:`ModelStepper`, a model's equations stepped on
-  the device by any registered scheme, and :class:`FieldStepper`, what steppers share;
-* :mod:`~rdgpu.integrators.stability` — the largest stable step of a scheme for a model's
-  linear part (:meth:`rdgpu.models.Model.dt_limit`);
-* :mod:`~rdgpu.integrators.allen_cahn` — Allen-Cahn's Strang splitting with its exact
+  live in `rdgpu.ir.schemes` (below the model layer, which validates method names);
+* `rdgpu.integrators.stepper` — `ModelStepper`, a model's equations stepped on
+  the device by any registered scheme, and `FieldStepper`, what steppers share;
+* `rdgpu.integrators.stability` — the largest stable step of a scheme for a model's
+  linear part (`rdgpu.models.Model.dt_limit`);
+* `rdgpu.integrators.allen_cahn` — Allen-Cahn's Strang splitting with its exact
   Bernoulli substep;
-* :mod:`~rdgpu.integrators.blocking` — temporal blocking: K Euler steps per pass over the
+* `rdgpu.integrators.blocking` — temporal blocking: K Euler steps per pass over the
   grid, and the policy that decides K;
-* :mod:`~rdgpu.integrators.passes` — one fused pass of a program on a target (``launch``).
+* `rdgpu.integrators.passes` — one fused pass of a program on a target (``launch``).
 
-This package sits below :mod:`rdgpu.models`: a stepper takes a model as data (its
+This package sits below `rdgpu.models`: a stepper takes a model as data (its
 species, equations' trees, linear parts and bounds) and imports nothing of the model
 layer, which reaches it through ``Model.stepper`` and ``Model.dt_limit``.
 """

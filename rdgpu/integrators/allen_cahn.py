@@ -1,9 +1,9 @@
-"""Strang splitting of the modified Allen-Cahn model (:class:`rdgpu.models.allen_cahn.AllenCahn`)
-on the device: the exact Bernoulli substep (:func:`rdgpu.ops.api.bernoulli_decay`), explicit
+"""Strang splitting of the modified Allen-Cahn model (`rdgpu.models.allen_cahn.AllenCahn`)
+on the device: the exact Bernoulli substep (`rdgpu.ops.api.bernoulli_decay`), explicit
 or implicit diffusion in between (its form in the functional API, ``rdgpu.allen_cahn``, is
-:func:`rdgpu.models.allen_cahn.allen_cahn`).  Its methods are its own (``explicit``,
+`rdgpu.models.allen_cahn.allen_cahn`).  Its methods are its own (``explicit``,
 ``implicit``, ``crank-nicolson``); the implicit ones take θ from the IMEX schemes of
-:data:`rdgpu.ir.schemes.SCHEMES` (``imex``: θ = 1, ``imex-cn``: θ = ½)."""
+`rdgpu.ir.schemes.SCHEMES` (``imex``: θ = 1, ``imex-cn``: θ = ½)."""
 
 from __future__ import annotations
 
@@ -28,13 +28,9 @@ def _strang_program() -> Program:
     """The rest of an explicit Strang step after the first Bernoulli substep ``ū = B(u)``
     (``backend.bernoulli``), in one fused pass: ``B(ū + h (1·Δū + (−b)/ε²))`` with
     ``B(x) = x/√(d + x²(1 − d))`` the exact substep for ``h/2`` (``d = e^{−h/ε²}``; the
-    operations of rdgpu/families/bernoulli).  Two passes per step where the former form took three
-    (applying ``B`` at every neighbour instead, one pass, computes it five times per cell:
-    slower, measured).  Regrouping ``B B`` into one exact full substep ``B_h`` would make
-    it one pass with one square root (measured 1.1× the hand-written Gray-Scott on Warp,
-    against 0.7× for this form), but a run resumed from a checkpoint, which holds ``u`` and
-    not the intermediate ``ū``, would then differ in the last bit from an uninterrupted
-    one; resumes are bit for bit, so this form stays."""
+    operations of rdgpu/families/bernoulli).  Two passes per step; a resumed run stays bit
+    for bit equal to an uninterrupted one (why this form, and what the others measured:
+    docs/performance.md, "Models: one fused kernel per step")."""
     names = ("h", "b", "eps2", "d", "omd")
     y = "(u + h*(1.0*laplace(u) + (-b)/eps2))"
     tree = eq.parse(f"{y}/sqrt(d + {y}*{y}*omd)", species=("u",), params=names)
@@ -48,7 +44,7 @@ _STRANG = _strang_program()
 
 class AllenCahnStepper(FieldStepper):
     """Strang splitting of the modified Allen-Cahn equation on the device (see
-    :class:`rdgpu.models.AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
+    `rdgpu.models.AllenCahn`).  Per step: Bernoulli ``dt/2`` → diffusion ``dt`` → Bernoulli
     ``dt/2``; three device buffers, no host transfer (the implicit methods download the
     SOR's per-vertex change to test convergence)."""
 
@@ -90,8 +86,8 @@ class AllenCahnStepper(FieldStepper):
 
 def _implicit_solver(domain, backend, dtype, dt, method):
     """The θ-step solver of ``ū_t = Δū + s``: ``(I − θ dt L) out = u + (1 − θ) dt L u +
-    dt s`` with the θ of :data:`METHODS`' scheme (backward Euler for ``"implicit"``, ½ for
+    dt s`` with the θ of `METHODS`' scheme (backward Euler for ``"implicit"``, ½ for
     ``"crank-nicolson"``), by multicolour SOR on the device
-    (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on a grid)."""
+    (`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on a grid)."""
     theta = get_scheme(METHODS[method]).theta
     return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)

@@ -6,17 +6,17 @@ bandwidth ÷ bytes per cell).  A blocked pass (``families/model/blocked.cl``) ad
 of ``rows`` grid rows by ``steps`` steps each, keeping the intermediate steps in a small
 per-work-item scratch area that stays in the core's cache, so the grid crosses memory once
 per ``steps`` steps.  Every value is computed by the step kernel's own cell body (generated
-by :func:`rdgpu.backends.opencl_codegen.opencl_cell`), in the same order, so a pass is bit for bit
+by `rdgpu.backends.opencl_codegen.opencl_cell`), in the same order, so a pass is bit for bit
 ``steps`` single steps.
 
-Eligible (:func:`why_not`): a :class:`~rdgpu.integrators.ModelStepper` with
+Eligible (`why_not`): a `rdgpu.integrators.ModelStepper` with
 ``method="euler"`` and no bilaplacian pre-pass, on a 2-D grid (compact or isotropic
 stencil, every boundary kind), on the OpenCL backend in its row layout (CPU devices);
 scalar parameters, parameter fields and parameters that are expressions of ``t`` (the
 pass gets the ``steps`` times, computed on the host as a single step computes its time).
 
 ``ModelStepper(..., block_steps=K)`` (``Simulation(..., options={"block_steps": K})``):
-``None`` (default) blocks automatically (:func:`auto_steps`), ``1`` never, ``K >= 2``
+``None`` (default) blocks automatically (`auto_steps`), ``1`` never, ``K >= 2``
 always (an error where the stepper is not eligible).
 """
 
@@ -66,7 +66,7 @@ def why_not(stepper: Any) -> str | None:
 
 
 def last_level_cache() -> int | None:
-    """Bytes of the CPU's last-level cache (:func:`cache_sizes`), or None if unknown."""
+    """Bytes of the CPU's last-level cache (`cache_sizes`), or None if unknown."""
     sizes = cache_sizes()
     return sizes[max(sizes)] if sizes else None
 
@@ -74,7 +74,7 @@ def last_level_cache() -> int | None:
 def auto_steps(stepper: Any) -> int:
     """The steps of a pass when ``block_steps`` is None: 1 (off) unless the stepper is
     eligible, on a CPU OpenCL device, and its fields (the state read and written, the
-    parameter fields) exceed the last-level cache; then :func:`fitting_steps`."""
+    parameter fields) exceed the last-level cache; then `fitting_steps`."""
     if why_not(stepper) is not None:
         return 1
     if not stepper.backend.on_cpu:
@@ -87,7 +87,7 @@ def auto_steps(stepper: Any) -> int:
 
 
 def fitting_steps(stepper: Any) -> int:
-    """The most steps, up to :data:`AUTO_STEPS`, whose scratch rings (``steps − 1`` levels of
+    """The most steps, up to `AUTO_STEPS`, whose scratch rings (``steps − 1`` levels of
     3 rows per species) fit in one core's L2 cache (1 MiB where unknown); 1 where not even
     one level fits.  perf/blocking.py: past that size the rate falls (Gray-Scott float32,
     rows of 4096: K = 11 fits, K = 16 runs ~20% slower, K = 22 ~40%)."""
@@ -112,7 +112,7 @@ def check_steps(block_steps: Any) -> int | None:
 
 
 def setup(stepper: Any, block_steps: Any, rows: int | None = None) -> BlockedEuler | None:
-    """The :class:`BlockedEuler` of ``stepper`` for ``block_steps`` (module doc), or None
+    """The `BlockedEuler` of ``stepper`` for ``block_steps`` (module doc), or None
     when it steps one step at a time."""
     k = check_steps(block_steps)
     if k is None:
@@ -127,8 +127,8 @@ def setup(stepper: Any, block_steps: Any, rows: int | None = None) -> BlockedEul
 
 # ---------------------------------------------------------------------------- passes
 class BlockedEuler:
-    """Blocked passes of a :class:`~rdgpu.integrators.ModelStepper`'s Euler step:
-    ``steps`` steps per pass in bands of ``rows`` grid rows (default: :meth:`default_rows`),
+    """Blocked passes of a `rdgpu.integrators.ModelStepper`'s Euler step:
+    ``steps`` steps per pass in bands of ``rows`` grid rows (default: `default_rows`),
     run by the backend's blocked pass (``Backend.blocked_pass``)."""
 
     def __init__(self, stepper: Any, steps: int, rows: int | None = None):
@@ -156,7 +156,7 @@ class BlockedEuler:
         self._last_t0: int | None = None
 
     def default_rows(self) -> int:
-        """Band height: :data:`ROWS` rows, fewer where that leaves a work-item without a
+        """Band height: `ROWS` rows, fewer where that leaves a work-item without a
         band."""
         units = self.stepper.backend.compute_units
         return max(1, min(ROWS, -(-self.ny * self.planes // (ITEMS_PER_UNIT * units))))

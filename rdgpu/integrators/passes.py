@@ -1,5 +1,5 @@
-"""One fused pass of a :class:`~rdgpu.ir.program.Program` on a
-:class:`~rdgpu.backends.target.Target`: how the steppers (and the model layer's device
+"""One fused pass of a `rdgpu.ir.program.Program` on a
+`rdgpu.backends.target.Target`: how the steppers (and the model layer's device
 right-hand sides) run what they compiled from a model's equations.
 
 A ``Program`` says what one pass over the domain computes (its inputs, parameters and one

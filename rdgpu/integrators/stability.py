@@ -1,5 +1,5 @@
-"""Linear stability of the schemes of :data:`~rdgpu.ir.schemes.SCHEMES`: the largest
-stable step for the linear spatial part of a model (:meth:`rdgpu.models.Model.dt_limit`).
+"""Linear stability of the schemes of `rdgpu.ir.schemes.SCHEMES`: the largest
+stable step for the linear spatial part of a model (`rdgpu.models.Model.dt_limit`).
 
 A Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m² B`` (``D``, ``B``
 the coefficient matrices of ``laplace`` and ``laplace(laplace(·))``); the limit is the
@@ -7,7 +7,7 @@ largest step for which every mode that decays in the equations also decays in th
 ``0 < m <= m_max``.  Explicit schemes: forward Euler's bound ``min −2 Re λ/|λ|²`` over the
 eigenvalues of ``A(m)``, which every registered explicit scheme keeps (the stability
 regions of Heun, SSP-RK3 and classic RK4 contain Euler's disk).  IMEX schemes: the spectral
-radius of the scheme's amplification matrix (:func:`_amplification`), found by bisection;
+radius of the scheme's amplification matrix (`_amplification`), found by bisection;
 SBDF2's is the companion matrix of its two-level recursion.
 """
 
@@ -25,7 +25,7 @@ __all__ = ["implicit_factors", "stability_limit"]
 
 def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
     """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
-    ``0 < m <= m_max`` (module doc; ``method`` a name or alias of :data:`SCHEMES`).
+    ``0 < m <= m_max`` (module doc; ``method`` a name or alias of `SCHEMES`).
     Remembered per ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per
     member."""
     D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)

@@ -1,7 +1,7 @@
-"""The stepper of the model layer: the equations of a :class:`~rdgpu.models.Model`
-lowered to fused programs (:mod:`rdgpu.ir.program`, run by
-:func:`rdgpu.integrators.passes.launch`) and stepped on the device by a
-scheme of :data:`rdgpu.ir.schemes.SCHEMES` (the registry says what each method is).
+"""The stepper of the model layer: the equations of a `rdgpu.models.Model`
+lowered to fused programs (`rdgpu.ir.program`, run by
+`rdgpu.integrators.passes.launch`) and stepped on the device by a
+scheme of `rdgpu.ir.schemes.SCHEMES` (the registry says what each method is).
 
 Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand side and
 ``h`` the step:
@@ -44,15 +44,15 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   difference from ``α Δ`` then moves into ``N``) and ``y = x + ((x − x₋)/3 + h'(2N(x) −
   N(x₋)))``, one fused pass that reads ``x`` and the previous level ``x₋`` and evaluates
   ``N`` at both (``x₋`` at ``t − h``), then the same backward-Euler solves as ``"imex"``
-  (:class:`rdgpu.ops.implicit.ImplicitDiffusion`, the same tolerances and sweeps).  Nothing
+  (`rdgpu.ops.implicit.ImplicitDiffusion`, the same tolerances and sweeps).  Nothing
   but ``x₋`` is carried between steps: re-evaluating ``N(x₋)`` costs a second reaction
   evaluation in a pass that is memory-bound, where storing ``N`` would add a field read and
   a field write per species and make the history depend on more than the fields.  The
-  first step, and the first after :meth:`ModelStepper.set_state` with new fields, is the
+  first step, and the first after `ModelStepper.set_state` with new fields, is the
   ``"imex"`` (backward Euler) step: first order once, second order over a run.  The
   history ``x₋`` is in ``get_state(history=True)`` as ``"_prev_<species>"`` and
   ``set_state`` takes it back, so a stepper restored with it continues bit for bit.
-  Stability (:func:`rdgpu.integrators.stability.stability_limit`: the spectral radius of
+  Stability (`rdgpu.integrators.stability.stability_limit`: the spectral radius of
   the two-level recursion's companion matrix per mode): each species' own diffusion is
   damped at any ``h`` (BDF2 is A-stable: no limit); explicit cross-diffusion sets a
   limit (``c = 0.3`` between ``Δu`` and ``Δv`` on a 16² grid: 5.5, against Euler's
@@ -166,7 +166,7 @@ class FieldStepper:
 
 
 class ModelStepper(FieldStepper):
-    """A :class:`~rdgpu.models.Model` bound to a domain, parameters, ``dt``, a backend, a
+    """A `rdgpu.models.Model` bound to a domain, parameters, ``dt``, a backend, a
     dtype and a method (module doc).  Device fields of every species, ping-pong buffers;
     no host transfer while stepping (the IMEX solves download their convergence data)."""
 
@@ -180,7 +180,7 @@ class ModelStepper(FieldStepper):
         self.solver = solver
         super().__init__(model.species, domain, dt, backend, dtype, members)
         self.model = model
-        #: the scheme (:data:`rdgpu.ir.schemes.SCHEMES`) and its canonical name
+        #: the scheme (`rdgpu.ir.schemes.SCHEMES`) and its canonical name
         self.scheme = get_scheme(method)
         self.method = method = self.scheme.name
         self.params = dict(params)
@@ -212,7 +212,7 @@ class ModelStepper(FieldStepper):
             self._setup_imex(trees, tol, inline)
         else:
             self._setup_explicit(trees, self.scheme)
-        #: temporal blocking (:mod:`rdgpu.integrators.blocking`): None, or the passes' kernel
+        #: temporal blocking (`rdgpu.integrators.blocking`): None, or the passes' kernel
         self.blocked = setup_blocking(self, block_steps)
 
     # ------------------------------------------------------------------ programs

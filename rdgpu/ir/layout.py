@@ -1,6 +1,6 @@
 """Where a program runs, as the host sees it: a domain, a dtype, a grid stencil and a number
 of ensemble members, and the host data a pass derives from them (coordinates, extents,
-stencil coefficients).  :class:`rdgpu.backends.target.Target` adds the device side."""
+stencil coefficients).  `rdgpu.backends.target.Target` adds the device side."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ class Layout:
 
     @property
     def kind(self) -> str:
-        """The stencil kind (:data:`rdgpu.ir.stencils.STENCIL_KINDS`): ``grid1``..``grid3``
+        """The stencil kind (`rdgpu.ir.stencils.STENCIL_KINDS`): ``grid1``..``grid3``
         (``+ "iso"`` for the isotropic stencil), ``grid2metric`` (a graph surface) or
         ``mesh``."""
         return stencil_kind(self.domain, self.stencil)
@@ -49,11 +49,11 @@ class Layout:
 
     @property
     def field_shape(self) -> tuple[int, ...]:
-        """A buffer's shape: ``(members, *shape)`` for an ensemble, else :attr:`shape`."""
+        """A buffer's shape: ``(members, *shape)`` for an ensemble, else `shape`."""
         return (self.members, *self.shape) if self.members > 1 else self.shape
 
     def lengths(self) -> dict[str, float]:
-        """``Lx, Ly, Lz``: the domain's :attr:`~rdgpu.domains.base.Domain.extents` (a grid's,
+        """``Lx, Ly, Lz``: the domain's `rdgpu.domains.base.Domain.extents` (a grid's,
         0 along absent axes; a mesh's bounding box), cached."""
         if "lengths" not in self.host:
             self.host["lengths"] = self.domain.extents
@@ -61,7 +61,7 @@ class Layout:
 
     def spacing(self) -> tuple[float, float, float]:
         """A grid's ``(dx, dy, dz)`` for coordinates: 0 along absent axes (so y = z = 0 in
-        1-D; :meth:`Grid.kernel_spacings <rdgpu.domains.grid.Grid.kernel_spacings>`)."""
+        1-D; `Grid.kernel_spacings <rdgpu.domains.grid.Grid.kernel_spacings>`)."""
         return self.domain.kernel_spacings()
 
     def grid_coefficients(self) -> tuple[float, float, float]:
@@ -75,7 +75,7 @@ class Layout:
 
     def coordinate(self, name: str) -> np.ndarray:
         """Coordinate ``name`` of every cell/vertex, in the dtype, the kernels' way
-        (:meth:`~rdgpu.domains.base.Domain.kernel_coordinate`), cached."""
+        (`rdgpu.domains.base.Domain.kernel_coordinate`), cached."""
         key = ("coord", name)
         if key not in self.host:
             self.host[key] = self.domain.kernel_coordinate(name, self.dtype)

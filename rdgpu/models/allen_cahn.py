@@ -1,7 +1,7 @@
 """The modified Allen-Cahn model (Dascal, Pai & Kimmel, equations §2): defined by its
 equation like every model, stepped by Strang splitting with the exact Bernoulli substep
-(:class:`rdgpu.integrators.allen_cahn.AllenCahnStepper`), explicit or implicit diffusion in
-between; :func:`allen_cahn`, its form in the functional API (``rdgpu.allen_cahn``)."""
+(`rdgpu.integrators.allen_cahn.AllenCahnStepper`), explicit or implicit diffusion in
+between; `allen_cahn`, its form in the functional API (``rdgpu.allen_cahn``)."""
 
 from __future__ import annotations
 
@@ -56,9 +56,9 @@ class AllenCahn(Model):
     stable for ``dt ≤ dx²/4`` on a square grid (``1/(2 Σ 1/h²)`` over its axes) or
     ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"`` (backward Euler) or
     ``"crank-nicolson"``: θ-scheme diffusion solved by multicolour SOR on the device
-    (:class:`rdgpu.ops.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
+    (`rdgpu.ops.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
     a number; ``b`` may be a field.  The equation itself is the model's definition (for
-    :mod:`rdgpu.analysis` and py-pde); only the stepping is special.
+    `rdgpu.analysis` and py-pde); only the stepping is special.
     """
 
     methods = ("explicit", "implicit", "crank-nicolson")
@@ -86,7 +86,7 @@ class AllenCahn(Model):
         self.default_time = self._default_time
 
     def domain_defaults(self, domain: Domain) -> dict[str, float]:
-        """``eps`` = :attr:`eps_per_spacing` times the spacing of ``domain``."""
+        """``eps`` = `eps_per_spacing` times the spacing of ``domain``."""
         domain_shape(domain)  # a domain, or a clear error
         return {"eps": self.eps_per_spacing * domain.spacing_scale}
 
@@ -136,7 +136,7 @@ class AllenCahn(Model):
         """``J(u) = ∫ ½|∇u|² + ((u² − 1)²/4 + b u)/ε²`` (float64).
 
         Graph surface: ``½ uᵀ(−a Δ_Γ)u + Σ a_i ((u_i² − 1)²/4 + b u_i)/ε²`` with ``a`` its
-        :attr:`~rdgpu.domains.graph_surface.GraphSurface.area_weights` (``a Δ_Γ`` is symmetric), so
+        `rdgpu.domains.graph_surface.GraphSurface.area_weights` (``a Δ_Γ`` is symmetric), so
         ``−∂J/∂u = a (Δ_Γ u − (u³ − u + b)/ε²)``.
         Grid: ``dx dy [½ Σ_faces (Δ_face u / h)² + Σ_cells ((u²−1)²/4 + b u)/ε²]`` with the
         faces of the 5-point stencil and its boundary conditions, so ``−∂J/∂u = dx dy
@@ -198,17 +198,52 @@ def allen_cahn(
     out: Any = None,
 ) -> Any:
     """Advance the modified Allen-Cahn equation ``u_t = Δu − (u³ − u + b)/ε²`` (Dascal et al.,
-    equations §2) by ``steps`` Strang-split steps: Bernoulli ``dt/2`` → diffusion with the
-    source ``−b/ε²`` for ``dt`` → Bernoulli ``dt/2`` (:class:`AllenCahn`'s stepper,
-    :class:`~rdgpu.integrators.allen_cahn.AllenCahnStepper`).
+    equations §2) by ``steps`` Strang-split steps.
 
-    ``method``: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
-    ``mesh.max_stable_dt(1)`` on a mesh; :class:`StabilityError` above it unless
-    ``check_stability=False``), ``"implicit"`` (backward Euler) or ``"crank-nicolson"``
-    (multicolour SOR on the device; any ``dt``).  ``b`` is a number or a field of u's
-    shape.  ``mesh``: a :class:`rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
-    ``out``: as in :mod:`rdgpu.ops.api` (the state crosses the host once each way: the
-    stepper's own)."""
+    Each step is Bernoulli ``dt/2`` → diffusion with the source ``−b/ε²`` for ``dt`` →
+    Bernoulli ``dt/2`` (`AllenCahn`'s stepper,
+    `rdgpu.integrators.allen_cahn.AllenCahnStepper`).
+
+    Parameters
+    ----------
+    u : array
+        ``[nx]`` or ``[ny, nx]`` on a grid, one value per vertex on a mesh.
+    eps : float
+        The interface width ε (length), > 0.
+    dt : float
+        The time step (time units).
+    b : float or array
+        A number or a field of u's shape.
+    steps : int
+        Steps to take.
+    method : {"explicit", "implicit", "crank-nicolson"}
+        The diffusion step: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
+        ``mesh.max_stable_dt(1)`` on a mesh), ``"implicit"`` (backward Euler) or
+        ``"crank-nicolson"`` (multicolour SOR on the device; any ``dt``).
+    mesh : SurfaceMesh, optional
+        A `rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
+    dx, dy, bc
+        As `rdgpu.laplacian` takes them.
+    check_stability : bool
+        ``"explicit"`` raises `rdgpu.StabilityError` above its limit unless ``False``.
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    out : array, optional
+        As in `rdgpu.ops.api` (the state crosses the host once each way: the stepper's
+        own).
+
+    Returns
+    -------
+    array
+        ``u`` after ``steps`` steps.
+
+    Raises
+    ------
+    ValueError
+        ``eps`` so small that ``1/ε²`` overflows the dtype, or an unknown ``method``.
+    StabilityError
+        An explicit ``dt`` above the limit, or a state that is no longer finite.
+    """
     field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
     eps = check.scalar(eps, "eps", strict=True)
     check_stability = check.flag(check_stability, "check_stability")

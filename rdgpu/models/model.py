@@ -1,4 +1,4 @@
-"""A model is its equations: :func:`define_model` and the :class:`Model` it returns.
+"""A model is its equations: `define_model` and the `Model` it returns.
 
     gs = rdgpu.define_model(
         "my-gray-scott",
@@ -7,20 +7,20 @@
         {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.06},
     )
 
-The language is :mod:`rdgpu.ir.equations` (py-pde's ``PDE`` spelling); the kernels
-come from the programs of :mod:`rdgpu.ir.program` (run by :mod:`rdgpu.integrators.passes`);
-the time integrators from :mod:`rdgpu.integrators` (the schemes:
-:data:`rdgpu.ir.schemes.SCHEMES`).  A model is accepted wherever a model name is
+The language is `rdgpu.ir.equations` (py-pde's ``PDE`` spelling); the kernels
+come from the programs of `rdgpu.ir.program` (run by `rdgpu.integrators.passes`);
+the time integrators from `rdgpu.integrators` (the schemes:
+`rdgpu.ir.schemes.SCHEMES`).  A model is accepted wherever a model name is
 (``Simulation``, presets, ``rdgpu run --equation``).
 
 Parameter values (defaults, or what a run passes): a number; an array of the domain's
-shape (a per-cell / per-vertex field); a field spec (:func:`param_field`); or an
+shape (a per-cell / per-vertex field); a field spec (`param_field`); or an
 expression of ``x, y, z, t, Lx, Ly, Lz, pi`` and the other (scalar) parameters, such as
 ``"0.03 + 0.01*sin(2*pi*x/Lx)"``.  An expression without ``t`` is evaluated once on the
 host in float64 into a field; one with ``t`` is inlined into the kernel and evaluated per
 cell at each stage's time.
 
-Stability (:meth:`Model.dt_limit`): from the linear spatial part of the equations, the
+Stability (`Model.dt_limit`): from the linear spatial part of the equations, the
 matrices ``D`` (coefficients of ``laplace``) and ``B`` (of ``laplace(laplace(·))``): a
 Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m² B``, and the
 limit is the largest ``dt`` for which every such mode that decays in the equations also
@@ -93,7 +93,7 @@ FIELD_SPEC_KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
 
 
 def field_spec(spec: Any, name: str | None = None) -> dict[str, Any]:
-    """A parameter field spec (:func:`param_field`) checked and completed: a known
+    """A parameter field spec (`param_field`) checked and completed: a known
     ``kind``, every required key, no unknown key, numbers that are numbers (finite),
     ``low <= high``, an axis name.  ``name`` (the parameter) goes into the messages."""
     what = "a parameter field spec" if name is None else f"parameter {name!r}"
@@ -138,7 +138,7 @@ def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generato
       ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
     * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
 
-    The spec is checked first (:func:`field_spec`: every key known, the required ones
+    The spec is checked first (`field_spec`: every key known, the required ones
     given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes into the
     messages.
     """
@@ -293,24 +293,45 @@ def _identifier(name: Any, what: str) -> str:
 class Model:
     """A reaction-diffusion system ``∂s/∂t = f_s(...)`` for each species ``s``.
 
-    ``equations``: species → right-hand side (the language of
-    :mod:`rdgpu.ir.equations`); ``parameters``: every parameter and its default
-    (module doc for the kinds of value).  Optional: ``bounds`` (clamps ``{species: (low,
-    high)}`` applied after each update, e.g. ``{"v": (0, None)}``), ``steady_guess(params)
-    -> [x_s]`` (the homogeneous state of interest, for :mod:`rdgpu.analysis`), and what a
-    run that names nothing else uses: ``spacing`` (the grid spacing the defaults are made
-    for; on a mesh the default diffusion parameters and number-written Laplacians are
-    scaled by ``(mean edge / spacing)²``: :mod:`rdgpu.models.mesh_lengths`),
-    ``default_dt`` and ``default_time`` (numbers or functions of the parameters),
-    ``value_range`` (``{species: (lo, hi)}`` for pictures),
-    ``default_init``, ``default_fields`` (parameters whose default in a run is a field
-    spec), ``default_method``, ``dt_share`` (of the stability limit a default dt may take;
-    0.9)."""
+    Parameters
+    ----------
+    name : str
+        The model's name (non-empty).
+    equations : mapping
+        Species → right-hand side (the language of `rdgpu.ir.equations`).
+    parameters : mapping, optional
+        Every parameter and its default (module doc for the kinds of value).
+    description, source : str
+        What it models and where it comes from (a reference).
+    bounds : mapping, optional
+        Clamps ``{species: (low, high)}`` applied after each update, e.g.
+        ``{"v": (0, None)}``.
+    steady_guess : callable, optional
+        ``steady_guess(params) -> [x_s]``: the homogeneous state of interest, for
+        `rdgpu.analysis`.
+    spacing : float
+        The grid spacing the defaults are made for; on a mesh the default diffusion
+        parameters and number-written Laplacians are scaled by ``(mean edge / spacing)²``
+        (`rdgpu.models.mesh_lengths`).
+    default_dt, default_time : float or callable, optional
+        What a run that names no step or duration uses (numbers or functions of the
+        parameters; time units).
+    value_range : mapping, optional
+        ``{species: (lo, hi)}`` for pictures.
+    default_init : mapping, optional
+        The initial condition of a run that names none.
+    default_fields : mapping, optional
+        Parameters whose default in a run is a field spec.
+    default_method : str
+        The time-stepping scheme of a run that names none.
+    dt_share : float, optional
+        The share of the stability limit a default dt may take (None: 0.9).
+    """
 
     @property
     def methods(self) -> tuple[str, ...]:
         """Its time-stepping methods (``options={"method": ...}``, ``--method``): every
-        scheme of :data:`rdgpu.ir.schemes.SCHEMES`."""
+        scheme of `rdgpu.ir.schemes.SCHEMES`."""
         return method_names()
 
     def __init__(
@@ -466,7 +487,7 @@ class Model:
         return D, B
 
     def diffusion_coefficients(self, params: Mapping[str, Any] | None = None) -> list[float]:
-        """The diagonal of ``D`` (:meth:`linear_operators`): each species' own diffusion."""
+        """The diagonal of ``D`` (`linear_operators`): each species' own diffusion."""
         ops = self.linear_operators(params)
         if ops is None:
             raise ValueError(f"model {self.name!r} has a state-dependent diffusion term")
@@ -556,17 +577,17 @@ class Model:
         lengths: str = "cells",
         solver: str | None = None,
     ):
-        """Bind the model to a domain: a :class:`rdgpu.integrators.ModelStepper`; field
+        """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`; field
         specs in ``params`` are drawn with ``seed``.  ``method``: a name (or alias) of
-        :data:`rdgpu.ir.schemes.SCHEMES`; ``tol``: the implicit solves' accuracy (IMEX);
+        `rdgpu.ir.schemes.SCHEMES`; ``tol``: the implicit solves' accuracy (IMEX);
         ``stencil``: ``"compact"`` (3/5/7 points) or ``"isotropic"`` (9 points in 2-D, 19
         in 3-D; equal spacings) on grids.
         ``members``: an ensemble of that many members, fields ``[members, *shape]``, each
-        parameter as :mod:`rdgpu.models.ensemble` takes it and ``seed`` an int or one per
+        parameter as `rdgpu.models.ensemble` takes it and ``seed`` an int or one per
         member; ``dt`` must be stable for every member.
-        ``block_steps``: Euler steps per pass over the grid (:mod:`rdgpu.integrators.blocking`;
+        ``block_steps``: Euler steps per pass over the grid (`rdgpu.integrators.blocking`;
         None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
-        lengths (:mod:`~rdgpu.models.mesh_lengths`).  ``solver``: the implicit methods'
+        lengths (`rdgpu.models.mesh_lengths`).  ``solver``: the implicit methods'
         diffusion solves, ``"auto"`` (fast transforms on grids, else SOR), ``"transform"``
         or ``"sor"`` (`rdgpu.ops.transforms`; None: ``$RDGPU_IMPLICIT_SOLVER``, else
         ``"auto"``).  The fields start at zero."""
@@ -615,13 +636,13 @@ def _largest_mode(domain: Domain, stencil: str = "compact") -> float:
     """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes
     (the isotropic stencils: the maximum of their symbol, ``16/(3h²)`` in 2-D), ``λ_max(−L)``
     on a mesh, and on a graph surface its ``Δ_Γ``'s Gershgorin bound
-    (:meth:`Domain.largest_eigenvalue <rdgpu.domains.base.Domain.largest_eigenvalue>`)."""
+    (`Domain.largest_eigenvalue <rdgpu.domains.base.Domain.largest_eigenvalue>`)."""
     return require_domain(domain).largest_eigenvalue(stencil)
 
 
 def define_model(name: str, equations: Mapping[str, str],
                  parameters: Mapping[str, Any] | None = None, **options: Any) -> Model:
-    """A :class:`Model` from its equations (py-pde's ``PDE`` spelling) and its parameters'
-    defaults; ``options`` are :class:`Model`'s keyword arguments (``bounds``,
+    """A `Model` from its equations (py-pde's ``PDE`` spelling) and its parameters'
+    defaults; ``options`` are `Model`'s keyword arguments (``bounds``,
     ``description``, ``default_dt``, ...)."""
     return Model(name, equations, parameters, **options)

@@ -8,7 +8,7 @@ modes) is solved for the *increment* ``δ = out − u``:
 
     S δ = g,    S = I − θ dt D M,    g = dt (D L u + s) = dt D M u + dt (s + D b),
 
-where ``L u = M u + b`` is the mesh's ``A⁻¹W`` (:attr:`rdgpu.domains.mesh.SurfaceMesh.laplacian`,
+where ``L u = M u + b`` is the mesh's ``A⁻¹W`` (`rdgpu.domains.mesh.SurfaceMesh.laplacian`,
 ``b = 0``) or the grid's 5-point operator (7-point on a 3-D grid) with its boundary
 conditions (``rdgpu/families/laplacian/reference.py::laplacian_matrix``; ``b`` carries the
 Dirichlet ghosts).
@@ -24,7 +24,7 @@ How it runs:
   (with an empty matrix: ``x + dt·source``) for the source; ``out = u + δ`` is one more;
 * the rows are coloured so that no two rows of a colour are coupled: red-black on a grid
   (``(i + j) % 2``, ``(i + j + k) % 2`` in 3-D; where periodic odd sizes break the
-  two-colouring, a greedy colouring instead), :meth:`SurfaceMesh.colouring` (greedy) on a
+  two-colouring, a greedy colouring instead), `SurfaceMesh.colouring` (greedy) on a
   mesh.  A sweep is one ``backend.csr_sor_colour`` launch per colour, so it equals the
   sequential SOR sweep in colour order to round-off, on every backend;
 * **closed components** (a mesh, a periodic or Neumann grid: ``M 1 = 0``) make ``S``
@@ -42,9 +42,9 @@ How it runs:
   red-black on a uniform grid, a good estimate on a mesh); SOR then contracts by
   ``ρ = ω − 1`` per sweep (Young's theory; ``ρ`` is also measured, below).  ``λ₁`` is
   exact on a grid (sine series per axis), from a shift-invert Lanczos run (or a dense
-  solve) on a mesh of up to :data:`~rdgpu.domains.spectra.EIGSH_MAX_VERTICES` vertices,
+  solve) on a mesh of up to `rdgpu.domains.spectra.EIGSH_MAX_VERTICES` vertices,
   and above that estimated as ``π²/diam²`` from the mesh's geodesic diameter (cached per
-  mesh; :mod:`rdgpu.domains.spectra`);
+  mesh; `rdgpu.domains.spectra`);
 * convergence: every check (every ``check_every`` sweeps at first, then spaced by the
   predicted remaining sweeps, at most 16 apart) downloads the per-row ``|Δx|`` of the last
   sweep, ``m = max|Δx|``.  The error estimate is the geometric tail ``E = m ρ/(1 − ρ)``
@@ -62,7 +62,7 @@ How it runs:
   ``δ`` more accurate.  If the estimated error there, ``m ρ/(1 − ρ)`` with Young's ``ρ``, is
   still above ``tol`` (e.g. float32 with a tolerance near ``eps``), the step keeps that
   result and a ``RuntimeWarning`` names the floor reached; ``last_floor`` is set;
-* if ``max_sweeps`` ends the solve otherwise, :class:`rdgpu.core.errors.ConvergenceError` is
+* if ``max_sweeps`` ends the solve otherwise, `rdgpu.core.errors.ConvergenceError` is
   raised (``out`` is left untouched): an unconverged solve never returns a result.
 
 SOR converges for any ``0 < ω < 2``: ``S`` scaled by the vertex areas (``A − θ dt D W``)
@@ -103,7 +103,7 @@ def operator_matrix(domain: Domain) -> tuple[Any, np.ndarray]:
     """``(M, b)`` with ``L u = M u + b`` (float64) on ``domain``, acting on the flat field:
     the mesh's ``A⁻¹W`` and ``b = 0``, a graph surface's 9-point ``Δ_Γ`` and ``b = 0``, or a
     grid's 5-point (3-D: 7-point) matrix and Dirichlet vector
-    (:meth:`Domain.operator_matrix <rdgpu.domains.base.Domain.operator_matrix>`)."""
+    (`Domain.operator_matrix <rdgpu.domains.base.Domain.operator_matrix>`)."""
     return require_domain(domain).operator_matrix()
 
 
@@ -111,7 +111,7 @@ def smallest_eigenvalue(domain: Domain) -> tuple[float, bool]:
     """``(λ₁, exact)``: the smallest eigenvalue of ``−L`` on ``domain`` that is not the
     constant null vector of a closed component (``inf`` if there is none), and whether it
     is exact (grid: analytic; mesh, graph surface: Lanczos) rather than an estimate
-    (:meth:`Domain.smallest_eigenvalue <rdgpu.domains.base.Domain.smallest_eigenvalue>`)."""
+    (`Domain.smallest_eigenvalue <rdgpu.domains.base.Domain.smallest_eigenvalue>`)."""
     return require_domain(domain).smallest_eigenvalue()
 
 
@@ -151,28 +151,58 @@ class _Progress:
 
 class ImplicitDiffusion:
     """Backward-Euler (``theta=1``) or Crank-Nicolson (``theta=0.5``) steps of
-    ``u_t = D Δu + source`` on a :class:`~rdgpu.domains.mesh.SurfaceMesh` or a
-    :class:`~rdgpu.domains.Grid`, solved on the device by multicolour SOR (module doc).
+    ``u_t = D Δu + source`` on a `rdgpu.domains.mesh.SurfaceMesh` or a
+    `rdgpu.domains.Grid`, solved on the device by multicolour SOR (module doc).
 
-    ``tol``: the accuracy of a step, the max error of ``out`` against the exact solution
-    of the θ-system (default 1e-8 in float64, 1e-5 in float32; see the module doc for how
-    it is estimated and for the round-off floor); ``omega``: the relaxation factor
-    (default: Young's optimum, see the module doc); ``max_sweeps``: cap per step (default
-    ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past which a step raises
-    :class:`~rdgpu.core.errors.ConvergenceError`; ``check_every``: sweeps between the first
-    convergence checks (default 1; later checks are spaced by the predicted remaining
-    sweeps, at most 16 apart).  ``solver``: ``"auto"`` (default) solves directly by fast
-    transforms where that applies (a rectangular grid with periodic, Neumann or Dirichlet
-    axes: :mod:`rdgpu.ops.transforms`, exact to round-off, 0 sweeps) and by SOR elsewhere;
-    ``"transform"`` or ``"sor"`` force one; ``None`` reads the environment variable
-    ``RDGPU_IMPLICIT_SOLVER`` (else ``"auto"``).  The one chosen is ``solver``.
+    Parameters
+    ----------
+    domain : Grid or SurfaceMesh
+        Where ``u`` lives.
+    D : float
+        The diffusion coefficient (length²/time).
+    dt : float
+        The time step (time units).
+    theta : float
+        1 (backward Euler) or 0.5 (Crank-Nicolson).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it.
+    dtype : numpy dtype
+        float64 or float32.
+    tol : float, optional
+        The accuracy of a step: the max error of ``out`` against the exact solution of the
+        θ-system (default 1e-8 in float64, 1e-5 in float32; see the module doc for how it
+        is estimated and for the round-off floor).
+    omega : float, optional
+        The relaxation factor (default: Young's optimum, see the module doc).
+    max_sweeps : int, optional
+        Cap per step (default ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past
+        which a step raises `rdgpu.core.errors.ConvergenceError`.
+    check_every : int, optional
+        Sweeps between the first convergence checks (default 1; later checks are spaced
+        by the predicted remaining sweeps, at most 16 apart).
+    solver : {"auto", "transform", "sor"}, optional
+        ``"auto"`` solves directly by fast transforms where that applies (a rectangular
+        grid with periodic, Neumann or Dirichlet axes: `rdgpu.ops.transforms`, exact to
+        round-off, 0 sweeps) and by SOR elsewhere; ``"transform"`` or ``"sor"`` force one;
+        None (default) reads the environment variable ``RDGPU_IMPLICIT_SOLVER`` (else
+        ``"auto"``).  The one chosen is the attribute ``solver``.
 
-    After each :meth:`step`: ``last_sweeps`` (sweeps used), ``last_change`` (max ``|Δx|``
-    of the last checked sweep), ``last_error`` (the error estimate it stopped at),
-    ``last_residual`` (max of the true residual ``|g − S δ|`` where checked, else nan),
-    ``last_floor`` (stopped at the round-off floor above ``tol``, with a warning),
-    ``last_converged`` (True: a step that does not converge raises); ``total_sweeps``
-    over all steps.
+    Attributes
+    ----------
+    last_sweeps : int
+        Sweeps the last `step` used.
+    last_change : float
+        Max ``|Δx|`` of its last checked sweep.
+    last_error : float
+        The error estimate it stopped at.
+    last_residual : float
+        Max of the true residual ``|g − S δ|`` where checked, else nan.
+    last_floor : bool
+        It stopped at the round-off floor above ``tol`` (with a warning).
+    last_converged : bool
+        True (a step that does not converge raises).
+    total_sweeps : int
+        Sweeps over all steps.
     """
 
     def __init__(
@@ -462,9 +492,9 @@ class ImplicitDiffusion:
     def solve(self, rhs: DeviceArray, x: DeviceArray, *, target: np.ndarray | None = None,
               umax: float | None = None) -> int:
         """Solve ``S x = rhs`` by SOR from the initial guess in ``x`` (module doc);
-        ``target``: the weighted mean of ``x`` per component (see :meth:`means`; default
+        ``target``: the weighted mean of ``x`` per component (see `means`; default
         from ``rhs``), ``umax``: ``max|u|`` for the round-off estimates (default from
-        ``rhs``).  Returns the sweeps; raises :class:`ConvergenceError` if ``max_sweeps``
+        ``rhs``).  Returns the sweeps; raises `ConvergenceError` if ``max_sweeps``
         ends it unconverged."""
         self._check(rhs, "rhs")
         self._check(x, "x")
@@ -607,7 +637,7 @@ class ImplicitDiffusion:
     def step(self, u: DeviceArray, out: DeviceArray, source: Any = 0.0) -> int:
         """``out`` = one θ-step of ``u_t = D Δu + source`` from ``u`` (``source`` a number
         or a DeviceArray of the field's shape; ``out`` may be ``u``).  Returns the sweeps;
-        raises :class:`~rdgpu.core.errors.ConvergenceError` (``out`` untouched) if the solve
+        raises `rdgpu.core.errors.ConvergenceError` (``out`` untouched) if the solve
         does not converge.  A non-finite ``u`` or source (a diverging run) gives a
         non-finite ``out`` without solving (0 sweeps, ``last_nonfinite`` True), as an
         explicit step would: the run's divergence check reports it."""

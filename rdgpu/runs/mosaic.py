@@ -1,8 +1,10 @@
-"""The map of a sweep (:func:`sweep_map`): every member's final field as a tile on the
-swept axes, one PNG (``rdgpu.sweep_map``; ``rdgpu sweep --out``)."""
+"""The map of a sweep (`sweep_map`): every member's final field as a tile on the
+swept axes, one PNG (``rdgpu.sweep_map``; ``rdgpu sweep --out``); `sweep_map_png` gives
+the same picture as PNG bytes (a notebook's ``ds.rdgpu``)."""
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from pathlib import Path
@@ -12,19 +14,77 @@ import numpy as np
 
 from rdgpu.core.optional import require
 
-__all__ = ["sweep_map"]
+__all__ = ["sweep_map", "sweep_map_png"]
 
 
 def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
               cmap: str = "viridis", scale: int | None = None) -> Path:
-    """A PNG of the members laid out on the swept axes: the first swept parameter along x,
-    the second along y (increasing upwards; one row with one swept parameter), each
-    member's final ``species`` (default: the classified one, see
-    :func:`rdgpu.runs.sweep.pattern_species`) as a tile with thin gaps, on one colour
-    scale; the axes labelled with the parameter values.  More than two swept parameters:
-    the first value of the others is shown.
-    ``scale``: pixels per grid cell (default: a mosaic at least 1200 pixels across); NaN
-    (a diverged member) is white."""
+    """Write a PNG of the members laid out on the swept axes.
+
+    The first swept parameter runs along x, the second along y (increasing upwards; one
+    row with one swept parameter); each member's final field is a tile with thin gaps, on
+    one colour scale, and the axes are labelled with the parameter values.  With more than
+    two swept parameters the first value of the others is shown; a 3-D grid shows its
+    middle plane.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A sweep's Dataset (`rdgpu.runs.sweep.sweep`, `rdgpu.runs.sweep.open_sweep`).
+    path : str or os.PathLike
+        The file to write; its suffix picks the format (``.png``).
+    species : str, optional
+        The field shown (default: the classified one, see
+        `rdgpu.runs.sweep.pattern_species`).
+    cmap : str
+        A matplotlib colour map; NaN (a diverged member) is white.
+    scale : int, optional
+        Pixels per grid cell (default: a mosaic at least 1200 pixels across).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        ``species`` is not a field of the sweep.
+    MissingExtraError
+        matplotlib is not installed.
+    """
+    fig, plt = _figure(ds, species=species, cmap=cmap, scale=scale)
+    out = Path(path)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def sweep_map_png(ds: Any, *, species: str | None = None, cmap: str = "viridis",
+                  scale: int | None = None) -> bytes:
+    """The picture `sweep_map` writes, as PNG bytes in memory (nothing is written).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A sweep's Dataset (`rdgpu.runs.sweep.sweep`, `rdgpu.runs.sweep.open_sweep`).
+    species, cmap, scale
+        As for `sweep_map`.
+
+    Returns
+    -------
+    bytes
+        A PNG image.
+    """
+    fig, plt = _figure(ds, species=species, cmap=cmap, scale=scale)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _figure(ds: Any, *, species: str | None, cmap: str, scale: int | None) -> tuple[Any, Any]:
+    """The map's matplotlib figure (see `sweep_map`) and ``matplotlib.pyplot``."""
     matplotlib = require("matplotlib", "drawing the sweep's map")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -79,10 +139,7 @@ def sweep_map(ds: Any, path: str | os.PathLike, *, species: str | None = None,
                  f"{ds.attrs.get('steps', '?')} steps{shown}", fontsize=font * 1.2)
     ax.tick_params(labelsize=font)
     fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return fig, plt
 
 
 def _ticks(n: int) -> list[int]:

@@ -20,9 +20,9 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import numbers
 import os
 import sys
+import time
 import types
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -35,11 +35,12 @@ from rdgpu.analysis import classify_pattern
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.conventions import AXIS_NAMES, VERSION, axis_names
 from rdgpu.core.optional import require
-from rdgpu.core.resources import check_memory
 from rdgpu.core.validation import scalar
 from rdgpu.domains.specs import build_domain
 from rdgpu.models import MODELS, PRESETS, define_model
+from rdgpu.runs.axes import axis_values, parse_axis
 from rdgpu.runs.mosaic import sweep_map
+from rdgpu.runs.notebook import register
 from rdgpu.runs.store import (
     SETTINGS_ATTR,
     check_sweep_memory,
@@ -63,85 +64,22 @@ __all__ = ["PATTERN_CLASSES", "open_sweep", "parse_axis", "sweep", "sweep_map"]
 
 #: the values of ``pattern`` (stored in a zarr/netCDF file as their index; -1: not run)
 PATTERN_CLASSES = ("uniform", "spots", "inverted-spots", "stripes", "mixed", "diverged")
-#: fraction for :func:`rdgpu.analysis.classify_pattern`'s ``mixed`` class in a sweep
+#: fraction for `rdgpu.analysis.classify_pattern`'s ``mixed`` class in a sweep
 MIXED_SHARE = 0.25
 #: memory (bytes) that one batch's fields may take, for the default batch size
 BATCH_MEMORY = 256 * 2**20
-_AXIS_FORMS = ("NAME=START:STOP:N (N values from START to STOP, inclusive), "
-               "NAME=A,B,C (a list) or NAME=VALUE (fixed)")
 
 
 # ------------------------------------------------------------------------ optional extra
 def _need(*modules: str) -> list[Any]:
-    """Import the optional modules of the ``dask`` extra, or say how to get them."""
-    return [require(name, "rdgpu.sweep") for name in modules]
+    """Import the optional modules of the ``dask`` extra, or say how to get them (and give
+    xarray's Datasets the ``ds.rdgpu`` notebook view, `rdgpu.runs.notebook`)."""
+    found = [require(name, "rdgpu.sweep") for name in modules]
+    if "xarray" in modules:
+        register(found[modules.index("xarray")])
+    return found
 
 
-# ------------------------------------------------------------------------ axes
-def _number(text: str, what: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise ValueError(f"{what}: {text!r} is not a number; use {_AXIS_FORMS}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"{what}: values must be finite, got {text!r}")
-    return x
-
-
-def axis_values(name: str, value: Any) -> np.ndarray | float:
-    """The values of parameter ``name`` in a sweep: a float (fixed) or a 1-D float64 array
-    (swept).  ``value``: a number, a sequence/array of numbers, or text ``"START:STOP:N"``
-    (``np.linspace(START, STOP, N)``), ``"A,B,C"`` or ``"VALUE"``."""
-    what = f"parameter {name}"
-    if isinstance(value, str):
-        text = value.strip()
-        if ":" in text:
-            parts = text.split(":")
-            if len(parts) != 3:
-                raise ValueError(f"{what}: {text!r} must be START:STOP:N; use {_AXIS_FORMS}")
-            start, stop = (_number(p, what) for p in parts[:2])
-            try:
-                n = int(parts[2])
-            except ValueError:
-                raise ValueError(f"{what}: N in {text!r} must be a whole number") from None
-            if n < 1:
-                raise ValueError(f"{what}: N in {text!r} must be at least 1")
-            check_memory(f"parameter {name}: {n:,} values", 64 * n,
-                         "the values, and the sweep's settings that list them")
-            return np.linspace(start, stop, n) if n > 1 else start
-        if "," in text:
-            return axis_values(name, [_number(p, what) for p in text.split(",")])
-        return _number(text, what)
-    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
-        value = value.item()
-    if np.ndim(value) == 0:
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-            raise TypeError(f"{what}: expected a number, a list of numbers or text "
-                            f"({_AXIS_FORMS}), got {type(value).__name__} {value!r}")
-        return _number(str(float(value)), what)
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "iuf":  # text, bools, complex, mixed: never read as numbers
-        raise TypeError(f"{what}: a swept parameter's values must be real numbers, got "
-                        f"{value!r}")
-    arr = arr.astype(np.float64)
-    if arr.ndim != 1 or arr.size == 0:
-        raise ValueError(f"{what}: a swept parameter is a 1-D list of values, got shape "
-                         f"{arr.shape}")
-    if not np.isfinite(arr).all():
-        raise ValueError(f"{what}: values must be finite")
-    if np.unique(arr).size != arr.size:
-        raise ValueError(f"{what}: the values repeat; give each value once")
-    return arr
-
-
-def parse_axis(text: str) -> tuple[str, np.ndarray | float]:
-    """``"NAME=START:STOP:N"``, ``"NAME=A,B,C"`` or ``"NAME=VALUE"`` → ``(name, values)``
-    (see :func:`axis_values`)."""
-    name, sep, value = text.partition("=")
-    name, value = name.strip(), value.strip()
-    if not sep or not name or not value:
-        raise ValueError(f"a sweep parameter looks like {_AXIS_FORMS}; got {text!r}")
-    return name, axis_values(name, value)
 
 
 # ------------------------------------------------------------------------ the job
@@ -176,7 +114,7 @@ def pattern_species(model: Model | str) -> str:
 def run_batch(job: Mapping[str, Any], values: Mapping[str, Sequence[float]]) -> dict:
     """One batch of a sweep (a pure function: the same arguments give the same bits, so a
     re-run of a lost task changes nothing).  ``job``: the sweep's settings (see
-    :func:`sweep`); ``values``: each swept parameter's value for every member.  Returns
+    `sweep`); ``values``: each swept parameter's value for every member.  Returns
     ``{"fields": {species: [B, *shape] array}, "pattern": [B] int8 codes}``."""
     names = list(values)
     count = len(values[names[0]]) if names else 1
@@ -277,8 +215,18 @@ def _decode(ds: Any) -> Any:
 
 
 def open_sweep(path: str | os.PathLike) -> Any:
-    """A sweep's Dataset from its zarr or netCDF file, loaded, with ``pattern`` as class
-    names (``""`` where a batch has not run yet)."""
+    """Open a sweep's Dataset from its zarr or netCDF file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.zarr`` or ``.nc`` file that `sweep` wrote.
+
+    Returns
+    -------
+    xarray.Dataset
+        Loaded, with ``pattern`` as class names (``""`` where a batch has not run yet).
+    """
     xr, = _need("xarray")
     kind = _store_kind(path)
     if kind == "zarr":
@@ -318,7 +266,7 @@ def _client(scheduler: Any, workers: int | None, n_batches: int) -> tuple[Any, C
 
 
 def _check_scheduler(scheduler: Any) -> None:
-    """Refuse what :func:`_client` cannot take (a Client passes by its class's name, so
+    """Refuse what `_client` cannot take (a Client passes by its class's name, so
     that no Dask import is needed here)."""
     if scheduler in (None, "serial", "local") or type(scheduler).__name__ == "Client" or (
             isinstance(scheduler, str) and "://" in scheduler):
@@ -331,13 +279,13 @@ def _check_scheduler(scheduler: Any) -> None:
 def _default_batch(n_members: int, cells: int, n_species: int, itemsize: int,
                    workers: int) -> int:
     """Members per batch: about 4 batches per worker, at most what fits in
-    :data:`BATCH_MEMORY` (about 6 copies of each field)."""
+    `BATCH_MEMORY` (about 6 copies of each field)."""
     fits = max(1, BATCH_MEMORY // max(1, cells * n_species * itemsize * 6))
     return max(1, min(fits, math.ceil(n_members / (4 * max(1, workers)))))
 
 
 def _swept_and_fixed(mdl: Any, params: Any) -> tuple[dict[str, np.ndarray], dict[str, float]]:
-    """``(axes, fixed)``: the swept parameters' values and the fixed ones (:func:`sweep`)."""
+    """``(axes, fixed)``: the swept parameters' values and the fixed ones (`sweep`)."""
     if not isinstance(params, Mapping):
         raise TypeError(f"params must be a dict of parameter → values, got "
                         f"{type(params).__name__}")
@@ -402,45 +350,85 @@ def sweep(
     progress: bool = True,
     on_batch: Callable[[int], None] | None = None,
 ) -> Any:
-    """Run ``model`` at every point of the Cartesian product of the swept parameters and
-    return an ``xarray.Dataset``.
+    """Run ``model`` at every point of the Cartesian product of the swept parameters.
 
-    ``params``: parameter → a number (fixed), a list/array of values (swept) or text
-    (``"0.01:0.08:64"`` = ``np.linspace(0.01, 0.08, 64)``, ``"0.02,0.03"``, ``"0.05"``).
-    The swept axes keep their order: the first varies slowest.  ``size`` (cells, ``N`` or
-    ``(ny, nx)``; periodic, the model's spacing) or ``domain`` (a grid spec dict or
-    :class:`~rdgpu.domains.Grid`); ``steps`` of ``dt`` (default: the smallest default step
-    of all the members, so every member runs with the same ``dt``); ``dtype``,
-    ``backend``, ``seed`` (one initial condition for all members), ``init``, ``options``:
-    as :class:`~rdgpu.simulation.Simulation` takes them.
+    The product is cut into batches of ``batch`` members; each batch is one ensemble run
+    and one task.  A worker that dies has its batch re-run by Dask; batches are pure, so
+    the bits do not change.
 
-    The product is cut into batches of ``batch`` members (default: about 4 batches per
-    worker, within :data:`BATCH_MEMORY`); each batch is one ensemble run and one task.
-    ``scheduler``: ``"local"`` (default: a ``distributed.LocalCluster`` of ``workers``
-    single-threaded processes, default one per core), an address ``"tcp://host:port"``, a
-    ``distributed.Client``, or ``"serial"`` (in this process, no Dask); the workers of a
-    cluster elsewhere need rdgpu installed.  A worker that dies has its batch re-run by
-    Dask; batches are pure, so the bits do not change.
+    Parameters
+    ----------
+    model : Model or str
+        A model or a model's name (``"gray-scott"``).
+    params : mapping
+        Parameter → a number (fixed), a list/array of values (swept) or text
+        (``"0.01:0.08:64"`` = ``np.linspace(0.01, 0.08, 64)``, ``"0.02,0.03"``,
+        ``"0.05"``).  The swept axes keep their order: the first varies slowest.
+    steps : int
+        Time steps of ``dt`` per member.
+    size : int or tuple of int
+        Cells, ``N`` or ``(ny, nx)``; periodic, the model's spacing.  Ignored when
+        ``domain`` is given.
+    domain : dict or rdgpu.domains.Grid, optional
+        A grid spec dict or a `rdgpu.domains.Grid`.
+    dt : float, optional
+        Time step (default: the smallest default step of all the members, so every member
+        runs with the same ``dt``).
+    dtype, backend, seed, init, options
+        As `rdgpu.simulation.Simulation` takes them; ``seed`` gives one initial condition
+        for all members.
+    batch : int, optional
+        Members per batch (default: about 4 batches per worker, within `BATCH_MEMORY`;
+        resuming a ``.zarr`` store: the store's).
+    store : str or os.PathLike, optional
+        A ``.zarr`` path is created up front (every array, one member per chunk, and
+        ``done`` per batch) and each batch is written as it finishes, from this process
+        only; running the same sweep again (on any scheduler) skips the batches marked
+        done (their data checked first: `rdgpu.runs.store`), and a store made with other
+        settings is refused.  A ``.nc`` path (netCDF) is written once at the end: no
+        streaming, no resume.
+    scheduler : str or distributed.Client
+        ``"local"`` (default: a ``distributed.LocalCluster`` of ``workers``
+        single-threaded processes, default one per core), an address
+        ``"tcp://host:port"``, a ``distributed.Client``, or ``"serial"`` (in this process,
+        no Dask); the workers of a cluster elsewhere need rdgpu installed.
+    workers : int, optional
+        Processes of the local cluster.
+    classify : str, optional
+        The species classified (default: `pattern_species`).
+    progress : bool
+        A tqdm bar counting batches.
+    on_batch : callable, optional
+        ``on_batch(b)`` is called after batch ``b`` is stored (an exception from it stops
+        the sweep; the batches stored so far stay).
 
-    ``store``: a ``.zarr`` path is created up front (every array, one member per chunk,
-    and ``done`` per batch) and each batch is written as it finishes, from this process
-    only; running the same sweep again (on any scheduler; ``batch`` defaults to the
-    store's) skips the batches marked done (their data checked first:
-    :mod:`rdgpu.runs.store`), and a store made with other settings is refused.
-    A ``.nc`` path (netCDF) is written once at the end: no streaming, no resume.
-    ``progress``: a tqdm bar counting batches.  ``on_batch(b)``: called after batch ``b``
-    is stored (an exception from it stops the sweep; the batches stored so far stay).
+    Returns
+    -------
+    xarray.Dataset
+        Dims the swept parameters, then the space dims (``y, x``; cell centres); a
+        variable per species (the final fields, NaN where a member diverged), ``pattern``
+        (`rdgpu.analysis.classify_pattern` of the species ``classify`` with
+        ``threshold=None``, ``mixed=0.25``: one of `PATTERN_CLASSES`); attrs ``model,
+        steps, dt, dtype, backend, seed, classify, rdgpu_version``, ``param_NAME`` for
+        each fixed parameter and the settings as JSON.  In a notebook ``ds.rdgpu`` shows
+        the parameter map and a summary with this call's wall time, ``ds.rdgpu.wall_s``
+        in seconds (`rdgpu.runs.notebook.SweepView`).
 
-    The Dataset: dims the swept parameters, then the space dims (``y, x``; cell centres);
-    a variable per species (the final fields, NaN where a member diverged), ``pattern``
-    (:func:`rdgpu.analysis.classify_pattern` of the species ``classify``, default
-    :func:`pattern_species`, with ``threshold=None``, ``mixed=0.25``: one of
-    :data:`PATTERN_CLASSES`); attrs ``model, steps, dt, dtype, backend, seed, classify,
-    rdgpu_version``, ``param_NAME`` for each fixed parameter and the settings as JSON.
+    Raises
+    ------
+    ValueError
+        An unknown parameter, nothing swept, a store that is neither ``.zarr`` nor
+        ``.nc``, an unknown scheduler or species to classify.
+    MissingExtraError
+        The ``dask`` extra (xarray, dask, distributed, zarr) is not installed.
+
+    Notes
+    -----
     Gray-Scott is classified on ``v`` as its presets are: islands of low ``v`` (Pearson's
     δ) are ``"spots"``, islands of high ``v`` (Pearson's λ) ``"inverted-spots"``.
     """
     xr, da = _need("xarray", "dask.array")
+    start = time.perf_counter()
     kind = _store_kind(store)
     _check_scheduler(scheduler)
     plan = _plan(model, params, steps=steps, size=size, domain=domain, dt=dt, dtype=dtype,
@@ -470,11 +458,14 @@ def sweep(
     finally:
         close()
     if kind == "zarr":
-        return open_sweep(store)
-    ds = result.dataset()
-    if kind == "netcdf":
-        ds.to_netcdf(str(store))  # pattern as codes, as in a zarr store
-    return _decode(ds)
+        ds = open_sweep(store)
+    else:
+        ds = result.dataset()
+        if kind == "netcdf":
+            ds.to_netcdf(str(store))  # pattern as codes, as in a zarr store
+        ds = _decode(ds)
+    ds.rdgpu.wall_s = time.perf_counter() - start  # this call's; not an attr (nor stored)
+    return ds
 
 
 @dataclass
@@ -503,7 +494,7 @@ def _plan(model: Model | str, params: Mapping[str, Any], *, steps: Any, size: An
           domain: Domain | Mapping | None, dt: Any, dtype: Any, seed: Any, init: Any,
           options: Any, batch: Any, workers: Any, store: Any,
           classify: str | None) -> _Plan:
-    """:func:`sweep`'s arguments checked, in the order its errors come, and the defaults
+    """`sweep`'s arguments checked, in the order its errors come, and the defaults
     that follow from them (the grid, ``classify``, the common ``dt``)."""
     mdl = lookup_model(model)
     axes, fixed = _swept_and_fixed(mdl, params)
@@ -535,7 +526,7 @@ def _plan(model: Model | str, params: Mapping[str, Any], *, steps: Any, size: An
 def _settings_and_job(plan: _Plan, be: Backend, backend: Backend | str | None,
                       definition: dict, desc: dict) -> tuple[dict, dict]:
     """The sweep's settings (kept with its data; a resumed store must match them) and the
-    job every batch's task runs (:func:`run_batch`); ``definition``, ``desc``: the model's
+    job every batch's task runs (`run_batch`); ``definition``, ``desc``: the model's
     and the grid's descriptions."""
     mdl = plan.model
     settings = {
@@ -665,7 +656,7 @@ def _token(result: _Collector) -> str:
 
 
 class _CallableModule(types.ModuleType):
-    """``rdgpu.sweep(...)`` calls :func:`sweep` even after ``import rdgpu.sweep`` has made
+    """``rdgpu.sweep(...)`` calls `sweep` even after ``import rdgpu.sweep`` has made
     ``rdgpu.sweep`` this module."""
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:

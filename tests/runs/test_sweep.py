@@ -8,13 +8,14 @@ import subprocess
 import sys
 from importlib.util import find_spec
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
 import rdgpu
 from rdgpu.analysis import classify_pattern
 from rdgpu.domains.grid import Grid
-from rdgpu.runs.sweep import open_sweep
+from rdgpu.runs.sweep import PATTERN_CLASSES, open_sweep
 from rdgpu.simulation.driver import Simulation
 
 #: the tests of sweeps need the dask extra (CI installs it with .[test])
@@ -398,3 +399,18 @@ def test_model_from_equations_on_a_cluster(cluster):
     assert ds.attrs["model"] == "gs-own" and ds["v"].shape == (3, 16, 16)
     assert ds.identical(rdgpu.sweep(model, {"F": [0.03, 0.04, 0.05]}, scheduler="serial",
                                     **kw))
+
+
+@needs_dask
+def test_the_dataset_shows_itself_in_a_notebook(serial):
+    png = serial.rdgpu._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    image = iio.imread(png)
+    assert image.ndim == 3 and image.shape[0] > 50 and image.shape[1] > 50
+    assert image[..., :3].std() > 10  # not blank
+    page = serial.rdgpu._repr_html_()
+    assert "<th>F</th>" in page and "<th>k</th>" in page and "3 values" in page
+    assert "Du = 0.16" in page and "wall time" in page and " s</td>" in page
+    counts = serial.rdgpu.summary()
+    assert sum(counts.values()) == 6 and set(counts) <= set(PATTERN_CLASSES)
+    assert serial.copy().rdgpu.wall_s is None
