@@ -6,15 +6,15 @@ Laplacian and its boundary conditions, exact to round-off in O(N log N).
 (``rdgpu/families/laplacian/reference.py::laplacian_matrix``), each diagonalised by a
 fast transform that matches its boundary convention exactly:
 
-========== =============================== ========================= ========================
-condition  the 1-D matrix (times ``h²``)   transform (``scipy.fft``) eigenvalue ``λ_k h²``
-========== =============================== ========================= ========================
-periodic   ``(1, −2, 1)``, corners wrap    FFT (``rfftn`` / ``fftn``) ``−4 sin²(πk/n)``, k = 0..n−1
-Neumann    ends ``−1``: the ghost repeats  DCT-II (inverse: ``idct``  ``−4 sin²(πk/(2n))``,
-           the edge cell                   type 2, i.e. DCT-III)      k = 0..n−1
-Dirichlet  ``(1, −2, 1)``: the ghost holds DST-I                      ``−4 sin²(πk/(2(n+1)))``,
+========== =============================== ========================== ========================
+condition  the 1-D matrix (times ``h²``)   transform (``ducc0.fft``)  eigenvalue ``λ_k h²``
+========== =============================== ========================== ========================
+periodic   ``(1, −2, 1)``, corners wrap    FFT (``r2c`` / ``c2r``)    ``−4 sin²(πk/n)``, k = 0..n−1
+Neumann    ends ``−1``: the ghost repeats  DCT-II (inverse: DCT-III)  ``−4 sin²(πk/(2n))``,
+           the edge cell                                              k = 0..n−1
+Dirichlet  ``(1, −2, 1)``: the ghost holds DST-I (its own inverse)    ``−4 sin²(πk/(2(n+1)))``,
            ``g``, which enters ``b``                                  k = 1..n
-========== =============================== ========================= ========================
+========== =============================== ========================== ========================
 
 The Neumann ghost ``u₋₁ = u₀`` puts the mirror half-way between cells, whose cosine basis
 ``cos(πk(j + ½)/n)`` is the DCT-II's; the Dirichlet ghost ``u₋₁ = g`` (not ``2g − u₀``)
@@ -31,14 +31,11 @@ The θ-step (:class:`rdgpu.ops.implicit.ImplicitDiffusion`) is solved for the in
 so that no ``u`` is ever subtracted from a term ``dt D/dx²`` times larger (every multiplier
 is bounded by ``1/θ``); then ``out = u + δ``.
 
-Precision: the transforms run in the working dtype (``scipy.fft`` has single-precision
-transforms), the multipliers computed in float64 and rounded once.  pocketfft's transforms
-err by ``O(eps log N)``, so a float64 step is accurate to float64's round-off and a
-float32 step to float32's: measured against the float64 solve rounded to float32, at
-most 3 ulps of the result at 64², 5 at 256², 7 at 1024² (relative to ``max|x|``:
-2–5 eps).  Running float32 steps through float64 transforms would gain those few ulps
-and cost 2.8× the transform time (256², measured), while the SOR solve it replaces
-stopped at ``tol = 1e-5``.
+Precision: the transforms run in the working dtype (``ducc0.fft`` has single-precision
+transforms), the multipliers computed in float64 and rounded once.  The transforms err by
+``O(eps log N)``, so a float64 step is accurate to float64's round-off and a float32 step to
+float32's: a few ulps of the result against the float64 solve rounded to float32
+(tests/ops/test_transforms.py; the figures per size are in docs/performance.md).
 
 Symmetry: a field constant along a periodic or Neumann axis is, to round-off, a multiple
 of that axis' zero mode, but a transform of a constant is not exactly a single mode at
@@ -49,7 +46,7 @@ solve first checks, per periodic or Neumann axis, whether the right-hand side (`
 y-independent bit for bit, at no cost besides one comparison of the field per axis.
 
 Device arrays: the first step downloads the right-hand side, solves on the host with
-``scipy.fft`` (``workers`` threads: all cores by default) and uploads the result, on
+``ducc0.fft`` (``workers`` threads: all cores by default) and uploads the result, on
 every backend (NumPy, Warp CPU, OpenCL CPU).  A GPU FFT library (e.g. pyvkfft for OpenCL
 and CUDA arrays) would remove the copies; it is a later step.
 
@@ -87,8 +84,16 @@ __all__ = ["SOLVERS", "SOLVER_ENV", "DirectDiffusion", "TransformSolver", "axis_
 SOLVERS = ("auto", "transform", "sor")
 #: the environment variable read when no solver is given
 SOLVER_ENV = "RDGPU_IMPLICIT_SOLVER"
-#: ``scipy.fft`` threads: every core
+#: the transforms' threads: -1, every core
 WORKERS = -1
+
+
+def _ducc() -> Any:
+    """``ducc0.fft`` (a core dependency: pocketfft's successor, the transforms SciPy's are
+    an older copy of, vectorised across the many 1-D transforms of a field)."""
+    import ducc0
+
+    return ducc0.fft
 
 _KINDS = (PERIODIC, NEUMANN, DIRICHLET)
 
@@ -180,7 +185,7 @@ class TransformSolver:
         The precision the transforms run in, float32 or float64 (module doc); results
         are in it.
     workers : int
-        ``scipy.fft`` threads (default: every core).
+        The transforms' threads (default ``-1``: every core).
     """
 
     def __init__(self, axes: Sequence[tuple[int, int, float]], *, dtype: Any = np.float64,
@@ -194,6 +199,8 @@ class TransformSolver:
         self.axes = axes
         self.shape = tuple(n for n, _, _ in axes)
         self.workers = workers
+        #: ``ducc0`` threads (0: its default, every core)
+        self.threads = 0 if workers == -1 else int(workers)
         #: the eigenvalues per axis (:func:`axis_eigenvalues`)
         self.eigenvalues = [axis_eigenvalues(n, kind, h) for n, kind, h in axes]
         self._factors: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
@@ -210,32 +217,30 @@ class TransformSolver:
 
     def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
         """The coefficients of the field ``a`` (dropped axes of length 1), a new array."""
-        import scipy.fft as fft
-
         periodic, neumann, dirichlet = self._groups(kept)
-        w = self.workers
         if not (periodic or neumann or dirichlet):
             return a.copy()
+        ducc, n = _ducc(), self.threads
         if neumann:
-            a = fft.dctn(a, type=2, axes=neumann, workers=w)
+            a = ducc.dct(a, type=2, axes=neumann, nthreads=n)
         if dirichlet:
-            a = fft.dstn(a, type=1, axes=dirichlet, workers=w)
+            a = ducc.dst(a, type=1, axes=dirichlet, nthreads=n)
         if periodic:
-            a = fft.rfftn(a, axes=periodic, workers=w)
+            a = ducc.r2c(a, axes=periodic, nthreads=n)
         return a
 
     def inverse(self, c: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
-        """The field of the coefficients ``c`` (inverse of :meth:`forward`)."""
-        import scipy.fft as fft
-
+        """The field of the coefficients ``c`` (inverse of :meth:`forward`: the same
+        transforms backwards, each divided by its length)."""
         periodic, neumann, dirichlet = self._groups(kept)
-        w = self.workers
+        ducc, n = _ducc(), self.threads
         if periodic:
-            c = fft.irfftn(c, s=[self.shape[i] for i in periodic], axes=periodic, workers=w)
+            c = ducc.c2r(c, axes=periodic, lastsize=self.shape[periodic[-1]], forward=False,
+                         inorm=2, nthreads=n)
         if dirichlet:
-            c = fft.idstn(c, type=1, axes=dirichlet, workers=w)
+            c = ducc.dst(c, type=1, axes=dirichlet, inorm=2, nthreads=n)
         if neumann:
-            c = fft.idctn(c, type=2, axes=neumann, workers=w)
+            c = ducc.dct(c, type=3, axes=neumann, inorm=2, nthreads=n)
         return c
 
     def spectrum(self, kept: tuple[bool, ...]) -> np.ndarray:
