@@ -335,8 +335,10 @@ def dispersion(
 
     Raises
     ------
-    ValueError, RuntimeError
-        As `dispersion_matrix`.
+    ValueError
+        As `dispersion_matrix` raises it.
+    RuntimeError
+        No ``state`` given and `steady_state` does not converge.
     """
     A = dispersion_matrix(model, params, k, state=state, dx=dx)
     return np.asarray(np.linalg.eigvals(A).real.max(axis=-1))
