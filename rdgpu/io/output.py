@@ -153,9 +153,8 @@ def save_png(
     cmap : str, optional
         A Matplotlib colour map name; default ``"viridis"``.
     vmin, vmax : float, optional
-        The colour range; default None (the finite values' range; a field uniform to
-        round-off is drawn in one flat colour); on a 1-D grid, the
-        plot's y limits.
+        The colour range (on a 1-D grid, the plot's y limits); default None (the
+        finite values' range; a field uniform to round-off is drawn in one flat colour).
     scale : int, optional
         Pixels per cell along each side of a grid picture or of the slices; default 1.
     camera : str, sequence or dict, optional
