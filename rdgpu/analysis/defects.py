@@ -53,7 +53,30 @@ def spiral_tips(
     fields' means) winds by ±2π around each spiral tip; the tips are the elementary loops
     with a nonzero winding number: the plaquettes of four neighbouring cells on a grid
     (wrapped across periodic sides), the faces of a mesh.  A rotating spiral keeps its tips;
-    target waves, stripes and spots have none."""
+    target waves, stripes and spots have none.
+
+    Parameters
+    ----------
+    u, v : array
+        The two fields, of one shape: ``[ny, nx]`` on a grid (any array of as many values
+        with a domain), one value per vertex on a `SurfaceMesh`; read as float64.
+    domain : Domain, optional
+        A 2-D `Grid` or graph surface (its periodic sides wrap) or a `SurfaceMesh` (its
+        faces are the loops); default None (a non-periodic grid of the fields' shape).
+    center : pair of float, optional
+        ``(u_c, v_c)``, the point the phase turns around; default None (the fields'
+        means).
+
+    Returns
+    -------
+    int
+        The number of loops with a nonzero winding number.
+
+    Raises
+    ------
+    ValueError
+        Grid fields that are not 2-D (``domain=None``) or not of the domain's size.
+    """
     a = np.asarray(u, dtype=np.float64)
     b = np.asarray(v, dtype=np.float64)
     uc, vc = (float(a.mean()), float(b.mean())) if center is None else map(float, center)
@@ -86,7 +109,33 @@ def phase_defects(
     ``charges``: ``(n,)`` ints, ``+1`` where the phase increases counterclockwise in the
     ``(x, y) = (column, row)`` plane (``A ∝ (x − x₀) + i(y − y₀)``), ``−1`` for the other
     sense.  On a fully periodic grid the charges sum to 0 (the phase is single-valued on
-    the torus); on a bounded grid they need not."""
+    the torus); on a bounded grid they need not.
+
+    Parameters
+    ----------
+    u, v : array
+        The real and imaginary parts, of one shape ``[ny, nx]`` (any array of as many
+        values with a domain; a device array with ``numpy()`` is downloaded); read as
+        float64.
+    domain : Grid, optional
+        A 2-D grid (its periodic sides wrap); default None (a grid of the fields' shape
+        with no periodic side).
+    center : pair of float, optional
+        ``(u_c, v_c)``; default ``(0.0, 0.0)``.
+
+    Returns
+    -------
+    positions : ndarray
+        float64, shape ``(n, 2)``: ``(row, column)`` of each defect, in cell units.
+    charges : ndarray
+        int64, shape ``(n,)``: ``±1`` (or another nonzero integer) per defect.
+
+    Raises
+    ------
+    ValueError
+        ``u`` and ``v`` of different shapes, a domain that is not a 2-D grid, or fields
+        that are not 2-D (``domain=None``) or not of the domain's size.
+    """
     a, b = as_array(u), as_array(v)
     if a.shape != b.shape:
         raise ValueError(f"u and v must have the same shape, got {a.shape} and {b.shape}")

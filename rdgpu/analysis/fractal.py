@@ -17,7 +17,27 @@ class FractalDimension:
     ``log scales`` over the points with ``fit[0] <= scale <= fit[1]``.  Mass-radius:
     ``scales`` are radii ``r`` (cells) and ``counts`` the object cells within ``r`` of
     ``center``; box counting: ``scales`` are box sides ``s`` and ``counts`` the boxes
-    holding object cells, fitted as ``counts ∝ s^-D`` (the slope's sign is flipped)."""
+    holding object cells, fitted as ``counts ∝ s^-D`` (the slope's sign is flipped).
+
+    Attributes
+    ----------
+    dimension : float
+        The fitted dimension ``D``.
+    method : str
+        ``"mass-radius"`` or ``"box"``.
+    fit : tuple of float
+        ``(lo, hi)``: the range of scales (cells) fitted.
+    scales : ndarray
+        float64: the radii or box sides (cells), increasing.
+    counts : ndarray
+        float64, one per scale: object cells within each radius, or boxes holding object
+        cells.
+    used : ndarray
+        bool, one per scale: the points in the fit (in ``fit`` with a nonzero count).
+    center : tuple of float or None
+        Mass-radius: the ``(row, column)`` the radii are measured from; None for box
+        counting.
+    """
 
     dimension: float
     method: str
@@ -57,8 +77,34 @@ def fractal_dimension(
     ``D`` is minus the slope of ``log N`` on ``log s`` over ``fit = (smin, smax)``,
     default ``(2, L/8)``: boxes of 1 cell see one-cell-thin branches as lines, and the
     largest boxes (fewer than 64 cover the square) see only the cluster's outline.  On
-    clusters of a few thousand cells box counting reads lower than mass-radius (an Eden
-    cluster of 2700 cells: 1.8 against 2.0); prefer mass-radius there."""
+    small clusters box counting reads lower than mass-radius (docs/growth.md); prefer
+    mass-radius there.
+
+    Parameters
+    ----------
+    mask : array
+        2-D, non-empty; non-zero cells are the object (at least one).
+    method : {"mass-radius", "box"}, optional
+        Default ``"mass-radius"``.
+    center : pair of float, optional
+        Mass-radius only: the ``(row, column)`` (cell indices) the radii are measured
+        from; default None (the object's centroid).
+    fit : pair of float, optional
+        ``(lo, hi)``, the scales (cells) fitted; default None (``(2, R/3)`` for
+        mass-radius, ``(2, L/8)`` for boxes).
+
+    Returns
+    -------
+    FractalDimension
+        The dimension and the points it was fitted to.
+
+    Raises
+    ------
+    ValueError
+        A mask that is not a non-empty 2-D array or holds no object cell, an unknown
+        ``method``, an object reaching less than 2 cells from ``center`` (mass-radius), or
+        a fit range holding fewer than 2 points.
+    """
     m = np.asarray(mask)
     if m.ndim != 2 or m.size == 0:
         raise ValueError(f"mask must be a non-empty 2-D array, got shape {m.shape}")

@@ -105,7 +105,33 @@ def _analytic(model: Model) -> Any:
 
 def jacobian(model: Model, params: Mapping[str, Any] | None, state: Sequence[float]) -> np.ndarray:
     """``J_ij = ∂R_i/∂x_j`` at ``state`` by the complex step (float64, exact to round-off;
-    ``min``/``max`` take the derivative of the selected argument, ``abs`` that of ``±a``)."""
+    ``min``/``max`` take the derivative of the selected argument, ``abs`` that of ``±a``).
+
+    Parameters
+    ----------
+    model : Model
+        A model of `rdgpu.models` (`rdgpu.models.define_model`, an entry of
+        `rdgpu.models.MODELS`).
+    params : mapping or None
+        Parameter values over the model's defaults (None: the defaults).  A field is
+        replaced by its mean (an array's mean; a ``"random"`` spec's ``(low + high)/2``,
+        a ``"sine"`` spec's ``mean``, a ``"linear"`` spec's ``(start + stop)/2``); a
+        parameter given as text must be a constant expression of the others.
+    state : sequence of float
+        The point: one value per species, in the order of ``model.species``.
+
+    Returns
+    -------
+    ndarray
+        float64, shape ``(n, n)`` for ``n`` species: row ``i`` the equation of species
+        ``i``, column ``j`` the derivative by species ``j``.
+
+    Raises
+    ------
+    ValueError
+        A field spec of another kind, or a parameter given as text that depends on
+        ``x``, ``y``, ``z``, ``t`` or the domain's lengths.
+    """
     p = _scalar_params(model, params)
     x = np.asarray(state, dtype=np.float64)
     n = x.size
@@ -128,7 +154,37 @@ def steady_state(
 ) -> np.ndarray:
     """A homogeneous steady state ``R(x*) = 0`` near ``guess`` (default: the model's
     ``steady_guess``, else 1 for every species).  Raises ``RuntimeError`` if the solver
-    does not converge to ``max|R| < tol (1 + max|x*|)``."""
+    does not converge to ``max|R| < tol (1 + max|x*|)``.
+
+    Parameters
+    ----------
+    model : Model
+        A model of `rdgpu.models` (`rdgpu.models.define_model`, an entry of
+        `rdgpu.models.MODELS`).
+    params : mapping, optional
+        Parameter values over the model's defaults (None: the defaults).  A field is
+        replaced by its mean (an array's mean; a ``"random"`` spec's ``(low + high)/2``,
+        a ``"sine"`` spec's ``mean``, a ``"linear"`` spec's ``(start + stop)/2``); a
+        parameter given as text must be a constant expression of the others.
+    guess : sequence of float, optional
+        Where the solver starts: one value per species (order of ``model.species``);
+        default None (the model's ``steady_guess``, else 1 for every species).
+    tol : float, optional
+        The residual allowed, relative to ``1 + max|x*|``; default ``1e-10``.
+
+    Returns
+    -------
+    ndarray
+        float64, shape ``(n,)``: the state ``x*``, one value per species.
+
+    Raises
+    ------
+    RuntimeError
+        The solver did not reach the residual ``tol`` (or it is not finite).
+    ValueError
+        A field spec of another kind, or a parameter given as text that depends on
+        ``x``, ``y``, ``z``, ``t`` or the domain's lengths.
+    """
     from scipy.optimize import root  # SciPy's optimize loads in 0.3 s: only when solving
 
     p = _scalar_params(model, params)
@@ -194,7 +250,41 @@ def dispersion_matrix(
     in the equation of ``s``.  ``dx``: the grid's symbol instead, ``k² → (4/dx²)
     sin²(k dx/2)`` (the 3-point stencil along one axis; for a mode of several axes pass
     ``sqrt`` of the sum of the axes' ``grid_wavenumber²``).  ``ValueError`` if a Laplacian
-    has a state-dependent coefficient."""
+    has a state-dependent coefficient.
+
+    Parameters
+    ----------
+    model : Model
+        A model of `rdgpu.models` (`rdgpu.models.define_model`, an entry of
+        `rdgpu.models.MODELS`).
+    params : mapping or None
+        Parameter values over the model's defaults (None: the defaults).  A field is
+        replaced by its mean (an array's mean; a ``"random"`` spec's ``(low + high)/2``,
+        a ``"sine"`` spec's ``mean``, a ``"linear"`` spec's ``(start + stop)/2``); a
+        parameter given as text must be a constant expression of the others.
+    k : float or array
+        Wavenumbers (1/length), any shape.
+    state : sequence of float, optional
+        The homogeneous state to linearise about, one value per species; default None
+        (`steady_state` with ``params``).
+    dx : float, optional
+        The grid spacing (length) whose 3-point stencil's symbol replaces ``k²``;
+        default None (the continuous symbol).
+
+    Returns
+    -------
+    ndarray
+        float64, shape ``k.shape + (n, n)`` for ``n`` species.
+
+    Raises
+    ------
+    ValueError
+        ``state`` without one value per species, a Laplacian with a state-dependent
+        coefficient (``u*laplace(u)``), a coefficient of ``laplace`` or of the bilaplacian
+        that is not finite with these parameters, or a parameter as `jacobian` rejects it.
+    RuntimeError
+        No ``state`` given and `steady_state` does not converge.
+    """
     p = _scalar_params(model, params)
     D, B = _spatial_operators(model, p)
     x = steady_state(model, p) if state is None else np.asarray(state, dtype=np.float64)
@@ -221,7 +311,35 @@ def dispersion(
     ``J − k² D + k⁴ B`` (`dispersion_matrix`: cross-diffusion and bilaplacians
     included) at the homogeneous steady state (or at ``state``), for each wavenumber in
     ``k`` (any shape; the result has the same shape).  ``dx``: with the grid's symbol
-    (`dispersion_matrix`); equivalently pass ``k = grid_wavenumber(m, n, dx)``."""
+    (`dispersion_matrix`); equivalently pass ``k = grid_wavenumber(m, n, dx)``.
+
+    Parameters
+    ----------
+    model : Model
+        A model of `rdgpu.models` (`rdgpu.models.define_model`, an entry of
+        `rdgpu.models.MODELS`).
+    params : mapping or None
+        Parameter values over the model's defaults, as `jacobian` takes them.
+    k : float or array
+        Wavenumbers (1/length), any shape.
+    state : sequence of float, optional
+        The homogeneous state, one value per species; default None (`steady_state`).
+    dx : float, optional
+        The grid spacing (length) whose symbol is used; default None (the continuous
+        one).
+
+    Returns
+    -------
+    ndarray
+        float64, the shape of ``k``: ``Re γ(k)``, positive where the mode grows.
+
+    Raises
+    ------
+    ValueError
+        As `dispersion_matrix` raises it.
+    RuntimeError
+        No ``state`` given and `steady_state` does not converge.
+    """
     A = dispersion_matrix(model, params, k, state=state, dx=dx)
     return np.asarray(np.linalg.eigvals(A).real.max(axis=-1))
 
@@ -230,5 +348,20 @@ def grid_wavenumber(m: Any, n: int, dx: float = 1.0) -> np.ndarray:
     """Wavenumber of Fourier mode ``m`` on ``n`` periodic cells as the 3-point stencil
     (one axis of the 5- and 7-point ones) sees it: ``−Δ_h e^{2πimj/n} = k² e^{2πimj/n}``
     with ``k = (2/dx)|sin(π m/n)|``; the bilaplacian (the stencil twice) sees ``k⁴``.  On
-    ``n`` Neumann cells the mode ``cos(π m (j + ½)/n)`` has ``grid_wavenumber(m, 2n, dx)``."""
+    ``n`` Neumann cells the mode ``cos(π m (j + ½)/n)`` has ``grid_wavenumber(m, 2n, dx)``.
+
+    Parameters
+    ----------
+    m : int or array
+        The mode numbers, any shape (``m`` and ``n − m`` give the same wavenumber).
+    n : int
+        Periodic cells along the axis.
+    dx : float, optional
+        The grid spacing (length); default 1.
+
+    Returns
+    -------
+    ndarray
+        float64, the shape of ``m``: ``k`` in 1/length.
+    """
     return (2.0 / dx) * np.abs(np.sin(np.pi * np.asarray(m, dtype=np.float64) / n))

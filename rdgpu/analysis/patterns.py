@@ -23,13 +23,31 @@ def phase_components(
     """Connected regions of the two phases ``high = field > threshold`` and
     ``low = field <= threshold`` (``threshold=None``: the midrange of the field).
 
-    Returns ``threshold``; ``fraction_high``; ``high`` and ``low``: the sizes (points) of
-    each phase's components, largest first; ``elongation_high`` / ``elongation_low``: per
-    component (same order) ``size / (r + ½)²`` with ``r`` its inradius in graph steps (the
-    largest number of edges from one of its points to the other phase; the ½ makes islands
-    a point or two across come out compact): about π (less for small ones) for a round
-    island, about 2π for a 2:1 ellipse, ``~4 L / w`` for a band of length ``L`` and width
-    ``w``."""
+    Parameters
+    ----------
+    field : array
+        The field: ``[nx]`` or ``[ny, nx]`` on a grid or a graph surface (any array of
+        that many values), one value per vertex on a `SurfaceMesh`; a device array
+        (anything with ``numpy()``) is downloaded; read as float64.
+    domain : Domain, optional
+        The domain whose graph connects the points: a 1- or 2-D `Grid` (4-neighbours,
+        wrapped along periodic axes), a graph surface (as its grid) or a `SurfaceMesh`
+        (its edges); default None (a non-periodic grid of the field's shape).
+    threshold : float or None, optional
+        The value splitting the phases; default 0.0; None: ``(min + max)/2`` of the field.
+
+    Returns
+    -------
+    dict
+        ``threshold`` (float, the one used); ``fraction_high`` (float, the share of points
+        in the high phase); ``high`` and ``low``: the sizes (points) of each phase's
+        components, largest first; ``elongation_high`` / ``elongation_low``: per
+        component (same order) ``size / (r + ½)²`` with ``r`` its inradius in graph steps
+        (the largest number of edges from one of its points to the other phase, at least
+        1; the ½ makes islands a point or two across come out compact): about π (less for
+        small ones) for a round island, about 2π for a 2:1 ellipse, ``~4 L / w`` for a
+        band of length ``L`` and width ``w``.
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components, dijkstra
 
@@ -122,6 +140,54 @@ def classify_pattern(
 
     A stack of fields ``[M, *shape]`` (``members=True``, or ``members=None`` with a domain
     whose shape is ``shape``) gives a list of ``M`` classes, one per member.
+
+    Parameters
+    ----------
+    field : array
+        The field (or a stack of them, see ``members``): ``[nx]`` or ``[ny, nx]`` on a
+        grid or a graph surface (any array of that many values), one value per vertex on
+        a `SurfaceMesh`; a device array (anything with ``numpy()``) is downloaded; read
+        as float64.
+    domain : Domain, optional
+        The domain whose graph connects the points: a 1- or 2-D `Grid` (4-neighbours,
+        wrapped along periodic axes), a graph surface (as its grid) or a `SurfaceMesh`
+        (its edges); default None (a non-periodic grid of the field's shape).
+    threshold : float or None, optional
+        The value splitting the phases; default None (the midrange).
+    connected : float, optional
+        The share of a phase its largest component must hold for the phase to be
+        connected; default 0.9.
+    elongated : float, optional
+        The elongation above which a component counts as elongated; default 6.
+    min_size : int, optional
+        Components with fewer points are ignored; default 1 (none).
+    rtol, atol : float, optional
+        With ``threshold=None``, a field whose range is at most
+        ``max(rtol · max|field|, atol)`` is uniform; defaults ``1e-3`` and ``1e-12``.
+    mixed : float or None, optional
+        A fraction in (0, 0.5): report ``"mixed"`` when compact and elongated islands
+        each hold more than it of the islands' area; default None (never ``"mixed"``).
+    nonfinite : {"raise", "diverged"}, optional
+        What a field holding NaN or Inf gives; default ``"raise"``.
+    members : bool or None, optional
+        True: ``field`` is a stack ``[M, *shape]``; False: one field; default None
+        (a stack when ``domain`` is given and ``field.shape[1:]`` is its
+        ``kernel_shape``).
+    lone : float, optional
+        A connected phase covering less than this share of the points counts as
+        islands; default 0.25.
+
+    Returns
+    -------
+    str or list of str
+        The class, or one class per member of a stack.
+
+    Raises
+    ------
+    ValueError
+        ``nonfinite`` not ``"raise"`` or ``"diverged"``, ``mixed`` outside (0, 0.5), a
+        field with NaN or Inf under ``nonfinite="raise"``, or ``members=True`` with a
+        field of fewer than 2 dimensions.
     """
     if nonfinite not in ("raise", "diverged"):
         raise ValueError(f"nonfinite must be 'raise' or 'diverged', got {nonfinite!r}")

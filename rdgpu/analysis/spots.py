@@ -22,14 +22,28 @@ __all__ = ["SpotStatistics", "spot_statistics", "stripe_orientation"]
 class SpotStatistics:
     """The spots of a field (`spot_statistics`), largest first.
 
-    ``count``: how many spots; ``areas``: each spot's area (surface area on a
-    `GraphSurface`, ``cells · dx · dy`` on a flat grid; units of
-    ``dx²``); ``size_spread``: the coefficient of variation ``std/mean`` of ``areas``
-    (population std; 0 for one spot, NaN for none); ``elongations``: each spot's ratio
-    ``a/b ≥ 1`` of its principal axes; ``elongation``: their mean (NaN for no spot);
-    ``centroids``: each spot's centre ``(x, y)`` in ``[0, Lx) × [0, Ly)``;
-    ``threshold``: the level that separated spots from background; ``high``: whether spots
-    were the values above it."""
+    Attributes
+    ----------
+    count : int
+        How many spots.
+    areas : ndarray
+        float64, shape ``(count,)``: each spot's area (surface area on a `GraphSurface`,
+        ``cells · dx · dy`` on a flat grid; units of ``dx²``).
+    size_spread : float
+        The coefficient of variation ``std/mean`` of ``areas`` (population std; 0 for one
+        spot, NaN for none).
+    elongations : ndarray
+        float64, shape ``(count,)``: each spot's ratio ``a/b ≥ 1`` of its principal axes.
+    elongation : float
+        Their mean (NaN for no spot).
+    centroids : ndarray
+        float64, shape ``(count, 2)``: each spot's centre ``(x, y)`` in
+        ``[0, Lx) × [0, Ly)`` (length units).
+    threshold : float
+        The level that separated spots from background.
+    high : bool
+        Whether spots were the values above it.
+    """
 
     count: int
     areas: np.ndarray
@@ -105,7 +119,38 @@ def spot_statistics(
     area-weighted second moment about its centroid: of the positions ``(x, y)`` (unwrapped
     across periodic seams), and on a surface of ``(x, y, h)``, its two largest eigenvalues.
     Each cell counts as a uniform ``dx × dy`` square (adding ``dx²/12``, ``dy²/12``), so a
-    one-cell spot on a square grid and a disc both give 1, an ellipse its axis ratio."""
+    one-cell spot on a square grid and a disc both give 1, an ellipse its axis ratio.
+
+    Parameters
+    ----------
+    field : array
+        The field ``[ny, nx]`` (a device array with ``numpy()`` is downloaded; read as
+        float64); finite.
+    domain : Grid or GraphSurface, optional
+        A 2-D domain of the field's shape (its spacings, periodic axes and, on a graph
+        surface, its area weights and heights); default None (a non-periodic grid,
+        ``dx = dy = 1``).
+    threshold : float or None, optional
+        The level separating spots from the background; default None (the midrange).
+    high : bool or None, optional
+        True: spots are the cells above ``threshold``; False: those at or below it;
+        default None (the high phase if it covers at most half of the cells, else the
+        low one).
+    min_cells : int, optional
+        Regions of fewer cells are ignored (>= 1); default 1.
+
+    Returns
+    -------
+    SpotStatistics
+        The spots, largest first.
+
+    Raises
+    ------
+    ValueError
+        A field that is not a non-empty 2-D array or holds NaN or Inf, or a domain that is
+        not a 2-D `Grid` or `GraphSurface` or not of the field's shape, or
+        ``min_cells < 1``.
+    """
     f = _field_2d(field)
     area, dx, dy, px, py, height = _surface_frame(domain, f.shape)
     if int(min_cells) < 1:
@@ -185,7 +230,29 @@ def stripe_orientation(field: Any, domain: Domain | None = None) -> tuple[float,
     the stripes' direction (normal + π/2) in radians from the x axis towards y, in
     ``[0, π)``; ``coherence = (λ1 − λ2)/(λ1 + λ2)`` in ``[0, 1]``: 1 for perfectly parallel
     stripes, near 0 for isotropic fields (spots on a square lattice, labyrinths, noise).
-    A constant field has no direction: ``(nan, 0.0)``."""
+    A constant field has no direction: ``(nan, 0.0)``.
+
+    Parameters
+    ----------
+    field : array
+        The field ``[ny, nx]`` (a device array with ``numpy()`` is downloaded; read as
+        float64); finite.
+    domain : Grid or GraphSurface, optional
+        A 2-D domain of the field's shape (its spacings, periodic axes and, on a graph
+        surface, its area weights and heights); default None (a non-periodic grid,
+        ``dx = dy = 1``).
+
+    Returns
+    -------
+    tuple of float
+        ``(angle, coherence)``: radians in ``[0, π)`` and a number in ``[0, 1]``.
+
+    Raises
+    ------
+    ValueError
+        A field that is not a non-empty 2-D array or holds NaN or Inf, or a domain that is
+        not a 2-D `Grid` or `GraphSurface` or not of the field's shape.
+    """
     f = _field_2d(field)
     area, dx, dy, px, py, _ = _surface_frame(domain, f.shape)
     gx, gy = _periodic_gradients(f, dx, dy, px, py)

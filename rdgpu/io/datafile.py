@@ -36,7 +36,28 @@ _META = {"species": list, "step": int, "time": (int, float), "dt": (int, float),
 def save_npz(path: Any, result: Any) -> Path:
     """One data file for a run, written atomically (temporary file, fsync, rename) to
     ``path`` (``.npz``); see the module docstring for its contents.  The earlier order
-    ``save_npz(result, path)`` still works, with a ``DeprecationWarning``."""
+    ``save_npz(result, path)`` still works, with a ``DeprecationWarning``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The data file, ending in ``.npz``; a missing folder is created, an existing
+        regular file replaced.
+    result : Result
+        A run's result (`rdgpu.simulation.Simulation.run`, `load_npz`).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``path`` is not a ``str`` or ``os.PathLike``.
+    ValueError
+        ``path`` does not end in ``.npz`` or cannot be written.
+    """
     if earlier_order("save_npz", path, "save_npz(path, result)"):
         path, result = result, path
     path = check_writable(path, "the data file")
@@ -91,7 +112,25 @@ def _json(arrays: dict, key: str, bad: str) -> Any:
 def load_npz(path: str | os.PathLike) -> Any:
     """Read a `save_npz` file back into a `Result`; a
     ``ValueError`` naming the file says what is wrong with one that is missing, empty,
-    damaged, a checkpoint or not rdgpu's."""
+    damaged, a checkpoint or not rdgpu's.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The data file.
+
+    Returns
+    -------
+    Result
+        The run as `save_npz` wrote it: final fields, snapshots, times, parameters
+        (field-valued ones as arrays), the rebuilt domain and the metadata.
+
+    Raises
+    ------
+    ValueError
+        The file is missing, unreadable, empty or damaged, is a checkpoint, is of another
+        format, or lacks an array or metadata entry a data file holds.
+    """
     path = Path(path)
     name = repr(str(path))
     meta, arrays = read_archive(path, "data file")

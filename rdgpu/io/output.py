@@ -136,7 +136,55 @@ def save_png(
     mid-planes side by side, ``scale`` pixels a cell (`slices_rgb`); ``"auto"``
     (default) -- the isosurface, except the slices where it would show nothing or cannot be
     drawn: pyvista missing, a side of fewer than 2 cells, a field that does not reach the
-    level (e.g. uniform), or a failed rendering (with a ``RuntimeWarning``)."""
+    level (e.g. uniform), or a failed rendering (with a ``RuntimeWarning``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PNG file: a missing folder is created, an existing regular file replaced,
+        anything else refused.
+    field : array
+        A grid field ``[ny, nx]`` or ``[nx]`` (or flat, as many values as the grid's
+        cells), one value per vertex on a mesh, ``[nz, ny, nx]`` on a 3-D grid.
+    domain : Domain, optional
+        The `Grid`, `GraphSurface` (pictured as its grid) or `SurfaceMesh` the field
+        lives on; default None (a 2-D array is a grid picture, a 1-D one a single row, a
+        3-D one a 3-D grid of spacing 1).
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    vmin, vmax : float, optional
+        The colour range (on a 1-D grid, the plot's y limits); default None (the
+        finite values' range; a field uniform to round-off is drawn in one flat colour).
+    scale : int, optional
+        Pixels per cell along each side of a grid picture or of the slices; default 1.
+    camera : str, sequence or dict, optional
+        The view of a pyvista rendering (a mesh, a 3-D isosurface), as `render_mesh`
+        takes it; default None (the isometric view).
+    window_size : tuple of int, optional
+        ``(width, height)`` in pixels of a pyvista rendering; default ``(800, 800)``.
+    view : {"auto", "isosurface", "slices"}, optional
+        How a 3-D grid field is pictured (`VIEWS_3D`); default ``"auto"``.
+    level : float, optional
+        The isosurface's value; default None (the middle of the colour range).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``path`` that is not a ``str`` or ``os.PathLike``.
+    ValueError
+        A path that cannot be written (a folder, an empty name...), a grid field that is
+        not 1- or 2-D, a 3-D field not of the grid's shape, an unknown ``view``, or
+        ``view="isosurface"`` with fewer than 2 cells along an axis.
+    MissingExtraError
+        imageio, Matplotlib or (meshes, isosurfaces) pyvista is not installed.
+    RuntimeError
+        A pyvista rendering failed (``view="auto"`` draws slices instead).
+    """
     path = check_writable(path, "the picture")
     field, vmin, vmax = flat_field(np.asarray(field), vmin, vmax)
     if is_volume(field, domain):
@@ -205,7 +253,53 @@ def save_movie(
     on a 3-D grid, pictured as `save_png` does by ``view`` and ``level``, one
     renderer and one camera for all frames; ``"auto"`` takes the isosurface when some frame
     reaches the level) with one colour scale (``vmin``/``vmax``, default the range over
-    all frames).  MP4 needs ``imageio-ffmpeg`` (H.264, frames padded to even sizes)."""
+    all frames).  MP4 needs ``imageio-ffmpeg`` (H.264, frames padded to even sizes).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The movie file, ``.gif`` or ``.mp4``.
+    frames : array or sequence of arrays
+        ``[n, *field]``: the frames, each a field as `save_png` takes it (``n >= 1``).
+    domain : Domain, optional
+        As in `save_png`; default None.
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    vmin, vmax : float, optional
+        The colour range; default None (the range over all frames; a field uniform to
+        round-off is drawn in one flat colour).
+    fps : float, optional
+        Frames per second, within `FPS_RANGE`; default 10.
+    scale : int, optional
+        Pixels per cell along each side of a grid picture or of the slices; default 1.
+    camera : str, sequence or dict, optional
+        The view of a pyvista rendering (a mesh, a 3-D isosurface), as `render_mesh`
+        takes it; default None (the isometric view).
+    window_size : tuple of int, optional
+        ``(width, height)`` in pixels of a pyvista rendering; default ``(480, 480)``.
+    view : {"auto", "isosurface", "slices"}, optional
+        How 3-D grid frames are pictured; default ``"auto"``.
+    level : float, optional
+        The isosurface's value; default None (the middle of the colour range).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``path`` that is not a path, or ``fps`` that is not a number.
+    ValueError
+        A path that cannot be written or not ``.gif``/``.mp4``, ``fps`` outside
+        `FPS_RANGE`, no frames, or frames `save_png` would refuse.
+    MissingExtraError
+        imageio (MP4: ``imageio-ffmpeg``), Matplotlib or (meshes, isosurfaces) pyvista
+        is not installed.
+    RuntimeError
+        A pyvista rendering failed (``view="auto"`` draws slices instead).
+    """
     path = check_writable(path, "the movie")
     ext = path.suffix.lower()
     if ext not in MOVIE_FORMATS:
@@ -251,7 +345,30 @@ def save_mesh(path: PathLike, mesh: SurfaceMesh,
               fields: Mapping[str, np.ndarray] | None = None) -> Path:
     """Write ``mesh`` with per-vertex ``fields`` attached (`MESH_FORMATS`; see
     ``SurfaceMesh.save``), atomically except XDMF (whose data goes to a ``.h5`` beside
-    it).  The earlier order ``(mesh, path, fields)`` works, deprecated."""
+    it).  The earlier order ``(mesh, path, fields)`` works, deprecated.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension (one of `MESH_FORMATS`) picks the format.
+    mesh : SurfaceMesh
+        The mesh.
+    fields : mapping of str to array, optional
+        Per-vertex fields by name; default None (the mesh alone).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``path`` that is not a ``str`` or ``os.PathLike``.
+    ValueError
+        A path that cannot be written or of another extension, or ``mesh`` that is not a
+        mesh (a grid).
+    """
     if earlier_order("save_mesh", path, "save_mesh(path, mesh, fields)"):
         path, mesh = mesh, path
     path = check_writable(path, "the mesh file")
@@ -277,7 +394,28 @@ def ensemble_mosaic(fields: np.ndarray, columns: int | None = None, gap: int = 1
     """One 2-D picture of an ensemble's fields ``[M, ny, nx]`` (2-D grids) or ``[M, 1, nx]``
     / ``[M, nx]`` (1-D grids: one row per member, top to bottom).  2-D members are tiled
     row by row, member 0 at the top left, ``columns`` a row (default: about √M), separated
-    by ``gap`` cells of NaN (drawn black)."""
+    by ``gap`` cells of NaN (drawn black).
+
+    Parameters
+    ----------
+    fields : array
+        ``[M, ny, nx]``, ``[M, 1, nx]`` or ``[M, nx]``: one field per member.
+    columns : int, optional
+        Members per row of the mosaic (2-D grids); default None (``ceil(√M)``).
+    gap : int, optional
+        Cells between neighbouring members (2-D grids); default 1.
+
+    Returns
+    -------
+    ndarray
+        float64, 2-D: ``[M, nx]`` for 1-D grids; for 2-D grids ``rows (ny + gap) − gap``
+        by ``columns (nx + gap) − gap``, NaN in the gaps and unused tiles.
+
+    Raises
+    ------
+    ValueError
+        ``fields`` of another number of dimensions.
+    """
     a = np.asarray(fields, dtype=np.float64)
     if a.ndim == 3 and a.shape[1] == 1:
         a = a[:, 0, :]
@@ -344,7 +482,58 @@ def write_outputs(
     ``.vtk``/``.vtp``/``.vtu``/``.ply`` meshes with every final field).  ``field`` defaults
     to the first species; ``vmin``/``vmax`` fix the colour scale (default: the field's
     range); ``view`` and ``level`` say how a 3-D grid field is pictured (see
-    `save_png`)."""
+    `save_png`).
+
+    Every path and ``fps`` are checked before anything is written.  An ensemble's
+    result (``result.members`` set) is pictured as one mosaic of its members
+    (`ensemble_mosaic`) on 1-D and 2-D grids, and as one picture per member
+    (``NAME-m0000.png``, ...) on meshes and 3-D grids, where it has no movie.
+
+    Parameters
+    ----------
+    result : Result
+        A run's result (`rdgpu.simulation.Simulation.run`, `load_npz`).
+    png : str or os.PathLike, optional
+        The picture of the final ``field`` (`save_png`); default None (none).
+    movie : str or os.PathLike, optional
+        The ``.gif``/``.mp4`` of ``field``'s snapshots (`save_movie`); default None.
+    data : str, os.PathLike or a sequence of them, optional
+        Data files: ``.npz`` (`save_npz`) or mesh files of `MESH_FORMATS` with every final
+        field (`save_mesh`); default None.
+    field : str, optional
+        The species pictured; default None (the first).
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    scale : int, optional
+        Pixels per cell along each side of grid pictures; default 1.
+    fps : float, optional
+        The movie's frames per second (`FPS_RANGE`); default 10.
+    camera : str, sequence or dict, optional
+        The view of a pyvista rendering (a mesh, a 3-D isosurface), as `render_mesh`
+        takes it; default None (the isometric view).
+    vmin, vmax : float, optional
+        The colour range; default None (the field's finite range; a field uniform to
+        round-off is drawn in one flat colour).
+    view : {"auto", "isosurface", "slices"}, optional
+        How a 3-D grid field is pictured; default ``"auto"``.
+    level : float, optional
+        The isosurface's value; default None (the middle of the colour range).
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order picture, movie, data files.
+
+    Raises
+    ------
+    TypeError
+        A path that is not a ``str`` or ``os.PathLike``, or ``fps`` that is not a number
+        (with a movie).
+    ValueError
+        A ``field`` the result does not have, a path that cannot be written, ``fps``
+        outside `FPS_RANGE` (with a movie), a data file of another extension, a movie of
+        an ensemble on a mesh or a 3-D grid, or what the writers refuse.
+    """
     species = list(result.fields)
     name = species[0] if field is None else field
     if name not in result.fields:

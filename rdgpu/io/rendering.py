@@ -287,7 +287,49 @@ def render_mesh(
     ``camera``: ``None`` (isometric view, zoomed 1.3), a pyvista view name (``"xy"``,
     ``"iso"``, ...), a ``[position, focal_point, viewup]`` triple, or a dict with any of
     ``position``, ``focal_point``, ``viewup``, ``azimuth``, ``elevation``, ``roll``
-    (degrees, added to the isometric view) and ``zoom``."""
+    (degrees, added to the isometric view) and ``zoom``.
+
+    Parameters
+    ----------
+    mesh : SurfaceMesh
+        The mesh (a periodic one is drawn unwrapped at its seams).
+    field : array
+        One value per vertex (any shape of that many values).
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    camera : str, sequence or dict, optional
+        ``None`` (default: the isometric view, zoomed 1.3), a pyvista view name
+        (``"xy"``, ``"iso"``, ...), a ``[position, focal_point, viewup]`` triple, or a
+        dict (see above).
+    vmin, vmax : float, optional
+        The colour range; default None (the field's finite range; a field uniform to
+        round-off is drawn in one flat colour).
+    window_size : tuple of int, optional
+        ``(width, height)`` in pixels; default ``(800, 800)``.
+    background : str, optional
+        The background colour (a pyvista colour name); default ``"white"``.
+    show_edges : bool, optional
+        Draw the triangles' edges; default False.
+    scalar_bar : bool, optional
+        Draw the colour bar; default False.
+    smooth : bool, optional
+        Interpolated colours with smooth shading (True, default) or flat faces (False).
+
+    Returns
+    -------
+    ndarray
+        uint8, shape ``(h, w, 3)``.
+
+    Raises
+    ------
+    ValueError
+        A field without one value per vertex.
+    MissingExtraError
+        pyvista is not installed.
+    RuntimeError
+        The rendering failed, a camera dict with other keys included (the message ends
+        with the rendering process's last error line).
+    """
     field, vmin, vmax = flat_field(np.asarray(field, dtype=np.float64).ravel(), vmin, vmax)
     options = render_options(field, cmap=cmap, camera=camera, vmin=vmin, vmax=vmax,
                               window_size=window_size, background=background,
@@ -298,7 +340,40 @@ def render_mesh(
 def render_mesh_png(path: PathLike, field: np.ndarray, mesh: SurfaceMesh, *, cmap: str = "viridis",
                     camera: Any = None, **kwargs: Any) -> Path:
     """Write `render_mesh` of ``field`` on ``mesh`` to the PNG ``path`` (the earlier
-    order ``(mesh, field, path)`` works, deprecated)."""
+    order ``(mesh, field, path)`` works, deprecated).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PNG file; a missing folder is created, an existing regular file replaced.
+    field : array
+        One value per vertex.
+    mesh : SurfaceMesh
+        The mesh.
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    camera : str, sequence or dict, optional
+        As `render_mesh` takes it; default None (the isometric view).
+    **kwargs
+        The other options of `render_mesh` (``vmin``, ``vmax``, ``window_size``,
+        ``background``, ``show_edges``, ``scalar_bar``, ``smooth``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``path`` is not a ``str`` or ``os.PathLike``.
+    ValueError
+        ``path`` cannot be written, or what `render_mesh` refuses.
+    MissingExtraError
+        pyvista or imageio is not installed.
+    RuntimeError
+        The rendering failed (a camera dict with other keys included).
+    """
     if earlier_order("render_mesh_png", path, "render_mesh_png(path, field, mesh)"):
         path, mesh = mesh, path
     path = check_writable(path, "the picture")
@@ -311,7 +386,22 @@ def surface_mesh(surface: GraphSurface, warp_scale: float = 1.0) -> tuple[np.nda
     """``(vertices, faces)`` of a graph surface drawn as ``z = warp_scale · h``: its cell
     centres ``(x, y) = ((j + ½) dx, (i + ½) dy)`` over one period, the first row and
     column repeated one period on (so the picture closes up), as the structured grid of
-    ``[ny + 1, nx + 1]`` points (C order) cut into two triangles per quad."""
+    ``[ny + 1, nx + 1]`` points (C order) cut into two triangles per quad.
+
+    Parameters
+    ----------
+    surface : GraphSurface
+        The graph surface (its ``shape``, ``dx``, ``dy`` and ``height``).
+    warp_scale : float, optional
+        The factor on the heights; default 1 (0 draws the flat parameter domain).
+
+    Returns
+    -------
+    vertices : ndarray
+        float64, shape ``((ny + 1)(nx + 1), 3)``.
+    faces : ndarray
+        int64, shape ``(2 ny nx, 3)``: vertex indices of each triangle.
+    """
     ny, nx = surface.shape
     x = (np.arange(nx + 1) + 0.5) * surface.dx
     y = (np.arange(ny + 1) + 0.5) * surface.dy
@@ -347,7 +437,49 @@ def render_surface(
     the field as point data of `surface_mesh`, rendered as a mesh is
     (`render_mesh`: pyvista, off-screen in a child process, smooth shading).
     ``camera`` as in `render_mesh`; ``vmin``/``vmax`` fix the colour scale.  The
-    earlier order ``(surface, field, path)`` works, deprecated."""
+    earlier order ``(surface, field, path)`` works, deprecated.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PNG file; a missing folder is created, an existing regular file replaced.
+    field : array
+        ``[ny, nx]``, the surface's grid shape (a device array with ``numpy()`` is
+        downloaded).
+    surface : GraphSurface
+        The surface.
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    warp_scale : float, optional
+        The factor on the heights (finite); default 1.
+    camera : str, sequence or dict, optional
+        As `render_mesh` takes it; default None (the isometric view).
+    vmin, vmax : float, optional
+        The colour range; default None (the field's finite range; a field uniform to
+        round-off is drawn in one flat colour).
+    window_size : tuple of int, optional
+        ``(width, height)`` in pixels; default ``(800, 800)``.
+    background : str, optional
+        The background colour; default ``"white"``.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``path`` is not a ``str`` or ``os.PathLike``, or ``surface`` is not a
+        `GraphSurface`.
+    ValueError
+        ``path`` cannot be written, a field not of the surface's shape, or a
+        ``warp_scale`` that is not finite.
+    MissingExtraError
+        pyvista or imageio is not installed.
+    RuntimeError
+        The rendering failed (a camera dict with other keys included).
+    """
     if earlier_order("render_surface", path, "render_surface(path, field, surface)"):
         path, surface = surface, path
     path = check_writable(path, "the picture")

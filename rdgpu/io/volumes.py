@@ -54,7 +54,20 @@ def _spacing(domain: Domain | None) -> tuple[float, float, float]:
 
 def slices_size(shape: Sequence[int], scale: int = 1) -> tuple[int, int]:
     """``(height, width)`` in pixels of `slices_rgb` of a field of ``shape``
-    ``(nz, ny, nx)``."""
+    ``(nz, ny, nx)``.
+
+    Parameters
+    ----------
+    shape : sequence of int
+        ``(nz, ny, nx)``.
+    scale : int, optional
+        Pixels per cell along each side; default 1.
+
+    Returns
+    -------
+    tuple of int
+        ``(max(ny, nz) scale, (2 nx + ny) scale + 4 scale)``.
+    """
     nz, ny, nx = (int(n) for n in shape)
     gap = 2 * scale
     return max(ny, nz) * scale, (nx + nx + ny) * scale + 2 * gap
@@ -70,7 +83,30 @@ def slices_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = No
     that plane), the xz plane at ``y = ny // 2`` (rows z, columns x) and the yz plane at
     ``x = nx // 2`` (rows z, columns y); row 0 at the top, each cell ``scale``×``scale``
     pixels, panels top-aligned with white gaps of ``2 scale`` pixels and white below the
-    shorter ones."""
+    shorter ones.
+
+    Parameters
+    ----------
+    field : array
+        ``[nz, ny, nx]``.
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    vmin, vmax : float, optional
+        The colour range; default None (the field's finite range; a field uniform to
+        round-off is drawn in one flat colour).
+    scale : int, optional
+        Pixels per cell along each side; default 1.
+
+    Returns
+    -------
+    ndarray
+        uint8, shape ``slices_size(field.shape, scale) + (3,)``.
+
+    Raises
+    ------
+    ValueError
+        ``field`` is not 3-D.
+    """
     a = np.asarray(field, dtype=np.float64)
     if a.ndim != 3:
         raise ValueError(f"slices need a 3-D field [nz, ny, nx], got shape {a.shape}")
@@ -114,7 +150,43 @@ def render_volume(
     field's range); the surface takes the colour map's colour at ``level``, inside the
     grid's grey outline.  ``camera`` as in `rdgpu.io.rendering.render_mesh`
     (default: the isometric view).  Rendered in a child process (see
-    `rdgpu.io.rendering.render_offscreen`)."""
+    `rdgpu.io.rendering.render_offscreen`).
+
+    Parameters
+    ----------
+    field : array
+        ``[nz, ny, nx]`` (or flat, as many values as the grid's cells, with a grid).
+    grid : Grid, optional
+        The 3-D grid (its spacings); default None (spacing 1).
+    level : float, optional
+        The isosurface's value; default None (the middle of the colour range).
+    cmap : str, optional
+        A Matplotlib colour map name; default ``"viridis"``.
+    camera : str, sequence or dict, optional
+        As `rdgpu.io.rendering.render_mesh` takes it; default None.
+    vmin, vmax : float, optional
+        The colour range; default None (the field's finite range; a field uniform to
+        round-off is drawn in one flat colour).
+    window_size : tuple of int, optional
+        ``(width, height)`` in pixels; default ``(800, 800)``.
+    background : str, optional
+        The background colour; default ``"white"``.
+
+    Returns
+    -------
+    ndarray
+        uint8, shape ``(h, w, 3)``.
+
+    Raises
+    ------
+    ValueError
+        A field not of the grid's shape (or not 3-D), or fewer than 2 cells along an
+        axis.
+    MissingExtraError
+        pyvista is not installed.
+    RuntimeError
+        The rendering failed (a camera dict with other keys included).
+    """
     frames, vmin, vmax = flat_field(volume_frames(np.asarray(field)[None], grid), vmin, vmax)
     lo, hi = colour_limits(frames, vmin, vmax)
     return _render_volume(frames, grid, _iso_level(level, lo, hi), cmap=cmap, clim=(lo, hi),

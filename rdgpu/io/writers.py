@@ -41,7 +41,25 @@ FPS_RANGE = (0.01, 100.0)
 
 def check_fps(fps: Any) -> float:
     """``fps`` as a float, or a ``TypeError``/``ValueError`` naming ``fps`` and the allowed
-    range `FPS_RANGE` (a number, not a bool or a string)."""
+    range `FPS_RANGE` (a number, not a bool or a string).
+
+    Parameters
+    ----------
+    fps : float
+        A movie's frames per second.
+
+    Returns
+    -------
+    float
+        ``fps``.
+
+    Raises
+    ------
+    TypeError
+        ``fps`` is not a real number (or is a bool).
+    ValueError
+        ``fps`` is not finite or is outside `FPS_RANGE`.
+    """
     lo, hi = FPS_RANGE
     allowed = f"a number of frames per second from {lo:g} to {hi:g}"
     if isinstance(fps, (bool, np.bool_)) or not isinstance(fps, numbers.Real):

@@ -55,8 +55,9 @@ class AllenCahn(Model):
     ``method="explicit"``: forward-Euler diffusion (one Laplacian + the pointwise kernel),
     stable for ``dt ≤ dx²/4`` on a square grid (``1/(2 Σ 1/h²)`` over its axes) or
     ``mesh.max_stable_dt(1)`` on a mesh.  ``method="implicit"`` (backward Euler) or
-    ``"crank-nicolson"``: θ-scheme diffusion solved by multicolour SOR on the device
-    (`rdgpu.ops.implicit.ImplicitDiffusion`; unconditionally stable).  ``eps`` must be
+    ``"crank-nicolson"``: θ-scheme diffusion solved by `rdgpu.ops.implicit.ImplicitDiffusion`
+    (fast transforms on a grid, multicolour SOR on the device on a mesh; unconditionally
+    stable).  ``eps`` must be
     a number; ``b`` may be a field.  The equation itself is the model's definition (for
     `rdgpu.analysis` and py-pde); only the stepping is special.
     """
@@ -68,7 +69,7 @@ class AllenCahn(Model):
     #: interfaces pinned by the discretisation, the regime of Dascal et al. where b ≠ 0 gives
     #: spots (b < 0) or inverted spots (b > 0) that do not shrink away because they cannot
     #: move; the presets use 0.15 (global) and 0.3 (localized).  With the interface resolved
-    #: (ε ≥ 0.5 h) every b ≠ 0 goes uniform within ~70 ε² (docs/seed000.md)
+    #: (ε ≥ 0.5 h) every b ≠ 0 goes uniform (how fast: docs/seed000.md)
     eps_per_spacing = 0.3
 
     def __init__(self) -> None:
@@ -147,10 +148,25 @@ class AllenCahn(Model):
         step (to round-off) at ``dt ≤ dt_limit/2`` when the interface is resolved (ε ≳ the
         spacing).  With ε well below the spacing (the pinned regime of the sphere presets)
         the split step can raise J slightly near its discrete equilibrium: a splitting
-        error that falls faster than dt (halving dt cut it 14× in tests/models/test_presets.py).
-        Measured at dt = ε²/2, as the largest one-step rise over J(0) = |Γ|/(4ε²): ≤ 1e-8
-        for the global sphere presets (ε = 0.15 h), ≤ 2e-7 for the localized ones
-        (ε = 0.3 h); use a smaller dt where a strictly monotone J matters."""
+        error that falls faster than dt (its size on the presets: docs/equations.md §2);
+        use a smaller dt where a strictly monotone J matters.
+
+        Parameters
+        ----------
+        domain : Domain
+            A grid (1-, 2- or 3-D, with its boundary conditions and spacings), a
+            `rdgpu.SurfaceMesh` or a graph surface.
+        u : array
+            The field: the grid's shape (or any array of as many values), one value per
+            vertex on a mesh or a graph surface; a `DeviceArray` is downloaded first.
+        params : mapping, optional
+            ``b`` (a number or a field like ``u``) and ``eps`` (a number); default
+            ``b = 0``, ``eps = 1``.
+
+        Returns
+        -------
+        float
+            ``J(u)``, computed in float64."""
         p = {"b": 0.0, "eps": 1.0, **dict(params or {})}
         if isinstance(u, DeviceArray):
             u = u.numpy()
@@ -212,20 +228,23 @@ def allen_cahn(
         The interface width ε (length), > 0.
     dt : float
         The time step (time units).
-    b : float or array
-        A number or a field of u's shape.
-    steps : int
-        Steps to take.
-    method : {"explicit", "implicit", "crank-nicolson"}
+    b : float or array, optional
+        A number or a field of u's shape; default 0.
+    steps : int, optional
+        Steps to take (>= 0); default 1.
+    method : {"explicit", "implicit", "crank-nicolson"}, optional
         The diffusion step: ``"explicit"`` (limit ``1/(2(1/dx² + 1/dy²))`` on a grid,
         ``mesh.max_stable_dt(1)`` on a mesh), ``"implicit"`` (backward Euler) or
-        ``"crank-nicolson"`` (multicolour SOR on the device; any ``dt``).
+        ``"crank-nicolson"`` (solved by `rdgpu.ops.implicit.ImplicitDiffusion`: fast
+        transforms on a grid, multicolour SOR on a mesh; any ``dt``); default
+        ``"explicit"``.
     mesh : SurfaceMesh, optional
         A `rdgpu.SurfaceMesh` in place of ``dx``/``dy``/``bc``.
     dx, dy, bc
         As `rdgpu.laplacian` takes them.
-    check_stability : bool
-        ``"explicit"`` raises `rdgpu.StabilityError` above its limit unless ``False``.
+    check_stability : bool, optional
+        ``"explicit"`` raises `rdgpu.StabilityError` above its limit, and a non-finite
+        result raises, unless ``False``; default ``True``.
     backend : str or Backend, optional
         As `rdgpu.get_backend` takes it.
     out : array, optional
@@ -240,9 +259,13 @@ def allen_cahn(
     Raises
     ------
     ValueError
-        ``eps`` so small that ``1/ε²`` overflows the dtype, or an unknown ``method``.
+        ``eps`` or ``dt`` not a finite number > 0, ``eps`` so small that ``1/ε²``
+        overflows the dtype, or an unknown ``method``.
     StabilityError
-        An explicit ``dt`` above the limit, or a state that is no longer finite.
+        An explicit ``dt`` above the limit (unless ``check_stability=False``).
+    FloatingPointError
+        A state that is no longer finite after the steps (unless
+        ``check_stability=False``).
     """
     field, domain = grid_or_mesh(u, mesh, dx, dy, bc, be=get_backend(backend))
     eps = check.scalar(eps, "eps", strict=True)

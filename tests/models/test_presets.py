@@ -287,7 +287,7 @@ def _energy_increases(name, *, dt_factor=1.0, steps=None):
     return np.diff(J), J, mesh.total_area / (4 * eps**2), sim
 
 
-# AllenCahn.energy documents a splitting error of ~1e-8 relative in this regime (ε = 0.15
+# docs/equations.md §2 documents a splitting error of ~1e-8 relative in this regime (ε = 0.15
 # mean edge, dt = ε²/2); measured per-step rises, in units of J(0): spots 9.9e-9, inverted
 # spots 8.5e-9, stripes 6.8e-11.  The bound below is the documented ~1e-8 with a factor 2.
 SPLITTING_TOL = 2e-8
