@@ -87,7 +87,7 @@ class AllenCahnStepper(FieldStepper):
 def _implicit_solver(domain, backend, dtype, dt, method):
     """The θ-step solver of ``ū_t = Δū + s``: ``(I − θ dt L) out = u + (1 − θ) dt L u +
     dt s`` with the θ of `METHODS`' scheme (backward Euler for ``"implicit"``, ½ for
-    ``"crank-nicolson"``), by multicolour SOR on the device
-    (`rdgpu.ops.implicit.ImplicitDiffusion`; red-black on a grid)."""
+    ``"crank-nicolson"``), by `rdgpu.ops.implicit.ImplicitDiffusion`: directly by fast
+    transforms on a rectangular grid, by multicolour SOR on the device elsewhere."""
     theta = get_scheme(METHODS[method]).theta
     return ImplicitDiffusion(domain, D=1.0, dt=dt, theta=theta, backend=backend, dtype=dtype)
