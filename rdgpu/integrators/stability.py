@@ -47,7 +47,7 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
         for m in ms:
             A = -m * D + m * m * B
             exact = np.max(np.linalg.eigvals(A).real)
-            G = _amplification(D, B, m, h, scheme)
+            G = _amplification(D, B, m, h, scheme, m_max)
             rho = np.max(np.abs(np.linalg.eigvals(G)))
             if exact <= 0 and rho > 1.0 + 1e-9:
                 return False
@@ -73,9 +73,34 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
     return lo
 
 
-def implicit_factors(alpha: float, beta: float, h: float, theta: float) -> tuple[float, float]:
-    """``(a₁, a₂)`` of ``P = (I − a₁Δ)(I − a₂Δ)`` (module doc)."""
+#: a species' own diffusion ``α Δs`` stays explicit in a one-step IMEX step while
+#: ``h α m_max <=`` this (forward Euler's limit is 2: half of it, a margin for the reaction
+#: terms stepped with it)
+EXPLICIT_DIFFUSION = 1.0
+
+
+def implicit_factors(alpha: float, beta: float, h: float, theta: float,
+                     m_max: float | None = None) -> tuple[float, float]:
+    """``(a₁, a₂)`` of ``P = (I − a₁Δ)(I − a₂Δ)`` (module doc of
+    `rdgpu.integrators.stepper`).
+
+    Parameters
+    ----------
+    alpha, beta : float
+        The species' own coefficients of ``Δs`` and ``Δ²s`` (``beta <= 0``).
+    h : float
+        The step the implicit operator is for.
+    theta : float
+        The θ of the scheme (1 backward Euler, ½ Crank-Nicolson).
+    m_max : float or None
+        The largest eigenvalue of ``−Δ`` on the domain, given for one-step schemes: a
+        diffusion without a bilaplacian that forward Euler steps with a margin (``h α
+        m_max <=`` `EXPLICIT_DIFFUSION`) stays explicit, ``(0, 0)``, and costs no solve.
+        ``None`` (SBDF2): every species' own linear part is implicit.
+    """
     if beta == 0.0:
+        if m_max is not None and h * alpha * m_max <= EXPLICIT_DIFFUSION:
+            return 0.0, 0.0
         return max(theta * h * alpha, 0.0), 0.0
     prod = -h * beta
     total = max(2.0 * math.sqrt(prod), theta * h * alpha)
@@ -84,14 +109,14 @@ def implicit_factors(alpha: float, beta: float, h: float, theta: float) -> tuple
 
 
 def _amplification(D: np.ndarray, B: np.ndarray, m: float, h: float,
-                   scheme: ImexScheme) -> np.ndarray:
+                   scheme: ImexScheme, m_max: float) -> np.ndarray:
     """The matrix that advances a Fourier mode (``−Δ`` eigenvalue ``m``) by one step of
     an implicit ``scheme``: ``n × n`` for a one-step IMEX scheme, the ``2n × 2n``
     companion matrix of BDF2's recursion ``P x' = (4/3 + 2h'E) x − (1/3 + h'E) x₋``
     (``h' = 2h/3``, ``P`` the implicit factors' symbol per species, ``E = A(m) + (P −
     I)/h'`` the explicit linear part)."""
     if scheme.steps == 1:
-        return _imex_amplification(D, B, m, h, scheme.theta)
+        return _imex_amplification(D, B, m, h, scheme.theta, m_max)
     n = D.shape[0]
     hb = 2.0 * h / 3.0
     p = np.empty(n)
@@ -106,11 +131,11 @@ def _amplification(D: np.ndarray, B: np.ndarray, m: float, h: float,
     return G
 
 
-def _imex_amplification(D, B, m, h, theta):
+def _imex_amplification(D, B, m, h, theta, m_max):
     """IMEX's ``G = I + h P⁻¹ A(m)``: the scheme is ``P (x' − x) = h f(x)`` (module doc)."""
     n = D.shape[0]
     p = np.empty(n)
     for i in range(n):
-        a1, a2 = implicit_factors(D[i, i], B[i, i], h, theta)
+        a1, a2 = implicit_factors(D[i, i], B[i, i], h, theta, m_max)
         p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
     return np.eye(n) + h * (-m * D + m * m * B) / p[:, None]
