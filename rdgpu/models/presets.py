@@ -108,7 +108,7 @@ class Preset:
             Seed of random parameter fields (default ``None``: the preset's ``seed``).
         **kwargs
             More keyword arguments of the model's ``stepper`` (`Model.stepper`), over the
-        preset's ``options``.
+            preset's ``options``.
 
         Returns
         -------
