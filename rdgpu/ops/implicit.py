@@ -1,6 +1,6 @@
 """Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
 device (equations §2, §4, §6), or on rectangular grids directly by fast transforms
-(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; the SOR path is described below).
+(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; for the SOR path see below).
 
 One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
 Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest
