@@ -71,10 +71,23 @@ SEED003_FRONT = TURING_FRONT
 class FrontResult:
     """What `front_growth` returns.
 
-    ``phi``: the final level-set function ``[ny, nx]``; ``mask``: the region ``φ < 0``
-    (bool); ``snapshots``: φ every ``snapshot_every`` steps (with ``snapshot_steps``);
-    ``fields``: the model's final fields; ``time``: the time the front moved (model time
-    units); ``substeps``: front substeps in all; ``max_speed``: the largest ``|β|`` seen."""
+    Attributes
+    ----------
+    phi : numpy.ndarray
+        The final level-set function ``[ny, nx]`` (the simulation's dtype), negative inside.
+    mask : numpy.ndarray
+        The region ``φ < 0`` (bool ``[ny, nx]``): the pattern.
+    snapshots, snapshot_steps : list of numpy.ndarray, list of int
+        φ every ``snapshot_every`` driver steps, and those steps.
+    fields : dict of str to numpy.ndarray
+        The model's final fields.
+    time : float
+        The time the front moved (model time units).
+    substeps : int
+        Front substeps in all.
+    max_speed : float
+        The largest ``|β|`` seen.
+    """
 
     phi: np.ndarray
     mask: np.ndarray
@@ -86,13 +99,31 @@ class FrontResult:
     max_speed: float = 0.0
 
     def save_png(self, path: str | Path, *, scale: int = 4) -> Path:
-        """Write the pattern (the region ``φ < 0``) as a PNG; see `save_pattern_png`."""
+        """Write the pattern (the region ``φ < 0``) as a PNG; see `save_pattern_png`.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The PNG file to write.
+        scale : int
+            Pixels per cell along each side (default 4).
+        """
         return save_pattern_png(path, self.mask, scale=scale)
 
 
 def save_pattern_png(path: str | Path, mask: np.ndarray, *, scale: int = 4) -> Path:
     """Write a pattern mask as a black (inside, ``True``) on white PNG, each cell
-    ``scale``×``scale`` pixels; returns the path."""
+    ``scale``×``scale`` pixels; returns the path.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The PNG file, written atomically (a path that is not a regular file is refused).
+    mask : array_like
+        A 2-D mask ``[ny, nx]`` (else a ValueError); ``True`` (nonzero) is inside.
+    scale : int
+        Pixels per cell along each side (default 4).
+    """
     m = np.asarray(mask)
     if m.ndim != 2:
         raise ValueError(f"a pattern image needs a 2-D mask, got shape {m.shape}")
@@ -102,7 +133,16 @@ def save_pattern_png(path: str | Path, mask: np.ndarray, *, scale: int = 4) -> P
 
 def circle_phi(grid: Grid, radius: float | None = None) -> np.ndarray:
     """Signed distance to a circle in the middle of ``grid`` (negative inside); the radius
-    defaults to a quarter of the shorter side.  Units: lengths of the grid."""
+    defaults to a quarter of the shorter side.  Units: lengths of the grid.
+
+    Parameters
+    ----------
+    grid : Grid
+        A 2-D grid: the distance is taken at its cell centres, a float64 ``[ny, nx]``.
+    radius : float, optional
+        The circle's radius in the grid's length units (default ``None``: a quarter of
+        the shorter side).
+    """
     y, x = grid.coordinates()
     ly, lx = grid.lengths
     r = min(lx, ly) / 4.0 if radius is None else float(radius)
@@ -192,7 +232,18 @@ class RDFront:
         return (a - t(self.a0)) * t(self.beta_scale)
 
     def substeps_for(self, max_speed: float) -> int:
-        """Front substeps of one model step ``dt`` at ``max|β| = max_speed`` (CFL)."""
+        """Front substeps of one model step ``dt`` at ``max|β| = max_speed`` (CFL).
+
+        Parameters
+        ----------
+        max_speed : float
+            ``max|β|`` (grid length per model time unit).
+
+        Raises
+        ------
+        StabilityError
+            ``dt`` breaks the CFL limit and ``substep`` is False.
+        """
         limit = levelset_dt_limit(max_speed, self.grid.dx, self.grid.dy)
         dt = self.sim.dt
         if dt <= limit:
@@ -207,7 +258,20 @@ class RDFront:
         return n if dt / n <= limit else n + 1  # n rounded down by one ulp
 
     def move(self, beta: np.ndarray) -> None:
-        """Move the front by one model step ``dt`` with the speed field ``beta``."""
+        """Move the front by one model step ``dt`` with the speed field ``beta``.
+
+        Parameters
+        ----------
+        beta : numpy.ndarray
+            The normal speed β ``[ny, nx]`` (as `beta` returns it), > 0 moving outward.
+
+        Raises
+        ------
+        FloatingPointError
+            ``beta`` is not finite.
+        StabilityError
+            As in `substeps_for`.
+        """
         be, g = self.backend, self.grid
         max_speed = float(np.max(np.abs(beta)))
         if not math.isfinite(max_speed):
@@ -250,7 +314,15 @@ class RDFront:
             self.reinit()
 
     def run(self, steps: int, *, snapshot_every: int = 0) -> FrontResult:
-        """``steps`` driver steps; φ is kept every ``snapshot_every`` steps (0: none)."""
+        """``steps`` driver steps; φ is kept every ``snapshot_every`` steps (0: none).
+
+        Parameters
+        ----------
+        steps : int
+            Driver steps, >= 0.
+        snapshot_every : int
+            Steps between the snapshots of φ, >= 0 (default 0: none).
+        """
         steps = check.steps(steps)
         every = check.steps(snapshot_every, "snapshot_every")
         if every:  # the snapshots of φ kept: the shared estimate, before the run
@@ -372,7 +444,17 @@ def turing_front(*, backend: Backend | str | None = None, steps: int | None = No
                  warmup: int | None = None, **overrides: Any) -> FrontResult:
     """`front_growth` with `TURING_FRONT` (overridable by keyword): Turing's
     spots formed first, then a front from a small circle driven by their Laplacian, which
-    fills the sea around the spots (seed 003 §4.2; ``seed003_front`` is an alias)."""
+    fills the sea around the spots (seed 003 §4.2; ``seed003_front`` is an alias).
+
+    Parameters
+    ----------
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it (default ``None``: the default backend).
+    steps, warmup : int, optional
+        Replace `TURING_FRONT`'s ``steps`` (1000) and ``warmup`` (8000) where given.
+    **overrides
+        Any other `front_growth` keyword, over `TURING_FRONT`.
+    """
     cfg = {**TURING_FRONT, **overrides}
     if steps is not None:
         cfg["steps"] = steps

@@ -101,16 +101,50 @@ def random_walk_dla(
 ) -> WalkDLAResult:
     """Grow a DLA cluster of ``particles`` cells from random walkers.
 
-    ``shape``: ``(ny, nx)`` cells. ``geometry``: ``"radial"`` (one seed cell in the centre,
-    walkers released on the lattice circle ``margin`` cells outside the cluster and
-    re-released beyond twice that radius or off the grid) or ``"slab"`` (``"seed001"`` too;
-    the seed is the bottom row 0, periodic in x, released on the row ``margin`` above the
-    highest cell and re-released above twice that height). ``sticking``: the probability in
-    (0, 1] that a walker next to the object joins it. ``walkers``: walkers in flight at once
-    (default ``min(particles, 256)``). ``max_steps``: swarm steps at most. ``batch``: steps
-    launched between two reads of the 4-integer state. The run stops when ``particles``
-    cells joined, the launch line/circle would leave the grid (``stopped == "edge"``), or
-    after ``max_steps``."""
+    The run stops when ``particles`` cells joined, the launch line/circle would leave the
+    grid (``stopped == "edge"``), or after ``max_steps``.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(ny, nx)`` cells: at least ``2 * margin + 3`` a side (``margin + 2`` rows for the
+        slab), fewer than 2**31 cells in all.
+    particles : int
+        Cells to add, from 1 to the empty cells of the grid (default 1000).
+    sticking : float
+        The probability in (0, 1] that a walker next to the object joins it (default 1).
+    geometry : {"radial", "slab"}
+        ``"radial"`` (default: one seed cell in the centre, walkers released on the lattice
+        circle ``margin`` cells outside the cluster and re-released beyond twice that
+        radius or off the grid) or ``"slab"`` (``"seed001"`` too; the seed is the bottom
+        row 0, periodic in x, released on the row ``margin`` above the highest cell and
+        re-released above twice that height).
+    seed : int
+        The Philox key, from 0 to 2**64 − 1 (default 0).
+    backend : str or Backend, optional
+        As `rdgpu.get_backend` takes it (default ``None``: the default backend).
+    walkers : int, optional
+        Walkers in flight at once, 1 to 2**31 − 1 (default: ``min(particles, 256)``).
+    max_steps : int
+        Swarm steps at most, from 1 to 2**31 − 1 (default 10**8).
+    margin : int
+        Cells between the cluster and the release line/circle, >= 1 (default 5).
+    batch : int
+        Steps launched between two reads of the 4-integer state, >= 1 (default 64).
+
+    Returns
+    -------
+    WalkDLAResult
+        The cluster, the arrival order, the counts, why it stopped and the settings.
+
+    Raises
+    ------
+    ValueError
+        An argument out of the ranges above or an unknown ``geometry``
+        (`rdgpu.ResourceLimitError` where the run cannot fit in memory).
+    TypeError
+        A count or the seed that is not an integer, or ``sticking`` not a real number.
+    """
     geometry = geometry_name(geometry)
     ny, nx, limit = _check(shape, particles, sticking, geometry, walkers, max_steps, margin,
                            batch)

@@ -20,19 +20,8 @@ expression of ``x, y, z, t, Lx, Ly, Lz, pi`` and the other (scalar) parameters, 
 host in float64 into a field; one with ``t`` is inlined into the kernel and evaluated per
 cell at each stage's time.
 
-Stability (`Model.dt_limit`): from the linear spatial part of the equations, the
-matrices ``D`` (coefficients of ``laplace``) and ``B`` (of ``laplace(laplace(·))``): a
-Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m² B``, and the
-limit is the largest ``dt`` for which every such mode that decays in the equations also
-decays in the scheme, for ``m`` up to the domain's largest (``4 Σ 1/h²`` on a grid,
-``λ_max(−L)`` on a mesh).  For forward Euler that is ``min −2 Re λ/|λ|²`` over the
-eigenvalues ``λ`` of ``A(m)`` (``1/(2 D Σ 1/h²)`` for plain diffusion); every explicit
-scheme uses the same bound (Heun's, SSP-RK3's and RK4's stability regions contain Euler's
-disk); IMEX methods are
-checked on the amplification matrix of the scheme.  The reaction terms add a limit of their
-own that depends on the state (``dt ≲ 2/|λ|`` of the reaction Jacobian along the
-trajectory): it is not included, as it cannot be bounded from the parameters alone.  A
-Laplacian with a state-dependent coefficient (``u*laplace(u)``) is left out too.
+Stability (`Model.dt_limit`) comes from the linear spatial part of the equations, the
+coefficients of ``laplace`` and ``laplace(laplace(·))``: docs/equations.md, §7.
 """
 
 from __future__ import annotations
@@ -446,8 +435,17 @@ class Model:
         return out
 
     def rates(self, fields: Sequence[Any], params: Mapping[str, Any], dtype: Any = None):
-        """The reaction terms (every Laplacian 0, ``x = y = z = t = 0``) evaluated in NumPy,
-        fields in species order (any real or complex dtype)."""
+        """The reaction terms ``f_s`` (every Laplacian 0, ``x = y = z = t = 0``) evaluated in
+        NumPy, a list in species order (any real or complex dtype).
+
+        Parameters
+        ----------
+        fields : sequence of array or number
+            One value or array per species, in species order (else a ValueError).
+        params : mapping
+            Parameter values over the model's defaults.
+        dtype : numpy dtype, optional
+            The arithmetic's dtype (default ``None``: that of ``fields[0]``, else float64)."""
         if len(fields) != len(self.species):
             raise ValueError(f"need {len(self.species)} fields {self.species}, got {len(fields)}")
         if dtype is None:
@@ -467,7 +465,12 @@ class Model:
         """``(D, B)``: ``D[s, r]`` the coefficient of ``laplace(r)`` and ``B[s, r]`` of
         ``laplace(laplace(r))`` in the equation of ``s`` (float64 matrices; a field
         parameter enters with its value of largest magnitude), or None when a Laplacian
-        has a state-dependent coefficient."""
+        has a state-dependent coefficient.
+
+        Parameters
+        ----------
+        params : mapping, optional
+            Values over the model's defaults (default ``None``: the defaults)."""
         n = len(self.species)
         merged = self._merged(params)
         env = {}
@@ -487,7 +490,13 @@ class Model:
         return D, B
 
     def diffusion_coefficients(self, params: Mapping[str, Any] | None = None) -> list[float]:
-        """The diagonal of ``D`` (`linear_operators`): each species' own diffusion."""
+        """The diagonal of ``D`` (`linear_operators`): each species' own diffusion; a
+        ValueError for a state-dependent diffusion term or a coefficient that is not finite.
+
+        Parameters
+        ----------
+        params : mapping, optional
+            Values over the model's defaults (default ``None``: the defaults)."""
         ops = self.linear_operators(params)
         if ops is None:
             raise ValueError(f"model {self.name!r} has a state-dependent diffusion term")
@@ -521,6 +530,12 @@ class Model:
                     f"{s!r}: ill-posed (it must be negative, as in Swift-Hohenberg)")
 
     def steady_guess(self, params: Mapping[str, Any]) -> list[float] | None:
+        """The model's ``steady_guess`` at the parameters' means (None where it has none).
+
+        Parameters
+        ----------
+        params : mapping
+            Parameter values over the model's defaults."""
         if self._steady_guess is None:
             return None
         merged = {k: float(np.mean(v)) for k, v in self._merged(params).items()}
@@ -529,7 +544,14 @@ class Model:
     def domain_defaults(self, domain: Domain, lengths: str = "cells") -> dict[str, Any]:
         """Defaults that depend on the domain: the ``default_fields`` specs, and on a mesh
         each species' own diffusion parameter scaled by ``(h / spacing)²`` (``h`` the mean
-        edge length)."""
+        edge length).
+
+        Parameters
+        ----------
+        domain : Grid, SurfaceMesh or graph surface
+            Where the model runs.
+        lengths : {"cells", "model"}
+            ``"cells"`` (default, as above) or ``"model"`` (the mesh in the model's lengths)."""
         out: dict[str, Any] = {k: dict(v) for k, v in self.default_fields.items()}
         ratio = length_ratio(self, domain, lengths)  # the rule: rdgpu.models.mesh_lengths
         if ratio is None:
@@ -546,7 +568,16 @@ class Model:
                  lengths: str = "cells") -> float:
         """The largest stable ``dt`` of ``method`` (default: the model's
         ``default_method``) on ``domain`` (module doc); ``inf`` when the linear spatial part
-        sets none."""
+        sets none.
+
+        Parameters
+        ----------
+        domain : Grid, SurfaceMesh or graph surface
+            Where the model runs (its largest ``−Δ`` eigenvalue bounds ``m``).
+        params : mapping, optional
+            Values over the model's defaults (default ``None``: the defaults).
+        method, stencil, lengths : str, optional
+            As in `stepper`."""
         ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
         if ops is None:
             return math.inf
@@ -577,20 +608,36 @@ class Model:
         lengths: str = "cells",
         solver: str | None = None,
     ):
-        """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`; field
-        specs in ``params`` are drawn with ``seed``.  ``method``: a name (or alias) of
-        `rdgpu.ir.schemes.SCHEMES`; ``tol``: the implicit solves' accuracy (IMEX);
-        ``stencil``: ``"compact"`` (3/5/7 points) or ``"isotropic"`` (9 points in 2-D, 19
-        in 3-D; equal spacings) on grids.
-        ``members``: an ensemble of that many members, fields ``[members, *shape]``, each
-        parameter as `rdgpu.models.ensemble` takes it and ``seed`` an int or one per
-        member; ``dt`` must be stable for every member.
-        ``block_steps``: Euler steps per pass over the grid (`rdgpu.integrators.blocking`;
-        None: automatic, 1: off).  ``lengths``: ``"model"`` runs a mesh in the model's own
-        lengths (`rdgpu.models.mesh_lengths`).  ``solver``: the implicit methods'
-        diffusion solves, ``"auto"`` (fast transforms on grids, else SOR), ``"transform"``
-        or ``"sor"`` (`rdgpu.ops.transforms`; None: ``$RDGPU_IMPLICIT_SOLVER``, else
-        ``"auto"``).  The fields start at zero."""
+        """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`, fields at zero.
+
+        Parameters
+        ----------
+        domain : Grid, SurfaceMesh or graph surface
+            Where it runs.
+        params : mapping, optional
+            Values over the model's defaults (None: the defaults); field specs drawn with ``seed``.
+        dt : float
+            The time step (model time units), > 0 and stable for every member.
+        backend, dtype : str or Backend, numpy dtype
+            As `rdgpu.get_backend` takes it; float64 (default) or float32.
+        check_stability : bool
+            Raise `rdgpu.StabilityError` for a ``dt`` above `dt_limit` (default ``True``).
+        seed : int or sequence of int
+            Seed of the field specs (default 0; an ensemble: an int or one per member).
+        method, tol : str, float, optional
+            A scheme name or alias of `rdgpu.ir.schemes.SCHEMES` (default: the model's
+            ``default_method``); the implicit solves' accuracy (IMEX methods).
+        stencil : {"compact", "isotropic"}
+            On grids: 3/5/7 points (default), or 9 in 2-D, 19 in 3-D (equal spacings).
+        members : int, optional
+            An ensemble: fields ``[members, *shape]`` (`rdgpu.models.ensemble`).
+        block_steps : int, optional
+            Euler steps per pass (`rdgpu.integrators.blocking`; None: automatic, 1: off).
+        lengths : {"cells", "model"}
+            ``"model"`` runs a mesh in the model's lengths (`rdgpu.models.mesh_lengths`).
+        solver : {"auto", "transform", "sor"}, optional
+            The implicit diffusion solves (`rdgpu.ops.transforms`): fast transforms on grids
+            else SOR, or one forced; None: ``$RDGPU_IMPLICIT_SOLVER``, else ``"auto"``."""
         if solver is not None and solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(map(repr, SOLVERS))} or None, "
                              f"got {solver!r}")
@@ -642,7 +689,12 @@ def _largest_mode(domain: Domain, stencil: str = "compact") -> float:
 
 def define_model(name: str, equations: Mapping[str, str],
                  parameters: Mapping[str, Any] | None = None, **options: Any) -> Model:
-    """A `Model` from its equations (py-pde's ``PDE`` spelling) and its parameters'
-    defaults; ``options`` are `Model`'s keyword arguments (``bounds``,
-    ``description``, ``default_dt``, ...)."""
+    """A `Model` from its equations (py-pde's ``PDE`` spelling) and its parameters' defaults.
+
+    Parameters
+    ----------
+    name, equations, parameters : str, mapping, mapping or None
+        As `Model` takes them: the name, species → right-hand side, the defaults.
+    **options
+        `Model`'s keyword arguments (``bounds``, ``description``, ``default_dt``, ...)."""
     return Model(name, equations, parameters, **options)

@@ -34,13 +34,42 @@ def build_domain(spec: Mapping[str, Any]) -> Domain:
 class Preset:
     """A run that reproduces a pattern from a seed paper.
 
-    ``model``: a key of `MODELS`; ``params``: values or field specs
-    (`param_field`); ``domain``: a `build_domain` spec; ``init``: the initial
-    condition spec of the simulation driver; ``expect``: the pattern class it should give
-    (``"spots"``, ``"inverted-spots"``, ``"stripes"``, ``"uniform"`` — what
-    `rdgpu.analysis.classify_pattern` measures — or ``"spirals"``); ``classify``:
-    how to measure it (``field`` and ``threshold`` for ``classify_pattern``);
-    ``options``: extra keyword arguments of ``model.stepper`` (e.g. ``method``)."""
+    Attributes
+    ----------
+    name : str
+        Its key in `PRESETS`.
+    model : str
+        A key of `MODELS`.
+    params : dict
+        Parameter values over the model's defaults: numbers or field specs
+        (`param_field`).
+    dt : float
+        The time step (model time units).
+    steps : int
+        The run's length in steps (what ``Simulation.run()`` does without ``steps``).
+    domain : dict
+        A `build_domain` spec (e.g. ``{"grid": (300, 300), "dx": 1.0, "bc": "periodic"}``).
+    init : dict
+        The initial condition spec of the simulation driver.
+    source : str
+        The paper, section and figure it reproduces.
+    expect : str
+        The pattern class it should give (``"spots"``, ``"inverted-spots"``,
+        ``"stripes"``, ``"uniform"`` — what `rdgpu.analysis.classify_pattern` measures —
+        or ``"spirals"``, ``"chaos"``).
+    snapshot_every : int
+        Steps between the run's snapshots (default 0: the last state only).
+    description : str
+        What the run shows (default ``""``).
+    classify : dict
+        How to measure the class: ``field`` and ``threshold`` for ``classify_pattern``
+        (default ``{}``).
+    seed : int
+        Seed of the initial condition's noise and of random parameter fields (default 0).
+    options : dict
+        Extra keyword arguments of ``model.stepper``, e.g. ``{"method": "imex"}``
+        (default ``{}``).
+    """
 
     name: str
     model: str
@@ -65,7 +94,28 @@ class Preset:
 
     def stepper(self, *, backend: Backend | str | None = None, dtype: Any = np.float64,
                 domain: Domain | None = None, seed: int | None = None, **kwargs) -> Any:
-        """The preset's stepper (fields at zero: the driver sets the initial state)."""
+        """The preset's stepper (fields at zero: the driver sets the initial state).
+
+        Parameters
+        ----------
+        backend : str or Backend, optional
+            As `rdgpu.get_backend` takes it (default ``None``: the default backend).
+        dtype : numpy dtype
+            float64 (default) or float32.
+        domain : Domain, optional
+            Replaces the preset's domain (default ``None``: built from ``domain``).
+        seed : int, optional
+            Seed of random parameter fields (default ``None``: the preset's ``seed``).
+        **kwargs
+            More keyword arguments of the model's ``stepper`` (`Model.stepper`), over the
+            preset's ``options``.
+
+        Returns
+        -------
+        object
+            The model's ``stepper`` bound to the domain with the preset's ``params`` and
+            ``dt`` (a `rdgpu.integrators.ModelStepper` for a model of equations).
+        """
         domain = self.build_domain() if domain is None else domain
         opts = {**self.options, **kwargs}
         return self.get_model().stepper(

@@ -1,6 +1,6 @@
 """Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
 device (equations §2, §4, §6), or on rectangular grids directly by fast transforms
-(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; everything below is the SOR path).
+(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; for the SOR path see below).
 
 One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
 Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest
@@ -12,61 +12,9 @@ where ``L u = M u + b`` is the mesh's ``A⁻¹W`` (`rdgpu.domains.mesh.SurfaceMe
 ``b = 0``) or the grid's 5-point operator (7-point on a 3-D grid) with its boundary
 conditions (``rdgpu/families/laplacian/reference.py::laplacian_matrix``; ``b`` carries the
 Dirichlet ghosts).
-This is the textbook system ``S out = u + (1 − θ) dt D L u + θ dt D b + dt s`` with ``u``
-and ``(1 − θ) dt D M u`` cancelled analytically: at ``dt D ≫ dx²`` those terms are
-``dt D/dx²`` times larger than ``out`` itself (Crank-Nicolson at ``dt = 1e6`` lost every
-digit to that cancellation), while ``g`` holds no ``u`` and ``δ`` is as large as ``u``.
 
-How it runs:
-
-* ``S`` and ``K = dt D M`` are assembled once on the host in float64 (SciPy) and uploaded
-  in the working dtype; ``g`` is one ``spmv`` with ``K`` plus one ``mesh_diffusion`` launch
-  (with an empty matrix: ``x + dt·source``) for the source; ``out = u + δ`` is one more;
-* the rows are coloured so that no two rows of a colour are coupled: red-black on a grid
-  (``(i + j) % 2``, ``(i + j + k) % 2`` in 3-D; where periodic odd sizes break the
-  two-colouring, a greedy colouring instead), `SurfaceMesh.colouring` (greedy) on a
-  mesh.  A sweep is one ``backend.csr_sor_colour`` launch per colour, so it equals the
-  sequential SOR sweep in colour order to round-off, on every backend;
-* **closed components** (a mesh, a periodic or Neumann grid: ``M 1 = 0``) make ``S``
-  nearly singular at large ``dt``: its constant vector has eigenvalue 1 against
-  ``1 + θ dt D λ`` for every other mode, and SOR removes a constant error only by a factor
-  ``1 − O(1/(θ dt D diag))`` per sweep.  But the solution's weighted mean is known exactly:
-  ``Σ w_i δ_i = dt Σ w_i s_i`` per connected component (``w`` the vertex areas, or 1 on a
-  grid, since ``Σ_i w_i M_ij = 0``).  Every convergence check downloads ``δ`` and adds the
-  constant that restores that mean (an exact coarse-grid correction on the constant
-  vector; the initial guess is that constant).  This conserves ``Σ w u`` to round-off and
-  leaves SOR the remaining spectrum, ``1 + θ dt D λ`` for ``λ >= λ₁`` (the smallest
-  non-zero eigenvalue of ``−M``);
-* ``ω`` (default) is Young's optimum ``2/(1 + sqrt(1 − ρ_J²))`` for the Jacobi radius
-  ``ρ_J = 1 − (1 + θ dt D λ₁)/(1 + θ dt D d)``, ``d`` the median ``|M_ii|`` (exact for
-  red-black on a uniform grid, a good estimate on a mesh); SOR then contracts by
-  ``ρ = ω − 1`` per sweep (Young's theory; ``ρ`` is also measured, below).  ``λ₁`` is
-  exact on a grid (sine series per axis), from a shift-invert Lanczos run (or a dense
-  solve) on a mesh of up to `rdgpu.domains.spectra.EIGSH_MAX_VERTICES` vertices,
-  and above that estimated as ``π²/diam²`` from the mesh's geodesic diameter (cached per
-  mesh; `rdgpu.domains.spectra`);
-* convergence: every check (every ``check_every`` sweeps at first, then spaced by the
-  predicted remaining sweeps, at most 16 apart) downloads the per-row ``|Δx|`` of the last
-  sweep, ``m = max|Δx|``.  The error estimate is the geometric tail ``E = m ρ/(1 − ρ)``
-  with ``ρ`` the larger of Young's rate and the contraction observed over the last
-  ``≈ 3/(1 − ρ)`` sweeps, never capped (a stalled solve has ``E = ∞``).  When
-  ``E <= tol/2`` the true residual ``r = g − S δ`` is computed on the device and checked
-  too: the error it implies, ``max|r| · min(k, 2/(1 + θ dt D λ₁))`` (``k = 1`` where ``S``
-  is an M-matrix, ``||S⁻¹||∞ <= 1``; the second factor is exact for the slowest mode, 2 a
-  safety factor for the ∞-norm), must be ``<= tol`` unless ``max|r|`` is at the round-off
-  level of its own evaluation, ``4 eps (||K||∞ max|u| + ||S||∞ max|δ|)``.  Only then is the
-  step converged: ``tol`` bounds the max error of ``out`` against the exact solution of the
-  same system (``spsolve``);
-* round-off floor: when the changes stop falling (no halving of ``m`` over the window) at
-  the dtype's round-off level, ``m <= 64 eps (max|δ| + max|u|)``, more sweeps cannot make
-  ``δ`` more accurate.  If the estimated error there, ``m ρ/(1 − ρ)`` with Young's ``ρ``, is
-  still above ``tol`` (e.g. float32 with a tolerance near ``eps``), the step keeps that
-  result and a ``RuntimeWarning`` names the floor reached; ``last_floor`` is set;
-* if ``max_sweeps`` ends the solve otherwise, `rdgpu.core.errors.ConvergenceError` is
-  raised (``out`` is left untouched): an unconverged solve never returns a result.
-
-SOR converges for any ``0 < ω < 2``: ``S`` scaled by the vertex areas (``A − θ dt D W``)
-or the grid's ``I − θ dt D M`` is symmetric positive definite.
+How the SOR solve runs (assembly, colouring, the projection on closed components, ``ω``,
+the convergence test and the round-off floor): docs/equations.md, "Implicit diffusion".
 """
 
 from __future__ import annotations
@@ -152,7 +100,8 @@ class _Progress:
 class ImplicitDiffusion:
     """Backward-Euler (``theta=1``) or Crank-Nicolson (``theta=0.5``) steps of
     ``u_t = D Δu + source`` on a `rdgpu.domains.mesh.SurfaceMesh` or a
-    `rdgpu.domains.Grid`, solved on the device by multicolour SOR (module doc).
+    `rdgpu.domains.Grid`, solved on the device by multicolour SOR (the algorithm:
+    docs/equations.md, "Implicit diffusion").
 
     Parameters
     ----------
@@ -170,10 +119,10 @@ class ImplicitDiffusion:
         float64 or float32.
     tol : float, optional
         The accuracy of a step: the max error of ``out`` against the exact solution of the
-        θ-system (default 1e-8 in float64, 1e-5 in float32; see the module doc for how it
-        is estimated and for the round-off floor).
+        θ-system (default 1e-8 in float64, 1e-5 in float32; how it is estimated and the
+        round-off floor: docs/equations.md, "Implicit diffusion").
     omega : float, optional
-        The relaxation factor (default: Young's optimum, see the module doc).
+        The relaxation factor, in ``(0, 2)`` (default: Young's optimum for the system).
     max_sweeps : int, optional
         Cap per step (default ``max(5000, 50/(1 − ρ))`` with ``ρ`` Young's rate), past
         which a step raises `rdgpu.core.errors.ConvergenceError`.
@@ -397,7 +346,12 @@ class ImplicitDiffusion:
         return dev, None
 
     def increment_rhs(self, u: DeviceArray, out: DeviceArray, source: Any = 0.0) -> None:
-        """``out = g = dt (D L u + source) = K u + dt (source + D b)`` on the device."""
+        """``out = g = dt (D L u + source) = K u + dt (source + D b)`` on the device.
+
+        Parameters
+        ----------
+        u, out, source : DeviceArray, DeviceArray, float or DeviceArray
+            The field, the buffer for ``g`` and ``s``, as `step` takes them."""
         self._check(u, "u")
         self._check(out, "g")
         be = self.backend
@@ -420,7 +374,12 @@ class ImplicitDiffusion:
 
     def means(self, source: Any = 0.0) -> np.ndarray:
         """Per component, the weighted mean ``Σ w δ / Σ w`` that the increment has
-        (``dt`` times the source's; used on closed components only)."""
+        (``dt`` times the source's; used on closed components only), float64.
+
+        Parameters
+        ----------
+        source : float or DeviceArray
+            ``s`` as `step` takes it (default 0)."""
         if isinstance(source, DeviceArray):
             s = source.numpy().reshape(-1).astype(np.float64)
             return self.dt * np.bincount(self._labels, weights=self.weights * s,
@@ -449,12 +408,23 @@ class ImplicitDiffusion:
         return float(np.max(np.abs(xh))) if xh.size else 0.0
 
     def sweep(self, x: DeviceArray, rhs: DeviceArray) -> None:
-        """One multicolour SOR sweep for ``S x = rhs`` in place (colours in order)."""
+        """One multicolour SOR sweep for ``S x = rhs`` in place (colours in order).
+
+        Parameters
+        ----------
+        x, rhs : DeviceArray
+            The iterate (updated in place) and the right-hand side, unchecked: ``n``
+            elements of the solver's dtype on its backend."""
         for rows in self._rows:
             self.backend.csr_sor_colour(self._S, x, rhs, rows, self._change, omega=self.omega)
 
     def residual(self, rhs: DeviceArray, x: DeviceArray) -> np.ndarray:
-        """``rhs − S x`` (flat, float64 copy of the dtype's result), computed on the device."""
+        """``rhs − S x`` (flat, float64 copy of the dtype's result), computed on the device.
+
+        Parameters
+        ----------
+        rhs, x : DeviceArray
+            The right-hand side and the iterate, as in `sweep`."""
         be = self.backend
         be.spmv(self._S, x, self._tmp)
         r = be.empty(self.shape, self.dtype)
@@ -491,11 +461,23 @@ class ImplicitDiffusion:
 
     def solve(self, rhs: DeviceArray, x: DeviceArray, *, target: np.ndarray | None = None,
               umax: float | None = None) -> int:
-        """Solve ``S x = rhs`` by SOR from the initial guess in ``x`` (module doc);
-        ``target``: the weighted mean of ``x`` per component (see `means`; default
-        from ``rhs``), ``umax``: ``max|u|`` for the round-off estimates (default from
-        ``rhs``).  Returns the sweeps; raises `ConvergenceError` if ``max_sweeps``
-        ends it unconverged."""
+        """Solve ``S x = rhs`` by SOR from the initial guess in ``x`` (directly, 0 sweeps,
+        where ``solver`` is ``"transform"``); returns the sweeps.
+
+        Parameters
+        ----------
+        rhs, x : DeviceArray
+            The right-hand side and the initial guess, overwritten by the solution: ``n``
+            elements of the solver's dtype on its backend (else TypeError, ValueError).
+        target, umax : numpy.ndarray, float, optional
+            The weighted mean of ``x`` per closed component (see `means`) and ``max|u|``
+            for the round-off estimates (default: both from ``rhs``).
+
+        Raises
+        ------
+        ConvergenceError
+            ``max_sweeps`` ended the solve unconverged (``FloatingPointError``: a sweep
+            produced NaN or Inf)."""
         self._check(rhs, "rhs")
         self._check(x, "x")
         if self.transform is not None:  # the direct solve
@@ -635,12 +617,29 @@ class ImplicitDiffusion:
 
     # ------------------------------------------------------------------ the step
     def step(self, u: DeviceArray, out: DeviceArray, source: Any = 0.0) -> int:
-        """``out`` = one θ-step of ``u_t = D Δu + source`` from ``u`` (``source`` a number
-        or a DeviceArray of the field's shape; ``out`` may be ``u``).  Returns the sweeps;
-        raises `rdgpu.core.errors.ConvergenceError` (``out`` untouched) if the solve
-        does not converge.  A non-finite ``u`` or source (a diverging run) gives a
-        non-finite ``out`` without solving (0 sweeps, ``last_nonfinite`` True), as an
-        explicit step would: the run's divergence check reports it."""
+        """``out`` = one θ-step of ``u_t = D Δu + source`` from ``u``.  A non-finite ``u`` or
+        source (a diverging run) gives a non-finite ``out`` without solving (0 sweeps,
+        ``last_nonfinite`` True), as an explicit step would: the run's divergence check
+        reports it.
+
+        Parameters
+        ----------
+        u, out : DeviceArray
+            The field and where the result goes (may be ``u``): ``n`` elements (any shape
+            of that size) of the solver's dtype on its backend (else a TypeError or
+            ValueError).
+        source : float or DeviceArray
+            ``s``: a number (default 0) or a field like ``u``.
+
+        Returns
+        -------
+        int
+            The SOR sweeps (0 for the direct transform solve).
+
+        Raises
+        ------
+        rdgpu.core.errors.ConvergenceError
+            The solve did not converge (``out`` untouched)."""
         self._check(u, "u")
         self._check(out, "out")
         if self.transform is not None:  # the direct solve
@@ -674,7 +673,13 @@ class ImplicitDiffusion:
     # ------------------------------------------------------------------ host reference
     def reference(self, u: np.ndarray, source: Any = 0.0) -> np.ndarray:
         """The same step solved on the host in float64 by ``scipy.sparse.linalg.spsolve``
-        (for tests and checks)."""
+        (for tests and checks).
+
+        Parameters
+        ----------
+        u, source : array_like, float or array_like
+            The field (``n`` values, any shape) and ``s`` (a number, default 0, or ``n``
+            values); the result is float64 of the solver's ``shape``."""
         import scipy.sparse as sp
         from scipy.sparse.linalg import spsolve
 

@@ -23,10 +23,21 @@ __all__ = ["optimal_omega", "sor_solve", "sor_sweep"]
 def optimal_omega(shape: tuple[int, ...]) -> float:
     """The optimal SOR relaxation factor of the model problem on a grid of ``shape``.
 
+    Parameters
+    ----------
+    shape : int or tuple of int
+        The grid's shape (``(nx,)``, ``(ny, nx)`` or ``(nz, ny, nx)``); an int is a 1-D
+        grid of that size.
+
     Returns
     -------
     float
-        ``2 / (1 + sin(π/N))`` with ``N`` the larger side.
+        ``2 / (1 + sin(π/N))`` with ``N`` the largest side (at least 2).
+
+    Raises
+    ------
+    ValueError
+        ``shape`` is empty or holds anything but positive integers.
     """
     if isinstance(shape, (int, np.integer)) and not isinstance(shape, bool):
         shape = (shape,)

@@ -350,7 +350,37 @@ class Simulation:
         """A simulation of a preset (a ``rdgpu.models.Preset`` or its name); ``domain``,
         ``params`` (merged over the preset's), ``dt``, ``seed`` and ``init`` override it;
         ``members`` makes it an ensemble (see `Simulation`).
-        ``run()`` then defaults to the preset's ``steps`` and ``snapshot_every``."""
+        ``run()`` then defaults to the preset's ``steps`` and ``snapshot_every``.
+
+        Parameters
+        ----------
+        preset : Preset or str
+            A `rdgpu.models.Preset` or a name in ``rdgpu.models.PRESETS``.
+        domain : Grid, SurfaceMesh or dict, optional
+            Replaces the preset's domain (default ``None``: the preset's).
+        params : dict, optional
+            Parameter values merged over the preset's ``params``.
+        dt : float, optional
+            The time step in the model's time units (default ``None``: the preset's).
+        backend : str or Backend, optional
+            As `rdgpu.get_backend` takes it (default: the current default backend).
+        dtype : "float32" or "float64"
+            The fields' dtype (default ``"float32"``).
+        seed : int, optional
+            Seed of the initial condition and random parameter fields (default ``None``:
+            the preset's ``seed``).
+        init : dict, optional
+            The initial condition (default ``None``: the preset's ``init``).
+        check_stability : bool
+            As in `Simulation` (default ``True``).
+        members : int, optional
+            Run an ensemble of that many members (see `Simulation`).
+
+        Raises
+        ------
+        TypeError, ValueError
+            ``preset`` is neither a preset nor a name in ``rdgpu.models.PRESETS``.
+        """
         p = lookup_preset(preset)
         sim = cls(
             p.model, p.domain if domain is None else domain, {**(p.params or {}), **(params or {})},
@@ -374,14 +404,38 @@ class Simulation:
         """The current fields, downloaded, each of `shape`; ``history``: also what a
         multistep method carries between steps (BDF2's previous level, ``"_prev_<s>"``:
         `rdgpu.integrators.ModelStepper.get_state`), so that ``stepper.set_state`` of it
-        goes on bit for bit."""
+        goes on bit for bit.
+
+        Parameters
+        ----------
+        history : bool
+            Also return the multistep history (default ``False``: the species only).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            Species name (and ``"_prev_<s>"`` with ``history``) → a host array of the
+            simulation's dtype and shape ``field_shape`` (``(members, *shape)`` for an
+            ensemble).
+        """
         get = self.stepper.get_state
         state = get(history=True) if history and accepts(get, "history") else get()
         return {k: a.reshape(self.field_shape) for k, a in state.items()}
 
     # ------------------------------------------------------------------ checkpoints
     def save_checkpoint(self, path: str | os.PathLike) -> Path:
-        """Write the current state (no run in progress) as a checkpoint, atomically."""
+        """Write the current state (no run in progress) as a checkpoint, atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The checkpoint file to write (replaced if it exists).
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+        """
         run = {"start": self.step, "target": self.step, "snapshot_every": None,
                "check_every": None, "checkpoint_every": None}
         arrays = checkpoints.checkpoint_arrays(self, self.host_state(history=True), run,
@@ -392,7 +446,19 @@ class Simulation:
     @staticmethod
     def read_checkpoint(path: str | os.PathLike) -> tuple[dict, dict[str, np.ndarray]]:
         """``(meta, arrays)`` of a checkpoint file; a ``ValueError`` saying what is wrong
-        with a file that is missing, empty, truncated, corrupt or not a checkpoint."""
+        with a file that is missing, empty, truncated, corrupt or not a checkpoint.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The checkpoint file (as `save_checkpoint` or ``run(checkpoint=...)`` wrote it).
+
+        Returns
+        -------
+        tuple of (dict, dict of str to numpy.ndarray)
+            The checkpoint's metadata (model, parameters, domain, dt, dtype, step, run
+            settings) and its arrays (fields, parameter fields, snapshots).
+        """
         return checkpoints.read_checkpoint(path)
 
     @classmethod
@@ -407,7 +473,30 @@ class Simulation:
         equations, bounds: a ValueError says what differs); ``backend`` defaults to the
         checkpoint's.
         Temporary files of killed writers of the checkpoint are removed
-        (`remove_stale_temporaries`)."""
+        (`remove_stale_temporaries`).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The checkpoint file.
+        model : Model or str, optional
+            The checkpoint's model, needed only for a model of Python code that is not in
+            ``rdgpu.models.MODELS`` (default ``None``: rebuilt from the checkpoint).
+        backend : str or Backend, optional
+            Where to run (default ``None``: the checkpoint's backend).
+        check_stability : bool, optional
+            As in `Simulation` (default ``None``: the checkpoint's setting).
+
+        Returns
+        -------
+        Simulation
+            At the checkpoint's step, its state, frozen members and snapshots restored.
+
+        Raises
+        ------
+        ValueError
+            The file is not a readable checkpoint, or ``model`` is not the checkpoint's.
+        """
         remove_stale_temporaries(path)
         meta, arrays = cls.read_checkpoint(path)
         # a model defined by equations is rebuilt from them, whatever its name (a built-in's
@@ -508,6 +597,35 @@ class Simulation:
         given.  The simulation must be the checkpoint's: same model, parameters, dt,
         options and domain (grid shape, dx, dy, boundary conditions; mesh vertices and
         faces).  After `resume`, ``run()`` does the same.
+
+        Parameters
+        ----------
+        steps : int, optional
+            Steps to advance, a whole number in ``[0, 2**53]`` (a float with a whole value
+            is taken); default ``None`` as above.
+        snapshot_every, check_every, checkpoint_every : int, optional
+            Steps between snapshots (default: the preset's, else 0: the last state only),
+            divergence checks (default 200; 0 disables) and checkpoints (default 1000).
+        checkpoint, resume : str or os.PathLike, optional
+            The checkpoint file to keep; one of an interrupted call to finish (as above).
+        progress : bool
+            Show a tqdm progress bar (default ``True``).
+
+        Returns
+        -------
+        Result
+            The snapshots, the final state and the run's metadata.
+
+        Raises
+        ------
+        SimulationDiverged, SimulationInterrupted
+            As above.
+        TypeError
+            ``checkpoint`` or ``resume`` is not a path, or a step count is not a number.
+        ValueError
+            A step count out of range, no ``steps`` and no default, a run past step 2**53,
+            an unwritable ``checkpoint``, a checkpoint that does not match;
+            `rdgpu.ResourceLimitError` where the snapshots cannot fit in memory.
         """
         if steps is not None:
             steps = whole(steps, "steps", 0, MAX_STEPS)

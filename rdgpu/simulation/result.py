@@ -34,6 +34,8 @@ class Result:
     snapshots : dict of str to numpy.ndarray
         ``snapshots[name]`` is an ``[n_snap, *shape]`` array taken at ``snapshot_steps``,
         at the times ``times`` (model time units).
+    times, snapshot_steps : numpy.ndarray
+        The snapshots' times (float, ``snapshot_steps * dt``) and steps (int64), one each.
     step, time, dt : int, float, float
         Steps done, the model time reached (``step * dt``) and the time step.
     params : dict
@@ -42,11 +44,24 @@ class Result:
         The Grid, graph surface or SurfaceMesh, and its description.
     backend, device, dtype : str
         Where and in what precision it ran.
-    members : int or None
-        An ensemble's member count; ``diverged_members`` names the members that diverged
-        and were frozen at their last good state.
+    seed : int, list of int or None
+        The seed of the initial condition and of random parameter fields (one per member
+        where an ensemble was given one each).
+    init : dict, list of dict or None
+        The initial condition's spec (one per member where the members' defaults differ);
+        None where the `Simulation` was given explicit ``fields`` (a resumed one keeps
+        its checkpoint's).
+    versions : dict of str to str
+        `package_versions` at the time the result was made.
+    wall_seconds : float
+        Wall-clock seconds the run took.
     diverged : str or None
-        Why the run stopped early, if it did.
+        Why the run stopped early, if it did (for an ensemble: how many members diverged).
+    members : int or None
+        An ensemble's member count (fields ``[members, *shape]``).
+    diverged_members : dict of int to str
+        The members that diverged and were frozen at their last good state, with what
+        happened to each.
     """
 
     model: str

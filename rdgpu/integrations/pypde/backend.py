@@ -116,7 +116,25 @@ def _refuse(what: str) -> UnsupportedPDE:
 class Translation:
     """A py-pde problem as rdgpu sees it: ``grid`` (`Grid`),
     ``model`` (`Model`), ``params`` (numbers and per-cell float64
-    arrays) and ``species`` in the order of py-pde's state."""
+    arrays) and ``species`` in the order of py-pde's state.
+
+    Parameters
+    ----------
+    grid : Grid
+        The rdgpu grid of py-pde's ``CartesianGrid``, with its boundary conditions.
+    species : tuple of str
+        The fields' names, in the order of py-pde's state.
+    equations : dict of str to str
+        Species → right-hand side in rdgpu's equation language; they become ``model``, a
+        `Model` named ``"py-pde"``.
+    params : dict
+        The constants the equations read: numbers or float64 arrays of the grid's shape.
+
+    Attributes
+    ----------
+    uses_time : bool
+        Whether an equation reads ``t``.
+    """
 
     def __init__(self, grid: Grid, species: tuple[str, ...], equations: dict[str, str],
                  params: dict[str, Any]):
@@ -356,7 +374,26 @@ def _coordinate_map(grid: CartesianGrid) -> Callable[[eq.Node], eq.Node | None]:
 
 
 def translate(pde_obj: Any, state: Any) -> Translation:
-    """The rdgpu problem of ``pde_obj`` on ``state``'s grid, or `UnsupportedPDE`."""
+    """The rdgpu problem of ``pde_obj`` on ``state``'s grid, or `UnsupportedPDE`.
+
+    Parameters
+    ----------
+    pde_obj : pde.PDEBase
+        A ``pde.PDE`` of expressions or one of the built-in PDEs (module doc).
+    state : pde.ScalarField or pde.FieldCollection
+        The initial state: its grid (a ``CartesianGrid``) and one scalar field per
+        variable.
+
+    Returns
+    -------
+    Translation
+
+    Raises
+    ------
+    UnsupportedPDE
+        The PDE, its state, its boundary conditions or its constants are not ones this
+        backend runs (the message names the part).
+    """
     fields = list(state) if isinstance(state, pde.FieldCollection) else [state]
     for f in fields:
         if not isinstance(f, pde.ScalarField):
@@ -437,8 +474,17 @@ def translate(pde_obj: Any, state: Any) -> Translation:
 # ---------------------------------------------------------------------------- the backend
 class RdgpuBackend(BackendBase):
     """py-pde backend that runs a whole ``solve`` on an rdgpu device (module doc).
-    ``device``: an rdgpu backend name (``"numpy"``, ``"warp"``, ``"opencl"``, optionally
-    ``NAME:DEVICE``); empty for rdgpu's default."""
+
+    Parameters
+    ----------
+    config : pde.tools.config.Config or dict, optional
+        py-pde's configuration of the backend (``BackendBase``).
+    name : str, optional
+        The backend's name in py-pde (default ``None``: ``"rdgpu"``).
+    device : str
+        An rdgpu backend name (``"numpy"``, ``"warp"``, ``"opencl"``, optionally
+        ``NAME:DEVICE``); empty (default) for rdgpu's default.
+    """
 
     implementation = "rdgpu"
     copy_data = True
@@ -452,7 +498,17 @@ class RdgpuBackend(BackendBase):
 
     @classmethod
     def from_args(cls, config: Any, args: str = "", *, name: str | None = None):
-        """``"rdgpu:DEVICE"``: ``args`` is the rdgpu backend name."""
+        """``"rdgpu:DEVICE"``: ``args`` is the rdgpu backend name.
+
+        Parameters
+        ----------
+        config : pde.tools.config.Config or dict, optional
+            py-pde's configuration of the backend.
+        args : str
+            What follows ``"rdgpu:"``: the ``device`` (default ``""``: rdgpu's default).
+        name : str, optional
+            The backend's name in py-pde (default ``None``: ``"rdgpu"``).
+        """
         return cls(config, name=name, device=args)
 
     def __repr__(self) -> str:
@@ -475,7 +531,21 @@ class RdgpuBackend(BackendBase):
         """``rhs(state_data, t)``: the PDE's rate, one fused pass on the rdgpu device, as a
         host function (NumPy in, NumPy out: each call uploads the state and downloads the
         rate).  py-pde's ``ScipySolver`` runs through it; the solvers of
-        `make_stepper` keep their fields on the device instead."""
+        `make_stepper` keep their fields on the device instead.
+
+        Parameters
+        ----------
+        eq : pde.PDEBase
+            The PDE (as `translate` takes it).
+        state : pde.ScalarField or pde.FieldCollection
+            A state on its grid, float32 or float64: fixes the grid, the fields and the
+            dtype.
+
+        Raises
+        ------
+        UnsupportedPDE
+            The PDE or state cannot run on this backend.
+        """
         check_overrides(eq, _classes(), hook=False)  # ScipySolver calls no post-step hook
         tr = translate(eq, state)
         rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state))
@@ -493,7 +563,26 @@ class RdgpuBackend(BackendBase):
 
     def make_stepper(self, solver: Any, state: Any) -> Callable[[Any, float, float], float]:
         """The stepper py-pde's controller calls between tracker times, for any solver of
-        `rdgpu.integrations.pypde.steppers.SUPPORTED`, on the device."""
+        `rdgpu.integrations.pypde.steppers.SUPPORTED`, on the device.
+
+        Parameters
+        ----------
+        solver : pde.solvers.SolverBase
+            The py-pde solver (its ``pde``, ``dt``, adaptivity and ``info``).
+        state : pde.ScalarField or pde.FieldCollection
+            The initial state, float32 or float64.
+
+        Returns
+        -------
+        callable
+            ``stepper(state, t_start, t_end) -> t``: advances ``state`` in place and
+            returns the time reached.
+
+        Raises
+        ------
+        UnsupportedPDE
+            An unsupported solver, PDE or state.
+        """
         name = type(solver).__name__
         if name not in pypde_steppers.SUPPORTED:
             raise _refuse(f"the solver {name} (supported: "
