@@ -191,28 +191,63 @@ class Backend(ABC):
     # ------------------------------------------------------------------ memory
     @abstractmethod
     def upload(self, a: np.ndarray) -> DeviceArray:
-        """Copy a C-contiguous host array to a new device array (same shape and dtype)."""
+        """Copy a C-contiguous host array to a new device array (same shape and dtype).
+
+        Parameters
+        ----------
+        a : numpy.ndarray
+            Any shape: float32/float64 fields, int32/int64/uint8 index arrays and masks."""
 
     @abstractmethod
     def download(self, d: DeviceArray) -> np.ndarray:
-        """Copy a device array into a new host array."""
+        """Copy a device array into a new host array.
+
+        Parameters
+        ----------
+        d : DeviceArray
+            An array of this backend, of any shape and dtype."""
 
     @abstractmethod
     def empty(self, shape: tuple[int, ...], dtype: np.dtype) -> DeviceArray:
-        """A new uninitialised device array."""
+        """A new uninitialised device array.
+
+        Parameters
+        ----------
+        shape : tuple of int
+            Its shape.
+        dtype : numpy.dtype
+            Its dtype (anything ``numpy.dtype`` takes)."""
 
     @abstractmethod
     def copy(self, src: DeviceArray, dst: DeviceArray) -> None:
-        """Device-to-device copy of ``src`` into ``dst`` (same shape and dtype)."""
+        """Device-to-device copy of ``src`` into ``dst`` (same shape and dtype).
+
+        Parameters
+        ----------
+        src, dst : DeviceArray
+            Arrays of this backend of one shape and dtype; ``dst`` is overwritten."""
 
     def empty_like(self, d: DeviceArray) -> DeviceArray:
+        """A new uninitialised device array of ``d``'s shape and dtype.
+
+        Parameters
+        ----------
+        d : DeviceArray
+            The array whose shape and dtype it takes."""
         return self.empty(d.shape, d.dtype)
 
     def copy_range(self, src: DeviceArray, src_start: int, dst: DeviceArray, dst_start: int,
                    count: int) -> None:
         """Copy ``count`` elements of ``src`` from flat index ``src_start`` to ``dst`` from
         ``dst_start`` (same dtype; e.g. one ensemble member in or out of its stack).
-        This default goes through the host; the backends copy on the device."""
+        This default goes through the host; the backends copy on the device.
+
+        Parameters
+        ----------
+        src, dst : DeviceArray
+            Arrays of this backend of one dtype, of any shapes (indexed flat, C order).
+        src_start, dst_start, count : int
+            Flat start indices (``src_start``, ``dst_start``), ``count`` elements; in range."""
         check_range(src, src_start, dst, dst_start, count)
         out = dst.numpy().reshape(-1)
         out[dst_start:dst_start + count] = src.numpy().reshape(-1)[src_start:src_start + count]
@@ -223,7 +258,16 @@ class Backend(ABC):
 
         Its structure is checked first (`rdgpu.core.csr.checked_csr`: indices in range,
         ``indptr`` sound, finite real values that ``dtype`` can hold), so that no kernel
-        reads outside the arrays; errors name the matrix as ``name``."""
+        reads outside the arrays; errors name the matrix as ``name``.
+
+        Parameters
+        ----------
+        matrix : scipy.sparse matrix or array
+            Real, finite, with fewer than 2³¹ rows, columns and stored entries.
+        dtype : numpy.dtype
+            float32 or float64 (else ``TypeError``).
+        name : str
+            The matrix's name in the errors; default ``"matrix"``."""
         m = checked_csr(matrix, name)  # canonical: sorted, no duplicates; input untouched
         dtype = np.dtype(dtype)
         if dtype not in _REAL_DTYPES:
@@ -253,7 +297,14 @@ class Backend(ABC):
         return self.name
 
     def reshaped(self, d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
-        """The same buffer seen with another shape of the same size (no copy)."""
+        """The same buffer seen with another shape of the same size (no copy).
+
+        Parameters
+        ----------
+        d : DeviceArray
+            An array of this backend.
+        shape : tuple of int
+            The new shape, of ``d.size`` elements."""
         if tuple(d.shape) == tuple(shape):
             return d
         return DeviceArray(d.backend, d.handle.reshape(shape), tuple(shape), d.dtype)
@@ -301,7 +352,12 @@ class Backend(ABC):
         host float, exactly NumPy's ``float(np.max(np.abs(u)))`` (families/reduce): exact,
         NaN if any element is NaN, ``inf`` if any is ±inf and none NaN, subnormals count
         (not flushed), ``-0.0`` gives 0.0; an empty array gives 0.0.  Waits for the
-        queued kernels (the result is on the host).  Other dtypes raise ``TypeError``."""
+        queued kernels (the result is on the host).  Other dtypes raise ``TypeError``.
+
+        Parameters
+        ----------
+        u : DeviceArray
+            An array of this backend, float32 or float64, of any shape."""
         return self.kernel("reduce", "max_abs")(u)
 
     def sum_squares(self, u: DeviceArray) -> float:
@@ -315,33 +371,60 @@ class Backend(ABC):
         NaN, ``inf`` if any is ±inf and none NaN (or a float64 sum overflows).  Subnormal
         inputs may be read as 0 (FTZ/DAZ), and float64 squares below the smallest normal
         may be flushed: a change far below any convergence tolerance.  An empty array
-        gives 0.0.  Waits for the queued kernels.  Other dtypes raise ``TypeError``."""
+        gives 0.0.  Waits for the queued kernels.  Other dtypes raise ``TypeError``.
+
+        Parameters
+        ----------
+        u : DeviceArray
+            An array of this backend, float32 or float64, of any shape."""
         return self.kernel("reduce", "sum_squares")(u)
 
     # ------------------------------------------------------------------ grid kernels
     def laplacian(
         self, u: DeviceArray, out: DeviceArray, *, dx: float, dy: float, bc: GridBC, stencil: int
     ) -> None:
-        """``out = Lu`` with the 5- or 9-point stencil (equations §1)."""
+        """``out = Lu`` with the 5- or 9-point stencil (equations §1).
+
+        Parameters
+        ----------
+        u, out : DeviceArray
+            The field and the result: ``[ny, nx]``, float32 or float64, one shape and dtype.
+        dx, dy : float
+            Grid spacings (length units); ``dy = math.inf``: a 1-D row.
+        bc : GridBC
+            The conditions of the y and x axes (`rdgpu.domains.boundary.GridBC`).
+        stencil : int
+            5, or 9 (the isotropic stencil; needs ``dx == dy``)."""
         self.kernel("laplacian", "laplacian")(u, out, dx=dx, dy=dy, bc=bc, stencil=stencil)
 
     def metric_laplacian(self, u: DeviceArray, coefficients: tuple[DeviceArray, ...],
                          out: DeviceArray) -> None:
         """``out = Δ_Γ u``, the Laplace-Beltrami operator of a graph surface over a periodic
         grid (``rdgpu.domains.graph_surface``; the conservative 9-point form of
-        ``families/metric/reference.py``, in its evaluation order).
+        ``families/metric/reference.py``, in its evaluation order).  Units: ``[u]/length²``
+        when the coefficients are those of spacings in length units.
 
-        ``u``, ``out``: ``[ny, nx]``, or ``[nm, ny, nx]`` for ``nm`` members sharing one
-        surface.  ``coefficients``: the four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's
-        dtype, e.g. from `upload_metric` (upload once, reuse).  Units: ``[u]/length²``
-        when the coefficients are those of spacings in length units."""
+        Parameters
+        ----------
+        u, out : DeviceArray
+            ``[ny, nx]`` or ``[nm, ny, nx]`` (``nm`` members, one surface); float32/64, alike.
+        coefficients : tuple of DeviceArray
+            The four ``[ny, nx]`` arrays ``(ex, ny, bx, w)`` in u's dtype, e.g. from
+            `upload_metric` (upload once, reuse)."""
         self.kernel("metric", "metric_laplacian")(u, coefficients, out)
 
     def upload_metric(self, surface: GraphSurface, dtype: Any) -> tuple[DeviceArray, ...]:
         """The coefficients ``(ex, ny, bx, w)`` of a `rdgpu.GraphSurface`
         rounded to ``dtype`` (subnormals flushed), on this backend.  Cached per backend for
         the last few ``(surface, dtype)`` pairs: surfaces compare by grid and height, so an
-        equal surface built again reuses the upload.  Treat the arrays as read-only."""
+        equal surface built again reuses the upload.  Treat the arrays as read-only.
+
+        Parameters
+        ----------
+        surface : GraphSurface
+            The surface (anything else raises ``TypeError``).
+        dtype : numpy.dtype
+            float32 or float64 (else ``TypeError``)."""
         if not (is_domain(surface) and surface.kind == "graph-surface"):
             raise TypeError(f"upload_metric needs an rdgpu.domains.graph_surface.GraphSurface, got "
                             f"{type(surface).__name__}")
@@ -364,7 +447,12 @@ class Backend(ABC):
     def bernoulli(self, u: DeviceArray, out: DeviceArray, *, decay: float) -> None:
         """``out = u / sqrt(decay + u² (1 − decay))`` with ``decay = exp(−2τ/ε²)`` (equations §2).
 
-        Works on arrays of any shape (grid or mesh vertices)."""
+        Parameters
+        ----------
+        u, out : DeviceArray
+            Of any shape (grid or mesh vertices), float32 or float64, one shape and dtype.
+        decay : float
+            ``exp(−2τ/ε²)`` of a substep ``τ`` (`rdgpu.ops.api.bernoulli_decay`)."""
         self.kernel("bernoulli", "bernoulli")(u, out, decay=decay)
 
     def gray_scott(
@@ -383,7 +471,20 @@ class Backend(ABC):
         dy: float,
         bc: GridBC,
     ) -> None:
-        """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3)."""
+        """One fused forward-Euler Gray-Scott step with the 5-point stencil (equations §3).
+
+        Parameters
+        ----------
+        u, v, u_out, v_out : DeviceArray
+            Fields ``u``, ``v`` and results ``u_out``, ``v_out``: ``[ny, nx]``, float32/64, alike.
+        Du, Dv, dt : float
+            ``Du``, ``Dv``: diffusion coefficients (length²/time); ``dt``: the time step.
+        F, k : float or DeviceArray
+            Feed and kill rates (1/time): numbers, or fields of u's shape and dtype.
+        dx, dy : float
+            Grid spacings, as `laplacian` takes them.
+        bc : GridBC
+            The boundary conditions, as `laplacian` takes them."""
         self.kernel("gray_scott", "gray_scott")(u, v, u_out, v_out, Du=Du, Dv=Dv, F=F, k=k,
                                                 dt=dt, dx=dx, dy=dy, bc=bc)
 
@@ -423,7 +524,20 @@ class Backend(ABC):
         dz: float | None = None,
     ) -> None:
         """One first-order Osher-Sethian upwind step of ``φ_t + F|∇φ| = 0`` (equations §5) on
-        a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid."""
+        a 2-D ``[ny, nx]`` or, with the plane spacing ``dz``, a 3-D ``[nz, ny, nx]`` grid.
+
+        Parameters
+        ----------
+        phi, out : DeviceArray
+            The level set (``φ < 0`` inside) and the result: float32 or float64, alike.
+        speed : float or DeviceArray
+            The normal speed ``F``: a number, or a field of phi's shape and dtype.
+        dt, dx, dy : float
+            ``dt``: the time step; ``dx``, ``dy``: grid spacings (as `laplacian` takes them).
+        bc : GridBC
+            The boundary conditions (with ``z`` on a 3-D grid).
+        dz : float, optional
+            The plane spacing, needed by a 3-D ``phi``; default ``None``."""
         self.kernel("levelset", "levelset_step")(phi, speed, out, dt=dt, dx=dx, dy=dy, bc=bc,
                                                  dz=dz)
 
@@ -454,7 +568,14 @@ class Backend(ABC):
     # summed in index order in the matrix's dtype (families/mesh/reference.py).
 
     def spmv(self, A: DeviceCSR, x: DeviceArray, y: DeviceArray) -> None:
-        """``y = A x`` for any CSR matrix (square or not; empty rows give 0)."""
+        """``y = A x`` for any CSR matrix (square or not; empty rows give 0).
+
+        Parameters
+        ----------
+        A : DeviceCSR
+            An ``(m, n)`` matrix of this backend (`upload_csr`), float32 or float64.
+        x, y : DeviceArray
+            ``x``: ``n`` values, ``y`` (written): ``m``; any shape, read flat; A's dtype."""
         self.kernel("mesh", "spmv")(A, x, y)
 
     def mesh_gray_scott(
@@ -473,7 +594,17 @@ class Backend(ABC):
     ) -> None:
         """One fused forward-Euler Gray-Scott step on vertices with ``Δ = L`` (equations §3, §6):
         ``u' = u + dt (Du Lu − u v² + F (1 − u))``, ``v' = v + dt (Dv Lv + u v² − (F + k) v)``.
-        ``F``, ``k``: numbers or DeviceArrays of u's shape."""
+
+        Parameters
+        ----------
+        L : DeviceCSR
+            The mesh's Laplacian, ``(n, n)``, float32 or float64 (`upload_csr`).
+        u, v, u_out, v_out : DeviceArray
+            Fields ``u``, ``v``, results ``u_out``, ``v_out``: ``n`` values (read flat), L's dtype.
+        Du, Dv, dt : float
+            ``Du``, ``Dv``: diffusion coefficients (length²/time); ``dt``: the time step.
+        F, k : float or DeviceArray
+            Feed and kill rates (1/time): numbers, or fields of ``n`` values in L's dtype."""
         self.kernel("mesh", "mesh_gray_scott")(L, u, v, u_out, v_out, Du=Du, Dv=Dv, F=F, k=k,
                                                 dt=dt)
 
@@ -487,8 +618,19 @@ class Backend(ABC):
         dt: float,
         source: FieldOrScalar = 0.0,
     ) -> None:
-        """``out = u + dt (D (L u) + source)`` (``source`` a number or a DeviceArray of u's
-        shape): the explicit diffusion step of Allen-Cahn with its ``−b/ε²`` source."""
+        """``out = u + dt (D (L u) + source)``: the explicit diffusion step of Allen-Cahn
+        with its ``−b/ε²`` source.
+
+        Parameters
+        ----------
+        L : DeviceCSR
+            The mesh's Laplacian, ``(n, n)``, float32 or float64 (`upload_csr`).
+        u, out : DeviceArray
+            The field and the result: ``n`` values each (any shape, read flat), L's dtype.
+        D, dt : float
+            ``D``: the diffusion coefficient (length²/time); ``dt``: the time step.
+        source : float or DeviceArray
+            A number, or a field of ``n`` values in L's dtype; default ``0.0``."""
         self.kernel("mesh", "mesh_diffusion")(L, u, out, D=D, dt=dt, source=source)
 
     def csr_sor_colour(

@@ -90,7 +90,20 @@ def kind_of(x: Any) -> str:
 
 
 def is_array(x: Any) -> bool:
-    """Whether ``x`` is an array of some library (not a number, string or list)."""
+    """Whether ``x`` is an array of some library (not a Python number, string or list).
+
+    Parameters
+    ----------
+    x : object
+        Anything.
+
+    Returns
+    -------
+    bool
+        True for every kind of `kind_of` but ``"list"``, and for any object with
+        ``__array__`` (a NumPy scalar too); False for Python numbers, lists, tuples and
+        what `kind_of` refuses (a string, a dict, ``None``, a ``pyopencl.Buffer``).
+    """
     try:
         return kind_of(x) != "list" or hasattr(x, "__array__")
     except TypeError:  # NotAnArray, or a pyopencl Buffer
@@ -187,7 +200,25 @@ def _numpy_dtype(x: Any) -> np.dtype:
 
 
 def shape_dtype(x: Any) -> tuple[tuple[int, ...], np.dtype]:
-    """``(shape, dtype)`` of an array of any kind, without reading its values."""
+    """``(shape, dtype)`` of an array of any kind, without reading its values.
+
+    Parameters
+    ----------
+    x : object
+        An array of any kind `kind_of` knows; one of kind ``"list"`` (a list, a tuple, a
+        number...) is converted by ``numpy.asarray`` to find them, which reads its values.
+
+    Returns
+    -------
+    tuple
+        ``(shape, dtype)``: a tuple of int and a ``numpy.dtype`` (a Warp or torch dtype as
+        its NumPy equivalent).
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no array (`kind_of`).
+    """
     if kind_of(x) == "list":
         a = np.asarray(x)
         return a.shape, a.dtype
@@ -205,7 +236,28 @@ def _warp_device_matches(x: Any, be: Backend) -> bool:
 
 
 def resident(x: Any, be: Backend) -> bool:
-    """Whether ``x`` (C-contiguous) lives in ``be``'s memory, so it can be wrapped."""
+    """Whether ``x`` (C-contiguous) lives in ``be``'s memory, so it can be wrapped.
+
+    Parameters
+    ----------
+    x : object
+        An array of any kind `kind_of` knows.
+    be : Backend
+        The backend to run on.
+
+    Returns
+    -------
+    bool
+        True for a contiguous Warp array on a Warp backend of its device, a C-contiguous
+        pyopencl array at offset 0 on the OpenCL backend's context, and a C-contiguous
+        array the host reads in place (`host_view`) on the numpy backend or a Warp CPU
+        backend; False otherwise (`wrap` would not share its memory).
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no array (`kind_of`).
+    """
     kind = kind_of(x)
     if be.name == "warp" and kind == "warp":
         return _warp_device_matches(x, be) and x.is_contiguous
@@ -219,7 +271,23 @@ def resident(x: Any, be: Backend) -> bool:
 
 def wrap(x: Any, be: Backend, shape: tuple[int, ...] | None = None) -> DeviceArray:
     """A `DeviceArray` on ``be`` sharing ``x``'s memory (``resident(x, be)`` must
-    hold), seen with ``shape`` (same size; default x's own)."""
+    hold), seen with ``shape`` (same size; default x's own).
+
+    Parameters
+    ----------
+    x : object
+        An array for which ``resident(x, be)`` is True (not checked here).
+    be : Backend
+        The backend it lives on.
+    shape : tuple of int, optional
+        The shape to see it with, of x's size; default ``None`` (x's own shape).
+
+    Returns
+    -------
+    DeviceArray
+        No copy: writes through it reach ``x``; ``meta["owner"]`` holds ``x``.  A pyopencl
+        array on another queue than the backend's is waited for first.
+    """
     shape_x, dtype = shape_dtype(x)
     shape = shape_x if shape is None else tuple(shape)
     kind = kind_of(x)
@@ -244,7 +312,19 @@ def _address(a: np.ndarray) -> int:
 
 
 def pointer(d: DeviceArray) -> int | None:
-    """The address of ``d``'s memory (an OpenCL buffer's ``int_ptr``), for alias checks."""
+    """The address of ``d``'s memory (an OpenCL buffer's ``int_ptr``), for alias checks.
+
+    Parameters
+    ----------
+    d : DeviceArray
+        A device array of any backend.
+
+    Returns
+    -------
+    int
+        The data address of a NumPy handle, the ``ptr`` of a Warp array, else the
+        handle's ``int_ptr`` (or its ``id`` when it has none).
+    """
     h = d.handle
     if isinstance(h, np.ndarray):
         return _address(h)
@@ -255,7 +335,19 @@ def pointer(d: DeviceArray) -> int | None:
 
 def overlaps(a: DeviceArray, b: DeviceArray) -> bool:
     """Whether two device arrays share memory (address ranges; OpenCL buffers: the same
-    buffer)."""
+    buffer).
+
+    Parameters
+    ----------
+    a, b : DeviceArray
+        Two device arrays of one backend.
+
+    Returns
+    -------
+    bool
+        For NumPy and Warp handles, whether the byte ranges ``[address, address + nbytes)``
+        intersect; for other handles (OpenCL buffers), whether both are the same buffer.
+    """
     if isinstance(a.handle, np.ndarray) or hasattr(a.handle, "ptr"):
         start_a, start_b = pointer(a), pointer(b)
         return start_a < start_b + b.nbytes and start_b < start_a + a.nbytes
@@ -266,7 +358,25 @@ def to_device(x: Any, checked: np.ndarray | None, be: Backend,
               shape: tuple[int, ...]) -> DeviceArray:
     """``x`` on ``be`` with ``shape``: wrapped when resident there and ``checked`` (its
     checked host version, None for a device-only array) is still x's own memory; else
-    one upload of ``checked`` (or of ``x`` read on the host)."""
+    one upload of ``checked`` (or of ``x`` read on the host).
+
+    Parameters
+    ----------
+    x : object
+        The caller's array, of any kind `kind_of` knows.
+    checked : numpy.ndarray or None
+        ``x``'s values as checked on the host (x's own memory, or a copy the checks
+        made); None for an array that stays on its device, unread by the host.
+    be : Backend
+        The backend to put it on.
+    shape : tuple of int
+        Its shape on the device, of x's size.
+
+    Returns
+    -------
+    DeviceArray
+        Sharing x's memory (`wrap`), or a new upload.
+    """
     if resident(x, be):
         view = host_view(x)
         if checked is None or (view is not None and _address(view) == _address(checked)):
@@ -298,7 +408,27 @@ def _writable_kind(out: Any) -> str:
 
 
 def check_out(out: Any, shape: tuple[int, ...], dtype: np.dtype, name: str = "out") -> None:
-    """``out`` can receive a result of ``shape`` and ``dtype``: else a clear error."""
+    """``out`` can receive a result of ``shape`` and ``dtype``: else a clear error.
+
+    Parameters
+    ----------
+    out : object
+        The caller's output array: NumPy, Warp, pyopencl, PyTorch or a CPU DLPack array.
+    shape : tuple of int
+        The result's shape.
+    dtype : numpy.dtype
+        The result's dtype (anything ``numpy.dtype`` takes).
+    name : str, optional
+        How the errors name ``out``; default ``"out"``.
+
+    Raises
+    ------
+    TypeError
+        ``out`` is a masked array, of a kind that cannot receive a result (a list, a
+        number, ``None``, a device DLPack array) or of another dtype.
+    ValueError
+        ``out`` is read-only, or of another shape.
+    """
     _writable_kind(out)
     got_shape, got_dtype = shape_dtype(out)
     if got_shape != tuple(shape):
@@ -317,7 +447,27 @@ def deliver(result: DeviceArray, like: Any, shape: tuple[int, ...], out: Any = N
     memory): a Warp or pyopencl result on its own device is handed over as it is.
     ``check(host_array)`` runs on the result wherever the host sees it (in place, or the
     copy a host-side result needs); a result that stays on a device is handed to ``check``
-    as the DeviceArray itself, unread (a check there reduces it on the device)."""
+    as the DeviceArray itself, unread (a check there reduces it on the device).
+
+    Parameters
+    ----------
+    result : DeviceArray
+        The call's own result buffer.
+    like : object
+        The caller's input, whose kind (`kind_of`) and device the result takes.
+    shape : tuple of int
+        The shape to return it with, of result's size.
+    out : object, optional
+        An array checked by `check_out` that receives the result; default ``None``.
+    check : callable, optional
+        ``check(a)`` on the result, ``a`` a NumPy array or the unread `DeviceArray` (see
+        above); it raises to refuse the result; default ``None`` (no check).
+
+    Returns
+    -------
+    object
+        ``out`` when given; else the result as an array of like's kind (module doc).
+    """
     be = result.backend
     view = _result_view(result)
     if check is not None and view is not None:
@@ -370,7 +520,22 @@ def _read(d: DeviceArray, view: np.ndarray | None, check: Any) -> np.ndarray:
 
 
 def from_numpy(host: np.ndarray, like: Any) -> Any:
-    """The host array ``host`` as the kind of ``like`` (module doc), on like's device."""
+    """The host array ``host`` as the kind of ``like`` (module doc), on like's device.
+
+    Parameters
+    ----------
+    host : numpy.ndarray
+        The values.
+    like : object
+        An array of the kind (`kind_of`) to return.
+
+    Returns
+    -------
+    object
+        ``host`` itself for NumPy and list inputs; a new Warp, pyopencl (on like's queue)
+        or torch array on like's device; for a DLPack array, ``asarray`` of its library
+        when it has one, else ``host``.
+    """
     kind = kind_of(like)
     if kind in ("numpy", "list"):
         return host
@@ -393,7 +558,21 @@ def from_numpy(host: np.ndarray, like: Any) -> Any:
 
 
 def fill(out: Any, host: np.ndarray) -> None:
-    """Write the host array ``host`` into ``out`` (any writable kind)."""
+    """Write the host array ``host`` into ``out`` (any writable kind).
+
+    Parameters
+    ----------
+    out : object
+        A writable array: one the host reads in place (`host_view`), or a Warp, pyopencl
+        or torch array on a device.
+    host : numpy.ndarray
+        The values, of out's shape.
+
+    Raises
+    ------
+    TypeError
+        ``out`` is of a kind that cannot be written.
+    """
     view = host_view(out)
     if view is not None:
         np.copyto(view, host)

@@ -19,13 +19,38 @@ RENDERERS: dict[str, Callable[[Any], Any]] = {}
 
 
 def register(mime: str, func: Callable[[Any], Any]) -> None:
-    """Draw objects as ``mime`` with ``func`` (the last registration wins)."""
+    """Draw objects as ``mime`` with ``func`` (the last registration wins).
+
+    Parameters
+    ----------
+    mime : str
+        The MIME type, ``"image/png"`` or ``"text/html"`` for the results' pictures.
+    func : callable
+        ``func(obj)``: the object drawn as ``mime`` (PNG bytes for ``"image/png"``, an HTML
+        string for ``"text/html"``); it may raise `ImportError` (a missing extra), which
+        `render` turns into ``None``.
+    """
     RENDERERS[mime] = func
 
 
 def render(mime: str, obj: Any) -> Any:
     """``obj`` drawn as ``mime``, or ``None`` (a notebook then shows the text ``repr``) when
-    nothing is registered for it or the pictures' extra is not installed."""
+    nothing is registered for it or the pictures' extra is not installed.
+
+    Parameters
+    ----------
+    mime : str
+        The MIME type asked for (``"image/png"``, ``"text/html"``).
+    obj : object
+        What to draw (a `Result`), passed to the function `register` recorded.
+
+    Returns
+    -------
+    object or None
+        What that function returns; ``None`` when no function is registered for ``mime``
+        or it raised `ImportError` (e.g. `rdgpu.MissingExtraError`: no ``rdgpu[media]``).
+        Any other error it raises propagates.
+    """
     func = RENDERERS.get(mime)
     if func is None:
         return None

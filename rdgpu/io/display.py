@@ -80,7 +80,28 @@ _last: list = [None, b""]
 
 
 def result_png(result: Result, field: str | None = None) -> bytes:
-    """`result_image` encoded as PNG bytes (a notebook's ``image/png``)."""
+    """`result_image` encoded as PNG bytes (a notebook's ``image/png``).
+
+    Parameters
+    ----------
+    result : Result
+        A finished (or stopped) run.
+    field : str, optional
+        The species to draw; default ``None`` (the first species).
+
+    Returns
+    -------
+    bytes
+        The PNG file.  The last picture is kept: the same result at the same step and
+        time, with the same ``field``, is not drawn again.
+
+    Raises
+    ------
+    ValueError
+        ``field`` is not one of the run's species.
+    rdgpu.MissingExtraError
+        imageio is not installed (the ``rdgpu[media]`` extra).
+    """
     iio = require("imageio.v3", "drawing a Result")
     key = (id(result), result.step, result.time, field)
     if _last[0] != key:
@@ -90,7 +111,20 @@ def result_png(result: Result, field: str | None = None) -> bytes:
 
 def result_summary(result: Result) -> str:
     """One line: model, domain, steps and time, backend, dtype, members, wall time and
-    whether the run diverged."""
+    whether the run diverged.
+
+    Parameters
+    ----------
+    result : Result
+        A finished (or stopped) run.
+
+    Returns
+    -------
+    str
+        E.g. ``"gray-scott on a grid (128, 128), step 1000, t = 1000 (dt = 1), numpy
+        float32, 0.62 s"``; the members appear for an ensemble and ``diverged: ...`` for a
+        run that diverged.
+    """
     shape = next(iter(result.fields.values())).shape if result.fields else ()
     kind = result.domain_info.get("kind", "domain") if result.domain_info else "domain"
     parts = [f"{result.model} on a {kind} {tuple(shape)}",
@@ -105,7 +139,27 @@ def result_summary(result: Result) -> str:
 
 
 def result_html(result: Result, field: str | None = None) -> str:
-    """The picture inline (a base64 PNG) under `result_summary` (``text/html``)."""
+    """The picture inline (a base64 PNG) under `result_summary` (``text/html``).
+
+    Parameters
+    ----------
+    result : Result
+        A finished (or stopped) run.
+    field : str, optional
+        The species to draw; default ``None`` (the first species).
+
+    Returns
+    -------
+    str
+        An HTML ``<div>``: the summary line (escaped) over the `result_png` picture.
+
+    Raises
+    ------
+    ValueError
+        ``field`` is not one of the run's species.
+    rdgpu.MissingExtraError
+        imageio is not installed (the ``rdgpu[media]`` extra).
+    """
     png = base64.b64encode(result_png(result, field)).decode("ascii")
     return (f"<div><p><code>{escape(result_summary(result))}</code></p>"
             f'<img src="data:image/png;base64,{png}" alt="{escape(result.model)}"/></div>')
