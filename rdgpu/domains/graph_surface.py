@@ -201,8 +201,8 @@ class GraphSurface(Grid):
 
         Parameters
         ----------
-        dtype : dtype-like
-            float32 or float64, the kernels' dtype.
+        dtype : dtype
+            float32 or float64 (any form NumPy takes), the kernels' dtype.
 
         Returns
         -------

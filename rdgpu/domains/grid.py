@@ -240,11 +240,11 @@ class Grid:
 
         Parameters
         ----------
-        name : {"x", "y", "z"}
-            The coordinate; any other name is a ``KeyError``.
-        dtype : dtype-like
-            float32 or float64: the spacing ``h`` is rounded to it and ``(k + ½) h`` is
-            computed in it, as the generated kernels compute it.
+        name : str
+            ``"x"``, ``"y"`` or ``"z"``; any other name is a ``KeyError``.
+        dtype : dtype
+            float32 or float64 (any form NumPy takes): the spacing ``h`` is rounded to it
+            and ``(k + ½) h`` is computed in it, as the generated kernels compute it.
 
         Returns
         -------

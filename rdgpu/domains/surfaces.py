@@ -100,9 +100,11 @@ def random_waves(
         The seed of ``numpy.random.default_rng``.
     attenuation : float, default 0.0
         ``β``, the decay exponent of the amplitudes; finite and >= 0.
-    dx, dy : float
-        The grid spacings, finite and > 0 (the periods are ``nx·dx``, ``ny·dy``); default
-        ``dx = 1.0``, ``dy = None`` (``dx``).
+    dx : float, default 1.0
+        The spacing of the columns (x), finite and > 0; the x period is ``nx·dx``.
+    dy : float, optional
+        The spacing of the rows (y), finite and > 0; default ``None``: ``dx``. The y
+        period is ``ny·dy``.
 
     Returns
     -------
@@ -205,8 +207,10 @@ def heat_filtered(
         ``(fx, fy)``, the filter's diffusion along x and along y; finite and >= 0.
     tau : float, optional
         The filter's time step (length²), finite and > 0; default ``None``: ``dx·dy``.
-    dx, dy : float
-        The grid spacings, finite and > 0; default ``dx = 1.0``, ``dy = None`` (``dx``).
+    dx : float, default 1.0
+        The spacing of the columns (x), finite and > 0.
+    dy : float, optional
+        The spacing of the rows (y), finite and > 0; default ``None``: ``dx``.
 
     Returns
     -------
