@@ -75,8 +75,8 @@ def build_domain(spec: Any) -> Domain:
     Raises
     ------
     TypeError
-        ``spec`` is neither a domain nor a dict, or the grid's shape is refused with a
-        ``TypeError`` (`Grid`).
+        ``spec`` is neither a domain nor a dict, or `Grid` refuses the type of a grid
+        option (the shape, a spacing, a Dirichlet value).
     ValueError
         No ``"grid"``/``"mesh"`` key, an unknown grid option, ``dz`` with ``"height"``,
         options a generator does not take, a mesh name that is neither a generator nor an
