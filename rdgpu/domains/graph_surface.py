@@ -102,11 +102,34 @@ class GraphSurface(Grid):
     """The surface ``z = h(x, y)`` over a periodic 2-D grid ``shape = (ny, nx)`` with
     spacings ``dx``, ``dy``: fields are ``[ny, nx]`` on the parameter grid (cell centres
     ``x = (j + ½) dx``), and every Laplacian is the surface's ``Δ_Γ`` (module doc).
+    Two surfaces are equal when their shapes, spacings and heights are.
 
-    ``height``: ``h`` at the cell centres, ``[ny, nx]``, in the units of ``dx`` (a copy is
-    kept, float64, read-only).  The boundary is periodic on both axes (``h`` must be
-    periodic for the surface to close up smoothly; see ``rdgpu.surfaces.random_waves``).
-    Two surfaces are equal when their grids and heights are."""
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(ny, nx)``, whole numbers >= 1 (as for `Grid`); a graph surface is 2-D only.
+    dx : float, default 1.0
+        The spacing of the columns (x), in length units; finite and > 0.
+    dy : float, optional
+        The spacing of the rows (y), finite and > 0; default ``None``: ``dx``.
+    bc : str or tuple, default "periodic"
+        Must be periodic on both axes (``"periodic"`` or ``("periodic", "periodic")``).
+    dz : float, optional
+        Not used in 2-D: only ``None`` (default) or ``inf``.
+    height : array
+        ``h`` at the cell centres, ``[ny, nx]`` (``shape``), finite, in the units of
+        ``dx``; a float64 read-only copy is kept. It should be periodic for the surface
+        to close up smoothly (see `rdgpu.surfaces.random_waves`). Required (the default
+        ``None`` is refused).
+
+    Raises
+    ------
+    TypeError
+        No ``height``, or an argument `Grid` refuses with a ``TypeError``.
+    ValueError
+        A shape that is not 2-D, a non-periodic ``bc``, a ``height`` of another shape or
+        with NaN or Inf, or an argument `Grid` refuses with a ``ValueError``.
+    """
 
     kind: ClassVar[str] = "graph-surface"
     label: ClassVar[str] = "graph surface"
@@ -115,7 +138,13 @@ class GraphSurface(Grid):
 
     def describe(self, source: Any = None) -> dict:
         """The grid's description with ``kind`` ``graph-surface`` and ``height_digest``;
-        the height itself is kept as an array (`arrays`)."""
+        the height itself is kept as an array (`arrays`).
+
+        Parameters
+        ----------
+        source : object, optional
+            Not used (as in `Grid.describe`); default ``None``.
+        """
         return {**super().describe(source), "height_digest": self.digest}
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -168,7 +197,19 @@ class GraphSurface(Grid):
         return self._cache["coefficients"]
 
     def coefficients_as(self, dtype: Any) -> dict[str, np.ndarray]:
-        """The coefficients rounded to ``dtype`` (float32 or float64), subnormals flushed."""
+        """The coefficients rounded to ``dtype`` (float32 or float64), subnormals flushed.
+
+        Parameters
+        ----------
+        dtype : dtype
+            float32 or float64 (any form NumPy takes), the kernels' dtype.
+
+        Returns
+        -------
+        dict of str to array
+            ``ex``, ``ny``, ``bx``, ``w`` (`metric_coefficients`), C-contiguous ``[ny, nx]``
+            arrays of ``dtype``, cached per dtype (do not modify them).
+        """
         dtype = np.dtype(dtype)
         key = ("coefficients", dtype.char)
         if key not in self._cache:
@@ -207,7 +248,19 @@ class GraphSurface(Grid):
         return self._cache["bound"]
 
     def reference_laplacian(self, u: np.ndarray) -> np.ndarray:
-        """``Δ_Γ u`` by the NumPy reference kernel, in ``u``'s dtype."""
+        """``Δ_Γ u`` by the NumPy reference kernel, in ``u``'s dtype.
+
+        Parameters
+        ----------
+        u : array
+            A field on the parameter grid, ``[ny, nx]`` or ``[members, ny, nx]``, float32
+            or float64 (the coefficients are rounded to its dtype, `coefficients_as`).
+
+        Returns
+        -------
+        array
+            ``Δ_Γ u``, same shape and dtype as ``u``, subnormals flushed.
+        """
         u = np.asarray(u)
         ref = load_module("metric", "reference.py")
         c = self.coefficients_as(u.dtype)
@@ -220,7 +273,18 @@ class GraphSurface(Grid):
 
     # ------------------------------------------------------------ the Domain protocol
     def stencil_kind(self, stencil: str = "compact") -> str:
-        """``grid2metric``: the 9-point ``Δ_Γ``; the isotropic stencil is refused."""
+        """``grid2metric``: the 9-point ``Δ_Γ``; the isotropic stencil is refused.
+
+        Parameters
+        ----------
+        stencil : {"compact", "isotropic"}, default "compact"
+            Only ``"compact"`` is allowed on a graph surface.
+
+        Raises
+        ------
+        ValueError
+            ``"isotropic"``, or an unknown stencil.
+        """
         if stencil not in STENCILS:
             raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
         if stencil == "isotropic":
@@ -230,7 +294,13 @@ class GraphSurface(Grid):
         return "grid2metric"
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
-        """`spectral_bound` (the isotropic stencil is refused)."""
+        """`spectral_bound` (the isotropic stencil is refused).
+
+        Parameters
+        ----------
+        stencil : {"compact", "isotropic"}, default "compact"
+            Checked by `stencil_kind`: only ``"compact"`` is allowed (else ``ValueError``).
+        """
         self.stencil_kind(stencil)
         return self.spectral_bound()
 
@@ -253,7 +323,20 @@ class GraphSurface(Grid):
 
     def sor_colouring(self, matrix: Any) -> np.ndarray:
         """Four colours by the parities of (row, column) (the 9-point graph) where that is
-        a valid colouring of ``matrix``; else greedy."""
+        a valid colouring of ``matrix``; else greedy.
+
+        Parameters
+        ----------
+        matrix : scipy.sparse.csr_matrix
+            The ``n_points × n_points`` operator on the flat field (such as
+            `operator_matrix`'s); rows that share a stored off-diagonal entry must get
+            different colours.
+
+        Returns
+        -------
+        array
+            int32, one colour per cell of the flat field (``n_points``).
+        """
         i, j = np.indices(self.shape)
         colour = (2 * (i % 2) + j % 2).astype(np.int32).ravel()
         if spectra.valid_colouring(matrix, colour):

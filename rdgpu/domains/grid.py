@@ -52,7 +52,37 @@ class Grid:
     grid is one row with ``ndim = 1``, ``dy = inf`` and a Neumann y condition, so no flux
     crosses the absent y axis and every stability limit is the 1-D one, ``1/dy² = 0``) and
     ``(nz, ny, nx)`` for 3-D.  ``dz`` is ``inf`` below 3-D.  Coordinates are cell centres
-    ``x = (j + ½) dx`` from the origin (py-pde's ``CartesianGrid`` over ``[0, L]``)."""
+    ``x = (j + ½) dx`` from the origin (py-pde's ``CartesianGrid`` over ``[0, L]``).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(nx,)``, ``(ny, nx)`` or ``(nz, ny, nx)``: 1 to 3 whole numbers >= 1 (ints, or
+        floats with a whole value), given as a tuple, list or NumPy array.
+    dx : float, default 1.0
+        The spacing of the columns (x axis), in length units; finite and > 0.
+    dy : float, optional
+        The spacing of the rows (y axis), finite and > 0; default ``None``: ``dx``. A 1-D
+        grid takes none (``None``, or ``inf`` as its description holds it).
+    bc : str, tuple or GridBC, default "periodic"
+        Per axis ``"periodic"``, ``"neumann"`` or ``("dirichlet", g)`` with a finite
+        value ``g`` (case-insensitive names): one condition for every axis, a pair
+        ``(y_bc, x_bc)`` in 2-D, a triple ``(z_bc, y_bc, x_bc)`` in 3-D, only one in 1-D
+        (`rdgpu.domains.boundary.parse_bc`).
+    dz : float, optional
+        The spacing of the planes (z axis, 3-D only), finite and > 0; default ``None``:
+        ``dx``. A 1-D or 2-D grid takes none (``None`` or ``inf``).
+
+    Raises
+    ------
+    TypeError
+        ``shape`` is not a tuple, list or array (a string is refused) or holds a size that
+        is not a number (a bool, text); a spacing or a Dirichlet value is not a real number.
+    ValueError
+        ``shape`` has no or more than 3 sizes, or a size below 1 or with a fraction; a
+        spacing is not finite and > 0; ``dy`` given in 1-D or ``dz`` below 3-D; an unknown
+        condition, ``"dirichlet"`` without a value, or the wrong number of conditions.
+    """
 
     #: the Domain protocol (rdgpu.domains.base)
     kind: ClassVar[str] = "grid"
@@ -111,7 +141,14 @@ class Grid:
     def describe(self, source: Any = None) -> dict:
         """``kind``, ``shape`` (``field_shape``), ``dx``, ``dy`` (``None`` in 1-D) and
         ``bc`` (one per axis); a 3-D grid also ``dz`` (1-D and 2-D descriptions have no
-        ``dz`` key, as before 3-D grids existed)."""
+        ``dz`` key).
+
+        Parameters
+        ----------
+        source : object, optional
+            Not used: a grid's description is its own. Accepted for the Domain protocol
+            (`rdgpu.domains.base.Domain.describe`); default ``None``.
+        """
         out = {"kind": self.kind, "shape": list(self.field_shape), "dx": float(self.dx),
                "dy": float(self.dy) if self.ndim >= 2 else None, "bc": self._bc_json()}
         if self.ndim == 3:
@@ -199,7 +236,21 @@ class Grid:
 
     def kernel_coordinate(self, name: str, dtype: Any) -> np.ndarray:
         """Cell-centre coordinate ``name`` in ``dtype``: ``(k + ½) h`` along its axis,
-        broadcast to ``kernel_shape`` (0 along an absent axis)."""
+        broadcast to ``kernel_shape`` (0 along an absent axis).
+
+        Parameters
+        ----------
+        name : str
+            ``"x"``, ``"y"`` or ``"z"``; any other name is a ``KeyError``.
+        dtype : dtype
+            float32 or float64 (any form NumPy takes): the spacing ``h`` is rounded to it
+            and ``(k + ½) h`` is computed in it, as the generated kernels compute it.
+
+        Returns
+        -------
+        array
+            A C-contiguous ``kernel_shape`` array of ``dtype``.
+        """
         dtype = np.dtype(dtype)
         t = dtype.type
         nz, ny, nx = self.shape3
@@ -213,7 +264,20 @@ class Grid:
         return np.ascontiguousarray(full)
 
     def unit_coordinate(self, axis: str) -> np.ndarray:
-        """Coordinate ``axis`` of every cell (``kernel_shape``), scaled to [0, 1]."""
+        """Coordinate ``axis`` of every cell (``kernel_shape``), scaled to [0, 1].
+
+        Parameters
+        ----------
+        axis : str
+            One of `axes` (``"x"`` in 1-D; ``"y"``, ``"x"`` in 2-D; also ``"z"`` in 3-D);
+            another is a ``ValueError``.
+
+        Returns
+        -------
+        array
+            float64, ``kernel_shape``: ``(k + ½)/n`` for cell ``k`` of the ``n`` along
+            ``axis``, so the values lie strictly inside (0, 1).
+        """
         names = self.axes
         if axis not in names:
             raise ValueError(f"a {self.ndim}-D grid axis is one of {names}, got {axis!r}")
@@ -226,7 +290,20 @@ class Grid:
 
     def stencil_kind(self, stencil: str = "compact") -> str:
         """``grid1``..``grid3``, ``+ "iso"`` for the isotropic stencil (2-D and 3-D), which
-        needs equal spacings."""
+        needs equal spacings.
+
+        Parameters
+        ----------
+        stencil : {"compact", "isotropic"}, default "compact"
+            The Laplacian stencil (`rdgpu.domains.base.STENCILS`). A 1-D grid has one
+            stencil: ``"isotropic"`` gives ``grid1`` too.
+
+        Raises
+        ------
+        ValueError
+            An unknown stencil, or ``"isotropic"`` on a 2-D or 3-D grid whose spacings
+            differ.
+        """
         if stencil not in STENCILS:
             raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
         iso = stencil == "isotropic" and self.ndim > 1
@@ -239,7 +316,15 @@ class Grid:
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
         """``4 Σ 1/h²`` over the axes; the isotropic stencils: the maximum of their symbol
-        (``16/(3h²)`` in 2-D); the stencil is not checked here (`stencil_kind`)."""
+        (``16/(3h²)`` in 2-D); the stencil is not checked here (`stencil_kind`).
+
+        Parameters
+        ----------
+        stencil : {"compact", "isotropic"}, default "compact"
+            ``"isotropic"`` on a 2-D or 3-D grid: the 9- or 19-point stencil's symbol
+            (with ``dx`` as its spacing); otherwise (any other value, or 1-D) the compact
+            stencil's ``4 Σ 1/h²``.
+        """
         if stencil == "isotropic" and self.ndim > 1:
             th = np.linspace(0.0, np.pi, 33)
             c = np.meshgrid(*([np.cos(th)] * self.ndim), indexing="ij")
@@ -286,7 +371,20 @@ class Grid:
 
     def sor_colouring(self, matrix: Any) -> np.ndarray:
         """Red-black (``(i + j) % 2``, in 3-D ``(i + j + k) % 2``) where that is a valid
-        colouring of ``matrix`` (periodic odd sizes break it); else greedy."""
+        colouring of ``matrix`` (periodic odd sizes break it); else greedy.
+
+        Parameters
+        ----------
+        matrix : scipy.sparse.csr_matrix
+            The ``n_points × n_points`` operator on the flat field (such as
+            `operator_matrix`'s); rows that share a stored off-diagonal entry must get
+            different colours.
+
+        Returns
+        -------
+        array
+            int32, one colour per cell of the flat field (``n_points``).
+        """
         colour = (np.indices(self.shape).sum(axis=0) % 2).astype(np.int32).ravel()
         if spectra.valid_colouring(matrix, colour):
             return colour

@@ -1,7 +1,7 @@
 """Domains from their descriptions: `build_domain` turns a preset's (or a user's)
 ``{"grid": ...}`` / ``{"mesh": ...}`` dict into a `Grid`, a
 `GraphSurface` or a
-`SurfaceMesh` (moved from ``rdgpu.simulation.driver``);
+`SurfaceMesh`;
 `from_description` rebuilds one from what a checkpoint or data file keeps
 (`Domain.describe <rdgpu.domains.base.Domain.describe>` and ``arrays``)."""
 
@@ -59,6 +59,31 @@ def build_domain(spec: Any) -> Domain:
     15, "seed": 0}``; a mesh takes ``"roughen": {"amplitude": a, "filter_steps": k,
     "seed": s}`` (`roughen` of the generated or loaded mesh).
     A Grid or SurfaceMesh is returned as it is.
+
+    Parameters
+    ----------
+    spec : dict or Domain
+        A description with a ``"grid"`` or a ``"mesh"`` key and the options above
+        (generator names are case-insensitive; a mesh file also takes ``"repair"``), or a
+        domain (`Grid`, `GraphSurface`, `SurfaceMesh`), returned unchanged.
+
+    Returns
+    -------
+    Domain
+        A `Grid`, a `GraphSurface` or a `SurfaceMesh`.
+
+    Raises
+    ------
+    TypeError
+        ``spec`` is neither a domain nor a dict, or `Grid` refuses the type of a grid
+        option (the shape, a spacing, a Dirichlet value).
+    ValueError
+        No ``"grid"``/``"mesh"`` key, an unknown grid option, ``dz`` with ``"height"``,
+        options a generator does not take, a mesh name that is neither a generator nor an
+        existing file, or a value the grid, surface or mesh refuses
+        (`DegenerateMeshError` and `rdgpu.ResourceLimitError` are ``ValueError``s).
+    MeshFileError
+        A mesh file that cannot be read as a triangle mesh (a ``ValueError`` too).
     """
     if is_domain(spec):
         return spec

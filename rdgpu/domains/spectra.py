@@ -1,7 +1,7 @@
-"""The spectra the implicit solvers need (moved from ``rdgpu.ops.implicit``): connected
-components of an operator, and ``λ₁``, the smallest eigenvalue of ``−M`` past the constant
-null vectors, per domain kind (analytic on a grid, Lanczos or an estimate on a mesh or a
-graph surface); the domains' `smallest_eigenvalue` methods call these."""
+"""The spectra the implicit solvers need: connected components of an operator, and
+``λ₁``, the smallest eigenvalue of ``−M`` past the constant null vectors, per domain kind
+(analytic on a grid, Lanczos or an estimate on a mesh or a graph surface); the domains'
+`smallest_eigenvalue` methods call these."""
 
 from __future__ import annotations
 

@@ -87,6 +87,36 @@ def random_waves(
     The random numbers come from ``numpy.random.default_rng(seed)``: first all ``ξ`` as a
     ``(2N+1, 2M+1)`` array indexed ``[n + N, m + M]``, then all ``φ`` the same way; the
     same arguments always give the same surface.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(ny, nx)``, whole numbers >= 1 (rows, columns).
+    amplitude : float, default 0.1
+        ``max|h|``, in the units of ``dx``; finite and >= 0 (0 gives a flat ``h = 0``).
+    max_frequency : int or tuple of int, default 5
+        ``M = N``, or the pair ``(M, N)`` (M along x, N along y), as above.
+    seed : int, default 0
+        The seed of ``numpy.random.default_rng``.
+    attenuation : float, default 0.0
+        ``β``, the decay exponent of the amplitudes; finite and >= 0.
+    dx : float, default 1.0
+        The spacing of the columns (x), finite and > 0; the x period is ``nx·dx``.
+    dy : float, optional
+        The spacing of the rows (y), finite and > 0; default ``None``: ``dx``. The y
+        period is ``ny·dy``.
+
+    Returns
+    -------
+    array
+        ``h[ny, nx]``, float64.
+
+    Raises
+    ------
+    ValueError
+        A shape that is not a pair of whole numbers >= 1; a spacing that is not finite and
+        > 0; a negative or non-finite ``amplitude`` or ``attenuation``; a ``max_frequency``
+        that is not as above or not resolved by the grid.
     """
     ny, nx = _grid_shape(shape, minimum=1)
     dx, dy = _spacings(dx, dy)
@@ -162,6 +192,37 @@ def heat_filtered(
     grid, as `roughen` uses ``(mean edge length)²``: one step then damps a mode of
     wavenumber κ by ``1/(1 + τ f κ²)``, so the filter smooths over about
     ``dx·√(f·filter_steps)``, a length set by the resolution and the step count alone.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(ny, nx)``, whole numbers >= 3 (rows, columns).
+    amplitude : float, default 0.1
+        ``max|h|``, in the units of ``dx``; finite and >= 0 (0 gives a flat ``h = 0``).
+    filter_steps : int, default 15
+        The number of implicit heat steps, a whole number >= 0 (0: unfiltered noise).
+    seed : int, default 0
+        The seed of ``numpy.random.default_rng``.
+    tensor : tuple of float, default (1.0, 1.0)
+        ``(fx, fy)``, the filter's diffusion along x and along y; finite and >= 0.
+    tau : float, optional
+        The filter's time step (length²), finite and > 0; default ``None``: ``dx·dy``.
+    dx : float, default 1.0
+        The spacing of the columns (x), finite and > 0.
+    dy : float, optional
+        The spacing of the rows (y), finite and > 0; default ``None``: ``dx``.
+
+    Returns
+    -------
+    array
+        ``h[ny, nx]``, float64, zero mean.
+
+    Raises
+    ------
+    ValueError
+        A shape that is not a pair of whole numbers >= 3; a spacing, ``tau`` or ``tensor``
+        out of range (above); a negative or non-finite ``amplitude``; a ``filter_steps``
+        that is not a whole number >= 0.
     """
     ny, nx = _grid_shape(shape)
     dx, dy = _spacings(dx, dy)
@@ -203,6 +264,35 @@ def roughen(
 
     Faces (and ``period``) are kept, so the face count is unchanged; works on closed and
     open meshes. Same arguments, same result.
+
+    Parameters
+    ----------
+    mesh : SurfaceMesh
+        The mesh to roughen (left unchanged).
+    amplitude : float, default 0.1
+        The largest displacement, an absolute length; finite and >= 0 (0: the same
+        vertices).
+    filter_steps : int, default 15
+        The number of implicit heat steps, a whole number >= 0.
+    seed : int, default 0
+        The seed of ``numpy.random.default_rng``.
+    tau : float, optional
+        The filter's time step (length²), finite and > 0; default ``None``:
+        ``mesh.mean_edge_length²``.
+
+    Returns
+    -------
+    SurfaceMesh
+        A new mesh with the same faces and ``period`` and moved vertices.
+
+    Raises
+    ------
+    TypeError
+        ``mesh`` is not a `SurfaceMesh`.
+    ValueError
+        ``amplitude``, ``filter_steps`` or ``tau`` out of range (above); a vertex without
+        a normal (`vertex_normals`); moved vertices that make an invalid mesh
+        (`DegenerateMeshError`).
     """
     if not isinstance(mesh, SurfaceMesh):
         raise TypeError(f"roughen needs a SurfaceMesh, got {type(mesh).__name__}")
@@ -219,6 +309,26 @@ def graph_mesh(h: Any, dx: float = 1.0, dy: float | None = None) -> SurfaceMesh:
     axes, so the mesh has no boundary; ``period = (nx·dx, ny·dy)`` makes every geometric
     quantity use minimum-image edges. For flat ``h`` its cotangent Laplacian is exactly
     the periodic 5-point Laplacian and its area is ``Lx·Ly``.
+
+    Parameters
+    ----------
+    h : array
+        The heights ``[ny, nx]``, real (int or float; converted to float64) and finite, in
+        the units of ``dx``.
+    dx : float, default 1.0
+        The spacing of the columns (x); finite and > 0.
+    dy : float, optional
+        The spacing of the rows (y), finite and > 0; default ``None``: ``dx``.
+
+    Raises
+    ------
+    TypeError
+        ``h`` is not real (complex, bool, text).
+    ValueError
+        ``h`` is not 2-D, has a side below 3 or NaN/Inf values; a spacing that is not
+        finite and > 0.
+    rdgpu.ResourceLimitError
+        The mesh would not fit in memory (checked before it is built).
     """
     h = np.asarray(h)
     if h.dtype.kind not in "iuf":  # complex, bool, str: never cast silently

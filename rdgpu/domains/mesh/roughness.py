@@ -68,7 +68,18 @@ def check_tau(tau: float) -> float:
 def vertex_normals(mesh: SurfaceMesh) -> np.ndarray:
     """Unit area-weighted vertex normals ``(n, 3)``: the normalised sum of the incident faces'
     ``(p1 − p0) × (p2 − p0)`` (minimum-image edges on a periodic mesh). Faces must be
-    consistently oriented; a vertex whose normals cancel raises ``ValueError``."""
+    consistently oriented; a vertex whose normals cancel raises ``ValueError``.
+
+    Parameters
+    ----------
+    mesh : SurfaceMesh
+        Any mesh, closed or open; its faces' orientation sets the normals' side.
+
+    Returns
+    -------
+    array
+        ``(n_vertices, 3)`` float64 unit vectors.
+    """
     _, cross = face_cross(mesh.vertices, mesh.faces, mesh.period)
     F = mesh.faces.ravel()
     nrm = np.stack(

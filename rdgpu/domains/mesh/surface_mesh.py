@@ -281,21 +281,19 @@ class SurfaceMesh:
     def spectral_radius(
         self, method: Literal["auto", "eigsh", "bound", "gershgorin"] = "auto"
     ) -> float:
-        """An upper estimate of ``λ_max(−L)`` (= largest eigenvalue of the pencil (−W, A)).
+        """An upper estimate of ``λ_max(−L)`` (largest eigenvalue of the pencil (−W, A)), cached.
 
-        * ``"bound"``: a rigorous upper bound, the smaller of Gershgorin's
-          ``max_i Σ_j |L_ij|`` and the element bound ``max_f λ_max(K_f, diag(A_f))``
-          (Irons; ``K_f`` is face f's PSD cotangent stiffness, ``A_f`` its corners' Voronoi
-          shares). O(m), typically within a few % (exact on a regular equilateral mesh).
-        * ``"gershgorin"``: Gershgorin alone (rigorous, up to ~1.3× pessimistic).
-        * ``"eigsh"``: Lanczos (``scipy.sparse.linalg.eigsh``, ``which="LA"``, tol 1e-8) on
-          the symmetric similar matrix ``S = A^{-1/2}(−W)A^{-1/2}``, returning the Ritz value
-          plus its residual norm, capped by ``"bound"``; dense ``eigvalsh`` for n ≤ 200.
-          Falls back to ``"bound"`` if ARPACK does not converge. Can take minutes on
-          10⁶-vertex meshes whose top spectrum is clustered.
-        * ``"auto"`` (default): ``"eigsh"`` with a small budget (tol 1e-3, at most ~2000
-          products with S), else ``"bound"``.
-        """
+        Parameters
+        ----------
+        method : {"auto", "eigsh", "bound", "gershgorin"}
+            ``"bound"``: rigorous, the smaller of Gershgorin's ``max_i Σ_j |L_ij|`` and the
+            element bound ``max_f λ_max(K_f, diag(A_f))`` (Irons; ``K_f``: face f's PSD
+            cotangent stiffness, ``A_f``: its corners' Voronoi shares), O(m), exact on a
+            regular equilateral mesh; ``"gershgorin"``: Gershgorin alone (rigorous, coarser);
+            ``"eigsh"``: Lanczos (``scipy.sparse.linalg.eigsh``, ``which="LA"``, tol 1e-8) on
+            ``S = A^{-1/2}(−W)A^{-1/2}``, Ritz value plus residual norm, capped by ``"bound"``
+            (dense ``eigvalsh`` for n ≤ 200; ``"bound"`` if ARPACK does not converge);
+            ``"auto"``: ``"eigsh"`` at tol 1e-3, ≤ ~2000 products with S. Else ``ValueError``."""
         if method in self._lambda_max:
             return self._lambda_max[method]
         lam = spectra.mesh_spectral_radius(self, method)
@@ -310,14 +308,13 @@ class SurfaceMesh:
     ) -> float:
         """Largest forward-Euler step for ``u_t = D Δu``: ``2 / (D · λ_max(−L))``.
 
-        λ_max comes from `spectral_radius`: by default (``"auto"``) a short Lanczos
-        run (``eigsh`` on ``A^{-1/2}(−W)A^{-1/2}``, Ritz value + residual, ~1e-3 relative),
-        capped by and falling back to a rigorous bound (Gershgorin / element bound) when
-        ARPACK does not converge. ``method="bound"`` or ``"gershgorin"`` give a step that is
-        guaranteed never to exceed the true limit (Lanczos approaches λ_max from below, so
-        its estimate is only as good as its convergence). Cached per method; a 10⁶-vertex
-        mesh takes a few seconds with ``"auto"``, under one with ``"bound"``.
-        """
+        Parameters
+        ----------
+        D : float
+            The diffusion coefficient (length²/time), > 0 (else a ``ValueError``).
+        method : {"auto", "eigsh", "bound", "gershgorin"}
+            As in `spectral_radius`: ``"bound"``/``"gershgorin"`` give a step never above the
+            limit; Lanczos (``"auto"``, ~1e-3 relative) approaches λ_max from below."""
         if not D > 0:
             raise ValueError(f"D must be positive, got {D}")
         return 2.0 / (D * self.spectral_radius(method))
@@ -423,22 +420,28 @@ class SurfaceMesh:
     def to_meshio(self, fields: Mapping[str, np.ndarray] | None = None) -> Any:
         """A ``meshio.Mesh`` with one ``triangle`` cell block and the per-vertex ``fields``
         (shape (n,) or (n, k)) as ``point_data``; a periodic mesh is unwrapped first
-        (`unwrapped`), its fields copied to the seam copies."""
+        (`unwrapped`), its fields copied to the seam copies.
+
+        Parameters
+        ----------
+        fields : mapping of str to array, optional"""
         meshio = _require("meshio", "SurfaceMesh.to_meshio")
         V, F, flds = self._export(fields)
         return meshio.Mesh(V, [("triangle", F)], point_data=flds)
 
     @classmethod
     def load(cls, path: PathLike, *, repair: bool = False) -> SurfaceMesh:
-        """Read OBJ, PLY, STL, OFF (via trimesh), VTK/VTP/VTU (via pyvista), or any other
-        format meshio reads (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...; see
-        `from_meshio` for the cells taken).
+        """Read a mesh file, vertex order kept (`load_with_fields` also reads vertex data).
 
-        Vertex order is kept. STL stores a triangle soup, so its bitwise-identical vertices
-        are always merged. Use `load_with_fields` to get per-vertex data too.  A file
-        that cannot be used (missing, a folder, a truncated face line, an index past the
-        vertices, ...) raises `MeshFileError` naming the file and what is wrong.
-        """
+        Parameters
+        ----------
+        path : str or os.PathLike
+            OBJ, PLY, STL, OFF (trimesh), VTK/VTP/VTU (pyvista) or any format meshio reads
+            (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...; cells as in `from_meshio`); STL's
+            identical vertices are always merged. Another extension is a ``ValueError``; an
+            unusable file (missing, a folder, truncated, a bad index, ...) a `MeshFileError`.
+        repair : bool
+            As in `SurfaceMesh`."""
         return load_with_fields(path, repair=repair)[0]
 
     def unwrapped(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -485,7 +488,12 @@ class SurfaceMesh:
 
     def to_pyvista(self, fields: Mapping[str, np.ndarray] | None = None) -> Any:
         """A pyvista ``PolyData`` with the per-vertex ``fields`` as point data; a periodic
-        mesh is unwrapped first (`unwrapped`), its fields copied to the seam copies."""
+        mesh is unwrapped first (`unwrapped`), its fields copied to the seam copies.
+
+        Parameters
+        ----------
+        fields : mapping of str to array, optional
+            Shape (n,) or (n, k) each (another shape is a ``ValueError``)."""
         pv = _require("pyvista", "SurfaceMesh.to_pyvista")
         V, F, flds = self._export(fields)
         cells = np.hstack([np.full((F.shape[0], 1), 3, dtype=np.int64), F]).ravel()
@@ -513,17 +521,21 @@ class SurfaceMesh:
         *,
         file_format: str | None = None,
     ) -> None:
-        """Write the mesh. ``.vtk``/``.vtp``/``.vtu`` (pyvista) and ``.ply`` (binary, float64
-        coordinates) keep per-vertex ``fields`` (shape (n,) or (n, k); in PLY a (n, k) field
-        is stored as properties ``name_0..name_{k-1}``). ``.obj``/``.off`` (17 significant
-        digits) and ``.stl`` (float32, via trimesh) hold geometry only and refuse fields.
-        Any other extension meshio writes (``.msh``, ``.xdmf``, ``.med``, ``.inp``, ...)
-        goes through `to_meshio`, fields as point data (``.msh`` is written as gmsh
-        4.1 binary, not ANSYS); ``file_format`` (a meshio format name such as ``"gmsh22"``)
-        always writes through meshio in that format.
-        A periodic mesh is written unwrapped (`unwrapped`); the period is not stored.
-        HDF5-based formats (``.xdmf``, ``.med``, ...) need h5py, in the ``mesh`` extra.
-        A folder, or a file in a folder that does not exist, is refused before writing."""
+        """Write the mesh; a periodic one unwrapped (`unwrapped`), its period not stored.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            A file, not a folder, in a folder that exists; its extension picks the format
+            (another is a ``ValueError``, before writing): ``.vtk``/``.vtp``/``.vtu``
+            (pyvista), ``.ply`` (binary, float64), ``.obj``/``.off`` (17 significant digits),
+            ``.stl`` (float32, trimesh), or any other meshio writes (``.msh`` as gmsh 4.1
+            binary, not ANSYS; HDF5-based ``.xdmf``, ``.med``, ... need h5py, ``mesh`` extra).
+        fields : mapping of str to array, optional
+            Per-vertex, (n,) or (n, k): point data (in PLY a (n, k) field is the properties
+            ``name_0..name_{k-1}``); ``.obj``, ``.off`` and ``.stl`` refuse them.
+        file_format : str, optional
+            A meshio format name (``"gmsh22"``): always write through meshio in it."""
         mesh_io.save_mesh(self, path, fields, file_format=file_format)
 
     def roughen(
@@ -534,41 +546,70 @@ class SurfaceMesh:
         *,
         tau: float | None = None,
     ) -> SurfaceMesh:
-        """A new mesh with heat-filtered random roughness of ``max`` displacement
-        ``amplitude`` (absolute length) along the vertex normals; see
-        `rdgpu.surfaces.roughen` (uniform random values, ``filter_steps`` implicit
-        heat steps ``(A − τW) x_{k+1} = A x_k``, ``τ`` = mean edge length² by default,
-        minus the area-weighted mean). Same faces; reproducible per ``seed``."""
+        """A new mesh, same faces, with heat-filtered random roughness along the vertex
+        normals, the same for the same ``seed``: `rdgpu.surfaces.roughen` (steps, errors).
+
+        Parameters
+        ----------
+        amplitude : float
+            The largest displacement (absolute length), finite and >= 0.
+        filter_steps : int
+            Implicit heat steps ``(A − τW) x_{k+1} = A x_k``, a whole number >= 0.
+        seed : int
+        tau : float, optional
+            The filter's time step (length², > 0); ``None``: ``mean_edge_length²``."""
         V = roughness.roughened_vertices(self, amplitude, filter_steps, seed, tau=tau)
         return type(self)(V, self.faces, period=self.period)
-
 
     # ------------------------------------------------------------------- generators
     # (the vertices and faces come from rdgpu.domains.mesh.generators)
     @classmethod
     def disc(cls, radius: float = 1.0, rings: int = 16) -> SurfaceMesh:
-        """Planar disc (z = 0) of ``radius`` centred at the origin, ``rings`` concentric
-        rings of near-equilateral triangles (`disc`)."""
+        """Planar disc (z = 0) of ``radius`` (finite, > 0) centred at the origin (`disc`).
+
+        Parameters
+        ----------
+        radius : float
+        rings : int
+            Concentric rings of near-equilateral triangles, a whole number >= 1."""
         return cls(*generators.disc(radius, rings))
 
     @classmethod
     def icosphere(cls, subdivisions: int = 3, radius: float = 1.0) -> SurfaceMesh:
-        """Geodesic sphere: an icosahedron subdivided ``subdivisions`` times, ``10·4^s + 2``
-        vertices (`icosphere`, trimesh)."""
+        """Geodesic sphere centred at the origin (`icosphere`, trimesh).
+
+        Parameters
+        ----------
+        subdivisions : int
+            ``s >= 0``: an icosahedron subdivided ``s`` times, ``10·4^s + 2`` vertices.
+        radius : float"""
         return cls(*generators.icosphere(subdivisions, radius))
 
     @classmethod
     def uv_sphere(cls, n_lat: int = 16, n_lon: int = 32, radius: float = 1.0) -> SurfaceMesh:
-        """Latitude-longitude sphere of ``n_lat`` bands and ``n_lon`` meridians, no
-        duplicated seam or pole vertices (`uv_sphere`)."""
+        """Latitude-longitude sphere of ``n_lat`` >= 2 bands and ``n_lon`` >= 3 meridians, no
+        duplicated seam or pole vertices (`uv_sphere`).
+
+        Parameters
+        ----------
+        n_lat : int
+        n_lon : int
+        radius : float"""
         return cls(*generators.uv_sphere(n_lat, n_lon, radius))
 
     @classmethod
     def torus(
         cls, R: float = 1.0, r: float = 0.3, n_major: int = 48, n_minor: int = 24
     ) -> SurfaceMesh:
-        """Torus around the z axis: tube radius ``r`` at distance ``R`` from the axis,
-        ``n_major × n_minor`` vertices (`torus`)."""
+        """Torus around the z axis (`torus`, trimesh): tube radius ``r`` at distance ``R``
+        from the axis (``0 < r < R``), ``n_major × n_minor`` vertices (each count >= 3).
+
+        Parameters
+        ----------
+        R : float
+        r : float
+        n_major : int
+        n_minor : int"""
         return cls(*generators.torus(R, r, n_major, n_minor))
 
     @classmethod
@@ -582,9 +623,16 @@ class SurfaceMesh:
         width: float = 1.0,
         height: float = 1.0,
     ) -> SurfaceMesh:
-        """Open planar mesh (z = 0) of ``[0, width] × [0, height]``: an ``nx × ny`` vertex
-        grid, every vertex moved by up to ``jitter · spacing`` (``0 <= jitter < 0.25``;
-        `jittered_plane`)."""
+        """Open planar mesh (z = 0) of ``[0, width] × [0, height]`` (`jittered_plane`).
+
+        Parameters
+        ----------
+        nx, ny : int
+            Vertices along x and y (a grid), each >= 2.
+        jitter : float
+            Every vertex moves by up to ``jitter · spacing``, ``0 <= jitter < 0.25``.
+        seed : int
+        width, height : float"""
         return cls(*generators.jittered_plane(nx, ny, jitter, seed, width=width,
                                               height=height))
 
@@ -601,9 +649,21 @@ class SurfaceMesh:
         seed: int = 0,
         size: float = 1.0,
     ) -> SurfaceMesh:
-        """Open rough surface ``z = h(x, y)`` over an ``nx × ny`` grid of ``[0, size]²``:
-        ``func(x, y)``, or the sum of random waves of the rough-surfaces paper
-        (`height_field`)."""
+        """Open rough surface ``z = h(x, y)`` over ``[0, size]²`` (`height_field`).
+
+        Parameters
+        ----------
+        nx, ny : int
+            Vertices along x and y (a grid), each >= 2.
+        func : callable, optional
+            ``h = func(x, y)`` on the ``[ny, nx]`` node coordinates (vectorised). ``None``:
+            random waves of peak ``amplitude``, cut-offs ``frequency`` (``M = N`` or
+            ``(M, N)``, >= 0, not both 0), amplitude decay exponent ``decay``, and ``seed``.
+        amplitude : float
+        frequency : int or tuple of int
+        decay : float
+        seed : int
+        size : float"""
         return cls(*generators.height_field(nx, ny, func, amplitude=amplitude,
                                             frequency=frequency, decay=decay, seed=seed,
                                             size=size))
