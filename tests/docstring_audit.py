@@ -114,7 +114,11 @@ def gaps() -> list[tuple[str, str, list[str]]]:
                 gap = _gap(qual, obj, obj, ("Parameters", "Attributes"))
                 if gap:
                     out.append(gap)
-            for name, value in vars(obj).items():
+            members = {}
+            for base in reversed(obj.__mro__):  # inherited methods of rdgpu's own bases too
+                if base.__module__.startswith("rdgpu"):
+                    members.update(vars(base))
+            for name, value in members.items():
                 if name.startswith("_"):
                     continue
                 if isinstance(value, (staticmethod, classmethod)):

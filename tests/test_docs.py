@@ -122,3 +122,14 @@ def test_home_page_screenshot_shows_text_and_picture(site, tmp_path):
     colours = {tuple(c) for c in picture.reshape(-1, 3)[::97]}
     page = {tuple(c) for c in img.reshape(-1, 3)[::7]}
     assert len(colours & page) >= 5, "the home page's picture did not load"
+
+
+def test_every_reference_callable_documents_its_arguments():
+    """numpydoc (docs/architecture.md, "Docstrings"): every callable the API reference shows
+    names each of its arguments in a ``Parameters`` section (a dataclass's fields may be
+    ``Attributes``): `tests.docstring_audit`."""
+    from tests.docstring_audit import gaps
+
+    found = gaps()
+    assert not found, "arguments without a Parameters entry:\n" + "\n".join(
+        f"{where}: {qual}: {', '.join(missing)}" for qual, where, missing in found)

@@ -27,7 +27,7 @@ Everything here is vectorised NumPy/SciPy; no Python loop runs over faces or ver
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -37,9 +37,10 @@ import scipy.sparse as sp
 from rdgpu.core.optional import require as _require
 from rdgpu.domains import spectra
 from rdgpu.domains.base import STENCILS
-from rdgpu.domains.mesh import generators, roughness
 from rdgpu.domains.mesh import io as mesh_io
+from rdgpu.domains.mesh import roughness
 from rdgpu.domains.mesh.colouring import greedy_colouring
+from rdgpu.domains.mesh.constructors import MeshGenerators
 from rdgpu.domains.mesh.geometry import (
     ZERO_AREA_RTOL,
     DegenerateMeshError,
@@ -70,7 +71,7 @@ PathLike = str | os.PathLike[str]
 # ----------------------------------------------------------------------------------------
 
 
-class SurfaceMesh:
+class SurfaceMesh(MeshGenerators):
     """A validated triangle surface mesh with its cotangent Laplace-Beltrami operator.
 
     Parameters
@@ -175,9 +176,14 @@ class SurfaceMesh:
         return (self.n_vertices,)
 
     def describe(self, source: Any = None) -> dict:
-        """``kind``, ``n_vertices``, ``n_faces``, a periodic mesh's ``period``, and the
-        generator or path it came from (``source``, a preset's ``{"mesh": ...}``) if known;
-        the vertices and faces are kept as arrays (`arrays`)."""
+        """``kind``, ``n_vertices``, ``n_faces``, a periodic mesh's ``period``, and
+        ``source`` if known; the vertices and faces are kept as arrays (`arrays`).
+
+        Parameters
+        ----------
+        source : mapping, optional
+            A preset's ``{"mesh": ...}`` (generator or path), kept with paths as text;
+            anything else (no ``"mesh"`` key) is left out."""
         out: dict[str, Any] = {"kind": self.kind, "n_vertices": int(self.n_vertices),
                                "n_faces": int(self.n_faces)}
         if self.period is not None:  # a periodic (torus-topology) mesh
@@ -321,7 +327,12 @@ class SurfaceMesh:
 
     def colouring(self, seed: int = 0) -> np.ndarray:
         """Greedy colouring (int32 per vertex) of the operator's graph: no two vertices that
-        share an edge get the same colour (see `greedy_colouring`). Cached per seed."""
+        share an edge get the same colour (see `greedy_colouring`). Cached per seed.
+
+        Parameters
+        ----------
+        seed : int
+            The seed of the greedy order's random priorities."""
         if seed not in self._colourings:
             c = greedy_colouring(self.laplacian, seed=seed, symmetric=True)
             c.flags.writeable = False
@@ -342,12 +353,25 @@ class SurfaceMesh:
         return float(self.mean_edge_length)
 
     def kernel_coordinate(self, name: str, dtype: Any) -> np.ndarray:
-        """The vertices' coordinate ``name`` (``x``, ``y``, ``z``) in ``dtype``."""
+        """The vertices' coordinate ``name``, a contiguous copy rounded to ``dtype``.
+
+        Parameters
+        ----------
+        name : str
+            ``"x"``, ``"y"`` or ``"z"``; another name is a ``KeyError``.
+        dtype : dtype
+            float32 or float64 (any form NumPy takes)."""
         k = {"x": 0, "y": 1, "z": 2}[name]
         return np.ascontiguousarray(np.asarray(self.vertices[:, k], dtype=dtype))
 
     def unit_coordinate(self, axis: str) -> np.ndarray:
-        """The vertices' coordinate ``axis`` scaled to [0, 1] over the bounding box."""
+        """The vertices' coordinate ``axis`` scaled to [0, 1] over the bounding box
+        (float64, ``(n_vertices,)``; zeros where the box is flat along ``axis``).
+
+        Parameters
+        ----------
+        axis : str
+            ``"x"``, ``"y"`` or ``"z"``; another is a ``ValueError``."""
         k = {"x": 0, "y": 1, "z": 2}.get(axis)
         if k is None:
             raise ValueError(f"a mesh axis is 'x', 'y' or 'z', got {axis!r}")
@@ -356,13 +380,23 @@ class SurfaceMesh:
         return (c - c.min()) / span if span > 0 else np.zeros_like(c)
 
     def stencil_kind(self, stencil: str = "compact") -> str:
-        """``mesh``: the cotangent operator, whatever grid stencil is named."""
+        """``mesh``: the cotangent operator, whatever grid stencil is named.
+
+        Parameters
+        ----------
+        stencil : {"compact", "isotropic"}, default "compact"
+            Checked only: an unknown name is a ``ValueError``."""
         if stencil not in STENCILS:
             raise ValueError(f"unknown stencil {stencil!r}; allowed: {', '.join(STENCILS)}")
         return "mesh"
 
     def largest_eigenvalue(self, stencil: str = "compact") -> float:
-        """``λ_max(−L)`` as `max_stable_dt` estimates it."""
+        """``λ_max(−L)`` as `max_stable_dt` estimates it (``method="auto"``).
+
+        Parameters
+        ----------
+        stencil : str, default "compact"
+            Not used (nor checked): a mesh has one operator."""
         return 2.0 / self.max_stable_dt(1.0)
 
     def explicit_diffusion_limit(self) -> float:
@@ -385,7 +419,13 @@ class SurfaceMesh:
         return spectra.mesh_eigenvalue(self, labels, count)
 
     def sor_colouring(self, matrix: Any) -> np.ndarray:
-        """`colouring` (greedy, proper for the mesh's own operator)."""
+        """`colouring` (greedy, proper for the mesh's own operator), int32 per vertex.
+
+        Parameters
+        ----------
+        matrix : scipy.sparse.csr_matrix
+            The ``n × n`` operator to colour; if `colouring` does not fit its graph, a
+            greedy colouring of ``matrix`` itself is returned."""
         colour = np.asarray(self.colouring())
         if not spectra.valid_colouring(matrix, colour):  # pragma: no cover - it is proper
             colour = greedy_colouring(matrix, symmetric=False)
@@ -394,7 +434,14 @@ class SurfaceMesh:
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_trimesh(cls, tm: Any, *, repair: bool = False) -> SurfaceMesh:
-        """From a ``trimesh.Trimesh`` (a ``trimesh.Scene`` is concatenated first)."""
+        """From a ``trimesh.Trimesh`` (a ``trimesh.Scene`` is concatenated first).
+
+        Parameters
+        ----------
+        tm : trimesh.Trimesh or trimesh.Scene
+            The mesh, or a scene whose geometries are concatenated.
+        repair : bool
+            As in `SurfaceMesh`."""
         if hasattr(tm, "geometry") and not hasattr(tm, "faces"):  # a Scene
             trimesh = _require("trimesh", "SurfaceMesh.from_trimesh")
             tm = trimesh.util.concatenate(tm.dump())
@@ -403,7 +450,15 @@ class SurfaceMesh:
     @classmethod
     def from_pyvista(cls, pd: Any, *, repair: bool = False) -> SurfaceMesh:
         """From a pyvista ``PolyData`` (any other dataset has its surface extracted);
-        polygons and strips are triangulated, lines and points ignored."""
+        polygons and strips are triangulated, lines and points ignored.
+
+        Parameters
+        ----------
+        pd : pyvista.DataSet
+            Needs pyvista (the ``mesh`` extra); no polygons or strips is a
+            `DegenerateMeshError`.
+        repair : bool
+            As in `SurfaceMesh`."""
         pv = _require("pyvista", "SurfaceMesh.from_pyvista")
         return cls(*mesh_io._pyvista_arrays(pv, pd), repair=repair)
 
@@ -413,7 +468,15 @@ class SurfaceMesh:
         two triangles each (``(a, b, c, d)`` → ``(a, b, c)``, ``(a, c, d)``); other cell
         blocks (points, lines, volume cells) are ignored. 2-D points get ``z = 0``. A mesh
         with no triangles or quads is refused. Its ``point_data`` is not kept here; use
-        `load_with_fields` (files) or read ``mesh.point_data`` yourself."""
+        `load_with_fields` (files) or read ``mesh.point_data`` yourself.
+
+        Parameters
+        ----------
+        mesh : meshio.Mesh
+            Anything else is a ``TypeError``; no triangle or quad cells a
+            `DegenerateMeshError`.
+        repair : bool
+            As in `SurfaceMesh`."""
         V, F, _ = mesh_io._meshio_arrays(mesh)
         return cls(V, F, repair=repair)
 
@@ -560,113 +623,6 @@ class SurfaceMesh:
             The filter's time step (length², > 0); ``None``: ``mean_edge_length²``."""
         V = roughness.roughened_vertices(self, amplitude, filter_steps, seed, tau=tau)
         return type(self)(V, self.faces, period=self.period)
-
-    # ------------------------------------------------------------------- generators
-    # (the vertices and faces come from rdgpu.domains.mesh.generators)
-    @classmethod
-    def disc(cls, radius: float = 1.0, rings: int = 16) -> SurfaceMesh:
-        """Planar disc (z = 0) of ``radius`` (finite, > 0) centred at the origin (`disc`).
-
-        Parameters
-        ----------
-        radius : float
-        rings : int
-            Concentric rings of near-equilateral triangles, a whole number >= 1."""
-        return cls(*generators.disc(radius, rings))
-
-    @classmethod
-    def icosphere(cls, subdivisions: int = 3, radius: float = 1.0) -> SurfaceMesh:
-        """Geodesic sphere centred at the origin (`icosphere`, trimesh).
-
-        Parameters
-        ----------
-        subdivisions : int
-            ``s >= 0``: an icosahedron subdivided ``s`` times, ``10·4^s + 2`` vertices.
-        radius : float"""
-        return cls(*generators.icosphere(subdivisions, radius))
-
-    @classmethod
-    def uv_sphere(cls, n_lat: int = 16, n_lon: int = 32, radius: float = 1.0) -> SurfaceMesh:
-        """Latitude-longitude sphere of ``n_lat`` >= 2 bands and ``n_lon`` >= 3 meridians, no
-        duplicated seam or pole vertices (`uv_sphere`).
-
-        Parameters
-        ----------
-        n_lat : int
-        n_lon : int
-        radius : float"""
-        return cls(*generators.uv_sphere(n_lat, n_lon, radius))
-
-    @classmethod
-    def torus(
-        cls, R: float = 1.0, r: float = 0.3, n_major: int = 48, n_minor: int = 24
-    ) -> SurfaceMesh:
-        """Torus around the z axis (`torus`, trimesh): tube radius ``r`` at distance ``R``
-        from the axis (``0 < r < R``), ``n_major × n_minor`` vertices (each count >= 3).
-
-        Parameters
-        ----------
-        R : float
-        r : float
-        n_major : int
-        n_minor : int"""
-        return cls(*generators.torus(R, r, n_major, n_minor))
-
-    @classmethod
-    def jittered_plane(
-        cls,
-        nx: int = 32,
-        ny: int = 32,
-        jitter: float = 0.2,
-        seed: int = 0,
-        *,
-        width: float = 1.0,
-        height: float = 1.0,
-    ) -> SurfaceMesh:
-        """Open planar mesh (z = 0) of ``[0, width] × [0, height]`` (`jittered_plane`).
-
-        Parameters
-        ----------
-        nx, ny : int
-            Vertices along x and y (a grid), each >= 2.
-        jitter : float
-            Every vertex moves by up to ``jitter · spacing``, ``0 <= jitter < 0.25``.
-        seed : int
-        width, height : float"""
-        return cls(*generators.jittered_plane(nx, ny, jitter, seed, width=width,
-                                              height=height))
-
-    @classmethod
-    def height_field(
-        cls,
-        nx: int = 64,
-        ny: int = 64,
-        func: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-        *,
-        amplitude: float = 0.05,
-        frequency: int | tuple[int, int] = 5,
-        decay: float = 0.0,
-        seed: int = 0,
-        size: float = 1.0,
-    ) -> SurfaceMesh:
-        """Open rough surface ``z = h(x, y)`` over ``[0, size]²`` (`height_field`).
-
-        Parameters
-        ----------
-        nx, ny : int
-            Vertices along x and y (a grid), each >= 2.
-        func : callable, optional
-            ``h = func(x, y)`` on the ``[ny, nx]`` node coordinates (vectorised). ``None``:
-            random waves of peak ``amplitude``, cut-offs ``frequency`` (``M = N`` or
-            ``(M, N)``, >= 0, not both 0), amplitude decay exponent ``decay``, and ``seed``.
-        amplitude : float
-        frequency : int or tuple of int
-        decay : float
-        seed : int
-        size : float"""
-        return cls(*generators.height_field(nx, ny, func, amplitude=amplitude,
-                                            frequency=frequency, decay=decay, seed=seed,
-                                            size=size))
 
     @property
     def point_weights(self) -> np.ndarray:
