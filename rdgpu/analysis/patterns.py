@@ -172,7 +172,8 @@ def classify_pattern(
     members : bool or None, optional
         True: ``field`` is a stack ``[M, *shape]``; False: one field; default None
         (a stack when ``domain`` is given and ``field.shape[1:]`` is its
-        ``kernel_shape``).
+        ``kernel_shape`` or its ``field_shape``: a 1-D grid's ``[M, 1, nx]`` or
+        ``[M, nx]``).
     lone : float, optional
         A connected phase covering less than this share of the points counts as
         islands; default 0.25.
@@ -194,9 +195,11 @@ def classify_pattern(
     if mixed is not None and not 0.0 < float(mixed) < 0.5:
         raise ValueError(f"mixed must be None or a fraction in (0, 0.5), got {mixed!r}")
     f = as_array(field)
-    if members is None:
-        shape = None if domain is None else tuple(domain.kernel_shape)
-        members = shape is not None and f.ndim == len(shape) + 1 and f.shape[1:] == shape
+    if members is None:  # a stack of fields as users or as the kernels hold them
+        shapes = () if domain is None else {tuple(domain.kernel_shape),
+                                            tuple(domain.field_shape)}
+        members = f.shape not in shapes and any(
+            f.ndim == len(s) + 1 and f.shape[1:] == s for s in shapes)
     opts = {"connected": connected, "elongated": elongated, "min_size": min_size,
             "rtol": rtol, "atol": atol, "mixed": mixed, "nonfinite": nonfinite, "lone": lone}
     if members:

@@ -166,3 +166,19 @@ def test_bad_input_says_what_is_allowed():
         spot_statistics(np.zeros((16, 16)), grid, min_cells=0)
     with pytest.raises(ValueError, match="2-D Grid"):
         stripe_orientation(np.zeros((1, 16)), Grid((16,)))
+
+
+def test_classify_pattern_reads_stacks_of_1d_fields_as_members():
+    """A 1-D grid's fields come as ``[nx]`` (users) or ``[1, nx]`` (kernels): a stack of
+    either is members, one field of either is one class."""
+    from rdgpu.analysis import classify_pattern
+    from rdgpu.domains.grid import Grid
+
+    grid = Grid((40,), bc="periodic")
+    x = np.arange(40)
+    bands = np.sign(np.sin(2 * np.pi * x / 10))
+    flat = np.ones(40)
+    for stack in (np.stack([bands, flat]), np.stack([bands, flat])[:, None, :]):
+        assert classify_pattern(stack, grid) == [classify_pattern(bands, grid), "uniform"]
+    assert isinstance(classify_pattern(bands[None, :], grid), str)
+    assert isinstance(classify_pattern(bands, grid), str)
