@@ -29,8 +29,9 @@ TITLES = {"kernels": "Grid kernels", "mesh": "Mesh kernels", "models": "Models",
 class GroupOptions:
     """The sizes and counts of the row groups (each module's docstring says what they
     mean); ``kernel_sizes`` None: from the measured cache; ``model_size`` None: the middle
-    kernel size."""
+    kernel size; ``numpy``: NumPy runs too, the baseline of the ``× NumPy`` columns."""
 
+    numpy: bool = True
     kernels: list[str] = field(default_factory=lambda: list(rows_kernels.BYTES_PER_CELL))
     kernel_sizes: list[int] | None = None
     mesh_vertices: int = rows_mesh.DEFAULT_VERTICES
@@ -107,9 +108,11 @@ def run_groups(names: list[str], backends: list[str], g: GroupOptions, machine: 
                llc: int, bandwidth: float, seconds: float, *, quick: bool = False,
                full: bool = False, say: Callable[[str], None] = print) -> dict:
     """Run the groups ``names`` (of `GROUPS`, ``peers`` left to `rdgpu.bench.run`) on
-    NumPy (the baseline) and ``backends`` (``--backends`` entries): ``{"memory": each
-    device's memory, "sizes": the kernel sizes, name: {"rows", "seconds", "markdown"}}``."""
-    ctx_backends = resolve(list(dict.fromkeys(["numpy", *backends])), say)
+    NumPy (the baseline, unless ``g.numpy`` is off) and ``backends`` (``--backends``
+    entries): ``{"memory": each device's memory, "sizes": the kernel sizes, "devices",
+    name: {"rows", "seconds", "markdown"}}``."""
+    labels = (["numpy"] if g.numpy else []) + list(backends)
+    ctx_backends = resolve(list(dict.fromkeys(labels)), say)
     memory = device_memory(ctx_backends, llc, bandwidth, min(seconds, 0.5))
     ctx = Context(backends=ctx_backends, memory=memory, llc=llc, sizes=_sizes(g, memory),
                   seconds=seconds, machine=machine, quick=quick, full=full, say=say)

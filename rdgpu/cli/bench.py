@@ -32,12 +32,7 @@ def options_from(args: argparse.Namespace) -> Options:
         opts.seconds = min(opts.seconds, 0.1)
         opts.triad_max, opts.triad_seconds = 64 * MiB, 0.01
         opts.groups = quick_options()
-    if args.kernels:
-        opts.groups.kernels = list(args.kernels)
-    if args.mesh_vertices:
-        opts.groups.mesh_vertices = args.mesh_vertices
-    if args.members:
-        opts.groups.members = args.members
+    _group_options(opts, args)
     try:
         check_options(opts)
     except ValueError as exc:
@@ -46,6 +41,16 @@ def options_from(args: argparse.Namespace) -> Options:
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {args.out}: exists and is not a folder")
     return opts
+
+
+def _group_options(opts: Options, args: argparse.Namespace) -> None:
+    g = opts.groups
+    g.numpy = args.numpy
+    for name in ("kernels", "mesh_vertices", "model_size", "members", "dla_sizes",
+                 "real_size"):
+        value = getattr(args, name)
+        if value:
+            setattr(g, name, list(value) if isinstance(value, list) else value)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

@@ -54,8 +54,17 @@ def add_bench_parser(sub: Any, command: Any) -> None:
                    + ", ".join(KERNEL_NAMES) + ")")
     b.add_argument("--mesh-vertices", type=at_least_1, metavar="N",
                    help="about this many vertices in the mesh rows' icosphere (default 1e6)")
+    b.add_argument("--model-size", type=at_least_1, metavar="N",
+                   help="grid edge of the model rows (default: the middle kernel size)")
     b.add_argument("--members", type=at_least_1, metavar="M",
                    help="members of the ensemble rows (default 1024)")
+    b.add_argument("--dla-sizes", nargs="+", type=at_least_1, metavar="N",
+                   help="grid edges of the DLA rows (default 256 512)")
+    b.add_argument("--real-size", type=at_least_1, metavar="N",
+                   help="grid edge of the real-state rows (default 1024)")
+    b.add_argument("--no-numpy", dest="numpy", action="store_false",
+                   help="the row groups other than peers run without NumPy, their "
+                   "baseline (where NumPy is slow: large grids on a GPU machine)")
     b.add_argument("--full", action="store_true",
                    help="also the slowest rows (NumPy on the real states)")
     b.add_argument("--quick", action="store_true",
