@@ -15,7 +15,8 @@
   runs blocked passes, on a grid whose state is ``factor`` x the effective LLC, from the
   problem's real state (`rdgpu.bench.problem.real_state`): the single step, the blocked
   passes for every K in ``steps`` and band height B in ``rows``, and the compute ceiling
-  (the single step on a grid whose state fills half the LLC).
+  (the single step on a grid whose state fills half the LLC); a backend without blocked
+  passes (Warp) gets its single step and compute ceiling for comparison, NumPy nothing.
 """
 
 from __future__ import annotations
@@ -172,15 +173,17 @@ def blocking_shapes(llc: int, factor: float,
 def blocking(ctx: Context, shape: tuple[int, int], small: tuple[int, int], ks: list[int],
              bands: list[int]) -> list[dict]:
     """The blocking rows of every backend that runs blocked passes (module docstring) on
-    ``shape``, the compute ceiling on ``small``; the others are named with the reason
-    (``config`` "not run")."""
+    ``shape``, the compute ceiling on ``small``; a backend that does not block gets its
+    single step and compute ceiling (NumPy nothing) and a ``"not run"`` row saying why."""
     rows = []
     for label, be in ctx.backends.items():
         why = be.blocked_pass_support()
-        if why is not None:
-            rows.append(dict(kernel="blocking", backend=label, config="not run", note=why))
-            continue
-        rows += _blocking_rows(ctx, label, be, shape, small, ks, bands)
+        if why is not None and label != "numpy":
+            rows += _blocking_rows(ctx, label, be, shape, small, [], [])
+        rows += ([] if why is None else
+                 [dict(kernel="blocking", backend=label, config="not run", note=why)])
+        if why is None:
+            rows += _blocking_rows(ctx, label, be, shape, small, ks, bands)
     return rows
 
 
@@ -189,13 +192,14 @@ def blocking_markdown(rows: list[dict], ctx: Context) -> list[str]:
     run = [r for r in rows if r["config"] != "not run"]
     lines = ["Temporal blocking: Gray-Scott float32, periodic, from the problem's real state, "
              "against the single-step roofline (triad ÷ 16 bytes/cell).", "",
-             ctx.ran_on(list(dict.fromkeys(r["backend"] for r in rows))), ""]
+             ctx.ran_on(list(dict.fromkeys(r["backend"] for r in rows)))]
     if run:
-        lines += ["| backend | kernel | grid | Mcell·steps/s | × roofline |",
+        lines += ["", "| backend | kernel | grid | Mcell·steps/s | × roofline |",
                   "|---|---|---|---:|---:|",
                   f"| — | roofline (triad ÷ 16 B/cell) | — | {run[0]['roofline_mcells']:.0f} "
                   "| 1.00 |"]
         lines += [f"| {r['backend']} | {r['config']} | {r['shape'][0]} × {r['shape'][1]} | "
                   f"{r['mcells']:.0f} | {r['x_roofline']:.2f} |" for r in run]
-    lines += [f"* {r['backend']}: not run: {r['note']}" for r in rows if r not in run]
+    lines += [""] + [f"* {r['backend']}: no blocked passes: {r['note']}" for r in rows
+                     if r not in run]
     return lines

@@ -1,5 +1,6 @@
 """One benchmark run: the machine measured, the sizes chosen, every contender checked then
-timed, all gathered in one JSON-ready record (`run_bench`).
+timed (the ``peers`` group), then the other row groups of ``Options.rows``
+(`rdgpu.bench.groups`), all gathered in one JSON-ready record (`run_bench`).
 
 A row is one contender on one case (dimensions, dtype, grid edge): ``status`` is ``"ok"``
 (``mcells``: Mcell·steps/s, the best batch of steps over ``seconds``), ``"refused"`` (it

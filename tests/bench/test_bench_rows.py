@@ -10,7 +10,7 @@ import json
 import pytest
 
 from rdgpu.backends.registry import get_backend
-from rdgpu.bench import machine
+from rdgpu.bench import machine, rows_kernels
 from rdgpu.bench.context import Context, kernel_sizes
 from rdgpu.bench.groups import GROUPS, TITLES, quick_options
 from rdgpu.bench.machine import MiB
@@ -81,7 +81,7 @@ def test_models_ensembles_growth_states_blocking(record):
     assert g["blocking"]["rows"] == [dict(kernel="blocking", backend="numpy",
                                           config="not run",
                                           note=g["blocking"]["rows"][0]["note"])]
-    assert "not run" in "\n".join(g["blocking"]["markdown"])
+    assert "no blocked passes" in "\n".join(g["blocking"]["markdown"])
 
 
 def test_write_gives_the_kernels_plot(record, tmp_path):
@@ -91,8 +91,29 @@ def test_write_gives_the_kernels_plot(record, tmp_path):
     assert not (tmp_path / "bench.png").exists()  # no peer rows
 
 
-def test_kernel_check_passes_on_numpy():
+class _WrongGrayScott:
+    """The NumPy backend with Gray-Scott's F off by 40 %: a backend doing other maths."""
+
+    def __init__(self):
+        self.inner = get_backend("numpy")
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def gray_scott(self, *args, **kw):
+        self.inner.gray_scott(*args, **{**kw, "F": 0.05})
+
+
+def test_kernel_check_passes_and_refuses():
     assert check_kernel("sor_sweep", get_backend("numpy")) is None
+    wrong = _WrongGrayScott()
+    assert "disagrees" in check_kernel("gray_scott", wrong)
+    ctx = Context(backends={"wrong": wrong}, memory={"cpu": {"llc": MiB, "GBps": 10.0}},
+                  llc=MiB, sizes=[64], seconds=0.01, machine={"cpu": "x", "cores": 1},
+                  say=lambda line: None)
+    (row,) = rows_kernels.run(ctx, ["gray_scott"])
+    assert row["status"] == "refused" and "mcells" not in row
+    assert "refused: disagrees" in "\n".join(rows_kernels.markdown([row], ctx))
 
 
 def test_kernel_sizes_in_cache_and_beyond():
