@@ -3,7 +3,8 @@
 builds the `Context` (the backends, each device's memory, the kernel sizes from the
 measured cache) and runs them in order.  Each group's result in the record:
 ``{"rows": [...], "seconds": wall time, "markdown": [lines]}`` (its section of bench.md,
-written as it ran so that it names the machine and devices)."""
+written as it ran so that it names the machine and devices); a group whose optional
+package is missing (the mesh rows' trimesh) has no rows and says so."""
 
 from __future__ import annotations
 
@@ -121,8 +122,13 @@ def run_groups(names: list[str], backends: list[str], g: GroupOptions, machine: 
     for name in (n for n in GROUPS if n in names and n != "peers"):
         say(f"{name} ...")
         t0 = time.perf_counter()
-        rows = _RUN[name](ctx, g)
-        lines = _MARKDOWN[name](rows, ctx) if rows else ["No rows (nothing to run)."]
+        try:
+            rows = _RUN[name](ctx, g)
+        except ImportError as exc:  # an optional package the group needs (trimesh, ...)
+            say(f"{name}: not run: {exc}")
+            rows, lines = [], [f"Not run: {exc}."]
+        else:
+            lines = _MARKDOWN[name](rows, ctx) if rows else ["No rows (nothing to run)."]
         out[name] = {"rows": rows, "seconds": round(time.perf_counter() - t0, 1),
                      "markdown": lines}
     return out
