@@ -8,69 +8,20 @@ others until the c = 1 boundary is reached) and prints mass-radius and box-count
 dimensions (default fit ranges, see ``rdgpu.analysis.fractal_dimension``), mean ± spread
 over seeds.  ``speed`` times growth steps per second and SOR sweeps per growth step, warm
 and cold start, per backend, and a plain NumPy implementation of the same algorithm
-written the obvious way (:func:`plain_numpy_dla`) for the ratio.
+written the obvious way (`rdgpu.bench.rows_growth.plain_numpy_dla`, also the growth rows
+of ``rdgpu bench --rows growth``) for the ratio.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
 
 import rdgpu
 from rdgpu.analysis import fractal_dimension
-
-
-def plain_numpy_dla(shape, eta=1.0, steps=100, seed=0, tol=1e-5, geometry="radial"):
-    """The obvious implementation: a Python loop over growth steps, vectorised NumPy
-    red-black SOR (slices of both colours), candidates by shifted masks, and
-    ``rng.choice`` over the candidates.  Returns ``(mask, sweeps per step)``."""
-    ny, nx = shape
-    i, j = np.indices(shape)
-    if geometry == "radial":
-        ci, cj = ny // 2, nx // 2
-        radius = 0.45 * min(shape)
-        fixed_one = np.hypot(i - ci, j - cj) >= radius
-        held = fixed_one.copy()
-        c = np.where(fixed_one, 1.0, 0.0)
-    else:
-        ci, cj = 0, nx // 2
-        fixed_one = i == ny - 1
-        held = (i == 0) | fixed_one
-        c = i / (ny - 1.0)
-    obj = np.zeros(shape, bool)
-    obj[ci, cj] = True
-    c[obj] = 0.0
-    omega = 2.0 / (1.0 + math.sin(math.pi / max(shape)))
-    red = (i + j) % 2 == 0
-    rng = np.random.default_rng(seed)
-    sweeps = []
-    for _ in range(steps):
-        free = ~(held | obj)
-        n = 0
-        while True:
-            n += 1
-            change = 0.0
-            for colour in (red, ~red):
-                nb = 0.25 * (np.roll(c, 1, 1) + np.roll(c, -1, 1)
-                             + np.vstack([c[:1], c[:-1]]) + np.vstack([c[1:], c[-1:]]))
-                new = (1 - omega) * c + omega * nb
-                upd = colour & free
-                change = max(change, float(np.abs(new - c)[upd].max(initial=0.0)))
-                c = np.where(upd, new, c)
-            if change < tol:
-                break
-        sweeps.append(n)
-        near = (np.roll(obj, 1, 0) | np.roll(obj, -1, 0) | np.roll(obj, 1, 1)
-                | np.roll(obj, -1, 1))
-        cand = np.flatnonzero(near & free)
-        w = np.clip(c.ravel()[cand], 0.0, 1.0) ** eta
-        pick = rng.choice(cand, p=w / w.sum())
-        obj.flat[pick] = True
-        c.flat[pick] = 0.0
-    return obj, np.asarray(sweeps)
+from rdgpu.bench.rows_growth import plain_numpy_dla
 
 
 def table(args) -> None:

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The GPU checks of rdgpu: the suite's cross-checks against the NumPy reference on GPU OpenCL
-# and on Warp CUDA, and perf/bench.py's GPU rows (warp-cuda, opencl-gpu).
+# and on Warp CUDA, and the GPU rows of `rdgpu bench --rows ...` (warp-cuda, opencl-gpu).
 #
 # Run from the repository root on a machine with an NVIDIA GPU, with pyopencl (stage opencl)
 # and warp-lang (stage warp) importable by $PYTHON (default python3), and trimesh (the mesh
@@ -14,8 +14,9 @@
 #           out; RDGPU_OPENCL_DEVICE picks another), junit XML in $OUT/junit-opencl.xml
 #   warp    the same on Warp's cuda:0 (RDGPU_TEST_WARP_DEVICE, see tests/conftest.py),
 #           numpy- and opencl-only tests left out, $OUT/junit-warp.xml
-#   bench   perf/bench.py, GPU backends only, grid kernels at 1024², 4096², 8192² (beyond
-#           an H100's 50 MB or H200's 60 MB L2), bench.md/json/png in $OUT
+#   bench   rdgpu bench --rows kernels, GPU backends only, grid kernels at 1024², 4096²,
+#           8192² (beyond an H100's 50 MB or H200's 60 MB L2), bench.md/json and
+#           bench-kernels.png in $OUT
 #   bench2  its mesh, model, ensemble and growth rows, in $OUT/bench2
 # First run (2026-11-27, H200): wheels carried to a machine without a package index (warp-lang
 # 1.19.0 repacked as tar.xz without examples/tests, 99 MB, in two calls), pytest-xdist there.
@@ -94,14 +95,13 @@ for stage in "$@"; do
             run_tests warp "numpy opencl opencl-strided"
         ;;
     bench)
-        timeout "$BENCH_S" $PY perf/bench.py --backends warp-cuda opencl-gpu --no-pypde \
-            --sizes 1024 4096 8192 --mesh-vertices 0 --model-size 0 --members 0 --dla-sizes \
-            --real-size 0 --seconds 0.3 --out "$OUT"
+        timeout "$BENCH_S" $PY -m rdgpu.cli bench --rows kernels --no-numpy \
+            --backends warp-cuda opencl-gpu --sizes 1024 4096 8192 --seconds 0.3 --out "$OUT"
         ;;
     bench2)
-        timeout "$BENCH_S" $PY perf/bench.py --backends warp-cuda opencl-gpu --no-pypde \
-            --kernels --sizes 4096 --mesh-vertices 1000000 --model-size 4096 --members 1024 \
-            --dla-sizes 512 --real-size 0 --seconds 0.2 --out "$OUT/bench2"
+        timeout "$BENCH_S" $PY -m rdgpu.cli bench --rows mesh models ensembles growth \
+            --no-numpy --backends warp-cuda opencl-gpu --sizes 4096 --mesh-vertices 1000000 \
+            --model-size 4096 --members 1024 --dla-sizes 512 --seconds 0.2 --out "$OUT/bench2"
         ;;
     *) echo "unknown stage $stage (info, opencl, warp, bench, bench2)"; exit 2 ;;
     esac

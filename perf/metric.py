@@ -16,17 +16,18 @@ at ``T`` against ``n`` and the observed orders; written to ``metric_convergence.
 
 (b) The metric kernel against the flat 5-point one on each backend, side by side in one
 run (float32, the same random ``u``; the metric coefficients uploaded once): Mcell/s and
-% of the memory-bandwidth roofline (``perf/machine.py``, ``perf/bench.py``: bytes counted
-the STREAM way; flat 8 bytes per cell, u and out; metric 24, u, out and the four
-coefficient arrays).  Sizes from the caches as ``perf/bench.py`` picks them (a
-cache-resident one, a mid one, one whose working set is at least 4× the LLC); written to
-``metric_bench.md``.
+% of the memory-bandwidth roofline (`rdgpu.bench.machine`: the triad measured over a sweep
+of array sizes, bytes counted the STREAM way; flat 8 bytes per cell, u and out; metric 24,
+u, out and the four coefficient arrays).  Sizes from the measured cache as ``rdgpu bench
+--rows kernels`` picks them (a cache-resident one, a mid one, one whose working set is at
+least 4× the LLC); written to ``metric_bench.md``.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import platform
 import sys
 import time
 from pathlib import Path
@@ -38,10 +39,18 @@ try:
 except ImportError:  # run from a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import rdgpu
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench  # noqa: E402 - perf/bench.py, next to this file
-import machine  # noqa: E402
-
+from rdgpu.bench.context import kernel_sizes  # noqa: E402
+from rdgpu.bench.devices import (  # noqa: E402
+    add_roofline,
+    device_memory,
+    fmt,
+    memory_of,
+    resolve,
+    roof_text,
+    time_case,
+)
+from rdgpu.bench.machine import MiB, effective_llc, triad_sweep  # noqa: E402
+from rdgpu.core.hardware import cpu_caches  # noqa: E402
 from rdgpu.domains.boundary import parse_bc  # noqa: E402
 from rdgpu.domains.graph_surface import GraphSurface  # noqa: E402
 from rdgpu.families import load_module  # noqa: E402
@@ -96,7 +105,7 @@ def heat_table(sizes: list[int], backend: str | None) -> tuple[list[dict], str]:
         r["order"] = None if not rows else float(np.log2(rows[-1]["error"] / r["error"]))
         rows.append(r)
         print(f"heat n={n:4d}  dt={r['dt']:.3e}  steps={r['steps']:6d}  rel l2 error "
-              f"{r['error']:.3e}  order {bench.fmt(r['order'], '.2f')}  "
+              f"{r['error']:.3e}  order {fmt(r['order'], '.2f')}  "
               f"({r['seconds']:.1f} s)", flush=True)
     be = rdgpu.get_backend(backend)
     lines = [
@@ -114,7 +123,7 @@ def heat_table(sizes: list[int], backend: str | None) -> tuple[list[dict], str]:
     ]
     for r in rows:
         lines.append(f"| {r['n']} | {r['dx']:.4f} | {r['dt']:.3e} | {r['steps']} | "
-                     f"{r['error']:.3e} | {bench.fmt(r['order'], '.2f')} | "
+                     f"{r['error']:.3e} | {fmt(r['order'], '.2f')} | "
                      f"{r['spectral_gap']:.1e} |")
     lines += ["", f"Command: `python perf/metric.py --heat-sizes {' '.join(map(str, sizes))}"
               f"{'' if backend is None else ' --heat-backend ' + backend}`", ""]
@@ -201,12 +210,13 @@ def bench_rows(sizes: list[int], backends: dict, memory: dict, seconds: float) -
         for label, be in backends.items():
             for kind, nbytes in BYTES.items():
                 step = make_step(kind, be, n)
-                t = bench.time_case(be, step, seconds)
+                t = time_case(be, step, seconds)
                 del step
                 row = dict(kernel=kind, size=n, cells=n * n, backend=label, device=be.device,
                            seconds_per_step=t, mcells=n * n / t / 1e6)
-                rows.append(bench.add_roofline(row, bench.memory_of(label, memory), nbytes))
-                bench.progress(f"{kind:13s} {n:5d}²", row)
+                rows.append(add_roofline(row, memory_of(label, memory), nbytes))
+                print(f"{kind:13s} {n:5d}² {label:12s} {row['mcells']:9.1f} Mcell/s  "
+                      f"roofline {roof_text(row)}", flush=True)
     flat = {(r["size"], r["backend"], r["kernel"].split()[0]): r["mcells"] for r in rows
             if r["kernel"] in ("flat 5-point", "gray-scott flat")}
     for r in rows:
@@ -221,12 +231,12 @@ def bench_markdown(rows: list[dict], memory: dict, caches, sizes_auto: bool,
     lines = [
         "# The metric Laplace-Beltrami kernel against the flat 5-point Laplacian",
         "",
-        f"Machine: {machine.cpu_name()}, {os.cpu_count()} CPUs; {caches.describe()}. "
-        f"Load average (1 min) at the end: {os.getloadavg()[0]:.1f}.",
+        f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
+        f"{caches.describe()}. Load average (1 min) at the end: {os.getloadavg()[0]:.1f}.",
         "",
-        f"Bandwidth (triad outside the cache, best of repeats, before and after the rows: "
-        f"{' and '.join(f'{x:.1f}' for x in cpu['GBps_runs'])} GB/s; the better one): "
-        f"**{cpu['GBps']:.1f} GB/s** ({cpu['GBps_from']}). float32, periodic, best of "
+        f"Bandwidth (the triad sweep of `rdgpu.bench.machine`, out of the cache): "
+        f"**{cpu['GBps']:.1f} GB/s**; effective LLC {cpu['llc'] / MiB:.0f} MiB. "
+        "float32, periodic, best of "
         "repeats. Bytes per cell counted "
         "the STREAM way: flat 8 (read u, write out), metric 24 (u, the four coefficient "
         "arrays ex, ny, bx, w, out); one fused Gray-Scott step of the model layer (euler, "
@@ -243,8 +253,8 @@ def bench_markdown(rows: list[dict], memory: dict, caches, sizes_auto: bool,
     ]
     for r in rows:
         lines.append(f"| {r['size']}² | {r['backend']} | {r['kernel']} | {r['mcells']:.0f} | "
-                     f"{r['vs_flat']:.2f} | {bench.fmt(r['working_set_over_llc'], '.2f')} | "
-                     f"{r['roofline_mcells']:.0f} | {bench.roof_text(r)} |")
+                     f"{r['vs_flat']:.2f} | {fmt(r['working_set_over_llc'], '.2f')} | "
+                     f"{r['roofline_mcells']:.0f} | {roof_text(r)} |")
     lines += ["", f"Command: `{' '.join(['python perf/metric.py', *argv])}`", ""]
     return "\n".join(lines)
 
@@ -254,8 +264,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="*", default=None,
                         help="benchmark grid sizes (default: from the caches; none: no bench)")
-    parser.add_argument("--backends", nargs="+", default=list(bench.CPU_LABELS),
-                        help=f"of {', '.join(bench.CPU_LABELS)}")
+    parser.add_argument("--backends", nargs="+", default=["numpy", "warp", "opencl"],
+                        help="backend specs (default: numpy warp opencl)")
     parser.add_argument("--seconds", type=float, default=0.3, help="timing per case")
     parser.add_argument("--heat-sizes", type=int, nargs="*", default=[16, 32, 64, 128],
                         help="grids of the heat check (none: no heat check)")
@@ -272,17 +282,16 @@ def main(argv: list[str] | None = None) -> int:
         print(text)
     if args.sizes is not None and not args.sizes:
         return 0
-    caches = machine.cpu_caches()
-    backends = bench.resolve_backends(args.backends, gpu=False)
+    caches = cpu_caches()
+    backends = resolve(args.backends, print)
     print("backends: " + "; ".join(f"{k} = {b.device}" for k, b in backends.items()))
-    memory = bench.measure_memory(backends, caches, min(args.seconds, 0.5))
+    measured = effective_llc(triad_sweep(2048 * MiB))
+    llc = measured["llc"] or caches.llc or 32 * MiB
+    memory = device_memory(backends, llc, measured["dram_GBps"], min(args.seconds, 0.5))
     sizes_auto = args.sizes is None
-    sizes = args.sizes or machine.default_sizes(caches.llc, min(BYTES.values()),
-                                                max(BYTES.values()))
+    sizes = args.sizes or kernel_sizes(llc, min(BYTES.values()), max(BYTES.values()))
     print(f"sizes: {sizes}; bandwidth {memory['cpu']['GBps']:.1f} GB/s", flush=True)
     rows = bench_rows(sizes, backends, memory, args.seconds)
-    # other work on the machine comes and goes: measure again, keep the better bandwidth
-    bench.remeasure(memory, backends, caches, min(args.seconds, 0.5), [rows])
     text = bench_markdown(rows, memory, caches, sizes_auto, argv)
     (out / "metric_bench.md").write_text(text)
     print(text)

@@ -20,8 +20,8 @@ includes one upload and one download, as trackers make it).  A ``DataTracker`` k
 the state at t = 10; every backend's is compared with the first backend's (max |Δ|, to
 round-off).  Writes ``pypde.md`` (``euler``) or ``pypde_<solver>.md`` in ``--out``.
 The default size is 2048² (what the issue names, 64 MiB per float64 field: far beyond
-a 32 MiB LLC); ``--size 0`` takes the largest size of :func:`machine.default_sizes` for
-the LLC instead.
+a 32 MiB LLC); ``--size 0`` takes the largest size ``rdgpu bench --rows kernels`` picks
+(`rdgpu.bench.context.kernel_sizes`) for the measured last-level cache instead.
 """
 
 from __future__ import annotations
@@ -38,11 +38,18 @@ try:
 except ImportError:  # run from a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import rdgpu
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import machine  # noqa: E402 - perf/machine.py, next to this file
 import pde  # noqa: E402
 
 import rdgpu.pypde  # noqa: E402,F401 - registers backend "rdgpu"
+from rdgpu.bench.context import kernel_sizes  # noqa: E402
+from rdgpu.bench.machine import MiB, effective_llc, triad_sweep  # noqa: E402
+from rdgpu.core.hardware import cpu_caches  # noqa: E402
+
+
+def measured_llc() -> int:
+    """The effective last-level cache (`rdgpu.bench.machine`: a triad sweep), else the
+    OS-reported one, else 32 MiB."""
+    return effective_llc(triad_sweep(2048 * MiB))["llc"] or cpu_caches().llc or 32 * MiB
 
 EQUATIONS = {"u": "0.16*laplace(u) - u*v**2 + 0.035*(1 - u)",
              "v": "0.08*laplace(v) + u*v**2 - (0.035 + 0.06)*v"}
@@ -116,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     n = args.size
     if n <= 0:
-        n = machine.default_sizes(machine.cpu_caches().llc, 16, 32)[-1]
+        n = kernel_sizes(measured_llc(), 16, 32)[-1]
     eq = pde.PDE(EQUATIONS, bc="periodic")
     state = initial_state(n)
     rows = []
@@ -135,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{getattr(rdgpu, '__version__', '?')}, float64, {n}² periodic, solver "
         f"{args.solver} (dt = {args.dt}{', initial' if SOLVERS[args.solver][1] else ''}), "
         "trackers every m time units. The machine: "
-        f"{machine.cpu_caches().llc // machine.MiB} MiB LLC, "
+        f"{cpu_caches().llc // MiB} MiB LLC (as reported), "
         "2 cores shared with other jobs (rates are indicative).", "",
         "| backend | Mcell/s | × numba | steps timed | to the first interval (s) | "
         f"max abs diff at t = {FIRST_STEPS * args.dt:g} vs {ref['backend']} |",

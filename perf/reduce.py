@@ -14,7 +14,8 @@ iteration) on opencl, warp and numpy, in one run, for float32 and float64 arrays
 
 GB/s count the bytes of ``u`` read once (the partials are negligible), 1e9 bytes per
 second, best of repeats.  ``% triad`` is that over the triad bandwidth ``a = b + s c`` on
-all cores (``perf/machine.py``), measured in the same run outside the caches.
+all cores (`rdgpu.bench.machine`'s triad sweep), measured in the same run: its largest
+working set (4x the LLC), out of the caches.
 
 To check that PoCL vectorises the row layout's loop, the OpenCL kernels are also timed
 built with ``-D RDGPU_REDUCE_SCALAR`` (``#pragma clang loop vectorize(disable)
@@ -33,17 +34,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import machine  # noqa: E402
+import rdgpu
+from rdgpu.backends.reduce_timing import MiB, measure, scalar_opencl, table
+from rdgpu.bench.machine import effective_llc, machine_record, triad_sweep
+from rdgpu.core.hardware import Caches, cpu_caches
 
-import rdgpu  # noqa: E402
-from rdgpu.backends.reduce_timing import MiB, measure, scalar_opencl, table  # noqa: E402
 
-
-def sizes(caches: machine.Caches) -> dict[str, int]:
+def sizes(caches: Caches) -> dict[str, int]:
     """Bytes per array: 1 element, half of one L2, 4x the LLC (32 MiB assumed unknown)."""
     l2 = caches.l2 or MiB
     return {"tiny": 0, "L2": l2 // 2, "DRAM": 4 * (caches.llc or 32 * MiB)}
@@ -57,23 +56,23 @@ def main(argv: list[str] | None = None) -> int:
                     help="multiply the L2 and DRAM sizes (a small one for a quick run)")
     args = ap.parse_args(argv)
 
-    caches = machine.cpu_caches()
+    caches = cpu_caches()
     backends = {"opencl": rdgpu.get_backend("opencl"), "opencl scalar": scalar_opencl(),
                 "warp": rdgpu.get_backend("warp"), "numpy": rdgpu.get_backend("numpy")}
     size_bytes = {k: int(v * args.scale) for k, v in sizes(caches).items()}
     load0 = os.getloadavg()[0]
-    bw = machine.cpu_bandwidth(int(caches.llc * args.scale), args.seconds,
-                               backends["opencl"])
+    sweep = triad_sweep(int(4 * (caches.llc or 32 * MiB) * args.scale), args.seconds / 4)
+    bw = effective_llc(sweep)
     rows = measure(backends, size_bytes, args.seconds)
     load1 = os.getloadavg()[0]
     text = "\n\n".join([
         "# `Backend.max_abs` and `Backend.sum_squares`: bandwidth and call overhead",
-        f"Machine: {machine.cpu_name()}, {machine.allowed_cpus().__len__()} CPUs; "
+        f"Machine: {machine_record(None)['cpu']}, {machine_record(None)['cores']} CPUs; "
         f"{caches.describe()}. OpenCL: {backends['opencl'].device}. Load average (1 min) "
         f"at start {load0:.1f}, at end {load1:.1f}.",
-        f"Triad (all cores, outside the caches, {bw['triad_bytes'] / MiB:.0f} MiB): "
-        f"**{bw['GBps']:.1f} GB/s** ({bw['GBps_from']}); inside the cache (a quarter of "
-        f"the LLC): {bw.get('cached_opencl_GBps', bw['cached_numpy_GBps']):.0f} GB/s. "
+        f"Triad ({sweep['how']}, the sweep's largest working set, "
+        f"{sweep['points'][-1][0] / MiB:.0f} MiB): **{bw['dram_GBps']:.1f} GB/s**; inside "
+        f"the cache (the sweep's best): {bw['cache_GBps']:.0f} GB/s. "
         "% triad = the reduction's GB/s ÷ the DRAM triad, for every size: cache-resident rows can "
         "exceed 100, and so can DRAM rows, since the triad's bytes are counted the STREAM "
         "way (its write-allocate reads are not: its real traffic is 4/3 of that counted) "
@@ -87,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         "implicit one every fixed-point iteration (sum_squares).",
         f"Command: `python perf/reduce.py --seconds {args.seconds:g}"
         + (f" --scale {args.scale:g}" if args.scale != 1 else "") + "`",
-        table(rows, bw["GBps"]),
+        table(rows, bw["dram_GBps"]),
     ]) + "\n"
     print(text)
     if args.out is not None:

@@ -9,7 +9,8 @@ for several sticking probabilities.
 
 Speed rows: ``rdgpu.random_walk_dla`` (radial, ``--speed-sticking``, seed 0), after one small run
 that compiles; walker steps = swarm steps x walkers in flight.  The plain NumPy version
-(``plain_numpy_steps``) moves every walker one step with ``numpy.random`` draws, checks
+(`rdgpu.bench.rows_growth.plain_numpy_walkers`, also the walker rows of ``rdgpu bench
+--rows growth``) moves every walker one step with ``numpy.random`` draws, checks
 the four neighbours, and adds the stickers' cells in a Python loop: the same rules as
 ``rdgpu/families/walkers/reference.py`` without Philox or the identical-cluster guarantee.
 
@@ -26,6 +27,7 @@ import time
 import numpy as np
 
 import rdgpu
+from rdgpu.bench.rows_growth import plain_numpy_walkers
 
 
 def mass_radius_dimension(mask: np.ndarray, centre: tuple[int, int]) -> tuple[float, float,
@@ -51,54 +53,6 @@ def gyration_dimension(arrival: np.ndarray, first: int = 100) -> float:
     ns = np.unique(np.geomspace(first, len(k), 12).astype(int))
     rg = [np.sqrt(i[:n].var() + j[:n].var()) for n in ns]
     return float(np.polyfit(np.log(rg), np.log(ns), 1)[0])
-
-
-def plain_numpy_steps(shape, particles, walkers, sticking=1.0, margin=5, seed=0,
-                      max_steps=None):
-    """Radial walker DLA the obvious way; returns ``(mask, walker steps, seconds)``."""
-    rng = np.random.default_rng(seed)
-    ny, nx = shape
-    cy, cx = ny // 2, nx // 2
-    limit = min(cy, cx, ny - 1 - cy, nx - 1 - cx)
-    grid = np.zeros(shape, bool)
-    grid[cy, cx] = True
-    rad, added, steps = 0, 0, 0
-    moves = np.array([[0, 1], [0, -1], [1, 0], [-1, 0]])
-
-    def launch(n, radius):
-        a = rng.uniform(0, 2 * np.pi, n)
-        return (np.stack([cy + np.rint(radius * np.sin(a)), cx + np.rint(radius * np.cos(a))],
-                         axis=1).astype(np.int64))
-
-    pos = launch(walkers, rad + margin)
-    start = time.perf_counter()
-    while added < particles and (max_steps is None or steps < max_steps):
-        steps += 1
-        r = rad + margin
-        on = grid[pos[:, 0], pos[:, 1]]
-        new = pos + moves[rng.integers(0, 4, walkers)]
-        d2 = ((new - [cy, cx]) ** 2).sum(axis=1)
-        out = (new[:, 0] < 0) | (new[:, 0] >= ny) | (new[:, 1] < 0) | (new[:, 1] >= nx)
-        kill = on | out | (d2 > 4 * r * r)
-        new = np.clip(new, 0, [ny - 1, nx - 1])
-        blocked = ~kill & grid[new[:, 0], new[:, 1]]
-        new[blocked] = pos[blocked]
-        new[kill] = launch(int(kill.sum()), r)
-        p = np.pad(grid, 1)
-        adj = (p[new[:, 0] + 1, new[:, 1]] | p[new[:, 0] + 1, new[:, 1] + 2]
-               | p[new[:, 0], new[:, 1] + 1] | p[new[:, 0] + 2, new[:, 1] + 1])
-        stick = ~kill & adj & (rng.random(walkers) < sticking)
-        pos = new
-        for w in np.flatnonzero(stick):
-            i, j = pos[w]
-            if not grid[i, j]:
-                grid[i, j] = True
-                added += 1
-                rad = max(rad, int(np.ceil(np.hypot(i - cy, j - cx))))
-                if added >= particles or rad + margin > limit:
-                    return grid, steps * walkers, time.perf_counter() - start
-            pos[w] = launch(1, rad + margin)[0]
-    return grid, steps * walkers, time.perf_counter() - start
 
 
 def main() -> None:
@@ -132,7 +86,7 @@ def main() -> None:
             print(f"| {b} | {w} | {r.particles_added} | {r.steps} | {s:.2f} | "
                   f"{r.walker_steps / s:.3g} |", flush=True)
         if args.plain_steps:
-            _, ws, s = plain_numpy_steps(shape, args.particles, w, args.speed_sticking,
+            _, ws, s = plain_numpy_walkers(shape, args.particles, w, args.speed_sticking,
                                          max_steps=min(args.plain_steps, args.speed_max_steps))
             print(f"| plain numpy | {w} | - | {ws // w} | {s:.2f} | {ws / s:.3g} |", flush=True)
     if args.dimension:

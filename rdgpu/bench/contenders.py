@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rdgpu.backends.registry import get_backend
+from rdgpu.bench.devices import spec_of
 from rdgpu.bench.problem import PARAMS, Runner, dt_for, real_state, reference_steps, stepper
 from rdgpu.core.hardware import package_versions
 from rdgpu.domains.boundary import parse_bc
@@ -113,7 +114,7 @@ def rdgpu_contenders(backends: list[str]) -> list[Contender]:
     version = package_versions()["rdgpu"]
     out = []
     for spec in backends:
-        be = get_backend(spec)
+        be = get_backend(spec_of(spec))
         out.append(Contender(f"rdgpu {spec}", "rdgpu", version, _stepper_runner(be, 1)))
         if spec != "numpy":
             out.append(Contender(f"rdgpu {spec} blocked", "rdgpu", version,

@@ -1,8 +1,11 @@
 """A benchmark record (`rdgpu.bench.run.run_bench`) as files: ``bench.json`` (the record),
-``bench.md`` (`markdown`: the machine, then one table per dimensions and dtype, a row per
-contender and a column per grid edge, in Mcell·steps/s) and ``bench.png`` (`plot`: rate
-against cells, log-log, the roofline and the effective LLC marked; needs matplotlib, the
-``media`` extra -- without it there is no plot and `write` says so).
+``bench.md`` (`markdown`: the machine, then the peers' section -- one table per dimensions
+and dtype, a row per contender and a column per grid edge, in Mcell·steps/s -- and a
+section per other row group, each table naming the machine it ran on), ``bench.png``
+(`plot`, the peers: rate against cells, log-log, the roofline and the effective LLC
+marked) and ``bench-kernels.png`` (the kernel rows, `rdgpu.bench.rows_kernels.plot`);
+the plots need matplotlib, the ``media`` extra -- without it there is no plot and `write`
+says so.
 """
 
 from __future__ import annotations
@@ -10,7 +13,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from rdgpu.bench.groups import GROUPS, TITLES
 from rdgpu.bench.machine import MiB
+from rdgpu.bench.rows_kernels import plot as plot_kernels
 
 __all__ = ["markdown", "plot", "write"]
 
@@ -71,14 +76,19 @@ def _best_ratio(rows: list[dict]) -> list[str]:
 
 
 def markdown(record: dict) -> str:
-    """The record as Markdown: the machine, then a table per (dims, dtype)."""
-    lines = ["## rdgpu bench: Gray-Scott, forward Euler, periodic", ""]
-    lines += _header(record) + [""]
+    """The record as Markdown: the machine, then the peers' tables (one per (dims,
+    dtype)), then a section per other row group."""
+    lines = ["# rdgpu bench", ""] + _header(record) + [""]
+    if record["rows"]:
+        lines += ["## Peers: Gray-Scott, forward Euler, periodic", ""]
     cases = dict.fromkeys((r["dims"], r["dtype"]) for r in record["rows"])
     for dims, dtype in cases:
         rows = [r for r in record["rows"] if (r["dims"], r["dtype"]) == (dims, dtype)]
         lines += _table(rows, dims, dtype, record) + _best_ratio(rows)
     lines += [f"* {name}: {why}" for name, why in record["peers_not_run"].items()]
+    groups = record.get("groups", {})
+    for name in (n for n in GROUPS if n in groups):
+        lines += ["", f"## {TITLES[name]}", "", *groups[name]["markdown"]]
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -116,10 +126,18 @@ def plot(record: dict, path: Path) -> str | None:
 
 
 def write(record: dict, out: Path) -> list[str]:
-    """``bench.json``, ``bench.md`` and ``bench.png`` in ``out`` (created); the notes to
-    print (the plot's absence)."""
+    """``bench.json``, ``bench.md``, and the plots of what ran (``bench.png``: the peers;
+    ``bench-kernels.png``: the kernel rows) in ``out`` (created); the notes to print (a
+    plot's absence)."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench.json").write_text(json.dumps(record, indent=1, default=str) + "\n")
     (out / "bench.md").write_text(markdown(record))
-    why = plot(record, out / "bench.png")
-    return [why] if why else []
+    notes = []
+    if record["rows"]:
+        notes.append(plot(record, out / "bench.png"))
+    groups = record.get("groups", {})
+    if "kernels" in groups:
+        ensembles = groups.get("ensembles", {}).get("rows", [])
+        notes.append(plot_kernels(groups["kernels"]["rows"], ensembles, groups["memory"],
+                                  out / "bench-kernels.png"))
+    return [n for n in notes if n]

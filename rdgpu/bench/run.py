@@ -1,5 +1,6 @@
 """One benchmark run: the machine measured, the sizes chosen, every contender checked then
-timed, all gathered in one JSON-ready record (`run_bench`).
+timed (the ``peers`` group), then the other row groups of ``Options.rows``
+(`rdgpu.bench.groups`), all gathered in one JSON-ready record (`run_bench`).
 
 A row is one contender on one case (dimensions, dtype, grid edge): ``status`` is ``"ok"``
 (``mcells``: Mcell·steps/s, the best batch of steps over ``seconds``), ``"refused"`` (it
@@ -18,9 +19,11 @@ import time
 from dataclasses import asdict, dataclass, field
 
 from rdgpu.bench.contenders import CHECK_SHAPE, CHECK_STEPS, Contender, check, rdgpu_contenders
+from rdgpu.bench.groups import GROUPS, GroupOptions, run_groups
 from rdgpu.bench.machine import MiB, grid_sizes, machine_record, triad_sweep
 from rdgpu.bench.peers import PEERS, peer_contenders
 from rdgpu.bench.problem import TILE, bytes_per_cell, real_state
+from rdgpu.bench.rows_kernels import BYTES_PER_CELL
 from rdgpu.core.hardware import cpu_caches
 
 __all__ = ["Options", "QUICK_SIZES", "check_options", "run_bench", "time_rate"]
@@ -31,9 +34,14 @@ QUICK_SIZES = {2: [128], 3: [32]}
 
 @dataclass
 class Options:
-    """What to run: rdgpu ``backends`` (specs), ``peers`` (names of `PEERS`), ``dims``,
-    ``dtypes``, grid edges (``sizes``: ``{dims: [edge, ...]}``; None: from the cache),
-    ``seconds`` of timing per row, the triad sweep up to ``triad_max`` bytes."""
+    """What to run: the row groups ``rows`` (of `GROUPS`), rdgpu ``backends`` (specs, or
+    the GPU labels of `rdgpu.bench.devices`), ``peers`` (names of `PEERS`), ``dims``,
+    ``dtypes``, grid edges (``sizes``: ``{dims: [edge, ...]}``; None: from the cache; the
+    2-D edges are the kernel rows' too), ``seconds`` of timing per row, the triad sweep up
+    to ``triad_max`` bytes, the other groups' sizes (``groups``), ``quick`` and ``full``
+    (the slowest rows too: NumPy on the real states)."""
+
+    rows: list[str] = field(default_factory=lambda: ["peers"])
 
     backends: list[str] = field(default_factory=lambda: ["opencl", "warp"])
     peers: list[str] = field(default_factory=list)
@@ -43,6 +51,9 @@ class Options:
     seconds: float = 0.5
     triad_max: int = 2048 * MiB
     triad_seconds: float = 0.1
+    groups: GroupOptions = field(default_factory=GroupOptions)
+    quick: bool = False
+    full: bool = False
 
 
 def _say(line: str) -> None:
@@ -66,6 +77,12 @@ def time_rate(runner, cells: int, seconds: float) -> float:
 
 def check_options(opts: Options) -> None:
     """ValueError naming the option when ``opts`` cannot run (before any work)."""
+    bad = [r for r in opts.rows if r not in GROUPS]
+    if bad or not opts.rows:
+        raise ValueError(f"rows: unknown {bad or 'none'}; known: {', '.join(GROUPS)} or all")
+    bad = [k for k in opts.groups.kernels if k not in BYTES_PER_CELL]
+    if bad:
+        raise ValueError(f"kernels: unknown {bad}; known: {', '.join(BYTES_PER_CELL)}")
     if not opts.dims or any(d not in TILE for d in opts.dims):
         raise ValueError(f"dims: expected 2 and/or 3, got {opts.dims}")
     if not opts.dtypes or any(t not in ("float32", "float64") for t in opts.dtypes):
@@ -152,10 +169,8 @@ def _machine(opts: Options) -> tuple[dict, int, float, list[str]]:
     return record, llc, record["dram_GBps"], notes
 
 
-def run_bench(opts: Options, contenders: list[Contender] | None = None) -> dict:
-    """Measure the machine, then check and time every contender (rdgpu's ``opts.backends``
-    and ``opts.peers``, or ``contenders`` as given) on every case: the record."""
-    record, llc, bw, notes = _machine(opts)
+def _peer_rows(opts: Options, contenders: list[Contender] | None, llc: int,
+               bw: float) -> tuple[list[dict], dict[str, str]]:
     skipped: dict[str, str] = {}
     if contenders is None:
         contenders = rdgpu_contenders(opts.backends)
@@ -168,7 +183,23 @@ def run_bench(opts: Options, contenders: list[Contender] | None = None) -> dict:
             _say(f"{dims}-D {dtype}: edges {sizes}")
             for c in contenders:
                 rows += _case_rows(c, dims, dtype, sizes, llc, bw, opts.seconds)
+    return rows, skipped
+
+
+def run_bench(opts: Options, contenders: list[Contender] | None = None) -> dict:
+    """Measure the machine, then run the row groups of ``opts.rows``: the peers (check and
+    time every contender -- rdgpu's ``opts.backends`` and ``opts.peers``, or
+    ``contenders`` as given -- on every case) and the others (`run_groups`): the record."""
+    record, llc, bw, notes = _machine(opts)
+    rows, skipped = (_peer_rows(opts, contenders, llc, bw) if "peers" in opts.rows
+                     else ([], {}))
+    groups = {}
+    if any(r != "peers" for r in opts.rows):
+        if opts.sizes and 2 in opts.sizes and opts.groups.kernel_sizes is None:
+            opts.groups.kernel_sizes = list(opts.sizes[2])
+        groups = run_groups(opts.rows, opts.backends, opts.groups, record, llc, bw,
+                            opts.seconds, quick=opts.quick, full=opts.full, say=_say)
     return {"machine": record, "llc_used": llc, "roofline_GBps": bw,
             "options": asdict(opts), "peers_not_run": skipped, "notes": notes,
             "check": {"steps": CHECK_STEPS, "shapes": CHECK_SHAPE},
-            "peers_known": list(PEERS), "rows": rows}
+            "peers_known": list(PEERS), "rows": rows, "groups": groups}

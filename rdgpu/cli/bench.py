@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 from rdgpu.backends.registry import get_backend
+from rdgpu.bench.devices import spec_of
+from rdgpu.bench.groups import GROUPS, quick_options
 from rdgpu.bench.machine import MiB
 from rdgpu.bench.peers import PEERS
 from rdgpu.bench.report import markdown, write
@@ -22,11 +24,15 @@ def options_from(args: argparse.Namespace) -> Options:
     peers = [] if args.peers is None else (list(args.peers) or list(PEERS))
     sizes = ({d: list(args.sizes) for d in args.dims} if args.sizes
              else dict(QUICK_SIZES) if args.quick else None)
-    opts = Options(backends=list(args.backends), peers=peers, dims=list(args.dims),
-                   dtypes=list(args.dtype), sizes=sizes, seconds=args.seconds)
+    rows = list(GROUPS) if "all" in args.rows else list(dict.fromkeys(args.rows))
+    opts = Options(rows=rows, backends=list(args.backends), peers=peers,
+                   dims=list(args.dims), dtypes=list(args.dtype), sizes=sizes,
+                   seconds=args.seconds, quick=args.quick, full=args.full)
     if args.quick:
         opts.seconds = min(opts.seconds, 0.1)
         opts.triad_max, opts.triad_seconds = 64 * MiB, 0.01
+        opts.groups = quick_options()
+    _group_options(opts, args)
     try:
         check_options(opts)
     except ValueError as exc:
@@ -37,14 +43,24 @@ def options_from(args: argparse.Namespace) -> Options:
     return opts
 
 
+def _group_options(opts: Options, args: argparse.Namespace) -> None:
+    g = opts.groups
+    g.numpy = args.numpy
+    for name in ("kernels", "mesh_vertices", "model_size", "members", "dla_sizes",
+                 "real_size"):
+        value = getattr(args, name)
+        if value:
+            setattr(g, name, list(value) if isinstance(value, list) else value)
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
-    """Run the benchmark; the Markdown table on stdout."""
+    """Run the benchmark; the Markdown tables on stdout."""
     opts = options_from(args)
     for spec in opts.backends:
-        get_backend(spec)  # BackendUnavailableError (exit 2) before any work
+        get_backend(spec_of(spec))  # BackendUnavailableError (exit 2) before any work
     record = run_bench(opts)
     for note in write(record, Path(args.out)):
         print(f"rdgpu: {note}", file=sys.stderr)
     print(markdown(record))
-    print(f"rdgpu: wrote bench.json, bench.md, bench.png to {args.out}", file=sys.stderr)
+    print(f"rdgpu: wrote bench.json, bench.md and the plots to {args.out}", file=sys.stderr)
     return 0

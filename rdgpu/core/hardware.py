@@ -1,5 +1,5 @@
 """The CPU's caches, read once for every user: the temporal-blocking policy
-(`rdgpu.integrators.blocking`) and the benchmarks (``perf/machine.py``).
+(`rdgpu.integrators.blocking`) and the benchmarks (`rdgpu.bench.machine`).
 
 `cpu_caches` reads ``/sys/devices/system/cpu/cpu*/cache/index*`` (falling back to
 ``lscpu -B``, then ``getconf``) over the CPUs this process may run on, each distinct cache
