@@ -35,11 +35,11 @@ from rdgpu.ir.program import PerMember, Program
 __all__ = ["AUTO_STEPS", "BlockedEuler", "auto_steps", "cache_sizes", "fitting_steps",
            "last_level_cache", "why_not"]
 
-#: the most steps of a pass when blocking is on automatically (perf/blocking.py)
+#: the most steps of a pass when blocking is on automatically (`rdgpu bench --rows blocking`)
 AUTO_STEPS = 16
 #: grid kinds a pass can run on (the bands are rows of a 2-D grid)
 KINDS = ("grid2", "grid2iso")
-#: the default band height (perf/blocking.py: 512 rows ran ~10% faster than 256, ~25%
+#: the default band height (`rdgpu bench --rows blocking`: 512 rows ran ~10% faster than 256, ~25%
 #: faster than 64 at K = 16; a band recomputes 2·(K − 1) halo rows per level)
 ROWS = 512
 #: work-items per compute unit: each has its own scratch and takes every items-th band
@@ -89,8 +89,8 @@ def auto_steps(stepper: Any) -> int:
 def fitting_steps(stepper: Any) -> int:
     """The most steps, up to `AUTO_STEPS`, whose scratch rings (``steps − 1`` levels of
     3 rows per species) fit in one core's L2 cache (1 MiB where unknown); 1 where not even
-    one level fits.  perf/blocking.py: past that size the rate falls (Gray-Scott float32,
-    rows of 4096: K = 11 fits, K = 16 runs ~20% slower, K = 22 ~40%)."""
+    one level fits: past that size the rate falls (`rdgpu bench --rows blocking`;
+    docs/models.md, temporal blocking)."""
     l2 = cache_sizes().get(2, 1 << 20)
     level = len(stepper.species) * 3 * stepper.shape[-1] * stepper.dtype.itemsize
     k = 1 + l2 // max(level, 1)
