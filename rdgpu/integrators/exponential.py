@@ -1,0 +1,325 @@
+"""Exponential time differencing: ``method="etdrk4"`` of the model layer (issue 22).
+
+Each species' right-hand side splits as ``f_s = L_s s + N_s(x, t)``: ``L_s = α_s Δ + β_s Δ²``
+its own linear spatial part with constant coefficients (the split of the IMEX schemes,
+`rdgpu.integrators.ModelStepper`), ``N_s`` everything else (reactions, other species'
+Laplacians, the constant a non-zero Dirichlet value adds).  On a rectangular grid whose
+axes are periodic, Neumann or Dirichlet, rdgpu's discrete Laplacian ``M`` is diagonal in
+the transform of each axis (`rdgpu.ops.transforms`: FFT, DCT-II, DST-I) with eigenvalues
+``λ``, so ``L_s`` is diagonal there too, ``L̂ = α λ + β λ²``, exactly for the discrete system
+the explicit methods step (no spectral/discrete mismatch).
+
+ETDRK4 (Cox & Matthews 2002, J. Comput. Phys. 176, 430), per mode with ``z = h L̂``::
+
+    â  = E₂ û + Q N̂(u, t)
+    b̂  = E₂ û + Q N̂(a, t + h/2)
+    ĉ  = E₂ â + Q (2 N̂(b, t + h/2) − N̂(u, t))
+    û' = E û + f₁ N̂(u, t) + 2 f₂ (N̂(a, t + h/2) + N̂(b, t + h/2)) + f₃ N̂(c, t + h)
+
+with ``E = e^z``, ``E₂ = e^{z/2}``, ``Q = (h/2) φ₁(z/2)`` and (Kassam & Trefethen 2005,
+SIAM J. Sci. Comput. 26, 1214)::
+
+    f₁ = h (−4 − z + e^z (4 − 3z + z²)) / z³ = h (φ₁ − 3φ₂ + 4φ₃)
+    f₂ = h (2 + z + e^z (z − 2)) / z³        = h (φ₂ − 2φ₃)
+    f₃ = h (−4 − 3z − z² + e^z (4 − z)) / z³ = h (−φ₂ + 4φ₃)
+
+``φ₁(w) = (e^w − 1)/w`` and so on.  The closed forms cancel catastrophically as ``z → 0``
+(Kassam and Trefethen's reason for their contour integral); here they are evaluated in
+``numpy.longdouble`` for ``|z| >= 1`` and by their Taylor series ``f₁/h = Σ (j+1)² z^j/(j+3)!``,
+``f₂/h = Σ (j+1) z^j/(j+3)!``, ``f₃/h = Σ (1−j) z^j/(j+3)!`` (no cancellation between
+coefficients) for ``|z| < 1``, then rounded to float64 once per ``(h, mode)`` and cached;
+the steps use them rounded to the working dtype.
+
+Per step the device evaluates ``N`` four times, one fused program per stage (bilaplacians
+in ``N`` lowered as in the explicit methods); everything else runs on the host: downloads,
+``scipy.fft`` transforms and the linear combinations in the working dtype, one upload per
+stage.  A linear model (``N = 0``) is advanced exactly: ``û' = e^{hL̂} û`` at any ``h``.
+The model's bounds are applied to the new state.  Ensembles transform every member at once
+(the member axis is not transformed).  Symmetry: as in the direct implicit solves, an axis
+along which ``u`` and ``N(u)`` are bit for bit constant (periodic or Neumann) is not
+transformed, so a y-independent field stays y-independent bit for bit.
+
+Stability: the linear part is exact, so it sets no step limit
+(`rdgpu.integrators.stability.stability_limit` is ``inf``); ``N`` is explicit and limits
+``h`` as the reactions do in every explicit method (cross-diffusion in ``N`` included,
+which this limit does not check).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rdgpu.backends.base import Backend, DeviceArray
+from rdgpu.domains.boundary import DIRICHLET
+from rdgpu.ops.implicit import operator_matrix
+from rdgpu.ops.transforms import TransformSolver, grid_axes, transform_unavailable
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
+
+__all__ = ["SERIES_RADIUS", "Etdrk4", "etdrk4_coefficients"]
+
+#: below this ``|z|`` the coefficients come from their Taylor series (module doc)
+SERIES_RADIUS = 1.0
+#: Taylor terms: ``|z|^j/(j+3)!`` is below longdouble's round-off for ``|z| < 1`` by then
+_TERMS = 24
+
+
+def etdrk4_coefficients(lin: np.ndarray, h: float) -> dict[str, np.ndarray]:
+    """The ETDRK4 coefficients (module doc) of the linear symbols ``lin`` over a step.
+
+    Parameters
+    ----------
+    lin : numpy.ndarray
+        ``L̂`` per mode (real, any shape; units 1/time).
+    h : float
+        The step (time units).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        float64 arrays of ``lin``'s shape: ``"E"`` (``e^{hL̂}``), ``"E2"`` (``e^{hL̂/2}``),
+        ``"Q"`` (``(E₂ − 1)/L̂``), ``"f1"``, ``"f2"``, ``"f3"`` (each including its factor
+        ``h``).  ``L̂ = 0`` gives their limits ``1, 1, h/2, h/6, h/6, h/6``.
+    """
+    ld = np.longdouble
+    z = np.asarray(lin, dtype=np.float64).astype(ld) * ld(h)
+    small = np.abs(z) < SERIES_RADIUS
+    zs = np.where(small, z, ld(0.0))      # the series' argument
+    zb = np.where(small, ld(1.0), z)      # the closed forms' (no division by 0)
+    ez = np.exp(zb)
+    closed = ((-4.0 - zb + ez * (4.0 - 3.0 * zb + zb * zb)) / zb ** 3,
+              (2.0 + zb + ez * (zb - 2.0)) / zb ** 3,
+              (-4.0 - 3.0 * zb - zb * zb + ez * (4.0 - zb)) / zb ** 3)
+    series = [np.zeros_like(zs) for _ in range(3)]
+    fact = math.factorial
+    for j in reversed(range(_TERMS)):  # Horner, from the smallest term
+        d = ld(fact(j + 3))
+        for acc, c in zip(series, ((j + 1) ** 2, j + 1, 1 - j), strict=True):
+            acc *= zs
+            acc += ld(c) / d
+    f = [np.where(small, s, c) * ld(h) for s, c in zip(series, closed, strict=True)]
+    half = z / 2.0
+    phi1 = np.where(half == 0.0, ld(1.0), np.expm1(half) / np.where(half == 0.0, ld(1.0), half))
+    out = {"E": np.exp(z), "E2": np.exp(half), "Q": phi1 * ld(h / 2.0),
+           "f1": f[0], "f2": f[1], "f3": f[2]}
+    return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
+
+
+class Etdrk4:
+    """One ETDRK4 step of a model's fields (module doc).
+
+    Parameters
+    ----------
+    domain : Grid
+        A rectangular grid with periodic, Neumann or Dirichlet axes; anything else is a
+        ``ValueError`` naming the method.
+    shape : tuple of int
+        The fields' device shape (``[members, *kernel_shape]`` for an ensemble).
+    members : int or None
+        The ensemble's members (None: one field per species).
+    dt : float
+        The step (time units).
+    dtype : numpy.dtype
+        The working dtype.
+    backend : Backend
+        Where the fields live.
+    linear : mapping of str to (float, float)
+        Per species ``(α, β)`` of its own ``α Δs + β Δ²s``, in species order.
+    bounds : mapping of str to (float or None, float or None)
+        The model's bounds per species (``(None, None)``: none).
+    rates : callable
+        ``rates(inputs, outputs, t)`` writes ``N_s`` of the fields ``inputs`` at time ``t``
+        into ``outputs`` (device arrays, species order): the fused program of the stepper.
+    method : str
+        The method's name, for messages.
+    """
+
+    def __init__(self, domain: Domain, shape: Sequence[int], members: int | None, dt: float,
+                 dtype: Any, backend: Backend, linear: Mapping[str, tuple[float, float]],
+                 bounds: Mapping[str, tuple[float | None, float | None]],
+                 rates: Callable[[list[DeviceArray], list[DeviceArray], float], None],
+                 method: str = "etdrk4"):
+        why = transform_unavailable(domain)
+        if why is not None:
+            raise ValueError(f"method {method!r} integrates the linear part exactly with fast "
+                             f"transforms on rectangular grids; {why}; use 'imex' or an "
+                             "explicit method")
+        self.species = tuple(linear)
+        self.shape = tuple(shape)
+        self.members = members
+        self.dt = float(dt)
+        self.dtype = np.dtype(dtype)
+        self.backend = backend
+        self.linear = {s: (float(a), float(b)) for s, (a, b) in linear.items()}
+        self.bounds = {s: tuple(bounds.get(s, (None, None))) for s in self.species}
+        self.rates = rates
+        self.transforms = TransformSolver(grid_axes(domain), dtype=self.dtype)
+        self.axes = self.transforms.axes
+        self._one = self.transforms.shape  # one member's kernel shape
+        self._n = [backend.empty(self.shape, self.dtype) for _ in self.species]
+        self._coefficients: dict[tuple, dict[str, np.ndarray]] = {}
+        self.constants = self._dirichlet_constants(domain)
+
+    # ------------------------------------------------------------------ setup
+    def _dirichlet_constants(self, domain: Domain) -> dict[str, np.ndarray | None]:
+        """Per species the constant part of ``L_s`` a non-zero Dirichlet value leaves,
+        ``α b + β M b`` (``L u = M u + b``; the bilaplacian's outer Laplacian has ghost 0),
+        in the working dtype, or None."""
+        M, b = operator_matrix(domain)
+        b = np.asarray(b, dtype=np.float64).ravel()
+        if not np.any(b != 0.0):
+            return {s: None for s in self.species}
+        Mb = M @ b
+        out: dict[str, np.ndarray | None] = {}
+        for s, (alpha, beta) in self.linear.items():
+            c = alpha * b + beta * Mb
+            out[s] = c.reshape(self._one).astype(self.dtype) if np.any(c != 0.0) else None
+        return out
+
+    def coefficients(self, kept: tuple[bool, ...], s: str) -> dict[str, np.ndarray]:
+        """Species ``s``'s coefficients on the coefficients' grid of ``kept`` (the axes
+        transformed), in the working dtype, cached."""
+        alpha, beta = self.linear[s]
+        key = (kept, alpha, beta)
+        got = self._coefficients.get(key)
+        if got is None:
+            lam = self.transforms.spectrum(kept)
+            table = etdrk4_coefficients(alpha * lam + beta * lam * lam, self.dt)
+            table["2f2"] = 2.0 * table["f2"]
+            got = {k: v.astype(self.dtype) for k, v in table.items()}
+            if len(self._coefficients) > 16:
+                self._coefficients.clear()
+            self._coefficients[key] = got
+        return got
+
+    # ------------------------------------------------------------------ transforms
+    def _batch(self, a: np.ndarray) -> np.ndarray:
+        """``a`` as ``[members, *kernel_shape]`` (one member when not an ensemble)."""
+        return a.reshape((-1, *self._one))
+
+    def _groups(self, kept: tuple[bool, ...]) -> tuple[list[int], list[int], list[int]]:
+        """The transformed axes of each kind, as axes of a batch (member axis first)."""
+        groups: tuple[list[int], list[int], list[int]] = ([], [], [])
+        for i, ((n, kind, _), keep) in enumerate(zip(self.axes, kept, strict=True)):
+            if keep and n > 1:
+                groups[kind].append(i + 1)
+        return groups
+
+    def kept_axes(self, fields: Sequence[np.ndarray]) -> tuple[bool, ...]:
+        """Per axis whether it is transformed: not a periodic or Neumann axis along which
+        every batch of ``fields`` is bit for bit constant (module doc: symmetry)."""
+        kept = []
+        for i, (n, kind, _) in enumerate(self.axes):
+            ax = i + 1
+            same = kind != DIRICHLET and n > 1 and all(
+                np.array_equal(np.take(f, [1], axis=ax), np.take(f, [0], axis=ax))
+                and bool(np.all(f == np.take(f, [0], axis=ax))) for f in fields)
+            kept.append(not same)
+        return tuple(kept)
+
+    def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
+        """The coefficients of a batch ``a`` (dropped axes of length 1)."""
+        import scipy.fft as fft
+
+        a = a[(slice(None), *(slice(None) if k else slice(0, 1) for k in kept))]
+        periodic, neumann, dirichlet = self._groups(kept)
+        w = self.transforms.workers
+        if not (periodic or neumann or dirichlet):
+            return a.copy()
+        if neumann:
+            a = fft.dctn(a, type=2, axes=neumann, workers=w)
+        if dirichlet:
+            a = fft.dstn(a, type=1, axes=dirichlet, workers=w)
+        if periodic:
+            a = fft.rfftn(a, axes=periodic, workers=w)
+        return a
+
+    def inverse(self, c: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
+        """The batch of the coefficients ``c`` (:meth:`forward`'s inverse), broadcast to
+        the full shape (read-only where an axis was dropped)."""
+        import scipy.fft as fft
+
+        periodic, neumann, dirichlet = self._groups(kept)
+        w = self.transforms.workers
+        if periodic:
+            c = fft.irfftn(c, s=[self._one[i - 1] for i in periodic], axes=periodic, workers=w)
+        if dirichlet:
+            c = fft.idstn(c, type=1, axes=dirichlet, workers=w)
+        if neumann:
+            c = fft.idctn(c, type=2, axes=neumann, workers=w)
+        return np.broadcast_to(c.astype(self.dtype, copy=False), (c.shape[0], *self._one))
+
+    # ------------------------------------------------------------------ stepping
+    def _evaluate(self, fields: list[DeviceArray], t: float) -> list[np.ndarray]:
+        """``N`` of every species at ``fields`` and ``t``, downloaded as batches."""
+        self.rates(fields, self._n, t)
+        out = []
+        for s, n in zip(self.species, self._n, strict=True):
+            a = self._batch(n.numpy())
+            if self.constants[s] is not None:
+                a = a + self.constants[s]
+            out.append(a)
+        return out
+
+    def _upload(self, batches: list[np.ndarray]) -> list[DeviceArray]:
+        be = self.backend
+        return [be.upload(np.ascontiguousarray(a, dtype=self.dtype).reshape(self.shape))
+                for a in batches]
+
+    def step(self, x: list[DeviceArray], y: list[DeviceArray], t0: float) -> None:
+        """``y`` ← one step from ``x`` at time ``t0`` (module doc)."""
+        u = [self._batch(f.numpy()) for f in x]
+        nu = self._evaluate(x, t0)
+        kept = self.kept_axes(u + nu)
+        new = self._stages(u, nu, kept, t0)
+        if new is None:  # a later stage broke a symmetry of the first: transform every axis
+            new = self._stages(u, nu, (True,) * len(self.axes), t0)
+        be = self.backend
+        for s, a, out in zip(self.species, new, y, strict=True):
+            lo, hi = self.bounds[s]
+            if lo is not None or hi is not None:
+                a = np.clip(a, lo, hi)
+            be.copy(be.upload(np.ascontiguousarray(a, dtype=self.dtype).reshape(self.shape)),
+                    out)
+
+    def _stages(self, u: list[np.ndarray], nu: list[np.ndarray], kept: tuple[bool, ...],
+                t0: float) -> list[np.ndarray] | None:
+        """The new fields (batches) of the step in the transform space of ``kept``, or
+        None when a stage's ``N`` varies along an axis ``kept`` drops."""
+        h = self.dt
+        co = [self.coefficients(kept, s) for s in self.species]
+        U = [self.forward(a, kept) for a in u]
+        NU = [self.forward(a, kept) for a in nu]
+        A = [c["E2"] * Ui + c["Q"] * Ni for c, Ui, Ni in zip(co, U, NU, strict=True)]
+        NA = self._stage_rates(A, kept, t0 + 0.5 * h)
+        if NA is None:
+            return None
+        B = [c["E2"] * Ui + c["Q"] * Ni for c, Ui, Ni in zip(co, U, NA, strict=True)]
+        NB = self._stage_rates(B, kept, t0 + 0.5 * h)
+        if NB is None:
+            return None
+        C = [c["E2"] * Ai + c["Q"] * (2 * Nb - Nu)
+             for c, Ai, Nb, Nu in zip(co, A, NB, NU, strict=True)]
+        NC = self._stage_rates(C, kept, t0 + h)
+        if NC is None:
+            return None
+        with np.errstate(over="ignore", invalid="ignore"):
+            new = [c["E"] * Ui + c["f1"] * Nu + c["2f2"] * (Na + Nb) + c["f3"] * Nc
+                   for c, Ui, Nu, Na, Nb, Nc in zip(co, U, NU, NA, NB, NC, strict=True)]
+        return [self.inverse(a, kept) for a in new]
+
+    def _stage_rates(self, spectra: list[np.ndarray], kept: tuple[bool, ...],
+                     t: float) -> list[np.ndarray] | None:
+        """``N̂`` at the stage whose coefficients are ``spectra``; None when ``N`` there is
+        not constant along an axis ``kept`` drops."""
+        fields = self._upload([self.inverse(a, kept) for a in spectra])
+        n = self._evaluate(fields, t)
+        if not all(kept) and any(not k and j for k, j in zip(kept, self.kept_axes(n),
+                                                                strict=True)):
+            return None
+        return [self.forward(a, kept) for a in n]
