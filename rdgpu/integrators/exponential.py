@@ -1,12 +1,13 @@
 """Exponential time differencing: ``method="etdrk4"`` of the model layer (issue 22).
 
-Each species' right-hand side splits as ``f_s = L_s s + N_s(x, t)``: ``L_s = α_s Δ + β_s Δ²``
-its own linear spatial part with constant coefficients (the split of the IMEX schemes,
-`rdgpu.integrators.ModelStepper`), ``N_s`` everything else (reactions, other species'
+Each species' right-hand side splits as ``f_s = L_s s + N_s(x, t)``: ``L_s = α_s Δ + β_s Δ²
++ γ_s`` its own linear spatial part with constant coefficients (the split of the IMEX
+schemes, `rdgpu.integrators.ModelStepper`) and its own linear damping ``γ_s s`` with a
+constant ``γ_s < 0`` (`split_damping`), ``N_s`` everything else (reactions, other species'
 Laplacians, the constant a non-zero Dirichlet value adds).  On a rectangular grid whose
 axes are periodic, Neumann or Dirichlet, rdgpu's discrete Laplacian ``M`` is diagonal in
 the transform of each axis (`rdgpu.ops.transforms`: FFT, DCT-II, DST-I) with eigenvalues
-``λ``, so ``L_s`` is diagonal there too, ``L̂ = α λ + β λ²``, exactly for the discrete system
+``λ``, so ``L_s`` is diagonal there too, ``L̂ = α λ + β λ² + γ``, exactly for the discrete system
 the explicit methods step (no spectral/discrete mismatch).
 
 ETDRK4 (Cox & Matthews 2002, J. Comput. Phys. 176, 430), per mode with ``z = h L̂``::
@@ -55,13 +56,14 @@ import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.domains.boundary import DIRICHLET
+from rdgpu.ir import equations as eq
 from rdgpu.ops.implicit import operator_matrix
 from rdgpu.ops.transforms import TransformSolver, grid_axes, transform_unavailable
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["SERIES_RADIUS", "Etdrk4", "etdrk4_coefficients"]
+__all__ = ["SERIES_RADIUS", "Etdrk4", "etdrk4_coefficients", "split_damping"]
 
 #: below this ``|z|`` the coefficients come from their Taylor series (module doc)
 SERIES_RADIUS = 1.0
@@ -110,6 +112,74 @@ def etdrk4_coefficients(lin: np.ndarray, h: float) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
 
 
+def split_damping(rest: eq.Node | None, s: str,
+                  constants: Mapping[str, float | None]) -> tuple[float, eq.Node | None]:
+    """``(γ, rest')`` with ``rest = γ s + rest'``: the terms ``c·s`` of the top-level sum
+    ``rest`` (``c`` made of numbers and parameters that are numbers in ``constants``) when
+    their total ``γ`` is negative, else ``(0, rest)``.
+
+    A damping ``γ < 0`` joins the exact linear part: Swift-Hohenberg's ``(r − 1)u`` then
+    leaves ``N = −u³``, small where ``u`` is, so the stages' error from a rough start (white
+    noise) shrinks with it and the step the explicit ``N`` allows grows.  A growth ``γ > 0``
+    (Allen-Cahn's ``u − u³``) stays in ``N``, where it offsets the cubic's damping in the
+    explicit stages (Kassam and Trefethen's choice too).
+    """
+    if rest is None:
+        return 0.0, None
+    gamma, kept = 0.0, []
+    for sign, term in _signed_terms(rest, 1):
+        c = _species_factor(term, s)
+        value = None
+        if c is not None and all(constants.get(p) is not None for p in eq.names(c, "param")):
+            value = float(eq.evaluate(c, {p: constants[p] for p in eq.names(c, "param")}))
+        if value is None or not math.isfinite(value):
+            kept.append((sign, term))
+        else:
+            gamma += sign * value
+    if not gamma < 0.0:
+        return 0.0, rest
+    out: eq.Node | None = None
+    for sign, term in kept:
+        if out is None:
+            out = term if sign > 0 else eq.Neg(term)
+        else:
+            out = eq.Bin("+" if sign > 0 else "-", out, term)
+    return gamma, out
+
+
+def _signed_terms(node: eq.Node, sign: int) -> list[tuple[int, eq.Node]]:
+    """The terms of a top-level sum with their signs."""
+    if isinstance(node, eq.Bin) and node.op in "+-":
+        return _signed_terms(node.a, sign) + _signed_terms(node.b,
+                                                           sign if node.op == "+" else -sign)
+    if isinstance(node, eq.Neg):
+        return _signed_terms(node.a, -sign)
+    return [(sign, node)]
+
+
+def _species_factor(term: eq.Node, s: str) -> eq.Node | None:
+    """``c`` where ``term`` is ``c·s`` (products and quotients with parameters and
+    numbers around one ``s`` in the numerator), else None."""
+    if isinstance(term, eq.Ref) and term.kind == "species" and term.name == s:
+        return eq.Num(1.0)
+    if isinstance(term, eq.Neg):
+        inner = _species_factor(term.a, s)
+        return None if inner is None else eq.Neg(inner)
+    if isinstance(term, eq.Bin) and term.op in "*/":
+        if term.op == "*" and _constant(term.a):
+            inner = _species_factor(term.b, s)
+            return None if inner is None else eq.Bin("*", term.a, inner)
+        if _constant(term.b):
+            inner = _species_factor(term.a, s)
+            return None if inner is None else eq.Bin(term.op, inner, term.b)
+    return None
+
+
+def _constant(node: eq.Node) -> bool:
+    return all(not isinstance(n, eq.Lap) and not (isinstance(n, eq.Ref) and n.kind != "param")
+               for n in eq.walk(node))
+
+
 class Etdrk4:
     """One ETDRK4 step of a model's fields (module doc).
 
@@ -128,8 +198,9 @@ class Etdrk4:
         The working dtype.
     backend : Backend
         Where the fields live.
-    linear : mapping of str to (float, float)
-        Per species ``(α, β)`` of its own ``α Δs + β Δ²s``, in species order.
+    linear : mapping of str to (float, float, float)
+        Per species ``(α, β, γ)`` of its own linear part ``α Δs + β Δ²s + γ s``, in
+        species order.
     bounds : mapping of str to (float or None, float or None)
         The model's bounds per species (``(None, None)``: none).
     rates : callable
@@ -140,22 +211,26 @@ class Etdrk4:
     """
 
     def __init__(self, domain: Domain, shape: Sequence[int], members: int | None, dt: float,
-                 dtype: Any, backend: Backend, linear: Mapping[str, tuple[float, float]],
+                 dtype: Any, backend: Backend,
+                 linear: Mapping[str, tuple[float, float, float]],
                  bounds: Mapping[str, tuple[float | None, float | None]],
                  rates: Callable[[list[DeviceArray], list[DeviceArray], float], None],
                  method: str = "etdrk4"):
         why = transform_unavailable(domain)
         if why is not None:
-            raise ValueError(f"method {method!r} integrates the linear part exactly with fast "
-                             f"transforms on rectangular grids; {why}; use 'imex' or an "
-                             "explicit method")
+            if getattr(domain, "kind", None) != "grid":
+                why = f"the domain is a {domain.label}"
+            raise ValueError(f"method {method!r} integrates the linear part exactly by fast "
+                             "transforms, on rectangular grids only (periodic, Neumann or "
+                             f"Dirichlet axes); {why}; use 'imex' (SOR on meshes and graph "
+                             "surfaces) or an explicit method")
         self.species = tuple(linear)
         self.shape = tuple(shape)
         self.members = members
         self.dt = float(dt)
         self.dtype = np.dtype(dtype)
         self.backend = backend
-        self.linear = {s: (float(a), float(b)) for s, (a, b) in linear.items()}
+        self.linear = {s: tuple(map(float, abc)) for s, abc in linear.items()}
         self.bounds = {s: tuple(bounds.get(s, (None, None))) for s in self.species}
         self.rates = rates
         self.transforms = TransformSolver(grid_axes(domain), dtype=self.dtype)
@@ -176,7 +251,7 @@ class Etdrk4:
             return {s: None for s in self.species}
         Mb = M @ b
         out: dict[str, np.ndarray | None] = {}
-        for s, (alpha, beta) in self.linear.items():
+        for s, (alpha, beta, _) in self.linear.items():
             c = alpha * b + beta * Mb
             out[s] = c.reshape(self._one).astype(self.dtype) if np.any(c != 0.0) else None
         return out
@@ -184,12 +259,12 @@ class Etdrk4:
     def coefficients(self, kept: tuple[bool, ...], s: str) -> dict[str, np.ndarray]:
         """Species ``s``'s coefficients on the coefficients' grid of ``kept`` (the axes
         transformed), in the working dtype, cached."""
-        alpha, beta = self.linear[s]
-        key = (kept, alpha, beta)
+        alpha, beta, gamma = self.linear[s]
+        key = (kept, alpha, beta, gamma)
         got = self._coefficients.get(key)
         if got is None:
             lam = self.transforms.spectrum(kept)
-            table = etdrk4_coefficients(alpha * lam + beta * lam * lam, self.dt)
+            table = etdrk4_coefficients(gamma + alpha * lam + beta * lam * lam, self.dt)
             table["2f2"] = 2.0 * table["f2"]
             got = {k: v.astype(self.dtype) for k, v in table.items()}
             if len(self._coefficients) > 16:

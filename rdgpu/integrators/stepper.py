@@ -78,7 +78,7 @@ from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.validation import real_number
 from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
-from rdgpu.integrators.exponential import Etdrk4
+from rdgpu.integrators.exponential import Etdrk4, split_damping
 from rdgpu.integrators.passes import launch
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
@@ -317,7 +317,11 @@ class ModelStepper(FieldStepper):
         """ETDRK4: the fused program of ``N`` (each species' right-hand side without its
         own ``α Δs + β Δ²s``) and the host step (`rdgpu.integrators.exponential`)."""
         split = self._linear_split(trees, inline)
-        rest = {s: _sum(terms) for s, (_, _, terms) in split.items()}
+        linear, rest = {}, {}
+        for s, (alpha, beta, terms) in split.items():
+            gamma, own = split_damping(_sum(terms), s, self._numbers())
+            linear[s] = (alpha, beta, gamma)
+            rest[s] = eq.Num(0.0) if own is None else own
         low, pre = self._lower(rest)
         aux = [] if pre is None else [self.backend.empty(self.shape, self.dtype)
                                       for _ in pre.outputs]
@@ -331,7 +335,7 @@ class ModelStepper(FieldStepper):
             self._eval(program, ins, outs, t, prepass=(pre, aux))
 
         self._etd = Etdrk4(self.domain, self.shape, self.members, self.dt, self.dtype,
-                           self.backend, {s: v[:2] for s, v in split.items()},
+                           self.backend, linear,
                            {s: self._bounds(s) for s in self.species}, rates, self.method)
 
     def _setup_imex(self, trees, tol, inline) -> None:
@@ -380,13 +384,18 @@ class ModelStepper(FieldStepper):
                     solvers[s].append(cache[a])
         return explicit, solvers
 
+    def _numbers(self) -> dict[str, float | None]:
+        """Each parameter's value where it is one number for every cell, member and time,
+        else None."""
+        return {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
+                    else None) for k, v in self.params.items()}
+
     def _linear_split(self, trees, inline) -> dict[str, tuple[float, float, list[eq.Node]]]:
         """Per species ``(α, β, terms)``: the constant coefficients of its own ``α Δs + β
         Δ²s`` and the other terms of its right-hand side (the reactions, then other
         species' Laplacians and bilaplacians), what the IMEX and exponential schemes step
         explicitly; a ``ValueError`` naming the method where the split does not exist."""
-        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
-                      else None) for k, v in self.params.items()}
+        merged = self._numbers()
         out = {}
         for s in self.species:
             lin = eq.linear_parts(trees[s])

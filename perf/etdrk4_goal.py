@@ -1,0 +1,149 @@
+"""Issue 22's goal for exponential time differencing: Swift-Hohenberg 256² to t = 100 with
+``etdrk4`` (and ``imex``) at >= 100× the explicit step, >= 10× faster than the best
+explicit method at equal accuracy.
+
+    python perf/etdrk4_goal.py [--backend opencl] [--dtype float64] [--size 256]
+                               [--multiples 100 200 400 800] [--out perf/results]
+
+The run: the model's defaults (r = 0.2, g = 0, spacing π/4, periodic), its default
+initial state (``u = 0`` plus noise 0.1) with seed 0, as ``Simulation`` makes them, to
+``T = 100``.  Rows:
+
+* the explicit methods ``euler`` and ``rk4`` at ``Simulation``'s default step (0.9 times
+  the stability limit, which rk4 shares with Euler), rounded down to divide ``T``;
+* ``etdrk4`` and ``imex`` at the multiples of that step (each rounded to divide ``T``).
+
+Every error is ``max |u − u_ref|`` at ``T`` against the reference: ``rk4`` at half the
+explicit rows' step in float64 (on ``--backend``), checked against ``rk4`` at a quarter
+of it (the difference is printed: it bounds the reference's own error).  Not ``etdrk4``
+at a small step: from the white-noise start its error falls only as ~h^1.5 (stiff order
+reduction on rough data; from a smooth start it is h⁴), so rk4 at steps it must take
+anyway is the cheaper accurate reference.  Times are the stepping only (the stepper
+built and one step taken first, so compilation and the coefficients are not timed), best
+of one run each.  "speed-up" is the time of the fastest explicit row whose error is no
+smaller than the row's own, over the row's time (equal or better accuracy); "—" where
+every explicit row is more accurate.  Writes ``etdrk4_goal.md`` to ``--out`` and prints
+it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rdgpu.domains.grid import Grid
+from rdgpu.models import MODELS
+from rdgpu.simulation import Simulation
+
+T = 100.0
+MODEL = MODELS["swift-hohenberg"]
+
+
+def start(size: int) -> tuple[Grid, np.ndarray, float]:
+    """The grid, the default initial field (seed 0) and ``Simulation``'s default step."""
+    grid = Grid((size, size), dx=MODEL.spacing, bc="periodic")
+    sim = Simulation(MODEL, grid, dtype="float64", seed=0, backend="numpy",
+                     options={"method": "euler"})
+    return grid, sim.host_state()["u"], float(sim.dt)
+
+
+def dividing(h: float) -> tuple[float, int]:
+    """The step nearest ``h`` from below that divides ``T``, and its steps."""
+    n = math.ceil(T / h - 1e-9)
+    return T / n, n
+
+
+def run(grid: Grid, u0: np.ndarray, method: str, h: float, n: int, backend: str,
+        dtype: str) -> tuple[np.ndarray, float]:
+    """``u`` at ``T`` and the seconds of the stepping (one step taken before the clock)."""
+    st = MODEL.stepper(grid, dt=h, backend=backend, dtype=dtype, method=method)
+    st.set_state({"u": u0})
+    st.advance(1)
+    st.get_state()
+    t0 = time.perf_counter()
+    st.advance(n - 1)
+    u = st.get_state()["u"]
+    return u.astype(np.float64), time.perf_counter() - t0
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} logical CPUs, Python {platform.python_version()}"
+
+
+def main(argv: list[str] | None = None) -> str:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--backend", default="opencl")
+    ap.add_argument("--dtype", default="float64")
+    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--multiples", type=float, nargs="+", default=[100, 200, 400, 800])
+    ap.add_argument("--out", default="perf/results")
+    ap.add_argument("--note", default="", help="a line about the machine's load")
+    args = ap.parse_args(argv)
+    grid, u0, h_default = start(args.size)
+    h_e, n_e = dividing(h_default)
+    limit = MODEL.dt_limit(grid, method="euler")
+    t_ref0 = time.perf_counter()
+    h_r, n_r = h_e / 2, 2 * n_e
+    ref, _ = run(grid, u0, "rk4", h_r, n_r, args.backend, "float64")
+    check, _ = run(grid, u0, "rk4", h_r / 2, 2 * n_r, args.backend, "float64")
+    ref_err = float(np.max(np.abs(check - ref)))
+    t_ref = time.perf_counter() - t_ref0
+    scale = float(np.max(np.abs(ref)))
+    rows = []
+    for method in ("euler", "rk4"):
+        u, sec = run(grid, u0, method, h_e, n_e, args.backend, args.dtype)
+        rows.append((method, h_e, n_e, float(np.max(np.abs(u - ref))), sec))
+    explicit = list(rows)
+    for k in args.multiples:
+        h, n = dividing(k * h_e)
+        for method in ("etdrk4", "imex"):
+            try:
+                u, sec = run(grid, u0, method, h, n, args.backend, args.dtype)
+                err = float(np.max(np.abs(u - ref)))
+            except Exception as exc:  # a diverged run is a row too
+                err, sec = math.nan, math.nan
+                print(f"{method} at h = {h:g}: {type(exc).__name__}: {exc}")
+            rows.append((method, h, n, err, sec))
+    lines = [
+        "# ETDRK4: Swift-Hohenberg 256² to t = 100 (issue 22, goal 6)", "",
+        f"`python perf/etdrk4_goal.py --backend {args.backend} --dtype {args.dtype} --size "
+        f"{args.size}` on {machine()}, {time.strftime('%Y-%m-%d %H:%M')}.",
+        *([args.note] if args.note else []), "",
+        f"Swift-Hohenberg defaults (r = 0.2, g = 0), {args.size}² periodic, dx = π/4, the "
+        f"default initial state (seed 0), T = {T:g}.  Explicit limit {limit:.5g}; "
+        f"Simulation's default step {h_default:.5g} (taken as {h_e:.5g}, dividing T).  "
+        f"Reference: rk4 at h = {h_r:.5g} in float64; rk4 at h = {h_r / 2:.5g} differs "
+        f"from it by {ref_err:.2e} (max |u| = {scale:.3f}); {t_ref:.0f} s for both.", "",
+        "| method | h | h / explicit h | steps | max error | seconds | speed-up at equal "
+        "or better accuracy |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for method, h, n, err, sec in rows:
+        slower = [s for _, _, _, e, s in explicit if e >= err]
+        speed = f"{min(slower) / sec:.1f}×" if slower and sec == sec and sec > 0 else "—"
+        if method in ("euler", "rk4"):
+            speed = ""
+        lines.append(f"| {method} | {h:.5g} | {h / h_e:.0f} | {n} | {err:.3e} | {sec:.2f} | "
+                     f"{speed} |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "etdrk4_goal.md").write_text(text, encoding="utf-8")
+    return text
+
+
+if __name__ == "__main__":
+    main()
