@@ -2,8 +2,8 @@
 ``etdrk4`` (and ``imex``) at >= 100× the explicit step, >= 10× faster than the best
 explicit method at equal accuracy.
 
-    python perf/etdrk4_goal.py [--backend opencl] [--dtype float64] [--size 256]
-                               [--multiples 100 200 400 800] [--out perf/results]
+    python perf/etdrk4_goal.py [--backend opencl] [--dtypes float64 float32] [--size 256]
+                               [--multiples 50 100 200 400] [--out perf/results]
 
 The run: the model's defaults (r = 0.2, g = 0, spacing π/4, periodic), its default
 initial state (``u = 0`` plus noise 0.1) with seed 0, as ``Simulation`` makes them, to
@@ -84,12 +84,42 @@ def machine() -> str:
     return f"{cpu}, {os.cpu_count()} logical CPUs, Python {platform.python_version()}"
 
 
+def rows_table(grid: Grid, u0: np.ndarray, ref: np.ndarray, h_e: float, n_e: int,
+               backend: str, dtype: str, multiples: list[float]) -> list[str]:
+    """The table's lines for one dtype (module doc)."""
+    rows = []
+    for method in ("euler", "rk4"):
+        u, sec = run(grid, u0, method, h_e, n_e, backend, dtype)
+        rows.append((method, h_e, n_e, float(np.max(np.abs(u - ref))), sec))
+    explicit = list(rows)
+    for k in multiples:
+        h, n = dividing(k * h_e)
+        for method in ("etdrk4", "imex"):
+            try:
+                u, sec = run(grid, u0, method, h, n, backend, dtype)
+                err = float(np.max(np.abs(u - ref)))
+            except Exception as exc:  # a diverged run is a row too
+                err, sec = math.nan, math.nan
+                print(f"{method} at h = {h:g}: {type(exc).__name__}: {exc}")
+            rows.append((method, h, n, err, sec))
+    lines = ["| method | h | h / explicit h | steps | max error | seconds | speed-up at "
+             "equal or better accuracy |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for method, h, n, err, sec in rows:
+        slower = [s for _, _, _, e, s in explicit if e >= err]
+        speed = f"{min(slower) / sec:.1f}×" if slower and sec == sec and sec > 0 else "—"
+        if method in ("euler", "rk4"):
+            speed = ""
+        lines.append(f"| {method} | {h:.5g} | {h / h_e:.0f} | {n} | {err:.3e} | {sec:.2f} | "
+                     f"{speed} |")
+    return lines
+
+
 def main(argv: list[str] | None = None) -> str:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--backend", default="opencl")
-    ap.add_argument("--dtype", default="float64")
+    ap.add_argument("--dtypes", nargs="+", default=["float64", "float32"])
     ap.add_argument("--size", type=int, default=256)
-    ap.add_argument("--multiples", type=float, nargs="+", default=[100, 200, 400, 800])
+    ap.add_argument("--multiples", type=float, nargs="+", default=[50, 100, 200, 400])
     ap.add_argument("--out", default="perf/results")
     ap.add_argument("--note", default="", help="a line about the machine's load")
     args = ap.parse_args(argv)
@@ -103,40 +133,19 @@ def main(argv: list[str] | None = None) -> str:
     ref_err = float(np.max(np.abs(check - ref)))
     t_ref = time.perf_counter() - t_ref0
     scale = float(np.max(np.abs(ref)))
-    rows = []
-    for method in ("euler", "rk4"):
-        u, sec = run(grid, u0, method, h_e, n_e, args.backend, args.dtype)
-        rows.append((method, h_e, n_e, float(np.max(np.abs(u - ref))), sec))
-    explicit = list(rows)
-    for k in args.multiples:
-        h, n = dividing(k * h_e)
-        for method in ("etdrk4", "imex"):
-            try:
-                u, sec = run(grid, u0, method, h, n, args.backend, args.dtype)
-                err = float(np.max(np.abs(u - ref)))
-            except Exception as exc:  # a diverged run is a row too
-                err, sec = math.nan, math.nan
-                print(f"{method} at h = {h:g}: {type(exc).__name__}: {exc}")
-            rows.append((method, h, n, err, sec))
     lines = [
         "# ETDRK4: Swift-Hohenberg 256² to t = 100 (issue 22, goal 6)", "",
-        f"`python perf/etdrk4_goal.py --backend {args.backend} --dtype {args.dtype} --size "
-        f"{args.size}` on {machine()}, {time.strftime('%Y-%m-%d %H:%M')}.",
-        *([args.note] if args.note else []), "",
+        f"`python perf/etdrk4_goal.py --backend {args.backend} --dtypes "
+        f"{' '.join(args.dtypes)} --size {args.size}` on {machine()}, "
+        f"{time.strftime('%Y-%m-%d %H:%M')}.", *([args.note] if args.note else []), "",
         f"Swift-Hohenberg defaults (r = 0.2, g = 0), {args.size}² periodic, dx = π/4, the "
         f"default initial state (seed 0), T = {T:g}.  Explicit limit {limit:.5g}; "
         f"Simulation's default step {h_default:.5g} (taken as {h_e:.5g}, dividing T).  "
         f"Reference: rk4 at h = {h_r:.5g} in float64; rk4 at h = {h_r / 2:.5g} differs "
-        f"from it by {ref_err:.2e} (max |u| = {scale:.3f}); {t_ref:.0f} s for both.", "",
-        "| method | h | h / explicit h | steps | max error | seconds | speed-up at equal "
-        "or better accuracy |", "|---|---:|---:|---:|---:|---:|---:|"]
-    for method, h, n, err, sec in rows:
-        slower = [s for _, _, _, e, s in explicit if e >= err]
-        speed = f"{min(slower) / sec:.1f}×" if slower and sec == sec and sec > 0 else "—"
-        if method in ("euler", "rk4"):
-            speed = ""
-        lines.append(f"| {method} | {h:.5g} | {h / h_e:.0f} | {n} | {err:.3e} | {sec:.2f} | "
-                     f"{speed} |")
+        f"from it by {ref_err:.2e} (max |u| = {scale:.3f}); {t_ref:.0f} s for both."]
+    for dtype in args.dtypes:
+        lines += ["", f"## {dtype}", ""] + rows_table(grid, u0, ref, h_e, n_e, args.backend,
+                                                      dtype, args.multiples)
     text = "\n".join(lines) + "\n"
     print(text)
     out = Path(args.out)

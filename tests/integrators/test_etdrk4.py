@@ -271,3 +271,21 @@ def test_cli_runs_etdrk4(tmp_path):
     assert code in (0, None)
     assert (tmp_path / "x.png").exists()
     assert load_npz(out).step == 3
+
+
+def test_simulation_checkpoint_resumes_bit_for_bit(tmp_path):
+    from rdgpu.simulation.driver import Simulation
+
+    grid = Grid((8, 12), dx=np.pi / 4)
+    opts = {"method": "etdrk4"}
+    whole = Simulation(SH, grid, dt=1.0, backend="numpy", options=opts, seed=1)
+    whole.run(steps=4)
+    half = Simulation(SH, grid, dt=1.0, backend="numpy", options=opts, seed=1)
+    half.run(steps=2)
+    half.save_checkpoint(tmp_path / "c.npz")
+    back = Simulation.resume(tmp_path / "c.npz")
+    back.run(steps=2)
+    assert back.time == whole.time
+    assert np.array_equal(back.host_state()["u"], whole.host_state()["u"])
+    with pytest.raises(ValueError, match="solves no system"):
+        Simulation(SH, grid, dt=1.0, backend="numpy", options={**opts, "tol": 1e-6})
