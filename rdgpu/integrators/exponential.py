@@ -33,11 +33,12 @@ the steps use them rounded to the working dtype.
 
 Per step the device evaluates ``N`` four times, one fused program per stage (bilaplacians
 in ``N`` lowered as in the explicit methods); everything else runs on the host: downloads,
-``scipy.fft`` transforms and the linear combinations in the working dtype, one upload per
-stage.  A linear model (``N = 0``) is advanced exactly: ``û' = e^{hL̂} û`` at any ``h``.
-The model's bounds are applied to the new state.  Ensembles transform every member at once
-(the member axis is not transformed).  Symmetry: as in the direct implicit solves, an axis
-along which ``u`` and ``N(u)`` are bit for bit constant (periodic or Neumann) is not
+the transforms of the direct implicit solves (`rdgpu.ops.transforms.TransformSolver`:
+five forward and four inverse per species) and the linear combinations in the working
+dtype, one upload per stage.  A linear model (``N = 0``) is advanced exactly: ``û' =
+e^{hL̂} û`` at any ``h``.  The model's bounds are applied to the new state.  Ensembles are
+transformed member by member.  Symmetry: as in the direct implicit solves, an axis along
+which ``u`` and ``N(u)`` are bit for bit constant (periodic or Neumann) is not
 transformed, so a y-independent field stays y-independent bit for bit.
 
 Stability: the linear part is exact, so it sets no step limit
@@ -277,14 +278,6 @@ class Etdrk4:
         """``a`` as ``[members, *kernel_shape]`` (one member when not an ensemble)."""
         return a.reshape((-1, *self._one))
 
-    def _groups(self, kept: tuple[bool, ...]) -> tuple[list[int], list[int], list[int]]:
-        """The transformed axes of each kind, as axes of a batch (member axis first)."""
-        groups: tuple[list[int], list[int], list[int]] = ([], [], [])
-        for i, ((n, kind, _), keep) in enumerate(zip(self.axes, kept, strict=True)):
-            if keep and n > 1:
-                groups[kind].append(i + 1)
-        return groups
-
     def kept_axes(self, fields: Sequence[np.ndarray]) -> tuple[bool, ...]:
         """Per axis whether it is transformed: not a periodic or Neumann axis along which
         every batch of ``fields`` is bit for bit constant (module doc: symmetry)."""
@@ -298,36 +291,16 @@ class Etdrk4:
         return tuple(kept)
 
     def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
-        """The coefficients of a batch ``a`` (dropped axes of length 1)."""
-        import scipy.fft as fft
-
+        """The coefficients of a batch ``a`` (dropped axes of length 1), member by member
+        (`rdgpu.ops.transforms.TransformSolver.forward`)."""
         a = a[(slice(None), *(slice(None) if k else slice(0, 1) for k in kept))]
-        periodic, neumann, dirichlet = self._groups(kept)
-        w = self.transforms.workers
-        if not (periodic or neumann or dirichlet):
-            return a.copy()
-        if neumann:
-            a = fft.dctn(a, type=2, axes=neumann, workers=w)
-        if dirichlet:
-            a = fft.dstn(a, type=1, axes=dirichlet, workers=w)
-        if periodic:
-            a = fft.rfftn(a, axes=periodic, workers=w)
-        return a
+        return np.stack([self.transforms.forward(m, kept) for m in a])
 
     def inverse(self, c: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
         """The batch of the coefficients ``c`` (:meth:`forward`'s inverse), broadcast to
         the full shape (read-only where an axis was dropped)."""
-        import scipy.fft as fft
-
-        periodic, neumann, dirichlet = self._groups(kept)
-        w = self.transforms.workers
-        if periodic:
-            c = fft.irfftn(c, s=[self._one[i - 1] for i in periodic], axes=periodic, workers=w)
-        if dirichlet:
-            c = fft.idstn(c, type=1, axes=dirichlet, workers=w)
-        if neumann:
-            c = fft.idctn(c, type=2, axes=neumann, workers=w)
-        return np.broadcast_to(c.astype(self.dtype, copy=False), (c.shape[0], *self._one))
+        out = np.stack([self.transforms.inverse(m, kept) for m in c])
+        return np.broadcast_to(out.astype(self.dtype, copy=False), (c.shape[0], *self._one))
 
     # ------------------------------------------------------------------ stepping
     def _evaluate(self, fields: list[DeviceArray], t: float) -> list[np.ndarray]:
