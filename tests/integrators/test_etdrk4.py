@@ -289,3 +289,23 @@ def test_simulation_checkpoint_resumes_bit_for_bit(tmp_path):
     assert np.array_equal(back.host_state()["u"], whole.host_state()["u"])
     with pytest.raises(ValueError, match="solves no system"):
         Simulation(SH, grid, dt=1.0, backend="numpy", options={**opts, "tol": 1e-6})
+
+
+def test_a_symmetry_broken_by_a_later_stage_is_transformed_in_full():
+    """``u_t = D Δu + y t`` from a y-independent field: ``u`` and ``N`` are y-independent
+    at the step's start (y not transformed) but not at its later stages, so the step is
+    redone with every axis; ETDRK4 is exact for a source linear in t: ``expm`` of the
+    system augmented by ``t`` and ``1``."""
+    model = define_model("etd-ramp", {"u": "D*laplace(u) + a"}, {"D": 0.3, "a": "y*t"})
+    grid = Grid((6, 8), dx=0.7)
+    M = operator_matrix(grid)[0].toarray()
+    n = M.shape[0]
+    y = np.repeat((np.arange(6) + 0.5) * 0.7, 8)
+    aug = np.zeros((n + 2, n + 2))
+    aug[:n, :n], aug[:n, n], aug[n, n + 1] = 0.3 * M, y, 1.0
+    row = np.cos(2 * np.pi * np.arange(8) / 8)
+    st = model.stepper(grid, dt=0.5, backend="numpy", method="etdrk4")
+    st.set_state({"u": np.tile(row, (6, 1))})
+    st.advance(1)
+    want = (scipy.linalg.expm(0.5 * aug) @ np.concatenate([np.tile(row, 6), [0.0, 1.0]]))[:n]
+    np.testing.assert_allclose(st.get_state()["u"].ravel(), want, rtol=0, atol=1e-13)
