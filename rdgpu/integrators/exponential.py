@@ -294,12 +294,17 @@ class Etdrk4:
         """The coefficients of a batch ``a`` (dropped axes of length 1), member by member
         (`rdgpu.ops.transforms.TransformSolver.forward`)."""
         a = a[(slice(None), *(slice(None) if k else slice(0, 1) for k in kept))]
+        if a.shape[0] == 1:
+            return self.transforms.forward(a[0], kept)[None]
         return np.stack([self.transforms.forward(m, kept) for m in a])
 
     def inverse(self, c: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
         """The batch of the coefficients ``c`` (:meth:`forward`'s inverse), broadcast to
         the full shape (read-only where an axis was dropped)."""
-        out = np.stack([self.transforms.inverse(m, kept) for m in c])
+        if c.shape[0] == 1:
+            out = self.transforms.inverse(c[0], kept)[None]
+        else:
+            out = np.stack([self.transforms.inverse(m, kept) for m in c])
         return np.broadcast_to(out.astype(self.dtype, copy=False), (c.shape[0], *self._one))
 
     # ------------------------------------------------------------------ stepping
@@ -343,22 +348,31 @@ class Etdrk4:
         co = [self.coefficients(kept, s) for s in self.species]
         U = [self.forward(a, kept) for a in u]
         NU = [self.forward(a, kept) for a in nu]
-        A = [c["E2"] * Ui + c["Q"] * Ni for c, Ui, Ni in zip(co, U, NU, strict=True)]
+        A = [_sum_of(c["E2"], Ui, c["Q"], Ni) for c, Ui, Ni in zip(co, U, NU, strict=True)]
         NA = self._stage_rates(A, kept, t0 + 0.5 * h)
         if NA is None:
             return None
-        B = [c["E2"] * Ui + c["Q"] * Ni for c, Ui, Ni in zip(co, U, NA, strict=True)]
+        B = [_sum_of(c["E2"], Ui, c["Q"], Ni) for c, Ui, Ni in zip(co, U, NA, strict=True)]
         NB = self._stage_rates(B, kept, t0 + 0.5 * h)
         if NB is None:
             return None
-        C = [c["E2"] * Ai + c["Q"] * (2 * Nb - Nu)
-             for c, Ai, Nb, Nu in zip(co, A, NB, NU, strict=True)]
+        C = []
+        for c, Ai, Nb, Nu in zip(co, A, NB, NU, strict=True):
+            d = Nb * 2
+            d -= Nu
+            C.append(_sum_of(c["E2"], Ai, c["Q"], d))
         NC = self._stage_rates(C, kept, t0 + h)
         if NC is None:
             return None
+        new = []
         with np.errstate(over="ignore", invalid="ignore"):
-            new = [c["E"] * Ui + c["f1"] * Nu + c["2f2"] * (Na + Nb) + c["f3"] * Nc
-                   for c, Ui, Nu, Na, Nb, Nc in zip(co, U, NU, NA, NB, NC, strict=True)]
+            for c, Ui, Nu, Na, Nb, Nc in zip(co, U, NU, NA, NB, NC, strict=True):
+                out, pair = _sum_of(c["E"], Ui, c["f1"], Nu), Na + Nb
+                pair *= c["2f2"]
+                out += pair
+                np.multiply(c["f3"], Nc, out=pair)
+                out += pair
+                new.append(out)
         return [self.inverse(a, kept) for a in new]
 
     def _stage_rates(self, spectra: list[np.ndarray], kept: tuple[bool, ...],
@@ -371,3 +385,11 @@ class Etdrk4:
                                                                 strict=True)):
             return None
         return [self.forward(a, kept) for a in n]
+
+
+def _sum_of(a: np.ndarray, x: np.ndarray, b: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``a x + b y`` in a new array (one temporary)."""
+    out = a * x
+    tmp = b * y
+    out += tmp
+    return out
