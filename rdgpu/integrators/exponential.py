@@ -29,7 +29,8 @@ SIAM J. Sci. Comput. 26, 1214)::
 ``numpy.longdouble`` for ``|z| >= 1`` and by their Taylor series ``f₁/h = Σ (j+1)² z^j/(j+3)!``,
 ``f₂/h = Σ (j+1) z^j/(j+3)!``, ``f₃/h = Σ (1−j) z^j/(j+3)!`` (no cancellation between
 coefficients) for ``|z| < 1``, then rounded to float64 once per ``(h, mode)`` and cached;
-the steps use them rounded to the working dtype.
+the steps use them rounded to the working dtype.  (Where ``longdouble`` is ``double``, as
+on Windows, the closed forms just above ``|z| = 1`` lose about two digits.)
 
 Per step the device evaluates ``N`` four times, one fused program per stage (bilaplacians
 in ``N`` lowered as in the explicit methods); everything else runs on the host: downloads,
@@ -64,10 +65,13 @@ from rdgpu.ops.transforms import TransformSolver, grid_axes, transform_unavailab
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["SERIES_RADIUS", "Etdrk4", "etdrk4_coefficients", "split_damping"]
+__all__ = ["SERIES_RADIUS", "START_LEVELS", "Etdrk4", "etdrk4_coefficients",
+           "split_damping"]
 
 #: below this ``|z|`` the coefficients come from their Taylor series (module doc)
 SERIES_RADIUS = 1.0
+#: the most halvings of a run's first step (`Etdrk4.start_steps`)
+START_LEVELS = 16
 #: Taylor terms: ``|z|^j/(j+3)!`` is below longdouble's round-off for ``|z| < 1`` by then
 _TERMS = 24
 
@@ -92,24 +96,30 @@ def etdrk4_coefficients(lin: np.ndarray, h: float) -> dict[str, np.ndarray]:
     ld = np.longdouble
     z = np.asarray(lin, dtype=np.float64).astype(ld) * ld(h)
     small = np.abs(z) < SERIES_RADIUS
-    zs = np.where(small, z, ld(0.0))      # the series' argument
-    zb = np.where(small, ld(1.0), z)      # the closed forms' (no division by 0)
-    ez = np.exp(zb)
-    closed = ((-4.0 - zb + ez * (4.0 - 3.0 * zb + zb * zb)) / zb ** 3,
-              (2.0 + zb + ez * (zb - 2.0)) / zb ** 3,
-              (-4.0 - 3.0 * zb - zb * zb + ez * (4.0 - zb)) / zb ** 3)
+    f = [np.empty(z.shape, dtype=ld) for _ in range(3)]
+    zb = z[~small]  # the closed forms
+    with np.errstate(over="ignore", invalid="ignore"):
+        ez, zb3 = np.exp(zb), zb ** 3
+        f[0][~small] = (-4.0 - zb + ez * (4.0 - 3.0 * zb + zb * zb)) / zb3
+        f[1][~small] = (2.0 + zb + ez * (zb - 2.0)) / zb3
+        f[2][~small] = (-4.0 - 3.0 * zb - zb * zb + ez * (4.0 - zb)) / zb3
+    zs = z[small]  # the series, by Horner from the smallest term
     series = [np.zeros_like(zs) for _ in range(3)]
-    fact = math.factorial
-    for j in reversed(range(_TERMS)):  # Horner, from the smallest term
-        d = ld(fact(j + 3))
+    for j in reversed(range(_TERMS)):
+        d = ld(math.factorial(j + 3))
         for acc, c in zip(series, ((j + 1) ** 2, j + 1, 1 - j), strict=True):
             acc *= zs
             acc += ld(c) / d
-    f = [np.where(small, s, c) * ld(h) for s, c in zip(series, closed, strict=True)]
+    for fi, si in zip(f, series, strict=True):
+        fi[small] = si
+        fi *= ld(h)
     half = z / 2.0
-    phi1 = np.where(half == 0.0, ld(1.0), np.expm1(half) / np.where(half == 0.0, ld(1.0), half))
-    out = {"E": np.exp(z), "E2": np.exp(half), "Q": phi1 * ld(h / 2.0),
-           "f1": f[0], "f2": f[1], "f3": f[2]}
+    phi1 = np.ones(z.shape, dtype=ld)
+    nz = half != 0.0
+    phi1[nz] = np.expm1(half[nz]) / half[nz]
+    with np.errstate(over="ignore"):
+        out = {"E": np.exp(z), "E2": np.exp(half), "Q": phi1 * ld(h / 2.0),
+               "f1": f[0], "f2": f[1], "f3": f[2]}
     return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
 
 
@@ -120,8 +130,9 @@ def split_damping(rest: eq.Node | None, s: str,
     their total ``γ`` is negative, else ``(0, rest)``.
 
     A damping ``γ < 0`` joins the exact linear part: Swift-Hohenberg's ``(r − 1)u`` then
-    leaves ``N = −u³``, small where ``u`` is, so the stages' error from a rough start (white
-    noise) shrinks with it and the step the explicit ``N`` allows grows.  A growth ``γ > 0``
+    leaves ``N = −u³``, small where ``u`` is, so the error from a smooth start shrinks (10×
+    on Swift-Hohenberg, 64², h = 0.4) and the step the explicit ``N`` allows grows (its
+    Jacobian ``−3u²`` instead of ``r − 1 − 3u²``).  A growth ``γ > 0``
     (Allen-Cahn's ``u − u³``) stays in ``N``, where it offsets the cubic's damping in the
     explicit stages (Kassam and Trefethen's choice too).
     """
@@ -257,21 +268,38 @@ class Etdrk4:
             out[s] = c.reshape(self._one).astype(self.dtype) if np.any(c != 0.0) else None
         return out
 
-    def coefficients(self, kept: tuple[bool, ...], s: str) -> dict[str, np.ndarray]:
-        """Species ``s``'s coefficients on the coefficients' grid of ``kept`` (the axes
-        transformed), in the working dtype, cached."""
+    def coefficients(self, kept: tuple[bool, ...], s: str,
+                     h: float | None = None) -> dict[str, np.ndarray]:
+        """Species ``s``'s coefficients for the step ``h`` (default: ``dt``) on the
+        coefficients' grid of ``kept`` (the axes transformed), in the working dtype,
+        cached."""
+        h = self.dt if h is None else float(h)
         alpha, beta, gamma = self.linear[s]
-        key = (kept, alpha, beta, gamma)
+        key = (kept, alpha, beta, gamma, h)
         got = self._coefficients.get(key)
         if got is None:
             lam = self.transforms.spectrum(kept)
-            table = etdrk4_coefficients(gamma + alpha * lam + beta * lam * lam, self.dt)
+            table = etdrk4_coefficients(gamma + alpha * lam + beta * lam * lam, h)
             table["2f2"] = 2.0 * table["f2"]
             got = {k: v.astype(self.dtype) for k, v in table.items()}
-            if len(self._coefficients) > 16:
+            if len(self._coefficients) > 64:
                 self._coefficients.clear()
             self._coefficients[key] = got
         return got
+
+    def start_steps(self) -> list[float]:
+        """The substeps of a run's first step (module doc): ``[h/2^K, h/2^K, h/2^(K−1),
+        ..., h/2]`` (sum ``h``), ``K`` the smallest with ``h max|L̂| / 2^K <= 1`` (at most
+        `START_LEVELS`); ``[h]`` where the fastest mode is resolved already."""
+        lam = self.transforms.spectrum((True,) * len(self.axes))
+        fastest = max(float(np.max(np.abs(c + a * lam + b * lam * lam)))
+                      for a, b, c in self.linear.values())
+        levels = 0
+        while levels < START_LEVELS and self.dt * fastest / 2.0**levels > 1.0:
+            levels += 1
+        if levels == 0:
+            return [self.dt]
+        return [self.dt / 2.0**levels] + [self.dt / 2.0**k for k in range(levels, 0, -1)]
 
     # ------------------------------------------------------------------ transforms
     def _batch(self, a: np.ndarray) -> np.ndarray:
@@ -324,28 +352,36 @@ class Etdrk4:
         return [be.upload(np.ascontiguousarray(a, dtype=self.dtype).reshape(self.shape))
                 for a in batches]
 
-    def step(self, x: list[DeviceArray], y: list[DeviceArray], t0: float) -> None:
-        """``y`` ← one step from ``x`` at time ``t0`` (module doc)."""
-        u = [self._batch(f.numpy()) for f in x]
-        nu = self._evaluate(x, t0)
-        kept = self.kept_axes(u + nu)
-        new = self._stages(u, nu, kept, t0)
-        if new is None:  # a later stage broke a symmetry of the first: transform every axis
-            new = self._stages(u, nu, (True,) * len(self.axes), t0)
-        be = self.backend
-        for s, a, out in zip(self.species, new, y, strict=True):
-            lo, hi = self.bounds[s]
-            if lo is not None or hi is not None:
-                a = np.clip(a, lo, hi)
-            be.copy(be.upload(np.ascontiguousarray(a, dtype=self.dtype).reshape(self.shape)),
-                    out)
+    def step(self, x: list[DeviceArray], y: list[DeviceArray], t0: float,
+             first: bool = False) -> None:
+        """``y`` ← one step from ``x`` at time ``t0`` (module doc); ``first``: a run's
+        first step, taken in the substeps of `start_steps`."""
+        fields, t = x, t0
+        sizes = self.start_steps() if first else [self.dt]
+        for i, h in enumerate(sizes):
+            u = [self._batch(f.numpy()) for f in fields]
+            nu = self._evaluate(fields, t)
+            kept = self.kept_axes(u + nu)
+            new = self._stages(u, nu, kept, t, h)
+            if new is None:  # a later stage broke a symmetry of the first: every axis
+                new = self._stages(u, nu, (True,) * len(self.axes), t, h)
+            for k, s in enumerate(self.species):
+                lo, hi = self.bounds[s]
+                if lo is not None or hi is not None:
+                    new[k] = np.clip(new[k], lo, hi)
+            if i < len(sizes) - 1:
+                fields, t = self._upload(new), t + h
+                continue
+            be = self.backend
+            for a, out in zip(new, y, strict=True):
+                be.copy(be.upload(np.ascontiguousarray(a, dtype=self.dtype)
+                                  .reshape(self.shape)), out)
 
     def _stages(self, u: list[np.ndarray], nu: list[np.ndarray], kept: tuple[bool, ...],
-                t0: float) -> list[np.ndarray] | None:
-        """The new fields (batches) of the step in the transform space of ``kept``, or
+                t0: float, h: float) -> list[np.ndarray] | None:
+        """The new fields (batches) of a step ``h`` in the transform space of ``kept``, or
         None when a stage's ``N`` varies along an axis ``kept`` drops."""
-        h = self.dt
-        co = [self.coefficients(kept, s) for s in self.species]
+        co = [self.coefficients(kept, s, h) for s in self.species]
         U = [self.forward(a, kept) for a in u]
         NU = [self.forward(a, kept) for a in nu]
         A = [_sum_of(c["E2"], Ui, c["Q"], Ni) for c, Ui, Ni in zip(co, U, NU, strict=True)]

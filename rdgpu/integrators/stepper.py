@@ -515,7 +515,7 @@ class ModelStepper(FieldStepper):
         x, y = self._x, self._y
         scheme = self.scheme
         if self._etd is not None:
-            self._etd.step(x, y, t0)
+            self._etd.step(x, y, t0, first=self.steps_done == 0)
         elif not scheme.implicit:
             if scheme.shu_osher is None:
                 self._step_butcher(scheme, t0, h)
