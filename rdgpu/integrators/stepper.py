@@ -63,8 +63,9 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
 * the exponential scheme ``"etdrk4"`` (4th order): the same split, each species' own
   ``α Δs + β Δ²s`` (and a constant damping ``γ s``, ``γ < 0``) integrated exactly by fast
   transforms on rectangular grids, the rest ``N`` evaluated on the device by one fused
-  pass per stage (`rdgpu.integrators.exponential`).  No stability limit from the linear
-  part, no solves (``tol`` unused), one step carries nothing between steps.
+  pass per stage (`rdgpu.integrators.exponential`; a run's first step graded into
+  substeps).  No stability limit from the linear part, no solves (``tol`` unused),
+  nothing carried between steps.
 
 ``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
 (Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
