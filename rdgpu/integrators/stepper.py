@@ -322,7 +322,8 @@ class ModelStepper(FieldStepper):
 
     def _setup_exponential(self, trees, inline) -> None:
         """ETDRK4: the fused program of ``N`` (each species' right-hand side without its
-        own ``α Δs + β Δ²s``) and the host step (`rdgpu.integrators.exponential`)."""
+        own ``α Δs + β Δ²s`` and constant damping ``γ s``, `split_damping`) and the host
+        step (`rdgpu.integrators.exponential`)."""
         split = self._linear_split(trees, inline)
         linear, rest = {}, {}
         for s, (alpha, beta, terms) in split.items():
