@@ -2,10 +2,13 @@
 
 * `SCHEMES` / `get_scheme` / `register_scheme` — every method by name:
   explicit Runge-Kutta schemes as Butcher tableaux (``euler``, ``heun``, ``rk3``, ``rk4``)
-  and the IMEX schemes (``imex``, ``imex-cn``, ``bdf2``), each with its order; the data
+  the IMEX schemes (``imex``, ``imex-cn``, ``bdf2``) and exponential time differencing
+  (``etdrk4``), each with its order; the data
   live in `rdgpu.ir.schemes` (below the model layer, which validates method names);
 * `rdgpu.integrators.stepper` — `ModelStepper`, a model's equations stepped on
   the device by any registered scheme, and `FieldStepper`, what steppers share;
+* `rdgpu.integrators.exponential` — ETDRK4: the linear part exact in transform space on
+  rectangular grids, the rest evaluated on the device;
 * `rdgpu.integrators.stability` — the largest stable step of a scheme for a model's
   linear part (`rdgpu.models.Model.dt_limit`);
 * `rdgpu.integrators.allen_cahn` — Allen-Cahn's Strang splitting with its exact
@@ -27,6 +30,7 @@ from rdgpu.integrators.stepper import HISTORY, FieldStepper, ModelStepper
 from rdgpu.ir.schemes import (
     SCHEMES,
     ExplicitScheme,
+    ExponentialScheme,
     ImexScheme,
     Scheme,
     get_scheme,
@@ -39,6 +43,7 @@ __all__ = [
     "SCHEMES",
     "AllenCahnStepper",
     "ExplicitScheme",
+    "ExponentialScheme",
     "FieldStepper",
     "ImexScheme",
     "ModelStepper",

@@ -8,7 +8,8 @@ largest step for which every mode that decays in the equations also decays in th
 eigenvalues of ``A(m)``, which every registered explicit scheme keeps (the stability
 regions of Heun, SSP-RK3 and classic RK4 contain Euler's disk).  IMEX schemes: the spectral
 radius of the scheme's amplification matrix (`_amplification`), found by bisection;
-SBDF2's is the companion matrix of its two-level recursion.
+SBDF2's is the companion matrix of its two-level recursion.  Exponential schemes
+(``etdrk4``) integrate the linear part exactly: no limit (``inf``).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import math
 
 import numpy as np
 
-from rdgpu.ir.schemes import ImexScheme, get_scheme
+from rdgpu.ir.schemes import ExponentialScheme, ImexScheme, get_scheme
 
 __all__ = ["implicit_factors", "stability_limit"]
 
@@ -39,6 +40,8 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
     B = np.frombuffer(b, dtype=np.float64).reshape(shape)
     ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
     scheme = get_scheme(method)
+    if isinstance(scheme, ExponentialScheme):  # the linear part is exact: no limit
+        return math.inf
     if not scheme.implicit:
         lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
         neg = lam[lam.real < -1e-300]

@@ -30,7 +30,8 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   limit; a species whose diffusion forward Euler steps with a margin at ``h`` (``h α
   m_max <= 1``, half its limit, ``m_max`` the largest eigenvalue of ``−Δ``) keeps it
   explicit, ``a₁ = 0``, and costs no solve (the Brusselator's ``u`` at ten times its
-  explicit step: only ``v``, 11 times faster-diffusing, is solved). With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
+  explicit step: only ``v``, 11 times faster-diffusing, is solved).
+  With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
   α)``: a linearly stabilised scheme (Eyre's convex splitting in spirit) whose
   amplification factor ``1 + h A(m)/((1 + a₁m)(1 + a₂m))`` stays in the unit disk for
   every decaying mode, so ``h`` is set by accuracy, not by ``1/m_max²``; it keeps steady
@@ -63,6 +64,13 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   where round-off meets the neutral mode ``A(m) = 0``); the reaction terms limit ``h`` as
   in every explicit method.
 
+* the exponential scheme ``"etdrk4"`` (4th order): the same split, each species' own
+  ``α Δs + β Δ²s`` (and a constant damping ``γ s``, ``γ < 0``) integrated exactly by fast
+  transforms on rectangular grids, the rest ``N`` evaluated on the device by one fused
+  pass per stage (`rdgpu.integrators.exponential`; a run's first step graded into
+  substeps).  No stability limit from the linear part, no solves (``tol`` unused),
+  nothing carried between steps.
+
 ``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
 (Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
 fused pass.
@@ -81,11 +89,19 @@ from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.validation import real_number
 from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
+from rdgpu.integrators.exponential import Etdrk4, split_damping
 from rdgpu.integrators.passes import launch
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import Output, PerMember, Program, expression_tree
-from rdgpu.ir.schemes import EULER, SCHEMES, ExplicitScheme, ImexScheme, get_scheme
+from rdgpu.ir.schemes import (
+    EULER,
+    SCHEMES,
+    ExplicitScheme,
+    ExponentialScheme,
+    ImexScheme,
+    get_scheme,
+)
 from rdgpu.ops.implicit import ImplicitDiffusion
 
 __all__ = ["FieldStepper", "ModelStepper"]
@@ -211,7 +227,11 @@ class ModelStepper(FieldStepper):
                                   if isinstance(n, eq.Ref) and n.kind == "param" else None)
                  for s in self.species}
         self.D = self._diffusion_numbers()
-        if self.scheme.implicit:
+        #: the exponential step (`rdgpu.integrators.exponential`), or None
+        self._etd: Etdrk4 | None = None
+        if isinstance(self.scheme, ExponentialScheme):
+            self._setup_exponential(trees, inline)
+        elif self.scheme.implicit:
             self._setup_imex(trees, tol, inline)
         else:
             self._setup_explicit(trees, self.scheme)
@@ -304,6 +324,32 @@ class ModelStepper(FieldStepper):
         inputs = self.species + tuple(f"_k{j}_{s}" for j in used for s in self.species)
         return Program(inputs, tuple(outputs)), used
 
+    def _setup_exponential(self, trees, inline) -> None:
+        """ETDRK4: the fused program of ``N`` (each species' right-hand side without its
+        own ``α Δs + β Δ²s`` and constant damping ``γ s``, `split_damping`) and the host
+        step (`rdgpu.integrators.exponential`)."""
+        split = self._linear_split(trees, inline)
+        linear, rest = {}, {}
+        for s, (alpha, beta, terms) in split.items():
+            gamma, own = split_damping(_sum(terms), s, self._numbers())
+            linear[s] = (alpha, beta, gamma)
+            rest[s] = eq.Num(0.0) if own is None else own
+        low, pre = self._lower(rest)
+        aux = [] if pre is None else [self.backend.empty(self.shape, self.dtype)
+                                      for _ in pre.outputs]
+        aux_names = () if pre is None else tuple(o.name for o in pre.outputs)
+        program = Program(self.species + aux_names,
+                          tuple(Output(f"_n_{s}", low[s]) for s in self.species),
+                          frozenset(aux_names))
+        self._pre, self._aux = None, []  # no Euler pass (its pre-pass is the explicit one's)
+
+        def rates(ins: list[DeviceArray], outs: list[DeviceArray], t: float) -> None:
+            self._eval(program, ins, outs, t, prepass=(pre, aux))
+
+        self._etd = Etdrk4(self.domain, self.shape, self.members, self.dt, self.dtype,
+                           self.backend, linear,
+                           {s: self._bounds(s) for s in self.species}, rates, self.method)
+
     def _setup_imex(self, trees, tol, inline) -> None:
         cache: dict[float, Any] = {}
         scheme: ImexScheme = self.scheme
@@ -328,12 +374,43 @@ class ModelStepper(FieldStepper):
         """``(explicit, solvers)`` of an implicit step over ``h`` (module doc): per species
         the explicit rest of its right-hand side and the backward-Euler solvers of ``P``
         (shared through ``cache``, keyed by their ``a``)."""
-        merged = {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
-                      else None) for k, v in self.params.items()}
         # one-step schemes keep a diffusion forward Euler steps with a margin explicit
         m_max = self.domain.largest_eigenvalue() if self.scheme.steps == 1 else None
         explicit: dict[str, eq.Node] = {}
         solvers: dict[str, list[Any]] = {}
+        for s, (alpha, beta, terms) in self._linear_split(trees, inline).items():
+            a1, a2 = implicit_factors(alpha, beta, h, theta, m_max)
+            # explicit: f without α Δs and β Δ²s, plus (P − I)x/h = −((a₁+a₂)/h) Δs
+            # + (a₁a₂/h) Δ²s = −((a₁+a₂)/h) Δs − β Δ²s: the Δ² terms cancel exactly
+            coeff = alpha - (a1 + a2) / h
+            if beta == 0.0 and theta == 1.0 and a1 > 0.0:
+                coeff = 0.0  # backward Euler: α − θα = 0 exactly
+            if coeff != 0.0:
+                terms.append(eq.Bin("*", eq.Num(coeff), eq.Lap(s)))
+            explicit[s] = _sum(terms)
+            solvers[s] = []
+            for a in (a1, a2):
+                if a > 0:
+                    if a not in cache:
+                        cache[a] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
+                                                     backend=self.backend, dtype=self.dtype,
+                                                     tol=tol, solver=self.solver)
+                    solvers[s].append(cache[a])
+        return explicit, solvers
+
+    def _numbers(self) -> dict[str, float | None]:
+        """Each parameter's value where it is one number for every cell, member and time,
+        else None."""
+        return {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
+                    else None) for k, v in self.params.items()}
+
+    def _linear_split(self, trees, inline) -> dict[str, tuple[float, float, list[eq.Node]]]:
+        """Per species ``(α, β, terms)``: the constant coefficients of its own ``α Δs + β
+        Δ²s`` and the other terms of its right-hand side (the reactions, then other
+        species' Laplacians and bilaplacians), what the IMEX and exponential schemes step
+        explicitly; a ``ValueError`` naming the method where the split does not exist."""
+        merged = self._numbers()
+        out = {}
         for s in self.species:
             lin = eq.linear_parts(trees[s])
             if lin is None and self.model.linear[s] is not None:
@@ -353,9 +430,6 @@ class ModelStepper(FieldStepper):
                 raise ValueError(
                     f"method {self.method!r}: the bilaplacian of {s!r} has the coefficient "
                     f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
-            a1, a2 = implicit_factors(alpha, beta, h, theta, m_max)
-            # explicit: f without α Δs and β Δ²s, plus (P − I)x/h = −((a₁+a₂)/h) Δs
-            # + (a₁a₂/h) Δ²s = −((a₁+a₂)/h) Δs − β Δ²s: the Δ² terms cancel exactly
             terms: list[eq.Node] = []
             if lin.rest is not None:
                 terms.append(lin.rest)
@@ -365,24 +439,8 @@ class ModelStepper(FieldStepper):
             for r, c in lin.bilaplacian.items():
                 if r != s:
                     terms.append(eq.Bin("*", c, eq.Lap(r, 2)))
-            coeff = alpha - (a1 + a2) / h
-            if beta == 0.0 and theta == 1.0 and a1 > 0.0:
-                coeff = 0.0  # backward Euler: α − θα = 0 exactly
-            if coeff != 0.0:
-                terms.append(eq.Bin("*", eq.Num(coeff), eq.Lap(s)))
-            expr: eq.Node = eq.Num(0.0)
-            for i, term in enumerate(terms):
-                expr = term if i == 0 else eq.Bin("+", expr, term)
-            explicit[s] = expr
-            solvers[s] = []
-            for a in (a1, a2):
-                if a > 0:
-                    if a not in cache:
-                        cache[a] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
-                                                     backend=self.backend, dtype=self.dtype,
-                                                     tol=tol, solver=self.solver)
-                    solvers[s].append(cache[a])
-        return explicit, solvers
+            out[s] = (alpha, beta, terms)
+        return out
 
     def _setup_bdf2(self, explicit: dict[str, eq.Node]) -> None:
         """BDF2's explicit pass ``y = x + ((x − x₋)/3 + h'(2N(x, t) − N(x₋, t₋)))``
@@ -464,7 +522,9 @@ class ModelStepper(FieldStepper):
         t0, h = self.time, self.dt
         x, y = self._x, self._y
         scheme = self.scheme
-        if not scheme.implicit:
+        if self._etd is not None:
+            self._etd.step(x, y, t0, first=self.steps_done == 0)
+        elif not scheme.implicit:
             if scheme.shu_osher is None:
                 self._step_butcher(scheme, t0, h)
                 return
@@ -569,3 +629,11 @@ def _positive_tol(tol: Any) -> float:
     if not value > 0:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     return value
+
+
+def _sum(terms: list[eq.Node]) -> eq.Node:
+    """``terms[0] + terms[1] + ...`` (left to right; 0 for none)."""
+    expr: eq.Node = eq.Num(0.0)
+    for i, term in enumerate(terms):
+        expr = term if i == 0 else eq.Bin("+", expr, term)
+    return expr

@@ -12,6 +12,12 @@ A scheme is what a method name (``options={"method": ...}``, ``--method``) stand
   terms implicit, the rest explicit (`rdgpu.integrators.stepper`).  ``steps=1``: the
   θ-scheme ``P (x' − x) = h f(x)`` (``θ = 1`` backward Euler, ``½`` Crank-Nicolson);
   ``steps=2``: the semi-implicit BDF2 (SBDF2), whose first step is the ``θ = 1`` one.
+* `ExponentialScheme` — exponential time differencing: each species' own linear spatial
+  terms ``α Δs + β Δ²s`` integrated exactly in transform space, the rest ``N``
+  explicitly (`rdgpu.integrators.exponential`: ETDRK4 of Cox & Matthews 2002 with the
+  coefficients of Kassam & Trefethen 2005).  ``implicit`` is True for it as for the IMEX
+  schemes: the linear part sets no stability limit (``inf``), its coefficients must be
+  constants and the stencil compact; it solves no system, so ``tol`` does not apply.
 
 Adding a scheme is one entry here (or `register_scheme` from a user's script); the
 method lists of the CLI help, the error messages and the docs come from `SCHEMES`.
@@ -24,8 +30,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from fractions import Fraction
 
-__all__ = ["EULER", "SCHEMES", "ExplicitScheme", "ImexScheme", "Scheme", "get_scheme",
-           "method_names", "register_scheme"]
+__all__ = ["EULER", "SCHEMES", "ExplicitScheme", "ExponentialScheme", "ImexScheme", "Scheme",
+           "get_scheme", "method_names", "register_scheme"]
 
 
 @dataclass(frozen=True)
@@ -82,7 +88,25 @@ class ImexScheme:
                              f"{self.steps!r}, theta={self.theta!r}")
 
 
-Scheme = ExplicitScheme | ImexScheme
+@dataclass(frozen=True)
+class ExponentialScheme:
+    """An exponential integrator (module doc): the linear part exact, ``stages``
+    evaluations of the rest ``N`` per step.  ``implicit`` (True): the linear part is not
+    stepped explicitly, so it sets no stability limit and needs constant coefficients
+    and the compact stencil; ``solves`` (False): no system is solved, ``tol`` does not
+    apply."""
+
+    name: str
+    order: int
+    stages: int
+    title: str
+    aliases: tuple[str, ...] = ()
+
+    implicit = True
+    solves = False
+
+
+Scheme = ExplicitScheme | ImexScheme | ExponentialScheme
 
 #: every method by its canonical name, in the order the help lists them
 SCHEMES: dict[str, Scheme] = {}
@@ -92,8 +116,9 @@ _ALIASES: dict[str, str] = {}
 def register_scheme(scheme: Scheme, *, replace: bool = False) -> Scheme:
     """Add ``scheme`` to `SCHEMES` (its name and aliases become method names of every
     model).  A name already taken is refused unless ``replace``."""
-    if not isinstance(scheme, (ExplicitScheme, ImexScheme)):
-        raise TypeError(f"a scheme is an ExplicitScheme or an ImexScheme, got "
+    if not isinstance(scheme, (ExplicitScheme, ImexScheme, ExponentialScheme)):
+        raise TypeError(f"a scheme is an ExplicitScheme, an ImexScheme or an "
+                        f"ExponentialScheme, got "
                         f"{type(scheme).__name__}")
     names = (scheme.name, *scheme.aliases)
     bad = [n for n in names if not isinstance(n, str) or not n or n != n.lower()]
@@ -152,3 +177,6 @@ register_scheme(ImexScheme(
     "imex-cn", 1, theta=0.5, steps=1, title="IMEX Crank-Nicolson diffusion"))
 register_scheme(ImexScheme(
     "bdf2", 2, theta=1.0, steps=2, title="semi-implicit BDF2 (SBDF2)", aliases=("sbdf2",)))
+register_scheme(ExponentialScheme(
+    "etdrk4", 4, stages=4, title="exponential time differencing RK4 (Cox-Matthews)",
+    aliases=("etd-rk4",)))

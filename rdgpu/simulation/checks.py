@@ -18,7 +18,7 @@ import numpy as np
 
 from rdgpu.core import validation
 from rdgpu.core.resources import check_fields
-from rdgpu.ir.schemes import method_names
+from rdgpu.ir.schemes import SCHEMES, method_names
 from rdgpu.models import MODELS, define_model
 
 if TYPE_CHECKING:
@@ -140,10 +140,12 @@ def check_tol(method: Any, tol: Any, *, unused_ok: bool = False) -> float | None
     value = real(tol, "tol")
     if not value > 0:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
-    if method in method_names(implicit=False) and not unused_ok:
+    solving = [m for m in method_names(implicit=True) if getattr(SCHEMES[m], "solves", True)]
+    if method in method_names() and method not in solving and not unused_ok:
+        how = "is explicit" if method in method_names(implicit=False) else "solves no system"
         raise ValueError(f"tol={tol!r} is the accuracy of implicit solves; method {method!r} "
-                         f"is explicit and does not use it (leave tol out, or use an IMEX "
-                         f"method: {', '.join(map(repr, method_names(implicit=True)))})")
+                         f"{how} and does not use it (leave tol out, or use an IMEX "
+                         f"method: {', '.join(map(repr, solving))})")
     return value
 
 

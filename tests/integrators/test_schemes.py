@@ -21,6 +21,7 @@ from rdgpu.domains.grid import Grid
 from rdgpu.integrators import (
     SCHEMES,
     ExplicitScheme,
+    ExponentialScheme,
     ImexScheme,
     get_scheme,
     method_names,
@@ -90,13 +91,13 @@ def test_names_aliases_and_errors():
     assert get_scheme("explicit").name == "euler"
     assert get_scheme("sbdf2") is SCHEMES["bdf2"]
     assert set(method_names(implicit=True)) == {
-        n for n, s in SCHEMES.items() if isinstance(s, ImexScheme)}
+        n for n, s in SCHEMES.items() if isinstance(s, (ImexScheme, ExponentialScheme))}
     with pytest.raises(ValueError, match="unknown method 'rk7'; allowed: " +
                        re.escape(", ".join(method_names()))):
         get_scheme("rk7")
     with pytest.raises(ValueError, match="taken"):
         register_scheme(SCHEMES["rk4"])
-    with pytest.raises(TypeError, match="ExplicitScheme or an ImexScheme"):
+    with pytest.raises(TypeError, match="ExplicitScheme, an ImexScheme or an ExponentialScheme"):
         register_scheme("rk4")
     with pytest.raises(ValueError, match="strictly lower-triangular"):
         ExplicitScheme("bad", 1, a=((1.0,),), b=(1.0,), c=(0.0,), title="bad",
