@@ -3,6 +3,7 @@ thread per cell (rdgpu's CUDA shape), flat or 2-D, and several cells per thread 
 or down a column.  Run on a machine with an NVIDIA GPU: ``python perf/warp_cuda_probe.py``;
 results of 2026-11-27 on an H200 in perf/results/gpu-h200/warp_cuda_probe.md."""
 import time
+
 import numpy as np
 import warp as wp
 
@@ -55,7 +56,8 @@ def bench(name, kernel, dim, inputs):
         wp.launch(kernel, dim=dim, inputs=inputs, device=dev)
     wp.synchronize_device(dev)
     dt = (time.perf_counter() - t) / reps
-    print(f"{name:12s} {n * n / dt / 1e6:10.0f} Mcell/s  {8 * n * n / dt / 1e9:7.0f} GB/s (8 B/cell)")
+    rate = n * n / dt
+    print(f"{name:12s} {rate / 1e6:10.0f} Mcell/s  {8 * rate / 1e9:7.0f} GB/s (8 B/cell)")
 
 
 bench("copy1d", copy1d, n * n, [u1, o1])
