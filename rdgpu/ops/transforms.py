@@ -80,8 +80,9 @@ __all__ = ["SOLVERS", "SOLVER_ENV", "DirectDiffusion", "TransformSolver", "axis_
            "grid_axes", "pick_solver", "transform_unavailable"]
 
 #: the implicit diffusion solvers: ``"auto"`` (transforms where they apply, else SOR),
-#: ``"transform"`` (direct, this module) and ``"sor"`` (multicolour SOR)
-SOLVERS = ("auto", "transform", "sor")
+#: ``"transform"`` (direct, this module), ``"sor"`` (multicolour SOR) and ``"multigrid"``
+#: (algebraic multigrid, `rdgpu.ops.multigrid`)
+SOLVERS = ("auto", "transform", "sor", "multigrid")
 #: the environment variable read when no solver is given
 SOLVER_ENV = "RDGPU_IMPLICIT_SOLVER"
 #: the transforms' threads: -1, every core
@@ -153,9 +154,10 @@ def grid_axes(domain: Domain) -> list[tuple[int, int, float]]:
 
 
 def pick_solver(domain: Domain, solver: str | None) -> str:
-    """``"transform"`` or ``"sor"`` for ``domain`` from ``solver`` (one of :data:`SOLVERS`;
-    ``None``: the environment variable :data:`SOLVER_ENV`, else ``"auto"``).  ``"auto"``
-    takes the transform where it applies; ``"transform"`` where it does not is a
+    """``"transform"``, ``"sor"`` or ``"multigrid"`` for ``domain`` from ``solver`` (one of
+    :data:`SOLVERS`; ``None``: the environment variable :data:`SOLVER_ENV`, else
+    ``"auto"``).  ``"auto"`` takes the transform where it applies, else SOR (multigrid only
+    when asked: perf/results/multigrid.md); ``"transform"`` where it does not apply is a
     ``ValueError`` saying why."""
     given = solver
     if solver is None:
@@ -169,7 +171,9 @@ def pick_solver(domain: Domain, solver: str | None) -> str:
     why = transform_unavailable(domain)
     if solver == "transform" and why is not None:
         raise ValueError(f"{where}='transform': {why}; use 'auto' or 'sor'")
-    if solver == "sor" or why is not None:
+    if solver in ("sor", "multigrid"):
+        return solver
+    if why is not None:
         return "sor"
     return "transform"
 
