@@ -488,14 +488,15 @@ class ImplicitDiffusion:
             self.transform.solve(rhs, x)
             self._finish(0, 0.0, 0.0, True)
             return 0
-        if self.multigrid is not None:  # rdgpu.ops.multigrid
-            mg = self.multigrid
-            self._finish(mg.solve(rhs, x, what=self._describe()), math.nan, mg.last_error, True)
-            self.last_floor, self.last_residual = mg.last_floor, mg.last_residual
-            return self.last_sweeps
         closed = bool(np.any(self._closed))
         if closed and target is None:
             target = self._component_means(rhs.numpy().reshape(-1).astype(np.float64))
+        if self.multigrid is not None:  # rdgpu.ops.multigrid, then the exact means
+            mg, project = self.multigrid, (lambda: self._project(x, target)) if closed else None
+            self._finish(mg.solve(rhs, x, what=self._describe(), project=project), math.nan,
+                         mg.last_error, True)
+            self.last_floor, self.last_residual = mg.last_floor, mg.last_residual
+            return self.last_sweeps
         run = _Progress(umax=umax, next_check=min(self.check_every, self.max_sweeps))
         self.last_residual = math.nan
         while True:

@@ -33,9 +33,9 @@ estimated from the max residual of the unscaled system, ``|δ − δ*|∞ <= γ 
 with ``γ = ||S⁻¹||∞ <= 1 / min_i (s_ii − Σ_{j≠i} |s_ij|)`` where ``S`` is diagonally dominant
 (every mesh with non-negative cotangent weights, every grid and graph surface), else
 ``γ = 2``, must be ``<= tol``; or the residual is at the round-off level of its own
-evaluation, ``4 eps (max|g| + ||S||∞ max|δ|)``.  A residual that stops falling above
-``tol`` at that level stops the solve with a warning (the dtype's floor, as SOR's); one
-that does not reach ``tol`` within ``max_cycles`` raises
+evaluation, ``(k + 2) eps (max|g| + ||S||∞ max|δ|)`` (``k`` the longest row).  A residual
+that stops falling above ``tol`` within 8 times that level stops the solve with a warning
+(the dtype's floor, as SOR's); one that does not reach ``tol`` within ``max_cycles`` raises
 `rdgpu.core.errors.ConvergenceError`.  CG's recursive residual is checked against the
 true one before it stops.
 """
@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -67,8 +68,10 @@ SMOOTHING = 1
 DOT_ROWS = 256
 #: the error bound from the residual where ``S`` is not diagonally dominant
 _GREEN = 2.0
-#: cycles without the residual halving, at its round-off level, before the floor is declared
+#: cycles without the residual halving before it is checked for the round-off floor, and
+#: how far above the residual's own rounding bound a stalled one counts as that floor
 _STALL = 3
+_FLOOR = 8.0
 
 
 class _Level:
@@ -87,9 +90,9 @@ class _Level:
         self.x, self.b, self.r, self.t = (be.empty((n,), dtype) for _ in range(4))
         self.change = be.empty((n,), dtype)
         if P is None:
-            inverse = np.linalg.inv(A.toarray())
-            self.inverse = be.upload_csr(sp.csr_matrix(inverse), dtype,
-                                         name="multigrid coarsest inverse")
+            import scipy.linalg as la
+
+            self.inverse = la.cho_factor(A.toarray())  # float64, on the host
             self.P = self.R = None
             self.rows: list[DeviceArray] = []
             return
@@ -178,6 +181,8 @@ class AlgebraicMultigrid:
         margin = float(np.min(-off)) if n else 1.0  # min_i (s_ii − Σ_{j≠i} |s_ij|)
         self.green = 1.0 / margin if margin > 0 else _GREEN
         self.s_inf = float(abs(S).sum(axis=1).max()) if n else 0.0
+        #: the rounding of a residual's row: (terms + 2) eps times its magnitudes at most
+        self._terms = float(np.diff(S.indptr).max() + 2) if n else 2.0
         # CG's vectors on the finest level (the V-cycle uses the level's own r and t)
         (self._b, self._r, self._r_new, self._p, self._z, self._Ap, self._x_new,
          self._unscaled) = (be.empty((n,), dtype) for _ in range(8))
@@ -226,8 +231,12 @@ class AlgebraicMultigrid:
         b, x : DeviceArray
             The right-hand side and the result (overwritten)."""
         be, lvl = self.backend, self.levels[k]
-        if lvl.inverse is not None:
-            be.spmv(lvl.inverse, b, x)
+        if lvl.inverse is not None:  # the coarsest: solved on the host in float64
+            import scipy.linalg as la
+
+            rhs = b.numpy().astype(np.float64)
+            x_host = la.cho_solve(lvl.inverse, rhs, check_finite=False)
+            be.copy(be.upload(x_host.astype(self.dtype)), x)
             return
         coarse = self.levels[k + 1]
         be.copy(lvl.zeros, x)
@@ -241,7 +250,8 @@ class AlgebraicMultigrid:
         self._smooth(lvl, x, b, reverse=True)
 
     # ------------------------------------------------------------------ the solve
-    def solve(self, rhs: DeviceArray, x: DeviceArray, *, what: str = "") -> int:
+    def solve(self, rhs: DeviceArray, x: DeviceArray, *, what: str = "",
+              project: Callable[[], Any] | None = None) -> int:
         """Solve ``S x = rhs`` from the initial guess in ``x``; returns the cycles.  Sets
         ``last_error`` (the error estimate it stopped at), ``last_residual`` (max of the
         true residual ``|rhs − S x|``) and ``last_floor`` (stopped at the round-off floor
@@ -254,6 +264,11 @@ class AlgebraicMultigrid:
             by the solution.
         what : str
             The system, for the messages.
+        project : callable, optional
+            Called on convergence to set the weighted means of ``x`` on closed components
+            exactly (`rdgpu.ops.implicit.ImplicitDiffusion` knows them): the constant modes
+            are the eigenvalue-1 modes of ``S``, next to eigenvalues up to ``||S||∞``,
+            which in float32 the residual cannot resolve at a large ``c``.
 
         Raises
         ------
@@ -273,6 +288,8 @@ class AlgebraicMultigrid:
             self._stationary(run, g, b, xf, top)
         else:
             self._cg(run, g, b, xf, top)
+        if project is not None:
+            project()
         self.last_error = run["estimate"]
         if self.last_floor:
             self._warn_floor(run, what)
@@ -350,17 +367,12 @@ class AlgebraicMultigrid:
             self._residual(self.levels[0], self._S, g, x, self._unscaled)
             m = be.max_abs(self._unscaled)
         eps = float(np.finfo(self.dtype).eps)
-        noise = 4.0 * eps * (self._gmax + self.s_inf * be.max_abs(x))
-        self.last_residual = m
-        if self.green * m <= self.tol:
-            run["estimate"] = self.green * m
+        noise = self._terms * eps * (self._gmax + self.s_inf * be.max_abs(x))
+        self.last_residual, run["estimate"] = m, self.green * m
+        if self.green * m <= self.tol or m <= noise:
             return True
-        if stalled and m <= 64.0 * noise:
-            run["estimate"] = self.green * m
+        if stalled and m <= _FLOOR * noise:
             self.last_floor = True
-            return True
-        if m <= noise:
-            run["estimate"] = self.green * m
             return True
         if run["cycles"] >= self.max_cycles:
             raise self._unconverged(run)

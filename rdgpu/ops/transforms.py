@@ -54,9 +54,10 @@ Which solver (:func:`pick_solver`): ``"transform"`` where it applies — a recta
 (``Domain.kind == "grid"``; not a graph surface, a mesh or a masked domain), a constant
 coefficient, each axis periodic, Neumann or Dirichlet (one condition for both ends, which is
 how every grid axis is given) — under ``"auto"`` (the default), ``"sor"`` elsewhere or when
-asked.  ``ImplicitDiffusion(solver=...)`` chooses; ``None`` reads the environment variable
-:data:`SOLVER_ENV` (``RDGPU_IMPLICIT_SOLVER=sor|transform|auto``), which reaches every
-implicit solve of the model layer (``imex``, ``imex-cn``, ``bdf2``), ``diffusion_step`` and
+asked, ``"multigrid"`` (`rdgpu.ops.multigrid`) when asked.  ``ImplicitDiffusion(solver=...)``
+chooses; ``None`` reads the environment variable :data:`SOLVER_ENV`
+(``RDGPU_IMPLICIT_SOLVER=sor|transform|multigrid|auto``), which reaches every implicit solve
+of the model layer (``imex``, ``imex-cn``, ``bdf2``), ``diffusion_step`` and
 ``rdgpu run``.
 """
 
