@@ -24,9 +24,9 @@ weights (`Domain.mass_weights <rdgpu.domains.base.Domain.mass_weights>`: the ver
   products and the convergence test;
 * **the iteration** (``method``): conjugate gradients preconditioned by one V-cycle
   (``"cg"``, the default) or the V-cycle alone as a stationary iteration (``"vcycle"``).
-  Measured on icospheres 4-6 with ``c·median|diag M|`` from 10 to 1000, CG needs about
-  half the cycles of the stationary iteration (9 against 15 at 10, 15 against 33 at
-  1000), at little more work per cycle (perf/results/multigrid.md).  Its dot products run
+  Measured on icospheres 5 and 6 (OpenCL on the CPU, float32, perf/results/multigrid.md),
+  CG needs 8 cycles where the stationary iteration needs 15-16 at ``c·median|diag M|``
+  = 10, and 15 against 18-20 at 1000, and is 1.05-2x faster.  Its dot products run
   on the device as one `spmv` of a row-blocked matrix whose values are the first vector
   (:data:`DOT_ROWS` partial sums in the working dtype, added in float64 on the host).  A
   system ``diag(w) S`` that is not symmetric (to round-off) runs the stationary iteration.
@@ -38,7 +38,8 @@ with ``γ = ||S⁻¹||∞ <= 1 / min_i (s_ii − Σ_{j≠i} |s_ij|)`` where ``S`
 ``γ = 2``, must be ``<= tol``; or the residual is at the round-off level of its own
 evaluation, ``(k + 2) eps (max|g| + ||S||∞ max|δ|)`` (``k`` the longest row).  A residual
 that stops falling above ``tol`` within 8 times that level stops the solve with a warning
-(the dtype's floor, as SOR's); one that does not reach ``tol`` within ``max_cycles`` raises
+(the dtype's floor, as SOR's); one that does not reach ``tol`` within ``max_cycles`` (500:
+`ImplicitDiffusion`'s ``max_sweeps`` caps SOR only) raises
 `rdgpu.core.errors.ConvergenceError`.  CG's recursive residual is checked against the
 true one before it stops.
 """
@@ -82,7 +83,8 @@ class _Level:
     coarser level (none on the coarsest, which has its inverse), the rows of each colour
     and the vectors of a cycle."""
 
-    def __init__(self, be: Backend, dtype: np.dtype, A: Any, P: Any, colouring: Any) -> None:
+    def __init__(self, be: Backend, dtype: np.dtype, A: Any, P: Any, R: Any,
+                 colouring: Any) -> None:
         import scipy.sparse as sp
 
         n = A.shape[0]
@@ -100,7 +102,7 @@ class _Level:
             return
         self.inverse = None
         self.P = be.upload_csr(P, dtype, name="multigrid prolongation")
-        self.R = be.upload_csr(sp.csr_matrix(P.T), dtype, name="multigrid restriction")
+        self.R = be.upload_csr(R, dtype, name="multigrid restriction")
         ref = load_module("mesh", "reference.py")
         self.rows = [be.upload(r) for r in ref.colour_rows(colouring) if r.size]
 
@@ -149,6 +151,9 @@ class AlgebraicMultigrid:
         self.max_cycles = int(max_cycles)
         S = sp.csr_matrix(matrix, dtype=np.float64)
         w = np.asarray(weights, dtype=np.float64).ravel()
+        if w.shape != (S.shape[0],) or not np.all(w > 0) or not np.all(np.isfinite(w)):
+            raise ValueError(f"weights must be {S.shape[0]} positive finite mass weights (an "
+                             "isolated vertex has none: multigrid cannot scale its row)")
         self.n = S.shape[0]
         A = sp.csr_matrix(sp.diags(w) @ S)
         A.sum_duplicates()
@@ -165,10 +170,15 @@ class AlgebraicMultigrid:
         be = backend
         self.levels = []
         for i, lvl in enumerate(hierarchy.levels):
-            last = i == len(mats) - 1
-            colours = colouring if i == 0 else (None if last else greedy_colouring(lvl.A))
+            if i == len(mats) - 1:  # the coarsest
+                self.levels.append(_Level(be, self.dtype, sp.csr_matrix(lvl.A), None, None,
+                                          None))
+                break
+            colours = colouring if i == 0 else greedy_colouring(lvl.A, symmetric=symmetric)
+            # R = Pᵀ for the symmetric form (pyamg's own R where it is not)
+            R = sp.csr_matrix(lvl.P.T if symmetric else lvl.R)
             self.levels.append(_Level(be, self.dtype, sp.csr_matrix(lvl.A),
-                                      None if last else sp.csr_matrix(lvl.P), colours))
+                                      sp.csr_matrix(lvl.P), R, colours))
         self._set_system(S, w)
 
     def _set_system(self, S: Any, w: np.ndarray) -> None:

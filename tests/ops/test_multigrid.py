@@ -140,3 +140,21 @@ def test_bad_solver_and_missing_pyamg(monkeypatch):
         ImplicitDiffusion(_domain("ico3"), D=1.0, dt=1.0, backend="numpy", solver="multigrid")
     assert math.isfinite(_step(_domain("ico3"), "numpy", np.float64, 1.0, solver="sor")[0]
                          .last_error)
+
+
+def test_nonsymmetric_form_runs_the_vcycle_and_bad_weights_refused():
+    s = ImplicitDiffusion(_domain("ico3"), D=1.0, dt=0.1, backend="numpy")
+    be = s.backend
+    # unit weights leave A⁻¹W's system non-symmetric: the stationary V-cycle, pyamg's own R
+    mg = AlgebraicMultigrid(s.matrix, np.ones(s.n), s.colouring, backend=be,
+                            dtype=np.float64, tol=1e-9)
+    assert mg.method == "vcycle"
+    rhs = np.random.default_rng(2).standard_normal(s.n)
+    x = be.upload(np.zeros(s.n))
+    mg.solve(be.upload(rhs), x)
+    assert np.max(np.abs(x.numpy() - np.linalg.solve(s.matrix.toarray(), rhs))) <= 2e-9
+    weights = s.weights.copy()
+    weights[3] = 0.0
+    with pytest.raises(ValueError, match="weights must be 642 positive finite mass weights"):
+        AlgebraicMultigrid(s.matrix, weights, s.colouring, backend=be, dtype=np.float64,
+                           tol=1e-9)
