@@ -158,3 +158,11 @@ def test_nonsymmetric_form_runs_the_vcycle_and_bad_weights_refused():
     with pytest.raises(ValueError, match="weights must be 642 positive finite mass weights"):
         AlgebraicMultigrid(s.matrix, weights, s.colouring, backend=be, dtype=np.float64,
                            tol=1e-9)
+
+
+def test_environment_variable_chooses_multigrid(monkeypatch):
+    monkeypatch.setenv("RDGPU_IMPLICIT_SOLVER", "multigrid")
+    s = ImplicitDiffusion(_domain("ico3"), D=1.0, dt=0.1, backend="numpy")
+    assert s.solver == "multigrid" and s.multigrid is not None
+    monkeypatch.setenv("RDGPU_IMPLICIT_SOLVER", "auto")
+    assert ImplicitDiffusion(_domain("ico3"), D=1.0, dt=0.1, backend="numpy").solver == "sor"
