@@ -31,17 +31,24 @@ weights (`Domain.mass_weights <rdgpu.domains.base.Domain.mass_weights>`: the ver
   (:data:`DOT_ROWS` partial sums in the working dtype, added in float64 on the host).  A
   system ``diag(w) S`` that is not symmetric (to round-off) runs the stationary iteration.
 
-Convergence: the same test as SOR's: the max error of ``δ`` against the exact solution,
-estimated from the max residual of the unscaled system, ``|δ − δ*|∞ <= γ max|g − S δ|``
-with ``γ = ||S⁻¹||∞ <= 1 / min_i (s_ii − Σ_{j≠i} |s_ij|)`` where ``S`` is diagonally dominant
-(every mesh with non-negative cotangent weights, every grid and graph surface), else
-``γ = 2``, must be ``<= tol``; or the residual is at the round-off level of its own
-evaluation, ``(k + 2) eps (max|g| + ||S||∞ max|δ|)`` (``k`` the longest row).  A residual
-that stops falling above ``tol`` within 8 times that level stops the solve with a warning
-(the dtype's floor, as SOR's); one that does not reach ``tol`` within ``max_cycles`` (500:
-`ImplicitDiffusion`'s ``max_sweeps`` caps SOR only) raises
-`rdgpu.core.errors.ConvergenceError`.  CG's recursive residual is checked against the
-true one before it stops.
+Convergence, as SOR's (docs/equations.md, "Implicit diffusion"): after each cycle the max
+change of ``δ``, ``m`` (CG: ``|α| max|p|``; the V-cycle: ``max|z|``), and the contraction
+``ρ``, the larger of the last two ratios of changes, give the error estimate
+``E = m ρ/(1 − ρ)`` (a multigrid cycle contracts every mode alike, so the geometric tail
+holds).  When ``E <= tol/2`` the true residual confirms it: ``γ max|g − S δ| <= tol``, with
+``γ = ||S⁻¹||∞ <= 1 / min_i (s_ii − Σ_{j≠i} |s_ij|)`` where ``S`` is diagonally dominant
+(every grid and graph surface, every mesh with non-negative cotangent weights), else
+``γ = 2``; or the residual at the round-off level of its own evaluation,
+``(k + 2) eps (max|g| + ||S||∞ max|δ|)`` (``k`` the longest row) — at a large ``dt`` the
+residual of a float32 (even a float64) solve cannot resolve ``tol``, while the changes,
+relative to ``δ``, can.  Where the residual disagrees, CG restarts from it.  Changes that
+stall (no halving in 3 cycles) at round-off, ``m <= 64 eps max|δ|``, with the residual
+within 8 times its rounding bound, stop the solve at the dtype's floor (a warning where
+the estimate there, ``max(m, 16 eps max|δ|)``, exceeds ``tol``, as SOR's); a solve that
+does not converge within ``max_cycles`` (500: `ImplicitDiffusion`'s ``max_sweeps`` caps
+SOR only) raises
+`rdgpu.core.errors.ConvergenceError`.  The constant modes of closed components are set
+exactly afterwards by the caller (``solve``'s ``project``).
 """
 
 from __future__ import annotations
@@ -72,9 +79,11 @@ SMOOTHING = 1
 DOT_ROWS = 256
 #: the error bound from the residual where ``S`` is not diagonally dominant
 _GREEN = 2.0
-#: cycles without the residual halving before it is checked for the round-off floor, and
-#: how far above the residual's own rounding bound a stalled one counts as that floor
+#: cycles without the change halving before the solve is checked for the round-off floor;
+#: changes below this many eps times max|x| are round-off, and a residual within this
+#: factor of its own rounding bound is at the floor
 _STALL = 3
+_ROUND = 64.0
 _FLOOR = 8.0
 
 
@@ -94,8 +103,11 @@ class _Level:
         self.zeros = be.upload(np.zeros(n, dtype=dtype))
         self.x, self.b, self.r, self.t = (be.empty((n,), dtype) for _ in range(4))
         self.change = be.empty((n,), dtype)
-        if P is None:
-            self.inverse = be.upload_csr(sp.csr_matrix(np.linalg.inv(A.toarray())), dtype,
+        if P is None:  # the coarsest: its inverse (diagonal where A is)
+            diagonal = (A - sp.diags(A.diagonal())).count_nonzero() == 0
+            inverse = (sp.diags(1.0 / A.diagonal()) if diagonal
+                       else np.linalg.inv(A.toarray()))
+            self.inverse = be.upload_csr(sp.csr_matrix(inverse), dtype,
                                          name="multigrid coarsest inverse")
             self.P = self.R = None
             self.rows: list[DeviceArray] = []
@@ -105,6 +117,28 @@ class _Level:
         self.R = be.upload_csr(R, dtype, name="multigrid restriction")
         ref = load_module("mesh", "reference.py")
         self.rows = [be.upload(r) for r in ref.colour_rows(colouring) if r.size]
+
+
+def _hierarchy(pyamg: Any, A: Any, symmetric: bool) -> list[tuple[Any, Any, Any]]:
+    """``(A_l, P_l, R_l)`` per level, finest first (the coarsest with ``P, R = None``):
+    pyamg's smoothed aggregation (module doc), or ``A`` alone where it is diagonal
+    (``D = 0``: nothing to coarsen)."""
+    import scipy.sparse as sp
+
+    if (A - sp.diags(A.diagonal())).count_nonzero() == 0:
+        return [(A, None, None)]
+    ml = pyamg.smoothed_aggregation_solver(
+        A, symmetry="hermitian" if symmetric else "nonsymmetric",
+        smooth=("jacobi", {"weighting": "local"}), improve_candidates=None,
+        max_coarse=MAX_COARSE, keep=False)
+    out = []
+    for i, lvl in enumerate(ml.levels):
+        if i == len(ml.levels) - 1:
+            out.append((sp.csr_matrix(lvl.A), None, None))
+        else:  # R = Pᵀ for the symmetric form (pyamg's own R where it is not)
+            R = lvl.P.T if symmetric else lvl.R
+            out.append((sp.csr_matrix(lvl.A), sp.csr_matrix(lvl.P), sp.csr_matrix(R)))
+    return out
 
 
 class AlgebraicMultigrid:
@@ -161,24 +195,12 @@ class AlgebraicMultigrid:
         scale = float(abs(A).max()) if A.nnz else 1.0
         symmetric = A.nnz == 0 or float(abs(A - A.T).max()) <= 1e-12 * scale
         self.method = method if symmetric else "vcycle"
-        hierarchy = pyamg.smoothed_aggregation_solver(
-            A, symmetry="hermitian" if symmetric else "nonsymmetric",
-            smooth=("jacobi", {"weighting": "local"}), improve_candidates=None,
-            max_coarse=MAX_COARSE, keep=False)
-        mats = [lvl.A for lvl in hierarchy.levels]
-        self.sizes = [m.shape[0] for m in mats]
-        be = backend
         self.levels = []
-        for i, lvl in enumerate(hierarchy.levels):
-            if i == len(mats) - 1:  # the coarsest
-                self.levels.append(_Level(be, self.dtype, sp.csr_matrix(lvl.A), None, None,
-                                          None))
-                break
-            colours = colouring if i == 0 else greedy_colouring(lvl.A, symmetric=symmetric)
-            # R = Pᵀ for the symmetric form (pyamg's own R where it is not)
-            R = sp.csr_matrix(lvl.P.T if symmetric else lvl.R)
-            self.levels.append(_Level(be, self.dtype, sp.csr_matrix(lvl.A),
-                                      sp.csr_matrix(lvl.P), R, colours))
+        for A_l, P_l, R_l in _hierarchy(pyamg, A, symmetric):
+            colours = None if P_l is None else (
+                colouring if not self.levels else greedy_colouring(A_l, symmetric=symmetric))
+            self.levels.append(_Level(backend, self.dtype, A_l, P_l, R_l, colours))
+        self.sizes = [lvl.n for lvl in self.levels]
         self._set_system(S, w)
 
     def _set_system(self, S: Any, w: np.ndarray) -> None:
@@ -189,7 +211,6 @@ class AlgebraicMultigrid:
         be, dtype, n = self.backend, self.dtype, self.n
         self._S = be.upload_csr(S, dtype, name="implicit system")
         self._W = be.upload_csr(sp.diags(w).tocsr(), dtype, name="mass weights")
-        self._Winv = be.upload_csr(sp.diags(1.0 / w).tocsr(), dtype, name="mass weights")
         off = abs(S).sum(axis=1).A1 - 2.0 * np.maximum(S.diagonal(), 0.0) if n else np.ones(1)
         margin = float(np.min(-off)) if n else 1.0  # min_i (s_ii − Σ_{j≠i} |s_ij|)
         self.green = 1.0 / margin if margin > 0 else _GREEN
@@ -284,7 +305,7 @@ class AlgebraicMultigrid:
         ConvergenceError
             ``max_cycles`` ended the solve unconverged.
         FloatingPointError
-            A residual is NaN or Inf."""
+            A change of the solution is NaN or Inf."""
         be, n = self.backend, self.n
         g, xf = be.reshaped(rhs, (n,)), be.reshaped(x, (n,))
         top = self.levels[0]
@@ -292,7 +313,7 @@ class AlgebraicMultigrid:
         be.spmv(self._W, g, b)
         self._gmax = be.max_abs(g)
         self.last_floor, self.last_residual = False, math.nan
-        run = {"cycles": 0, "low": math.inf, "low_at": 0, "estimate": math.inf}
+        run = {"cycles": 0, "low": math.inf, "low_at": 0, "estimate": math.inf, "changes": []}
         if self.method == "vcycle":
             self._stationary(run, g, b, xf, top)
         else:
@@ -307,19 +328,20 @@ class AlgebraicMultigrid:
     def _stationary(self, run: dict, g: DeviceArray, b: DeviceArray, x: DeviceArray,
                     top: _Level) -> None:
         """``x += V(b − A x)`` until converged."""
-        r, z = self._r, self._z
+        be, r, z = self.backend, self._r, self._z
         while True:
             self._residual(top, top.A, b, x, r)
-            if self._converged(run, g, x, r, true=True):
-                return
             self.vcycle(r, z)
             self._axpy(x, 1.0, z, self._x_new, top.zero)
-            self.backend.copy(self._x_new, x)
+            be.copy(self._x_new, x)
             run["cycles"] += 1
+            if self._converged(run, g, x, be.max_abs(z)):
+                return
 
     def _cg(self, run: dict, g: DeviceArray, b: DeviceArray, x: DeviceArray,
             top: _Level) -> None:
-        """Conjugate gradients on ``A x = b`` preconditioned by one V-cycle."""
+        """Conjugate gradients on ``A x = b`` preconditioned by one V-cycle (restarted
+        from the true residual where the convergence test asks for it)."""
         be = self.backend
         r, r_new, p, z, q, x_new = (self._r, self._r_new, self._p, self._z, self._Ap,
                                     self._x_new)
@@ -339,7 +361,7 @@ class AlgebraicMultigrid:
             self._axpy(r, -alpha, q, r_new, top.zero)
             r, r_new = r_new, r
             run["cycles"] += 1
-            if self._converged(run, g, x, r, true=False):
+            if self._converged(run, g, x, abs(alpha) * be.max_abs(p)):
                 return
             if run.pop("restart", False):
                 restart = True
@@ -351,42 +373,49 @@ class AlgebraicMultigrid:
             self._axpy(z, beta, p, x_new, top.zero)
             be.copy(x_new, p)
 
-    def _converged(self, run: dict, g: DeviceArray, x: DeviceArray, r: DeviceArray,
-                   *, true: bool) -> bool:
-        """The convergence test (module doc) on the scaled residual ``r`` (``true``: it is
-        ``b − A x`` itself; else CG's recursive one, checked against the true residual
-        before stopping, ``run["restart"]`` set where they disagree)."""
-        be = self.backend
-        be.spmv(self._Winv, r, self._unscaled)
-        m = be.max_abs(self._unscaled)
+    def _converged(self, run: dict, g: DeviceArray, x: DeviceArray, m: float) -> bool:
+        """The convergence test (module doc) after a cycle whose max change of ``x`` was
+        ``m``; where the true residual disagrees with the estimate, ``run["restart"]``
+        asks CG to restart from it."""
         if not math.isfinite(m):
-            raise FloatingPointError(f"implicit diffusion: multigrid produced a residual of "
-                                     f"{m} after {run['cycles']} cycles (non-finite input or "
+            raise FloatingPointError(f"implicit diffusion: multigrid produced a change of {m} "
+                                     f"after {run['cycles']} cycles (non-finite input or "
                                      "overflow)")
-        run["estimate"] = self.green * m
+        cycles, changes = run["cycles"], run["changes"]
+        changes.append(m)
+        if m == 0.0:  # a fixed point
+            run["estimate"] = 0.0
+            return True
         if m <= 0.5 * run["low"]:
-            run["low_at"] = run["cycles"]
-        run["low"] = min(run["low"], m)
-        stalled = run["cycles"] - run["low_at"] >= _STALL
-        if run["estimate"] > self.tol and not stalled:
-            if run["cycles"] >= self.max_cycles:
+            run["low"], run["low_at"] = m, cycles
+        recent = changes[-3:]  # the contraction: the larger of the last two ratios
+        ratios = [b / a for a, b in zip(recent[:-1], recent[1:], strict=True) if a > 0.0]
+        rho = min(max(ratios), 1.0) if ratios else 1.0
+        run["estimate"] = estimate = m * rho / (1.0 - rho) if rho < 1.0 else math.inf
+        stalled = cycles - run["low_at"] >= _STALL
+        if estimate > 0.5 * self.tol and not stalled:
+            if cycles >= self.max_cycles:
                 raise self._unconverged(run)
             return False
-        if not true:  # the recursive residual: check the true one
-            self._residual(self.levels[0], self._S, g, x, self._unscaled)
-            m = be.max_abs(self._unscaled)
+        be = self.backend
+        self._residual(self.levels[0], self._S, g, x, self._unscaled)
+        res, xmax = be.max_abs(self._unscaled), be.max_abs(x)
         eps = float(np.finfo(self.dtype).eps)
-        noise = self._terms * eps * (self._gmax + self.s_inf * be.max_abs(x))
-        self.last_residual, run["estimate"] = m, self.green * m
-        if self.green * m <= self.tol or m <= noise:
+        noise = self._terms * eps * (self._gmax + self.s_inf * xmax)
+        self.last_residual = res
+        agrees = self.green * res <= self.tol or res <= noise
+        if estimate <= 0.5 * self.tol and agrees:
             return True
-        if stalled and m <= _FLOOR * noise:
-            self.last_floor = True
+        if stalled and m <= _ROUND * eps * xmax and res <= _FLOOR * noise:
+            # the changes stalled at round-off: the error is the float fixed point's,
+            # a few ulps of max|δ| (measured 3-10), or the wandering of the last changes
+            run["estimate"] = max(max(changes[-_STALL:]), 16.0 * eps * xmax)
+            self.last_floor = run["estimate"] > self.tol
             return True
-        if run["cycles"] >= self.max_cycles:
+        if cycles >= self.max_cycles:
             raise self._unconverged(run)
         run["restart"] = True
-        run["low_at"] = run["cycles"]  # start the stall count again
+        run["low"], run["low_at"] = m, cycles  # start the stall count again
         return False
 
     def _unconverged(self, run: dict) -> ConvergenceError:
@@ -400,6 +429,6 @@ class AlgebraicMultigrid:
         wider = ", or float64" if self.dtype == np.float32 else ""
         warnings.warn(
             f"implicit diffusion ({what}): tol={self.tol:.3g} is below the {self.dtype} "
-            f"round-off floor of this system: multigrid's residual stalled after "
+            f"round-off floor of this system: multigrid's changes stalled after "
             f"{run['cycles']} cycles at an error of about {run['estimate']:.3g} (use tol >= "
             f"{2 * run['estimate']:.2g}{wider})", RuntimeWarning, stacklevel=4)

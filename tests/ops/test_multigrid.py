@@ -2,9 +2,10 @@
 ``ImplicitDiffusion(solver="multigrid")``): on every backend and in both dtypes the step
 equals ``scipy.sparse.linalg.spsolve`` of the same θ-system to the tolerance, on a closed
 mesh, an open (jittered) plane, a graph surface and a Dirichlet/Neumann grid, mild and
-stiff; the cycles stay nearly flat as the icosphere refines while SOR's sweeps double; CG
-and the stationary V-cycle agree; a `Simulation` with ``options={"solver": "multigrid"}`` equals the SOR run to the
-tolerance; bad input and a missing pyamg give clear errors."""
+stiff, and at dt D/dx² ~ 1e8 (where the residual cannot resolve tol); D = 0; the cycles
+stay nearly flat as the icosphere refines while SOR's sweeps double; CG and the stationary
+V-cycle agree; a `Simulation` with ``options={"solver": "multigrid"}`` equals the SOR run
+to the tolerance; bad input and a missing pyamg give clear errors."""
 
 from __future__ import annotations
 
@@ -54,8 +55,8 @@ def _allowed(solver: ImplicitDiffusion, u: np.ndarray) -> float:
 
 
 def _step(domain, backend, dtype, dt, *, solver="multigrid", u=None, source=0.0, **kw):
-    s = ImplicitDiffusion(domain, D=1.0, dt=dt, backend=backend, dtype=dtype, solver=solver,
-                          **kw)
+    s = ImplicitDiffusion(domain, D=kw.pop("D", 1.0), dt=dt, backend=backend, dtype=dtype,
+                          solver=solver, **kw)
     if u is None:
         u = np.random.default_rng(5).random(s.shape)
     be = s.backend
@@ -174,3 +175,22 @@ def test_environment_variable_chooses_multigrid(monkeypatch):
     assert s.solver == "multigrid" and s.multigrid is not None
     monkeypatch.setenv("RDGPU_IMPLICIT_SOLVER", "auto")
     assert ImplicitDiffusion(_domain("ico3"), D=1.0, dt=0.1, backend="numpy").solver == "sor"
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=lambda d: np.dtype(d).name)
+def test_diagonal_system_and_huge_steps_equal_sor(dtype):
+    mesh = _domain("ico2")
+    s = ImplicitDiffusion(mesh, D=0.0, dt=1.0, backend="numpy", dtype=dtype,
+                          solver="multigrid")
+    assert s.multigrid.sizes == [mesh.n_vertices]  # D = 0: S = I, nothing to coarsen
+    for theta in (0.5, 1.0):  # dt D/dx² ~ 1e8: the residual cannot resolve tol, changes can
+        s, u, got = _step(mesh, "numpy", dtype, 1e6, theta=theta)
+        assert np.max(np.abs(got - s.reference(u))) <= _allowed(s, u) and not s.last_floor
+
+
+def test_round_off_floor_warns():
+    # |δ| ~ dt·source = 1e5 in float32: tol = 1e-5 is below its round-off, as SOR's floor
+    with pytest.warns(RuntimeWarning, match="round-off floor of this system: multigrid"):
+        s, u, got = _step(_domain("ico2"), "numpy", np.float32, 1e6, source=0.1)
+    assert s.last_floor and s.last_error > s.tol
+    assert np.max(np.abs(got - s.reference(u, 0.1))) <= 2 * s.last_error
