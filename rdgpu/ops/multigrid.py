@@ -10,11 +10,12 @@ weights (`Domain.mass_weights <rdgpu.domains.base.Domain.mass_weights>`: the ver
 * **setup, on the host, once per operator**: `pyamg.smoothed_aggregation_solver` on ``A``
   (the constant near-null vector, no candidate improvement, the prolongation smoothed by
   Jacobi weighted by local row bounds rather than a spectral radius estimate — 0.1-0.2 s
-  instead of 1-6 s on icosphere(6), at most one cycle more — coarsening down to at most
-  :data:`MAX_COARSE` unknowns); every level's ``A_l``, ``P_l`` and ``R_l = P_lᵀ`` uploaded
-  as `DeviceCSR`, with a colouring of each level's graph (the domain's own on the finest,
-  `rdgpu.domains.mesh.colouring.greedy_colouring` below) and the coarsest level's dense
-  inverse (a few hundred unknowns at most) uploaded as a CSR matrix too;
+  instead of 1-6 s on icosphere(6) on a loaded CPU, at most one cycle more — coarsening
+  down to at most :data:`MAX_COARSE` unknowns); every level's ``A_l``, ``P_l`` and
+  ``R_l = P_lᵀ`` uploaded as `DeviceCSR`, with a colouring of each level's graph (the
+  domain's own on the finest, `rdgpu.domains.mesh.colouring.greedy_colouring` below) and
+  the coarsest level's dense inverse (a few hundred unknowns at most) uploaded as a CSR
+  matrix too;
 * **the cycles, on the device**: a V-cycle of multicolour Gauss-Seidel
   (`Backend.csr_sor_colour` with ``ω = 1``; :data:`SMOOTHING` sweeps, colours in order
   before the coarse correction and in reverse order after it, so the cycle is a symmetric
@@ -25,11 +26,12 @@ weights (`Domain.mass_weights <rdgpu.domains.base.Domain.mass_weights>`: the ver
 * **the iteration** (``method``): conjugate gradients preconditioned by one V-cycle
   (``"cg"``, the default) or the V-cycle alone as a stationary iteration (``"vcycle"``).
   Measured on icospheres 5 and 6 (OpenCL on the CPU, float32, perf/results/multigrid.md),
-  CG needs 8 cycles where the stationary iteration needs 15-16 at ``c·median|diag M|``
-  = 10, and 15 against 18-20 at 1000, and is 1.05-2x faster.  Its dot products run
-  on the device as one `spmv` of a row-blocked matrix whose values are the first vector
-  (:data:`DOT_ROWS` partial sums in the working dtype, added in float64 on the host).  A
-  system ``diag(w) S`` that is not symmetric (to round-off) runs the stationary iteration.
+  CG needs 7-8 cycles where the stationary iteration needs 14-15 at
+  ``c·median|diag M|`` = 10, and 12 against 31-33 at 1000, and is 1.6-2.2x faster.  Its
+  dot products run on the device as one `spmv` of a row-blocked matrix whose values are
+  the first vector (:data:`DOT_ROWS` partial sums in the working dtype, added in float64
+  on the host).  A system ``diag(w) S`` that is not symmetric (to round-off) runs the
+  stationary iteration.
 
 Convergence, as SOR's (docs/equations.md, "Implicit diffusion"): after each cycle the max
 change of ``δ``, ``m`` (CG: ``|α| max|p|``; the V-cycle: ``max|z|``), and the contraction
@@ -170,6 +172,12 @@ class AlgebraicMultigrid:
         Unknowns per level, finest first.
     method : str
         The iteration that runs.
+    green : float
+        ``γ``, the error bound per unit of residual (module doc).
+    last_error, last_residual : float
+        The last solve's error estimate and max true residual (NaN where not computed).
+    last_floor : bool
+        The last solve stopped at the round-off floor above ``tol`` (with a warning).
     """
 
     def __init__(self, matrix: Any, weights: np.ndarray, colouring: np.ndarray, *,
@@ -183,6 +191,7 @@ class AlgebraicMultigrid:
                              f"got {method!r}")
         self.backend, self.dtype, self.tol = backend, np.dtype(dtype), float(tol)
         self.max_cycles = int(max_cycles)
+        self.last_error, self.last_residual, self.last_floor = math.nan, math.nan, False
         S = sp.csr_matrix(matrix, dtype=np.float64)
         w = np.asarray(weights, dtype=np.float64).ravel()
         if w.shape != (S.shape[0],) or not np.all(w > 0) or not np.all(np.isfinite(w)):
@@ -219,7 +228,7 @@ class AlgebraicMultigrid:
         self._terms = float(np.diff(S.indptr).max() + 2) if n else 2.0
         # CG's vectors on the finest level (the V-cycle uses the level's own r and t)
         (self._b, self._r, self._r_new, self._p, self._z, self._Ap, self._x_new,
-         self._unscaled) = (be.empty((n,), dtype) for _ in range(8))
+         self._true_r) = (be.empty((n,), dtype) for _ in range(8))
         rows = max(1, min(DOT_ROWS, n))
         self._dot_indptr = be.upload(np.linspace(0, n, rows + 1).round().astype(np.int32))
         self._dot_indices = be.upload(np.arange(n, dtype=np.int32))
@@ -251,6 +260,8 @@ class AlgebraicMultigrid:
         self._axpy(b, -1.0, lvl.t, out, lvl.zero)
 
     def _smooth(self, lvl: _Level, x: DeviceArray, b: DeviceArray, reverse: bool) -> None:
+        """:data:`SMOOTHING` multicolour Gauss-Seidel sweeps on ``lvl`` (colours backward
+        where ``reverse``)."""
         rows = lvl.rows[::-1] if reverse else lvl.rows
         for _ in range(SMOOTHING):
             for r in rows:
@@ -263,7 +274,9 @@ class AlgebraicMultigrid:
         Parameters
         ----------
         b, x : DeviceArray
-            The right-hand side and the result (overwritten)."""
+            The right-hand side and the result (overwritten).
+        k : int
+            The level, 0 the finest (default)."""
         be, lvl = self.backend, self.levels[k]
         if lvl.inverse is not None:  # the coarsest: its dense inverse
             be.spmv(lvl.inverse, b, x)
@@ -398,8 +411,8 @@ class AlgebraicMultigrid:
                 raise self._unconverged(run)
             return False
         be = self.backend
-        self._residual(self.levels[0], self._S, g, x, self._unscaled)
-        res, xmax = be.max_abs(self._unscaled), be.max_abs(x)
+        self._residual(self.levels[0], self._S, g, x, self._true_r)
+        res, xmax = be.max_abs(self._true_r), be.max_abs(x)
         eps = float(np.finfo(self.dtype).eps)
         noise = self._terms * eps * (self._gmax + self.s_inf * xmax)
         self.last_residual = res
