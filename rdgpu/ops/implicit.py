@@ -1,6 +1,6 @@
 """Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
-device (equations §2, §4, §6), or on rectangular grids directly by fast transforms
-(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; for the SOR path see below).
+device (equations §2, §4, §6), on rectangular grids directly by fast transforms
+(:mod:`rdgpu.ops.transforms`) or by :mod:`rdgpu.ops.multigrid` (chosen by ``solver``).
 
 One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
 Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest
@@ -465,8 +465,8 @@ class ImplicitDiffusion:
 
     def solve(self, rhs: DeviceArray, x: DeviceArray, *, target: np.ndarray | None = None,
               umax: float | None = None) -> int:
-        """Solve ``S x = rhs`` by SOR from the initial guess in ``x`` (directly, 0 sweeps,
-        where ``solver`` is ``"transform"``); returns the sweeps.
+        """Solve ``S x = rhs`` from the initial guess in ``x`` by SOR (directly, 0 sweeps,
+        for ``"transform"``; multigrid cycles for ``"multigrid"``); returns the sweeps.
 
         Parameters
         ----------
