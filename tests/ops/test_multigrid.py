@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import BACKENDS, DTYPES, backend_or_skip
+from conftest import BACKENDS, DTYPES, backend_or_skip, variant_or_skip
 
 from rdgpu.core.errors import ConvergenceError
 from rdgpu.core.optional import MissingExtraError
@@ -79,6 +79,16 @@ def test_step_equals_spsolve(backend, name, dtype, monkeypatch):
         err = float(np.max(np.abs(got - s.reference(u, 0.2))))
         assert err <= _allowed(s, u), (dt, err, s.last_sweeps)
         assert 1 <= s.last_sweeps <= 40 and not s.last_floor
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=lambda d: np.dtype(d).name)
+@pytest.mark.parametrize("variant", ["warp-cells", "opencl-strided"])
+def test_gpu_launch_shapes(variant, dtype, monkeypatch):
+    # the GPU shapes of the kernels (one row per thread; strided reductions) on the CPU
+    monkeypatch.setattr(multigrid, "MAX_COARSE", 40)
+    s, u, got = _step(_domain("ico2"), variant_or_skip(variant), dtype, 10.0, source=0.2)
+    assert len(s.multigrid.sizes) >= 2
+    assert np.max(np.abs(got - s.reference(u, 0.2))) <= _allowed(s, u)
 
 
 def test_cycles_nearly_flat_as_the_sphere_refines():
