@@ -69,6 +69,7 @@ from rdgpu.cli.options import (
 from rdgpu.core.conventions import REAL_DTYPE_NAMES
 from rdgpu.core.errors import BackendUnavailableError
 from rdgpu.ir.schemes import method_names as methods
+from rdgpu.ops.transforms import SOLVERS
 
 __all__ = ["build_parser", "main", "parse_size"]
 
@@ -214,10 +215,10 @@ def _add_what_to_run(what: Any) -> None:
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
     what.add_argument("--method", metavar="NAME", help=f"time stepping: {', '.join(methods())}"
                       " (default euler; Allen-Cahn: explicit, implicit, crank-nicolson)")
-    what.add_argument("--solver", choices=["auto", "transform", "sor"],
+    what.add_argument("--solver", choices=list(SOLVERS),
                       help="the implicit methods' diffusion solves: auto (default: fast "
                       "transforms on rectangular grids, exact to round-off; SOR elsewhere), "
-                      "transform or sor")
+                      "transform, sor or multigrid (algebraic, needs rdgpu[amg])")
     what.add_argument("--block-steps", type=parse_block_steps, metavar="K",
                       help="temporal blocking: "
                       "K euler steps per pass over memory on OpenCL CPU devices, bit for bit "

@@ -20,6 +20,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "media": ("imageio", "imageio_ffmpeg", "matplotlib"),
     "dask": ("dask", "distributed", "xarray", "zarr"),
     "pypde": ("pde",),
+    "amg": ("pyamg",),
 }
 
 #: the distribution (pip) name of a module where it differs from the import name

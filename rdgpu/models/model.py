@@ -635,7 +635,7 @@ class Model:
             Euler steps per pass (`rdgpu.integrators.blocking`; None: automatic, 1: off).
         lengths : {"cells", "model"}
             ``"model"`` runs a mesh in the model's lengths (`rdgpu.models.mesh_lengths`).
-        solver : {"auto", "transform", "sor"}, optional
+        solver : {"auto", "transform", "sor", "multigrid"}, optional
             The implicit diffusion solves (`rdgpu.ops.transforms`): fast transforms on grids
             else SOR, or one forced; None: ``$RDGPU_IMPLICIT_SOLVER``, else ``"auto"``."""
         if solver is not None and solver not in SOLVERS:

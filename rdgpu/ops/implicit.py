@@ -1,6 +1,6 @@
 """Implicit (θ-scheme) diffusion steps on meshes and grids, solved by multicolour SOR on the
-device (equations §2, §4, §6), or on rectangular grids directly by fast transforms
-(:mod:`rdgpu.ops.transforms`, chosen by ``solver``; for the SOR path see below).
+device (equations §2, §4, §6), on rectangular grids directly by fast transforms
+(:mod:`rdgpu.ops.transforms`) or by :mod:`rdgpu.ops.multigrid` (chosen by ``solver``).
 
 One step of ``u_t = D Δu + s`` with the θ-scheme (``θ = 1`` backward Euler, ``θ = ½``
 Crank-Nicolson; both unconditionally stable, ``θ = ½`` without damping of the stiffest
@@ -35,6 +35,7 @@ from rdgpu.domains.base import require_domain
 from rdgpu.domains.spectra import components
 from rdgpu.families import load_module
 from rdgpu.ops import transforms
+from rdgpu.ops.multigrid import AlgebraicMultigrid
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
@@ -129,17 +130,18 @@ class ImplicitDiffusion:
     check_every : int, optional
         Sweeps between the first convergence checks (default 1; later checks are spaced
         by the predicted remaining sweeps, at most 16 apart).
-    solver : {"auto", "transform", "sor"}, optional
+    solver : {"auto", "transform", "sor", "multigrid"}, optional
         ``"auto"`` solves directly by fast transforms where that applies (a rectangular
         grid with periodic, Neumann or Dirichlet axes: `rdgpu.ops.transforms`, exact to
-        round-off, 0 sweeps) and by SOR elsewhere; ``"transform"`` or ``"sor"`` force one;
+        round-off, 0 sweeps) and by SOR elsewhere; ``"transform"``, ``"sor"`` or
+        ``"multigrid"`` (algebraic multigrid, `rdgpu.ops.multigrid`, needs pyamg) force one;
         None (default) reads the environment variable ``RDGPU_IMPLICIT_SOLVER`` (else
         ``"auto"``).  The one chosen is the attribute ``solver``.
 
     Attributes
     ----------
     last_sweeps : int
-        Sweeps the last `step` used.
+        Sweeps (multigrid: cycles) the last `step` used.
     last_change : float
         Max ``|Δx|`` of its last checked sweep.
     last_error : float
@@ -182,11 +184,13 @@ class ImplicitDiffusion:
         self._set_spectrum(M, K, S, omega, max_sweeps)
         self._upload(M, K, S, b)
         self._reset_statistics()
-        #: "transform" (direct, rdgpu.ops.transforms) or "sor" (class doc)
+        #: "transform" (direct, rdgpu.ops.transforms), "sor" or "multigrid" (class doc)
         self.solver = transforms.pick_solver(self.domain, solver)
-        self.transform = None if self.solver == "sor" else transforms.DirectDiffusion(
+        self.transform = None if self.solver != "transform" else transforms.DirectDiffusion(
             self.domain, D=self.D, dt=self.dt, theta=self.theta, backend=self.backend,
             dtype=self.dtype, dirichlet=b)
+        self.multigrid = None if self.solver != "multigrid" else AlgebraicMultigrid(
+            S, self.weights, self.colouring, backend=self.backend, dtype=self.dtype, tol=self.tol)
 
     def _check_numbers(self, D: Any, dt: Any, theta: Any, dtype: Any, tol: Any) -> None:
         """``dtype``, ``D``, ``dt``, ``theta`` and ``tol`` checked and kept."""
@@ -365,7 +369,7 @@ class ImplicitDiffusion:
             return
         be.mesh_diffusion(self._zero, self._tmp, out, D=0.0, dt=self.dt, source=s)
         be.mesh_diffusion(self._zero, out, self._tmp, D=0.0, dt=self.dt, source=extra)
-        be.copy(self._tmp, _reshaped(out, self.shape))
+        be.copy(self._tmp, be.reshaped(out, self.shape))
 
     def _component_means(self, v: np.ndarray) -> np.ndarray:
         """Per component, the weighted mean ``Σ w v / Σ w`` of the flat float64 ``v``."""
@@ -461,8 +465,8 @@ class ImplicitDiffusion:
 
     def solve(self, rhs: DeviceArray, x: DeviceArray, *, target: np.ndarray | None = None,
               umax: float | None = None) -> int:
-        """Solve ``S x = rhs`` by SOR from the initial guess in ``x`` (directly, 0 sweeps,
-        where ``solver`` is ``"transform"``); returns the sweeps.
+        """Solve ``S x = rhs`` from the initial guess in ``x`` by SOR (directly, 0 sweeps,
+        for ``"transform"``; multigrid cycles for ``"multigrid"``); returns the sweeps.
 
         Parameters
         ----------
@@ -487,6 +491,12 @@ class ImplicitDiffusion:
         closed = bool(np.any(self._closed))
         if closed and target is None:
             target = self._component_means(rhs.numpy().reshape(-1).astype(np.float64))
+        if self.multigrid is not None:  # rdgpu.ops.multigrid, then the exact means
+            mg, project = self.multigrid, (lambda: self._project(x, target)) if closed else None
+            self._finish(mg.solve(rhs, x, what=self._describe(), project=project), math.nan,
+                         mg.last_error, True)
+            self.last_floor, self.last_residual = mg.last_floor, mg.last_residual
+            return self.last_sweeps
         run = _Progress(umax=umax, next_check=min(self.check_every, self.max_sweeps))
         self.last_residual = math.nan
         while True:
@@ -667,7 +677,7 @@ class ImplicitDiffusion:
             self.last_nonfinite = True
             sweeps = 0
         be.mesh_diffusion(self._zero, u, self._tmp, D=0.0, dt=1.0, source=self._x)
-        be.copy(self._tmp, _reshaped(out, self.shape))
+        be.copy(self._tmp, be.reshaped(out, self.shape))
         return sweeps
 
     # ------------------------------------------------------------------ host reference
@@ -688,8 +698,3 @@ class ImplicitDiffusion:
         rhs = (u + (1.0 - self.theta) * self.D * self.dt * (self.operator @ u)
                + self.dt * (s + self.D * self.dirichlet))
         return np.asarray(spsolve(sp.csc_matrix(self.matrix), rhs)).reshape(self.shape)
-
-
-def _reshaped(d: DeviceArray, shape: tuple[int, ...]) -> DeviceArray:
-    """The same buffer seen with another shape of the same size."""
-    return d.backend.reshaped(d, shape)

@@ -54,9 +54,10 @@ Which solver (:func:`pick_solver`): ``"transform"`` where it applies — a recta
 (``Domain.kind == "grid"``; not a graph surface, a mesh or a masked domain), a constant
 coefficient, each axis periodic, Neumann or Dirichlet (one condition for both ends, which is
 how every grid axis is given) — under ``"auto"`` (the default), ``"sor"`` elsewhere or when
-asked.  ``ImplicitDiffusion(solver=...)`` chooses; ``None`` reads the environment variable
-:data:`SOLVER_ENV` (``RDGPU_IMPLICIT_SOLVER=sor|transform|auto``), which reaches every
-implicit solve of the model layer (``imex``, ``imex-cn``, ``bdf2``), ``diffusion_step`` and
+asked, ``"multigrid"`` (`rdgpu.ops.multigrid`) when asked.  ``ImplicitDiffusion(solver=...)``
+chooses; ``None`` reads the environment variable :data:`SOLVER_ENV`
+(``RDGPU_IMPLICIT_SOLVER=sor|transform|multigrid|auto``), which reaches every implicit solve
+of the model layer (``imex``, ``imex-cn``, ``bdf2``), ``diffusion_step`` and
 ``rdgpu run``.
 """
 
@@ -80,8 +81,9 @@ __all__ = ["SOLVERS", "SOLVER_ENV", "DirectDiffusion", "TransformSolver", "axis_
            "grid_axes", "pick_solver", "transform_unavailable"]
 
 #: the implicit diffusion solvers: ``"auto"`` (transforms where they apply, else SOR),
-#: ``"transform"`` (direct, this module) and ``"sor"`` (multicolour SOR)
-SOLVERS = ("auto", "transform", "sor")
+#: ``"transform"`` (direct, this module), ``"sor"`` (multicolour SOR) and ``"multigrid"``
+#: (algebraic multigrid, `rdgpu.ops.multigrid`)
+SOLVERS = ("auto", "transform", "sor", "multigrid")
 #: the environment variable read when no solver is given
 SOLVER_ENV = "RDGPU_IMPLICIT_SOLVER"
 #: the transforms' threads: -1, every core
@@ -153,9 +155,10 @@ def grid_axes(domain: Domain) -> list[tuple[int, int, float]]:
 
 
 def pick_solver(domain: Domain, solver: str | None) -> str:
-    """``"transform"`` or ``"sor"`` for ``domain`` from ``solver`` (one of :data:`SOLVERS`;
-    ``None``: the environment variable :data:`SOLVER_ENV`, else ``"auto"``).  ``"auto"``
-    takes the transform where it applies; ``"transform"`` where it does not is a
+    """``"transform"``, ``"sor"`` or ``"multigrid"`` for ``domain`` from ``solver`` (one of
+    :data:`SOLVERS`; ``None``: the environment variable :data:`SOLVER_ENV`, else
+    ``"auto"``).  ``"auto"`` takes the transform where it applies, else SOR (multigrid only
+    when asked: perf/results/multigrid.md); ``"transform"`` where it does not apply is a
     ``ValueError`` saying why."""
     given = solver
     if solver is None:
@@ -169,7 +172,9 @@ def pick_solver(domain: Domain, solver: str | None) -> str:
     why = transform_unavailable(domain)
     if solver == "transform" and why is not None:
         raise ValueError(f"{where}='transform': {why}; use 'auto' or 'sor'")
-    if solver == "sor" or why is not None:
+    if solver in ("sor", "multigrid"):
+        return solver
+    if why is not None:
         return "sor"
     return "transform"
 
