@@ -1,4 +1,4 @@
-"""The install sized to the need: the core (NumPy, SciPy, Warp, PyOpenCL + PoCL, tqdm) runs
+"""The install sized to the need: the core (NumPy, SciPy, ducc0, Warp, PyOpenCL + PoCL, tqdm) runs
 the kernels, Simulation and ``rdgpu run --data``; every optional package, made unimportable
 (``sys.modules[name] = None``, as Python does for a package that is not there), gives an
 ImportError that names the extra installing it."""
@@ -27,7 +27,7 @@ from rdgpu.io import images, output
 ROOT = Path(__file__).resolve().parents[2]
 OPTIONAL = sorted((m, extra) for extra, modules in EXTRAS.items() for m in modules)
 #: what the core install holds (distribution names, normalised)
-CORE = {"numpy", "scipy", "warp-lang", "pyopencl", "pocl-binary-distribution", "tqdm"}
+CORE = {"numpy", "scipy", "ducc0", "warp-lang", "pyopencl", "pocl-binary-distribution", "tqdm"}
 
 
 def _hint(extra: str) -> str:
