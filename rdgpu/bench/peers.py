@@ -11,8 +11,13 @@ missing is listed with the reason and not run.
 * ``pystencils``: the same assignments as symbolic field accesses, compiled to C with
   OpenMP; periodic through one ghost layer its data handling synchronises each step;
   float32 or float64.
-
-Devito and Taichi are named in `PEERS` but not implemented yet: they are reported as such.
+* ``devito``: the same equations on ``TimeFunction`` s (``u.laplace``, space order 2, a
+  grid of spacing 1), an OpenMP ``Operator``; Devito has no periodic boundaries on one
+  process, so each step is one ``apply`` followed by copying the halo of the new level
+  from the opposite side (what a user of Devito does); float32 or float64.
+* ``taichi``: a hand-written ``@ti.kernel`` (one ``for`` over the field, which Taichi
+  parallelises over the cores; periodic by index arithmetic), its scalars in the field's
+  dtype, the CPU backend with one thread per core; float32 or float64.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ __all__ = ["PEERS", "peer_contenders", "peer_status"]
 #: peer name -> the distribution providing it
 PEERS = {"numba": "numba", "py-pde": "py-pde", "pystencils": "pystencils",
          "devito": "devito", "taichi": "taichi"}
-_IMPLEMENTED = ("numba", "py-pde", "pystencils")
+_IMPLEMENTED = ("numba", "py-pde", "pystencils", "devito", "taichi")
 
 
 def _version(dist: str) -> str | None:
@@ -170,10 +175,117 @@ def _pystencils_make(u0: np.ndarray, v0: np.ndarray) -> Runner:
                                     dh.cpu_arrays["v"][inner].copy()))
 
 
+def _devito_make(u0: np.ndarray, v0: np.ndarray) -> Runner:
+    import os
+
+    os.environ.setdefault("DEVITO_LOGGING", "ERROR")
+    import devito
+
+    devito.configuration["language"] = "openmp"
+    dims, p, dt = u0.ndim, PARAMS, dt_for(u0.ndim)
+    grid = devito.Grid(shape=u0.shape, extent=tuple(float(n - 1) for n in u0.shape),
+                       dtype=u0.dtype.type)
+    u, v = (devito.TimeFunction(name=n, grid=grid, space_order=2) for n in ("u", "v"))
+    u.data[0], v.data[0] = u0, v0
+    uvv = u * v * v
+    op = devito.Operator([
+        devito.Eq(u.forward, u + dt * (p["Du"] * u.laplace - uvv + p["F"] * (1 - u))),
+        devito.Eq(v.forward, v + dt * (p["Dv"] * v.laplace + uvv - (p["F"] + p["k"]) * v))])
+    halo = [int(left) for left, _ in u.halo[1:]]  # the halo widths per space axis
+
+    def wrap(level: int) -> None:  # the periodic halo of one time level
+        for f in (u, v):
+            a = f.data_with_halo[level]
+            for axis, h in enumerate(halo):
+                def at(sl, axis=axis):
+                    return tuple(sl if k == axis else slice(None) for k in range(dims))
+                a[at(slice(0, h))] = a[at(slice(-2 * h, -h))]
+                a[at(slice(-h, None))] = a[at(slice(h, 2 * h))]
+
+    wrap(0)
+    step = [0]
+
+    def advance(n):
+        for _ in range(n):
+            op.apply(time_m=step[0], time_M=step[0])
+            step[0] += 1
+            wrap(step[0] % 2)
+
+    return Runner(advance, lambda: (u.data[step[0] % 2].copy(), v.data[step[0] % 2].copy()))
+
+
+@functools.cache
+def _taichi_kernels(dtype: str):
+    import os
+
+    import taichi as ti
+
+    if not getattr(ti.lang.impl.get_runtime(), "prog", None):  # once per process
+        ti.init(arch=ti.cpu, cpu_max_num_threads=os.cpu_count() or 1, offline_cache=False,
+                log_level=ti.ERROR)
+    real = ti.f32 if dtype == "float32" else ti.f64
+    # Taichi reads the annotations as objects (this module's are strings: PEP 563)
+    types = {**{k: ti.template() for k in ("u", "v", "uo", "vo")},
+             **{k: real for k in ("du", "dv", "f", "fk", "dt")}}
+
+    def kernel(fn):
+        fn.__annotations__ = dict(types)
+        return ti.kernel(fn)
+
+    @kernel
+    def step2(u, v, uo, vo, du, dv, f, fk, dt):  # pragma: no cover - compiled
+        ny, nx = u.shape
+        for i, j in u:
+            n, s, e, w = (i + 1) % ny, (i - 1 + ny) % ny, (j + 1) % nx, (j - 1 + nx) % nx
+            uc, vc = u[i, j], v[i, j]
+            lu = (u[i, e] + u[i, w] - 2 * uc) + (u[n, j] + u[s, j] - 2 * uc)
+            lv = (v[i, e] + v[i, w] - 2 * vc) + (v[n, j] + v[s, j] - 2 * vc)
+            uvv = uc * vc * vc
+            uo[i, j] = uc + dt * (du * lu - uvv + f * (1 - uc))
+            vo[i, j] = vc + dt * (dv * lv + uvv - fk * vc)
+
+    @kernel
+    def step3(u, v, uo, vo, du, dv, f, fk, dt):  # pragma: no cover - compiled
+        nz, ny, nx = u.shape
+        for q, i, j in u:
+            a, b = (q + 1) % nz, (q - 1 + nz) % nz
+            n, s, e, w = (i + 1) % ny, (i - 1 + ny) % ny, (j + 1) % nx, (j - 1 + nx) % nx
+            uc, vc = u[q, i, j], v[q, i, j]
+            lu = ((u[q, i, e] + u[q, i, w] - 2 * uc) + (u[q, n, j] + u[q, s, j] - 2 * uc)
+                  + (u[a, i, j] + u[b, i, j] - 2 * uc))
+            lv = ((v[q, i, e] + v[q, i, w] - 2 * vc) + (v[q, n, j] + v[q, s, j] - 2 * vc)
+                  + (v[a, i, j] + v[b, i, j] - 2 * vc))
+            uvv = uc * vc * vc
+            uo[q, i, j] = uc + dt * (du * lu - uvv + f * (1 - uc))
+            vo[q, i, j] = vc + dt * (dv * lv + uvv - fk * vc)
+
+    return ti, real, step2, step3
+
+
+def _taichi_make(u0: np.ndarray, v0: np.ndarray) -> Runner:
+    ti, real, step2, step3 = _taichi_kernels(str(u0.dtype))
+    step = step2 if u0.ndim == 2 else step3
+    fields = [ti.field(real, shape=u0.shape) for _ in range(4)]
+    fields[0].from_numpy(u0)
+    fields[1].from_numpy(v0)
+    p = PARAMS
+    args = (p["Du"], p["Dv"], p["F"], p["F"] + p["k"], dt_for(u0.ndim))
+
+    def advance(n):
+        for _ in range(n):
+            step(*fields, *args)
+            fields[:] = [fields[2], fields[3], fields[0], fields[1]]
+        ti.sync()
+
+    return Runner(advance, lambda: (fields[0].to_numpy(), fields[1].to_numpy()))
+
+
 def peer_contenders(names: list[str]) -> tuple[list[Contender], dict[str, str]]:
     """The runnable peers among ``names`` and ``{name: why not}`` for the others."""
     makers = {"numba": (_numba_make, lambda d, t: None),
               "pystencils": (_pystencils_make, lambda d, t: None),
+              "devito": (_devito_make, lambda d, t: None),
+              "taichi": (_taichi_make, lambda d, t: None),
               "py-pde": (_pypde_make,
                          lambda d, t: None if t == "float64" else "float64 only")}
     out, skipped = [], {}

@@ -134,3 +134,21 @@ def test_out_must_be_a_folder(capsys, tmp_path):
     f.write_text("")
     assert main(["bench", "--out", str(f)]) == 2
     assert "--out" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("dims", [2, 3])
+@pytest.mark.parametrize("name", sorted(PEERS))
+def test_each_installed_peer_does_the_same_maths(name, dims):
+    """Every peer that can run here agrees with rdgpu's NumPy reference on a small real
+    state (the check `rdgpu bench` makes before timing it), float32 and float64 where it
+    computes in them.  (The peers come with ``rdgpu[bench]``, not with the tests: where
+    one is missing this skips.)"""
+    from rdgpu.bench.contenders import check
+
+    why = peer_status(name)
+    if why is not None:
+        pytest.skip(f"{name}: {why}")
+    (peer,), _ = peer_contenders([name])
+    for dtype in ("float32", "float64"):
+        if peer.lacks(dims, dtype) is None:
+            assert check(peer, dims, dtype) is None, (name, dims, dtype)
