@@ -70,7 +70,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
-from rdgpu.domains.boundary import DIRICHLET
+from rdgpu.domains.boundary import DIRICHLET, PERIODIC
 from rdgpu.ir import equations as eq
 from rdgpu.ops.implicit import operator_matrix
 from rdgpu.ops.transforms import TransformSolver, grid_axes, transform_unavailable
@@ -294,7 +294,12 @@ class Etdrk4:
             lam = self.transforms.spectrum(kept)
             table = etdrk4_coefficients(gamma + alpha * lam + beta * lam * lam, h)
             table["2f2"] = 2.0 * table["f2"]
-            got = {k: v.astype(self.dtype) for k, v in table.items()}
+            # complex where the coefficients are (an FFT axis): a complex product is twice
+            # as fast as NumPy's real-by-complex one, and equal bit for bit (finite values)
+            kind = np.result_type(self.dtype, np.complex64) if any(
+                k and n > 1 and axis_kind == PERIODIC
+                for k, (n, axis_kind, _) in zip(kept, self.axes, strict=True)) else self.dtype
+            got = {k: v.astype(self.dtype).astype(kind) for k, v in table.items()}
             if len(self._coefficients) > 64:
                 self._coefficients.clear()
             self._coefficients[key] = got
