@@ -70,7 +70,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
-from rdgpu.domains.boundary import DIRICHLET, PERIODIC
 from rdgpu.ir import equations as eq
 from rdgpu.ops.implicit import operator_matrix
 from rdgpu.ops.transforms import TransformSolver, grid_axes, transform_unavailable
@@ -294,11 +293,7 @@ class Etdrk4:
             lam = self.transforms.spectrum(kept)
             table = etdrk4_coefficients(gamma + alpha * lam + beta * lam * lam, h)
             table["2f2"] = 2.0 * table["f2"]
-            # complex where the coefficients are (an FFT axis): a complex product is twice
-            # as fast as NumPy's real-by-complex one, and equal bit for bit (finite values)
-            kind = np.result_type(self.dtype, np.complex64) if any(
-                k and n > 1 and axis_kind == PERIODIC
-                for k, (n, axis_kind, _) in zip(kept, self.axes, strict=True)) else self.dtype
+            kind = self.transforms.coefficient_dtype(kept)
             got = {k: v.astype(self.dtype).astype(kind) for k, v in table.items()}
             if len(self._coefficients) > 64:
                 self._coefficients.clear()
@@ -327,14 +322,7 @@ class Etdrk4:
     def kept_axes(self, fields: Sequence[np.ndarray]) -> tuple[bool, ...]:
         """Per axis whether it is transformed: not a periodic or Neumann axis along which
         every batch of ``fields`` is bit for bit constant (module doc: symmetry)."""
-        kept = []
-        for i, (n, kind, _) in enumerate(self.axes):
-            ax = i + 1
-            same = kind != DIRICHLET and n > 1 and all(
-                np.array_equal(np.take(f, [1], axis=ax), np.take(f, [0], axis=ax))
-                and bool(np.all(f == np.take(f, [0], axis=ax))) for f in fields)
-            kept.append(not same)
-        return tuple(kept)
+        return self.transforms.constant_axes(fields, batched=True)
 
     def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
         """The coefficients of a batch ``a`` (dropped axes of length 1), member by member

@@ -199,7 +199,7 @@ def test_a_constant_axis_is_solved_as_one_slice():
     full = solver.inverse(solver.forward(u, (True,) * 3) / (1.0 - 2.0 * solver.spectrum(
         (True,) * 3)), (True,) * 3)
     np.testing.assert_allclose(solver.solve(u, 2.0), full, rtol=0, atol=1e-14)
-    assert solver._constant_axes([u]) == (False, False, True)
+    assert solver.constant_axes([u]) == (False, False, True)
 
 
 FLAT = define_model(
