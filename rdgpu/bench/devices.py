@@ -121,23 +121,31 @@ def memory_of(label: str, memory: dict) -> dict:
     return memory.get(label, memory["cpu"])
 
 
-def time_case(backend: Backend, step: Callable[[], object], seconds: float) -> float:
-    """Best seconds per ``step()``: warmed up, then batches of at least 50 ms until
-    ``seconds`` have passed (the backend synchronised after each batch)."""
-    step()
-    backend.synchronize()
+def best_batch_seconds(run: Callable[[int], object], seconds: float) -> float:
+    """Best seconds per unit of ``run(n)``, which does ``n`` units and returns when they
+    are done: warmed up by one, the batch sized from a second to at least 50 ms, then
+    batches until ``seconds`` have passed (one batch at least)."""
+    run(1)
     t0 = time.perf_counter()
-    step()
-    backend.synchronize()
+    run(1)
     batch = max(1, int(0.05 / max(time.perf_counter() - t0, 1e-7)))
     best, end = math.inf, time.perf_counter() + seconds
     while time.perf_counter() < end or best == math.inf:
         t0 = time.perf_counter()
-        for _ in range(batch):
-            step()
-        backend.synchronize()
+        run(batch)
         best = min(best, (time.perf_counter() - t0) / batch)
     return best
+
+
+def time_case(backend: Backend, step: Callable[[], object], seconds: float) -> float:
+    """Best seconds per ``step()`` (`best_batch_seconds`; the backend synchronised after
+    each batch)."""
+    def run(n: int) -> None:
+        for _ in range(n):
+            step()
+        backend.synchronize()
+
+    return best_batch_seconds(run, seconds)
 
 
 def add_roofline(row: dict, mem: dict, bytes_per_cell: float) -> dict:

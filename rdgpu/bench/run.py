@@ -13,12 +13,12 @@ whose state exceeds the effective LLC.
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from dataclasses import asdict, dataclass, field
 
 from rdgpu.bench.contenders import CHECK_SHAPE, CHECK_STEPS, Contender, check, rdgpu_contenders
+from rdgpu.bench.devices import best_batch_seconds
 from rdgpu.bench.groups import GROUPS, GroupOptions, run_groups
 from rdgpu.bench.machine import MiB, grid_sizes, machine_record, triad_sweep
 from rdgpu.bench.peers import PEERS, peer_contenders
@@ -61,18 +61,9 @@ def _say(line: str) -> None:
 
 
 def time_rate(runner, cells: int, seconds: float) -> float:
-    """Best Mcell·steps/s of ``runner``: warmed up, then batches of at least 50 ms until
-    ``seconds`` have passed."""
-    runner.advance(1)
-    t0 = time.perf_counter()
-    runner.advance(1)
-    batch = max(1, int(0.05 / max(time.perf_counter() - t0, 1e-7)))
-    best, end = math.inf, time.perf_counter() + seconds
-    while best == math.inf or time.perf_counter() < end:
-        t0 = time.perf_counter()
-        runner.advance(batch)
-        best = min(best, (time.perf_counter() - t0) / batch)
-    return cells / best / 1e6
+    """Best Mcell·steps/s of ``runner`` (`rdgpu.bench.devices.best_batch_seconds` of its
+    ``advance``)."""
+    return cells / best_batch_seconds(runner.advance, seconds) / 1e6
 
 
 def check_options(opts: Options) -> None:
