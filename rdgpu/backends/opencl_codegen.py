@@ -5,7 +5,9 @@ temporally blocked pass.
 `rdgpu.ir.stencils`, values fully parenthesised in the tree's operation order, literals
 exact in the dtype, ``FP_CONTRACT OFF``); `opencl_source` puts it in the step kernel
 ``rd_program`` of ``families/model/model.cl`` (one work-item per row, CPU: edge columns
-peeled and a branch-free interior; or strided columns, GPU; CSR rows in blocks on meshes),
+peeled and a branch-free interior; or strided columns, GPU; CSR rows in blocks on meshes)
+and, where `flat_rows`, ``rd_span`` (CPU: a span of a plane's interior rows as one flat
+loop, its x-edge cells recomputed),
 `blocked_source` in ``rd_blocked`` of ``families/model/blocked.cl`` (``steps`` Euler
 steps per pass over bands of rows: `rdgpu.integrators.blocking`).  Programs are built per
 context, build options and dtype (`opencl_program`), kernels cached in the program per
@@ -20,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
-from rdgpu.backends.target import BlockedPass, FusedPass, Target, arguments
+from rdgpu.backends.target import BlockedPass, FusedPass, Target, arguments, spans
 from rdgpu.families import read_source
 from rdgpu.ir.equations import to_text
 from rdgpu.ir.names import ident
@@ -58,18 +60,30 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
     text = template[template.index(f"/*@{part}@*/"): template.index(f"/*@END {part}@*/")]
     coord_decl = "".join(f",\n        __global const real *RESTRICT coord_{c}"
                          for c in program.refs("coord"))
-    row = member_lines(member) if kind != "mesh" else []
+    row = []
     if STENCIL_KINDS[kind].form == "metric":  # the in-member offsets of this row and its south
         row += ["const long mc_ = (long)i * nx;",
                 "const long ms_ = (long)lo_index(i, ny, y_kind) * nx;",
                 "(void)mc_; (void)ms_;"]
+    if kind != "mesh" and not flat_rows(program, kind):
+        text = text[: text.index("/*@SPAN@*/")] + text[text.index("/*@END SPAN@*/"):]
     return opencl_head(program) + (
         text.replace("@ARGS@", ",\n        ".join(decl))
         .replace("@COORDS@", coord_decl if kind == "mesh" else "")
+        .replace("@MEMBER@", "\n".join("    " + r for r in member_lines(member)))
         .replace("@ROW@", "\n".join("    " + r for r in row))
         .replace("@CELL@", " \\\n".join("        " + b for b in body))
         .replace("@BODY@", "\n".join("        " + b for b in body))
     )
+
+
+def flat_rows(program: Program, kind: str) -> bool:
+    """Whether the grid kernel of ``program`` on stencil kind ``kind`` may walk spans of
+    interior rows as one flat loop (``rd_span`` in ``model.cl``): not on meshes, metric
+    grids or programs reading the x or y coordinate (a flat loop has no column or row)."""
+    if kind == "mesh" or STENCIL_KINDS[kind].form == "metric":
+        return False
+    return not {"x", "y"} & set(program.refs("coord"))
 
 
 def member_lines(member: frozenset[str]) -> list[str]:
@@ -252,6 +266,9 @@ def opencl_arg_dtypes(program: Program, fields: frozenset[str], dtype,
 
 
 # ---------------------------------------------------------------------------- passes
+#: about how many cells `rd_span` gives a work-item (a span of rows of one plane): fewer
+#: where the grid would not give every compute unit four; 0: `rd_program` always
+SPAN_CELLS = 8192
 class OpenCLFusedPass(FusedPass):
     """A program's ``rd_program`` kernel on one OpenCL backend (built on first launch in
     each thread)."""
@@ -259,7 +276,8 @@ class OpenCLFusedPass(FusedPass):
     def __init__(self, program: Program, fields: frozenset[str], member: frozenset[str]):
         self.program, self.fields, self.member = program, fields, member
 
-    def _kernel(self, target: Target):
+    def _kernel(self, target: Target, name: str = "rd_program"):
+        """Kernel ``name`` (``rd_program``, or ``rd_span`` where `flat_rows`)."""
         program, fields, member = self.program, self.fields, self.member
 
         def make():
@@ -268,8 +286,7 @@ class OpenCLFusedPass(FusedPass):
             if src is None:
                 src = program.cache[skey] = opencl_source(program, target.kind, fields,
                                                           target.dtype, member)
-            k = target.backend.cl.Kernel(opencl_program(target, src, "model/model.cl"),
-                                          "rd_program")
+            k = target.backend.cl.Kernel(opencl_program(target, src, "model/model.cl"), name)
             codes = opencl_arg_dtypes(program, fields, target.dtype, member)
             if target.kind == "mesh":
                 codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
@@ -277,16 +294,25 @@ class OpenCLFusedPass(FusedPass):
             else:
                 codes += [None] * len(target.metric)
                 codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
+                if name == "rd_span":
+                    codes += [np.int32, np.int32]
             k.set_scalar_arg_dtypes(codes)
             return k
 
-        return opencl_kernel(program, target, fields, "rd_program", make, member)
+        return opencl_kernel(program, target, fields, name, make, member)
+
+    def _spans(self, target: Target, nx: int, ny: int, planes: int) -> tuple[int, int]:
+        """`rdgpu.backends.target.spans` of this grid for `rd_span`, or ``(0, 0)`` for
+        `rd_program` (the strided layout, programs `flat_rows` refuses)."""
+        be = target.backend
+        if be.layout != "row" or not flat_rows(self.program, target.kind):
+            return 0, 0
+        return spans(nx, ny, planes, SPAN_CELLS, be.compute_units)
 
     def launch(self, target, inputs, outputs, params, fields, member, scalars, time):
         program, be = self.program, target.backend
         bufs = arguments(program, target, inputs, outputs, params, fields, scalars, time,
                          member=member)
-        k = self._kernel(target)
         if target.kind == "mesh":
             A = target.csr
             n = A.shape[0]
@@ -295,7 +321,7 @@ class OpenCLFusedPass(FusedPass):
             head = (A.indptr.handle, A.indices.handle, A.data.handle, *bufs)
             tail = (np.int32(n),
                     *(target.device_coordinate(c).handle for c in program.refs("coord")))
-            be.launch_rows(k, n * target.members, head, tail)
+            be.launch_rows(self._kernel(target), n * target.members, head, tail)
             return
         d = target.domain
         nz, ny, nx = d.shape3
@@ -307,7 +333,12 @@ class OpenCLFusedPass(FusedPass):
         nm = target.members
         args = [*bufs, *(c.handle for c in target.metric), nx, ny, nz, nm, b.x.kind,
                 b.x.value, b.y.kind, b.y.value, b.z.kind, b.z.value, cx, cy, cz, dx, dy, dz]
-        be.launch_grid(k, ny * nz * nm, args)
+        span, count = self._spans(target, nx, ny, nz * nm)
+        if span:
+            be.launch_grid(self._kernel(target, "rd_span"), nz * nm * count,
+                           [*args, span, count])
+            return
+        be.launch_grid(self._kernel(target), ny * nz * nm, args)
 
 
 class OpenCLBlockedPass(BlockedPass):

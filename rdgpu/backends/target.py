@@ -25,7 +25,7 @@ from rdgpu.ir.stencils import check_stencil
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
+__all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments", "spans",
            "host_params"]
 
 
@@ -148,3 +148,20 @@ def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
     lengths = target.lengths()
     bufs += [t(lengths[n]) for n in program.refs("length")]
     return bufs
+
+
+def spans(nx: int, ny: int, planes: int, cells: int, units: int) -> tuple[int, int]:
+    """``(span, count)``: how the flat-span grid kernels (OpenCL ``rd_span``, Warp
+    ``spans``) cut the ``ny - 2`` interior rows of each of ``planes`` planes of ``ny × nx``
+    cells: spans of ``span`` rows, ``count`` per plane, about ``cells`` cells each but at
+    least four spans per unit of parallel work (``units``) where there are rows enough.
+    ``(0, 0)``: the row kernel (rows or columns fewer than 3, or ``cells`` <= 0)."""
+    if nx < 3 or ny < 3 or cells <= 0:
+        return 0, 0
+    interior = ny - 2
+    span = min(interior, max(1, -(-cells // nx)))
+    count = -(-interior // span)
+    while span > 1 and planes * count < 4 * units:
+        span = max(1, span // 2)
+        count = -(-interior // span)
+    return span, count

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
-from rdgpu.backends.target import FusedPass, Target, arguments
+from rdgpu.backends.target import FusedPass, Target, arguments, spans
 from rdgpu.backends.warp_runtime import ROW_BLOCK, check_cells, quiet_warp
 from rdgpu.backends.warp_runtime import WARP_LOCK as BACKEND_LOCK
 from rdgpu.families import read_source
@@ -85,6 +85,8 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
                          f"{nm}: real" for k, nm in sig)
         names = ", ".join(ident("p", split(nm)[1]) if k == "member" else
                           flat_view(nm) if k in ("in", "out", "field") else nm for k, nm in sig)
+    # the cell functions' own parameter names, for a function that passes them on
+    passed = ", ".join(ident("p", split(nm)[1]) if k == "member" else nm for k, nm in sig)
     coords = program.refs("coord")
     body = _cell_body(program, kind, fields, member_loads, lit, fn, False)
     inner = _cell_body(program, kind, fields, member_loads, lit, fn, True) if not mesh else []
@@ -92,6 +94,8 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
     part = "MESH" if mesh else "GRID"
     head = template[: template.index("# @GRID@")]
     text = template[template.index(f"# @{part}@"): template.index(f"# @END {part}@")]
+    if not mesh and not flat_rows(program, kind):
+        text = text[: text.index("# @SPAN@")] + text[text.index("# @END SPAN@"):]
     coord_decl = "".join(f", coord_{c}: A" for c in coords) if mesh else ""
     coord_names = "".join(f", coord_{c}" for c in coords) if mesh else ""
     return (
@@ -100,6 +104,7 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@OUTPUTS@", "\n".join(f"    {o.name} = {to_text(o.expr)}"
                                           for o in program.outputs))
         + text.replace("@DECL@", decl + coord_decl).replace("@NAMES@", names + coord_names)
+        .replace("@PASS@", passed if not mesh else "")
         .replace("@KDECL@", kdecl + coord_decl)
         .replace("@ROW@", "\n".join("    " + r for r in member_loads) if not mesh else "")
         .replace("@FLAT@", "\n".join(f"    {flat_view(nm)} = flat({nm})" for nm in buffers)
@@ -107,6 +112,15 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@BODY@", "\n".join("    " + b for b in body))
         .replace("@INTERIOR@", "\n".join("    " + b for b in inner))
     )
+
+
+def flat_rows(program: Program, kind: str) -> bool:
+    """Whether the grid kernels of ``program`` on stencil kind ``kind`` may walk spans of
+    interior rows as one flat loop (``spans`` in ``warp_model.py.in``): not on meshes,
+    metric grids or programs reading the x or y coordinate."""
+    if kind == "mesh" or STENCIL_KINDS[kind].form == "metric":
+        return False
+    return not {"x", "y"} & set(program.refs("coord"))
 
 
 def _cell_body(program: Program, kind: str, fields: frozenset[str], member_loads: list[str],
@@ -234,12 +248,18 @@ def _warp_rows(a: DeviceArray) -> Any:
     return view
 
 
+#: about how many cells the ``spans`` kernel gives a thread (a span of rows of one plane):
+#: fewer where the grid would not give every chunk four; 0: the ``rows`` kernel always
+SPAN_CELLS = 8192
+
+
 class WarpFusedPass(FusedPass):
     """A program's generated Warp module on one backend (`WarpBackend.fused_pass`)."""
 
     def __init__(self, program: Program, target: Target, fields: frozenset[str],
                  member: frozenset[str]):
         self.program = program
+        self.flat = flat_rows(program, target.kind)
         src = warp_source(program, target.kind, fields, target.dtype, member)
         self.module = warp_module(src, target.backend)
 
@@ -278,5 +298,14 @@ class WarpFusedPass(FusedPass):
         rows = ny * nz * nm
         if be.per_cell:
             be.launch(mod.cells, (rows, nx), args, 0)
+            return
+        span, count = self._spans(be, nx, ny, nz * nm)
+        if span:
+            be.run_split(mod.spans, nz * nm * count, rows * nx, [*args, span, count])
         else:
             be.run_split(mod.rows, rows, rows * nx, args)
+
+    def _spans(self, be, nx: int, ny: int, planes: int) -> tuple[int, int]:
+        """`rdgpu.backends.target.spans` of this grid for the ``spans`` kernel (four per
+        launch chunk), or ``(0, 0)`` for ``rows`` (programs `flat_rows` refuses)."""
+        return spans(nx, ny, planes, SPAN_CELLS, be._chunks) if self.flat else (0, 0)

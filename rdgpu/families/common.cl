@@ -177,6 +177,36 @@ INLINE ColInfo col_interior(int j)
     return c;
 }
 
+/* The column neighbours of cell k in a flat loop over whole rows (model.cl's rd_span): the
+ * cells k - 1, k + 1, no ghost. */
+INLINE ColInfo col_flat(long k)
+{
+    ColInfo c;
+    c.w = k - 1;
+    c.e = k + 1;
+    c.w_dir = false;
+    c.e_dir = false;
+    return c;
+}
+
+/* The column neighbours of a row's first (col_first) and last (col_last) cell in a flat
+ * loop, the row starting at cell k0: col_info(0 / nx - 1) moved to the flat indices. */
+INLINE ColInfo col_first(long k0, int nx, int x_kind)
+{
+    ColInfo c = col_info(0, nx, x_kind);
+    c.w += k0;
+    c.e += k0;
+    return c;
+}
+
+INLINE ColInfo col_last(long k0, int nx, int x_kind)
+{
+    ColInfo c = col_info(nx - 1, nx, x_kind);
+    c.w += k0;
+    c.e += k0;
+    return c;
+}
+
 /* The five-point neighbourhood of one cell with ghosts resolved. */
 typedef struct {
     real c, w, e, s, n;
