@@ -211,7 +211,7 @@ def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
     rename.update({ident("out", s): ident("lout", s) for s in program.inputs})
     rename["b_t"] = "times_[k - 1]"
     call = [rename.get(nm, nm) for _, nm in signature(program, fields, member)]
-    text = read_source("model", "blocked.cl")
+    text = read_source("model", "blocked3.cl" if _is_3d(kind) else "blocked.cl")
     return opencl_head(program) + (
         text.replace("@ARGS@", ",\n        ".join(decl))
         .replace("@NS@", str(len(program.inputs)))
@@ -220,6 +220,10 @@ def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@ROW@", "\n".join("    " + line for line in member_lines(member)))
         .replace("@CELL@", " \\\n".join("        " + b for b in body))
     )
+
+
+def _is_3d(kind: str) -> bool:
+    return STENCIL_KINDS[kind].ndim == 3
 
 
 # ---------------------------------------------------------------------------- building
@@ -323,53 +327,67 @@ class OpenCLFusedPass(FusedPass):
                     *(target.device_coordinate(c).handle for c in program.refs("coord")))
             be.launch_rows(self._kernel(target), n * target.members, head, tail)
             return
+        # per thread, as the kernels (a kernel object holds its arguments)
+        key = ("opencl grid launch", id(self), threading.get_ident())
+        plan = target.host.get(key)
+        if plan is None:
+            plan = target.host[key] = self._grid_plan(target)
+        kernel, items, tail = plan
+        if items:
+            be.launch_grid(kernel, items, [*bufs, *(c.handle for c in target.metric), *tail])
+
+    def _grid_plan(self, target: Target) -> tuple[Any, int, list]:
+        """What every launch on this grid target shares: the kernel (`rd_span` or
+        `rd_program`), its work-items (0: no cells) and the arguments after the buffers."""
         d = target.domain
         nz, ny, nx = d.shape3
-        if nx == 0:
-            return
         b = d.bcs
         dx, dy, dz = target.spacing()
         cx, cy, cz = target.grid_coefficients()
         nm = target.members
-        args = [*bufs, *(c.handle for c in target.metric), nx, ny, nz, nm, b.x.kind,
-                b.x.value, b.y.kind, b.y.value, b.z.kind, b.z.value, cx, cy, cz, dx, dy, dz]
+        tail = [nx, ny, nz, nm, b.x.kind, b.x.value, b.y.kind, b.y.value, b.z.kind,
+                b.z.value, cx, cy, cz, dx, dy, dz]
         span, count = self._spans(target, nx, ny, nz * nm)
         if span:
-            be.launch_grid(self._kernel(target, "rd_span"), nz * nm * count,
-                           [*args, span, count])
-            return
-        be.launch_grid(self._kernel(target), ny * nz * nm, args)
+            return self._kernel(target, "rd_span"), nz * nm * count, [*tail, span, count]
+        return self._kernel(target), (ny * nz * nm if nx else 0), tail
 
 
 class OpenCLBlockedPass(BlockedPass):
-    """``steps`` Euler steps of ``program`` per pass over a 2-D grid ``target``, in bands of
-    ``rows`` rows over ``items`` work-items, each with its scratch rings
+    """``steps`` Euler steps of ``program`` per pass over a 2-D grid ``target`` in bands of
+    ``rows`` rows (``rd_blocked``), or over a 3-D grid in bands of ``rows`` z-planes
+    (``rd_blocked3``), over ``items`` work-items, each with its scratch rings
     (`rdgpu.integrators.blocking`; `OpenCLBackend.blocked_pass`)."""
 
     def __init__(self, program: Program, target: Target, steps: int, rows: int, items: int):
         self.program, self.target = program, target
         self.steps, self.rows, self.items = int(steps), int(rows), int(items)
         be = target.backend
-        nz, self.ny, self.nx = target.domain.shape3
-        self.planes = nz * target.members  # one plane per ensemble member
-        per_item = (self.steps - 1) * len(program.inputs) * 3 * max(self.nx, 1)
+        self.nz, self.ny, self.nx = target.domain.shape3
+        self.three = _is_3d(target.kind)
+        # 2-D: one plane per ensemble member; 3-D: one volume
+        self.planes = (1 if self.three else self.nz) * target.members
+        unit = max(self.nx, 1) * (max(self.ny, 1) if self.three else 1)  # a row or a plane
+        per_item = (self.steps - 1) * len(program.inputs) * 3 * unit
         self._scratch = be.empty((max(1, self.items * per_item),), target.dtype)
         self._times = be.empty((self.steps,), target.dtype)
+        self._name = "rd_blocked3" if self.three else "rd_blocked"
 
     def _kernel(self, fields: frozenset[str], member: frozenset[str]):
-        program, target = self.program, self.target
+        program, target, name = self.program, self.target, self._name
 
         def make():
             src = blocked_source(program, target.kind, fields, target.dtype, member)
-            k = target.backend.cl.Kernel(opencl_program(target, src, "model/blocked.cl"),
-                                          "rd_blocked")
-            dt = target.dtype
+            label = "model/blocked3.cl" if self.three else "model/blocked.cl"
+            k = target.backend.cl.Kernel(opencl_program(target, src, label), name)
+            dt, i4 = target.dtype, np.int32
+            grid = ([i4] * 4 + [i4, dt] * 3 + [dt] * 6 if self.three else
+                    [i4, i4, i4, i4, dt, i4, dt, dt, dt, dt, dt])
             k.set_scalar_arg_dtypes([*opencl_arg_dtypes(program, fields, dt, member), None, None,
-                                     np.int32, np.int32, np.int32, np.int32, dt, np.int32, dt,
-                                     dt, dt, dt, dt, np.int32, np.int32, np.int32])
+                                     *grid, i4, i4, i4])
             return k
 
-        return opencl_kernel(program, target, fields, "rd_blocked", make, member)
+        return opencl_kernel(program, target, fields, name, make, member)
 
     def run(self, x: list[DeviceArray], y: list[DeviceArray], params: dict[str, Any],
             fields: frozenset[str], member: frozenset[str], scalars: dict[str, float],
@@ -377,7 +395,7 @@ class OpenCLBlockedPass(BlockedPass):
         """One pass from ``x`` (at ``time``) into ``y``; ``times``: the ``steps`` step times
         where they changed since the last pass (else None)."""
         program, target = self.program, self.target
-        if self.nx == 0 or self.ny == 0 or self.planes == 0:
+        if self.nx == 0 or self.ny == 0 or self.nz == 0 or self.planes == 0:
             return
         be = target.backend
         if times is not None:
@@ -386,11 +404,16 @@ class OpenCLBlockedPass(BlockedPass):
             be.cl.enqueue_copy(be.queue, self._times.handle, times, is_blocking=False)
         args = arguments(program, target, x, y, params, fields, scalars, time, member=member)
         b = target.domain.bcs
-        dx, dy, _ = target.spacing()
-        cx, cy, _ = target.grid_coefficients()
-        args += [self._times.handle, self._scratch.handle, self.nx, self.ny, self.planes,
-                 b.x.kind, b.x.value, b.y.kind, b.y.value, cx, cy, dx, dy, self.steps,
-                 self.rows, self.items]
+        dx, dy, dz = target.spacing()
+        cx, cy, cz = target.grid_coefficients()
+        args += [self._times.handle, self._scratch.handle]
+        if self.three:
+            args += [self.nx, self.ny, self.nz, self.planes, b.x.kind, b.x.value, b.y.kind,
+                     b.y.value, b.z.kind, b.z.value, cx, cy, cz, dx, dy, dz]
+        else:
+            args += [self.nx, self.ny, self.planes, b.x.kind, b.x.value, b.y.kind, b.y.value,
+                     cx, cy, dx, dy]
+        args += [self.steps, self.rows, self.items]
         k = self._kernel(fields, member)
         k.set_args(*args)
         be.cl.enqueue_nd_range_kernel(be.queue, k, (self.items,), (1,))
