@@ -232,17 +232,19 @@ def _fields_from(path: str, species: tuple[str, ...]) -> dict:
 
 
 def check_block_memory(k: int | None, spec: dict, n_species: int, itemsize: int) -> None:
-    """--block-steps K: the scratch rows of the blocked passes (``K - 1`` levels of 3 rows
-    per species for each work-item, two per core; `rdgpu.integrators.blocking`) through the
-    shared memory estimate."""
+    """--block-steps K: the scratch of the blocked passes (``K - 1`` levels of 3 rows per
+    species for each work-item, 3 planes in 3-D, two work-items per core;
+    `rdgpu.integrators.blocking`) through the shared memory estimate."""
     if not k or k < 2 or "grid" not in spec:
         return
     g = spec["grid"]
-    nx = int(g) if isinstance(g, int) else int(g[-1])
+    shape = (int(g),) if isinstance(g, int) else tuple(int(n) for n in g)
+    unit = shape[-1] * (shape[-2] if len(shape) == 3 else 1)  # a row, or a plane in 3-D
+    what = "rows" if len(shape) < 3 else "planes"
     items = 2 * (os.cpu_count() or 1)
-    need = (k - 1) * n_species * 3 * nx * itemsize * items
+    need = (k - 1) * n_species * 3 * unit * itemsize * items
     try:
-        check_memory(f"--block-steps {k}", need, f"scratch rows of {items} work-items on "
-                     f"rows of {nx} cells")
+        check_memory(f"--block-steps {k}", need, f"scratch {what} of {items} work-items on "
+                     f"{what} of {unit} cells")
     except ResourceLimitError as exc:
         raise UsageError(str(exc)) from None
