@@ -233,7 +233,7 @@ def test_block_steps_scratch_is_checked_against_memory(capsys, monkeypatch):
                        "8x4096", "--steps", "1", "--block-steps", "512", "--quiet")
     assert code == 2 and "--block-steps 512 needs about" in err and "scratch rows" in err, err
     # 3-D: the rings hold planes (a plane of 64x64 cells, not a row of 64)
-    monkeypatch.setenv("RDGPU_MEMORY_LIMIT", "3M")
+    monkeypatch.setenv("RDGPU_MEMORY_LIMIT", "2M")
     code, _, err = cli(capsys, "run", "m", "--equation", "u=0.1*laplace(u) - u", "--size",
                        "8x64x64", "--steps", "1", "--block-steps", "16", "--quiet")
     assert code == 2 and "scratch planes" in err and "planes of 4096 cells" in err, err
