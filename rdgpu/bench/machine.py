@@ -118,9 +118,14 @@ def effective_llc(sweep: dict) -> dict:
 def grid_sizes(llc: int, dims: int, bytes_per_cell: int, quantum: int) -> list[int]:
     """Two cube/square edges (multiples of ``quantum``): one whose state (read and written:
     ``bytes_per_cell``) fills at most a quarter of ``llc``, one at least 4x ``llc``."""
-    small = (llc / 4 / bytes_per_cell) ** (1 / dims)
-    large = (4 * llc / bytes_per_cell) ** (1 / dims)
-    return [quantum * max(1, int(small // quantum)), quantum * max(1, math.ceil(large / quantum))]
+    # whole multiples of quantum compared exactly (a float cube root of 32768 is 31.99...)
+    small = quantum
+    while (small + quantum) ** dims * bytes_per_cell <= llc / 4:
+        small += quantum
+    large = quantum
+    while large ** dims * bytes_per_cell < 4 * llc:
+        large += quantum
+    return [small, large]
 
 
 def machine_record(sweep: dict | None) -> dict:

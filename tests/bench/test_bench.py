@@ -101,6 +101,14 @@ def test_grid_sizes_in_cache_and_beyond():
     small, large = grid_sizes(llc, 2, 16, 64)
     assert small * small * 16 <= llc / 4 and large * large * 16 >= 4 * llc
     assert small % 64 == 0 and large % 64 == 0
+    # the largest edges that fit, the smallest that exceed: exact where the edge's cube is
+    # exactly the budget (a float cube root gave 16 for 32 here: 32768 ** (1/3) < 32)
+    assert grid_sizes(4 * MiB, 3, 32, 16) == [32, 96]
+    for llc, dims, nbytes, q in [(4 * MiB, 3, 32, 16), (300 * MiB, 2, 16, 64),
+                                 (3 * MiB, 3, 16, 16)]:
+        small, large = grid_sizes(llc, dims, nbytes, q)
+        assert small ** dims * nbytes <= llc / 4 < (small + q) ** dims * nbytes or small == q
+        assert (large - q) ** dims * nbytes < 4 * llc <= large ** dims * nbytes
 
 
 def test_real_state_is_a_pattern():
