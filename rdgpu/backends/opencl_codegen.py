@@ -218,6 +218,7 @@ def blocked_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@SELECT@", "\n".join(" " * 16 + line for line in select))
         .replace("@CALL@", ", ".join(call))
         .replace("@ROW@", "\n".join("    " + line for line in member_lines(member)))
+        .replace("@FLAT@", str(int(flat_rows(program, kind))))
         .replace("@CELL@", " \\\n".join("        " + b for b in body))
     )
 

@@ -32,7 +32,41 @@ INLINE void rd_plane(@ARGS@,
 @ROW@
     const real zc = ((real)kz + (real)0.5) * dz;
     (void)zc; (void)dx; (void)cy; (void)cz; (void)gy; (void)gz; (void)db; (void)dt_;
-    for (int i = 0; i < ny; ++i) {
+#define RD_CELL(j, cc)                                                                    \
+    do {                                                                                  \
+        const ColInfo cc_ = (cc);                                                         \
+        const long k_ = rc + (j);                                                         \
+        const long kf_ = rf + (j);                                                        \
+        const long ko_ = ro + (j);                                                        \
+        (void)cc_; (void)kf_;                                                             \
+@CELL@ \
+    } while (0)
+#if @FLAT@
+    /* programs without the x or y coordinate: the interior rows (0 < i < ny − 1) as ONE
+     * loop over the plane's cells with neighbours at fixed offsets, then their x-edge cells
+     * again with the x rule, as model.cl's rd_span */
+    const bool flat_ = nx >= 3 && ny >= 3;
+    if (flat_) {
+        const long rc = pc, rs = pc - nx, rn = pc + nx;
+        const bool ds = false, dn = false;
+        const long rb = pb, rt = pt, rbs = pb - nx, rbn = pb + nx, rts = pt - nx, rtn = pt + nx;
+        const long rf = pf, ro = po;
+        (void)rs; (void)rn; (void)ds; (void)dn; (void)rb; (void)rt;
+        (void)rbs; (void)rbn; (void)rts; (void)rtn;
+        const long end_ = (long)(ny - 1) * nx;
+        for (long j_ = (long)nx + 1; j_ < end_ - 1; ++j_) {
+            RD_CELL(j_, col_flat(j_));
+        }
+        for (long r0_ = nx; r0_ < end_; r0_ += nx) {
+            RD_CELL(r0_, col_first(r0_, nx, x_kind));
+            RD_CELL(r0_ + nx - 1, col_last(r0_, nx, x_kind));
+        }
+    }
+#else
+    const bool flat_ = false;
+#endif
+    /* every row with its y rule (flat: rows 0 and ny − 1 only) */
+    for (int i = 0; i < ny; i += flat_ ? ny - 1 : 1) {
         const int is = lo_index(i, ny, y_kind), in_ = hi_index(i, ny, y_kind);
         const long rc = pc + (long)i * nx;
         const long rs = pc + (long)is * nx, rn = pc + (long)in_ * nx;
@@ -44,18 +78,9 @@ INLINE void rd_plane(@ARGS@,
         const real yc = ((real)i + (real)0.5) * dy;
         (void)rs; (void)rn; (void)ds; (void)dn; (void)rb; (void)rt; (void)yc;
         (void)rbs; (void)rbn; (void)rts; (void)rtn;
-#define RD_CELL(j, cc)                                                                    \
-    do {                                                                                  \
-        const ColInfo cc_ = (cc);                                                         \
-        const long k_ = rc + (j);                                                         \
-        const long kf_ = rf + (j);                                                        \
-        const long ko_ = ro + (j);                                                        \
-        (void)cc_; (void)kf_;                                                             \
-@CELL@ \
-    } while (0)
         FOR_EACH_CELL(RD_CELL);
-#undef RD_CELL
     }
+#undef RD_CELL
 }
 
 /* position of virtual plane v in a ring of 3 planes (v may be negative) */
