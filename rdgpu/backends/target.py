@@ -25,8 +25,8 @@ from rdgpu.ir.stencils import check_stencil
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments", "spans",
-           "host_params"]
+__all__ = ["SPAN_MAX_ROW", "BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
+           "host_params", "spans"]
 
 
 class Target(Layout):
@@ -150,13 +150,20 @@ def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
     return bufs
 
 
+#: the longest rows the flat-span kernels take: longer rows vectorise as well one by one
+#: (perf/results/row_length.md: rows of 32-192 cells ran 1.0-2.0x faster in spans, rows of
+#: 960 and 9600 no faster or slower)
+SPAN_MAX_ROW = 256
+
+
 def spans(nx: int, ny: int, planes: int, cells: int, units: int) -> tuple[int, int]:
     """``(span, count)``: how the flat-span grid kernels (OpenCL ``rd_span``, Warp
     ``spans``) cut the ``ny - 2`` interior rows of each of ``planes`` planes of ``ny × nx``
     cells: spans of ``span`` rows, ``count`` per plane, about ``cells`` cells each but at
     least four spans per unit of parallel work (``units``) where there are rows enough.
-    ``(0, 0)``: the row kernel (rows or columns fewer than 3, or ``cells`` <= 0)."""
-    if nx < 3 or ny < 3 or cells <= 0:
+    ``(0, 0)``: the row kernel (rows or columns fewer than 3, rows longer than
+    `SPAN_MAX_ROW`, or ``cells`` <= 0)."""
+    if nx < 3 or ny < 3 or nx > SPAN_MAX_ROW or cells <= 0:
         return 0, 0
     interior = ny - 2
     span = min(interior, max(1, -(-cells // nx)))

@@ -120,10 +120,10 @@ def test_span_split_covers_every_interior_row():
     from rdgpu.backends.target import spans
 
     assert spans(2, 50, 1, 8192, 2) == (0, 0) and spans(50, 2, 1, 8192, 2) == (0, 0)
-    assert spans(50, 50, 1, 0, 2) == (0, 0)
-    for nx, ny, planes, cells, units in [(96, 96, 96, 8192, 2), (2048, 2048, 1, 8192, 2),
+    assert spans(50, 50, 1, 0, 2) == (0, 0) and spans(257, 50, 1, 8192, 2) == (0, 0)
+    for nx, ny, planes, cells, units in [(96, 96, 96, 8192, 2), (256, 2048, 1, 8192, 2),
                                          (64, 64, 1024, 8192, 2), (5, 3, 1, 8192, 16),
-                                         (7, 40, 1, 1, 1), (1000, 9, 1, 8192, 8)]:
+                                         (7, 40, 1, 1, 1), (200, 9, 1, 8192, 8)]:
         span, count = spans(nx, ny, planes, cells, units)
         assert 1 <= span <= ny - 2
         assert (count - 1) * span < ny - 2 <= count * span  # every row once, no empty span
