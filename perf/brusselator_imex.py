@@ -108,8 +108,9 @@ def profile_step(backend: str, size: int, dt: float, steps: int = 200) -> dict[s
     solve, ffts = parts["solve"] / steps * 1e6, parts["transforms"] / steps * 1e6
     out["imex: the solve of v (download, transforms, upload)"] = solve
     out["imex: its two transforms (r2c, c2r)"] = ffts
-    out["imex: the rest of the solve (copies, symmetry test, products)"] = solve - ffts
-    out["imex: the rest of the step (the fused explicit pass, launches)"] = \
+    out["imex: the rest of the solve (the download, which waits for the explicit pass; "
+        "symmetry test, products, upload)"] = solve - ffts
+    out["imex: the rest of the step (launching the explicit pass, Python)"] = \
         out["imex step"] - solve
     return out
 

@@ -39,8 +39,8 @@ five forward and four inverse per species) and the linear combinations in the wo
 dtype, one upload per stage.  The spectra live in work arrays kept from step to step (the
 transforms write into them; each product is formed as soon as its operands are known,
 while they are in the cache), and the coefficients of the step are set up with the
-stepper, each distinct symbol once; a 256² step is then ~0.2 ms per transform and ~0.03 ms
-per product of two spectra (perf/results/etdrk4_goal.md).  A linear model (``N = 0``) is advanced exactly: ``û' =
+stepper, each distinct symbol once (where a 256² step's time goes:
+perf/results/etdrk4_goal.md).  A linear model (``N = 0``) is advanced exactly: ``û' =
 e^{hL̂} û`` at any ``h``.  The model's bounds are applied to the new state.  Ensembles are
 transformed member by member.  Symmetry: as in the direct implicit solves, an axis along
 which ``u`` and ``N(u)`` are bit for bit constant (periodic or Neumann) is not
