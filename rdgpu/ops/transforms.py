@@ -187,7 +187,9 @@ def _differ_first(f: np.ndarray, axis: int) -> bool:
 
 
 class TransformSolver:
-    """Host solves with the grid Laplacian ``M`` of ``axes`` (module doc), float64.
+    """Host solves with the grid Laplacian ``M`` of ``axes`` (module doc), in ``dtype``.
+    The spectra of the solves live in work arrays kept by the instance (:meth:`scratch`),
+    so one instance serves one thread at a time.
 
     Parameters
     ----------
