@@ -36,7 +36,11 @@ Per step the device evaluates ``N`` four times, one fused program per stage (bil
 in ``N`` lowered as in the explicit methods); everything else runs on the host: downloads,
 the transforms of the direct implicit solves (`rdgpu.ops.transforms.TransformSolver`:
 five forward and four inverse per species) and the linear combinations in the working
-dtype, one upload per stage.  A linear model (``N = 0``) is advanced exactly: ``û' =
+dtype, one upload per stage.  The spectra live in work arrays kept from step to step (the
+transforms write into them; each product is formed as soon as its operands are known,
+while they are in the cache), and the coefficients of the step are set up with the
+stepper, each distinct symbol once (where a 256² step's time goes:
+perf/results/etdrk4_goal.md).  A linear model (``N = 0``) is advanced exactly: ``û' =
 e^{hL̂} û`` at any ``h``.  The model's bounds are applied to the new state.  Ensembles are
 transformed member by member.  Symmetry: as in the direct implicit solves, an axis along
 which ``u`` and ``N(u)`` are bit for bit constant (periodic or Neumann) is not
@@ -105,8 +109,14 @@ def etdrk4_coefficients(lin: np.ndarray, h: float) -> dict[str, np.ndarray]:
         ``"Q"`` (``(E₂ − 1)/L̂``), ``"f1"``, ``"f2"``, ``"f3"`` (each including its factor
         ``h``).  ``L̂ = 0`` gives their limits ``1, 1, h/2, h/6, h/6, h/6``.
     """
+    lin = np.asarray(lin, dtype=np.float64)
+    # each distinct value once (a grid's symbols repeat: on a square periodic grid ~8x)
+    values, where = np.unique(lin, return_inverse=True)
+    if values.size < lin.size:
+        return {k: v[where].reshape(lin.shape)
+                for k, v in etdrk4_coefficients(values, h).items()}
     ld = np.longdouble
-    z = np.asarray(lin, dtype=np.float64).astype(ld) * ld(h)
+    z = lin.astype(ld) * ld(h)
     small = np.abs(z) < SERIES_RADIUS
     f = [np.empty(z.shape, dtype=ld) for _ in range(3)]
     zb = z[~small]  # the closed forms
@@ -260,9 +270,13 @@ class Etdrk4:
         self.transforms = TransformSolver(grid_axes(domain), dtype=self.dtype)
         self.axes = self.transforms.axes
         self._one = self.transforms.shape  # one member's kernel shape
+        self._members = 1 if members is None else int(members)
+        self._works: dict[tuple[bool, ...], tuple[list, list]] = {}
         self._n = [backend.empty(self.shape, self.dtype) for _ in self.species]
         self._coefficients: dict[tuple, dict[str, np.ndarray]] = {}
         self.constants = self._dirichlet_constants(domain)
+        for s in self.species:  # the step's coefficients: set up here, not in a step
+            self.coefficients((True,) * len(self.axes), s)
 
     # ------------------------------------------------------------------ setup
     def _dirichlet_constants(self, domain: Domain) -> dict[str, np.ndarray | None]:
@@ -324,22 +338,51 @@ class Etdrk4:
         every batch of ``fields`` is bit for bit constant (module doc: symmetry)."""
         return self.transforms.constant_axes(fields, batched=True)
 
-    def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
-        """The coefficients of a batch ``a`` (dropped axes of length 1), member by member
-        (`rdgpu.ops.transforms.TransformSolver.forward`)."""
-        a = a[(slice(None), *(slice(None) if k else slice(0, 1) for k in kept))]
-        if a.shape[0] == 1:
-            return self.transforms.forward(a[0], kept)[None]
-        return np.stack([self.transforms.forward(m, kept) for m in a])
+    def _work(self, kept: tuple[bool, ...]) -> tuple[list[dict[str, np.ndarray]],
+                                                     list[np.ndarray]]:
+        """The work arrays of a step in the transform space of ``kept``, reused from step
+        to step (`_stages`): per species seven spectra, ``U`` (``Û``, then the new
+        state's), ``NU`` (``N̂(u)``), ``EU`` (``E₂ Û``, then ``N̂(b)``), ``NA`` (``N̂(a)``,
+        then ``N̂(c)``), ``EA`` (``E₂ â``), ``S`` (a stage's) and ``T`` (a temporary); and
+        per species a field batch (dropped axes of length 1) the inverse transforms
+        write."""
+        got = self._works.get(kept)
+        if got is None:
+            ts, m, k = self.transforms, self._members, len(self.species)
+            names = ("U", "NU", "EU", "NA", "EA", "S", "T")
+            spectra = ts.scratch(("etdrk4", kept), (m, *ts.spectral_shape(kept)),
+                                 ts.coefficient_dtype(kept), len(names) * k)
+            reduced = tuple(n if keep else 1 for n, keep in zip(self._one, kept, strict=True))
+            fields = ts.scratch(("etdrk4 fields", kept), (m, *reduced), self.dtype, k)
+            work = [dict(zip(names, spectra[i * len(names):(i + 1) * len(names)],
+                             strict=True)) for i in range(k)]
+            got = self._works[kept] = (work, fields)
+        return got
 
-    def inverse(self, c: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
-        """The batch of the coefficients ``c`` (:meth:`forward`'s inverse), broadcast to
-        the full shape (read-only where an axis was dropped)."""
-        if c.shape[0] == 1:
-            out = self.transforms.inverse(c[0], kept)[None]
-        else:
-            out = np.stack([self.transforms.inverse(m, kept) for m in c])
-        return np.broadcast_to(out.astype(self.dtype, copy=False), (c.shape[0], *self._one))
+    def forward(self, a: np.ndarray, kept: tuple[bool, ...],
+                out: np.ndarray | None = None) -> np.ndarray:
+        """The coefficients of a batch ``a`` (dropped axes of length 1), member by member
+        (`rdgpu.ops.transforms.TransformSolver.forward`), into ``out`` if given."""
+        a = a[(slice(None), *(slice(None) if k else slice(0, 1) for k in kept))]
+        if out is None:
+            out = np.empty((a.shape[0], *self.transforms.spectral_shape(kept)),
+                           self.transforms.coefficient_dtype(kept))
+        for m, o in zip(a, out, strict=True):
+            self.transforms.forward(m, kept, out=o)
+        return out
+
+    def inverse(self, c: np.ndarray, kept: tuple[bool, ...], out: np.ndarray | None = None,
+                overwrite: bool = False) -> np.ndarray:
+        """The batch of the coefficients ``c`` (:meth:`forward`'s inverse; into ``out``
+        if given, dropped axes of length 1; ``overwrite``: ``c`` may serve as scratch),
+        broadcast to the full shape (read-only where an axis was dropped)."""
+        if out is None:
+            out = np.empty((c.shape[0], *(n if k else 1 for n, k in zip(self._one, kept,
+                                                                           strict=True))),
+                           self.dtype)
+        for m, o in zip(c, out, strict=True):
+            self.transforms.inverse(m, kept, out=o, overwrite=overwrite)
+        return np.broadcast_to(out, (c.shape[0], *self._one))
 
     # ------------------------------------------------------------------ stepping
     def _evaluate(self, fields: list[DeviceArray], t: float) -> list[np.ndarray]:
@@ -349,7 +392,7 @@ class Etdrk4:
         for s, n in zip(self.species, self._n, strict=True):
             a = self._batch(n.numpy())
             if self.constants[s] is not None:
-                a = a + self.constants[s]
+                a += self.constants[s]  # a is this call's own download
             out.append(a)
         return out
 
@@ -385,53 +428,66 @@ class Etdrk4:
 
     def _stages(self, u: list[np.ndarray], nu: list[np.ndarray], kept: tuple[bool, ...],
                 t0: float, h: float) -> list[np.ndarray] | None:
-        """The new fields (batches) of a step ``h`` in the transform space of ``kept``, or
-        None when a stage's ``N`` varies along an axis ``kept`` drops."""
-        co = [self.coefficients(kept, s, h) for s in self.species]
-        U = [self.forward(a, kept) for a in u]
-        NU = [self.forward(a, kept) for a in nu]
-        A = [_sum_of(c["E2"], Ui, c["Q"], Ni) for c, Ui, Ni in zip(co, U, NU, strict=True)]
-        NA = self._stage_rates(A, kept, t0 + 0.5 * h)
-        if NA is None:
-            return None
-        B = [_sum_of(c["E2"], Ui, c["Q"], Ni) for c, Ui, Ni in zip(co, U, NA, strict=True)]
-        NB = self._stage_rates(B, kept, t0 + 0.5 * h)
-        if NB is None:
-            return None
-        C = []
-        for c, Ai, Nb, Nu in zip(co, A, NB, NU, strict=True):
-            d = Nb * 2
-            d -= Nu
-            C.append(_sum_of(c["E2"], Ai, c["Q"], d))
-        NC = self._stage_rates(C, kept, t0 + h)
-        if NC is None:
-            return None
-        new = []
-        with np.errstate(over="ignore", invalid="ignore"):
-            for c, Ui, Nu, Na, Nb, Nc in zip(co, U, NU, NA, NB, NC, strict=True):
-                out, pair = _sum_of(c["E"], Ui, c["f1"], Nu), Na + Nb
-                pair *= c["2f2"]
-                out += pair
-                np.multiply(c["f3"], Nc, out=pair)
-                out += pair
-                new.append(out)
-        return [self.inverse(a, kept) for a in new]
+        """The new fields (batches, views of work arrays) of a step ``h`` in the transform
+        space of ``kept``, or None when a stage's ``N`` varies along an axis ``kept``
+        drops.
 
-    def _stage_rates(self, spectra: list[np.ndarray], kept: tuple[bool, ...],
-                     t: float) -> list[np.ndarray] | None:
-        """``N̂`` at the stage whose coefficients are ``spectra``; None when ``N`` there is
-        not constant along an axis ``kept`` drops."""
-        fields = self._upload([self.inverse(a, kept) for a in spectra])
-        n = self._evaluate(fields, t)
+        Every product and sum is the module doc's, in its order, into the work arrays
+        (`_work`), each as soon as its operands are known (while they are in the cache):
+        ``û' = ((E Û + f₁ N̂(u)) + 2f₂ (N̂(a) + N̂(b))) + f₃ N̂(c)`` is summed in ``U`` over
+        the stages, and ``E₂ Û`` serves both ``â`` and ``b̂``."""
+        co = [self.coefficients(kept, s, h) for s in self.species]
+        work, fields = self._work(kept)
+        mul = np.multiply
+        for a, na, w, c in zip(u, nu, work, co, strict=True):
+            acc, tmp = w["U"], w["T"]
+            self.forward(a, kept, out=acc)
+            mul(c["E2"], acc, out=w["EU"])
+            with np.errstate(over="ignore", invalid="ignore"):
+                acc *= c["E"]  # Û is not needed further
+            self.forward(na, kept, out=w["NU"])
+            mul(c["Q"], w["NU"], out=w["S"])  # â = E₂ Û + Q N̂(u)
+            w["S"] += w["EU"]
+            mul(c["E2"], w["S"], out=w["EA"])
+            with np.errstate(over="ignore", invalid="ignore"):
+                mul(c["f1"], w["NU"], out=tmp)
+                acc += tmp
+        if not self._stage_rates(work, fields, kept, t0 + 0.5 * h, "NA"):
+            return None
+        for w, c in zip(work, co, strict=True):  # b̂ = E₂ Û + Q N̂(a)
+            mul(c["Q"], w["NA"], out=w["S"])
+            w["S"] += w["EU"]
+        if not self._stage_rates(work, fields, kept, t0 + 0.5 * h, "EU"):  # N̂(b)
+            return None
+        for w, c in zip(work, co, strict=True):
+            nb, tmp = w["EU"], w["T"]
+            with np.errstate(over="ignore", invalid="ignore"):
+                np.add(w["NA"], nb, out=tmp)
+                tmp *= c["2f2"]
+                w["U"] += tmp
+            mul(nb, 2, out=tmp)  # ĉ = E₂ â + Q (2 N̂(b) − N̂(u))
+            tmp -= w["NU"]
+            mul(c["Q"], tmp, out=w["S"])
+            w["S"] += w["EA"]
+        if not self._stage_rates(work, fields, kept, t0 + h, "NA"):  # N̂(c)
+            return None
+        with np.errstate(over="ignore", invalid="ignore"):
+            for w, c in zip(work, co, strict=True):
+                mul(c["f3"], w["NA"], out=w["T"])
+                w["U"] += w["T"]
+        return [self.inverse(w["U"], kept, out=f, overwrite=True)
+                for w, f in zip(work, fields, strict=True)]
+
+    def _stage_rates(self, work: list[dict[str, np.ndarray]], fields: list[np.ndarray],
+                     kept: tuple[bool, ...], t: float, into: str) -> bool:
+        """``N̂`` at the stage whose coefficients are each species' ``S`` (used up) into
+        its ``into``; False when ``N`` there is not constant along an axis ``kept``
+        drops."""
+        n = self._evaluate(self._upload([self.inverse(w["S"], kept, out=f, overwrite=True)
+                                         for w, f in zip(work, fields, strict=True)]), t)
         if not all(kept) and any(not k and j for k, j in zip(kept, self.kept_axes(n),
                                                                 strict=True)):
-            return None
-        return [self.forward(a, kept) for a in n]
-
-
-def _sum_of(a: np.ndarray, x: np.ndarray, b: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """``a x + b y`` in a new array (one temporary)."""
-    out = a * x
-    tmp = b * y
-    out += tmp
-    return out
+            return False
+        for a, w in zip(n, work, strict=True):
+            self.forward(a, kept, out=w[into])
+        return True

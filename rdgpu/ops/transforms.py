@@ -179,8 +179,17 @@ def pick_solver(domain: Domain, solver: str | None) -> str:
     return "transform"
 
 
+def _differ_first(f: np.ndarray, axis: int) -> bool:
+    """Whether ``f``'s first two values along ``axis`` (all other indices 0) differ (or
+    either is NaN): then ``f`` is not constant along it."""
+    start = (0,) * f.ndim
+    return bool(f[start] != f[start[:axis] + (1,) + start[axis + 1:]])
+
+
 class TransformSolver:
-    """Host solves with the grid Laplacian ``M`` of ``axes`` (module doc), float64.
+    """Host solves with the grid Laplacian ``M`` of ``axes`` (module doc), in ``dtype``.
+    The spectra of the solves live in work arrays kept by the instance (:meth:`scratch`),
+    so one instance serves one thread at a time.
 
     Parameters
     ----------
@@ -209,6 +218,7 @@ class TransformSolver:
         #: the eigenvalues per axis (:func:`axis_eigenvalues`)
         self.eigenvalues = [axis_eigenvalues(n, kind, h) for n, kind, h in axes]
         self._factors: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._scratch: dict[tuple, list[np.ndarray]] = {}
 
     # ------------------------------------------------------------------ transforms
     def _groups(self, kept: tuple[bool, ...]) -> tuple[list[int], list[int], list[int]]:
@@ -220,33 +230,73 @@ class TransformSolver:
                 groups[kind].append(i)
         return groups
 
-    def forward(self, a: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
-        """The coefficients of the field ``a`` (dropped axes of length 1), a new array."""
+    def forward(self, a: np.ndarray, kept: tuple[bool, ...],
+                out: np.ndarray | None = None) -> np.ndarray:
+        """The coefficients of the field ``a`` (dropped axes of length 1): a new array, or
+        ``out`` (:meth:`spectral_shape`, `coefficient_dtype`) written in place."""
         periodic, neumann, dirichlet = self._groups(kept)
         if not (periodic or neumann or dirichlet):
-            return a.copy()
+            if out is None:
+                return a.copy()
+            np.copyto(out, a)
+            return out
         ducc, n = _ducc(), self.threads
         if neumann:
-            a = ducc.dct(a, type=2, axes=neumann, nthreads=n)
+            a = ducc.dct(a, type=2, axes=neumann, nthreads=n,
+                         out=None if periodic or dirichlet else out)
         if dirichlet:
-            a = ducc.dst(a, type=1, axes=dirichlet, nthreads=n)
+            a = ducc.dst(a, type=1, axes=dirichlet, nthreads=n, out=None if periodic else out)
         if periodic:
-            a = ducc.r2c(a, axes=periodic, nthreads=n)
+            a = ducc.r2c(a, axes=periodic, nthreads=n, out=out)
         return a
 
-    def inverse(self, c: np.ndarray, kept: tuple[bool, ...]) -> np.ndarray:
+    def inverse(self, c: np.ndarray, kept: tuple[bool, ...], out: np.ndarray | None = None,
+                overwrite: bool = False) -> np.ndarray:
         """The field of the coefficients ``c`` (inverse of :meth:`forward`: the same
-        transforms backwards, each divided by its length)."""
+        transforms backwards, each divided by its length): a new array, or ``out`` (a
+        real field with the dropped axes of length 1) written in place.  ``overwrite``:
+        ``c`` may be used as scratch (its values are lost; the result is the same bit for
+        bit, one copy fewer)."""
         periodic, neumann, dirichlet = self._groups(kept)
+        if not (periodic or neumann or dirichlet):
+            if out is None:
+                return c
+            np.copyto(out, c)
+            return out
         ducc, n = _ducc(), self.threads
         if periodic:
             c = ducc.c2r(c, axes=periodic, lastsize=self.shape[periodic[-1]], forward=False,
-                         inorm=2, nthreads=n)
+                         inorm=2, nthreads=n, out=None if neumann or dirichlet else out,
+                         allow_overwriting_input=overwrite)
         if dirichlet:
-            c = ducc.dst(c, type=1, axes=dirichlet, inorm=2, nthreads=n)
+            c = ducc.dst(c, type=1, axes=dirichlet, inorm=2, nthreads=n,
+                         out=None if neumann else out)
         if neumann:
-            c = ducc.dct(c, type=3, axes=neumann, inorm=2, nthreads=n)
+            c = ducc.dct(c, type=3, axes=neumann, inorm=2, nthreads=n, out=out)
         return c
+
+    def spectral_shape(self, kept: tuple[bool, ...]) -> tuple[int, ...]:
+        """The shape of a field's coefficients (:meth:`forward`): a dropped axis 1, the
+        last periodic axis the ``rfft`` half."""
+        shape = [n if k else 1 for n, k in zip(self.shape, kept, strict=True)]
+        periodic = self._groups(kept)[PERIODIC]
+        if periodic:
+            shape[periodic[-1]] = shape[periodic[-1]] // 2 + 1
+        return tuple(shape)
+
+    def scratch(self, key: Any, shape: tuple[int, ...], dtype: Any, count: int = 1
+                ) -> list[np.ndarray]:
+        """``count`` work arrays of ``shape`` and ``dtype`` kept under ``key`` and handed
+        out again on the next call with the same arguments (no allocation, and none of
+        the page faults a fresh array of this size takes, in the step loop).  The caller
+        owns them until it asks again: not for results that outlive a call."""
+        key = (key, tuple(shape), np.dtype(dtype), count)
+        got = self._scratch.get(key)
+        if got is None:
+            if len(self._scratch) > 16:
+                self._scratch.clear()
+            got = self._scratch[key] = [np.empty(shape, dtype) for _ in range(count)]
+        return got
 
     def spectrum(self, kept: tuple[bool, ...]) -> np.ndarray:
         """``Σ λ`` over the axes on the coefficients' grid (a dropped axis: its zero
@@ -272,10 +322,12 @@ class TransformSolver:
         kept = []
         for i, (n, kind, _) in enumerate(self.axes):
             ax = i + first
-            # slice 1 against slice 0 first: a field that varies is told in O(N/n)
+            # one pair of values, then slice 1 against slice 0: a field that varies is
+            # told in O(1), almost always, else O(N/n)
             same = kind != DIRICHLET and n > 1 and all(
                 f.shape[ax] == 1
-                or (np.array_equal(np.take(f, 1, axis=ax), np.take(f, 0, axis=ax))
+                or (not _differ_first(f, ax)
+                    and np.array_equal(np.take(f, 1, axis=ax), np.take(f, 0, axis=ax))
                     and bool(np.all(f == np.take(f, [0], axis=ax))))
                 for f in fields)
             kept.append(not same)
@@ -313,7 +365,15 @@ class TransformSolver:
         return got
 
     # ------------------------------------------------------------------ solves
-    def solve(self, rhs: np.ndarray, c: float) -> np.ndarray:
+    def _result(self, kept: tuple[bool, ...], scratch: bool) -> np.ndarray:
+        """Where a solve's field goes (dropped axes of length 1): a new array, or with
+        ``scratch`` a work array the next such call overwrites."""
+        shape = tuple(n if k else 1 for n, k in zip(self.shape, kept, strict=True))
+        if scratch:
+            return self.scratch(("field", kept), shape, self.dtype)[0]
+        return np.empty(shape, self.dtype)
+
+    def solve(self, rhs: np.ndarray, c: float, *, scratch: bool = False) -> np.ndarray:
         """``x`` (:attr:`dtype`) with ``(I − c M) x = rhs``.
 
         Parameters
@@ -322,16 +382,22 @@ class TransformSolver:
             A field of :attr:`shape` (any real dtype; computed in :attr:`dtype`).
         c : float
             The coefficient (``θ dt D``), ``>= 0``.
+        scratch : bool
+            The result may be (a view of) a work array the next call overwrites (no
+            allocation per call); default False: a new array.
         """
         r = self._field(rhs, "rhs")
         kept = self.constant_axes([r])
         inv = self._factor(kept, float(c), 0.0)[1]
-        spec = self.forward(self._drop(r, kept), kept)
+        spec = self.scratch(("spectra", kept), self.spectral_shape(kept),
+                            self.coefficient_dtype(kept))[0]
+        self.forward(self._drop(r, kept), kept, out=spec)
         spec *= inv
-        return np.broadcast_to(self.inverse(spec, kept), self.shape)
+        x = self.inverse(spec, kept, out=self._result(kept, scratch), overwrite=True)
+        return np.broadcast_to(x, self.shape)
 
     def increment(self, u: np.ndarray, h: np.ndarray | float, c: float,
-                  k: float) -> np.ndarray:
+                  k: float, *, scratch: bool = False) -> np.ndarray:
         """``δ`` (:attr:`dtype`) with ``(I − c M) δ = k M u + h``: per mode
         ``(k λ û + ĥ)/(1 − c λ)`` (module doc).
 
@@ -343,6 +409,8 @@ class TransformSolver:
             The constant part of the right-hand side: a field, or a number for every cell.
         c, k : float
             ``θ dt D`` and ``dt D``.
+        scratch : bool
+            As in :meth:`solve`.
         """
         u = self._field(u, "u")
         fields = [u]
@@ -350,17 +418,21 @@ class TransformSolver:
             h = self._field(h, "h")
             fields.append(h)
         elif h != 0.0:
-            h = np.full(self.shape, float(h), dtype=self.dtype)
-            fields.append(h)
+            full = self.scratch("constant", self.shape, self.dtype)[0]
+            full.fill(float(h))
+            fields.append(full)
         kept = self.constant_axes(fields)
         mul, inv = self._factor(kept, float(c), float(k))
-        spec = self.forward(self._drop(u, kept), kept)
+        spec, more = self.scratch(("spectra", kept), self.spectral_shape(kept),
+                                  self.coefficient_dtype(kept), 2)
+        self.forward(self._drop(u, kept), kept, out=spec)
         spec *= mul
         if len(fields) > 1:
-            more = self.forward(self._drop(fields[1], kept), kept)
+            self.forward(self._drop(fields[1], kept), kept, out=more)
             more *= inv
             spec += more
-        return np.broadcast_to(self.inverse(spec, kept), self.shape)
+        x = self.inverse(spec, kept, out=self._result(kept, scratch), overwrite=True)
+        return np.broadcast_to(x, self.shape)
 
     def _field(self, a: Any, what: str) -> np.ndarray:
         a = np.asarray(a)
@@ -424,13 +496,13 @@ class DirectDiffusion:
         else:
             h = self.dt * float(h)
         k = self.dt * self.D
-        delta = self.solver.increment(uh, h, self.theta * k, k)
+        delta = self.solver.increment(uh, h, self.theta * k, k, scratch=True)
         with np.errstate(invalid="ignore", over="ignore"):
-            x = uh + delta
-            self._put(x, out)
-            return bool(np.isfinite(x).all())
+            uh += delta  # uh is this call's own download: out = u + δ in place
+            self._put(uh, out)
+            return bool(np.isfinite(uh).all())
 
     def solve(self, rhs: DeviceArray, x: DeviceArray) -> None:
         """``x`` = the solution of ``(I − θ dt D M) x = rhs``."""
         r = rhs.numpy()
-        self._put(self.solver.solve(r, self.theta * self.dt * self.D), x)
+        self._put(self.solver.solve(r, self.theta * self.dt * self.D, scratch=True), x)

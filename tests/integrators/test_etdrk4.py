@@ -144,6 +144,17 @@ def test_coefficients_equal_the_contour_integral():
         pytest.approx([1, 1, 0.25, 0.5 / 6, 0.5 / 6, 0.5 / 6], rel=1e-15)
 
 
+def test_coefficients_of_repeated_symbols_are_each_ones_own():
+    """A grid's symbols repeat; each distinct value is evaluated once and handed to every
+    mode that has it: the same values, bit for bit, as one mode at a time."""
+    lam = np.add.outer([-3.0, 0.0, -0.1, -3.0], [-0.1, -40.0, -0.1])
+    got = etdrk4_coefficients(lam, 0.7)
+    for k, v in got.items():
+        assert v.shape == lam.shape and v.dtype == np.float64
+        one = np.array([etdrk4_coefficients(np.array([x]), 0.7)[k][0] for x in lam.ravel()])
+        assert np.array_equal(v.ravel(), one), k
+
+
 # ---------------------------------------------------------------------------- exactness
 @pytest.mark.parametrize("shape, bc", [
     ((7, 6), "periodic"), ((7, 6), "neumann"), ((7, 6), ("neumann", ("dirichlet", 0.0))),

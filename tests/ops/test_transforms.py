@@ -202,6 +202,36 @@ def test_a_constant_axis_is_solved_as_one_slice():
     assert solver.constant_axes([u]) == (False, False, True)
 
 
+@pytest.mark.parametrize("grid", GRIDS, ids=IDS)
+def test_transforms_into_work_arrays_are_the_allocating_ones(grid, dtype):
+    """``forward``/``inverse`` into ``out`` (and ``inverse`` overwriting its input) give
+    the new arrays' values bit for bit; ``scratch`` hands the same arrays out again; the
+    solves with ``scratch=True`` equal those without; a field constant along an axis is
+    told from one varying by its first pair of values or by the full test alike."""
+    solver = TransformSolver(grid_axes(grid), dtype=dtype)
+    rng = np.random.default_rng(8)
+    u = rng.random(solver.shape).astype(dtype)
+    every = (True,) * len(solver.shape)
+    spec = solver.forward(u, every)
+    out = solver.scratch("t", solver.spectral_shape(every), solver.coefficient_dtype(every))[0]
+    assert solver.forward(u, every, out=out) is out and np.array_equal(out, spec)
+    assert out.dtype == spec.dtype and out.shape == spec.shape
+    field = np.empty(solver.shape, dtype)
+    back = solver.inverse(spec, every)
+    assert np.array_equal(solver.inverse(out, every, out=field, overwrite=True), back)
+    assert solver.scratch("t", out.shape, out.dtype)[0] is out
+    for scratch in (False, True):
+        assert np.array_equal(solver.solve(u, 0.7, scratch=scratch), solver.solve(u, 0.7))
+        assert np.array_equal(solver.increment(u, 0.3, 0.7, 1.1, scratch=scratch),
+                              solver.increment(u, 0.3, 0.7, 1.1))
+    late = np.broadcast_to(u[..., :1], u.shape).copy()
+    late.flat[-1] += 1.0  # varies along the last axis, not in its first pair of values
+    want = tuple(not (kind != DIRICHLET and n > 1) for n, kind, _ in solver.axes)
+    assert solver.constant_axes([np.zeros_like(u)]) == want
+    assert solver.constant_axes([u]) == (True,) * len(want)
+    assert solver.constant_axes([late])[-1]
+
+
 FLAT = define_model(
     "flat", {"u": "Du*laplace(u) + u - u*u*u - v", "v": "Dv*laplace(v) + 0.5*(u - v)"},
     {"Du": 1.0, "Dv": 4.0})
