@@ -3,7 +3,8 @@ timed (the ``peers`` group), then the other row groups of ``Options.rows``
 (`rdgpu.bench.groups`), all gathered in one JSON-ready record (`run_bench`).
 
 A row is one contender on one case (dimensions, dtype, grid edge): ``status`` is ``"ok"``
-(``mcells``: Mcell·steps/s, the best batch of steps over ``seconds``), ``"refused"`` (it
+(``mcells``: Mcell·steps/s, the best batch of steps over ``seconds``, the best of
+``rounds`` rounds taking the contenders in turn), ``"refused"`` (it
 disagreed with the NumPy reference: ``note`` says how; it is never timed) or ``"skipped"``
 (it cannot run that case: ``note`` says why).  ``compile_s`` is the first step's time in
 the check (compilation, apart from the timing).  The roofline is the out-of-cache triad
@@ -37,7 +38,8 @@ class Options:
     """What to run: the row groups ``rows`` (of `GROUPS`), rdgpu ``backends`` (specs, or
     the GPU labels of `rdgpu.bench.devices`), ``peers`` (names of `PEERS`), ``dims``,
     ``dtypes``, grid edges (``sizes``: ``{dims: [edge, ...]}``; None: from the cache; the
-    2-D edges are the kernel rows' too), ``seconds`` of timing per row, the triad sweep up
+    2-D edges are the kernel rows' too), ``seconds`` of timing per row and ``rounds`` of
+    the peers' rows (the contenders in turn, the best round each), the triad sweep up
     to ``triad_max`` bytes, the other groups' sizes (``groups``), ``quick`` and ``full``
     (the slowest rows too: NumPy on the real states)."""
 
@@ -49,6 +51,7 @@ class Options:
     dtypes: list[str] = field(default_factory=lambda: ["float32"])
     sizes: dict[int, list[int]] | None = None
     seconds: float = 0.5
+    rounds: int = 2
     triad_max: int = 2048 * MiB
     triad_seconds: float = 0.1
     groups: GroupOptions = field(default_factory=GroupOptions)
@@ -83,6 +86,8 @@ def check_options(opts: Options) -> None:
         raise ValueError(f"peers: unknown {unknown}; known: {', '.join(PEERS)}")
     if not opts.seconds > 0:
         raise ValueError(f"seconds: expected a positive number, got {opts.seconds}")
+    if isinstance(opts.rounds, bool) or not isinstance(opts.rounds, int) or opts.rounds < 1:
+        raise ValueError(f"rounds: expected a whole number >= 1, got {opts.rounds!r}")
     for dims in opts.dims if opts.sizes else ():
         bad = [n for n in opts.sizes.get(dims, []) if n <= 0 or n % TILE[dims]]
         if bad or not opts.sizes.get(dims):
@@ -113,30 +118,41 @@ def _checked(c: Contender, dims: int, dtype: str) -> tuple[str | None, float | N
     return check(c, dims, dtype), compile_s
 
 
-def _case_rows(c: Contender, dims: int, dtype: str, sizes: list[int], llc: int,
-               roof_bw: float, seconds: float) -> list[dict]:
-    why, compile_s = _checked(c, dims, dtype)
-    status = "ok" if why is None else ("skipped" if compile_s is None else "refused")
-    rows = []
-    for n in sizes:
-        cells = n ** dims
-        nbytes = bytes_per_cell(dtype)
-        row = dict(dims=dims, dtype=dtype, size=n, cells=cells, contender=c.name,
-                   family=c.family, version=c.version, status=status, note=why,
-                   compile_s=compile_s, bytes_per_cell=nbytes,
-                   in_cache=cells * nbytes <= llc,
-                   roofline_mcells=roof_bw * 1e9 / nbytes / 1e6)
-        if status == "ok":
-            runner = c.make(*real_state((n,) * dims, dtype))
-            row["mcells"] = time_rate(runner, cells, seconds)
-            del runner
-            if not row["in_cache"]:
-                row["pct_roofline"] = 100 * row["mcells"] / row["roofline_mcells"]
-            _say(f"  {dims}-D {dtype} {n:>5} {c.name:24s} {row['mcells']:9.0f} Mcell/s")
-        else:
-            _say(f"  {dims}-D {dtype} {n:>5} {c.name:24s} {status}: {why}")
-        rows.append(row)
-    return rows
+def _case_rows(contenders: list[Contender], dims: int, dtype: str, sizes: list[int],
+               llc: int, roof_bw: float, seconds: float, rounds: int) -> list[dict]:
+    """Every contender's rows of one (dims, dtype): each checked once, then timed in
+    ``rounds`` rounds that take the contenders in turn at each size (a contender's best
+    round counts), so that a machine whose speed drifts over minutes hits all alike."""
+    rows: dict[tuple[str, int], dict] = {}
+    for c in contenders:
+        why, compile_s = _checked(c, dims, dtype)
+        status = "ok" if why is None else ("skipped" if compile_s is None else "refused")
+        for n in sizes:
+            cells = n ** dims
+            nbytes = bytes_per_cell(dtype)
+            rows[c.name, n] = dict(
+                dims=dims, dtype=dtype, size=n, cells=cells, contender=c.name,
+                family=c.family, version=c.version, status=status, note=why,
+                compile_s=compile_s, bytes_per_cell=nbytes, in_cache=cells * nbytes <= llc,
+                roofline_mcells=roof_bw * 1e9 / nbytes / 1e6)
+            if status != "ok":
+                _say(f"  {dims}-D {dtype} {n:>5} {c.name:24s} {status}: {why}")
+    for r in range(rounds):
+        for n in sizes:
+            for c in contenders:
+                row = rows[c.name, n]
+                if row["status"] != "ok":
+                    continue
+                runner = c.make(*real_state((n,) * dims, dtype))
+                rate = time_rate(runner, row["cells"], seconds)
+                del runner
+                row["mcells"] = max(rate, row.get("mcells", 0.0))
+                _say(f"  {dims}-D {dtype} {n:>5} {c.name:24s} {rate:9.0f} Mcell/s"
+                     f" (round {r + 1} of {rounds})")
+    for row in rows.values():
+        if "mcells" in row and not row["in_cache"]:
+            row["pct_roofline"] = 100 * row["mcells"] / row["roofline_mcells"]
+    return [rows[c.name, n] for c in contenders for n in sizes]
 
 
 def _machine(opts: Options) -> tuple[dict, int, float, list[str]]:
@@ -172,8 +188,8 @@ def _peer_rows(opts: Options, contenders: list[Contender] | None, llc: int,
         sizes = _sizes(opts, dims, llc)
         for dtype in opts.dtypes:
             _say(f"{dims}-D {dtype}: edges {sizes}")
-            for c in contenders:
-                rows += _case_rows(c, dims, dtype, sizes, llc, bw, opts.seconds)
+            rows += _case_rows(contenders, dims, dtype, sizes, llc, bw, opts.seconds,
+                               opts.rounds)
     return rows, skipped
 
 

@@ -27,9 +27,11 @@ def options_from(args: argparse.Namespace) -> Options:
     rows = list(GROUPS) if "all" in args.rows else list(dict.fromkeys(args.rows))
     opts = Options(rows=rows, backends=list(args.backends), peers=peers,
                    dims=list(args.dims), dtypes=list(args.dtype), sizes=sizes,
-                   seconds=args.seconds, quick=args.quick, full=args.full)
+                   seconds=args.seconds, rounds=args.rounds, quick=args.quick,
+                   full=args.full)
     if args.quick:
         opts.seconds = min(opts.seconds, 0.1)
+        opts.rounds = 1
         opts.triad_max, opts.triad_seconds = 64 * MiB, 0.01
         opts.groups = quick_options()
     _group_options(opts, args)

@@ -47,6 +47,10 @@ def add_bench_parser(sub: Any, command: Any) -> None:
                    help="2-D (5-point) and/or 3-D (7-point); default both")
     b.add_argument("--seconds", type=positive_float, default=0.5,
                    help="timing per row (default 0.5)")
+    b.add_argument("--rounds", type=at_least_1, default=2,
+                   help="rounds of the peers' rows, each taking the contenders in turn at "
+                   "each size; a row is its best round (default 2: a machine's speed "
+                   "drifts over minutes)")
     b.add_argument("--out", default="bench-results", metavar="DIR",
                    help="folder for bench.json, bench.md, bench.png (default bench-results)")
     b.add_argument("--kernels", nargs="+", choices=KERNEL_NAMES, metavar="KERNEL",

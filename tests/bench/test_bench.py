@@ -16,7 +16,7 @@ from rdgpu.bench.machine import MiB, effective_llc, grid_sizes
 from rdgpu.bench.peers import PEERS, peer_contenders, peer_status
 from rdgpu.bench.problem import Runner, real_state, stepper
 from rdgpu.bench.report import markdown, write
-from rdgpu.bench.run import Options, run_bench
+from rdgpu.bench.run import Options, check_options, run_bench
 from rdgpu.cli.app import main
 from rdgpu.cli.bench_options import PEER_NAMES
 
@@ -160,3 +160,27 @@ def test_each_installed_peer_does_the_same_maths(name, dims):
     for dtype in ("float32", "float64"):
         if peer.lacks(dims, dtype) is None:
             assert check(peer, dims, dtype) is None, (name, dims, dtype)
+
+
+def test_rounds_take_the_contenders_in_turn(monkeypatch):
+    """Each round times every contender at a size before the next size; a row is its best
+    round (a machine drifting over minutes hits every contender alike)."""
+    base = next(c for c in rdgpu_contenders(["numpy"]) if c.name == "rdgpu numpy")
+    made = []
+
+    def maker(name):
+        def make(u, v):
+            made.append((name, u.shape[0]))
+            return base.make(u, v)
+        return make
+
+    pair = [Contender("a", "peer", "0", maker("a")), Contender("b", "peer", "0", maker("b"))]
+    monkeypatch.setattr(machine, "_numba_triad", lambda: None)
+    opts = Options(backends=[], dims=[2], dtypes=["float32"], sizes={2: [64, 128]},
+                   seconds=0.01, rounds=2, triad_max=2 * MiB, triad_seconds=0.001)
+    out = run_bench(opts, contenders=pair)
+    timed = made[-8:]
+    assert timed == [("a", 64), ("b", 64), ("a", 128), ("b", 128)] * 2
+    assert all(r["status"] == "ok" and r["mcells"] > 0 for r in out["rows"])
+    with pytest.raises(ValueError, match="rounds: expected a whole number"):
+        check_options(Options(rounds=0))

@@ -350,3 +350,15 @@ def test_simulation_on_a_1d_grid():
     alone = Simulation("gray-scott", {"grid": (40,), "bc": "periodic"}, {"F": 0.04},
                        backend="opencl", dt=sim.dt).run(100, progress=False)
     np.testing.assert_array_equal(r.fields["u"][1], alone.fields["u"])
+
+
+@pytest.mark.parametrize("be_name", ["warp", "opencl"])
+def test_two_parameters_per_member(be_name):
+    """Regression: a comment of Warp's template named a placeholder, so the parameter
+    reads of the second per-member parameter landed in Python code as text (a
+    SyntaxError); every kernel shape reads each per-member parameter."""
+    be = backend_or_skip(be_name)
+    F, k = np.linspace(0.02, 0.05, M), np.linspace(0.05, 0.06, M)
+    for where in ("2d-periodic-odd", "3d-mixed"):
+        _alone_vs_together(GS, DOMAINS[where](), be, np.float32, {"F": F, "k": k},
+                           lambda m: {"F": F[m], "k": k[m]})
