@@ -6,8 +6,8 @@ temporally blocked pass.
 exact in the dtype, ``FP_CONTRACT OFF``); `opencl_source` puts it in the step kernel
 ``rd_program`` of ``families/model/model.cl`` (one work-item per row, CPU: edge columns
 peeled and a branch-free interior; or strided columns, GPU; CSR rows in blocks on meshes)
-and, where `flat_rows`, ``rd_span`` (CPU: a span of a plane's interior rows as one flat
-loop, its x-edge cells recomputed),
+and, where `rdgpu.backends.target.flat_rows`, ``rd_span`` (CPU: a span of a plane's
+interior rows as one flat loop, its x-edge cells recomputed),
 `blocked_source` in ``rd_blocked`` of ``families/model/blocked.cl`` (``steps`` Euler
 steps per pass over bands of rows: `rdgpu.integrators.blocking`).  Programs are built per
 context, build options and dtype (`opencl_program`), kernels cached in the program per
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
-from rdgpu.backends.target import BlockedPass, FusedPass, Target, arguments, spans
+from rdgpu.backends.target import BlockedPass, FusedPass, Target, arguments, flat_rows, spans
 from rdgpu.families import read_source
 from rdgpu.ir.equations import to_text
 from rdgpu.ir.names import ident
@@ -75,15 +75,6 @@ def opencl_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@CELL@", " \\\n".join("        " + b for b in body))
         .replace("@BODY@", "\n".join("        " + b for b in body))
     )
-
-
-def flat_rows(program: Program, kind: str) -> bool:
-    """Whether the grid kernel of ``program`` on stencil kind ``kind`` may walk spans of
-    interior rows as one flat loop (``rd_span`` in ``model.cl``): not on meshes, metric
-    grids or programs reading the x or y coordinate (a flat loop has no column or row)."""
-    if kind == "mesh" or STENCIL_KINDS[kind].form == "metric":
-        return False
-    return not {"x", "y"} & set(program.refs("coord"))
 
 
 def member_lines(member: frozenset[str]) -> list[str]:
@@ -274,6 +265,8 @@ def opencl_arg_dtypes(program: Program, fields: frozenset[str], dtype,
 #: about how many cells `rd_span` gives a work-item (a span of rows of one plane): fewer
 #: where the grid would not give every compute unit four; 0: `rd_program` always
 SPAN_CELLS = 8192
+
+
 class OpenCLFusedPass(FusedPass):
     """A program's ``rd_program`` kernel on one OpenCL backend (built on first launch in
     each thread)."""

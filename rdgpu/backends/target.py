@@ -20,13 +20,13 @@ from rdgpu.backends.base import Backend, DeviceArray, DeviceCSR
 from rdgpu.ir.layout import Layout
 from rdgpu.ir.program import METRIC_COEFFICIENTS, REALS, PerMember, Program
 from rdgpu.ir.reference import run_numpy
-from rdgpu.ir.stencils import check_stencil
+from rdgpu.ir.stencils import STENCIL_KINDS, check_stencil
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
 __all__ = ["SPAN_MAX_ROW", "BlockedPass", "FusedPass", "HostFusedPass", "Target", "arguments",
-           "host_params", "spans"]
+           "flat_rows", "host_params", "spans"]
 
 
 class Target(Layout):
@@ -148,6 +148,16 @@ def arguments(program: Program, target: Target, inputs: Sequence[DeviceArray],
     lengths = target.lengths()
     bufs += [t(lengths[n]) for n in program.refs("length")]
     return bufs
+
+
+def flat_rows(program: Program, kind: str) -> bool:
+    """Whether the grid kernels of ``program`` on stencil kind ``kind`` may walk spans of
+    interior rows as one flat loop (OpenCL ``rd_span``, Warp ``spans``, the 3-D blocked
+    planes): not on meshes, metric grids or programs reading the x or y coordinate (a flat
+    loop has no column or row)."""
+    if kind == "mesh" or STENCIL_KINDS[kind].form == "metric":
+        return False
+    return not {"x", "y"} & set(program.refs("coord"))
 
 
 #: the longest rows the flat-span kernels take: longer rows vectorise as well one by one

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.backends.base import Backend, DeviceArray
-from rdgpu.backends.target import FusedPass, Target, arguments, spans
+from rdgpu.backends.target import FusedPass, Target, arguments, flat_rows, spans
 from rdgpu.backends.warp_runtime import ROW_BLOCK, check_cells, quiet_warp
 from rdgpu.backends.warp_runtime import WARP_LOCK as BACKEND_LOCK
 from rdgpu.families import read_source
@@ -112,15 +112,6 @@ def warp_source(program: Program, kind: str, fields: frozenset[str], dtype,
         .replace("@BODY@", "\n".join("    " + b for b in body))
         .replace("@INTERIOR@", "\n".join("    " + b for b in inner))
     )
-
-
-def flat_rows(program: Program, kind: str) -> bool:
-    """Whether the grid kernels of ``program`` on stencil kind ``kind`` may walk spans of
-    interior rows as one flat loop (``spans`` in ``warp_model.py.in``): not on meshes,
-    metric grids or programs reading the x or y coordinate."""
-    if kind == "mesh" or STENCIL_KINDS[kind].form == "metric":
-        return False
-    return not {"x", "y"} & set(program.refs("coord"))
 
 
 def _cell_body(program: Program, kind: str, fields: frozenset[str], member_loads: list[str],

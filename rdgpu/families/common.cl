@@ -166,24 +166,13 @@ INLINE ColInfo col_info(int j, int nx, int x_kind)
     return c;
 }
 
-/* Column neighbours of an interior column (0 < j < nx-1): no ghost at all. */
-INLINE ColInfo col_interior(int j)
+/* Column neighbours of an interior column (0 < j < nx-1), or of a cell k in a flat loop
+ * over whole rows (model.cl's rd_span: k - 1, k + 1): no ghost at all. */
+INLINE ColInfo col_interior(long j)
 {
     ColInfo c;
-    c.w = (long)j - 1;
-    c.e = (long)j + 1;
-    c.w_dir = false;
-    c.e_dir = false;
-    return c;
-}
-
-/* The column neighbours of cell k in a flat loop over whole rows (model.cl's rd_span): the
- * cells k - 1, k + 1, no ghost. */
-INLINE ColInfo col_flat(long k)
-{
-    ColInfo c;
-    c.w = k - 1;
-    c.e = k + 1;
+    c.w = j - 1;
+    c.e = j + 1;
     c.w_dir = false;
     c.e_dir = false;
     return c;

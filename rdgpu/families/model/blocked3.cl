@@ -55,7 +55,7 @@ INLINE void rd_plane(@ARGS@,
         (void)rbs; (void)rbn; (void)rts; (void)rtn;
         const long end_ = (long)(ny - 1) * nx;
         for (long j_ = (long)nx + 1; j_ < end_ - 1; ++j_) {
-            RD_CELL(j_, col_flat(j_));
+            RD_CELL(j_, col_interior(j_));
         }
         for (long r0_ = nx; r0_ < end_; r0_ += nx) {
             RD_CELL(r0_, col_first(r0_, nx, x_kind));

@@ -114,7 +114,7 @@ __kernel void rd_span(@ARGS@,
         const long k0 = (long)plane * pz + (long)first * nx + 1;
         const long k1 = (long)plane * pz + (long)last * nx - 1;
         for (long j_ = k0; j_ < k1; ++j_) {
-            RD_CELL(j_, col_flat(j_));
+            RD_CELL(j_, col_interior(j_));
         }
         /* the rows' x-edge cells again, with the x boundary rule */
         for (long r0_ = k0 - 1; r0_ < k1; r0_ += nx) {
