@@ -28,15 +28,18 @@ use, this class's public members: ``cl``, ``queue``, ``layout``, ``col_stride``,
 ``max_cells``, `OpenCLBackend.kernels` (this thread's kernel objects),
 `OpenCLBackend.enqueue`, `OpenCLBackend.grid` / `OpenCLBackend.grid3`
 (a grid launch's device checks and arguments), `OpenCLBackend.launch_grid`,
-`OpenCLBackend.launch_rows`, `OpenCLBackend.check_on_device` and
+`OpenCLBackend.grid_launcher`, `OpenCLBackend.launch_rows`,
+`OpenCLBackend.check_on_device` and
 `OpenCLBackend.check_real`.
 
 Threads: contexts, queues and built programs are shared by every backend instance on
 one device (built once, under a lock; OpenCL queues are thread-safe).  Kernel objects are
 per thread: a launch is ``set_args`` then enqueue, and ``clSetKernelArg`` on one kernel
 object from two threads is a race (OpenCL spec), so each thread gets its own from the
-shared program.  One backend may therefore be driven from several threads at once;
-commands from all threads share the device's one in-order queue.
+shared program (a bound fused pass, ``FusedPass.bind``, has one of its own, its
+arguments set once, `OpenCLBackend.grid_launcher`).  One backend may therefore be driven
+from several threads at once; commands from all threads share the device's one in-order
+queue.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from __future__ import annotations
 import importlib
 import os
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -377,11 +381,16 @@ class OpenCLBackend(Backend):
         if ny == 0:
             return
         kernel.set_args(*args)
+        self.grid_launcher(kernel, ny)()
+
+    def grid_launcher(self, kernel, ny: int) -> Callable[[], None]:
+        """``go()`` enqueues ``kernel`` (its arguments set) as `launch_grid` does."""
         if self.layout == "row":
             gsize, lsize = (1, ny), (1, 1)
         else:
             gsize, lsize = (self.col_stride, ny), (self.col_stride, 1)
-        self.cl.enqueue_nd_range_kernel(self.queue, kernel, gsize, lsize)
+        enqueue, queue = self.cl.enqueue_nd_range_kernel, self.queue
+        return lambda: enqueue(queue, kernel, gsize, lsize)
 
 
     def grid3(self, bc: GridBC, u: DeviceArray, *others: DeviceArray):

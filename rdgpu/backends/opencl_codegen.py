@@ -275,29 +275,31 @@ class OpenCLFusedPass(FusedPass):
         self.program, self.fields, self.member = program, fields, member
 
     def _kernel(self, target: Target, name: str = "rd_program"):
-        """Kernel ``name`` (``rd_program``, or ``rd_span`` where `flat_rows`)."""
+        """Kernel ``name`` (``rd_program``, or ``rd_span`` where `flat_rows`), this
+        thread's."""
+        return opencl_kernel(self.program, target, self.fields, name,
+                             lambda: self._make(target, name), self.member)
+
+    def _make(self, target: Target, name: str):
+        """A new kernel object ``name`` (its own arguments) of the built program."""
         program, fields, member = self.program, self.fields, self.member
-
-        def make():
-            skey = ("opencl source", target.kind, fields, member, target.dtype.char)
-            src = program.cache.get(skey)
-            if src is None:
-                src = program.cache[skey] = opencl_source(program, target.kind, fields,
-                                                          target.dtype, member)
-            k = target.backend.cl.Kernel(opencl_program(target, src, "model/model.cl"), name)
-            codes = opencl_arg_dtypes(program, fields, target.dtype, member)
-            if target.kind == "mesh":
-                codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
-                         *[None] * len(program.refs("coord"))]
-            else:
-                codes += [None] * len(target.metric)
-                codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
-                if name == "rd_span":
-                    codes += [np.int32, np.int32]
-            k.set_scalar_arg_dtypes(codes)
-            return k
-
-        return opencl_kernel(program, target, fields, name, make, member)
+        skey = ("opencl source", target.kind, fields, member, target.dtype.char)
+        src = program.cache.get(skey)
+        if src is None:
+            src = program.cache[skey] = opencl_source(program, target.kind, fields,
+                                                      target.dtype, member)
+        k = target.backend.cl.Kernel(opencl_program(target, src, "model/model.cl"), name)
+        codes = opencl_arg_dtypes(program, fields, target.dtype, member)
+        if target.kind == "mesh":
+            codes = [None, None, None, *codes, np.int32, np.int32, np.int32,
+                     *[None] * len(program.refs("coord"))]
+        else:
+            codes += [None] * len(target.metric)
+            codes += [np.int32] * 4 + [np.int32, target.dtype] * 3 + [target.dtype] * 6
+            if name == "rd_span":
+                codes += [np.int32, np.int32]
+        k.set_scalar_arg_dtypes(codes)
+        return k
 
     def _spans(self, target: Target, nx: int, ny: int, planes: int) -> tuple[int, int]:
         """`rdgpu.backends.target.spans` of this grid for `rd_span`, or ``(0, 0)`` for
@@ -325,14 +327,41 @@ class OpenCLFusedPass(FusedPass):
         key = ("opencl grid launch", id(self), threading.get_ident())
         plan = target.host.get(key)
         if plan is None:
-            plan = target.host[key] = self._grid_plan(target)
+            name, items, tail = self._grid_plan(target)
+            plan = target.host[key] = (self._kernel(target, name), items, tail)
         kernel, items, tail = plan
         if items:
             be.launch_grid(kernel, items, [*bufs, *(c.handle for c in target.metric), *tail])
 
-    def _grid_plan(self, target: Target) -> tuple[Any, int, list]:
-        """What every launch on this grid target shares: the kernel (`rd_span` or
-        `rd_program`), its work-items (0: no cells) and the arguments after the buffers."""
+    def bind(self, target, inputs, outputs, params, fields, member, scalars):
+        """On a grid, a kernel object of its own with every argument set once; ``run(time)``
+        sets the time (where the program reads it) and enqueues."""
+        if target.kind == "mesh":
+            return super().bind(target, inputs, outputs, params, fields, member, scalars)
+        name, items, tail = self._grid_plan(target)
+        if not items:
+            return lambda time: None
+        program, be = self.program, target.backend
+        kernel = self._make(target, name)
+        args = [*arguments(program, target, inputs, outputs, params, fields, scalars, 0.0,
+                           member=member), *(c.handle for c in target.metric), *tail]
+        kernel.set_args(*args)  # OpenCL keeps no buffer alive: ``run`` keeps ``args``
+        enqueue = be.grid_launcher(kernel, items)
+        if not program.refs("time"):
+            return lambda time, args=args: enqueue()
+        at = [nm for _, nm in signature(program, fields, member)].index("b_t")
+        real = target.dtype.type
+
+        def run(time: float, args=args) -> None:
+            kernel.set_arg(at, real(time))
+            enqueue()
+
+        return run
+
+    def _grid_plan(self, target: Target) -> tuple[str, int, list]:
+        """What every launch on this grid target shares: the kernel's name (``rd_span`` or
+        ``rd_program``), its work-items (0: no cells) and the arguments after the
+        buffers."""
         d = target.domain
         nz, ny, nx = d.shape3
         b = d.bcs
@@ -343,8 +372,8 @@ class OpenCLFusedPass(FusedPass):
                 b.z.value, cx, cy, cz, dx, dy, dz]
         span, count = self._spans(target, nx, ny, nz * nm)
         if span:
-            return self._kernel(target, "rd_span"), nz * nm * count, [*tail, span, count]
-        return self._kernel(target), (ny * nz * nm if nx else 0), tail
+            return "rd_span", nz * nm * count, [*tail, span, count]
+        return "rd_program", (ny * nz * nm if nx else 0), tail
 
 
 class OpenCLBlockedPass(BlockedPass):

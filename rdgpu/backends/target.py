@@ -11,7 +11,7 @@ a backend without kernels of its own may return it, explicitly; nothing falls ba
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -83,6 +83,20 @@ class FusedPass(ABC):
         ``target.field_shape``; ``params`` maps each parameter to a number, a DeviceArray
         (the names in ``fields``) or a `rdgpu.ir.program.PerMember` (``member``);
         ``scalars`` the builtins (``_h``...)."""
+
+    def bind(self, target: Target, inputs: Sequence[DeviceArray],
+             outputs: Sequence[DeviceArray], params: Mapping[str, Any],
+             fields: frozenset[str], member: frozenset[str],
+             scalars: Mapping[str, float]) -> Callable[[float], None]:
+        """`launch` with everything but the time fixed: ``run(time)`` is one pass.  The
+        caller keeps the arrays and ``params`` unchanged while it holds ``run`` and calls
+        it from one thread at a time; a backend may then set the kernel's arguments once
+        (this default launches in full each time)."""
+
+        def run(time: float) -> None:
+            self.launch(target, inputs, outputs, params, fields, member, scalars, time)
+
+        return run
 
 
 class BlockedPass(ABC):

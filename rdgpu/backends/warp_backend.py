@@ -42,6 +42,7 @@ from __future__ import annotations
 import os
 import threading
 import weakref
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from types import ModuleType
 
@@ -230,6 +231,33 @@ class WarpBackend(Backend):
             self.launch(cells, (ny, nx), args, 0)
             return
         self.run_split(rows, ny, ny * nx, args)
+
+    def split_launcher(self, kernel, n_threads: int, work: int, args: list,
+                       at: int | None = None) -> Callable[[Any], None]:
+        """``go(value)``: `run_split`'s launches, each recorded once with its arguments
+        packed (records of its own, holding the arrays: for a caller that keeps them and
+        launches from one thread at a time); ``at``: the argument ``go`` sets to ``value``
+        in every chunk (the time), or None (``value`` unused)."""
+        n = max(1, min(self._chunks, n_threads, work // CHUNK_MIN_CELLS))
+        bounds = [n_threads * c // n for c in range(n + 1)]
+        with WARP_LOCK:  # the first launch of a kernel may load or hash its module
+            recs = [self._wp.launch(kernel, dim=bounds[c + 1] - bounds[c],
+                                    inputs=[*args, bounds[c]], device=self._dev,
+                                    record_cmd=True) for c in range(n)]
+        first, rest, pool = recs[0], recs[1:], self._pool
+
+        def go(value: Any) -> None:
+            if at is not None:
+                for rec in recs:
+                    rec.set_param_at_index(at, value)
+            futures = [pool.submit(rec.launch) for rec in rest]
+            try:
+                first.launch()
+            finally:
+                for f in futures:
+                    f.result()
+
+        return go
 
     def run_split(self, kernel, n_threads: int, work: int, args: list) -> None:
         """Launch ``kernel`` over ``n_threads`` Warp threads (its last argument is the

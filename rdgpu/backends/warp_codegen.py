@@ -274,27 +274,62 @@ class WarpFusedPass(FusedPass):
                 be.run_split(mod.blocks, -(-rows // ROW_BLOCK), (A.nnz + n) * nm,
                               [*args, rows, ROW_BLOCK])
             return
+        args = self._grid_args(target, bufs)
+        if args is None:
+            return
+        if be.per_cell:
+            be.launch(mod.cells, (self._rows(target), target.domain.shape3[2]), args, 0)
+            return
+        be.run_split(*self._split(target, args))
+
+    def bind(self, target, inputs, outputs, params, fields, member, scalars):
+        """On a CPU grid, every chunk's launch recorded once with its arguments packed;
+        ``run(time)`` sets the time (where the program reads it) and launches."""
+        be = target.backend
+        if target.kind == "mesh" or be.per_cell:
+            return super().bind(target, inputs, outputs, params, fields, member, scalars)
+        program = self.program
+        bufs = arguments(program, target, inputs, outputs, params, fields, scalars, 0.0,
+                         _warp_rows, member)
+        args = self._grid_args(target, bufs)
+        if args is None:
+            return lambda time: None
+        timed = bool(program.refs("time"))
+        at = [nm for _, nm in signature(program, fields, member)].index("b_t") if timed else None
+        go = be.split_launcher(*self._split(target, args), at=at)
+        real = target.dtype.type
+        return lambda time: go(real(time))
+
+    @staticmethod
+    def _rows(target: Target) -> int:
+        nz, ny, _ = target.domain.shape3
+        return ny * nz * target.members
+
+    def _grid_args(self, target: Target, bufs: list) -> list | None:
+        """The grid kernels' arguments after the buffers ``bufs``, or None: no cells."""
         d = target.domain
         nz, ny, nx = d.shape3
+        nm = target.members
         check_cells(nm * nz * ny * nx, (nm, nz, ny, nx))
         if nx == 0:
-            return
+            return None
         t = target.dtype.type
         b = d.bcs
         dx, dy, dz = target.spacing()
         cx, cy, cz = target.grid_coefficients()
-        args = [*bufs, *(_warp_rows(c) for c in target.metric), nx, ny, nz, nm, b.x.kind,
+        return [*bufs, *(_warp_rows(c) for c in target.metric), nx, ny, nz, nm, b.x.kind,
                 t(b.x.value), b.y.kind, t(b.y.value), b.z.kind, t(b.z.value), t(cx), t(cy),
                 t(cz), t(dx), t(dy), t(dz)]
-        rows = ny * nz * nm
-        if be.per_cell:
-            be.launch(mod.cells, (rows, nx), args, 0)
-            return
-        span, count = self._spans(be, nx, ny, nz * nm)
+
+    def _split(self, target: Target, args: list) -> tuple[Any, int, int, list]:
+        """`WarpBackend.run_split`'s arguments on the CPU: the ``spans`` kernel where the
+        grid is cut in spans, else ``rows``."""
+        nz, ny, nx = target.domain.shape3
+        rows, planes = self._rows(target), nz * target.members
+        span, count = self._spans(target.backend, nx, ny, planes)
         if span:
-            be.run_split(mod.spans, nz * nm * count, rows * nx, [*args, span, count])
-        else:
-            be.run_split(mod.rows, rows, rows * nx, args)
+            return self.module.spans, planes * count, rows * nx, [*args, span, count]
+        return self.module.rows, rows, rows * nx, args
 
     def _spans(self, be, nx: int, ny: int, planes: int) -> tuple[int, int]:
         """`rdgpu.backends.target.spans` of this grid for the ``spans`` kernel (four per

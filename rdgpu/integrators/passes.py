@@ -22,14 +22,14 @@ for bit where only ``+ − × ÷`` are used, and to a few ulps where a function 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from rdgpu.backends.base import DeviceArray
 from rdgpu.backends.target import Target
 from rdgpu.ir.program import PerMember, Program
 
-__all__ = ["launch"]
+__all__ = ["bind", "launch"]
 
 
 def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
@@ -40,10 +40,28 @@ def launch(program: Program, target: Target, inputs: Sequence[DeviceArray],
     DeviceArray of ``target.field_shape`` (a field) or a `PerMember`; ``scalars``
     the builtins (``_h``...).  The target's backend compiles the pass
     (``Backend.fused_pass``; a backend that cannot says so)."""
+    compiled, fields, member = _compiled(program, target, inputs, outputs, params)
+    compiled.launch(target, inputs, outputs, params, fields, member, scalars, time)
+
+
+def bind(program: Program, target: Target, inputs: Sequence[DeviceArray],
+         outputs: Sequence[DeviceArray], params: Mapping[str, Any],
+         scalars: Mapping[str, float]) -> Callable[[float], None]:
+    """`launch` with everything but the time fixed: ``run(time)`` is one pass, bit for
+    bit `launch`'s (``FusedPass.bind``: a backend may set its kernel's arguments once,
+    which makes short passes cheaper).  Keep the arrays and ``params`` unchanged while
+    holding ``run``, and call it from one thread at a time."""
+    compiled, fields, member = _compiled(program, target, inputs, outputs, params)
+    return compiled.bind(target, list(inputs), list(outputs), dict(params), fields, member,
+                         dict(scalars))
+
+
+def _compiled(program: Program, target: Target, inputs: Sequence[DeviceArray],
+              outputs: Sequence[DeviceArray], params: Mapping[str, Any]):
+    """The backend's compiled pass, the parameters given as fields and per member."""
     if len(inputs) != len(program.inputs) or len(outputs) != len(program.outputs):
         raise ValueError("inputs/outputs do not match the program")
     refs = program.refs("param")
     fields = frozenset(p for p in refs if isinstance(params[p], DeviceArray))
     member = frozenset(p for p in refs if isinstance(params[p], PerMember))
-    compiled = target.backend.fused_pass(program, target, fields, member)
-    compiled.launch(target, inputs, outputs, params, fields, member, scalars, time)
+    return target.backend.fused_pass(program, target, fields, member), fields, member

@@ -1,6 +1,6 @@
 """The stepper of the model layer: the equations of a `rdgpu.models.Model`
 lowered to fused programs (`rdgpu.ir.program`, run by
-`rdgpu.integrators.passes.launch`) and stepped on the device by a
+`rdgpu.integrators.passes.bind`, once per program and arrays) and stepped on the device by a
 scheme of `rdgpu.ir.schemes.SCHEMES` (the registry says what each method is).
 
 Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand side and
@@ -90,7 +90,7 @@ from rdgpu.core.validation import real_number
 from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
 from rdgpu.integrators.exponential import Etdrk4, split_damping
-from rdgpu.integrators.passes import launch
+from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import Output, PerMember, Program, expression_tree
@@ -108,6 +108,10 @@ __all__ = ["FieldStepper", "ModelStepper"]
 
 #: the key of species ``s``'s previous level in ``get_state(history=True)``/``set_state``
 HISTORY = "_prev_{}"
+
+#: the most bound passes a stepper keeps (a few per scheme; more means new arrays each
+#: step, and the cache starts again rather than grow)
+BOUND_PASSES = 64
 
 
 # ---------------------------------------------------------------------------- stepper
@@ -211,6 +215,8 @@ class ModelStepper(FieldStepper):
         # parameters on the device: numbers stay numbers, fields are uploaded, expressions
         # of t are inlined into the programs
         self._device_params: dict[str, Any] = {}
+        #: `_eval`'s bound passes by program and arrays (`rdgpu.integrators.passes.bind`)
+        self._bound: dict[tuple, Any] = {}
         inline: dict[str, eq.Node] = {}
         for p, v in self.params.items():
             if isinstance(v, str):
@@ -344,7 +350,7 @@ class ModelStepper(FieldStepper):
         self._pre, self._aux = None, []  # no Euler pass (its pre-pass is the explicit one's)
 
         def rates(ins: list[DeviceArray], outs: list[DeviceArray], t: float) -> None:
-            self._eval(program, ins, outs, t, prepass=(pre, aux))
+            self._eval(program, ins, outs, t, prepass=(pre, aux), own=False)
 
         self._etd = Etdrk4(self.domain, self.shape, self.members, self.dt, self.dtype,
                            self.backend, linear,
@@ -507,16 +513,49 @@ class ModelStepper(FieldStepper):
     def _eval(self, program: Program, ins: list[DeviceArray], outs: list[DeviceArray],
               time: float, extra: list[DeviceArray] = (), a: float = 0.0,
               b: float = 1.0, prepass: tuple[Program | None, list] | None = None,
-              tp: float = 0.0) -> None:
+              tp: float = 0.0, own: bool = True) -> None:
         """One pass of ``program`` (inputs: ``ins``, the pre-pass results, ``extra``),
-        after its bilaplacian pre-pass (``prepass``: default the explicit program's)."""
+        after its bilaplacian pre-pass (``prepass``: default the explicit program's).
+        ``own``: the arrays are the stepper's own, kept for its life (the pass is bound
+        once, `_bound`); else a pass launched in full."""
         pre, aux = (self._pre, self._aux) if prepass is None else prepass
-        if pre is not None:
-            src = dict(zip(program.inputs, [*ins, *aux, *extra], strict=True))
-            launch(pre, self.target, [src[s] for s in pre.inputs], aux, self._device_params,
-                   {}, time)
-        launch(program, self.target, [*ins, *aux, *extra], outs, self._device_params,
-               {"_h": self.dt, "_a": a, "_b": b, "_tp": tp}, time)
+        if not own:
+            self._bind(program, ins, outs, extra, a, b, pre, aux, tp, once=True)(time)
+            return
+        key = (program, pre, self.dt, a, b, tp, *map(id, ins), *map(id, aux),
+               *map(id, extra), *map(id, outs))
+        found = self._bound.get(key)
+        if found is None:
+            if len(self._bound) >= BOUND_PASSES:
+                self._bound.clear()
+            # the arrays stay referenced with their pass: an id in a key is never reused
+            found = self._bound[key] = (self._bind(program, ins, outs, extra, a, b, pre,
+                                                   aux, tp), (*ins, *outs, *extra, *aux))
+        found[0](time)
+
+    def _bind(self, program: Program, ins, outs, extra, a: float, b: float,
+              pre: Program | None, aux: list[DeviceArray], tp: float, once: bool = False):
+        """``run(time)``: `_eval`'s passes with these arrays and numbers bound once
+        (`rdgpu.integrators.passes.bind`; ``once``: launched in full instead, for arrays
+        used once)."""
+        target, params = self.target, self._device_params
+
+        def now(*args):
+            return lambda time: launch(*args, time)
+
+        how = now if once else bind
+        main = how(program, target, [*ins, *aux, *extra], outs, params,
+                   {"_h": self.dt, "_a": a, "_b": b, "_tp": tp})
+        if pre is None:
+            return main
+        src = dict(zip(program.inputs, [*ins, *aux, *extra], strict=True))
+        first = how(pre, target, [src[s] for s in pre.inputs], aux, params, {})
+
+        def run(time: float) -> None:
+            first(time)
+            main(time)
+
+        return run
 
     def _step(self) -> None:
         t0, h = self.time, self.dt
