@@ -53,6 +53,9 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
      "k = 0.060, 300², dt = dx = 1)", []),
     ("gs-seed001-spots", "Gray-Scott spots: Camphuijsen & Kasim's second parameter set (F = 0.030, "
      "k = 0.055)", []),
+    ("gs-differential-flow", "Gray-Scott with the activator v carried by a uniform flow to "
+     "the right (upwind advect, 0.04 cells a step): the labyrinth lines up across the flow",
+     []),
     ("gs-pearson-alpha", "Pearson α (F = 0.010, k = 0.047): spatio-temporal chaos", []),
     ("gs-pearson-delta", "Pearson δ (F = 0.030, k = 0.055): hexagonal lattice of spots", []),
     ("gs-pearson-theta", "Pearson θ (F = 0.030, k = 0.057): stripes and loops", []),

@@ -30,6 +30,7 @@ from rdgpu.ir.program import Program, literal, signature
 from rdgpu.ir.stencils import (
     METRIC_ARGS,
     STENCIL_KINDS,
+    derivative_text,
     emit,
     laplacian_text,
     metric_loads,
@@ -154,6 +155,8 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
         for s in stencil:
             body.append(f"const real {ident('lap', s)} = "
                         f"{laplacian_text(kind, s, lambda v: f'((real){v})')};")
+        body += [f"const real {var(d)} = {derivative_text(kind, d, lambda v: f'((real){v})')};"
+                 for d in program.derivatives]
     for i, o in enumerate(program.outputs):
         body.append(f"real o{i}_ = {emit(o.expr, var, lit, fn)};")
         lo, hi = o.bounds

@@ -34,6 +34,7 @@ from rdgpu.ir.program import Program, literal, signature
 from rdgpu.ir.stencils import (
     METRIC_ARGS,
     STENCIL_KINDS,
+    derivative_text,
     emit,
     laplacian_text,
     metric_loads,
@@ -167,6 +168,8 @@ def _cell_body(program: Program, kind: str, fields: frozenset[str], member_loads
         for s in stencil:
             lap = laplacian_text(kind, s, lambda v: f"real({v}.0)", "flush")
             body.append(f"{ident('lap', s)} = {lap}")
+        body += [f"{var(d)} = {derivative_text(kind, d, lambda v: f'real({v}.0)')}"
+                 for d in program.derivatives]
     for i, o in enumerate(program.outputs):
         body.append(f"o{i}_ = {emit(o.expr, var, lit, fn)}")
         lo, hi = o.bounds

@@ -210,7 +210,8 @@ def _species_factor(term: eq.Node, s: str) -> eq.Node | None:
 
 
 def _constant(node: eq.Node) -> bool:
-    return all(not isinstance(n, eq.Lap) and not (isinstance(n, eq.Ref) and n.kind != "param")
+    return all(not isinstance(n, (eq.Lap, eq.Diff))
+               and not (isinstance(n, eq.Ref) and n.kind != "param")
                for n in eq.walk(node))
 
 

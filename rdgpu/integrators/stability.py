@@ -10,18 +10,29 @@ regions of Heun, SSP-RK3 and classic RK4 contain Euler's disk).  IMEX schemes: t
 radius of the scheme's amplification matrix (`_amplification`), found by bisection;
 SBDF2's is the companion matrix of its two-level recursion.  Exponential schemes
 (``etdrk4``) integrate the linear part exactly: no limit (``inf``).
+
+First derivatives (advection) add the advective CFL (`advective_rate`, `with_advection`):
+a term ``c·∂s/∂x`` with a constant ``c`` (an ``advect()`` velocity, a coefficient of
+``d_dx``...) moves information ``|c|/h`` cells per unit time; explicit schemes take ``1/dt
+≥ 1/dt_diffusion + Σ|c|/h`` (for upwind differences with forward Euler exactly the bound
+that keeps the update a convex combination), IMEX and exponential schemes, whose
+derivatives are explicit, ``dt ≤ h/Σ|c|``.  A coefficient that depends on the fields
+(Burgers' ``u·d_dx(u)``) sets no limit here.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
+from rdgpu.ir import equations as eq
 from rdgpu.ir.schemes import ExponentialScheme, ImexScheme, get_scheme
 
-__all__ = ["implicit_factors", "stability_limit"]
+__all__ = ["advective_rate", "implicit_factors", "stability_limit", "with_advection"]
 
 
 def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
@@ -142,3 +153,56 @@ def _imex_amplification(D, B, m, h, theta, m_max):
         a1, a2 = implicit_factors(D[i, i], B[i, i], h, theta, m_max)
         p[i] = (1.0 + a1 * m) * (1.0 + a2 * m)
     return np.eye(n) + h * (-m * D + m * m * B) / p[:, None]
+
+
+def advective_rate(trees: Mapping[str, eq.Node], env: Mapping[str, Any],
+                   spacings: tuple[float, ...]) -> float:
+    """The largest over the equations of ``Σ |c|/h``: each first derivative's constant
+    coefficient ``c`` (products and quotients of numbers and the parameters ``env``, the
+    ``max(v, 0)``/``min(v, 0)`` of an ``advect()`` velocity) over its axis's spacing
+    (``spacings``, x first; derivatives along absent axes and field-dependent
+    coefficients count nothing)."""
+    worst = 0.0
+    for tree in trees.values():
+        total = 0.0
+        stack: list[tuple[eq.Node, float]] = [(tree, 1.0)]
+        while stack:
+            node, factor = stack.pop()
+            if isinstance(node, eq.Diff):
+                k = "xyz".index(node.axis)
+                if k < len(spacings):
+                    total += factor / spacings[k]
+            elif isinstance(node, eq.Neg):
+                stack.append((node.a, factor))
+            elif isinstance(node, eq.Bin) and node.op in "+-":
+                stack += [(node.a, factor), (node.b, factor)]
+            elif isinstance(node, eq.Bin):
+                for const, other in ((node.a, node.b), (node.b, node.a)):
+                    if node.op == "/" and const is node.a:
+                        continue  # c / d_dx(u) is no advection
+                    if _constant(const):
+                        with np.errstate(all="ignore"):
+                            c = abs(float(eq.evaluate(const, env)))
+                            scaled = (np.float64(factor) / c if node.op == "/"
+                                      else np.float64(factor) * c)
+                        stack.append((other, float(scaled)))  # c = 0 in a quotient: inf
+                        break
+        worst = max(worst, total)
+    return worst if math.isfinite(worst) else math.inf
+
+
+def with_advection(limit: float, rate: float, method: str) -> float:
+    """``limit`` (the diffusive one of `stability_limit`) with the advective CFL of
+    `advective_rate`'s ``rate`` (module doc)."""
+    if not rate > 0 or not limit > 0:
+        return limit
+    scheme = get_scheme(method)
+    if scheme.implicit or isinstance(scheme, ExponentialScheme):
+        return min(limit, 1.0 / rate)
+    return 1.0 / (1.0 / limit + rate)
+
+
+def _constant(node: eq.Node) -> bool:
+    """Made of numbers and parameters only (with ``min``/``max``...)."""
+    return all(not isinstance(n, (eq.Lap, eq.Diff))
+               and not (isinstance(n, eq.Ref) and n.kind != "param") for n in eq.walk(node))

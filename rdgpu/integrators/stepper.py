@@ -102,6 +102,7 @@ from rdgpu.ir.schemes import (
     ImexScheme,
     get_scheme,
 )
+from rdgpu.ir.stencils import check_derivatives
 from rdgpu.ops.implicit import ImplicitDiffusion
 
 __all__ = ["FieldStepper", "ModelStepper"]
@@ -232,6 +233,7 @@ class ModelStepper(FieldStepper):
         trees = {s: eq.substitute(model.trees[s], lambda n: inline.get(n.name)
                                   if isinstance(n, eq.Ref) and n.kind == "param" else None)
                  for s in self.species}
+        check_derivatives(trees, self.target.kind)
         self.D = self._diffusion_numbers()
         #: the exponential step (`rdgpu.integrators.exponential`), or None
         self._etd: Etdrk4 | None = None
@@ -456,8 +458,8 @@ class ModelStepper(FieldStepper):
         def back(n: eq.Node) -> eq.Node | None:  # N at the previous level
             if isinstance(n, eq.Ref) and n.kind == "species":
                 return eq.Ref("species", prev[n.name])
-            if isinstance(n, eq.Lap):
-                return eq.Lap(prev[n.name], n.order)
+            if isinstance(n, (eq.Lap, eq.Diff)):
+                return eq.rename_fields(n, prev)
             if isinstance(n, eq.Ref) and n.kind == "time":
                 return eq.Ref("builtin", "_tp")
             return None

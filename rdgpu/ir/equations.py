@@ -19,13 +19,19 @@ token and listing what is allowed):
 * the functions `FUNCTIONS` (``min``/``max`` of two arguments, NaN-propagating like
   ``numpy.minimum``);
 * ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion) and the
-  bilaplacian ``laplace(laplace(s))``.
+  bilaplacian ``laplace(laplace(s))``;
+* first derivatives of a species on grids (`DERIVATIVES`): ``d_dx(s)``, ``d_dy(s)``,
+  ``d_dz(s)`` (central), ``d_dx_forward(s)``/``d_dx_backward(s)`` (one-sided, likewise
+  for y and z), ``gradient_squared(s)`` and ``dot(gradient(a), gradient(b))`` (central,
+  summed over the grid's axes), and ``advect(s, vx[, vy[, vz]])``, the upwinded
+  ``vx ∂s/∂x + vy ∂s/∂y + vz ∂s/∂z`` (each velocity any expression; a component along an
+  axis the grid lacks meets a field constant along it: 0).
 
 Nothing else: a character outside the language (``#``, a newline...) is refused, naming
 it, as is an expression nested more than `MAX_DEPTH` levels deep or of more than
 `MAX_NODES` nodes, and a number too large for a float.
 
-The tree (`Num`, `Ref`, `Lap`, `Bin`, `Neg`,
+The tree (`Num`, `Ref`, `Lap`, `Diff`, `Bin`, `Neg`,
 `Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
 emits it fully parenthesised, so the three implementations evaluate the same operations in
 the same order (`rdgpu.integrators.passes`).
@@ -49,7 +55,9 @@ __all__ = [
     "COORDINATES",
     "FUNCTIONS",
     "Bin",
+    "DERIVATIVES",
     "Call",
+    "Diff",
     "EquationError",
     "Lap",
     "Linear",
@@ -67,6 +75,10 @@ __all__ = [
 #: functions of the language and their number of arguments
 FUNCTIONS = {"exp": 1, "log": 1, "sqrt": 1, "sin": 1, "cos": 1, "tan": 1, "tanh": 1,
              "abs": 1, "min": 2, "max": 2}
+#: the first-derivative operators of a species (module doc): name -> (axis, side), side 0
+#: central, +1 forward, -1 backward
+DERIVATIVES = {f"d_d{a}{suffix}": (a, side) for a in "xyz"
+               for suffix, side in (("", 0), ("_forward", 1), ("_backward", -1))}
 #: names every expression may use besides species and parameters
 COORDINATES = ("x", "y", "z")
 TIME = "t"
@@ -120,6 +132,26 @@ class Lap(Node):
 
 
 @dataclass(frozen=True)
+class Diff(Node):
+    """The first derivative of field ``name`` along ``axis`` (``"x"``, ``"y"``, ``"z"``):
+    ``side`` 0 central ``(s₊ − s₋)/(2h)``, +1 forward ``(s₊ − s)/h``, −1 backward ``(s −
+    s₋)/h``, the neighbours ``s±`` with the grid's ghosts.  ``optional``: part of an
+    operator summed over the grid's axes (``gradient_squared``...), 0 along an axis the
+    grid lacks; else that is an error."""
+
+    name: str
+    axis: str
+    side: int = 0
+    optional: bool = False
+
+    @property
+    def spelling(self) -> str:
+        """How the equation wrote it (``d_dx(u)``, ``d_dy_forward(u)``...)."""
+        suffix = {0: "", 1: "_forward", -1: "_backward"}[self.side]
+        return f"d_d{self.axis}{suffix}({self.name})"
+
+
+@dataclass(frozen=True)
 class Bin(Node):
     op: str  # + - * /
     a: Node
@@ -160,6 +192,39 @@ def laplacians(node: Node) -> set[tuple[str, int]]:
     return {(n.name, n.order) for n in walk(node) if isinstance(n, Lap)}
 
 
+def derivatives(node: Node) -> set[Diff]:
+    """Every first derivative (`Diff`) in ``node``."""
+    return {n for n in walk(node) if isinstance(n, Diff)}
+
+
+def rename_fields(node: Node, names: Mapping[str, str]) -> Node:
+    """``node`` with the fields that Laplacians and derivatives read renamed (``names``:
+    old -> new; the species themselves are left to the caller)."""
+    def fn(n: Node) -> Node | None:
+        if isinstance(n, Lap) and n.name in names:
+            return Lap(names[n.name], n.order)
+        if isinstance(n, Diff) and n.name in names:
+            return Diff(names[n.name], n.axis, n.side, n.optional)
+        return None
+    return substitute(node, fn)
+
+
+def map_axes(node: Node, axes: Mapping[str, str]) -> Node:
+    """``node`` with each derivative's axis renamed by ``axes`` (another program's axis
+    names -> rdgpu's) and made explicit; an `optional <Diff>` derivative along an axis
+    ``axes`` lacks becomes 0, any other is an EquationError naming it."""
+    def fn(n: Node) -> Node | None:
+        if not isinstance(n, Diff):
+            return None
+        if n.axis in axes:
+            return Diff(n.name, axes[n.axis], n.side)
+        if n.optional:
+            return Num(0.0)
+        raise EquationError(f"{n.spelling} differentiates along {n.axis}, an axis the grid "
+                            f"lacks (its axes: {', '.join(axes)})")
+    return substitute(node, fn)
+
+
 def substitute(node: Node, fn: Callable[[Node], Node | None]) -> Node:
     """A copy of the tree with every node for which ``fn`` returns a node replaced."""
     new = fn(node)
@@ -182,6 +247,8 @@ def to_text(node: Node) -> str:
         return node.name
     if isinstance(node, Lap):
         return "laplace(" * node.order + node.name + ")" * node.order
+    if isinstance(node, Diff):
+        return node.spelling
     if isinstance(node, Bin):
         return f"({to_text(node.a)} {node.op} {to_text(node.b)})"
     if isinstance(node, Neg):
@@ -194,7 +261,9 @@ def _allowed_text(species: Iterable[str], params: Iterable[str]) -> str:
     return (
         f"species ({', '.join(species) or 'none'}), parameters "
         f"({', '.join(sorted(params)) or 'none'}), x y z t, Lx Ly Lz, pi, numbers, "
-        f"+ - * / **, laplace(species), laplace(laplace(species)) and the functions "
+        f"+ - * / **, laplace(species), laplace(laplace(species)), the derivatives "
+        f"d_dx d_dy d_dz (and their _forward/_backward forms), gradient_squared, "
+        f"dot(gradient(a), gradient(b)), advect(species, vx[, vy[, vz]]) and the functions "
         f"{' '.join(FUNCTIONS)}"
     )
 
@@ -270,6 +339,8 @@ def parse(
             fn = node.func.id
             if fn == "laplace":
                 return _laplace(node, species, laplace, fail)
+            if fn in DERIVATIVES or fn in _VECTOR_CALCULUS:
+                return _derivative(node, species, laplace, fail, go)
             if fn not in FUNCTIONS:
                 raise fail(f"the unknown function {fn!r}")
             if len(node.args) != FUNCTIONS[fn]:
@@ -378,6 +449,59 @@ def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> N
                f"laplace(species))")
 
 
+_VECTOR_CALCULUS = ("gradient_squared", "dot", "advect")
+
+
+def _derivative(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, go) -> Node:
+    """A first-derivative operator (module doc), as `Diff` nodes."""
+    fn, args = node.func.id, node.args
+    if not allowed:
+        raise fail(f"{fn}() (a parameter expression has no derivatives)")
+
+    def field(arg: ast.AST, where: str) -> str:
+        if isinstance(arg, ast.Name) and arg.id in species:
+            return arg.id
+        raise fail(f"{where} of {ast.unparse(arg)!r} (it takes a species)")
+
+    def grad(arg: ast.AST) -> str:
+        if (isinstance(arg, ast.Call) and isinstance(arg.func, ast.Name)
+                and arg.func.id == "gradient" and len(arg.args) == 1 and not arg.keywords):
+            return field(arg.args[0], "gradient()")
+        raise fail(f"dot() of {ast.unparse(arg)!r} (dot takes gradient(a), gradient(b))")
+
+    def total(terms: list[Node]) -> Node:
+        out = terms[0]
+        for t in terms[1:]:
+            out = Bin("+", out, t)
+        return out
+
+    if fn in DERIVATIVES:
+        if len(args) != 1:
+            raise fail(f"{fn}() with {len(args)} arguments (it takes one species)")
+        axis, side = DERIVATIVES[fn]
+        return Diff(field(args[0], f"{fn}()"), axis, side)
+    if fn == "gradient_squared":
+        if len(args) != 1:
+            raise fail(f"gradient_squared() with {len(args)} arguments (it takes a species)")
+        s = field(args[0], "gradient_squared()")
+        return total([Bin("*", Diff(s, a, 0, True), Diff(s, a, 0, True)) for a in "xyz"])
+    if fn == "dot":
+        if len(args) != 2:
+            raise fail(f"dot() with {len(args)} arguments (it takes gradient(a), gradient(b))")
+        a, b = grad(args[0]), grad(args[1])
+        return total([Bin("*", Diff(a, ax, 0, True), Diff(b, ax, 0, True)) for ax in "xyz"])
+    if not 2 <= len(args) <= 4:
+        raise fail(f"advect() with {len(args)} arguments (it takes a species and one to "
+                   "three velocities: advect(s, vx[, vy[, vz]]))")
+    s = field(args[0], "advect()")
+    terms = []
+    for axis, arg in zip("xyz", args[1:], strict=False):
+        v = go(arg)
+        terms.append(Bin("+", Bin("*", Call("max", (v, Num(0.0))), Diff(s, axis, -1, True)),
+                         Bin("*", Call("min", (v, Num(0.0))), Diff(s, axis, 1, True))))
+    return total(terms)
+
+
 def _power(base: Node, exponent: Node) -> Node:
     """``base ** exponent``: repeated multiplication for small integer exponents (while
     the expansion has at most `MAX_EXPANDED_NODES` nodes: ``((u**16)**16)**16``
@@ -400,11 +524,12 @@ def _power(base: Node, exponent: Node) -> Node:
 # ---------------------------------------------------------------------------- evaluation
 def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
              literal: Callable[[float], Any] | None = None,
-             lap: Callable[[str, int], Any] | None = None) -> Any:
+             lap: Callable[[str, int], Any] | None = None,
+             diff: Callable[[Diff], Any] | None = None) -> Any:
     """Evaluate with NumPy (``lib``, default `numpy`): ``env`` maps every name to a
     value, ``literal`` turns a number into a value of the working dtype, ``lap(name,
-    order)`` returns a Laplacian.  The same operations in the same order as every
-    generated kernel."""
+    order)`` returns a Laplacian and ``diff(node)`` a first derivative (`Diff`).  The same
+    operations in the same order as every generated kernel."""
     import numpy as np
 
     lib = np if lib is None else lib
@@ -420,6 +545,10 @@ def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
             if lap is None:
                 raise EquationError(f"laplace({n.name}) needs a domain to evaluate")
             return lap(n.name, n.order)
+        if isinstance(n, Diff):
+            if diff is None:
+                raise EquationError(f"{n.spelling} needs a domain to evaluate")
+            return diff(n)
         if isinstance(n, Bin):
             a, b = go(n.a), go(n.b)
             if n.op == "+":
@@ -498,7 +627,7 @@ def _coefficient(term: Node) -> tuple[tuple[str, int], Node] | None:
 
 
 def _constant(node: Node) -> bool:
-    return all(not isinstance(n, (Lap,)) and not (isinstance(n, Ref) and n.kind != "param")
+    return all(not isinstance(n, (Lap, Diff)) and not (isinstance(n, Ref) and n.kind != "param")
                for n in walk(node))
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.domains.base import STENCILS  # the grid stencils, owned by the domains
-from rdgpu.ir.equations import Lap, Node, Num, Ref, parse, substitute, walk
+from rdgpu.ir.equations import Diff, Lap, Node, Num, Ref, parse, substitute, walk
 from rdgpu.ir.names import ident
 
 __all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "Program",
@@ -80,10 +80,21 @@ class Program:
 
     @property
     def stencil_inputs(self) -> tuple[str, ...]:
-        """Inputs and derived fields whose Laplacian is taken, in that order."""
-        used = {n.name for o in self.outputs for n in walk(o.expr) if isinstance(n, Lap)}
+        """Inputs and derived fields whose Laplacian or derivative is taken, in that
+        order (their neighbours are read)."""
+        used = {n.name for o in self.outputs for n in walk(o.expr)
+                if isinstance(n, (Lap, Diff))}
         names = (*self.inputs, *(d for d, _ in self.derived))
         return tuple(s for s in names if s in used)
+
+    @property
+    def derivatives(self) -> tuple[Diff, ...]:
+        """The first derivatives the outputs take, one per (field, axis, side) whether
+        `optional <rdgpu.ir.equations.Diff>` or not (the same value, one kernel variable),
+        sorted."""
+        found = {(n.name, n.axis, n.side): n for o in self.outputs for n in walk(o.expr)
+                 if isinstance(n, Diff)}
+        return tuple(found[k] for k in sorted(found))
 
     def derived_expr(self, name: str) -> Node | None:
         return dict(self.derived).get(name)
@@ -95,6 +106,8 @@ class Program:
                 if isinstance(n, Lap) and (n.order != 1 or n.name not in known):
                     raise ValueError(f"program reads laplace^{n.order}({n.name}): only "
                                      "first-order Laplacians of inputs")
+                if isinstance(n, Diff) and n.name not in known:
+                    raise ValueError(f"program reads {n.spelling}: not an input")
                 if isinstance(n, Ref) and n.kind == "species" and n.name not in self.inputs:
                     raise ValueError(f"program reads {n.name!r}, which is not an input")
 

@@ -5,7 +5,9 @@ bit for bit where only ``+ − × ÷`` are used, and to a few ulps where a funct
 The Laplacians are those of `rdgpu.ir.stencils`: on grids the kernels' 3/5/7-point or
 isotropic stencils, ghosts by `rdgpu.domains.boundary` (a Dirichlet ghost of a
 ``zero_ghost`` input is 0), on graph surfaces the metric operator of
-``families/metric/reference.py``, on meshes the CSR rows of ``L`` in index order.
+``families/metric/reference.py``, on meshes the CSR rows of ``L`` in index order.  The
+first derivatives (grids only) are `rdgpu.ir.stencils.derivative_text`'s differences of
+the same ghosts.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.families import load_module
-from rdgpu.ir.equations import evaluate
+from rdgpu.ir.equations import Diff, evaluate
 from rdgpu.ir.layout import Layout
 from rdgpu.ir.program import METRIC_COEFFICIENTS, PerMember, Program, literal
 from rdgpu.ir.stencils import STENCIL_KINDS
@@ -51,6 +53,33 @@ def _grid_laplacian(a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
         hi = np.take(p, range(2, p.shape[axis]), axis=axis)
         term = ((hi + lo) - t(2) * u) * t(1.0 / (h * h))
         out = term if out is None else out + term
+    return out.reshape(a.shape)
+
+
+def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, zero: bool):
+    """The kernels' first derivative ``d`` of a grid field (`rdgpu.ir.stencils.
+    derivative_text`: ghosts by the bc, Dirichlet 0 if ``zero``); 0 along an absent
+    axis."""
+    dom = layout.domain
+    t = a.dtype.type
+    k = "xyz".index(d.axis)
+    if k >= dom.ndim:
+        return t(0)
+    gc = load_module("", "grid_common.py")
+    nz, ny, nx = dom.shape3
+    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
+    axis = 3 - k
+    bc = (dom.bcs.x, dom.bcs.y, dom.bcs.z)[k]
+    h = t((dom.dx, dom.dy, dom.dz)[k])
+    p = gc.pad_axis(u, axis, bc.kind, 0.0 if zero else bc.value)
+    lo = np.take(p, range(0, p.shape[axis] - 2), axis=axis)
+    hi = np.take(p, range(2, p.shape[axis]), axis=axis)
+    if d.side == 0:
+        out = (hi - lo) / (t(2) * h)
+    elif d.side > 0:
+        out = (hi - u) / h
+    else:
+        out = (u - lo) / h
     return out.reshape(a.shape)
 
 
@@ -134,10 +163,19 @@ def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray]
                     for m in a.reshape(-1, n)]).reshape(a.shape)
         return laps[name]
 
+    diffs: dict[Diff, Any] = {}
+
+    def diff(d: Diff):
+        if d not in diffs:
+            with np.errstate(all="ignore"):
+                diffs[d] = _grid_derivative(env[d.name], layout, d, d.name in program.zero_ghost)
+        return diffs[d]
+
     out = {}
     for o in program.outputs:
         with np.errstate(all="ignore"):
-            val = evaluate(o.expr, env, literal=lambda v: literal(v, dtype), lap=lap)
+            val = evaluate(o.expr, env, literal=lambda v: literal(v, dtype), lap=lap,
+                           diff=diff)
         val = np.broadcast_to(np.asarray(val, dtype=dtype), shape)
         lo, hi = o.bounds
         if lo is not None:

@@ -26,16 +26,16 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rdgpu.ir.equations import Bin, Lap, Neg, Node, Num, Ref
+from rdgpu.ir.equations import Bin, Diff, EquationError, Lap, Neg, Node, Num, Ref, walk
 from rdgpu.ir.names import ident
 from rdgpu.ir.program import METRIC_COEFFICIENTS, Program
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
-__all__ = ["STENCIL_KINDS", "Neighbour", "StencilKind", "check_stencil", "emit",
-           "laplacian_text", "metric_loads", "neighbour_value", "neighbour_values",
-           "stencil_kind", "variable"]
+__all__ = ["STENCIL_KINDS", "Neighbour", "StencilKind", "check_derivatives", "check_stencil",
+           "derivative_text", "emit", "laplacian_text", "metric_loads", "neighbour_value",
+           "neighbour_values", "stencil_kind", "variable"]
 
 
 @dataclass(frozen=True)
@@ -112,7 +112,7 @@ def emit(node: Node, name: Callable[[Node], str], lit: Callable[[float], str],
     """Fully parenthesised source: ``name(ref)``, ``lit(value)``, ``fn(call, args)``."""
     if isinstance(node, Num):
         return lit(node.value)
-    if isinstance(node, (Ref, Lap)):
+    if isinstance(node, (Ref, Lap, Diff)):
         return name(node)
     if isinstance(node, Bin):
         return f"({emit(node.a, name, lit, fn)} {node.op} {emit(node.b, name, lit, fn)})"
@@ -126,6 +126,8 @@ def variable(node: Node, fields: frozenset[str]) -> str:
     given as fields)."""
     if isinstance(node, Lap):
         return ident("lap", node.name)
+    if isinstance(node, Diff):
+        return ident(_DIFF_ROLES[(node.axis, node.side)], node.name)
     if node.kind == "species":
         return ident("c", node.name)
     if node.kind == "param":
@@ -170,6 +172,49 @@ def neighbour_values(program: Program, kind: str,
                     ghost = "0" if s in program.zero_ghost else f"g{axis}"
                     value = select(side, ghost, value)
             yield nb.name, s, value
+
+
+#: a derivative's value in a kernel: role ``d{axis}{c|f|b}`` (central, forward, backward)
+_DIFF_ROLES = {(a, side): f"d{a}{letter}" for a in "xyz"
+               for side, letter in ((0, "c"), (1, "f"), (-1, "b"))}
+#: the neighbours on the low and high side of each axis, and the spacing's kernel name
+_AXES = {"x": ("w", "e", "dx"), "y": ("s", "n", "dy"), "z": ("b", "t", "dz")}
+
+
+def derivative_text(kind: str, d: Diff, num: Callable[[int], str]) -> str:
+    """Derivative ``d`` of a grid cell from its neighbour values ``_q{name}_{s}`` and
+    ``_c_{s}`` and the spacing ``dx``/``dy``/``dz``, in the reference's operation order:
+    ``(s₊ − s₋) / (2·h)``, ``(s₊ − s) / h``, ``(s − s₋) / h``; ``num(0)`` along an axis
+    the grid lacks (an `optional <rdgpu.ir.equations.Diff>` one: `check_derivatives`
+    refuses the others)."""
+    lo, hi, h = _AXES[d.axis]
+    if "xyz".index(d.axis) >= STENCIL_KINDS[kind].ndim:
+        return num(0)
+    c, q_lo, q_hi = ident("c", d.name), ident("q" + lo, d.name), ident("q" + hi, d.name)
+    if d.side == 0:
+        return f"(({q_hi} - {q_lo}) / ({num(2)} * {h}))"
+    if d.side > 0:
+        return f"(({q_hi} - {c}) / {h})"
+    return f"(({c} - {q_lo}) / {h})"
+
+
+def check_derivatives(trees: dict[str, Node], kind: str) -> None:
+    """The first derivatives of ``trees`` (species -> right-hand side) can be taken on
+    stencil kind ``kind``: on grids (not meshes or graph surfaces yet), along axes the grid
+    has (an EquationError naming the equation and the operator otherwise)."""
+    row = STENCIL_KINDS[kind]
+    for s, tree in trees.items():
+        for d in sorted({n for n in walk(tree) if isinstance(n, Diff)},
+                        key=lambda n: n.spelling):
+            if row.form in ("csr", "metric"):
+                where = "a mesh" if row.form == "csr" else "a graph surface"
+                raise EquationError(
+                    f"the equation of {s!r} takes first derivatives ({d.spelling}), which "
+                    f"rdgpu computes on flat grids only, not yet on {where}")
+            if not d.optional and "xyz".index(d.axis) >= row.ndim:
+                raise EquationError(
+                    f"the equation of {s!r} takes {d.spelling}, but the grid is "
+                    f"{row.ndim}-D: it has the axes {', '.join('xyz'[:row.ndim])}")
 
 
 def laplacian_text(kind: str, s: str, num: Callable[[int], str], flush: str = "FLUSH") -> str:

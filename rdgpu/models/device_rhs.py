@@ -176,8 +176,8 @@ class DeviceRHS:
         def on_y(n: eq.Node) -> eq.Node | None:
             if isinstance(n, eq.Ref) and n.kind == "species":
                 return eq.Ref("species", y[n.name])
-            if isinstance(n, eq.Lap) and n.name in y:
-                return eq.Lap(y[n.name], n.order)
+            if isinstance(n, (eq.Lap, eq.Diff)) and n.name in y:
+                return eq.rename_fields(n, y)
             return None
 
         rates = {s: eq.substitute(st.rates[s], on_y) for s in species}

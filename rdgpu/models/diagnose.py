@@ -53,14 +53,14 @@ def _cause(sim, state, step, first):
     shape = target.field_shape  # the kernels' shape ((1, n) for a 1-D grid)
     t = step * float(sim.dt)
     env = _environment(sim, state, target, t)
-    laps = _laplacians(target, env, trees)
+    laps = {**_laplacians(target, env, trees), **_derivatives(target, env, trees)}
     order = sorted(trees, key=lambda s: s != first)
     # the cells where some equation goes bad, then each operation at those cells
     bad = np.zeros(shape, dtype=bool)
     for s in order:
         with np.errstate(all="ignore"):
-            v = np.broadcast_to(eq.evaluate(trees[s], env, lap=lambda n, o: laps[(n, o)]),
-                                shape)
+            v = np.broadcast_to(eq.evaluate(trees[s], env, lap=lambda n, o: laps[(n, o)],
+                                            diff=lambda d: laps[d]), shape)
         bad |= ~_fits(v, dtype)
     if not bad.any():
         return None
@@ -130,6 +130,19 @@ def _laplacians(target, env, trees) -> dict[tuple[str, int], np.ndarray]:
     return out
 
 
+def _derivatives(target, env, trees) -> dict[eq.Diff, np.ndarray]:
+    """Every first derivative the equations take, in float64, by the NumPy reference."""
+    wanted = sorted({d for tree in trees.values() for d in eq.derivatives(tree)},
+                    key=lambda d: (d.name, d.axis, d.side, d.optional))
+    if not wanted:
+        return {}
+    names = tuple(sorted({d.name for d in wanted}))
+    program = Program(names, tuple(Output(f"_d{i}", d) for i, d in enumerate(wanted)))
+    with np.errstate(all="ignore"):
+        got = run_numpy(program, target, {n: env[n] for n in names}, {}, {}, 0.0)
+    return {d: got[f"_d{i}"].reshape(target.field_shape) for i, d in enumerate(wanted)}
+
+
 def _take(v: Any, shape: tuple[int, ...], cells: np.ndarray) -> Any:
     if np.ndim(v) == 0:
         return v
@@ -164,6 +177,8 @@ def _first_bad(tree: eq.Node, env, laps, dtype, params, sim) -> str | None:
                              f"{text} is not finite, read")
         elif isinstance(n, eq.Lap):
             out = laps[(n.name, n.order)]
+        elif isinstance(n, eq.Diff):
+            out = laps[n]
         else:
             kids = [value(k) for k in eq._children(n)]
             with np.errstate(all="ignore"):

@@ -37,7 +37,7 @@ from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
 from rdgpu.core.validation import real_number
 from rdgpu.domains.base import domain_shape, require_domain
-from rdgpu.integrators.stability import stability_limit
+from rdgpu.integrators.stability import advective_rate, stability_limit, with_advection
 from rdgpu.integrators.stepper import ModelStepper
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import expression_tree
@@ -435,7 +435,7 @@ class Model:
         return out
 
     def rates(self, fields: Sequence[Any], params: Mapping[str, Any], dtype: Any = None):
-        """The reaction terms ``f_s`` (every Laplacian 0, ``x = y = z = t = 0``) evaluated in
+        """The reaction terms ``f_s`` (Laplacians, derivatives, x, y, z, t all 0) evaluated in
         NumPy, a list in species order (any real or complex dtype).
 
         Parameters
@@ -458,8 +458,15 @@ class Model:
         env.update({"x": t(0), "y": t(0), "z": t(0), "t": t(0),
                     **{L: t(1) for L in eq.LENGTHS}})
         with np.errstate(all="ignore"):
-            return [eq.evaluate(self.trees[s], env, literal=t, lap=lambda n, o: t(0))
-                    for s in self.species]
+            return [eq.evaluate(self.trees[s], env, literal=t, lap=lambda n, o: t(0),
+                                diff=lambda d: t(0)) for s in self.species]
+
+    def _largest(self, params: Mapping[str, Any] | None) -> dict[str, Any]:
+        """Each parameter's value of largest magnitude (NumPy scalars: a coefficient D/k
+        with k = 0 is inf, not a ZeroDivisionError)."""
+        arrays = {k: np.asarray(v, dtype=np.float64) for k, v in self._merged(params).items()}
+        return {k: a.ravel()[np.argmax(np.abs(a.ravel()))] if a.ndim else a[()]
+                for k, a in arrays.items()}
 
     def linear_operators(self, params: Mapping[str, Any] | None = None):
         """``(D, B)``: ``D[s, r]`` the coefficient of ``laplace(r)`` and ``B[s, r]`` of
@@ -472,12 +479,7 @@ class Model:
         params : mapping, optional
             Values over the model's defaults (default ``None``: the defaults)."""
         n = len(self.species)
-        merged = self._merged(params)
-        env = {}
-        for k, v in merged.items():
-            a = np.asarray(v, dtype=np.float64)
-            # NumPy scalars: a coefficient D/k with k = 0 is inf, not a ZeroDivisionError
-            env[k] = a.ravel()[np.argmax(np.abs(a.ravel()))] if a.ndim else a[()]
+        env = self._largest(params)
         D, B = np.zeros((n, n)), np.zeros((n, n))
         for i, s in enumerate(self.species):
             lin = self.linear[s]
@@ -579,8 +581,9 @@ class Model:
         method, stencil, lengths : str, optional
             As in `stepper`."""
         ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
+        rate = advective_rate(self.trees, self._largest(params), require_domain(domain).spacings)
         if ops is None:
-            return math.inf
+            return math.inf if rate == 0 else 1.0 / rate
         method = _method(method or self.default_method, self.methods)
         if get_scheme(method).implicit:
             for s, beta in zip(self.species, np.diag(ops[1]), strict=True):
@@ -588,7 +591,8 @@ class Model:
                     raise ValueError(
                         f"method {method!r}: the bilaplacian of {s!r} has the coefficient "
                         f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
-        return stability_limit(ops[0], ops[1], _largest_mode(domain, stencil), method)
+        largest = require_domain(domain).largest_eigenvalue(stencil)  # of −Δ_h (bounded above)
+        return with_advection(stability_limit(ops[0], ops[1], largest, method), rate, method)
 
     def stepper(
         self,
@@ -677,14 +681,6 @@ def _method(method: str, allowed: Sequence[str]) -> str:
     """The canonical name of ``method`` (an alias resolved), one of ``allowed``."""
     m = str(method).lower()
     return m if m in allowed else get_scheme(method, tuple(allowed)).name
-
-
-def _largest_mode(domain: Domain, stencil: str = "compact") -> float:
-    """The largest eigenvalue of ``−Δ_h`` (bounded above): ``4 Σ 1/h²`` over a grid's axes
-    (the isotropic stencils: the maximum of their symbol, ``16/(3h²)`` in 2-D), ``λ_max(−L)``
-    on a mesh, and on a graph surface its ``Δ_Γ``'s Gershgorin bound
-    (`Domain.largest_eigenvalue <rdgpu.domains.base.Domain.largest_eigenvalue>`)."""
-    return require_domain(domain).largest_eigenvalue(stencil)
 
 
 def define_model(name: str, equations: Mapping[str, str],

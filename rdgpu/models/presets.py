@@ -147,6 +147,18 @@ _add(Preset(
     "labyrinth that fills the 300² torus (class stable from ~25 000 steps)",
 ))
 _add(Preset(
+    "gs-differential-flow", "gray-scott-flow",
+    {"Vx": 0.04, "Vy": 0.0}, dt=1.0, steps=20000,
+    domain={"grid": (256, 256), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "square", "values": {"u": 1.0, "v": 0.0}, "inside": {"u": 0.5, "v": 0.25},
+          "size": 0.1, "noise": 0.05},
+    source="Rovinsky & Menzinger 1992 (differential-flow instability) on Pearson's "
+    "Gray-Scott", expect="stripes", snapshot_every=500,
+    classify={"field": "v", "threshold": None},
+    description="the activator v drifts right at 0.04 cells a step (upwind advect): the "
+    "labyrinth that F = 0.030, k = 0.060 grows isotropically lines up across the flow",
+))
+_add(Preset(
     "gs-seed001-spots", "gray-scott",
     {"Du": 0.16, "Dv": 0.08, "F": 0.030, "k": 0.055}, dt=1.0, steps=20000,
     domain={"grid": (300, 300), "dx": 1.0, "bc": "periodic"}, init=_SEED001_INIT,

@@ -80,6 +80,7 @@ FALLBACK_INITS: dict[str, dict] = {
     "gray-scott": {"kind": "square", "values": {"u": 1.0, "v": 0.0},
                    "inside": {"u": 0.5, "v": 0.25}, "size": 0.1, "noise": 0.05},
 }
+FALLBACK_INITS["gray-scott-flow"] = FALLBACK_INITS["gray-scott"]
 
 
 def presets_of(model: Model | str) -> list:

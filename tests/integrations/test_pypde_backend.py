@@ -223,8 +223,35 @@ def cart():
 
 def test_refuses_unsupported_operators(cart):
     _, s = cart
-    _refused(pde.PDE({"c": "gradient_squared(c)"}), s, "unknown function 'gradient_squared'")
     _refused(pde.PDE({"c": "divergence(c)"}), s, "unknown function 'divergence'")
+    _refused(pde.PDE({"c": "d_dz(c)"}), s, r"d_dz\(c\) differentiates along z")
+    box = pde.CartesianGrid([[0, 4], [0, 4]], [8, 8])
+    _refused(pde.PDE({"c": "laplace(c) - d_dx(c)"}, bc={"value": 1.0}),
+             pde.ScalarField(box, 0.5), r"d_dx\(c\) with the boundary conditions of 'c'")
+
+
+DERIVATIVES = pde.PDE({"u": "0.1*laplace(u) - 0.5*d_dx(u) + 0.2*d_dy(v) "
+                             "- 0.05*gradient_squared(v)",
+                       "v": "0.2*laplace(v) + 0.1*dot(gradient(u), gradient(v))"},
+                      bc="auto_periodic_neumann")
+
+
+def test_first_derivatives_agree_with_pypde():
+    """py-pde's d_dx, d_dy, gradient_squared and dot(gradient, gradient) (central), its
+    axis x being rdgpu's first array axis, on a periodic and a zero-flux Neumann axis: the
+    right-hand side through ``backend="rdgpu:..."`` is py-pde's own to round-off (py-pde's
+    operators take ~30 s to compile: one state, every backend)."""
+    grid = pde.CartesianGrid([[0, 6], [0, 5]], [12, 10], periodic=[True, False])
+    rng = np.random.default_rng(0)
+    state = pde.FieldCollection([pde.ScalarField(grid, rng.uniform(0, 1, (12, 10)))
+                                 for _ in range(2)], labels=["u", "v"])
+    ref = DERIVATIVES.evolution_rate(state).data
+    assert np.abs(ref).max() > 0.1
+    for backend in ("numpy", "opencl", "warp"):
+        backend_or_skip(backend)
+        rhs = DERIVATIVES.make_pde_rhs(state, backend=f"rdgpu:{backend}")
+        np.testing.assert_allclose(np.asarray(rhs(state.data, 0.0)), ref, rtol=0,
+                                   atol=1e-12, err_msg=backend)
 
 
 def test_refuses_noise_hooks_and_other_classes(cart):

@@ -93,8 +93,9 @@ CASES = {
 KINDS = ["grid1", "grid2", "grid3", "mesh"]
 #: the built-ins run on 2-D grids and one other kind each (every generated program costs a
 #: compile; the user models cover every feature on every kind)
-BUILTIN_KINDS = {"gray-scott": "grid3", "brusselator": "mesh", "fitzhugh-nagumo": "grid1",
-                 "schnakenberg": "grid3", "barkley": "mesh", "turing": "grid1"}
+BUILTIN_KINDS = {"gray-scott": "grid3", "gray-scott-flow": "grid1", "brusselator": "mesh",
+                 "fitzhugh-nagumo": "grid1", "schnakenberg": "grid3", "barkley": "mesh",
+                 "turing": "grid1"}
 KERNEL_CASES = [(n, k) for n in CASES for k in KINDS
                 if n not in BUILTIN_KINDS or k in ("grid2", BUILTIN_KINDS[n])]
 

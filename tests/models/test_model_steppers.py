@@ -191,7 +191,8 @@ def test_declarative_model_and_registry():
     assert st.steps_done == 10 and st.time == pytest.approx(1.0)
     u = st.get_state()["u"]
     assert np.allclose(u, u[0, 0]) and 0.5 < u[0, 0] < 1
-    assert set(MODELS) == {"gray-scott", "allen-cahn", "brusselator", "fitzhugh-nagumo",
+    assert set(MODELS) == {"gray-scott", "gray-scott-flow", "allen-cahn", "brusselator",
+                           "fitzhugh-nagumo",
                            "schnakenberg", "bvam", "barkley", "turing",
                            "complex-ginzburg-landau",
                            "swift-hohenberg", "meinhardt-stripes"}

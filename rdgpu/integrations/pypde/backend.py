@@ -428,12 +428,19 @@ def translate(pde_obj: Any, state: Any) -> Translation:
         params[name] = float(a) if a.ndim == 0 else np.asarray(a, dtype=np.float64)
     coords = _coordinate_map(grid)
     trees: dict[str, eq.Node] = {}
+    written: dict[str, set[eq.Diff]] = {}
     for s in species:
         try:
             tree = eq.parse(equations[s], species=species, params=params,
                             what=f"the equation of {s!r}")
         except eq.EquationError as exc:
             raise _refuse(str(exc)) from None
+        written[s] = eq.derivatives(tree)  # in py-pde's axis names, for messages
+        try:  # py-pde's axis k is rdgpu's axis_names(ndim)[k]
+            tree = eq.map_axes(tree, dict(zip(grid.axes, axis_names(grid.num_axes),
+                                               strict=True)))
+        except eq.EquationError as exc:
+            raise _refuse(f"the equation of {s!r}: {exc}") from None
         trees[s] = eq.substitute(tree, coords)
     correct: dict[str, tuple[str | None, str | None]] = {}
     for s in species:
@@ -447,6 +454,12 @@ def translate(pde_obj: Any, state: Any) -> Translation:
             raise _refuse(f"the constant name(s) {clash} (used by the backend)")
         params.update((n, a) for n, a in zip(names, pw, strict=True) if n is not None)
         correct[s] = names
+    sided = sorted((d.spelling, d.name) for ds in written.values() for d in ds
+                   if d.name in correct)
+    if sided:
+        raise _refuse(f"{sided[0][0]} with the boundary conditions of {sided[0][1]!r} (a "
+                      "Dirichlet, Mixed or non-zero Neumann condition, whose py-pde ghost "
+                      "differs from rdgpu's; periodic and zero-derivative Neumann only there)")
     twice = sorted({n for t in trees.values() for n, o in eq.laplacians(t)
                     if o == 2 and n in correct})
     if twice:
