@@ -165,6 +165,9 @@ register_scheme(ExplicitScheme(
     "heun", 2, a=((), (1.0,)), b=(0.5, 0.5), c=(0.0, 1.0), title="Heun (SSP-RK2)",
     real_stability=2.0, aliases=("rk2",), shu_osher=((0.5, 0.5, 1.0),)))
 register_scheme(ExplicitScheme(
+    "midpoint", 2, a=((), (0.5,)), b=(0.0, 1.0), c=(0.0, 0.5),
+    title="explicit midpoint (VisualPDE's RK2)", real_stability=2.0))
+register_scheme(ExplicitScheme(
     "rk3", 3, a=((), (1.0,), (0.25, 0.25)), b=_q("1/6", "1/6", "2/3"), c=(0.0, 1.0, 0.5),
     title="Shu-Osher SSP-RK3", real_stability=2.5127453266183286, aliases=("ssprk3",),
     shu_osher=((0.75, 0.25, 1.0), (1.0 / 3.0, 2.0 / 3.0, 0.5))))
