@@ -714,7 +714,7 @@ def test_bad_parameters_and_fields():
         with pytest.raises(exc, match=match):
             model.stepper(grid, params, dt=0.1, backend="numpy")
     for kw, exc, match in [({"method": "bogus"}, ValueError, "unknown method 'bogus'; "
-                                                             "allowed: euler, heun, rk3"),
+                                                             "allowed: euler, heun, midpoint, rk3"),
                            ({"dtype": np.float16}, TypeError, "float32 or float64"),
                            ({"dt": -1.0}, ValueError, "positive"),
                            ({"dt": float("nan")}, ValueError, "positive")]:
