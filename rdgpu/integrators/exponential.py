@@ -200,19 +200,13 @@ def _species_factor(term: eq.Node, s: str) -> eq.Node | None:
         inner = _species_factor(term.a, s)
         return None if inner is None else eq.Neg(inner)
     if isinstance(term, eq.Bin) and term.op in "*/":
-        if term.op == "*" and _constant(term.a):
+        if term.op == "*" and eq.is_constant(term.a):
             inner = _species_factor(term.b, s)
             return None if inner is None else eq.Bin("*", term.a, inner)
-        if _constant(term.b):
+        if eq.is_constant(term.b):
             inner = _species_factor(term.a, s)
             return None if inner is None else eq.Bin(term.op, inner, term.b)
     return None
-
-
-def _constant(node: eq.Node) -> bool:
-    return all(not isinstance(n, (eq.Lap, eq.Diff))
-               and not (isinstance(n, eq.Ref) and n.kind != "param")
-               for n in eq.walk(node))
 
 
 class Etdrk4:

@@ -180,7 +180,7 @@ def advective_rate(trees: Mapping[str, eq.Node], env: Mapping[str, Any],
                 for const, other in ((node.a, node.b), (node.b, node.a)):
                     if node.op == "/" and const is node.a:
                         continue  # c / d_dx(u) is no advection
-                    if _constant(const):
+                    if eq.is_constant(const):
                         with np.errstate(all="ignore"):
                             c = abs(float(eq.evaluate(const, env)))
                             scaled = (np.float64(factor) / c if node.op == "/"
@@ -200,9 +200,3 @@ def with_advection(limit: float, rate: float, method: str) -> float:
     if scheme.implicit or isinstance(scheme, ExponentialScheme):
         return min(limit, 1.0 / rate)
     return 1.0 / (1.0 / limit + rate)
-
-
-def _constant(node: eq.Node) -> bool:
-    """Made of numbers and parameters only (with ``min``/``max``...)."""
-    return all(not isinstance(n, (eq.Lap, eq.Diff))
-               and not (isinstance(n, eq.Ref) and n.kind != "param") for n in eq.walk(node))

@@ -66,6 +66,7 @@ __all__ = [
     "Num",
     "Ref",
     "evaluate",
+    "is_constant",
     "linear_parts",
     "parse",
     "substitute",
@@ -593,9 +594,9 @@ def _terms(node: Node, sign: int = 1) -> list[tuple[int, Node]]:
     # a constant factor of a sum that holds a Laplacian, D*(laplace(u) - u): distributed
     # (a single term is rebuilt as it was, so nothing else changes)
     if isinstance(node, Bin) and node.op in "*/":
-        if node.op == "*" and _constant(node.a) and laplacians(node.b):
+        if node.op == "*" and is_constant(node.a) and laplacians(node.b):
             return [(s, Bin("*", node.a, t)) for s, t in _terms(node.b, sign)]
-        if _constant(node.b) and laplacians(node.a):
+        if is_constant(node.b) and laplacians(node.a):
             return [(s, Bin(node.op, t, node.b)) for s, t in _terms(node.a, sign)]
     return [(sign, node)]
 
@@ -611,14 +612,14 @@ def _coefficient(term: Node) -> tuple[tuple[str, int], Node] | None:
         return None if inner is None else (inner[0], Neg(inner[1]))
     if isinstance(term, Bin) and term.op in "*/":
         la, lb = laplacians(term.a), laplacians(term.b)
-        if la and not lb and _constant(term.b):
+        if la and not lb and is_constant(term.b):
             inner = _coefficient(term.a)
             if inner is None:
                 return None
             if term.op == "*" and inner[1] == Num(1.0):
                 return inner[0], term.b
             return inner[0], Bin(term.op, inner[1], term.b)
-        if lb and not la and term.op == "*" and _constant(term.a):
+        if lb and not la and term.op == "*" and is_constant(term.a):
             inner = _coefficient(term.b)
             if inner is None:
                 return None
@@ -626,7 +627,9 @@ def _coefficient(term: Node) -> tuple[tuple[str, int], Node] | None:
     return None
 
 
-def _constant(node: Node) -> bool:
+def is_constant(node: Node) -> bool:
+    """Made of numbers and parameters only (functions of them included): no species,
+    coordinate, time, Laplacian or derivative."""
     return all(not isinstance(n, (Lap, Diff)) and not (isinstance(n, Ref) and n.kind != "param")
                for n in walk(node))
 
