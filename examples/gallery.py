@@ -56,6 +56,12 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
     ("gs-differential-flow", "Gray-Scott with the activator v carried by a uniform flow to "
      "the right (upwind advect, 0.04 cells a step): the labyrinth lines up across the flow",
      []),
+    ("cahn-hilliard-coarsening", "Cahn-Hilliard phase separation, laplace(u**3 - u - "
+     "g*laplace(u)) (the chemical potential stored by a pre-pass): a noisy mixture "
+     "coarsened into a labyrinth at t = 500, its mass conserved", []),
+    ("keller-segel-aggregates", "Keller-Segel chemotaxis with logistic growth, "
+     "div(chi*u*grad(v)) in flux form: cells u gathered into aggregates (islands of "
+     "high u: inverted spots in rdgpu's classes)", []),
     ("gs-pearson-alpha", "Pearson α (F = 0.010, k = 0.047): spatio-temporal chaos", []),
     ("gs-pearson-delta", "Pearson δ (F = 0.030, k = 0.055): hexagonal lattice of spots", []),
     ("gs-pearson-theta", "Pearson θ (F = 0.030, k = 0.057): stripes and loops", []),

@@ -31,8 +31,10 @@ from rdgpu.ir.stencils import (
     METRIC_ARGS,
     STENCIL_KINDS,
     derivative_text,
+    divergence_text,
     emit,
     laplacian_text,
+    mesh_divergence_text,
     metric_loads,
     neighbour_values,
     variable,
@@ -140,12 +142,17 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
     if kind == "mesh":
         if stencil:
             body += [f"real {ident('lap', s)} = R0;" for s in stencil]
+            body += [f"real {var(d)} = R0;" for d in program.divergences]
             body.append("for (int q_ = p0_; q_ < p1_; ++q_) {")
             body.append("    const real a_ = data[q_];")
             body.append("    const int j_ = indices[q_];")
-            body += [f"    {ident('lap', s)} += a_ * {v};" for _, s, v in neighbour_values(
-                program, kind, lambda nb, i: ident("in", i) + "[moff_ + j_]", None, fields,
-                lit, fn)]
+            for _, s, v in neighbour_values(program, kind,
+                                            lambda nb, i: ident("in", i) + "[moff_ + j_]",
+                                            None, fields, lit, fn):
+                body.append(f"    const real {ident('qcol', s)} = {v};")
+                body.append(f"    {ident('lap', s)} += a_ * {ident('qcol', s)};")
+            body += [f"    {var(d)} += a_ * {mesh_divergence_text(d, lambda v: f'((real){v})')};"
+                     for d in program.divergences]
             body.append("}")
     else:
         _grid_neighbours(program, kind, fields, lit, fn, body)
@@ -157,6 +164,8 @@ def opencl_cell(program: Program, kind: str, fields: frozenset[str], dtype,
                         f"{laplacian_text(kind, s, lambda v: f'((real){v})')};")
         body += [f"const real {var(d)} = {derivative_text(kind, d, lambda v: f'((real){v})')};"
                  for d in program.derivatives]
+        body += [f"const real {var(d)} = {divergence_text(kind, d, lambda v: f'((real){v})')};"
+                 for d in program.divergences]
     for i, o in enumerate(program.outputs):
         body.append(f"real o{i}_ = {emit(o.expr, var, lit, fn)};")
         lo, hi = o.bounds

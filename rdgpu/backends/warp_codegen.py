@@ -35,8 +35,10 @@ from rdgpu.ir.stencils import (
     METRIC_ARGS,
     STENCIL_KINDS,
     derivative_text,
+    divergence_text,
     emit,
     laplacian_text,
+    mesh_divergence_text,
     metric_loads,
     neighbour_values,
     variable,
@@ -142,13 +144,18 @@ def _cell_body(program: Program, kind: str, fields: frozenset[str], member_loads
     if mesh:
         if stencil:
             body += [f"{ident('lap', s)} = real(0.0)" for s in stencil]
+            body += [f"{var(d)} = real(0.0)" for d in program.divergences]
             body.append("q_ = p0_")
             body.append("while q_ < p1_:")
             body.append("    a_ = data[q_]")
             body.append("    j_ = indices[q_] & NONNEG")
-            body += [f"    {ident('lap', s)} += a_ * {v}" for _, s, v in neighbour_values(
-                program, kind, lambda nb, i: ident("in", i) + "[moff_ + j_]", None, fields,
-                lit, fn)]
+            for _, s, v in neighbour_values(program, kind,
+                                            lambda nb, i: ident("in", i) + "[moff_ + j_]",
+                                            None, fields, lit, fn):
+                body.append(f"    {ident('qcol', s)} = {v}")
+                body.append(f"    {ident('lap', s)} += a_ * {ident('qcol', s)}")
+            body += [f"    {var(d)} += a_ * {mesh_divergence_text(d, lambda v: f'real({v}.0)')}"
+                     for d in program.divergences]
             body.append("    q_ += 1")
     else:
         col = {-1: "j - 1" if interior else "w", 0: "j", 1: "j + 1" if interior else "e"}
@@ -170,6 +177,8 @@ def _cell_body(program: Program, kind: str, fields: frozenset[str], member_loads
             body.append(f"{ident('lap', s)} = {lap}")
         body += [f"{var(d)} = {derivative_text(kind, d, lambda v: f'real({v}.0)')}"
                  for d in program.derivatives]
+        body += [f"{var(d)} = {divergence_text(kind, d, lambda v: f'real({v}.0)')}"
+                 for d in program.divergences]
     for i, o in enumerate(program.outputs):
         body.append(f"o{i}_ = {emit(o.expr, var, lit, fn)}")
         lo, hi = o.bounds

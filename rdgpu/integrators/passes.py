@@ -64,4 +64,9 @@ def _compiled(program: Program, target: Target, inputs: Sequence[DeviceArray],
     refs = program.refs("param")
     fields = frozenset(p for p in refs if isinstance(params[p], DeviceArray))
     member = frozenset(p for p in refs if isinstance(params[p], PerMember))
+    spread = sorted(program.neighbour_params() & fields)
+    if spread:
+        raise ValueError(f"the parameter field(s) {spread} are read at neighbours inside a "
+                         "Laplacian or a divergence of an expression: store the expression "
+                         "first (a pre-pass, rdgpu.ir.lowering)")
     return target.backend.fused_pass(program, target, fields, member), fields, member

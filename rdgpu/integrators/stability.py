@@ -32,7 +32,8 @@ import numpy as np
 from rdgpu.ir import equations as eq
 from rdgpu.ir.schemes import ExponentialScheme, ImexScheme, get_scheme
 
-__all__ = ["advective_rate", "implicit_factors", "stability_limit", "with_advection"]
+__all__ = ["advective_rate", "frozen_coefficients", "implicit_factors", "stability_limit",
+           "with_advection"]
 
 
 def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
@@ -189,6 +190,28 @@ def advective_rate(trees: Mapping[str, eq.Node], env: Mapping[str, Any],
                         break
         worst = max(worst, total)
     return worst if math.isfinite(worst) else math.inf
+
+
+def frozen_coefficients(tree: eq.Node, env: Mapping[str, Any]) -> eq.Node:
+    """``tree`` with each ``div(D*grad(r))`` whose ``D`` depends on no species and not on
+    ``t`` written as ``D_max·laplace(r)``, ``D_max`` the value of ``D`` of largest magnitude
+    over ``env`` (the domain's coordinates as arrays, the parameters): the linear split then
+    sees it.  By Gershgorin the face-averaged operator's eigenvalues lie within those of
+    ``D_max Δ`` (each row's weights sum to at most ``D_max`` times the Laplacian's), so
+    ``D_max``'s limit is a safe one.  Other divergences stay as they are (none)."""
+    def fn(n: eq.Node) -> eq.Node | None:
+        if not isinstance(n, eq.DivGrad) or eq.is_constant(n.coef):
+            return None
+        kinds = {m.kind for m in eq.walk(n.coef) if isinstance(m, eq.Ref)}
+        if kinds - {"param", "coord", "length"} or any(
+                isinstance(m, (eq.Lap, eq.Diff, eq.LapOf, eq.DivGrad)) for m in eq.walk(n.coef)):
+            return None
+        with np.errstate(all="ignore"):
+            values = np.abs(np.asarray(eq.evaluate(n.coef, env), dtype=np.float64))
+        largest = float(values.max()) if values.size else 0.0
+        return eq.Bin("*", eq.Num(largest if math.isfinite(largest) else math.inf),
+                      eq.Lap(n.name))
+    return eq.substitute(tree, fn)
 
 
 def with_advection(limit: float, rate: float, method: str) -> float:

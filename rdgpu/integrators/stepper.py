@@ -73,7 +73,9 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
 
 ``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
 (Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
-fused pass.
+fused pass; the Laplacian of an expression that takes a Laplacian itself (Cahn–Hilliard),
+and any other expression a pass cannot evaluate at a neighbour, are stored the same way
+(`rdgpu.ir.lowering`).
 """
 
 from __future__ import annotations
@@ -93,6 +95,7 @@ from rdgpu.integrators.exponential import Etdrk4, split_damping
 from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
+from rdgpu.ir.lowering import Prepass, lower
 from rdgpu.ir.program import Output, PerMember, Program, expression_tree
 from rdgpu.ir.schemes import (
     EULER,
@@ -252,45 +255,49 @@ class ModelStepper(FieldStepper):
                                            for k, v in self.params.items()})
         return [] if ops is None else [float(x) for x in np.diag(ops[0])]
 
-    def _lower(self, trees: dict[str, eq.Node]) -> tuple[dict[str, eq.Node], Program | None]:
-        """Replace ``laplace(laplace(s))`` by ``laplace(_lap_s)`` and return the pre-pass
-        program that stores ``_lap_s``."""
-        aux = sorted({n for t in trees.values() for n, o in eq.laplacians(t) if o == 2})
-        if not aux:
-            return trees, None
-        low = {s: eq.substitute(t, lambda n: eq.Lap(f"_lap_{n.name}", 1)
-                                if isinstance(n, eq.Lap) and n.order == 2 else None)
-               for s, t in trees.items()}
-        pre = Program(tuple(aux), tuple(Output(f"_lap_{s}", eq.Lap(s)) for s in aux))
-        return low, pre
+    def _lower(self, trees: dict[str, eq.Node]) -> tuple[dict[str, eq.Node], Prepass | None]:
+        """The right-hand sides with what a pass cannot read by itself stored by
+        pre-passes (`rdgpu.ir.lowering.lower`), and those pre-passes."""
+        fields = [p for p, v in self._device_params.items() if isinstance(v, DeviceArray)]
+        return lower(trees, fields)
+
+    def _program(self, inputs, outputs, pre: Prepass | None) -> Program:
+        """A pass over ``inputs`` (the stored fields of ``pre`` among them) writing
+        ``outputs``, with the stored fields' ghosts."""
+        if pre is None:
+            return Program(tuple(inputs), tuple(outputs))
+        return Program(tuple(inputs), tuple(outputs), pre.zero_ghost & set(inputs),
+                       own_ghost=pre.own_ghost & set(inputs))
+
+    def _aux_buffers(self, pre: Prepass | None) -> list[DeviceArray]:
+        return [] if pre is None else [self.backend.empty(self.shape, self.dtype)
+                                       for _ in pre.names]
 
     def _bounds(self, s: str) -> tuple[float | None, float | None]:
         return self.model.bounds.get(s, (None, None))
 
     def _setup_explicit(self, trees: dict[str, eq.Node], scheme: ExplicitScheme) -> None:
         low, self._pre = self._lower(trees)
-        #: each species' right-hand side as the fused passes read it (bilaplacians lowered)
+        #: each species' right-hand side as the fused passes read it (stored fields lowered)
         self.rates = low
-        self._aux = [] if self._pre is None else [self.backend.empty(self.shape, self.dtype)
-                                                  for _ in self._pre.outputs]
-        aux_names = () if self._pre is None else tuple(o.name for o in self._pre.outputs)
-        zero = frozenset(aux_names)
+        self._aux = self._aux_buffers(self._pre)
+        aux_names = () if self._pre is None else self._pre.names
         h = eq.Ref("builtin", "_h")
         euler = tuple(
             Output(s, eq.Bin("+", eq.Ref("species", s), eq.Bin("*", h, low[s])),
                    self._bounds(s))
             for s in self.species)
-        self._euler = Program(self.species + aux_names, euler, zero)
+        self._euler = self._program(self.species + aux_names, euler, self._pre)
         if scheme.shu_osher is not None:
-            self._setup_shu_osher(scheme, euler, aux_names, zero)
+            self._setup_shu_osher(scheme, euler, aux_names)
         else:
-            self._setup_butcher(scheme, low, aux_names, zero)
+            self._setup_butcher(scheme, low, aux_names)
 
     def _new_fields(self) -> list[DeviceArray]:
         return [self.backend.empty(self.shape, self.dtype) for _ in self.species]
 
     def _setup_shu_osher(self, scheme: ExplicitScheme, euler: tuple[Output, ...],
-                         aux_names: tuple[str, ...], zero: frozenset[str]) -> None:
+                         aux_names: tuple[str, ...]) -> None:
         """The stages after the first Euler stage: one program ``_a·x + _b·(y + h f(y))``
         (``x`` read as ``_base_<s>``) and one buffer per stage."""
         self._stages = [self._new_fields() for _ in scheme.shu_osher]
@@ -301,16 +308,17 @@ class ModelStepper(FieldStepper):
                                          eq.Ref("species", f"_base_{s}")),
                              eq.Bin("*", eq.Ref("builtin", "_b"), o.expr)), o.bounds)
             for s, o in zip(self.species, euler, strict=True))
-        self._combine = Program(
+        self._combine = self._program(
             self.species + aux_names + tuple(f"_base_{s}" for s in self.species), combine,
-            zero)
+            self._pre)
 
     def _setup_butcher(self, scheme: ExplicitScheme, low: dict[str, eq.Node],
-                       aux_names: tuple[str, ...], zero: frozenset[str]) -> None:
+                       aux_names: tuple[str, ...]) -> None:
         """A Butcher tableau (module doc): ``_rate`` stores ``k = f(Y)``; ``_sums[i]``
         forms ``Y_{i+1} = x + h Σ_j a_{i+1,j} k_j``, the last ``x' = x + h Σ_j b_j k_j``."""
-        self._rate = Program(self.species + aux_names,
-                             tuple(Output(f"_k_{s}", low[s]) for s in self.species), zero)
+        self._rate = self._program(self.species + aux_names,
+                                   tuple(Output(f"_k_{s}", low[s]) for s in self.species),
+                                   self._pre)
         self._k = [self._new_fields() for _ in range(scheme.stages)]
         self._y_stage = self._new_fields()
         self._sums = [self._sum_program(row) for row in (*scheme.a[1:], scheme.b)]
@@ -343,12 +351,10 @@ class ModelStepper(FieldStepper):
             linear[s] = (alpha, beta, gamma)
             rest[s] = eq.Num(0.0) if own is None else own
         low, pre = self._lower(rest)
-        aux = [] if pre is None else [self.backend.empty(self.shape, self.dtype)
-                                      for _ in pre.outputs]
-        aux_names = () if pre is None else tuple(o.name for o in pre.outputs)
-        program = Program(self.species + aux_names,
-                          tuple(Output(f"_n_{s}", low[s]) for s in self.species),
-                          frozenset(aux_names))
+        aux = self._aux_buffers(pre)
+        aux_names = () if pre is None else pre.names
+        program = self._program(self.species + aux_names,
+                                tuple(Output(f"_n_{s}", low[s]) for s in self.species), pre)
         self._pre, self._aux = None, []  # no Euler pass (its pre-pass is the explicit one's)
 
         def rates(ins: list[DeviceArray], outs: list[DeviceArray], t: float) -> None:
@@ -455,11 +461,7 @@ class ModelStepper(FieldStepper):
         (``_b = h'``, ``_tp = t₋``), its own bilaplacian pre-pass, the buffers of ``x₋``."""
         prev = {s: HISTORY.format(s) for s in self.species}
 
-        def back(n: eq.Node) -> eq.Node | None:  # N at the previous level
-            if isinstance(n, eq.Ref) and n.kind == "species":
-                return eq.Ref("species", prev[n.name])
-            if isinstance(n, (eq.Lap, eq.Diff)):
-                return eq.rename_fields(n, prev)
+        def back(n: eq.Node) -> eq.Node | None:  # N at the previous level: its time
             if isinstance(n, eq.Ref) and n.kind == "time":
                 return eq.Ref("builtin", "_tp")
             return None
@@ -468,18 +470,16 @@ class ModelStepper(FieldStepper):
         for s in self.species:
             x, xp = eq.Ref("species", s), eq.Ref("species", prev[s])
             extrapolated = eq.Bin("-", eq.Bin("*", eq.Num(2.0), explicit[s]),
-                                  eq.substitute(explicit[s], back))
+                                  eq.rename_species(explicit[s], prev, back))
             exprs[s] = eq.Bin("+", x, eq.Bin(
                 "+", eq.Bin("/", eq.Bin("-", x, xp), eq.Num(3.0)),
                 eq.Bin("*", eq.Ref("builtin", "_b"), extrapolated)))
         low, pre = self._lower(exprs)
-        aux = [] if pre is None else [self.backend.empty(self.shape, self.dtype)
-                                      for _ in pre.outputs]
-        aux_names = () if pre is None else tuple(o.name for o in pre.outputs)
-        self._bdf2 = Program(
+        aux = self._aux_buffers(pre)
+        aux_names = () if pre is None else pre.names
+        self._bdf2 = self._program(
             self.species + aux_names + tuple(prev.values()),
-            tuple(Output(s, low[s], self._bounds(s)) for s in self.species),
-            frozenset(aux_names))
+            tuple(Output(s, low[s], self._bounds(s)) for s in self.species), pre)
         self._bdf2_pre = (pre, aux)
         self._prev = [self.backend.empty(self.shape, self.dtype) for _ in self.species]
         #: whether ``_prev`` holds the previous level (else the next step is the start step)
@@ -514,7 +514,7 @@ class ModelStepper(FieldStepper):
 
     def _eval(self, program: Program, ins: list[DeviceArray], outs: list[DeviceArray],
               time: float, extra: list[DeviceArray] = (), a: float = 0.0,
-              b: float = 1.0, prepass: tuple[Program | None, list] | None = None,
+              b: float = 1.0, prepass: tuple[Prepass | None, list] | None = None,
               tp: float = 0.0, own: bool = True) -> None:
         """One pass of ``program`` (inputs: ``ins``, the pre-pass results, ``extra``),
         after its bilaplacian pre-pass (``prepass``: default the explicit program's).
@@ -536,7 +536,7 @@ class ModelStepper(FieldStepper):
         found[0](time)
 
     def _bind(self, program: Program, ins, outs, extra, a: float, b: float,
-              pre: Program | None, aux: list[DeviceArray], tp: float, once: bool = False):
+              pre: Prepass | None, aux: list[DeviceArray], tp: float, once: bool = False):
         """``run(time)``: `_eval`'s passes with these arrays and numbers bound once
         (`rdgpu.integrators.passes.bind`; ``once``: launched in full instead, for arrays
         used once)."""
@@ -551,10 +551,13 @@ class ModelStepper(FieldStepper):
         if pre is None:
             return main
         src = dict(zip(program.inputs, [*ins, *aux, *extra], strict=True))
-        first = how(pre, target, [src[s] for s in pre.inputs], aux, params, {})
+        first = [how(level, target, [src[s] for s in level.inputs],
+                     [src[o.name] for o in level.outputs], params, {})
+                 for level in pre.levels]
 
         def run(time: float) -> None:
-            first(time)
+            for level in first:
+                level(time)
             main(time)
 
         return run
@@ -595,7 +598,7 @@ class ModelStepper(FieldStepper):
         """One step of a Butcher tableau (module doc): ``Y_1 = x``; per stage ``k_i =
         f(Y_i, t0 + c_i h)``, then the next ``Y`` (the last: the new fields in ``_y``)."""
         x = stage = self._x
-        no_pre: tuple[Program | None, list] = (None, [])
+        no_pre: tuple[Prepass | None, list] = (None, [])
         for i in range(scheme.stages):
             self._eval(self._rate, stage, self._k[i], t0 + scheme.c[i] * h)
             program, used = self._sums[i]

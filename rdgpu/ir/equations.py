@@ -18,8 +18,14 @@ token and listing what is allowed):
   constant ``pi``;
 * the functions `FUNCTIONS` (``min``/``max`` of two arguments, NaN-propagating like
   ``numpy.minimum``);
-* ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion) and the
-  bilaplacian ``laplace(laplace(s))``;
+* ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion), the
+  bilaplacian ``laplace(laplace(s))``, and ``laplace(expr)`` of any expression (`LapOf`:
+  the porous medium's ``laplace(u**2)``, Cahn–Hilliard's ``laplace(u**3 - u -
+  g*laplace(u))``): the domain's Laplacian of the field the expression takes, its ghosts by
+  the domain's boundary conditions applied to that field;
+* ``div(D*grad(s))`` (also spelled ``divergence(D*gradient(s))``, the factor ``D`` on
+  either side or absent), diffusion in divergence form with ``D`` any expression
+  (`DivGrad`: face-averaged and conservative; on grids and meshes);
 * first derivatives of a species on grids (`DERIVATIVES`): ``d_dx(s)``, ``d_dy(s)``,
   ``d_dz(s)`` (central), ``d_dx_forward(s)``/``d_dx_backward(s)`` (one-sided, likewise
   for y and z), ``gradient_squared(s)`` and ``dot(gradient(a), gradient(b))`` (central,
@@ -31,12 +37,12 @@ Nothing else: a character outside the language (``#``, a newline...) is refused,
 it, as is an expression nested more than `MAX_DEPTH` levels deep or of more than
 `MAX_NODES` nodes, and a number too large for a float.
 
-The tree (`Num`, `Ref`, `Lap`, `Diff`, `Bin`, `Neg`,
-`Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
+The tree (`rdgpu.ir.nodes`: `Num`, `Ref`, `Lap`, `Diff`, `LapOf`, `DivGrad`, `Bin`,
+`Neg`, `Call`) keeps Python's operation order (left to right for ``a*b*c``); every backend
 emits it fully parenthesised, so the three implementations evaluate the same operations in
 the same order (`rdgpu.integrators.passes`).
 
-`linear_parts` splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
+`linear_parts` (`rdgpu.ir.linear`) splits a right-hand side into ``Σ c_r laplace(r) + Σ b_r
 laplace(laplace(r)) + rest`` where it can (coefficients made of numbers and scalar
 parameters): the diffusion matrix of stability limits, dispersion relations and implicit
 time steps.
@@ -48,28 +54,66 @@ import ast
 import math
 import sys
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
 from typing import Any
+
+from rdgpu.ir.linear import Linear, expand_operators, linear_parts
+from rdgpu.ir.nodes import (
+    Bin,
+    Call,
+    Diff,
+    DivGrad,
+    EquationError,
+    Lap,
+    LapOf,
+    Neg,
+    Node,
+    Num,
+    Ref,
+    children,
+    derivatives,
+    is_constant,
+    laplacians,
+    map_axes,
+    names,
+    rename_fields,
+    rename_species,
+    size_and_depth,
+    substitute,
+    to_text,
+    walk,
+)
 
 __all__ = [
     "COORDINATES",
+    "DERIVATIVES",
     "FUNCTIONS",
     "Bin",
-    "DERIVATIVES",
     "Call",
     "Diff",
+    "DivGrad",
     "EquationError",
     "Lap",
+    "LapOf",
     "Linear",
     "Neg",
     "Node",
     "Num",
     "Ref",
+    "children",
+    "derivatives",
     "evaluate",
+    "expand_operators",
     "is_constant",
+    "laplacians",
     "linear_parts",
+    "map_axes",
+    "names",
     "parse",
+    "rename_fields",
+    "rename_species",
+    "size_and_depth",
     "substitute",
+    "to_text",
     "walk",
 ]
 
@@ -100,169 +144,13 @@ CHARACTERS = frozenset("_.,()+-*/^ \t")
 _OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/"}
 
 
-class EquationError(ValueError):
-    """An equation or parameter expression outside the language."""
-
-
-# ---------------------------------------------------------------------------- the tree
-class Node:
-    """An expression node (immutable, hashable)."""
-
-
-@dataclass(frozen=True)
-class Num(Node):
-    value: float
-
-
-@dataclass(frozen=True)
-class Ref(Node):
-    """A name: ``kind`` is ``"species"``, ``"param"``, ``"coord"`` (x, y, z), ``"time"``
-    or ``"length"`` (Lx, Ly, Lz)."""
-
-    kind: str
-    name: str
-
-
-@dataclass(frozen=True)
-class Lap(Node):
-    """``laplace(name)`` (``order = 1``) or ``laplace(laplace(name))`` (``order = 2``) of a
-    field read through the domain's Laplacian."""
-
-    name: str
-    order: int = 1
-
-
-@dataclass(frozen=True)
-class Diff(Node):
-    """The first derivative of field ``name`` along ``axis`` (``"x"``, ``"y"``, ``"z"``):
-    ``side`` 0 central ``(s₊ − s₋)/(2h)``, +1 forward ``(s₊ − s)/h``, −1 backward ``(s −
-    s₋)/h``, the neighbours ``s±`` with the grid's ghosts.  ``optional``: part of an
-    operator summed over the grid's axes (``gradient_squared``...), 0 along an axis the
-    grid lacks; else that is an error."""
-
-    name: str
-    axis: str
-    side: int = 0
-    optional: bool = False
-
-    @property
-    def spelling(self) -> str:
-        """How the equation wrote it (``d_dx(u)``, ``d_dy_forward(u)``...)."""
-        suffix = {0: "", 1: "_forward", -1: "_backward"}[self.side]
-        return f"d_d{self.axis}{suffix}({self.name})"
-
-
-@dataclass(frozen=True)
-class Bin(Node):
-    op: str  # + - * /
-    a: Node
-    b: Node
-
-
-@dataclass(frozen=True)
-class Neg(Node):
-    a: Node
-
-
-@dataclass(frozen=True)
-class Call(Node):
-    fn: str  # a key of FUNCTIONS, or "pow"
-    args: tuple[Node, ...]
-
-
-def walk(node: Node):
-    """Every node of the tree, parents first."""
-    yield node
-    if isinstance(node, Bin):
-        yield from walk(node.a)
-        yield from walk(node.b)
-    elif isinstance(node, Neg):
-        yield from walk(node.a)
-    elif isinstance(node, Call):
-        for a in node.args:
-            yield from walk(a)
-
-
-def names(node: Node, kind: str) -> set[str]:
-    """The names of ``kind`` that ``node`` uses."""
-    return {n.name for n in walk(node) if isinstance(n, Ref) and n.kind == kind}
-
-
-def laplacians(node: Node) -> set[tuple[str, int]]:
-    """``(name, order)`` of every Laplacian in ``node``."""
-    return {(n.name, n.order) for n in walk(node) if isinstance(n, Lap)}
-
-
-def derivatives(node: Node) -> set[Diff]:
-    """Every first derivative (`Diff`) in ``node``."""
-    return {n for n in walk(node) if isinstance(n, Diff)}
-
-
-def rename_fields(node: Node, names: Mapping[str, str]) -> Node:
-    """``node`` with the fields that Laplacians and derivatives read renamed (``names``:
-    old -> new; the species themselves are left to the caller)."""
-    def fn(n: Node) -> Node | None:
-        if isinstance(n, Lap) and n.name in names:
-            return Lap(names[n.name], n.order)
-        if isinstance(n, Diff) and n.name in names:
-            return Diff(names[n.name], n.axis, n.side, n.optional)
-        return None
-    return substitute(node, fn)
-
-
-def map_axes(node: Node, axes: Mapping[str, str]) -> Node:
-    """``node`` with each derivative's axis renamed by ``axes`` (another program's axis
-    names -> rdgpu's) and made explicit; an `optional <Diff>` derivative along an axis
-    ``axes`` lacks becomes 0, any other is an EquationError naming it."""
-    def fn(n: Node) -> Node | None:
-        if not isinstance(n, Diff):
-            return None
-        if n.axis in axes:
-            return Diff(n.name, axes[n.axis], n.side)
-        if n.optional:
-            return Num(0.0)
-        raise EquationError(f"{n.spelling} differentiates along {n.axis}, an axis the grid "
-                            f"lacks (its axes: {', '.join(axes)})")
-    return substitute(node, fn)
-
-
-def substitute(node: Node, fn: Callable[[Node], Node | None]) -> Node:
-    """A copy of the tree with every node for which ``fn`` returns a node replaced."""
-    new = fn(node)
-    if new is not None:
-        return new
-    if isinstance(node, Bin):
-        return Bin(node.op, substitute(node.a, fn), substitute(node.b, fn))
-    if isinstance(node, Neg):
-        return Neg(substitute(node.a, fn))
-    if isinstance(node, Call):
-        return Call(node.fn, tuple(substitute(a, fn) for a in node.args))
-    return node
-
-
-def to_text(node: Node) -> str:
-    """The tree as (fully parenthesised) text of the language."""
-    if isinstance(node, Num):
-        return repr(node.value)
-    if isinstance(node, Ref):
-        return node.name
-    if isinstance(node, Lap):
-        return "laplace(" * node.order + node.name + ")" * node.order
-    if isinstance(node, Diff):
-        return node.spelling
-    if isinstance(node, Bin):
-        return f"({to_text(node.a)} {node.op} {to_text(node.b)})"
-    if isinstance(node, Neg):
-        return f"(-{to_text(node.a)})"
-    return f"{node.fn}({', '.join(to_text(a) for a in node.args)})"
-
-
 # ---------------------------------------------------------------------------- parsing
 def _allowed_text(species: Iterable[str], params: Iterable[str]) -> str:
     return (
         f"species ({', '.join(species) or 'none'}), parameters "
         f"({', '.join(sorted(params)) or 'none'}), x y z t, Lx Ly Lz, pi, numbers, "
-        f"+ - * / **, laplace(species), laplace(laplace(species)), the derivatives "
+        f"+ - * / **, laplace(species), laplace(laplace(species)), laplace(expression), "
+        f"div(D*grad(species)), the derivatives "
         f"d_dx d_dy d_dz (and their _forward/_backward forms), gradient_squared, "
         f"dot(gradient(a), gradient(b)), advect(species, vx[, vy[, vz]]) and the functions "
         f"{' '.join(FUNCTIONS)}"
@@ -339,7 +227,9 @@ def parse(
                 raise fail(f"the call {ast.unparse(node)!r}")
             fn = node.func.id
             if fn == "laplace":
-                return _laplace(node, species, laplace, fail)
+                return _laplace(node, species, laplace, fail, go)
+            if fn in ("div", "divergence"):
+                return _divergence(node, species, laplace, fail, go)
             if fn in DERIVATIVES or fn in _VECTOR_CALCULUS:
                 return _derivative(node, species, laplace, fail, go)
             if fn not in FUNCTIONS:
@@ -405,36 +295,9 @@ def _real(v: int | float, text: str, fail) -> float:
     return f
 
 
-def size_and_depth(node: Node) -> tuple[int, int]:
-    """The number of nodes of the tree written out (shared subtrees counted each time) and
-    its depth, computed over the shared nodes once each."""
-    memo: dict[int, tuple[int, int]] = {}  # by id: every node stays alive in the tree
-    stack = [(node, False)]
-    while stack:
-        n, done = stack.pop()
-        if id(n) in memo:
-            continue
-        kids = _children(n)
-        if not done and kids:
-            stack.append((n, True))
-            stack.extend((k, False) for k in kids if id(k) not in memo)
-            continue
-        sizes = [memo[id(k)] for k in kids]
-        memo[id(n)] = (1 + sum(s for s, _ in sizes), 1 + max((d for _, d in sizes), default=0))
-    return memo[id(node)]
-
-
-def _children(node: Node) -> tuple[Node, ...]:
-    if isinstance(node, Bin):
-        return (node.a, node.b)
-    if isinstance(node, Neg):
-        return (node.a,)
-    if isinstance(node, Call):
-        return node.args
-    return ()
-
-
-def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> Node:
+def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, go) -> Node:
+    """``laplace(s)`` (`Lap`), ``laplace(laplace(s))`` (its order 2), or the Laplacian of
+    any other expression (`LapOf`)."""
     if not allowed:
         raise fail("laplace() (a parameter expression has no Laplacian)")
     if len(node.args) != 1 or node.keywords:
@@ -446,8 +309,43 @@ def _laplace(node: ast.Call, species: tuple[str, ...], allowed: bool, fail) -> N
             and arg.func.id == "laplace" and len(arg.args) == 1
             and isinstance(arg.args[0], ast.Name) and arg.args[0].id in species):
         return Lap(arg.args[0].id, 2)
-    raise fail(f"laplace({ast.unparse(arg)}) (laplace takes a species or "
-               f"laplace(species))")
+    inner = go(arg)
+    return Lap(inner.name) if isinstance(inner, Ref) and inner.kind == "species" else \
+        LapOf(inner)
+
+
+_GRAD = ("grad", "gradient")
+
+
+def _divergence(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, go) -> Node:
+    """``div(D*grad(s))``: its argument a product of factors exactly one of which is
+    ``grad(s)`` (or ``gradient(s)``) of a species; the others, in order, are ``D``."""
+    fn = node.func.id
+    if not allowed:
+        raise fail(f"{fn}() (a parameter expression has no derivatives)")
+    if len(node.args) != 1 or node.keywords:
+        raise fail(f"{fn}() with other than one argument (it takes D*grad(species))")
+    factors: list[ast.AST] = []
+    stack = [node.args[0]]
+    while stack:  # the factors of a product, left to right
+        a = stack.pop()
+        if isinstance(a, ast.BinOp) and isinstance(a.op, ast.Mult):
+            stack += [a.right, a.left]
+        else:
+            factors.append(a)
+    grads = [k for k, a in enumerate(factors)
+             if isinstance(a, ast.Call) and isinstance(a.func, ast.Name) and a.func.id in _GRAD]
+    if len(grads) != 1:
+        raise fail(f"{fn}({ast.unparse(node.args[0])}) ({fn} takes D*grad(species): one "
+                   "grad() times any expression D)")
+    g = factors.pop(grads[0])
+    if len(g.args) != 1 or g.keywords or not (isinstance(g.args[0], ast.Name)
+                                               and g.args[0].id in species):
+        raise fail(f"{ast.unparse(g)} inside {fn}() (grad takes one species)")
+    coef: Node | None = None
+    for a in factors:
+        coef = go(a) if coef is None else Bin("*", coef, go(a))
+    return DivGrad(Num(1.0) if coef is None else coef, g.args[0].id)
 
 
 _VECTOR_CALCULUS = ("gradient_squared", "dot", "advect")
@@ -526,11 +424,13 @@ def _power(base: Node, exponent: Node) -> Node:
 def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
              literal: Callable[[float], Any] | None = None,
              lap: Callable[[str, int], Any] | None = None,
-             diff: Callable[[Diff], Any] | None = None) -> Any:
+             diff: Callable[[Diff], Any] | None = None,
+             operator: Callable[[Node], Any] | None = None) -> Any:
     """Evaluate with NumPy (``lib``, default `numpy`): ``env`` maps every name to a
     value, ``literal`` turns a number into a value of the working dtype, ``lap(name,
-    order)`` returns a Laplacian and ``diff(node)`` a first derivative (`Diff`).  The same
-    operations in the same order as every generated kernel."""
+    order)`` returns a Laplacian, ``diff(node)`` a first derivative (`Diff`) and
+    ``operator(node)`` a `LapOf` or `DivGrad`.  The same operations in the same order as
+    every generated kernel."""
     import numpy as np
 
     lib = np if lib is None else lib
@@ -550,6 +450,10 @@ def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
             if diff is None:
                 raise EquationError(f"{n.spelling} needs a domain to evaluate")
             return diff(n)
+        if isinstance(n, (LapOf, DivGrad)):
+            if operator is None:
+                raise EquationError(f"{to_text(n)} needs a domain to evaluate")
+            return operator(n)
         if isinstance(n, Bin):
             a, b = go(n.a), go(n.b)
             if n.op == "+":
@@ -572,85 +476,3 @@ def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
 
     return go(node)
 
-
-# ---------------------------------------------------------------------------- linear parts
-@dataclass(frozen=True)
-class Linear:
-    """A right-hand side split as ``Σ_r diffusion[r]·laplace(r) + Σ_r bilaplacian[r]·
-    laplace(laplace(r)) + rest``: each coefficient a tree of numbers and parameters (no
-    species, coordinates or time); ``rest`` holds no Laplacian (None when nothing is
-    left).  ``terms`` are the (sign, term) pairs of the top-level sum."""
-
-    diffusion: dict[str, Node]
-    bilaplacian: dict[str, Node]
-    rest: Node | None
-
-
-def _terms(node: Node, sign: int = 1) -> list[tuple[int, Node]]:
-    if isinstance(node, Bin) and node.op in "+-":
-        return _terms(node.a, sign) + _terms(node.b, sign if node.op == "+" else -sign)
-    if isinstance(node, Neg):
-        return _terms(node.a, -sign)
-    # a constant factor of a sum that holds a Laplacian, D*(laplace(u) - u): distributed
-    # (a single term is rebuilt as it was, so nothing else changes)
-    if isinstance(node, Bin) and node.op in "*/":
-        if node.op == "*" and is_constant(node.a) and laplacians(node.b):
-            return [(s, Bin("*", node.a, t)) for s, t in _terms(node.b, sign)]
-        if is_constant(node.b) and laplacians(node.a):
-            return [(s, Bin(node.op, t, node.b)) for s, t in _terms(node.a, sign)]
-    return [(sign, node)]
-
-
-def _coefficient(term: Node) -> tuple[tuple[str, int], Node] | None:
-    """``((name, order), c)`` when ``term`` is ``c·laplace^order(name)`` with a constant
-    ``c`` (products and quotients of numbers and parameters around one Laplacian in the
-    numerator), else None."""
-    if isinstance(term, Lap):
-        return (term.name, term.order), Num(1.0)
-    if isinstance(term, Neg):
-        inner = _coefficient(term.a)
-        return None if inner is None else (inner[0], Neg(inner[1]))
-    if isinstance(term, Bin) and term.op in "*/":
-        la, lb = laplacians(term.a), laplacians(term.b)
-        if la and not lb and is_constant(term.b):
-            inner = _coefficient(term.a)
-            if inner is None:
-                return None
-            if term.op == "*" and inner[1] == Num(1.0):
-                return inner[0], term.b
-            return inner[0], Bin(term.op, inner[1], term.b)
-        if lb and not la and term.op == "*" and is_constant(term.a):
-            inner = _coefficient(term.b)
-            if inner is None:
-                return None
-            return inner[0], (term.a if inner[1] == Num(1.0) else Bin("*", term.a, inner[1]))
-    return None
-
-
-def is_constant(node: Node) -> bool:
-    """Made of numbers and parameters only (functions of them included): no species,
-    coordinate, time, Laplacian or derivative."""
-    return all(not isinstance(n, (Lap, Diff)) and not (isinstance(n, Ref) and n.kind != "param")
-               for n in walk(node))
-
-
-def linear_parts(node: Node) -> Linear | None:
-    """Split ``node`` (see `Linear`); None when a Laplacian appears other than as a
-    constant multiple in the top-level sum (``u*laplace(u)``, ``exp(laplace(u))``); a
-    constant factor of a sum, ``D*(laplace(u) - u)``, is distributed first."""
-    diffusion: dict[str, Node] = {}
-    bilaplacian: dict[str, Node] = {}
-    rest: Node | None = None
-    for sign, term in _terms(node):
-        if not laplacians(term):
-            t = term if sign > 0 else Neg(term)
-            rest = t if rest is None else Bin("+" if sign > 0 else "-", rest, term)
-            continue
-        found = _coefficient(term)
-        if found is None:
-            return None
-        (name, order), c = found
-        c = c if sign > 0 else Neg(c)
-        target = diffusion if order == 1 else bilaplacian
-        target[name] = c if name not in target else Bin("+", target[name], c)
-    return Linear(diffusion, bilaplacian, rest)

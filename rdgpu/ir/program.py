@@ -24,14 +24,29 @@ import numpy as np
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.domains.base import STENCILS  # the grid stencils, owned by the domains
-from rdgpu.ir.equations import Diff, Lap, Node, Num, Ref, parse, substitute, walk
+from rdgpu.ir.equations import (
+    Diff,
+    DivGrad,
+    Lap,
+    LapOf,
+    Node,
+    Num,
+    Ref,
+    parse,
+    substitute,
+    walk,
+)
+from rdgpu.ir.equations import names as names_of
 from rdgpu.ir.names import ident
 
-__all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "Program",
-           "expression_tree", "literal", "signature"]
+__all__ = ["METRIC_COEFFICIENTS", "OPERATOR_FIELDS", "REALS", "STENCILS", "Output",
+           "PerMember", "Program", "expression_tree", "literal", "signature"]
 
 #: the dtypes a program runs in
 REALS = REAL_DTYPES
+#: the prefixes of the derived fields a Program makes of the Laplacians and divergences of
+#: expressions (`Program`); no other program field may use them
+OPERATOR_FIELDS = ("_opl", "_opd")
 #: the metric coefficient arrays in the kernels' argument order (families/metric/reference.py)
 METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
 
@@ -54,17 +69,71 @@ class Program:
     a parameter (a field buffer or a scalar argument: decided per launch),
     ``Ref("builtin", b)`` a scalar argument (``_h``, ``_a``...), ``Ref("time", "t")``,
     ``Ref("coord", c)``, ``Ref("length", L)``.  ``zero_ghost``: inputs whose Dirichlet
-    ghost is 0 instead of the grid's value."""
+    ghost is 0 instead of the grid's value; ``own_ghost``: fields whose Dirichlet ghost
+    is the cell's own value (a divergence's coefficient).
+
+    ``DivGrad(Ref("species", d), s)`` reads field ``d`` as the coefficient.  A `LapOf`
+    or a `DivGrad` of any other pointwise expression becomes a derived field at
+    construction (``_opl<k>``, ``_opd<k>``, `OPERATOR_FIELDS`): the outputs then read
+    ``Lap(_opl<k>)`` and ``DivGrad(Ref("species", "_opd<k>"), s)``."""
 
     inputs: tuple[str, ...]
     outputs: tuple[Output, ...]
     zero_ghost: frozenset[str] = frozenset()
-    #: pointwise fields ``(name, expression of the inputs and scalar parameters)``, readable
-    #: at the cell and through ``Lap(name)``: a neighbour's value is the expression of the
-    #: inputs there (Dirichlet ghost: the grid's value)
+    #: pointwise fields ``(name, expression of the inputs, other derived fields before it
+    #: and scalar parameters)``, readable at the cell and through ``Lap(name)``: a
+    #: neighbour's value is the expression of the inputs there (Dirichlet ghost: the
+    #: grid's value, or the cell's own in ``own_ghost``)
     derived: tuple[tuple[str, Node], ...] = ()
+    own_ghost: frozenset[str] = frozenset()
     #: per-program caches (names, sources, compiled passes); programs compare by identity
     cache: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        made: dict[tuple[str, Node], str] = {}
+        derived, own = list(self.derived), set(self.own_ghost)
+        fields = {*self.inputs, *(d for d, _ in self.derived)}
+
+        def field_of(expr: Node, role: str) -> str:
+            if (isinstance(expr, Ref) and expr.kind == "species" and expr.name in own
+                    and role == "opd"):
+                return expr.name  # already a coefficient field
+            key = (role, expr)
+            if key not in made:
+                made[key] = name = f"_{role}{len(made)}"
+                if name in fields:
+                    raise ValueError(f"program field {name!r} is a generated name")
+                derived.append((name, expr))
+                if role == "opd":
+                    own.add(name)
+            return made[key]
+
+        def fn(n: Node) -> Node | None:
+            if isinstance(n, LapOf):
+                return Lap(field_of(substitute(n.expr, fn), "opl"))
+            if isinstance(n, DivGrad):
+                return DivGrad(Ref("species", field_of(substitute(n.coef, fn), "opd")),
+                               n.name)
+            return None
+
+        outputs = tuple(Output(o.name, substitute(o.expr, fn), o.bounds) for o in self.outputs)
+        if made:
+            object.__setattr__(self, "outputs", outputs)
+            object.__setattr__(self, "derived", tuple(derived))
+            object.__setattr__(self, "own_ghost", frozenset(own))
+        stencil = set(self.stencil_inputs)
+        for d, expr in self.derived:
+            if d in stencil and names_of(expr, "coord"):
+                raise ValueError(
+                    f"program field {d!r} is read at neighbours, and its expression uses "
+                    f"the coordinates {sorted(names_of(expr, 'coord'))}: store it first")
+
+    def neighbour_params(self) -> frozenset[str]:
+        """The parameters the derived fields read at neighbours use (each must be one
+        number per member: a parameter field there needs the field stored first)."""
+        stencil = set(self.stencil_inputs)
+        return frozenset(p for d, expr in self.derived if d in stencil
+                         for p in names_of(expr, "param"))
 
     def refs(self, kind: str) -> tuple[str, ...]:
         """The names of ``Ref``s of ``kind`` the outputs and derived fields use, sorted
@@ -80,12 +149,25 @@ class Program:
 
     @property
     def stencil_inputs(self) -> tuple[str, ...]:
-        """Inputs and derived fields whose Laplacian or derivative is taken, in that
-        order (their neighbours are read)."""
-        used = {n.name for o in self.outputs for n in walk(o.expr)
-                if isinstance(n, (Lap, Diff))}
+        """Inputs and derived fields whose Laplacian, derivative or divergence is taken
+        (a divergence's field and coefficient), in that order (their neighbours are
+        read)."""
+        used = set()
+        for o in self.outputs:
+            for n in walk(o.expr):
+                if isinstance(n, (Lap, Diff)):
+                    used.add(n.name)
+                elif isinstance(n, DivGrad):
+                    used.update((n.name, n.coef.name))
         names = (*self.inputs, *(d for d, _ in self.derived))
         return tuple(s for s in names if s in used)
+
+    @property
+    def divergences(self) -> tuple[DivGrad, ...]:
+        """The divergences the outputs take, each once, sorted by (field, coefficient)."""
+        found = {(n.name, n.coef.name): n for o in self.outputs for n in walk(o.expr)
+                 if isinstance(n, DivGrad)}
+        return tuple(found[k] for k in sorted(found))
 
     @property
     def derivatives(self) -> tuple[Diff, ...]:
@@ -100,15 +182,18 @@ class Program:
         return dict(self.derived).get(name)
 
     def check(self) -> None:
+        known = (*self.inputs, *(d for d, _ in self.derived))
         for o in self.outputs:
             for n in walk(o.expr):
-                known = (*self.inputs, *(d for d, _ in self.derived))
                 if isinstance(n, Lap) and (n.order != 1 or n.name not in known):
                     raise ValueError(f"program reads laplace^{n.order}({n.name}): only "
                                      "first-order Laplacians of inputs")
                 if isinstance(n, Diff) and n.name not in known:
                     raise ValueError(f"program reads {n.spelling}: not an input")
-                if isinstance(n, Ref) and n.kind == "species" and n.name not in self.inputs:
+                if isinstance(n, DivGrad) and n.name not in known:
+                    raise ValueError(f"program reads the divergence of {n.name!r}: not an "
+                                     "input")
+                if isinstance(n, Ref) and n.kind == "species" and n.name not in known:
                     raise ValueError(f"program reads {n.name!r}, which is not an input")
 
 

@@ -7,7 +7,8 @@ isotropic stencils, ghosts by `rdgpu.domains.boundary` (a Dirichlet ghost of a
 ``zero_ghost`` input is 0), on graph surfaces the metric operator of
 ``families/metric/reference.py``, on meshes the CSR rows of ``L`` in index order.  The
 first derivatives (grids only) are `rdgpu.ir.stencils.derivative_text`'s differences of
-the same ghosts.
+the same ghosts, and the divergences (grids, compact stencil) `rdgpu.ir.stencils.
+divergence_text`'s face fluxes.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.families import load_module
-from rdgpu.ir.equations import Diff, evaluate
+from rdgpu.ir.equations import Diff, DivGrad, evaluate
 from rdgpu.ir.layout import Layout
 from rdgpu.ir.program import METRIC_COEFFICIENTS, PerMember, Program, literal
 from rdgpu.ir.stencils import STENCIL_KINDS
@@ -81,6 +82,51 @@ def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, zero: bool):
     else:
         out = (u - lo) / h
     return out.reshape(a.shape)
+
+
+def _grid_divergence(D: np.ndarray, a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
+    """The kernels' ``div(D·grad a)`` (`rdgpu.ir.stencils.divergence_text`): ``a``'s
+    ghosts by the bc (Dirichlet 0 if ``zero``), ``D``'s the cell's own value at a
+    Dirichlet side."""
+    gc = load_module("", "grid_common.py")
+    dom = layout.domain
+    t = a.dtype.type
+    nz, ny, nx = dom.shape3
+    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
+    c = np.broadcast_to(D, a.shape).reshape(u.shape)
+    cx, cy, cz = layout.grid_coefficients()
+    out = None
+    for k, (bc, coef) in enumerate(zip((dom.bcs.x, dom.bcs.y, dom.bcs.z), (cx, cy, cz),
+                                       strict=True)):
+        if k >= dom.ndim:
+            break
+        axis = 3 - k
+        p = gc.pad_axis(u, axis, bc.kind, 0.0 if zero else bc.value)
+        q = gc.pad_axis(c, axis, gc.NEUMANN if bc.kind == gc.DIRICHLET else bc.kind, 0.0)
+        n = p.shape[axis]
+        lo, hi = (np.take(p, range(0, n - 2), axis=axis), np.take(p, range(2, n), axis=axis))
+        dlo, dhi = (np.take(q, range(0, n - 2), axis=axis), np.take(q, range(2, n), axis=axis))
+        up = ((c + dhi) / t(2)) * (hi - u)
+        down = ((dlo + c) / t(2)) * (u - lo)
+        term = (up - down) * t(coef)
+        out = term if out is None else out + term
+    return out.reshape(a.shape)
+
+
+def _mesh_divergence(D: np.ndarray, a: np.ndarray, layout: Layout) -> np.ndarray:
+    """The kernels' ``div(D·grad a)`` on a mesh (`rdgpu.ir.stencils.mesh_divergence_text`):
+    per row ``Σ_q L_iq·(((D_i + D_q)/2)·(a_q − a_i))`` in index order."""
+    ref = load_module("mesh", "reference.py")
+    L = layout.domain.laplacian
+    n = layout.shape[0]
+    t = a.dtype.type
+    rows = np.repeat(np.arange(n), np.diff(L.indptr))
+    data = L.data.astype(a.dtype, copy=False)
+    c = np.broadcast_to(D, a.shape).reshape(-1, n)
+    out = [ref._row_sums(L.indptr, data * (((d[rows] + d[L.indices]) / t(2))
+                                           * (m[L.indices] - m[rows])), n, a.dtype)
+           for d, m in zip(c, a.reshape(-1, n), strict=True)]
+    return np.stack(out).reshape(a.shape)
 
 
 def _isotropic_laplacian(u, axes, zero: bool, t) -> np.ndarray:
@@ -171,11 +217,23 @@ def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray]
                 diffs[d] = _grid_derivative(env[d.name], layout, d, d.name in program.zero_ghost)
         return diffs[d]
 
+    divs: dict[DivGrad, Any] = {}
+
+    def div(d: DivGrad):
+        if d not in divs:
+            with np.errstate(all="ignore"):
+                if layout.is_grid:
+                    divs[d] = _grid_divergence(env[d.coef.name], env[d.name], layout,
+                                               d.name in program.zero_ghost)
+                else:
+                    divs[d] = _mesh_divergence(env[d.coef.name], env[d.name], layout)
+        return divs[d]
+
     out = {}
     for o in program.outputs:
         with np.errstate(all="ignore"):
             val = evaluate(o.expr, env, literal=lambda v: literal(v, dtype), lap=lap,
-                           diff=diff)
+                           diff=diff, operator=div)
         val = np.broadcast_to(np.asarray(val, dtype=dtype), shape)
         lo, hi = o.bounds
         if lo is not None:

@@ -26,7 +26,18 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rdgpu.ir.equations import Bin, Diff, EquationError, Lap, Neg, Node, Num, Ref, walk
+from rdgpu.ir.equations import (
+    Bin,
+    Diff,
+    DivGrad,
+    EquationError,
+    Lap,
+    Neg,
+    Node,
+    Num,
+    Ref,
+    walk,
+)
 from rdgpu.ir.names import ident
 from rdgpu.ir.program import METRIC_COEFFICIENTS, Program
 
@@ -34,8 +45,9 @@ if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
 
 __all__ = ["STENCIL_KINDS", "Neighbour", "StencilKind", "check_derivatives", "check_stencil",
-           "derivative_text", "emit", "laplacian_text", "metric_loads", "neighbour_value",
-           "neighbour_values", "stencil_kind", "variable"]
+           "derivative_text", "divergence_text", "emit", "laplacian_text",
+           "mesh_divergence_text", "metric_loads",
+           "neighbour_value", "neighbour_values", "stencil_kind", "variable"]
 
 
 @dataclass(frozen=True)
@@ -112,7 +124,7 @@ def emit(node: Node, name: Callable[[Node], str], lit: Callable[[float], str],
     """Fully parenthesised source: ``name(ref)``, ``lit(value)``, ``fn(call, args)``."""
     if isinstance(node, Num):
         return lit(node.value)
-    if isinstance(node, (Ref, Lap, Diff)):
+    if isinstance(node, (Ref, Lap, Diff, DivGrad)):
         return name(node)
     if isinstance(node, Bin):
         return f"({emit(node.a, name, lit, fn)} {node.op} {emit(node.b, name, lit, fn)})"
@@ -128,6 +140,8 @@ def variable(node: Node, fields: frozenset[str]) -> str:
         return ident("lap", node.name)
     if isinstance(node, Diff):
         return ident(_DIFF_ROLES[(node.axis, node.side)], node.name)
+    if isinstance(node, DivGrad):  # a coefficient field is ``_opd<k>`` or ``_std<k>``
+        return ident("dv", node.name + node.coef.name)
     if node.kind == "species":
         return ident("c", node.name)
     if node.kind == "param":
@@ -148,8 +162,13 @@ def neighbour_value(program: Program, s: str, load: Callable[[str], str],
     expr = program.derived_expr(s)
     if expr is None:
         return load(s)
-    return emit(expr, lambda n: load(n.name) if isinstance(n, Ref) and n.kind == "species"
-                else variable(n, fields), lit, fn)
+
+    def name(n: Node) -> str:
+        if isinstance(n, Ref) and n.kind == "species":
+            return neighbour_value(program, n.name, load, fields, lit, fn)
+        return variable(n, fields)
+
+    return emit(expr, name, lit, fn)
 
 
 # ---------------------------------------------------------------------------- the walk
@@ -169,7 +188,8 @@ def neighbour_values(program: Program, kind: str,
             value = neighbour_value(program, s, lambda i, nb=nb: load(nb, i), fields, lit, fn)
             if select is not None:
                 for side, axis in reversed(nb.ghosts):
-                    ghost = "0" if s in program.zero_ghost else f"g{axis}"
+                    ghost = ("0" if s in program.zero_ghost else ident("c", s)
+                             if s in program.own_ghost else f"g{axis}")
                     value = select(side, ghost, value)
             yield nb.name, s, value
 
@@ -198,12 +218,52 @@ def derivative_text(kind: str, d: Diff, num: Callable[[int], str]) -> str:
     return f"(({c} - {q_lo}) / {h})"
 
 
+def divergence_text(kind: str, d: DivGrad, num: Callable[[int], str]) -> str:
+    """`DivGrad` ``d`` of a grid cell from the neighbour values of its field and its
+    coefficient (`derivative_text`'s names), in the reference's operation order: per
+    axis ``((((D + D₊) / 2) * (s₊ − s)) − (((D₋ + D) / 2) * (s − s₋))) * c`` with the
+    Laplacian's ``c = 1/h²`` (``cx``...), summed x, y, z left to right.  A face's flux
+    is the same expression of the same two cells seen from either side."""
+    nd = STENCIL_KINDS[kind].ndim
+    D, s = d.coef.name, d.name
+    cd, cs = ident("c", D), ident("c", s)
+    out = ""
+    for axis in "xyz"[:nd]:
+        lo, hi, _ = _AXES[axis]
+        up = (f"((({cd} + {ident('q' + hi, D)}) / {num(2)}) * "
+              f"({ident('q' + hi, s)} - {cs}))")
+        down = (f"((({ident('q' + lo, D)} + {cd}) / {num(2)}) * "
+                f"({cs} - {ident('q' + lo, s)}))")
+        term = f"(({up} - {down}) * c{axis})"
+        out = term if not out else f"({out} + {term})"
+    return out
+
+
+def mesh_divergence_text(d: DivGrad, num: Callable[[int], str]) -> str:
+    """One CSR entry's term of `DivGrad` ``d`` on a mesh, to be multiplied by the entry
+    ``a_`` and summed over the row in index order: ``((D + D_q) / 2) * (s_q − s)`` with the
+    column's values ``_qcol_{field}`` (the diagonal entry adds ``·(s − s) = 0``).  With
+    ``L = M⁻¹K``, ``K`` symmetric, each edge's flux is the same from its two vertices: the
+    ``M``-weighted sum is conserved."""
+    D, s = d.coef.name, d.name
+    return (f"((({ident('c', D)} + {ident('qcol', D)}) / {num(2)}) * "
+            f"({ident('qcol', s)} - {ident('c', s)}))")
+
+
 def check_derivatives(trees: dict[str, Node], kind: str) -> None:
     """The first derivatives of ``trees`` (species -> right-hand side) can be taken on
     stencil kind ``kind``: on grids (not meshes or graph surfaces yet), along axes the grid
     has (an EquationError naming the equation and the operator otherwise)."""
     row = STENCIL_KINDS[kind]
     for s, tree in trees.items():
+        if row.form in ("metric", "isotropic") and any(isinstance(n, DivGrad)
+                                                        for n in walk(tree)):
+            where = {"metric": "a graph surface",
+                     "isotropic": "the isotropic stencil (use the compact one)"}[row.form]
+            raise EquationError(
+                f"the equation of {s!r} takes a divergence div(D*grad(...)), which rdgpu "
+                f"computes on flat grids with the compact stencil and on meshes, not yet on "
+                f"{where}")
         for d in sorted({n for n in walk(tree) if isinstance(n, Diff)},
                         key=lambda n: n.spelling):
             if row.form in ("csr", "metric"):

@@ -138,7 +138,11 @@ class DeviceRHS:
             return
         # a bilaplacian: its Laplacian of the stored y by the pre-pass, then the stage on y
         y = fields[state]
-        launch(st._pre, st.target, y, st._aux, st._device_params, {}, t)
+        src = {**dict(zip(self.species, y, strict=True)),
+               **dict(zip(st._pre.names, st._aux, strict=True))}
+        for level in st._pre.levels:
+            launch(level, st.target, [src[i] for i in level.inputs],
+                   [src[o.name] for o in level.outputs], st._device_params, {}, t)
         program = self._stage_program(None, names, tuple(scalars), tuple(outputs))
         ins = [*y, *st._aux, *(b for n in names for b in fields[n])]
         launch(program, st.target, ins, flat_outs, st._device_params, args, t)
@@ -173,14 +177,7 @@ class DeviceRHS:
                 return _as_builtin(n)
             return fn
 
-        def on_y(n: eq.Node) -> eq.Node | None:
-            if isinstance(n, eq.Ref) and n.kind == "species":
-                return eq.Ref("species", y[n.name])
-            if isinstance(n, (eq.Lap, eq.Diff)) and n.name in y:
-                return eq.rename_fields(n, y)
-            return None
-
-        rates = {s: eq.substitute(st.rates[s], on_y) for s in species}
+        rates = {s: eq.rename_species(st.rates[s], y) for s in species}
         derived: tuple[tuple[str, eq.Node], ...] = ()
         if state is not None:
             tree = eq.parse(state, species=names, params=scalars, laplace=False,
@@ -198,10 +195,13 @@ class DeviceRHS:
                         return eq.Ref("species", y[s])
                     return per_species(s)(n)
                 outs.append(Output(f"o{k}__{s}", eq.substitute(tree, fill)))
-        aux = () if st._pre is None else tuple(o.name for o in st._pre.outputs)
+        pre = st._pre
+        aux = () if pre is None else pre.names
         inputs = (() if state is not None else (*species, *aux)) + tuple(
             f"_{n}__{s}" for n in names for s in species)
-        program = Program(inputs, tuple(outs), frozenset(aux), derived)
+        program = Program(inputs, tuple(outs), frozenset(aux) & (pre.zero_ghost if pre else
+                                                                  frozenset()), derived,
+                          own_ghost=pre.own_ghost if pre else frozenset())
         self._programs[key] = program
         return program
 

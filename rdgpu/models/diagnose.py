@@ -180,7 +180,7 @@ def _first_bad(tree: eq.Node, env, laps, dtype, params, sim) -> str | None:
         elif isinstance(n, eq.Diff):
             out = laps[n]
         else:
-            kids = [value(k) for k in eq._children(n)]
+            kids = [value(k) for k in eq.children(n)]
             with np.errstate(all="ignore"):
                 out = _apply(n, kids)
             if not found and all(_fits(np.asarray(k), dtype).all() for k in kids) \

@@ -218,9 +218,40 @@ MEINHARDT_STRIPES = Model(
 ALLEN_CAHN = AllenCahn()
 
 #: every model by its command-line name
+CAHN_HILLIARD = Model(
+    "cahn-hilliard",
+    {"u": "M*laplace(u**3 - u - g*laplace(u))"},
+    {"M": 1.0, "g": 1.0},
+    description="Cahn-Hilliard phase separation u_t = M Δμ, μ = u³ − u − γΔu (the "
+    "chemical potential stored by a pre-pass each step): from a noisy mixture at mean 0 "
+    "the two phases ±1 separate into a labyrinth that coarsens as t^(1/3); mass is "
+    "conserved",
+    source="Cahn & Hilliard 1958; py-pde's CahnHilliardPDE (interface_width = γ)",
+    steady_guess=lambda p: (0.0,),
+    default_dt=0.02, default_time=400.0,
+    value_range={"u": (-1.0, 1.0)},
+    default_init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
+)
+
+KELLER_SEGEL = Model(
+    "keller-segel",
+    {"u": "Du*laplace(u) - div(chi*u*grad(v)) + r*u*(1 - u)",
+     "v": "Dv*laplace(v) + u - v"},
+    {"Du": 1.0, "Dv": 1.0, "chi": 6.0, "r": 1.0},
+    description="chemotaxis with logistic growth u_t = Du Δu − ∇·(χ u ∇v) + r u(1 − u), "
+    "v_t = Dv Δv + u − v: cells u climb the gradient of the chemical v they secrete "
+    "(the flux in divergence form, face-averaged); aggregates form where χ > "
+    "(√(Du r) + √Dv)², held apart by the growth term",
+    source="Keller & Segel 1970; Painter & Hillen 2011 (logistic chemotaxis)",
+    steady_guess=lambda p: (1.0, 1.0),
+    spacing=0.25, default_dt=0.005, default_time=100.0,
+    value_range={"u": (0.0, 3.0), "v": (0.0, 2.0)},
+    default_init={"kind": "uniform", "values": {"u": 1.0, "v": 1.0}, "noise": 0.05},
+)
+
 MODELS: dict[str, Any] = {
     m.name: m
     for m in (GRAY_SCOTT, GRAY_SCOTT_FLOW, ALLEN_CAHN, BRUSSELATOR, FITZHUGH_NAGUMO,
               SCHNAKENBERG, BVAM, BARKLEY, TURING, COMPLEX_GINZBURG_LANDAU, SWIFT_HOHENBERG,
-              MEINHARDT_STRIPES)
+              MEINHARDT_STRIPES, CAHN_HILLIARD, KELLER_SEGEL)
 }

@@ -35,9 +35,13 @@ import numpy as np
 from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
-from rdgpu.core.validation import real_number
 from rdgpu.domains.base import domain_shape, require_domain
-from rdgpu.integrators.stability import advective_rate, stability_limit, with_advection
+from rdgpu.integrators.stability import (
+    advective_rate,
+    frozen_coefficients,
+    stability_limit,
+    with_advection,
+)
 from rdgpu.integrators.stepper import ModelStepper
 from rdgpu.ir import equations as eq
 from rdgpu.ir.program import expression_tree
@@ -45,6 +49,7 @@ from rdgpu.ir.schemes import get_scheme, method_names
 from rdgpu.ir.stencils import check_stencil
 from rdgpu.models.ensemble import resolve_members, stack_members
 from rdgpu.models.mesh_lengths import fit_to_mesh, length_ratio
+from rdgpu.models.param_fields import FIELD_SPEC_KEYS, field_spec, param_field
 from rdgpu.models.ranges import check_bounds, check_fits
 from rdgpu.ops.transforms import SOLVERS
 
@@ -59,11 +64,6 @@ _RESERVED = {"laplace", *eq.FUNCTIONS, *eq.COORDINATES, eq.TIME, *eq.LENGTHS,
 
 
 # ---------------------------------------------------------------------------- domains
-def _coordinates(domain: Domain, axis: str) -> np.ndarray:
-    """Coordinate ``axis`` of every cell / vertex, scaled to [0, 1] over the domain."""
-    return domain.unit_coordinate(axis)
-
-
 def _physical_coordinates(domain: Domain) -> dict[str, Any]:
     """``x, y, z`` (float64, the kernels' cell centres or vertex coordinates) and ``Lx, Ly,
     Lz`` for evaluating parameter expressions on the host."""
@@ -73,76 +73,6 @@ def _physical_coordinates(domain: Domain) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------- parameters
-#: per field-spec kind: (required keys, optional keys with defaults)
-FIELD_SPEC_KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
-    "random": (("low", "high"), {}),
-    "sine": (("mean", "amplitude"), {"axis": "x", "periods": 1.0}),
-    "linear": (("start", "stop"), {"axis": "x"}),
-}
-
-
-def field_spec(spec: Any, name: str | None = None) -> dict[str, Any]:
-    """A parameter field spec (`param_field`) checked and completed: a known
-    ``kind``, every required key, no unknown key, numbers that are numbers (finite),
-    ``low <= high``, an axis name.  ``name`` (the parameter) goes into the messages."""
-    what = "a parameter field spec" if name is None else f"parameter {name!r}"
-    kinds = ", ".join(repr(k) for k in FIELD_SPEC_KEYS)
-    if not isinstance(spec, Mapping):
-        raise TypeError(f"{what}: a field spec is a dict such as {{'kind': 'random', 'low': "
-                        f"0.01, 'high': 0.05}}, got {type(spec).__name__}")
-    kind = spec.get("kind")
-    if not isinstance(kind, str) or kind not in FIELD_SPEC_KEYS:
-        raise ValueError(f"{what}: unknown parameter field kind {kind!r}; allowed: {kinds}")
-    required, optional = FIELD_SPEC_KEYS[kind]
-    missing = [k for k in required if k not in spec]
-    if missing:
-        raise ValueError(f"{what}: a {kind!r} field spec needs {', '.join(map(repr, missing))}"
-                         f" (keys: {', '.join(required + tuple(optional))})")
-    unknown = sorted(set(spec) - {"kind", *required, *optional}, key=str)
-    if unknown:
-        raise ValueError(f"{what}: unknown key(s) {unknown} in a {kind!r} field spec; "
-                         f"allowed: {['kind', *required, *optional]}")
-    out: dict[str, Any] = {"kind": kind, **optional}
-    for key in (*required, *optional):
-        if key == "axis":
-            axis = spec.get(key, optional[key])
-            if not isinstance(axis, str):
-                raise ValueError(f"{what}: 'axis' of a {kind!r} field spec is 'x', 'y' or 'z',"
-                                 f" got {axis!r}")
-            out[key] = axis
-        elif key in spec:
-            out[key] = real_number(spec[key], f"{what}: {key!r} of a {kind!r} field spec")
-    if kind == "random" and out["low"] > out["high"]:
-        raise ValueError(f"{what}: a 'random' field spec needs low <= high, got low "
-                         f"{out['low']:g} > high {out['high']:g}")
-    return out
-
-
-def param_field(spec: Mapping[str, Any], domain: Domain, rng: np.random.Generator,
-                name: str | None = None) -> np.ndarray:
-    """A float64 parameter field over ``domain`` from a spec:
-
-    * ``{"kind": "random", "low": a, "high": b}`` — independent uniform values per cell;
-    * ``{"kind": "sine", "mean": m, "amplitude": A, "axis": "x", "periods": 1}`` —
-      ``m + A sin(2π periods s)``, ``s ∈ [0, 1]`` the coordinate along the axis;
-    * ``{"kind": "linear", "start": a, "stop": b, "axis": "x"}`` — ``a + (b − a) s``.
-
-    The spec is checked first (`field_spec`: every key known, the required ones
-    given, numbers finite, ``low <= high``); ``name`` (the parameter's) goes into the
-    messages.
-    """
-    spec = field_spec(spec, name)
-    kind = spec["kind"]
-    shape = domain_shape(domain)
-    if kind == "random":
-        return rng.uniform(spec["low"], spec["high"], size=shape)
-    s = _coordinates(domain, spec["axis"])
-    if kind == "sine":
-        return spec["mean"] + spec["amplitude"] * np.sin(2 * np.pi * spec["periods"] * s)
-    a, b = spec["start"], spec["stop"]
-    return a + (b - a) * s
-
-
 def _field(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
     a = np.asarray(value, dtype=np.float64)
     if a.shape != shape:
@@ -478,11 +408,15 @@ class Model:
         ----------
         params : mapping, optional
             Values over the model's defaults (default ``None``: the defaults)."""
+        return self._operators(params, self.linear)
+
+    def _operators(self, params, linear: Mapping[str, Any]):
+        """`linear_operators` of the linear parts ``linear`` (species -> `Linear` or None)."""
         n = len(self.species)
         env = self._largest(params)
         D, B = np.zeros((n, n)), np.zeros((n, n))
         for i, s in enumerate(self.species):
-            lin = self.linear[s]
+            lin = linear[s]
             if lin is None:
                 return None
             for target, coeffs in ((D, lin.diffusion), (B, lin.bilaplacian)):
@@ -580,7 +514,11 @@ class Model:
             Values over the model's defaults (default ``None``: the defaults).
         method, stencil, lengths : str, optional
             As in `stepper`."""
-        ops = fit_to_mesh(self, domain, lengths).linear_operators(params)
+        model = fit_to_mesh(self, domain, lengths)
+        # divergences with coefficients of x, y, z and parameters: their largest value
+        env = {**model._largest(params), **_physical_coordinates(require_domain(domain))}
+        ops = model._operators(params, {s: eq.linear_parts(frozen_coefficients(t, env))
+                                        for s, t in model.trees.items()})
         rate = advective_rate(self.trees, self._largest(params), require_domain(domain).spacings)
         if ops is None:
             return math.inf if rate == 0 else 1.0 / rate

@@ -159,6 +159,26 @@ _add(Preset(
     "labyrinth that F = 0.030, k = 0.060 grows isotropically lines up across the flow",
 ))
 _add(Preset(
+    "cahn-hilliard-coarsening", "cahn-hilliard",
+    {"M": 1.0, "g": 1.0}, dt=0.02, steps=25000,
+    domain={"grid": (256, 256), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "uniform", "values": {"u": 0.0}, "noise": 0.1},
+    source="Cahn & Hilliard 1958 (py-pde's CahnHilliardPDE, interface width 1)",
+    expect="stripes", snapshot_every=1000, classify={"field": "u", "threshold": 0.0},
+    description="a noisy mixture at mean 0 separates into the phases ±1, a bicontinuous "
+    "labyrinth that coarsens (t = 500); the mean of u stays 0 to round-off",
+))
+_add(Preset(
+    "keller-segel-aggregates", "keller-segel",
+    {"Du": 1.0, "Dv": 1.0, "chi": 6.0, "r": 1.0}, dt=0.005, steps=20000,
+    domain={"grid": (256, 256), "dx": 0.25, "bc": "periodic"},
+    init={"kind": "uniform", "values": {"u": 1.0, "v": 1.0}, "noise": 0.05},
+    source="Keller & Segel 1970; Painter & Hillen 2011 (chemotaxis with logistic growth)",
+    expect="inverted-spots", snapshot_every=1000, classify={"field": "u", "threshold": None},
+    description="cells climb the gradient of the chemical they secrete (div(chi*u*grad(v))): "
+    "the uniform state breaks into aggregates, kept apart by logistic growth",
+))
+_add(Preset(
     "gs-seed001-spots", "gray-scott",
     {"Du": 0.16, "Dv": 0.08, "F": 0.030, "k": 0.055}, dt=1.0, steps=20000,
     domain={"grid": (300, 300), "dx": 1.0, "bc": "periodic"}, init=_SEED001_INIT,

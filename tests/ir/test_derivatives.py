@@ -16,6 +16,7 @@ import math
 import numpy as np
 import pytest
 from conftest import backend_or_skip
+from grid_cases import BCS, GRIDS, reference_rate, same_fields
 
 import rdgpu
 from rdgpu.backends import opencl_codegen, warp_codegen
@@ -23,9 +24,8 @@ from rdgpu.core.errors import StabilityError
 from rdgpu.domains.graph_surface import GraphSurface
 from rdgpu.domains.grid import Grid
 from rdgpu.domains.mesh import SurfaceMesh
-from rdgpu.integrators import ModelStepper
 from rdgpu.ir import equations as eq
-from rdgpu.models import define_model, resolve_params
+from rdgpu.models import define_model
 
 #: every operator, exact arithmetic only, a per-member parameter and cross terms
 ALL = define_model("derivative-ops", {
@@ -45,17 +45,6 @@ ALL3 = define_model("derivative-ops-3d", {
     "v": "0.05*laplace(v) + gradient_squared(v)*0.01 + d_dz_forward(u) - d_dz_backward(v)"},
     {"c": 0.7})
 
-BCS = ["periodic", "neumann", ("dirichlet", 0.3)]
-GRIDS = [
-    Grid((7,), dx=0.9, bc=("dirichlet", 0.2)),
-    Grid((1,), dx=0.9, bc="neumann"),
-    Grid((7, 9), dx=0.9, dy=1.1, bc=(("dirichlet", 0.3), "periodic")),
-    Grid((5, 3), dx=1.2, bc=("periodic", "neumann")),
-    Grid((2, 3), dx=1.0, bc="periodic"),
-    Grid((1, 4), dx=1.0, bc=("neumann", ("dirichlet", 0.1))),
-    Grid((3, 5, 4), dx=1.0, dy=0.8, dz=1.3, bc=("neumann", "periodic", ("dirichlet", 0.2))),
-    Grid((2, 1, 3), dx=0.7, bc=("periodic", ("dirichlet", -0.1), "neumann")),
-]
 
 
 def _model(grid):
@@ -74,11 +63,6 @@ def _run(model, grid, backend, dtype, steps=4, members=None, stencil="compact",
     return st.get_state()
 
 
-def _same(got, ref):
-    for s in ref:
-        np.testing.assert_array_equal(got[s], ref[s], err_msg=s)
-
-
 @pytest.mark.parametrize("grid", GRIDS, ids=lambda g: "x".join(map(str, g.shape)))
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_every_backend_is_the_reference_bit_for_bit(variant_backend, grid, dtype):
@@ -86,7 +70,7 @@ def test_every_backend_is_the_reference_bit_for_bit(variant_backend, grid, dtype
         pytest.skip("the reference itself")
     model = _model(grid)
     ref = _run(model, grid, rdgpu.get_backend("numpy"), dtype)
-    _same(_run(model, grid, variant_backend, dtype), ref)
+    same_fields(_run(model, grid, variant_backend, dtype), ref)
 
 
 @pytest.mark.parametrize("bx", BCS, ids=str)
@@ -98,7 +82,7 @@ def test_every_boundary_kind_per_axis(backend_name, bx, by):
                  Grid((3, 4, 5), dx=0.9, bc=(by, bx, "neumann"))):
         model = _model(grid)
         for dtype in ("float32", "float64"):
-            _same(_run(model, grid, be, dtype), _run(model, grid, rdgpu.get_backend("numpy"),
+            same_fields(_run(model, grid, be, dtype), _run(model, grid, rdgpu.get_backend("numpy"),
                                                      dtype))
 
 
@@ -113,11 +97,11 @@ def test_ensembles_stencils_and_spans(backend_name, stencil, monkeypatch):
                  Grid((4, 6, 5), dx=1.0, bc=("periodic", "neumann", ("dirichlet", 0.1)))):
         model = _model(grid)
         ref = _run(model, grid, np_be, "float64", members=3, stencil=stencil)
-        _same(_run(model, grid, be, "float64", members=3, stencil=stencil), ref)
+        same_fields(_run(model, grid, be, "float64", members=3, stencil=stencil), ref)
         with monkeypatch.context() as m:
             m.setattr(opencl_codegen, "SPAN_CELLS", 0)
             m.setattr(warp_codegen, "SPAN_CELLS", 0)
-            _same(_run(model, grid, be, "float64", members=3, stencil=stencil), ref)
+            same_fields(_run(model, grid, be, "float64", members=3, stencil=stencil), ref)
 
 
 @pytest.mark.parametrize("grid", [Grid((13, 11), dx=0.9, bc=(("dirichlet", 0.2), "periodic")),
@@ -128,7 +112,7 @@ def test_temporal_blocking_takes_derivatives_bit_for_bit(grid):
     be = backend_or_skip("opencl")
     model = _model(grid)
     single = _run(model, grid, be, "float64", steps=8)
-    _same(_run(model, grid, be, "float64", steps=8, block_steps=4), single)
+    same_fields(_run(model, grid, be, "float64", steps=8, block_steps=4), single)
 
 
 @pytest.mark.parametrize("method", ["heun", "rk3", "rk4", "imex", "bdf2", "etdrk4"])
@@ -146,16 +130,6 @@ def test_every_method_reads_derivatives(method):
 
 
 # ---------------------------------------------------------------------------- the reference
-def _rates(text, grid, fields):
-    """The right-hand side of ``u`` (species u, v) on ``grid`` by the NumPy reference."""
-    m = define_model("probe", {"u": text, "v": "0"})
-    st = ModelStepper(m, grid, resolve_params(m, grid, {}, seed=0), 1.0,
-                      rdgpu.get_backend("numpy"), np.float64, "euler")
-    st.set_state(fields)
-    st.advance(1)
-    return st.get_state()["u"] - fields["u"]
-
-
 def test_the_reference_is_the_textbook_difference():
     rng = np.random.default_rng(3)
     u, v = rng.random((5, 6)), rng.random((5, 6))
@@ -165,28 +139,28 @@ def test_the_reference_is_the_textbook_difference():
     we = lambda a: np.roll(a, 1, axis=1)  # noqa: E731
     no = np.vstack([u[1:], np.full((1, 6), 0.7)])  # north (y + 1), Dirichlet ghost 0.7
     so = np.vstack([np.full((1, 6), 0.7), u[:-1]])
-    np.testing.assert_allclose(_rates("d_dx(u)", g, f), (ex(u) - we(u)) / 1.0, atol=1e-13)
-    np.testing.assert_allclose(_rates("d_dx_forward(u)", g, f), (ex(u) - u) / 0.5,
+    np.testing.assert_allclose(reference_rate("d_dx(u)", g, f), (ex(u) - we(u)) / 1.0, atol=1e-13)
+    np.testing.assert_allclose(reference_rate("d_dx_forward(u)", g, f), (ex(u) - u) / 0.5,
                                atol=1e-13)
-    np.testing.assert_allclose(_rates("d_dy_backward(u)", g, f), (u - so) / 0.25,
+    np.testing.assert_allclose(reference_rate("d_dy_backward(u)", g, f), (u - so) / 0.25,
                                atol=1e-13)
-    np.testing.assert_allclose(_rates("d_dy(u)", g, f), (no - so) / 0.5, atol=1e-13)
+    np.testing.assert_allclose(reference_rate("d_dy(u)", g, f), (no - so) / 0.5, atol=1e-13)
     gx, gy = (ex(u) - we(u)) / 1.0, (no - so) / 0.5
-    np.testing.assert_allclose(_rates("gradient_squared(u)", g, f), gx * gx + gy * gy,
+    np.testing.assert_allclose(reference_rate("gradient_squared(u)", g, f), gx * gx + gy * gy,
                                atol=1e-12)
     vx = (ex(v) - we(v)) / 1.0
     vn = np.vstack([v[1:], np.full((1, 6), 0.7)])
     vs = np.vstack([np.full((1, 6), 0.7), v[:-1]])
-    np.testing.assert_allclose(_rates("dot(gradient(u), gradient(v))", g, f),
+    np.testing.assert_allclose(reference_rate("dot(gradient(u), gradient(v))", g, f),
                                gx * vx + gy * (vn - vs) / 0.5, atol=1e-12)
     # upwind: backward where the velocity is positive, forward where negative
     w = v - 0.5
     up = np.where(w > 0, (u - we(u)) / 0.5, (ex(u) - u) / 0.5) * w
-    np.testing.assert_allclose(_rates("advect(u, v - 0.5)", g, f), up, atol=1e-12)
+    np.testing.assert_allclose(reference_rate("advect(u, v - 0.5)", g, f), up, atol=1e-12)
     # Neumann: the ghost is the cell itself
     n = Grid((4,), dx=1.0, bc="neumann")
     a = np.array([[1.0, 2.0, 4.0, 8.0]])
-    got = _rates("d_dx(u)", n, {"u": a[0], "v": a[0]})
+    got = reference_rate("d_dx(u)", n, {"u": a[0], "v": a[0]})
     np.testing.assert_allclose(got.ravel(), [0.5, 1.5, 3.0, 2.0])
 
 
@@ -194,7 +168,7 @@ def _sine_error(text, n, exact):
     L = 2 * math.pi
     g = Grid((n,), dx=L / n, bc="periodic")
     x = (np.arange(n) + 0.5) * L / n
-    got = _rates(text, g, {"u": np.sin(x), "v": np.zeros(n)})
+    got = reference_rate(text, g, {"u": np.sin(x), "v": np.zeros(n)})
     return float(np.max(np.abs(got - exact(x))))
 
 

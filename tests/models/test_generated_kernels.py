@@ -634,11 +634,9 @@ BAD_EQUATIONS = [
     ("min(u)", "min\\(\\) with 1 argument\\(s\\) \\(it takes 2\\)"),
     ("exp(u, v)", "exp\\(\\) with 2 argument\\(s\\) \\(it takes 1\\)"),
     ("laplace(u, v)", "laplace\\(\\) with other than one argument"),
-    ("laplace(u*v)", "laplace\\(u \\* v\\) \\(laplace takes a species or "
-                     "laplace\\(species\\)\\)"),
-    ("laplace(D)", "laplace\\(D\\) \\(laplace takes a species"),
-    ("laplace(laplace(laplace(u)))", "laplace\\(laplace\\(laplace\\(u\\)\\)\\) \\(laplace "
-                                     "takes"),
+    ("laplace(grad(u))", "the unknown function 'grad'"),
+    ("div(u)", "div\\(u\\) \\(div takes D\\*grad\\(species\\)"),
+    ("div(grad(u + v))", "grad\\(u \\+ v\\) inside div\\(\\) \\(grad takes one species\\)"),
     ("u < v", "the character\\(s\\) '<', outside the language"),
     ("u == 1", "the character\\(s\\) '=', outside the language"),
     ("u.real", "'u.real' \\(Attribute syntax\\)"),

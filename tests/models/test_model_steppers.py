@@ -195,7 +195,8 @@ def test_declarative_model_and_registry():
                            "fitzhugh-nagumo",
                            "schnakenberg", "bvam", "barkley", "turing",
                            "complex-ginzburg-landau",
-                           "swift-hohenberg", "meinhardt-stripes"}
+                           "swift-hohenberg", "meinhardt-stripes", "cahn-hilliard",
+                           "keller-segel"}
     for p in PRESETS.values():
         assert p.model in MODELS and p.source and p.expect
         assert p.dt > 0 and p.steps > 0

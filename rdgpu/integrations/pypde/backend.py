@@ -10,9 +10,11 @@ naming the part it cannot run; it never falls back to another backend):
 
 * ``pde.PDE`` expression equations (rdgpu's equation language, `rdgpu.models.
   equations`: arithmetic, ``exp log sqrt sin cos tan tanh abs min max``, ``laplace(s)``,
-  ``laplace(laplace(s))``, the coordinates and ``t``) with number or array constants
+  ``laplace(laplace(s))``, ``laplace(expression)``, ``divergence(D*gradient(s))``, the
+  first derivatives, the coordinates and ``t``) with number or array constants
   (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
-  ``SwiftHohenbergPDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
+  ``SwiftHohenbergPDE``, ``CahnHilliardPDE`` (``bc_mu`` equal to ``bc_c``),
+  ``KPZInterfacePDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
   real fields only, and no subclass replacing what py-pde's solvers call besides the
   equations (``make_post_step_hook``, ``evolution_rate``, the noise:
   `rdgpu.integrations.pypde.checks`);
@@ -36,8 +38,11 @@ naming the part it cannot run; it never falls back to another backend):
   included.  Refused, naming the condition and the side: second-order conditions
   (``CurvatureBC``), user conditions and ghost-cell callbacks, values linked to an external
   array, expressions given as Python functions, depending on ``t`` or not affine in the
-  field, anti-periodic axes, non-finite ghost data, and ``laplace(laplace(s))`` where ``s``
-  needs the correction fields;
+  field, anti-periodic axes, non-finite ghost data, and ``laplace(laplace(s))``, a
+  Laplacian of an expression, a divergence or a first derivative where a field needs the
+  correction fields.  ``divergence(D*gradient(s))`` is rdgpu's face-averaged flux form
+  (`rdgpu.ir.nodes.DivGrad`), which differs from py-pde's cell-centred product at
+  ``O(h²)``;
 * with py-pde's solvers ``EulerSolver`` (``solver="euler"``; fixed ``dt``, or adaptive:
   py-pde's default when ``solve`` gets no ``dt``), ``RungeKuttaSolver`` (RK4 at a fixed
   ``dt``, adaptive Runge-Kutta-Fehlberg 4(5)), ``AdamsBashforthSolver``, ``ImplicitSolver``
@@ -102,7 +107,7 @@ __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 NAME = "rdgpu"
 #: rdgpu's coordinate name of each field axis, by number of dimensions
 _SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
-              "SwiftHohenbergPDE, WavePDE, KleinGordonPDE")
+              "SwiftHohenbergPDE, CahnHilliardPDE, KPZInterfacePDE, WavePDE, KleinGordonPDE")
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
         "derivative and mixed expressions affine in the field and free of t")
@@ -296,13 +301,13 @@ def _corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int
 def _classes() -> tuple[type, ...]:
     """The PDE classes rdgpu runs (a subclass runs as its nearest one of these)."""
     return (pde.PDE, pde.DiffusionPDE, pde.AllenCahnPDE, pde.SwiftHohenbergPDE,
-            pde.WavePDE, pde.KleinGordonPDE)
+            pde.CahnHilliardPDE, pde.KPZInterfacePDE, pde.WavePDE, pde.KleinGordonPDE)
 
 
 def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, Any],
                                     Any]:
-    """``(equations, constants, bc data per species, bc of the inner Laplacian)`` of a
-    built-in PDE class."""
+    """``(equations, constants, bc data per species, (name, bc) of the inner Laplacian
+    or None)`` of a built-in PDE class."""
     cls = type(pde_obj).__name__
     if getattr(pde_obj, "noise", 0):
         raise _refuse(f"{cls} with noise={pde_obj.noise} (noise is not supported)")
@@ -317,7 +322,15 @@ def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, 
         return ({"c": "((((rate - kc2**2)*c - 2*kc2*laplace(c)) - laplace(laplace(c)))"
                       " + delta*c**2) - c**3"},
                 {"rate": float(pde_obj.rate), "kc2": float(pde_obj.kc2),
-                 "delta": float(pde_obj.delta)}, {"c": pde_obj.bc}, pde_obj.bc_lap)
+                 "delta": float(pde_obj.delta)}, {"c": pde_obj.bc}, ("bc_lap", pde_obj.bc_lap))
+    if isinstance(pde_obj, pde.KPZInterfacePDE):  # py-pde's gradient_squared is central
+        return ({"c": "nu*laplace(c) + lmbda*gradient_squared(c)"},
+                {"nu": float(pde_obj.nu), "lmbda": float(pde_obj.lmbda)}, {"c": pde_obj.bc},
+                None)
+    if isinstance(pde_obj, pde.CahnHilliardPDE):  # the outer Laplacian's (μ's) bc: bc_mu
+        return ({"c": "laplace(c**3 - c - interface_width*laplace(c))"},
+                {"interface_width": float(pde_obj.interface_width)}, {"c": pde_obj.bc_c},
+                ("bc_mu", pde_obj.bc_mu))
     if isinstance(pde_obj, (pde.KleinGordonPDE, pde.WavePDE)):
         # u_t = v, v_t = c² Δu (− μ² u): the Laplacian of u only, under pde_obj.bc
         mass = float(getattr(pde_obj, "mass", 0.0))
@@ -411,9 +424,9 @@ def translate(pde_obj: Any, state: Any) -> Translation:
     shape, spacing = _grid(grid)
     conds = {s: _conditions(grid, bc_data[s], f"{s!r}") for s in species}
     if inner is not None:
-        lap = _conditions(grid, inner, "laplace(c) (bc_lap)")
-        if lap != conds["c"]:
-            raise _refuse(f"bc_lap {inner!r} different from bc {bc_data['c']!r}")
+        label, data = inner
+        if _conditions(grid, data, f"the inner Laplacian ({label})") != conds["c"]:
+            raise _refuse(f"{label} {data!r} different from the bc of c {bc_data['c']!r}")
     axis_bcs = _axis_bcs(conds, len(shape))
     h = list(spacing.values())  # per axis of the field
 
@@ -466,6 +479,14 @@ def translate(pde_obj: Any, state: Any) -> Translation:
         raise _refuse(f"laplace(laplace({twice[0]})) with the boundary conditions of "
                       f"{twice[0]!r} (a Dirichlet, Mixed or non-zero Neumann condition; "
                       "periodic and zero-derivative Neumann only there)")
+
+    nested = sorted(s for s, t in trees.items() for n in eq.walk(t)
+                    if isinstance(n, (eq.LapOf, eq.DivGrad)))
+    if nested and correct:
+        raise _refuse(f"laplace() of an expression or div() in the equation of {nested[0]!r} "
+                      f"with the boundary conditions of {sorted(correct)[0]!r} (a Dirichlet, "
+                      "Mixed or non-zero Neumann condition; periodic and zero-derivative "
+                      "Neumann only there)")
 
     def face(n: eq.Node) -> eq.Node | None:
         if isinstance(n, eq.Lap) and n.order == 1 and n.name in correct:

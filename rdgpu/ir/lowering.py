@@ -1,0 +1,126 @@
+"""Lowering a model's right-hand sides to what one fused pass reads: the stored fields of
+the pre-passes (`Prepass`) that run before it, each step, in levels.
+
+A fused pass reads its inputs at a cell and its neighbours, so a Laplacian, derivative or
+divergence of something that is not a pointwise expression of the inputs needs that
+something stored first:
+
+* ``laplace(laplace(s))`` reads ``laplace(_lap_s)``; the pre-pass stores ``_lap_s =
+  laplace(s)`` with a Dirichlet ghost of 0 (the "simply supported" condition);
+* ``laplace(expr)`` (`LapOf`) of an expression that takes a Laplacian, derivative or
+  divergence itself (Cahn–Hilliard's ``laplace(u**3 - u - g*laplace(u))``), that uses
+  the coordinates, or a parameter given as a field, reads ``laplace(_stl<k>)``; the
+  pre-pass stores ``_stl<k> = expr`` (ghosts by the domain's conditions);
+* ``div(D*grad(s))`` (`DivGrad`) with such a ``D`` reads its coefficient from the stored
+  ``_std<k> = D`` (ghost: the cell's own value).
+
+Any other ``laplace(expr)`` or ``D`` is left to the pass itself, which evaluates the
+expression at each neighbour it reads (`rdgpu.ir.program.Program`'s derived fields):
+no pass, no memory traffic.  A stored expression that needs another stored one goes one
+level later; each level is one pass.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from rdgpu.ir.equations import (
+    Diff,
+    DivGrad,
+    Lap,
+    LapOf,
+    Node,
+    Ref,
+    names,
+    substitute,
+    walk,
+)
+from rdgpu.ir.program import Output, Program
+
+__all__ = ["Prepass", "lower", "needs_store"]
+
+
+@dataclass(frozen=True, eq=False)
+class Prepass:
+    """The pre-passes of a lowered program: ``levels`` run in order, each a Program whose
+    outputs are stored fields; ``names`` every stored field in buffer order (the levels'
+    outputs, level by level); ``zero_ghost`` and ``own_ghost`` the stored fields with
+    those ghosts (`rdgpu.ir.program.Program`), for every program that reads them."""
+
+    levels: tuple[Program, ...]
+    names: tuple[str, ...]
+    zero_ghost: frozenset[str]
+    own_ghost: frozenset[str]
+
+
+def needs_store(expr: Node, fields: Iterable[str] = ()) -> bool:
+    """Whether a pass cannot evaluate ``expr`` at a neighbour by itself (module doc):
+    it takes a spatial operator, uses the coordinates, or a parameter of ``fields``."""
+    field_params = set(fields)
+    return any(isinstance(n, (Lap, Diff, LapOf, DivGrad))
+               or (isinstance(n, Ref) and (n.kind == "coord" or
+                                           (n.kind == "param" and n.name in field_params)))
+               for n in walk(expr))
+
+
+def lower(trees: Mapping[str, Node], fields: Iterable[str] = ()
+          ) -> tuple[dict[str, Node], Prepass | None]:
+    """``trees`` (species -> right-hand side, or any named expressions) with what must be
+    stored replaced by reads of stored fields, and the pre-passes that store them (None
+    when nothing is stored).  ``fields``: the parameters given as fields."""
+    fields = frozenset(fields)
+    bilap = sorted({n.name for t in trees.values() for n in walk(t)
+                    if isinstance(n, Lap) and n.order == 2})
+    stored: dict[tuple[str, Node], str] = {}
+    exprs: dict[str, Node] = {f"_lap_{s}": Lap(s) for s in bilap}
+    level: dict[str, int] = dict.fromkeys(exprs, 1)
+
+    def depth(expr: Node) -> int:
+        reads = names(expr, "species") | {n.name for n in walk(expr)
+                                          if isinstance(n, (Lap, Diff, DivGrad))}
+        reads |= {n.coef.name for n in walk(expr)
+                  if isinstance(n, DivGrad) and isinstance(n.coef, Ref)}
+        return max((level.get(r, 0) for r in reads), default=0)
+
+    def store(role: str, expr: Node) -> str:
+        key = (role, expr)
+        if key not in stored:
+            stored[key] = name = f"_{role}{len(stored)}"
+            exprs[name] = expr
+            level[name] = depth(expr) + 1
+        return stored[key]
+
+    def fn(n: Node) -> Node | None:
+        if isinstance(n, Lap) and n.order == 2:
+            return Lap(f"_lap_{n.name}")
+        if isinstance(n, LapOf):
+            inner = substitute(n.expr, fn)
+            return Lap(store("stl", inner)) if needs_store(n.expr, fields) else LapOf(inner)
+        if isinstance(n, DivGrad):
+            coef = substitute(n.coef, fn)
+            if needs_store(n.coef, fields):
+                return DivGrad(Ref("species", store("std", coef)), n.name)
+            return DivGrad(coef, n.name)
+        return None
+
+    low = {s: substitute(t, fn) for s, t in trees.items()}
+    if not exprs:
+        return low, None
+    zero = frozenset(f"_lap_{s}" for s in bilap)
+    own = frozenset(n for n in exprs if n.startswith("_std"))
+    order = sorted(exprs, key=lambda n: (level[n], not n.startswith("_lap_")))
+    programs = []
+    for lv in range(1, max(level.values()) + 1):
+        outs = [n for n in order if level[n] == lv]
+        reads: set[str] = set()
+        for n in outs:
+            e = exprs[n]
+            reads |= names(e, "species") | {m.name for m in walk(e)
+                                            if isinstance(m, (Lap, Diff, DivGrad))}
+            reads |= {m.coef.name for m in walk(e)
+                      if isinstance(m, DivGrad) and isinstance(m.coef, Ref)}
+        inputs = tuple(sorted(reads - set(outs)))
+        programs.append(Program(inputs, tuple(Output(n, exprs[n]) for n in outs),
+                                zero & set(inputs), own_ghost=own & set(inputs)))
+    return low, Prepass(tuple(programs), tuple(order), zero, own)
