@@ -5,8 +5,10 @@ A Fourier mode with ``−Δ`` eigenvalue ``m`` evolves with ``A(m) = −m D + m�
 the coefficient matrices of ``laplace`` and ``laplace(laplace(·))``); the limit is the
 largest step for which every mode that decays in the equations also decays in the scheme,
 ``0 < m <= m_max``.  Explicit schemes: forward Euler's bound ``min −2 Re λ/|λ|²`` over the
-eigenvalues of ``A(m)``, which every registered explicit scheme keeps (the stability
-regions of Heun, SSP-RK3 and classic RK4 contain Euler's disk).  IMEX schemes: the spectral
+eigenvalues of ``A(m)``, which every registered Runge-Kutta scheme keeps (the stability
+regions of Heun, SSP-RK3 and classic RK4 contain Euler's disk); Adams-Bashforth 2's
+region is smaller: the largest ``h`` whose two-level recursion has its roots in the unit
+disk for every eigenvalue (half of Euler's for a real spectrum).  IMEX schemes: the spectral
 radius of the scheme's amplification matrix (`_amplification`), found by bisection;
 SBDF2's is the companion matrix of its two-level recursion.  Exponential schemes
 (``etdrk4``) integrate the linear part exactly: no limit (``inf``).
@@ -30,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from rdgpu.ir import equations as eq
-from rdgpu.ir.schemes import ExponentialScheme, ImexScheme, get_scheme
+from rdgpu.ir.schemes import ExponentialScheme, ImexScheme, MultistepScheme, get_scheme
 
 __all__ = ["advective_rate", "frozen_coefficients", "implicit_factors", "stability_limit",
            "with_advection"]
@@ -57,7 +59,10 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
     if not scheme.implicit:
         lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
         neg = lam[lam.real < -1e-300]
-        return float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
+        euler = float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
+        if isinstance(scheme, MultistepScheme) and neg.size:
+            return _multistep_limit(neg, scheme.beta, euler)
+        return euler
     def stable(h: float) -> bool:
         for m in ms:
             A = -m * D + m * m * B
@@ -79,6 +84,12 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
             if hi > 1e12:
                 return math.inf
         hi *= 4.0
+    return _bisect(stable, lo, hi)
+
+
+def _bisect(stable, lo: float, hi: float) -> float:
+    """The largest ``h`` in ``[lo, hi]`` with ``stable(h)`` (``stable(lo)`` holds), to 60
+    halvings."""
     for _ in range(60):
         mid = 0.5 * (lo + hi)
         if stable(mid):
@@ -86,6 +97,23 @@ def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
         else:
             hi = mid
     return lo
+
+
+def _multistep_limit(lam: np.ndarray, beta: tuple[float, ...], euler: float) -> float:
+    """The largest ``h`` for which the two-level scheme ``x' = x + h(β₀λx + β₁λx₋)`` is
+    stable for every eigenvalue ``λ`` of ``lam`` (the roots of ``z² − (1 + hλβ₀)z −
+    hλβ₁`` in the closed unit disk), by bisection below Euler's limit ``euler``
+    (Adams-Bashforth's region lies inside Euler's disk)."""
+    b0, b1 = beta
+
+    def stable(h: float) -> bool:
+        p = 1.0 + h * lam * b0
+        q = h * lam * b1
+        disc = np.sqrt(p * p + 4.0 * q + 0j)
+        roots = np.concatenate([(p + disc) / 2.0, (p - disc) / 2.0])
+        return bool(np.all(np.abs(roots) <= 1.0 + 1e-12))
+
+    return _bisect(stable, 0.0, euler) if math.isfinite(euler) else math.inf
 
 
 #: a species' own diffusion ``α Δs`` stays explicit in a one-step IMEX step while
@@ -222,4 +250,6 @@ def with_advection(limit: float, rate: float, method: str) -> float:
     scheme = get_scheme(method)
     if scheme.implicit or isinstance(scheme, ExponentialScheme):
         return min(limit, 1.0 / rate)
+    if isinstance(scheme, MultistepScheme):  # its real interval against Euler's 2
+        rate *= 2.0 / scheme.real_stability
     return 1.0 / (1.0 / limit + rate)

@@ -103,6 +103,7 @@ from rdgpu.ir.schemes import (
     ExplicitScheme,
     ExponentialScheme,
     ImexScheme,
+    MultistepScheme,
     get_scheme,
 )
 from rdgpu.ir.stencils import check_derivatives
@@ -244,6 +245,8 @@ class ModelStepper(FieldStepper):
             self._setup_exponential(trees, inline)
         elif self.scheme.implicit:
             self._setup_imex(trees, tol, inline)
+        elif isinstance(self.scheme, MultistepScheme):
+            self._setup_multistep(trees)
         else:
             self._setup_explicit(trees, self.scheme)
         #: temporal blocking (`rdgpu.integrators.blocking`): None, or the passes' kernel
@@ -456,34 +459,57 @@ class ModelStepper(FieldStepper):
             out[s] = (alpha, beta, terms)
         return out
 
-    def _setup_bdf2(self, explicit: dict[str, eq.Node]) -> None:
-        """BDF2's explicit pass ``y = x + ((x − x₋)/3 + h'(2N(x, t) − N(x₋, t₋)))``
-        (``_b = h'``, ``_tp = t₋``), its own bilaplacian pre-pass, the buffers of ``x₋``."""
+    def _setup_multistep(self, trees: dict[str, eq.Node]) -> None:
+        """Adams-Bashforth (module doc): the Euler pass (the start step) and one pass
+        ``x + h (β₀ f(x, t) + β₁ f(x₋, t₋))`` (``_tp = t₋``) with its own pre-passes."""
+        self._setup_explicit(trees, EULER)
+        b0, b1 = self.scheme.beta
+        h = eq.Ref("builtin", "_h")
+        exprs = {s: eq.Bin("+", eq.Ref("species", s), eq.Bin("*", h, eq.Bin(
+            "+", eq.Bin("*", eq.Num(b0), trees[s]), eq.Bin("*", eq.Num(b1), earlier))))
+            for s, earlier in self._previous(trees).items()}
+        self._setup_history(exprs, "_ab")
+
+    def _previous(self, trees: dict[str, eq.Node]) -> dict[str, eq.Node]:
+        """``trees`` at the previous level: the species read as ``_prev_<s>``, ``t`` as
+        ``_tp``."""
         prev = {s: HISTORY.format(s) for s in self.species}
 
-        def back(n: eq.Node) -> eq.Node | None:  # N at the previous level: its time
+        def back(n: eq.Node) -> eq.Node | None:
             if isinstance(n, eq.Ref) and n.kind == "time":
                 return eq.Ref("builtin", "_tp")
             return None
 
-        exprs = {}
-        for s in self.species:
-            x, xp = eq.Ref("species", s), eq.Ref("species", prev[s])
-            extrapolated = eq.Bin("-", eq.Bin("*", eq.Num(2.0), explicit[s]),
-                                  eq.rename_species(explicit[s], prev, back))
-            exprs[s] = eq.Bin("+", x, eq.Bin(
-                "+", eq.Bin("/", eq.Bin("-", x, xp), eq.Num(3.0)),
-                eq.Bin("*", eq.Ref("builtin", "_b"), extrapolated)))
+        return {s: eq.rename_species(trees[s], prev, back) for s in self.species}
+
+    def _setup_history(self, exprs: dict[str, eq.Node], name: str) -> None:
+        """The two-level pass ``name`` (``_bdf2``, ``_ab``) writing ``exprs`` from the
+        fields, their previous level and its pre-passes (``name + "_pre"``), the buffers
+        of ``x₋``."""
         low, pre = self._lower(exprs)
         aux = self._aux_buffers(pre)
         aux_names = () if pre is None else pre.names
-        self._bdf2 = self._program(
-            self.species + aux_names + tuple(prev.values()),
-            tuple(Output(s, low[s], self._bounds(s)) for s in self.species), pre)
-        self._bdf2_pre = (pre, aux)
+        prev = tuple(HISTORY.format(s) for s in self.species)
+        setattr(self, name, self._program(
+            self.species + aux_names + prev,
+            tuple(Output(s, low[s], self._bounds(s)) for s in self.species), pre))
+        setattr(self, name + "_pre", (pre, aux))
         self._prev = [self.backend.empty(self.shape, self.dtype) for _ in self.species]
         #: whether ``_prev`` holds the previous level (else the next step is the start step)
         self._has_prev = False
+
+    def _setup_bdf2(self, explicit: dict[str, eq.Node]) -> None:
+        """BDF2's explicit pass ``y = x + ((x − x₋)/3 + h'(2N(x, t) − N(x₋, t₋)))``
+        (``_b = h'``, ``_tp = t₋``), its own bilaplacian pre-pass, the buffers of ``x₋``."""
+        earlier = self._previous(explicit)
+        exprs = {}
+        for s in self.species:
+            x, xp = eq.Ref("species", s), eq.Ref("species", HISTORY.format(s))
+            extrapolated = eq.Bin("-", eq.Bin("*", eq.Num(2.0), explicit[s]), earlier[s])
+            exprs[s] = eq.Bin("+", x, eq.Bin(
+                "+", eq.Bin("/", eq.Bin("-", x, xp), eq.Num(3.0)),
+                eq.Bin("*", eq.Ref("builtin", "_b"), extrapolated)))
+        self._setup_history(exprs, "_bdf2")
 
     def _constant(self, c: eq.Node | None, merged, s: str, what: str) -> float:
         if c is None:
@@ -521,6 +547,8 @@ class ModelStepper(FieldStepper):
         ``own``: the arrays are the stepper's own, kept for its life (the pass is bound
         once, `_bound`); else a pass launched in full."""
         pre, aux = (self._pre, self._aux) if prepass is None else prepass
+        if "_tp" not in program.refs("builtin"):
+            tp = 0.0  # unread: one bound pass for every step
         if not own:
             self._bind(program, ins, outs, extra, a, b, pre, aux, tp, once=True)(time)
             return
@@ -568,6 +596,14 @@ class ModelStepper(FieldStepper):
         scheme = self.scheme
         if self._etd is not None:
             self._etd.step(x, y, t0, first=self.steps_done == 0)
+        elif isinstance(scheme, MultistepScheme):
+            if self._has_prev:
+                self._eval(self._ab, x, y, t0, self._prev, prepass=self._ab_pre,
+                           tp=(self.steps_done - 1) * h)
+            else:  # the start step: Euler
+                self._eval(self._euler, x, y, t0)
+            self._prev, self._x = self._x, self._prev  # as BDF2's, below
+            self._has_prev = True
         elif not scheme.implicit:
             if scheme.shu_osher is None:
                 self._step_butcher(scheme, t0, h)

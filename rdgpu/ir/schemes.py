@@ -12,6 +12,9 @@ A scheme is what a method name (``options={"method": ...}``, ``--method``) stand
   terms implicit, the rest explicit (`rdgpu.integrators.stepper`).  ``steps=1``: the
   θ-scheme ``P (x' − x) = h f(x)`` (``θ = 1`` backward Euler, ``½`` Crank-Nicolson);
   ``steps=2``: the semi-implicit BDF2 (SBDF2), whose first step is the ``θ = 1`` one.
+* `MultistepScheme` — an explicit Adams-Bashforth scheme ``x' = x + h Σ_j β_j f(x₋ⱼ)``
+  (``"ab2"``, VisualPDE's): one fused pass reads the fields and the previous level (kept
+  by the stepper, as SBDF2's) and evaluates ``f`` at both; its first step is Euler's.
 * `ExponentialScheme` — exponential time differencing: each species' own linear spatial
   terms ``α Δs + β Δ²s`` integrated exactly in transform space, the rest ``N``
   explicitly (`rdgpu.integrators.exponential`: ETDRK4 of Cox & Matthews 2002 with the
@@ -30,8 +33,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from fractions import Fraction
 
-__all__ = ["EULER", "SCHEMES", "ExplicitScheme", "ExponentialScheme", "ImexScheme", "Scheme",
-           "get_scheme", "method_names", "register_scheme"]
+__all__ = ["EULER", "SCHEMES", "ExplicitScheme", "ExponentialScheme", "ImexScheme",
+           "MultistepScheme", "Scheme", "get_scheme", "method_names", "register_scheme"]
 
 
 @dataclass(frozen=True)
@@ -106,7 +109,35 @@ class ExponentialScheme:
     solves = False
 
 
-Scheme = ExplicitScheme | ImexScheme | ExponentialScheme
+@dataclass(frozen=True)
+class MultistepScheme:
+    """An explicit linear multistep scheme of the Adams-Bashforth family: ``x' = x + h
+    Σ_j beta_j f(x₋ⱼ, t − j h)`` over the ``steps`` levels ``x₀ = x, x₋₁, …`` (``beta[0]``
+    weighs the newest); the first steps, before the history exists, are forward Euler.
+    ``real_stability``: the length of its stability interval on the negative real axis
+    (Adams-Bashforth 2: 1, half of Euler's)."""
+
+    name: str
+    order: int
+    beta: tuple[float, ...]
+    title: str
+    real_stability: float
+    aliases: tuple[str, ...] = ()
+
+    implicit = False
+
+    def __post_init__(self) -> None:
+        if len(self.beta) != 2 or abs(sum(self.beta) - 1.0) > 1e-14:
+            raise ValueError(f"scheme {self.name!r}: a multistep scheme has two weights "
+                             f"beta summing to 1 (a consistent two-level scheme), got "
+                             f"{self.beta!r}")
+
+    @property
+    def steps(self) -> int:
+        return len(self.beta)
+
+
+Scheme = ExplicitScheme | ImexScheme | ExponentialScheme | MultistepScheme
 
 #: every method by its canonical name, in the order the help lists them
 SCHEMES: dict[str, Scheme] = {}
@@ -116,9 +147,10 @@ _ALIASES: dict[str, str] = {}
 def register_scheme(scheme: Scheme, *, replace: bool = False) -> Scheme:
     """Add ``scheme`` to `SCHEMES` (its name and aliases become method names of every
     model).  A name already taken is refused unless ``replace``."""
-    if not isinstance(scheme, (ExplicitScheme, ImexScheme, ExponentialScheme)):
-        raise TypeError(f"a scheme is an ExplicitScheme, an ImexScheme or an "
-                        f"ExponentialScheme, got "
+    if not isinstance(scheme, (ExplicitScheme, ImexScheme, ExponentialScheme,
+                               MultistepScheme)):
+        raise TypeError(f"a scheme is an ExplicitScheme, an ImexScheme, an "
+                        f"ExponentialScheme or a MultistepScheme, got "
                         f"{type(scheme).__name__}")
     names = (scheme.name, *scheme.aliases)
     bad = [n for n in names if not isinstance(n, str) or not n or n != n.lower()]
@@ -174,6 +206,9 @@ register_scheme(ExplicitScheme(
 register_scheme(ExplicitScheme(
     "rk4", 4, a=((), (0.5,), (0.0, 0.5), (0.0, 0.0, 1.0)), b=_q("1/6", "1/3", "1/3", "1/6"),
     c=(0.0, 0.5, 0.5, 1.0), title="classic Runge-Kutta", real_stability=2.785293563405282))
+register_scheme(MultistepScheme(
+    "ab2", 2, beta=(1.5, -0.5), title="Adams-Bashforth 2 (VisualPDE's)", real_stability=1.0,
+    aliases=("adams-bashforth",)))
 register_scheme(ImexScheme(
     "imex", 1, theta=1.0, steps=1, title="IMEX backward Euler", aliases=("imex-be",)))
 register_scheme(ImexScheme(
