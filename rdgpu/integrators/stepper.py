@@ -273,8 +273,15 @@ class ModelStepper(FieldStepper):
                        own_ghost=pre.own_ghost & set(inputs))
 
     def _aux_buffers(self, pre: Prepass | None) -> list[DeviceArray]:
-        return [] if pre is None else [self.backend.empty(self.shape, self.dtype)
-                                       for _ in pre.names]
+        """The buffers of ``pre``'s stored fields, its static ones stored now."""
+        if pre is None:
+            return []
+        aux = [self.backend.empty(self.shape, self.dtype) for _ in pre.names]
+        src = dict(zip(pre.names, aux, strict=True))
+        for program in pre.static:
+            launch(program, self.target, [src[s] for s in program.inputs],
+                   [src[o.name] for o in program.outputs], self._device_params, {})
+        return aux
 
     def _bounds(self, s: str) -> tuple[float | None, float | None]:
         return self.model.bounds.get(s, (None, None))

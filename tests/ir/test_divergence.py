@@ -175,6 +175,11 @@ def test_nested_laplacians_are_stored_in_levels():
     tree = eq.parse("div(D*grad(u))", species=["u"], params=["D"])
     assert lower({"u": tree})[1] is None
     assert lower({"u": tree}, fields=["D"])[1].own_ghost == frozenset({"_std0"})
+    # a coefficient of x alone is stored once (static), one of x and t each step
+    fixed = lower({"u": eq.parse("div((1 + sin(x))*grad(u))", species=["u"])})[1]
+    assert fixed.levels == () and len(fixed.static) == 1
+    moving = lower({"u": eq.parse("div((1 + sin(x - t))*grad(u))", species=["u"])})[1]
+    assert len(moving.levels) == 1 and moving.static == ()
 
 
 def test_triple_laplacian_is_the_laplacian_applied_three_times():
