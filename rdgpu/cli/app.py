@@ -202,6 +202,11 @@ def _add_what_to_run(what: Any) -> None:
                       "run length over dt; with --resume: the total of the interrupted run)")
     what.add_argument("--dt", type=positive_float, help="time step (default: the preset's, "
                       "else the smaller of 0.9 times the stability limit and the model's own)")
+    what.add_argument("--visualpde", metavar="FILE.json",
+                      help="run a VisualPDE preset (its JSON: equations, parameters, "
+                      "domain, boundary conditions, initial condition, dt and scheme; "
+                      "rdgpu.integrations.visualpde); what it cannot translate is refused "
+                      "by name")
     what.add_argument("--equation", type=parse_equation, action="append",
                       metavar="SPECIES=EXPR", help="define the model by its equations, one "
                       "per species (repeatable), in py-pde's spelling: "

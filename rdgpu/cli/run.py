@@ -47,6 +47,7 @@ from rdgpu.cli.listing import presets_of
 from rdgpu.cli.outputs import default_png, result_of, slices_note, uniform_warning, write_each
 from rdgpu.cli.resume import build_resumed
 from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted, StabilityError
+from rdgpu.integrations.visualpde import UnsupportedPreset, load
 from rdgpu.io.output import MESH_FORMATS
 from rdgpu.models import MODELS, PRESETS, EquationError, define_model
 from rdgpu.simulation import Simulation
@@ -182,6 +183,8 @@ def build_simulation(args: argparse.Namespace) -> tuple[Simulation, Any, dict]:
     ``_total``, ``_snapshot_every`` and ``_target`` for the messages)."""
     if args.resume is not None:
         return build_resumed(args, PRESETS)
+    if getattr(args, "visualpde", None):
+        return _visualpde_simulation(args)
     model, preset, defined = _model_and_preset(args)
     params = _params(args, model, preset, defined)
     domain = domain_spec(args, preset, model, DEFAULT_SIZE)
@@ -217,6 +220,36 @@ def build_simulation(args: argparse.Namespace) -> tuple[Simulation, Any, dict]:
         raise UsageError(cli_words(str(exc))) from None
     sim.preset = preset
     return sim, preset, _run_arguments(args, sim, preset)
+
+
+def _visualpde_simulation(args: argparse.Namespace) -> tuple[Simulation, Any, dict]:
+    """``rdgpu run --visualpde FILE.json``: the preset's model, grid, fields, dt and
+    scheme (`rdgpu.integrations.visualpde`); --dt, --method, --steps, --seed, --backend,
+    --dtype and the outputs apply, nothing that defines another model or domain."""
+    clash = [f"--{k.replace('_', '-')}" for k in ("preset", "equation", "param", "size",
+                                                   "mesh", "init", "members")
+             if getattr(args, k, None)]
+    if args.model:
+        clash.insert(0, f"MODEL ({args.model})")
+    if clash:
+        raise UsageError(f"--visualpde names the model, its domain and its initial state; "
+                         f"drop {', '.join(clash)}")
+    try:
+        tr = load(Path(args.visualpde))
+    except (UnsupportedPreset, ValueError, FileNotFoundError) as exc:
+        raise UsageError(f"--visualpde {args.visualpde}: {exc}") from None
+    for note in tr.notes:
+        print(f"rdgpu: note: {note}", file=sys.stderr)
+    args.field = args.field or tr.field
+    try:
+        sim = tr.simulation(backend=args.backend, dtype=args.dtype or "float32",
+                            seed=args.seed if args.seed is not None else 0, dt=args.dt,
+                            method=args.method,
+                            check_stability=not args.no_stability_check)
+    except StabilityError as exc:
+        raise UsageError(cli_words(str(exc))) from None
+    sim.preset = None
+    return sim, None, _run_arguments(args, sim, None)
 
 
 def _model_and_preset(args: argparse.Namespace) -> tuple[Any, Any, Any]:

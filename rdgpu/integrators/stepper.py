@@ -93,6 +93,7 @@ from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
 from rdgpu.integrators.exponential import Etdrk4, split_damping
 from rdgpu.integrators.passes import bind, launch
+from rdgpu.integrators.splitting import linear_split, scalar_numbers
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
 from rdgpu.ir.lowering import Prepass, lower
@@ -423,48 +424,11 @@ class ModelStepper(FieldStepper):
         return explicit, solvers
 
     def _numbers(self) -> dict[str, float | None]:
-        """Each parameter's value where it is one number for every cell, member and time,
-        else None."""
-        return {k: (float(v) if np.ndim(v) == 0 and not isinstance(v, (str, PerMember))
-                    else None) for k, v in self.params.items()}
+        return scalar_numbers(self.params)
 
     def _linear_split(self, trees, inline) -> dict[str, tuple[float, float, list[eq.Node]]]:
-        """Per species ``(α, β, terms)``: the constant coefficients of its own ``α Δs + β
-        Δ²s`` and the other terms of its right-hand side (the reactions, then other
-        species' Laplacians and bilaplacians), what the IMEX and exponential schemes step
-        explicitly; a ``ValueError`` naming the method where the split does not exist."""
-        merged = self._numbers()
-        out = {}
-        for s in self.species:
-            lin = eq.linear_parts(trees[s])
-            if lin is None and self.model.linear[s] is not None:
-                # linear as written: a parameter expression of t made a coefficient vary
-                raise ValueError(
-                    f"method {self.method!r}: in the equation of {s!r} a Laplacian's "
-                    f"coefficient uses a time-dependent parameter ({', '.join(sorted(inline))}"
-                    "); an implicit term needs a constant coefficient")
-            if lin is None:
-                raise ValueError(
-                    f"method {self.method!r}: the equation of {s!r} has a Laplacian with a "
-                    "state-dependent coefficient, which cannot be implicit; use an explicit "
-                    "method")
-            alpha = self._constant(lin.diffusion.get(s), merged, s, "laplace")
-            beta = self._constant(lin.bilaplacian.get(s), merged, s, "laplace(laplace)")
-            if beta > 0:
-                raise ValueError(
-                    f"method {self.method!r}: the bilaplacian of {s!r} has the coefficient "
-                    f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
-            terms: list[eq.Node] = []
-            if lin.rest is not None:
-                terms.append(lin.rest)
-            for r, c in lin.diffusion.items():
-                if r != s:
-                    terms.append(eq.Bin("*", c, eq.Lap(r)))
-            for r, c in lin.bilaplacian.items():
-                if r != s:
-                    terms.append(eq.Bin("*", c, eq.Lap(r, 2)))
-            out[s] = (alpha, beta, terms)
-        return out
+        return linear_split(self.species, trees, self.model.linear, self.params,
+                            self.method, inline)
 
     def _setup_multistep(self, trees: dict[str, eq.Node]) -> None:
         """Adams-Bashforth (module doc): the Euler pass (the start step) and one pass
@@ -517,19 +481,6 @@ class ModelStepper(FieldStepper):
                 "+", eq.Bin("/", eq.Bin("-", x, xp), eq.Num(3.0)),
                 eq.Bin("*", eq.Ref("builtin", "_b"), extrapolated)))
         self._setup_history(exprs, "_bdf2")
-
-    def _constant(self, c: eq.Node | None, merged, s: str, what: str) -> float:
-        if c is None:
-            return 0.0
-        names = eq.names(c, "param")
-        bad = [p for p in names if merged.get(p) is None]
-        if bad:
-            raise ValueError(
-                f"method {self.method!r}: the coefficient of {what}({s}) in the equation of "
-                f"{s!r} uses the parameter(s) {bad}, which are fields, time-dependent or "
-                "differ between ensemble members; an implicit term needs one constant "
-                "coefficient")
-        return float(eq.evaluate(c, {p: merged[p] for p in names}))
 
     # ------------------------------------------------------------------ stepping
     def advance(self, steps: int) -> None:

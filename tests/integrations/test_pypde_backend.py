@@ -290,6 +290,13 @@ def test_cahn_hilliard_and_divergences_agree_with_pypde():
         np.testing.assert_allclose(
             np.asarray(kpz.make_pde_rhs(d, backend=f"rdgpu:{backend}")(d.data, 0.0)), ref,
             rtol=0, atol=1e-11, err_msg=backend)
+    ks = pde.KuramotoSivashinskyPDE(nu=0.7)
+    ref = ks.evolution_rate(d).data
+    for backend in ("numpy", "opencl", "warp"):
+        backend_or_skip(backend)
+        np.testing.assert_allclose(
+            np.asarray(ks.make_pde_rhs(d, backend=f"rdgpu:{backend}")(d.data, 0.0)), ref,
+            rtol=0, atol=1e-9 * np.abs(ref).max(), err_msg=backend)
     _refused(pde.CahnHilliardPDE(bc_c="auto_periodic_neumann",
                                  bc_mu={"value": 0.0}), c, "bc_mu")
     box = pde.CartesianGrid([[0, 4], [0, 4]], [8, 8])
@@ -302,7 +309,12 @@ def test_refuses_noise_hooks_and_other_classes(cart):
     _refused(pde.PDE({"c": "laplace(c)"}, noise=0.1), s, "stochastic")
     _refused(pde.DiffusionPDE(noise=0.1), s, "noise")
     _refused(pde.KPZInterfacePDE(noise=0.1), s, "noise")
-    _refused(pde.KuramotoSivashinskyPDE(), s, "KuramotoSivashinskyPDE")
+
+    class Custom(pde.PDEBase):
+        def evolution_rate(self, state, t=0):
+            return state.laplace("auto_periodic_neumann")
+
+    _refused(Custom(), s, "Custom")
     _refused(pde.PDE({"c": "laplace(c)"}, post_step_hook=lambda d, t: None), s,
              "post_step_hook")
 

@@ -14,7 +14,8 @@ naming the part it cannot run; it never falls back to another backend):
   first derivatives, the coordinates and ``t``) with number or array constants
   (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
   ``SwiftHohenbergPDE``, ``CahnHilliardPDE`` (``bc_mu`` equal to ``bc_c``),
-  ``KPZInterfacePDE``, ``WavePDE`` and ``KleinGordonPDE``; no noise, no post-step hook,
+  ``KPZInterfacePDE``, ``KuramotoSivashinskyPDE`` (``bc_lap`` equal to ``bc``), ``WavePDE``
+  and ``KleinGordonPDE`` (every scalar PDE class of py-pde 0.59); no noise, no post-step hook,
   real fields only, and no subclass replacing what py-pde's solvers call besides the
   equations (``make_post_step_hook``, ``evolution_rate``, the noise:
   `rdgpu.integrations.pypde.checks`);
@@ -107,7 +108,8 @@ __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 NAME = "rdgpu"
 #: rdgpu's coordinate name of each field axis, by number of dimensions
 _SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
-              "SwiftHohenbergPDE, CahnHilliardPDE, KPZInterfacePDE, WavePDE, KleinGordonPDE")
+              "SwiftHohenbergPDE, CahnHilliardPDE, KPZInterfacePDE, KuramotoSivashinskyPDE, "
+              "WavePDE, KleinGordonPDE")
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
         "derivative and mixed expressions affine in the field and free of t")
@@ -301,7 +303,8 @@ def _corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int
 def _classes() -> tuple[type, ...]:
     """The PDE classes rdgpu runs (a subclass runs as its nearest one of these)."""
     return (pde.PDE, pde.DiffusionPDE, pde.AllenCahnPDE, pde.SwiftHohenbergPDE,
-            pde.CahnHilliardPDE, pde.KPZInterfacePDE, pde.WavePDE, pde.KleinGordonPDE)
+            pde.CahnHilliardPDE, pde.KPZInterfacePDE, pde.KuramotoSivashinskyPDE, pde.WavePDE,
+            pde.KleinGordonPDE)
 
 
 def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, Any],
@@ -327,6 +330,9 @@ def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, 
         return ({"c": "nu*laplace(c) + lmbda*gradient_squared(c)"},
                 {"nu": float(pde_obj.nu), "lmbda": float(pde_obj.lmbda)}, {"c": pde_obj.bc},
                 None)
+    if isinstance(pde_obj, pde.KuramotoSivashinskyPDE):
+        return ({"c": "-nu*laplace(laplace(c)) - laplace(c) - 0.5*gradient_squared(c)"},
+                {"nu": float(pde_obj.nu)}, {"c": pde_obj.bc}, ("bc_lap", pde_obj.bc_lap))
     if isinstance(pde_obj, pde.CahnHilliardPDE):  # the outer Laplacian's (μ's) bc: bc_mu
         return ({"c": "laplace(c**3 - c - interface_width*laplace(c))"},
                 {"interface_width": float(pde_obj.interface_width)}, {"c": pde_obj.bc_c},

@@ -1,0 +1,455 @@
+"""VisualPDE presets as rdgpu runs: ``rdgpu.integrations.visualpde.load(preset)`` and
+``rdgpu run --visualpde FILE.json``.
+
+A VisualPDE preset (the format of ``sim/scripts/RD/presets.js`` in VisualPDE's public
+repository, and of the JSON its "share" button writes) is a flat dictionary over
+VisualPDE's defaults (`DEFAULTS`, the keys that matter for the equations): ``numSpecies``
+and ``speciesNames``, ``reactionStr_i`` and ``diffusionStr_i_j`` (with ``crossDiffusion``),
+``kineticParams`` (``"a = 0.35 in [0, 1];D = 1;"``), ``boundaryConditions_i`` with
+``dirichletStr_i``/``neumannStr_i``, ``domainScale`` (the side ``L``), ``spatialStep``,
+``dimension``, ``minX``/``minY``, ``dt``, ``timesteppingScheme``, ``initCond_i`` and
+``timescales``.  ``parent`` names the preset it extends (looked up in ``presets=``).
+Everything about drawing (brushes, views, colours) is left out: it does not change the
+equations.
+
+The translation: each species' right-hand side is ``Σ_j div(D_ij*grad(s_j)) +
+reaction`` (VisualPDE writes diffusion in divergence form; a coefficient of numbers and
+parameters becomes ``D_ij*laplace(s_j)``, the same operator), divided by its timescale
+where ``timescales`` is on.  Expressions keep VisualPDE's meaning: ``^`` is a power,
+``u_x``/``u_y`` are central differences (``d_dx(u)``), ``L_x``, ``L_y``, ``L``, ``L_min``,
+``dx``, ``dy`` are the domain's numbers, and ``x``, ``y`` are shifted by ``minX``/``minY``
+(rdgpu's cell centres start at 0).  The grid is ``round(L/dx)`` cells per side of
+``spatialStep`` (a square in 2-D; VisualPDE's canvas follows the browser window's shape
+unless ``squareCanvas``), the schemes ``Euler``, ``AB2``, ``Mid``, ``RK4`` are rdgpu's
+``euler``, ``ab2``, ``midpoint``, ``rk4``.  Initial conditions are expressions of ``x``,
+``y`` and the parameters with ``RAND`` (uniform in [0, 1]) and ``RANDN`` (standard
+normal) drawn per cell from the run's seed.  A run lasts ``RUN_FRAMES`` frames of
+``numTimestepsPerFrame`` steps (ten seconds of VisualPDE at 60 frames a second) unless
+told otherwise.
+
+Refused by name (`UnsupportedPreset`), never approximated: algebraic species, domains
+given by an indicator function or an image, boundary conditions that differ between
+species, Robin and per-side ("combo") conditions, a Neumann flux, comparisons and logic
+(``<``, ``&&``) and functions rdgpu's language lacks (``ind``, ``H``, ``Bump``, ``mod``...),
+second derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is ``laplace(u)``), 3-D, and a
+``parent`` that is not given.  VisualPDE's Dirichlet value sits on the boundary, rdgpu's
+in the ghost cell half a cell outside: the same condition to first order in ``dx``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rdgpu.domains.grid import Grid
+from rdgpu.ir import equations as eq
+from rdgpu.models.model import Model
+from rdgpu.simulation import Simulation
+
+if TYPE_CHECKING:
+    from rdgpu.backends.base import Backend
+
+__all__ = ["DEFAULTS", "RUN_FRAMES", "SCHEMES", "Translation", "UnsupportedPreset", "load"]
+
+#: VisualPDE's defaults of the keys that shape the equations (its ``presets["default"]``)
+DEFAULTS: dict[str, Any] = {
+    "numSpecies": 2, "speciesNames": "u v w q", "numAlgebraicSpecies": 0,
+    "reactionStr_1": "-u*v^2 + 0.037*(1.0 - u)", "reactionStr_2": "u*v^2 - (0.037+0.06)*v",
+    "reactionStr_3": "u*v^2 - (0.037+0.06)*v", "reactionStr_4": "0",
+    "diffusionStr_1_1": "0.04", "diffusionStr_2_2": "0.02", "diffusionStr_3_3": "0.02",
+    "diffusionStr_4_4": "0", "crossDiffusion": False, "kineticParams": "",
+    "boundaryConditions_1": "periodic", "boundaryConditions_2": "periodic",
+    "boundaryConditions_3": "periodic", "boundaryConditions_4": "periodic",
+    "dirichletStr_1": "0", "dirichletStr_2": "0", "dirichletStr_3": "0", "dirichletStr_4": "0",
+    "neumannStr_1": "0", "neumannStr_2": "0", "neumannStr_3": "0", "neumannStr_4": "0",
+    "domainScale": "100", "spatialStep": "0.5", "dimension": "2", "minX": "0.0",
+    "minY": "0.0", "dt": 0.1, "timesteppingScheme": "Euler", "initCond_1": "1.0",
+    "initCond_2": "0", "initCond_3": "0", "initCond_4": "0", "timescales": False,
+    "timescale_1": "1", "timescale_2": "1", "timescale_3": "1", "timescale_4": "1",
+    "domainViaIndicatorFun": False, "numTimestepsPerFrame": 100, "squareCanvas": False,
+    "whatToPlot": "v", "parent": None,
+}
+#: VisualPDE's time-stepping schemes and rdgpu's methods
+SCHEMES = {"Euler": "euler", "AB2": "ab2", "Mid": "midpoint", "RK4": "rk4"}
+#: frames a run lasts unless told otherwise (ten seconds at 60 frames a second)
+RUN_FRAMES = 600
+_FUNCTIONS = {"exp", "log", "sqrt", "sin", "cos", "tan", "tanh", "abs", "min", "max"}
+#: a name, not the exponent of a number (``1e-3``)
+_NAME = re.compile(r"(?<![0-9.A-Za-z_])[A-Za-z_][A-Za-z0-9_]*")
+
+
+class UnsupportedPreset(NotImplementedError):
+    """A VisualPDE preset, or a part of it, that rdgpu does not translate (the message
+    names the key and what it holds)."""
+
+
+@dataclass
+class Translation:
+    """A VisualPDE preset as an rdgpu run (made by `load`).
+
+    Parameters
+    ----------
+    name : str
+        The preset's name (its ``preset`` key).
+    model : Model
+        The equations and parameters.
+    grid : Grid
+        The domain.
+    dt : float
+        The time step.
+    method : str
+        The time-stepping scheme (`SCHEMES`).
+    steps : int
+        The run's length (`RUN_FRAMES` frames).
+    init : dict
+        Each species' initial expression (rdgpu's spelling, ``RAND``/``RANDN`` allowed).
+    field : str
+        The species a picture shows (``whatToPlot`` where it names one).
+    notes : list of str
+        What the translation changed that a user should know.
+    constants : dict
+        The numbers the initial expressions may use (``L``, ``L_x``, ``dx``...).
+    offsets : tuple of float
+        VisualPDE's ``minX``, ``minY`` (already in the expressions).
+    """
+
+    name: str
+    model: Model
+    grid: Grid
+    dt: float
+    method: str
+    steps: int
+    init: dict[str, str]
+    field: str
+    notes: list[str] = field(default_factory=list)
+    #: the numbers the initial expressions may use besides the parameters
+    constants: dict[str, float] = field(default_factory=dict)
+    offsets: tuple[float, float] = (0.0, 0.0)
+
+    def fields(self, seed: int = 0) -> dict[str, np.ndarray]:
+        """The initial fields (float64, the grid's shape): each ``initCond`` evaluated
+        per cell.
+
+        Parameters
+        ----------
+        seed : int
+            The seed of ``RAND`` and ``RANDN`` (default 0)."""
+        rng = np.random.default_rng(seed)
+        shape = self.grid.shape
+        env: dict[str, Any] = {**{k: np.float64(v) for k, v in self.constants.items()},
+                               **{k: np.float64(v) for k, v in self.model.defaults.items()}}
+        for axis in "xy":  # rdgpu's (the expressions add minX, minY: `offsets`)
+            env[axis] = np.broadcast_to(self.grid.kernel_coordinate(axis, np.float64)
+                                        .reshape(shape), shape)
+        env["t"] = np.float64(0.0)
+        out = {}
+        for s, text in self.init.items():
+            tree = _parse(text, (), [*env.keys() - {"x", "y", "t"}, "RAND", "RANDN"],
+                          f"initCond of {s!r}")
+            local = dict(env)
+            names = eq.names(tree, "param")
+            if "RAND" in names:
+                local["RAND"] = rng.uniform(0.0, 1.0, shape)
+            if "RANDN" in names:
+                local["RANDN"] = rng.standard_normal(shape)
+            with np.errstate(all="ignore"):
+                value = np.broadcast_to(np.asarray(eq.evaluate(tree, local), dtype=np.float64),
+                                        shape)
+            if not np.isfinite(value).all():
+                raise UnsupportedPreset(f"initCond of {s!r} = {text!r} is not finite "
+                                        "everywhere on the grid")
+            out[s] = np.ascontiguousarray(value)
+        return out
+
+    def simulation(self, backend: Backend | str | None = None, dtype: Any = "float32",
+                   seed: int = 0, dt: float | None = None, method: str | None = None,
+                   **kwargs: Any) -> Simulation:
+        """A `rdgpu.Simulation` of this run.
+
+        Parameters
+        ----------
+        backend : Backend, str or None
+            Where it runs (default None: rdgpu's default backend).
+        dtype : str
+            ``"float32"`` (default) or ``"float64"``.
+        seed : int
+            The seed of the initial fields' noise (default 0).
+        dt, method : optional
+            Another time step or scheme than the preset's.
+        **kwargs
+            More keyword arguments of `rdgpu.Simulation` (``check_stability``...)."""
+        return Simulation(self.model, self.grid, {}, dt=self.dt if dt is None else dt,
+                          backend=backend, dtype=dtype, seed=seed, fields=self.fields(seed),
+                          options={"method": method or self.method}, **kwargs)
+
+
+def load(preset: Mapping[str, Any] | str | Path,
+         presets: Mapping[str, Mapping[str, Any]] | None = None) -> Translation:
+    """Translate a VisualPDE preset (module doc).
+
+    Parameters
+    ----------
+    preset : mapping, str or Path
+        The preset's dictionary, its JSON text, or a JSON file.
+    presets : mapping, optional
+        Presets by name, where a ``parent`` is looked up.
+
+    Raises
+    ------
+    UnsupportedPreset
+        A part of the preset rdgpu does not translate (the message names it).
+    """
+    p = _merged(_as_dict(preset), presets or {})
+    name = str(p.get("preset") or "visualpde")
+    n = _integer(p, "numSpecies")
+    if _integer(p, "numAlgebraicSpecies") > 0:
+        raise UnsupportedPreset(f"numAlgebraicSpecies = {p['numAlgebraicSpecies']}: "
+                                "algebraic species are not translated yet")
+    if _flag(p, "domainViaIndicatorFun"):
+        raise UnsupportedPreset("domainViaIndicatorFun: a domain given by an indicator "
+                                "function (masked domains are not translated yet)")
+    species = str(p["speciesNames"]).split()[:n]
+    if len(species) != n:
+        raise UnsupportedPreset(f"speciesNames {p['speciesNames']!r} names fewer than "
+                                f"numSpecies = {n} species")
+    dim = _integer(p, "dimension")
+    if dim not in (1, 2):
+        raise UnsupportedPreset(f"dimension = {p['dimension']!r} (1 and 2 are translated)")
+    L = _number(p, "domainScale", {})
+    dx = _number(p, "spatialStep", {})
+    cells = max(1, round(L / dx))
+    side = cells * dx
+    constants = {"L": side, "L_x": side, "L_y": side if dim == 2 else 0.0, "L_min": side,
+                 "dx": dx, "dy": dx}
+    params = _params(str(p.get("kineticParams") or ""), constants)
+    offsets = (_number(p, "minX", {**constants, **params}),
+               _number(p, "minY", {**constants, **params}) if dim == 2 else 0.0)
+    bc = _boundaries(p, n, {**constants, **params})
+    words = _Words(species, params, constants, offsets, dim)
+    equations = {}
+    for i, s in enumerate(species, start=1):
+        terms = []
+        for j, r in enumerate(species, start=1):
+            if i != j and not _flag(p, "crossDiffusion"):
+                continue
+            key = f"diffusionStr_{i}_{j}"
+            text = str(p.get(key, "0")).strip()
+            if text in ("", "0"):
+                continue
+            d = words.translate(text, key)
+            tree = _parse(d, species, params, key)
+            terms.append(f"({d})*laplace({r})" if eq.is_constant(tree)
+                         else f"div(({d})*grad({r}))")
+        key = f"reactionStr_{i}"
+        terms.append(f"({words.translate(str(p.get(key, '0')), key)})")
+        rhs = " + ".join(terms)
+        tau = str(p.get(f"timescale_{i}", "1")).strip()
+        if _flag(p, "timescales") and tau not in ("1", "1.0"):
+            rhs = f"({rhs})/({words.translate(tau, f'timescale_{i}')})"
+        _parse(rhs, species, params, f"the equation of {s!r}")
+        equations[s] = rhs
+    scheme = str(p.get("timesteppingScheme", "Euler"))
+    if scheme not in SCHEMES:
+        raise UnsupportedPreset(f"timesteppingScheme = {scheme!r} (translated: "
+                                f"{', '.join(SCHEMES)})")
+    dt = _number(p, "dt", {})
+    grid = Grid((cells,) if dim == 1 else (cells, cells), dx=dx, bc=bc)
+    steps = RUN_FRAMES * _integer(p, "numTimestepsPerFrame")
+    try:
+        model = Model(name, equations, params, description=f"VisualPDE preset {name!r}",
+                      source="VisualPDE (visualpde.com)", default_dt=dt,
+                      default_time=steps * dt)
+    except eq.EquationError as exc:  # a name rdgpu reserves, say
+        raise UnsupportedPreset(str(exc)) from None
+    init = {s: words.translate(str(p.get(f"initCond_{i}", "0")), f"initCond_{i}",
+                               initial=True)
+            for i, s in enumerate(species, start=1)}
+    shown = str(p.get("whatToPlot", species[0])).strip()
+    notes = [] if dim == 1 or _flag(p, "squareCanvas") else [
+        "squareCanvas is off: VisualPDE's canvas takes the browser window's shape; the "
+        "translation is square"]
+    return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
+                       shown if shown in species else species[0], notes, constants, offsets)
+
+
+# ---------------------------------------------------------------------------- the parts
+def _as_dict(preset: Mapping[str, Any] | str | Path) -> dict[str, Any]:
+    if isinstance(preset, Mapping):
+        return dict(preset)
+    if isinstance(preset, Path) or (isinstance(preset, str)
+                                    and not preset.lstrip().startswith("{")):
+        path = Path(preset)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise FileNotFoundError(f"VisualPDE preset file {str(path)!r}: {exc.strerror}") \
+                from None
+        where = f"VisualPDE preset file {str(path)!r}"
+    else:
+        text, where = preset, "VisualPDE preset JSON"
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{where} is not JSON: {exc}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{where} holds a {type(data).__name__}, not a preset dictionary")
+    return data
+
+
+def _merged(preset: dict[str, Any], presets: Mapping[str, Mapping[str, Any]]
+            ) -> dict[str, Any]:
+    """``preset`` over its parents over `DEFAULTS`."""
+    chain, seen = [preset], set()
+    parent = preset.get("parent")
+    while parent not in (None, "default"):
+        if parent in seen or parent not in presets:
+            raise UnsupportedPreset(f"parent = {parent!r}: " + (
+                "a cycle of parents" if parent in seen else
+                "not among the presets given (pass presets={name: preset, ...})"))
+        seen.add(parent)
+        chain.append(dict(presets[parent]))
+        parent = chain[-1].get("parent")
+    out = dict(DEFAULTS)
+    for layer in reversed(chain):
+        out.update(layer)
+    return out
+
+
+def _flag(p: Mapping[str, Any], key: str) -> bool:
+    v = p.get(key, False)
+    return v is True or (isinstance(v, str) and v.lower() == "true") or v == 1
+
+
+def _integer(p: Mapping[str, Any], key: str) -> int:
+    try:
+        value = float(p[key])
+    except (TypeError, ValueError):
+        raise UnsupportedPreset(f"{key} = {p[key]!r} is not a number") from None
+    if not value.is_integer() or value < 0:
+        raise UnsupportedPreset(f"{key} = {p[key]!r} is not a whole number")
+    return int(value)
+
+
+def _number(p: Mapping[str, Any], key: str, env: Mapping[str, float]) -> float:
+    """A key's number: a number or an expression of ``env``'s names."""
+    text = str(p[key]).replace("^", "**")
+    tree = _parse(text, (), list(env), key)
+    if any(isinstance(n, eq.Ref) and n.kind != "param" for n in eq.walk(tree)):
+        raise UnsupportedPreset(f"{key} = {text!r} is not a number (it uses x, y, z or t)")
+    with np.errstate(all="ignore"):
+        value = float(eq.evaluate(tree, {k: np.float64(v) for k, v in env.items()}))
+    if not np.isfinite(value) or (key in ("dt", "spatialStep", "domainScale") and value <= 0):
+        raise UnsupportedPreset(f"{key} = {text!r} must be a positive number")
+    return value
+
+
+def _parse(text: str, species, params, what: str) -> eq.Node:
+    try:
+        return eq.parse(text, species=species, params=params, what=what)
+    except eq.EquationError as exc:
+        raise UnsupportedPreset(str(exc)) from None
+
+
+def _params(text: str, constants: Mapping[str, float]) -> dict[str, float]:
+    """``kineticParams``: ``name = expression [in [low, high]]`` separated by ``;``,
+    each a number of the constants and the parameters before it."""
+    out: dict[str, float] = {}
+    for item in (t.strip() for t in text.replace("\n", ";").split(";")):
+        if not item:
+            continue
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name.isidentifier():
+            raise UnsupportedPreset(f"kineticParams entry {item!r} (name = value)")
+        value = re.sub(r"\bin\s*\[.*\]\s*$", "", value).strip()
+        out[name] = _number({name: value}, name, {**constants, **out})
+    return out
+
+
+def _boundaries(p: Mapping[str, Any], n: int, env: Mapping[str, float]) -> Any:
+    """The grid's ``bc``: every species' condition the same (per-species conditions are
+    issue 23's item 3)."""
+    kinds = [str(p.get(f"boundaryConditions_{i}", "periodic")).lower() for i in range(1, n + 1)]
+    for i, k in enumerate(kinds, start=1):
+        if k not in ("periodic", "neumann", "dirichlet"):
+            raise UnsupportedPreset(f"boundaryConditions_{i} = {k!r}: Robin and per-side "
+                                    "('combo') conditions are not translated yet")
+        if k == "neumann" and str(p.get(f"neumannStr_{i}", "0")).strip() != "0":
+            raise UnsupportedPreset(f"neumannStr_{i} = {p[f'neumannStr_{i}']!r}: a "
+                                    "non-zero flux is not translated yet")
+    if len(set(kinds)) > 1:
+        raise UnsupportedPreset(f"boundaryConditions {kinds}: conditions that differ "
+                                "between species are not translated yet")
+    if kinds[0] != "dirichlet":
+        return kinds[0]
+    values = set()
+    for i in range(1, n + 1):
+        key = f"dirichletStr_{i}"
+        try:
+            values.add(_number({key: p.get(key, "0")}, key, env))
+        except UnsupportedPreset:
+            raise UnsupportedPreset(f"{key} = {p.get(key)!r}: a Dirichlet value that varies "
+                                    "in space or time is not translated yet") from None
+    if len(values) > 1:
+        raise UnsupportedPreset(f"Dirichlet values {sorted(values)} that differ between "
+                                "species are not translated yet")
+    return ("dirichlet", values.pop())
+
+
+class _Words:
+    """VisualPDE's names in an expression made rdgpu's (module doc)."""
+
+    def __init__(self, species, params, constants, offsets, dim):
+        self.species, self.params, self.constants = species, params, constants
+        self.offsets, self.dim = offsets, dim
+
+    def translate(self, text: str, key: str, initial: bool = False) -> str:
+        text = text.strip() or "0"
+        for bad in ("<", ">", "&", "|", "=", "!", "?"):
+            if bad in text:
+                raise UnsupportedPreset(f"{key} = {text!r}: comparisons and logic ({bad!r}) "
+                                        "are not in rdgpu's language")
+
+        def word(m: re.Match) -> str:
+            w = m.group(0)
+            after = text[m.end():m.end() + 1]
+            if after == "(":
+                if w not in _FUNCTIONS:
+                    raise UnsupportedPreset(f"{key} = {text!r}: the function {w!r} (rdgpu "
+                                            f"has {', '.join(sorted(_FUNCTIONS))})")
+                return w
+            if w in self.species or w in self.params:
+                return w
+            if initial and w in ("RAND", "RANDN"):
+                return w
+            if w in self.constants:
+                return repr(self.constants[w])
+            if w in ("x", "y"):
+                offset = self.offsets["xy".index(w)]
+                return w if offset == 0.0 else f"({w} + {offset!r})"
+            if w in ("t", "pi"):
+                return w
+            for s in self.species:
+                if w.startswith(s + "_"):
+                    return self._derivative(s, w[len(s) + 1:], key, text)
+            raise UnsupportedPreset(f"{key} = {text!r}: the name {w!r} (not a species, a "
+                                    "parameter or one of x y t pi L L_x L_y L_min dx dy)")
+
+        return _NAME.sub(word, text.replace("**", "^")).replace("^", "**")
+
+    def _derivative(self, s: str, suffix: str, key: str, text: str) -> str:
+        if suffix in ("x", "y"):
+            if suffix == "y" and self.dim == 1:
+                raise UnsupportedPreset(f"{key} = {text!r}: {s}_y on a 1-D domain")
+            return f"d_d{suffix}({s})"
+        if suffix == "xx" and self.dim == 1:
+            return f"laplace({s})"
+        raise UnsupportedPreset(f"{key} = {text!r}: {s}_{suffix} (rdgpu's language has first "
+                                "derivatives and the Laplacian; a second derivative along one "
+                                "axis only in 1-D)")

@@ -1,0 +1,163 @@
+"""The VisualPDE importer (issue 23, item 8): presets written here in VisualPDE's format
+(its ``presets.js`` keys) translate into rdgpu's model, grid, time step, scheme and
+initial state, run like the same model written by hand, and what rdgpu cannot translate
+is refused by name."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import backend_or_skip
+
+import rdgpu
+from rdgpu.cli.app import main as rdgpu_main
+from rdgpu.domains.grid import Grid
+from rdgpu.integrations.visualpde import RUN_FRAMES, UnsupportedPreset, load
+from rdgpu.io.output import load_npz
+from rdgpu.models import define_model
+
+GS = {"preset": "gs", "domainScale": "64", "spatialStep": "1", "squareCanvas": True,
+      "diffusionStr_1_1": "0.16", "diffusionStr_2_2": "0.08", "dt": 1.0,
+      "reactionStr_1": "-u*v^2 + F*(1.0 - u)", "reactionStr_2": "u*v^2 - (F+k)*v",
+      "kineticParams": "F = 0.030 in [0, 0.1];k = 0.055;",
+      "initCond_1": "1 - 0.5*exp(-((x-L_x/2)^2 + (y-L_y/2)^2)/40)",
+      "initCond_2": "0.25*exp(-((x-L_x/2)^2 + (y-L_y/2)^2)/40)",
+      "numTimestepsPerFrame": 20, "whatToPlot": "v"}
+
+
+def test_the_defaults_are_visualpdes_gray_scott():
+    """An empty preset is VisualPDE's default: Gray-Scott with D = 0.04, 0.02 on 200² cells
+    of 0.5, dt 0.1, forward Euler, periodic."""
+    tr = load({})
+    assert tr.model.species == ("u", "v")
+    assert tr.grid.shape == (200, 200) and tr.grid.dx == 0.5
+    assert tr.grid.bcs.x.kind == 0  # periodic
+    assert tr.dt == 0.1 and tr.method == "euler" and tr.steps == RUN_FRAMES * 100
+    assert tr.model.equations["u"] == "(0.04)*laplace(u) + (-u*v**2 + 0.037*(1.0 - u))"
+
+
+def test_a_preset_runs_as_the_same_model_written_by_hand():
+    tr = load(GS)
+    assert tr.model.defaults == {"F": 0.03, "k": 0.055}
+    assert tr.grid.shape == (64, 64) and tr.field == "v"
+    hand = define_model("hand", {"u": "0.16*laplace(u) - u*v**2 + F*(1 - u)",
+                                 "v": "0.08*laplace(v) + u*v**2 - (F + k)*v"},
+                        {"F": 0.03, "k": 0.055})
+    fields = tr.fields()
+    x = (np.arange(64) + 0.5)
+    r2 = (x[None, :] - 32) ** 2 + (x[:, None] - 32) ** 2
+    np.testing.assert_allclose(fields["v"], 0.25 * np.exp(-r2 / 40), rtol=1e-12)
+    out = {}
+    for name, model in (("preset", tr.model), ("hand", hand)):
+        st = model.stepper(tr.grid, {}, dt=1.0, backend="numpy", dtype="float64")
+        st.set_state(fields)
+        st.advance(300)
+        out[name] = st.get_state()
+    for s in "uv":
+        np.testing.assert_allclose(out["preset"][s], out["hand"][s], rtol=1e-12, atol=1e-14)
+    assert out["preset"]["v"].max() > 0.2  # the spot lives
+
+
+def test_translation_details():
+    """Cross-diffusion in divergence form (a state-dependent coefficient) or as a
+    Laplacian (a constant one), dependent parameters, timescales, schemes, minX shifts,
+    first derivatives, 1-D second derivatives, Dirichlet values."""
+    tr = load({"numSpecies": 2, "crossDiffusion": True, "diffusionStr_1_1": "D",
+               "diffusionStr_1_2": "-chi*u", "diffusionStr_2_2": "1", "diffusionStr_2_1": "0",
+               "reactionStr_1": "u*(1-u) + c*u_x", "reactionStr_2": "u - v",
+               "kineticParams": "D = 1;chi = 2*D in [0, 10];c=0.1",
+               "timescales": True, "timescale_2": "0.5", "timesteppingScheme": "AB2",
+               "minX": "-L_x/2", "domainScale": "20", "spatialStep": "0.5",
+               "boundaryConditions_1": "dirichlet", "boundaryConditions_2": "dirichlet",
+               "dirichletStr_1": "0.25", "dirichletStr_2": "L/80"})
+    assert tr.model.defaults == {"D": 1.0, "chi": 2.0, "c": 0.1}
+    assert tr.model.equations["u"] == ("(D)*laplace(u) + div((-chi*u)*grad(v)) + "
+                                       "(u*(1-u) + c*d_dx(u))")
+    assert tr.model.equations["v"] == "((1)*laplace(v) + (u - v))/(0.5)"
+    assert tr.method == "ab2" and tr.offsets == (-10.0, 0.0)
+    assert tr.grid.bcs.x.kind == 2 and tr.grid.bcs.x.value == 0.25
+    line = load({"dimension": "1", "numSpecies": 1, "reactionStr_1": "u_xx - u",
+                 "diffusionStr_1_1": "0", "initCond_1": "x", "minX": "5",
+                 "domainScale": "10", "spatialStep": "1"})
+    assert line.grid.shape == (1, 10) or line.grid.shape == (10,)
+    assert line.model.equations["u"] == "(laplace(u) - u)"
+    np.testing.assert_allclose(line.fields()["u"].ravel(), np.arange(10) + 5.5)
+    noisy = load({"initCond_2": "0.1*RANDN + RAND"})
+    a, b = noisy.fields(seed=3)["v"], noisy.fields(seed=3)["v"]
+    np.testing.assert_array_equal(a, b)
+    assert abs(a.mean() - 0.5) < 0.02 and 0.25 < a.std() < 0.35
+    assert not np.array_equal(a, noisy.fields(seed=4)["v"])
+
+
+def test_parents_json_and_files(tmp_path):
+    presets = {"base": dict(GS), "child": {"parent": "base", "kineticParams": "F=0.04;k=0.06"}}
+    tr = load(presets["child"], presets=presets)
+    assert tr.model.defaults == {"F": 0.04, "k": 0.06} and tr.grid.shape == (64, 64)
+    path = tmp_path / "gs.json"
+    path.write_text(json.dumps(GS))
+    assert load(path).model.equations == load(json.dumps(GS)).model.equations
+    with pytest.raises(UnsupportedPreset, match="parent = 'nowhere'"):
+        load({"parent": "nowhere"})
+    with pytest.raises(FileNotFoundError, match="missing.json"):
+        load(tmp_path / "missing.json")
+    with pytest.raises(ValueError, match="not JSON"):
+        load("{not json")
+
+
+@pytest.mark.parametrize("preset, words", [
+    ({"numAlgebraicSpecies": 1, "numSpecies": 3}, "algebraic species"),
+    ({"domainViaIndicatorFun": True}, "indicator function"),
+    ({"boundaryConditions_1": "neumann"}, "differ between species"),
+    ({"boundaryConditions_1": "combo", "boundaryConditions_2": "combo"}, "'combo'"),
+    ({"boundaryConditions_1": "robin", "boundaryConditions_2": "robin"}, "Robin"),
+    ({"boundaryConditions_1": "neumann", "boundaryConditions_2": "neumann",
+      "neumannStr_1": "1"}, "non-zero flux"),
+    ({"boundaryConditions_1": "dirichlet", "boundaryConditions_2": "dirichlet",
+      "dirichletStr_1": "sin(t)"}, "varies in space or time"),
+    ({"reactionStr_1": "ind(u > 0.5)"}, "reactionStr_1 = 'ind\\(u > 0.5\\)': comparisons"),
+    ({"reactionStr_1": "Bump(1, 2, 3)"}, "the function 'Bump'"),
+    ({"reactionStr_2": "u_xx"}, "u_xx"),
+    ({"reactionStr_2": "w*u"}, "the name 'w'"),
+    ({"timesteppingScheme": "Leapfrog"}, "timesteppingScheme = 'Leapfrog'"),
+    ({"dimension": "3"}, "dimension = '3'"),
+    ({"kineticParams": "t = 1"}, "reserved name"),
+])
+def test_what_rdgpu_cannot_translate_is_refused_by_name(preset, words):
+    with pytest.raises(UnsupportedPreset, match=words):
+        load(preset)
+
+
+def test_the_command_line_runs_a_preset(tmp_path, capsys):
+    path = tmp_path / "gs.json"
+    path.write_text(json.dumps(GS))
+    data = tmp_path / "run.npz"
+    code = rdgpu_main(["run", "--visualpde", str(path), "--steps", "200", "--backend",
+                       "numpy", "--dtype", "float64", "--data", str(data), "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    res = load_npz(data)
+    tr = load(GS)
+    st = tr.model.stepper(Grid((64, 64), dx=1.0, bc="periodic"), {}, dt=1.0,
+                          backend="numpy", dtype="float64")
+    st.set_state(tr.fields())
+    st.advance(200)
+    np.testing.assert_array_equal(res.fields["v"], st.get_state()["v"])
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"domainViaIndicatorFun": True}))
+    assert rdgpu_main(["run", "--visualpde", str(bad), "--quiet"]) == 2
+    assert "indicator function" in capsys.readouterr().err
+    assert rdgpu_main(["run", "gray-scott", "--visualpde", str(path), "--quiet"]) == 2
+    assert "drop MODEL (gray-scott)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("backend_name", ["opencl", "warp"])
+def test_every_backend_runs_a_translated_preset(backend_name):
+    be = backend_or_skip(backend_name)
+    tr = load({**GS, "crossDiffusion": True, "diffusionStr_2_1": "0.01*v",
+               "timesteppingScheme": "RK4"})
+    out = {}
+    for backend in (rdgpu.get_backend("numpy"), be):
+        sim = tr.simulation(backend=backend, dtype="float64")
+        out[backend.name] = sim.run(20, progress=False).fields["v"]
+    np.testing.assert_allclose(out[be.name], out["numpy"], rtol=1e-12, atol=1e-14)
