@@ -29,8 +29,9 @@ told otherwise.
 
 Refused by name (`UnsupportedPreset`), never approximated: algebraic species, domains
 given by an indicator function or an image, boundary conditions that differ between
-species, Robin and per-side ("combo") conditions, a Neumann flux, comparisons and logic
-(``<``, ``&&``) and functions rdgpu's language lacks (``ind``, ``H``, ``Bump``, ``mod``...),
+species, Robin and per-side ("combo") conditions, a Neumann flux, logic (``&&``, ``||``)
+and functions rdgpu's language lacks (``H``, ``Bump``, ``mod``...; ``ind(u > 0.5)`` is a
+comparison, which rdgpu has),
 second derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is ``laplace(u)``), 3-D, and a
 ``parent`` that is not given.  VisualPDE's Dirichlet value sits on the boundary, rdgpu's
 in the ghost cell half a cell outside: the same condition to first order in ``dx``.
@@ -411,15 +412,17 @@ class _Words:
 
     def translate(self, text: str, key: str, initial: bool = False) -> str:
         text = text.strip() or "0"
-        for bad in ("<", ">", "&", "|", "=", "!", "?"):
+        for bad in ("&&", "||", "?"):
             if bad in text:
-                raise UnsupportedPreset(f"{key} = {text!r}: comparisons and logic ({bad!r}) "
-                                        "are not in rdgpu's language")
+                raise UnsupportedPreset(f"{key} = {text!r}: logic ({bad!r}) is not in "
+                                        "rdgpu's language (comparisons are: ind(u > 0.5))")
 
         def word(m: re.Match) -> str:
             w = m.group(0)
             after = text[m.end():m.end() + 1]
             if after == "(":
+                if w == "ind":  # an indicator: rdgpu's comparisons are 1 or 0 already
+                    return ""
                 if w not in _FUNCTIONS:
                     raise UnsupportedPreset(f"{key} = {text!r}: the function {w!r} (rdgpu "
                                             f"has {', '.join(sorted(_FUNCTIONS))})")

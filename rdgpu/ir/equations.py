@@ -18,6 +18,8 @@ token and listing what is allowed):
   constant ``pi``;
 * the functions `FUNCTIONS` (``min``/``max`` of two arguments, NaN-propagating like
   ``numpy.minimum``);
+* comparisons ``<  <=  >  >=  ==  !=`` of two values (`COMPARISONS`): 1 where true, 0 where
+  false or where a side is NaN, so ``(u > 0.5)*k`` switches a term on (an indicator);
 * ``laplace(s)`` of any species ``s`` in any equation (cross-diffusion), the
   bilaplacian ``laplace(laplace(s))``, and ``laplace(expr)`` of any expression (`LapOf`:
   the porous medium's ``laplace(u**2)``, Cahn–Hilliard's ``laplace(u**3 - u -
@@ -84,6 +86,7 @@ from rdgpu.ir.nodes import (
 )
 
 __all__ = [
+    "COMPARISONS",
     "COORDINATES",
     "DERIVATIVES",
     "FUNCTIONS",
@@ -120,6 +123,11 @@ __all__ = [
 #: functions of the language and their number of arguments
 FUNCTIONS = {"exp": 1, "log": 1, "sqrt": 1, "sin": 1, "cos": 1, "tan": 1, "tanh": 1,
              "abs": 1, "min": 2, "max": 2}
+#: the comparisons (``u > 0.5``: 1 where true, else 0; false where either side is NaN), as
+#: the internal functions of the tree -> their operator
+COMPARISONS = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}
+_COMPARE = {ast.Lt: "lt", ast.LtE: "le", ast.Gt: "gt", ast.GtE: "ge", ast.Eq: "eq",
+            ast.NotEq: "ne"}
 #: the first-derivative operators of a species (module doc): name -> (axis, side), side 0
 #: central, +1 forward, -1 backward
 DERIVATIVES = {f"d_d{a}{suffix}": (a, side) for a in "xyz"
@@ -139,7 +147,7 @@ MAX_DEPTH = 80
 #: the most nodes of an expression (powers expanded)
 MAX_NODES = 20000
 #: the characters of the language (besides letters and digits)
-CHARACTERS = frozenset("_.,()+-*/^ \t")
+CHARACTERS = frozenset("_.,()+-*/^<>=! \t")
 
 _OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/"}
 
@@ -152,7 +160,8 @@ def _allowed_text(species: Iterable[str], params: Iterable[str]) -> str:
         f"+ - * / **, laplace(species), laplace(laplace(species)), laplace(expression), "
         f"div(D*grad(species)), the derivatives "
         f"d_dx d_dy d_dz (and their _forward/_backward forms), gradient_squared, "
-        f"dot(gradient(a), gradient(b)), advect(species, vx[, vy[, vz]]) and the functions "
+        f"dot(gradient(a), gradient(b)), advect(species, vx[, vy[, vz]]), the comparisons "
+        f"< <= > >= == != (1 or 0) and the functions "
         f"{' '.join(FUNCTIONS)}"
     )
 
@@ -179,7 +188,8 @@ def parse(
     if bad:
         raise EquationError(
             f"{what} {text!r} uses the character(s) {', '.join(map(repr, bad))}, outside the "
-            f"language (letters, digits, spaces, _ . , ( ) + - * / ** ^); allowed: {allowed}")
+            f"language (letters, digits, spaces, _ . , ( ) + - * / ** ^ < > = !); allowed: "
+            f"{allowed}")
     source = source.replace("^", "**")
 
     def fail(token: str) -> EquationError:
@@ -215,6 +225,11 @@ def parse(
             if isinstance(node.op, ast.UAdd):
                 return go(node.operand)
             raise fail(f"the operator {type(node.op).__name__}")
+        if isinstance(node, ast.Compare):
+            if len(node.ops) != 1:
+                raise fail(f"the chained comparison {ast.unparse(node)!r} (compare two "
+                           "values at a time)")
+            return Call(_COMPARE[type(node.ops[0])], (go(node.left), go(node.comparators[0])))
         if isinstance(node, ast.Constant):
             v = node.value
             if isinstance(v, bool) or not isinstance(v, (int, float)):
@@ -421,6 +436,10 @@ def _power(base: Node, exponent: Node) -> Node:
 
 
 # ---------------------------------------------------------------------------- evaluation
+_TESTS = {"lt": lambda a, b: a < b, "le": lambda a, b: a <= b, "gt": lambda a, b: a > b,
+          "ge": lambda a, b: a >= b, "eq": lambda a, b: a == b, "ne": lambda a, b: a != b}
+
+
 def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
              literal: Callable[[float], Any] | None = None,
              lap: Callable[[str, int], Any] | None = None,
@@ -472,6 +491,8 @@ def evaluate(node: Node, env: Mapping[str, Any], *, lib: Any = None,
             return lib.maximum(*args)
         if n.fn == "pow":
             return lib.power(*args)
+        if n.fn in COMPARISONS:
+            return lib.where(_TESTS[n.fn](*args), literal(1.0), literal(0.0))
         return getattr(lib, "absolute" if n.fn == "abs" else n.fn)(*args)
 
     return go(node)

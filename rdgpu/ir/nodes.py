@@ -231,7 +231,13 @@ def to_text(node: Node) -> str:
         return f"({to_text(node.a)} {node.op} {to_text(node.b)})"
     if isinstance(node, Neg):
         return f"(-{to_text(node.a)})"
+    if node.fn in _COMPARISON_TEXT:
+        return f"({to_text(node.args[0])} {_COMPARISON_TEXT[node.fn]} {to_text(node.args[1])})"
     return f"{node.fn}({', '.join(to_text(a) for a in node.args)})"
+
+
+#: how `to_text` writes a comparison (`rdgpu.ir.equations.COMPARISONS`)
+_COMPARISON_TEXT = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}
 
 
 def is_constant(node: Node) -> bool:

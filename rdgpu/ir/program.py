@@ -39,14 +39,11 @@ from rdgpu.ir.equations import (
 from rdgpu.ir.equations import names as names_of
 from rdgpu.ir.names import ident
 
-__all__ = ["METRIC_COEFFICIENTS", "OPERATOR_FIELDS", "REALS", "STENCILS", "Output",
-           "PerMember", "Program", "expression_tree", "literal", "signature"]
+__all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "Program",
+           "expression_tree", "literal", "signature"]
 
 #: the dtypes a program runs in
 REALS = REAL_DTYPES
-#: the prefixes of the derived fields a Program makes of the Laplacians and divergences of
-#: expressions (`Program`); no other program field may use them
-OPERATOR_FIELDS = ("_opl", "_opd")
 #: the metric coefficient arrays in the kernels' argument order (families/metric/reference.py)
 METRIC_COEFFICIENTS = ("ex", "ny", "bx", "w")
 
@@ -74,7 +71,7 @@ class Program:
 
     ``DivGrad(Ref("species", d), s)`` reads field ``d`` as the coefficient.  A `LapOf`
     or a `DivGrad` of any other pointwise expression becomes a derived field at
-    construction (``_opl<k>``, ``_opd<k>``, `OPERATOR_FIELDS`): the outputs then read
+    construction (``_opl<k>``, ``_opd<k>``; no other field may be so named): the outputs read
     ``Lap(_opl<k>)`` and ``DivGrad(Ref("species", "_opd<k>"), s)``."""
 
     inputs: tuple[str, ...]

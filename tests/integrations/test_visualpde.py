@@ -84,6 +84,10 @@ def test_translation_details():
     assert line.grid.shape == (1, 10) or line.grid.shape == (10,)
     assert line.model.equations["u"] == "(laplace(u) - u)"
     np.testing.assert_allclose(line.fields()["u"].ravel(), np.arange(10) + 5.5)
+    switch = load({"reactionStr_1": "ind(u > 0.5)*u - v", "initCond_1": "ind(x < L_x/2)"})
+    assert switch.model.equations["u"] == "(0.04)*laplace(u) + ((u > 0.5)*u - v)"
+    half = switch.fields()["u"]
+    assert half[:, :100].min() == 1 and half[:, 100:].max() == 0
     noisy = load({"initCond_2": "0.1*RANDN + RAND"})
     a, b = noisy.fields(seed=3)["v"], noisy.fields(seed=3)["v"]
     np.testing.assert_array_equal(a, b)
@@ -116,7 +120,7 @@ def test_parents_json_and_files(tmp_path):
       "neumannStr_1": "1"}, "non-zero flux"),
     ({"boundaryConditions_1": "dirichlet", "boundaryConditions_2": "dirichlet",
       "dirichletStr_1": "sin(t)"}, "varies in space or time"),
-    ({"reactionStr_1": "ind(u > 0.5)"}, "reactionStr_1 = 'ind\\(u > 0.5\\)': comparisons"),
+    ({"reactionStr_1": "ind(u > 0.5 && v < 1)"}, "reactionStr_1 = .*logic \\('&&'\\)"),
     ({"reactionStr_1": "Bump(1, 2, 3)"}, "the function 'Bump'"),
     ({"reactionStr_2": "u_xx"}, "u_xx"),
     ({"reactionStr_2": "w*u"}, "the name 'w'"),

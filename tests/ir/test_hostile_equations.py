@@ -279,7 +279,7 @@ def test_parameters_and_bounds_beyond_the_dtype_are_refused():
 @pytest.mark.parametrize("text, shown", [
     ("-u # + v", "'#'"), ("-u\n+ v", "'\\\\n'"), ("-u\r+ v", "'\\\\r'"),
     ("u; v", "';'"), ("u \\\n+ v", "'\\\\\\\\'"), ("u @ v", "'@'"), ("u $ v", "'\\$'"),
-    ("u < v", "'<'"), ("u[0]", "'\\[', '\\]'"), ("u % 2", "'%'"), ("'a'*u", "\"'\""),
+    ("u & v", "'&'"), ("u[0]", "'\\[', '\\]'"), ("u % 2", "'%'"), ("'a'*u", "\"'\""),
     ("u\u00a0+ v", "'\\\\xa0'"), ("u + vé", "'é'"),
 ])
 def test_characters_outside_the_language_are_named(text, shown):

@@ -13,6 +13,13 @@
 /* NaN-propagating min/max (numpy.minimum / numpy.maximum) */
 INLINE real nanmin2(real a, real b) { return (a != a || a < b) ? a : b; }
 INLINE real nanmax2(real a, real b) { return (a != a || a > b) ? a : b; }
+/* comparisons (rdgpu.ir.equations.COMPARISONS): 1 where true, else 0 */
+INLINE real cmp_lt(real a, real b) { return (a < b) ? (real)1 : (real)0; }
+INLINE real cmp_le(real a, real b) { return (a <= b) ? (real)1 : (real)0; }
+INLINE real cmp_gt(real a, real b) { return (a > b) ? (real)1 : (real)0; }
+INLINE real cmp_ge(real a, real b) { return (a >= b) ? (real)1 : (real)0; }
+INLINE real cmp_eq(real a, real b) { return (a == b) ? (real)1 : (real)0; }
+INLINE real cmp_ne(real a, real b) { return (a != b) ? (real)1 : (real)0; }
 
 /*@GRID@*/
 /* Grids (1-D, 2-D, 3-D as nz × ny rows of nx cells; an ensemble as nm such grids one
