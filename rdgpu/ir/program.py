@@ -127,10 +127,14 @@ class Program:
 
     def neighbour_params(self) -> frozenset[str]:
         """The parameters the derived fields read at neighbours use (each must be one
-        number per member: a parameter field there needs the field stored first)."""
-        stencil = set(self.stencil_inputs)
-        return frozenset(p for d, expr in self.derived if d in stencil
-                         for p in names_of(expr, "param"))
+        number per member: a parameter field there needs the field stored first; cached,
+        every launch asks)."""
+        found = self.cache.get("neighbour params")
+        if found is None:
+            stencil = set(self.stencil_inputs)
+            found = self.cache["neighbour params"] = frozenset(
+                p for d, expr in self.derived if d in stencil for p in names_of(expr, "param"))
+        return found
 
     def refs(self, kind: str) -> tuple[str, ...]:
         """The names of ``Ref``s of ``kind`` the outputs and derived fields use, sorted
@@ -149,15 +153,18 @@ class Program:
         """Inputs and derived fields whose Laplacian, derivative or divergence is taken
         (a divergence's field and coefficient), in that order (their neighbours are
         read)."""
-        used = set()
-        for o in self.outputs:
-            for n in walk(o.expr):
-                if isinstance(n, (Lap, Diff)):
-                    used.add(n.name)
-                elif isinstance(n, DivGrad):
-                    used.update((n.name, n.coef.name))
-        names = (*self.inputs, *(d for d, _ in self.derived))
-        return tuple(s for s in names if s in used)
+        found = self.cache.get("stencil inputs")
+        if found is None:
+            used = set()
+            for o in self.outputs:
+                for n in walk(o.expr):
+                    if isinstance(n, (Lap, Diff)):
+                        used.add(n.name)
+                    elif isinstance(n, DivGrad):
+                        used.update((n.name, n.coef.name))
+            names = (*self.inputs, *(d for d, _ in self.derived))
+            found = self.cache["stencil inputs"] = tuple(s for s in names if s in used)
+        return found
 
     @property
     def divergences(self) -> tuple[DivGrad, ...]:
