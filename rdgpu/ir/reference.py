@@ -27,6 +27,13 @@ from rdgpu.ir.stencils import STENCIL_KINDS
 __all__ = ["run_numpy"]
 
 
+def _sides(p: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """The low and high neighbours along ``axis`` of every cell of an array padded by one
+    ghost layer on that axis (`grid_common.pad_axis`)."""
+    n = p.shape[axis]
+    return np.take(p, range(0, n - 2), axis=axis), np.take(p, range(2, n), axis=axis)
+
+
 def _grid_laplacian(a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
     """The kernels' Laplacian of a grid field (ghosts by the bc; Dirichlet 0 if ``zero``);
     ``a`` is one member's field or an ensemble's ``[members, *shape]``."""
@@ -50,8 +57,7 @@ def _grid_laplacian(a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
     for axis, bc, h in axes:
         value = 0.0 if zero else bc.value
         p = gc.pad_axis(u, axis, bc.kind, value)
-        lo = np.take(p, range(0, p.shape[axis] - 2), axis=axis)
-        hi = np.take(p, range(2, p.shape[axis]), axis=axis)
+        lo, hi = _sides(p, axis)
         term = ((hi + lo) - t(2) * u) * t(1.0 / (h * h))
         out = term if out is None else out + term
     return out.reshape(a.shape)
@@ -73,8 +79,7 @@ def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, zero: bool):
     bc = (dom.bcs.x, dom.bcs.y, dom.bcs.z)[k]
     h = t((dom.dx, dom.dy, dom.dz)[k])
     p = gc.pad_axis(u, axis, bc.kind, 0.0 if zero else bc.value)
-    lo = np.take(p, range(0, p.shape[axis] - 2), axis=axis)
-    hi = np.take(p, range(2, p.shape[axis]), axis=axis)
+    lo, hi = _sides(p, axis)
     if d.side == 0:
         out = (hi - lo) / (t(2) * h)
     elif d.side > 0:
@@ -103,9 +108,8 @@ def _grid_divergence(D: np.ndarray, a: np.ndarray, layout: Layout, zero: bool) -
         axis = 3 - k
         p = gc.pad_axis(u, axis, bc.kind, 0.0 if zero else bc.value)
         q = gc.pad_axis(c, axis, gc.NEUMANN if bc.kind == gc.DIRICHLET else bc.kind, 0.0)
-        n = p.shape[axis]
-        lo, hi = (np.take(p, range(0, n - 2), axis=axis), np.take(p, range(2, n), axis=axis))
-        dlo, dhi = (np.take(q, range(0, n - 2), axis=axis), np.take(q, range(2, n), axis=axis))
+        lo, hi = _sides(p, axis)
+        dlo, dhi = _sides(q, axis)
         up = ((c + dhi) / t(2)) * (hi - u)
         down = ((dlo + c) / t(2)) * (u - lo)
         term = (up - down) * t(coef)
