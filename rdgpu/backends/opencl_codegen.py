@@ -377,7 +377,7 @@ class OpenCLFusedPass(FusedPass):
         buffers."""
         d = target.domain
         nz, ny, nx = d.shape3
-        b = d.bcs
+        b = self.program.kernel_bcs(d)
         dx, dy, dz = target.spacing()
         cx, cy, cz = target.grid_coefficients()
         nm = target.members
@@ -439,7 +439,7 @@ class OpenCLBlockedPass(BlockedPass):
             # ``times`` alive until it is done)
             be.cl.enqueue_copy(be.queue, self._times.handle, times, is_blocking=False)
         args = arguments(program, target, x, y, params, fields, scalars, time, member=member)
-        b = target.domain.bcs
+        b = program.kernel_bcs(target.domain)
         dx, dy, dz = target.spacing()
         cx, cy, cz = target.grid_coefficients()
         args += [self._times.handle, self._scratch.handle]

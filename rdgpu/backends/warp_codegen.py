@@ -327,7 +327,7 @@ class WarpFusedPass(FusedPass):
         if nx == 0:
             return None
         t = target.dtype.type
-        b = d.bcs
+        b = self.program.kernel_bcs(d)
         dx, dy, dz = target.spacing()
         cx, cy, cz = target.grid_coefficients()
         return [*bufs, *(_warp_rows(c) for c in target.metric), nx, ny, nz, nm, b.x.kind,

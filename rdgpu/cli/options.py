@@ -332,6 +332,57 @@ def _bc(text: str) -> tuple:
     return tuple(_one_bc(text, part) for part in text.split("/"))
 
 
+_FIELD_FORMS = ("SPECIES[:SIDE]=KIND[:VALUE], SIDE one of x- x+ y- y+ z- z+ x y z (default: "
+                "every non-periodic side), KIND neumann, dirichlet, value or robin:A (each "
+                "VALUE a number or an expression of x, y, z, t and the parameters), e.g. "
+                "u:x-=value:1+sin(t) or v=neumann:0.5")
+
+
+def field_bc(text: str) -> tuple[str, str, Any]:
+    """``--bc SPECIES[:SIDE]=KIND[:VALUE...]``: ``(species, side or "*", condition)`` as
+    `rdgpu.domains.boundary.parse_side` takes it."""
+    where, _, cond = text.partition("=")
+    species, sep, side = where.strip().partition(":")
+    parts = [p.strip() for p in cond.split(":")]
+    kind = parts[0].lower()
+    if not species.strip() or (sep and not side.strip()) or not kind:
+        raise Bad(f"expected {_FIELD_FORMS}; got {text!r}")
+
+    def value(v: str) -> Any:
+        try:
+            x = float(v)
+        except ValueError:
+            return v
+        return x if math.isfinite(x) else v
+
+    if len(parts) == 1:
+        return species.strip(), side.strip() or "*", kind
+    return species.strip(), side.strip() or "*", (kind, *(value(v) for v in parts[1:]))
+
+
+class BcAction(argparse.Action):
+    """``--bc``, repeatable: the grid's conditions (`_bc`; once), or with ``=`` one
+    species' condition on some sides (`field_bc`), gathered in ``field_bc``."""
+
+    def __call__(self, parser: Any, namespace: Any, values: Any, option_string: Any = None):
+        if "=" not in values:
+            if getattr(namespace, self.dest, None) is not None:
+                raise argparse.ArgumentError(self, "the grid's conditions are given once; "
+                                             f"per species use {_FIELD_FORMS}")
+            try:
+                setattr(namespace, self.dest, _bc(values))
+            except Bad as exc:
+                raise argparse.ArgumentError(self, str(exc)) from None
+            return
+        try:
+            species, side, cond = field_bc(values)
+        except Bad as exc:
+            raise argparse.ArgumentError(self, str(exc)) from None
+        found = dict(getattr(namespace, "field_bc", None) or {})
+        found.setdefault(species, {})[side] = cond
+        namespace.field_bc = found
+
+
 def bc_value(bcs: tuple, ndim: int, text: str) -> Any:
     """The ``bc`` of a grid of ``ndim`` axes from `_bc`'s tuple (a ValueError where
     the count does not fit)."""
@@ -379,11 +430,15 @@ def add_domain_options(group: Any) -> None:
     spacing.add_argument("--length", type=positive_float, metavar="L",
                          help="the grid's length along x (columns): dx = L / columns, the "
                          "same spacing along every axis")
-    group.add_argument("--bc", type=_bc, metavar="BC[/BC...]",
+    group.add_argument("--bc", action=BcAction, metavar="BC[/BC...]",
                        help="grid boundary conditions: periodic, neumann (zero flux) or "
                        "dirichlet:VALUE, one for every axis or one per axis joined by / "
                        "(y/x, or z/y/x on a 3-D grid), e.g. neumann/periodic (default: the "
-                       "preset's, else periodic)")
+                       "preset's, else periodic); repeat it with SPECIES[:SIDE]=KIND[:VALUE] "
+                       "for one species' condition on non-periodic sides: KIND neumann "
+                       "(VALUE the outward derivative), dirichlet, value (the face's value) "
+                       "or robin:A (du/dn + A u = VALUE), each VALUE a number or an "
+                       "expression of x, y, z, t, e.g. --bc neumann --bc u:x-=value:sin(t)")
     group.add_argument("--radius", type=positive_float, metavar="R",
                        help="radius of a generated mesh: sphere, uv-sphere, disc; torus: "
                        "the ring radius R, the tube 0.3 R (default 1)")

@@ -15,6 +15,7 @@ import math
 import re
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -181,6 +182,9 @@ def _report(args: argparse.Namespace, sim: Simulation, result: Any, field: str, 
 def build_simulation(args: argparse.Namespace) -> tuple[Simulation, Any, dict]:
     """The Simulation, its preset (or None) and the run() keyword arguments (with
     ``_total``, ``_snapshot_every`` and ``_target`` for the messages)."""
+    if getattr(args, "field_bc", None) and (args.resume or getattr(args, "visualpde", None)):
+        what = "--resume (a checkpoint" if args.resume else "--visualpde (a preset"
+        raise UsageError(f"--bc SPECIES=... with {what} keeps its own conditions)")
     if args.resume is not None:
         return build_resumed(args, PRESETS)
     if getattr(args, "visualpde", None):
@@ -334,6 +338,19 @@ def _stepper_options(args: argparse.Namespace, model: Model, preset: Any, domain
                              "only the models defined by equations have")
         options["block_steps"] = args.block_steps
         check_block_memory(args.block_steps, domain, len(model.species), itemsize)
+    given = getattr(args, "field_bc", None)
+    if given:
+        if "bc" not in inspect.signature(model.stepper).parameters:
+            raise UsageError(f"--bc SPECIES=...: model {model.name} takes no per-species "
+                             "conditions; only the models defined by equations do")
+        if "grid" not in domain:
+            raise UsageError("--bc SPECIES=...: per-species conditions are set on a grid's "
+                             "sides, not on a mesh")
+        bc = {k: dict(v) if isinstance(v, Mapping) else {"*": v}
+              for k, v in (options.get("bc") or {}).items()}
+        for s, sides in given.items():
+            bc.setdefault(s, {}).update(sides)
+        options["bc"] = bc
     return options
 
 

@@ -21,6 +21,7 @@ Dirichlet the ghost is ``g_y``; otherwise the row is wrapped (periodic) or clamp
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -127,3 +128,168 @@ def parse_bc(bc: Any, ndim: int = 2) -> GridBC:
         return GridBC(_parse_axis(bc[0]), _parse_axis(bc[1]))
     axis = _parse_axis(bc)
     return GridBC(axis, axis)
+
+
+# ---------------------------------------------------------------- per field and side
+#: the sides of a grid, low and high along each axis, in `SIDES` order
+SIDES = ("x-", "x+", "y-", "y+", "z-", "z+")
+#: a side's condition kinds (`SideBC`), with their py-pde names as aliases
+SIDE_KINDS = {"neumann": "neumann", "derivative": "neumann", "dirichlet": "dirichlet",
+              "value": "value", "robin": "robin", "mixed": "robin"}
+SIDE_ALLOWED = ("'neumann', ('neumann', q), ('dirichlet', g), ('value', g) or "
+                "('robin', a, g); q, g and a numbers or expression strings of x, y, z, t, "
+                "Lx, Ly, Lz and the parameters")
+
+
+@dataclass(frozen=True)
+class SideBC:
+    """One field's condition on one side of a grid (the ghost cell beyond it):
+
+    * ``neumann``: ``∂u/∂n = value`` (the outward derivative; 0: zero flux), ghost ``u + h·q``;
+    * ``dirichlet``: the ghost holds ``value`` (rdgpu's convention, as `AxisBC`);
+    * ``value``: the face between the edge cell and its ghost holds ``value`` (py-pde's
+      Dirichlet), ghost ``2g − u``;
+    * ``robin``: ``∂u/∂n + alpha·u = value`` on the face, ghost ``(h·g + u·(1 − h·a/2)) /
+      (1 + h·a/2)``.
+
+    Parameters
+    ----------
+    kind : {"neumann", "dirichlet", "value", "robin"}
+        The condition (the canonical names of `SIDE_KINDS`).
+    value : float or str, default 0.0
+        ``q`` or ``g``: a number or an expression string of x, y, z, t, Lx, Ly, Lz, pi and
+        scalar parameters (the coordinate across the side is the face's), parsed by
+        `rdgpu.ir.boundary` when a stepper is made.
+    alpha : float or str, default 0.0
+        Robin's ``a`` (a number or an expression as ``value``); unused by the others.
+    """
+
+    kind: str
+    value: float | str = 0.0
+    alpha: float | str = 0.0
+
+    def to_json(self) -> list | str:
+        """``"neumann"``, ``[kind, value]`` or ``["robin", alpha, value]``."""
+        if self.kind == "robin":
+            return ["robin", self.alpha, self.value]
+        if self.kind == "neumann" and self.value == 0.0:
+            return "neumann"
+        return [self.kind, self.value]
+
+
+def _side_number(v: Any, what: str) -> float | str:
+    if isinstance(v, str):
+        if not v.strip():
+            raise ValueError(f"{what} is an empty string; allowed: {SIDE_ALLOWED}")
+        return v.strip()
+    return scalar(v, what, minimum=None)
+
+
+def parse_side(spec: Any, where: str) -> SideBC:
+    """One side's condition (`SideBC`) from ``"neumann"``, ``(kind, value)`` or
+    ``("robin", alpha, value)``; ``where`` names it in messages."""
+    if isinstance(spec, SideBC):
+        return spec
+    if isinstance(spec, str):
+        name = spec.lower()
+        if SIDE_KINDS.get(name) == "neumann":
+            return SideBC("neumann")
+        if name == "periodic":
+            raise ValueError(f"{where}: 'periodic' belongs to the grid (its axis), not to one "
+                             f"field or side: give the grid bc='periodic' on that axis")
+        raise ValueError(f"{where}: unknown condition {spec!r}; allowed: {SIDE_ALLOWED}")
+    if isinstance(spec, (tuple, list)) and spec and isinstance(spec[0], str):
+        kind = SIDE_KINDS.get(spec[0].lower())
+        if kind == "robin" and len(spec) == 3:
+            return SideBC("robin", _side_number(spec[2], f"{where} Robin value"),
+                          _side_number(spec[1], f"{where} Robin coefficient"))
+        if kind is not None and kind != "robin" and len(spec) == 2:
+            return SideBC(kind, _side_number(spec[1], f"{where} {kind} value"))
+    raise ValueError(f"{where}: unknown condition {spec!r}; allowed: {SIDE_ALLOWED}")
+
+
+def _is_side_map(spec: Any) -> bool:
+    return isinstance(spec, Mapping)
+
+
+def parse_field_bcs(bc: Any, bcs: GridBC, ndim: int,
+                    species: Sequence[str]) -> dict[str, dict[str, SideBC]]:
+    """Per-species conditions on the non-periodic sides of a grid whose own conditions are
+    ``bcs`` (docs/boundaries.md).
+
+    Parameters
+    ----------
+    bc : mapping
+        Species names (or ``"*"``, every species not named) to one condition for all of
+        the grid's non-periodic sides, or to a mapping of sides (``"x-"``, ``"x+"``...),
+        axes (``"x"``: both sides; a side named on its own wins) and ``"*"`` (the sides not
+        named) to conditions: ``"neumann"``, ``("neumann", q)``, ``("dirichlet", g)``,
+        ``("value", g)``, ``("robin", a, g)`` (`SideBC`; ``"derivative"`` and ``"mixed"``
+        are aliases).
+    bcs : GridBC
+        The grid's own conditions (`Grid.bcs`): a periodic axis takes none per species.
+    ndim : int
+        The grid's dimension (1, 2 or 3): the sides of the other axes are refused.
+    species : sequence of str
+        The model's species: another name in ``bc`` is refused.
+
+    Returns
+    -------
+    dict
+        ``{species: {side: SideBC}}`` for the sides given (the others keep the grid's).
+
+    Raises
+    ------
+    TypeError
+        ``bc`` is not a mapping.
+    ValueError
+        An unknown species, side or condition, a side of a periodic or absent axis, a
+        value that is not a number or a non-empty string (naming where).
+    """
+    if not isinstance(bc, Mapping):
+        raise TypeError(f"bc must map species names (or '*') to conditions, got "
+                        f"{type(bc).__name__} {bc!r}")
+    axes = "xyz"[:ndim]
+    kinds = {"x": bcs.x.kind, "y": bcs.y.kind, "z": bcs.z.kind}
+    open_sides = [s for s in SIDES if s[0] in axes and kinds[s[0]] != PERIODIC]
+    names = list(species)
+    out: dict[str, dict[str, SideBC]] = {}
+    for key in bc:
+        if key != "*" and key not in names:
+            raise ValueError(f"bc names {key!r}, which is not a species; the species are "
+                             f"{', '.join(names)} ('*': every species not named)")
+    for s in names:
+        if s not in bc and "*" not in bc:
+            continue
+        spec = bc[s] if s in bc else bc["*"]
+        where = f"bc[{s!r}]" if s in bc else "bc['*']"
+        if not _is_side_map(spec):
+            side = parse_side(spec, where)
+            out[s] = dict.fromkeys(open_sides, side)
+            continue
+        given: dict[str, SideBC] = {}
+        for key, cond in spec.items():
+            label = f"{where}[{key!r}]"
+            if key == "*":
+                continue
+            if key not in SIDES and key not in ("x", "y", "z"):
+                raise ValueError(f"{label}: unknown side {key!r}; allowed: x- x+ y- y+ z- z+, "
+                                 "an axis x y z (both sides) or '*' (the sides not named)")
+            if key[0] not in axes:
+                raise ValueError(f"{label}: the grid is {ndim}-D, its axes are "
+                                 f"{' '.join(axes)}")
+            if kinds[key[0]] == PERIODIC:
+                raise ValueError(f"{label}: the grid's {key[0]} axis is periodic; per-field "
+                                 f"conditions apply on non-periodic sides (give the grid "
+                                 f"another condition on {key[0]})")
+            sides = [key] if len(key) == 2 else [key + "-", key + "+"]
+            for side in sides:
+                if side in given and len(key) == 1:
+                    continue  # a side named on its own wins over its axis
+                given[side] = parse_side(cond, label)
+        if "*" in spec:
+            rest = parse_side(spec["*"], f"{where}['*']")
+            for side in open_sides:
+                given.setdefault(side, rest)
+        out[s] = given
+    return out

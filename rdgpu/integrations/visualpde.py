@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rdgpu.domains.grid import Grid
+from rdgpu.integrations.visualpde_bc import boundaries
 from rdgpu.ir import equations as eq
 from rdgpu.models.model import Model
 from rdgpu.simulation import Simulation
@@ -118,6 +119,9 @@ class Translation:
         The numbers the initial expressions may use (``L``, ``L_x``, ``dx``...).
     offsets : tuple of float
         VisualPDE's ``minX``, ``minY`` (already in the expressions).
+    bc : dict
+        Per-species conditions over the grid's own (``Simulation(..., bc=...)``): VisualPDE's
+        Dirichlet values on the faces, fluxes, Robin conditions, per side.
     """
 
     name: str
@@ -132,6 +136,8 @@ class Translation:
     #: the numbers the initial expressions may use besides the parameters
     constants: dict[str, float] = field(default_factory=dict)
     offsets: tuple[float, float] = (0.0, 0.0)
+    #: the per-species conditions over the grid's (`rdgpu.integrations.visualpde_bc`)
+    bc: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def fields(self, seed: int = 0) -> dict[str, np.ndarray]:
         """The initial fields (float64, the grid's shape): each ``initCond`` evaluated
@@ -187,7 +193,8 @@ class Translation:
             More keyword arguments of `rdgpu.Simulation` (``check_stability``...)."""
         return Simulation(self.model, self.grid, {}, dt=self.dt if dt is None else dt,
                           backend=backend, dtype=dtype, seed=seed, fields=self.fields(seed),
-                          options={"method": method or self.method}, **kwargs)
+                          options={"method": method or self.method}, bc=self.bc or None,
+                          **kwargs)
 
 
 def load(preset: Mapping[str, Any] | str | Path,
@@ -231,8 +238,9 @@ def load(preset: Mapping[str, Any] | str | Path,
     params = _params(str(p.get("kineticParams") or ""), constants)
     offsets = (_number(p, "minX", {**constants, **params}),
                _number(p, "minY", {**constants, **params}) if dim == 2 else 0.0)
-    bc = _boundaries(p, n, {**constants, **params})
     words = _Words(species, params, constants, offsets, dim)
+    bc, field_bc = boundaries(p, species, dim, words.translate, list(params),
+                              UnsupportedPreset)
     equations = {}
     for i, s in enumerate(species, start=1):
         terms = []
@@ -276,7 +284,8 @@ def load(preset: Mapping[str, Any] | str | Path,
         "squareCanvas is off: VisualPDE's canvas takes the browser window's shape; the "
         "translation is square"]
     return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
-                       shown if shown in species else species[0], notes, constants, offsets)
+                       shown if shown in species else species[0], notes, constants, offsets,
+                       field_bc)
 
 
 # ---------------------------------------------------------------------------- the parts
@@ -371,36 +380,6 @@ def _params(text: str, constants: Mapping[str, float]) -> dict[str, float]:
         value = re.sub(r"\bin\s*\[.*\]\s*$", "", value).strip()
         out[name] = _number({name: value}, name, {**constants, **out})
     return out
-
-
-def _boundaries(p: Mapping[str, Any], n: int, env: Mapping[str, float]) -> Any:
-    """The grid's ``bc``: every species' condition the same (per-species conditions are
-    issue 23's item 3)."""
-    kinds = [str(p.get(f"boundaryConditions_{i}", "periodic")).lower() for i in range(1, n + 1)]
-    for i, k in enumerate(kinds, start=1):
-        if k not in ("periodic", "neumann", "dirichlet"):
-            raise UnsupportedPreset(f"boundaryConditions_{i} = {k!r}: Robin and per-side "
-                                    "('combo') conditions are not translated yet")
-        if k == "neumann" and str(p.get(f"neumannStr_{i}", "0")).strip() != "0":
-            raise UnsupportedPreset(f"neumannStr_{i} = {p[f'neumannStr_{i}']!r}: a "
-                                    "non-zero flux is not translated yet")
-    if len(set(kinds)) > 1:
-        raise UnsupportedPreset(f"boundaryConditions {kinds}: conditions that differ "
-                                "between species are not translated yet")
-    if kinds[0] != "dirichlet":
-        return kinds[0]
-    values = set()
-    for i in range(1, n + 1):
-        key = f"dirichletStr_{i}"
-        try:
-            values.add(_number({key: p.get(key, "0")}, key, env))
-        except UnsupportedPreset:
-            raise UnsupportedPreset(f"{key} = {p.get(key)!r}: a Dirichlet value that varies "
-                                    "in space or time is not translated yet") from None
-    if len(values) > 1:
-        raise UnsupportedPreset(f"Dirichlet values {sorted(values)} that differ between "
-                                "species are not translated yet")
-    return ("dirichlet", values.pop())
 
 
 class _Words:

@@ -91,6 +91,7 @@ from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.validation import real_number
 from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
+from rdgpu.integrators.boundaries import stepper_boundary
 from rdgpu.integrators.exponential import Etdrk4, split_damping
 from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.splitting import linear_split, scalar_numbers
@@ -202,7 +203,8 @@ class ModelStepper(FieldStepper):
     def __init__(self, model, domain, params: Mapping[str, Any], dt: float,
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
-                 block_steps: int | None = None, solver: str | None = None):
+                 block_steps: int | None = None, solver: str | None = None,
+                 bc: Mapping[str, Any] | None = None):
         # a positive number for every method (explicit ones do not use it)
         tol = None if tol is None else _positive_tol(tol)
         #: the implicit solves' solver (`rdgpu.ops.transforms.SOLVERS`; None: the default)
@@ -239,6 +241,9 @@ class ModelStepper(FieldStepper):
                                   if isinstance(n, eq.Ref) and n.kind == "param" else None)
                  for s in self.species}
         check_derivatives(trees, self.target.kind)
+        #: per-species boundary conditions (`rdgpu.integrators.boundaries`), or None
+        self.boundary = stepper_boundary(bc, domain, self.target.kind, self.species,
+                                         self.scheme, self._device_params, inline)
         self.D = self._diffusion_numbers()
         #: the exponential step (`rdgpu.integrators.exponential`), or None
         self._etd: Etdrk4 | None = None
@@ -263,15 +268,15 @@ class ModelStepper(FieldStepper):
         """The right-hand sides with what a pass cannot read by itself stored by
         pre-passes (`rdgpu.ir.lowering.lower`), and those pre-passes."""
         fields = [p for p, v in self._device_params.items() if isinstance(v, DeviceArray)]
-        return lower(trees, fields)
+        return lower(trees, fields, self.boundary)
 
     def _program(self, inputs, outputs, pre: Prepass | None) -> Program:
         """A pass over ``inputs`` (the stored fields of ``pre`` among them) writing
         ``outputs``, with the stored fields' ghosts."""
         if pre is None:
-            return Program(tuple(inputs), tuple(outputs))
+            return Program(tuple(inputs), tuple(outputs), boundary=self.boundary)
         return Program(tuple(inputs), tuple(outputs), pre.zero_ghost & set(inputs),
-                       own_ghost=pre.own_ghost & set(inputs))
+                       own_ghost=pre.own_ghost & set(inputs), boundary=self.boundary)
 
     def _aux_buffers(self, pre: Prepass | None) -> list[DeviceArray]:
         """The buffers of ``pre``'s stored fields, its static ones stored now."""

@@ -28,6 +28,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from rdgpu.ir.boundary import Boundary
 from rdgpu.ir.equations import (
     Diff,
     DivGrad,
@@ -70,11 +71,12 @@ def needs_store(expr: Node, fields: Iterable[str] = ()) -> bool:
                for n in walk(expr))
 
 
-def lower(trees: Mapping[str, Node], fields: Iterable[str] = ()
-          ) -> tuple[dict[str, Node], Prepass | None]:
+def lower(trees: Mapping[str, Node], fields: Iterable[str] = (),
+          boundary: Boundary | None = None) -> tuple[dict[str, Node], Prepass | None]:
     """``trees`` (species -> right-hand side, or any named expressions) with what must be
     stored replaced by reads of stored fields, and the pre-passes that store them (None
-    when nothing is stored).  ``fields``: the parameters given as fields."""
+    when nothing is stored).  ``fields``: the parameters given as fields; ``boundary``:
+    the per-species conditions every pass takes (`rdgpu.ir.boundary`), or None."""
     fields = frozenset(fields)
     bilap = sorted({n.name for t in trees.values() for n in walk(t)
                     if isinstance(n, Lap) and n.order == 2})
@@ -121,17 +123,17 @@ def lower(trees: Mapping[str, Node], fields: Iterable[str] = ()
             outs = [n for n in order if level[n] == lv and (n in fixed) == once]
             if outs:
                 (static if once else programs).append(
-                    _level(outs, exprs, zero, own))
+                    _level(outs, exprs, zero, own, boundary))
     return low, Prepass(tuple(programs), tuple(order), zero, own, tuple(static))
 
 
 def _level(outs: list[str], exprs: Mapping[str, Node], zero: frozenset[str],
-           own: frozenset[str]) -> Program:
+           own: frozenset[str], boundary: Boundary | None) -> Program:
     """The pass storing the fields ``outs`` (their ``exprs``)."""
     reads = set().union(*(_reads(exprs[n]) for n in outs))
     inputs = tuple(sorted(reads - set(outs)))
     return Program(inputs, tuple(Output(n, exprs[n]) for n in outs), zero & set(inputs),
-                   own_ghost=own & set(inputs))
+                   own_ghost=own & set(inputs), boundary=boundary)
 
 
 def _reads(expr: Node) -> set[str]:

@@ -17,13 +17,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.core.conventions import REAL_DTYPES
 from rdgpu.core.fpenv import flush_subnormals
 from rdgpu.domains.base import STENCILS  # the grid stencils, owned by the domains
+from rdgpu.domains.boundary import GridBC
+from rdgpu.ir.boundary import SIDE_OF, Boundary
 from rdgpu.ir.equations import (
     Diff,
     DivGrad,
@@ -38,6 +40,9 @@ from rdgpu.ir.equations import (
 )
 from rdgpu.ir.equations import names as names_of
 from rdgpu.ir.names import ident
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
 
 __all__ = ["METRIC_COEFFICIENTS", "REALS", "STENCILS", "Output", "PerMember", "Program",
            "expression_tree", "literal", "signature"]
@@ -83,6 +88,9 @@ class Program:
     #: grid's value, or the cell's own in ``own_ghost``)
     derived: tuple[tuple[str, Node], ...] = ()
     own_ghost: frozenset[str] = frozenset()
+    #: the ghost expressions of custom boundary conditions (`rdgpu.ir.boundary`), or None:
+    #: the grid's own conditions, passed to the kernels per axis
+    boundary: Boundary | None = None
     #: per-program caches (names, sources, compiled passes); programs compare by identity
     cache: dict = field(default_factory=dict, repr=False)
 
@@ -143,6 +151,8 @@ class Program:
         found = self.cache.get(key)
         if found is None:
             exprs = [o.expr for o in self.outputs] + [e for _, e in self.derived]
+            if self.boundary is not None and self.stencil_inputs:
+                exprs += list(self.boundary.trees())
             found = tuple(sorted({n.name for e in exprs for n in walk(e)
                                   if isinstance(n, Ref) and n.kind == kind}))
             self.cache[key] = found
@@ -182,6 +192,21 @@ class Program:
                  if isinstance(n, Diff)}
         return tuple(found[k] for k in sorted(found))
 
+    def ghost(self, name: str, side: str) -> Node | None | bool:
+        """Field ``name``'s ghost on neighbour side ``side`` (``"w"``, ``"e"``, ``"s"``...)
+        of a custom axis (`rdgpu.ir.boundary.Boundary.ghost`: a tree, or None for the edge
+        cell's own value); ``False`` where the axis keeps the grid's own condition (the
+        kernels' ghost value per axis)."""
+        b = self.boundary
+        if b is None or side_axis(side) not in b.axes:
+            return False
+        return b.ghost(name, SIDE_OF[side], name in self.zero_ghost, name in self.own_ghost)
+
+    def kernel_bcs(self, domain: Domain) -> GridBC:
+        """The grid conditions the kernels of this program take on ``domain``: its own, a
+        custom axis as Dirichlet (`rdgpu.ir.boundary.Boundary.kernel_bcs`)."""
+        return domain.bcs if self.boundary is None else self.boundary.kernel_bcs(domain.bcs)
+
     def derived_expr(self, name: str) -> Node | None:
         return dict(self.derived).get(name)
 
@@ -199,6 +224,11 @@ class Program:
                                      "input")
                 if isinstance(n, Ref) and n.kind == "species" and n.name not in known:
                     raise ValueError(f"program reads {n.name!r}, which is not an input")
+
+
+def side_axis(side: str) -> str:
+    """The axis of a neighbour side letter (``"w"`` -> ``"x"``)."""
+    return SIDE_OF[side][0]
 
 
 @dataclass(frozen=True)

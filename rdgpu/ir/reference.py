@@ -34,52 +34,84 @@ def _sides(p: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
     return np.take(p, range(0, n - 2), axis=axis), np.take(p, range(2, n), axis=axis)
 
 
-def _grid_laplacian(a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
-    """The kernels' Laplacian of a grid field (ghosts by the bc; Dirichlet 0 if ``zero``);
-    ``a`` is one member's field or an ensemble's ``[members, *shape]``."""
-    gc = load_module("", "grid_common.py")
+class _Padder:
+    """Pads a grid field by one ghost layer along an axis, as the kernels resolve its
+    ghosts: by the grid's condition (a ``zero_ghost`` input's Dirichlet ghost 0, an
+    ``own_ghost`` one's the edge cell), or on a custom axis by the program's ghost
+    expressions (`rdgpu.ir.boundary`) evaluated with ``env``."""
+
+    def __init__(self, program: Program, layout: Layout, env: Mapping[str, Any]):
+        self.program, self.layout, self.env = program, layout, env
+        self.gc = load_module("", "grid_common.py")
+
+    def __call__(self, name: str, u: np.ndarray, k: int) -> np.ndarray:
+        """``u`` (``[members, nz, ny, nx]``) padded along axis ``k`` (0: x, 1: y, 2: z)."""
+        gc, program = self.gc, self.program
+        dom = self.layout.domain
+        bc = (dom.bcs.x, dom.bcs.y, dom.bcs.z)[k]
+        axis = 3 - k
+        lo, hi = _LETTERS[k]
+        if program.ghost(name, lo) is False:
+            kind = bc.kind
+            if name in program.own_ghost and kind == gc.DIRICHLET:
+                kind = gc.NEUMANN
+            return gc.pad_axis(u, axis, kind, 0.0 if name in program.zero_ghost else bc.value)
+        p = gc.pad_axis(u, axis, gc.NEUMANN, 0.0)
+        dtype = u.dtype
+        for letter, edge in ((lo, 0), (hi, -1)):
+            rule = program.ghost(name, letter)
+            if rule is None:
+                continue
+            with np.errstate(all="ignore"):
+                g = evaluate(rule, self.env, literal=lambda v: literal(v, dtype))
+            g = np.broadcast_to(np.asarray(g, dtype=dtype), self.layout.field_shape)
+            ghost = np.take(g.reshape(u.shape), [edge], axis=axis)
+            index = [slice(None)] * p.ndim
+            index[axis] = slice(0, 1) if edge == 0 else slice(p.shape[axis] - 1, None)
+            p[tuple(index)] = ghost
+        return p
+
+
+#: the neighbour side letters of each axis (x, y, z), low then high
+_LETTERS = (("w", "e"), ("s", "n"), ("b", "t"))
+
+
+def _members4(a: np.ndarray, layout: Layout) -> np.ndarray:
+    """``a`` as ``[members, nz, ny, nx]``."""
+    return a.reshape(-1, *layout.domain.shape3)
+
+
+def _grid_laplacian(name: str, a: np.ndarray, layout: Layout, pad: _Padder) -> np.ndarray:
+    """The kernels' Laplacian of grid field ``name`` (value ``a``: one member's field or an
+    ensemble's ``[members, *shape]``), ghosts by ``pad``."""
     d = layout.domain
     t = a.dtype.type
-    nz, ny, nx = d.shape3
+    u = _members4(a, layout)  # axis 0: the members
     if layout.stencil == "isotropic" and d.ndim > 1:
-        axes = [(2, d.bcs.x, d.dx), (1, d.bcs.y, d.dy)] + (
-            [(0, d.bcs.z, d.dz)] if d.ndim > 2 else [])
-        members = a.reshape(-1, nz, ny, nx)
-        return np.stack([_isotropic_laplacian(u, axes, zero, t) for u in members]
-                        ).reshape(a.shape)
-    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
-    axes = [(3, d.bcs.x, d.dx)]
-    if d.ndim > 1:
-        axes.append((2, d.bcs.y, d.dy))
-    if d.ndim > 2:
-        axes.append((1, d.bcs.z, d.dz))
+        p = u
+        for k in range(d.ndim):
+            p = pad(name, p, k)
+        return np.stack([_isotropic_laplacian(u[m], p[m], d.ndim, d.dx, t)
+                         for m in range(u.shape[0])]).reshape(a.shape)
     out = None
-    for axis, bc, h in axes:
-        value = 0.0 if zero else bc.value
-        p = gc.pad_axis(u, axis, bc.kind, value)
-        lo, hi = _sides(p, axis)
+    for k, h in enumerate((d.dx, d.dy, d.dz)[:d.ndim]):
+        lo, hi = _sides(pad(name, u, k), 3 - k)
         term = ((hi + lo) - t(2) * u) * t(1.0 / (h * h))
         out = term if out is None else out + term
     return out.reshape(a.shape)
 
 
-def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, zero: bool):
+def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, pad: _Padder):
     """The kernels' first derivative ``d`` of a grid field (`rdgpu.ir.stencils.
-    derivative_text`: ghosts by the bc, Dirichlet 0 if ``zero``); 0 along an absent
-    axis."""
+    derivative_text`: ghosts by ``pad``); 0 along an absent axis."""
     dom = layout.domain
     t = a.dtype.type
     k = "xyz".index(d.axis)
     if k >= dom.ndim:
         return t(0)
-    gc = load_module("", "grid_common.py")
-    nz, ny, nx = dom.shape3
-    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
-    axis = 3 - k
-    bc = (dom.bcs.x, dom.bcs.y, dom.bcs.z)[k]
+    u = _members4(a, layout)
     h = t((dom.dx, dom.dy, dom.dz)[k])
-    p = gc.pad_axis(u, axis, bc.kind, 0.0 if zero else bc.value)
-    lo, hi = _sides(p, axis)
+    lo, hi = _sides(pad(d.name, u, k), 3 - k)
     if d.side == 0:
         out = (hi - lo) / (t(2) * h)
     elif d.side > 0:
@@ -89,27 +121,18 @@ def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, zero: bool):
     return out.reshape(a.shape)
 
 
-def _grid_divergence(D: np.ndarray, a: np.ndarray, layout: Layout, zero: bool) -> np.ndarray:
-    """The kernels' ``div(D·grad a)`` (`rdgpu.ir.stencils.divergence_text`): ``a``'s
-    ghosts by the bc (Dirichlet 0 if ``zero``), ``D``'s the cell's own value at a
-    Dirichlet side."""
-    gc = load_module("", "grid_common.py")
+def _grid_divergence(d: DivGrad, D: np.ndarray, a: np.ndarray, layout: Layout,
+                     pad: _Padder) -> np.ndarray:
+    """The kernels' ``div(D·grad a)`` (`rdgpu.ir.stencils.divergence_text`), ghosts by
+    ``pad`` (``D``'s: the edge cell's own value at a Dirichlet side)."""
     dom = layout.domain
     t = a.dtype.type
-    nz, ny, nx = dom.shape3
-    u = a.reshape(-1, nz, ny, nx)  # axis 0: the members
+    u = _members4(a, layout)
     c = np.broadcast_to(D, a.shape).reshape(u.shape)
-    cx, cy, cz = layout.grid_coefficients()
     out = None
-    for k, (bc, coef) in enumerate(zip((dom.bcs.x, dom.bcs.y, dom.bcs.z), (cx, cy, cz),
-                                       strict=True)):
-        if k >= dom.ndim:
-            break
-        axis = 3 - k
-        p = gc.pad_axis(u, axis, bc.kind, 0.0 if zero else bc.value)
-        q = gc.pad_axis(c, axis, gc.NEUMANN if bc.kind == gc.DIRICHLET else bc.kind, 0.0)
-        lo, hi = _sides(p, axis)
-        dlo, dhi = _sides(q, axis)
+    for k, coef in enumerate(layout.grid_coefficients()[:dom.ndim]):
+        lo, hi = _sides(pad(d.name, u, k), 3 - k)
+        dlo, dhi = _sides(pad(d.coef.name, c, k), 3 - k)
         up = ((c + dhi) / t(2)) * (hi - u)
         down = ((dlo + c) / t(2)) * (u - lo)
         term = (up - down) * t(coef)
@@ -133,15 +156,11 @@ def _mesh_divergence(D: np.ndarray, a: np.ndarray, layout: Layout) -> np.ndarray
     return np.stack(out).reshape(a.shape)
 
 
-def _isotropic_laplacian(u, axes, zero: bool, t) -> np.ndarray:
+def _isotropic_laplacian(u, p, nd: int, h: float, t) -> np.ndarray:
     """9-point (2-D) ``(4 Σ faces + Σ corners − 20 u)/(6h²)`` or 19-point (3-D) ``(2 Σ
-    faces + Σ edges − 24 u)/(6h²)``; ghosts padded x, then y, then z, so a diagonal ghost
-    follows the outer axis's rule (z before y before x), as the kernels resolve them."""
-    gc = load_module("", "grid_common.py")
-    p = u
-    for axis, bc, _ in axes:
-        p = gc.pad_axis(p, axis, bc.kind, 0.0 if zero else bc.value)
-    nd = len(axes)
+    faces + Σ edges − 24 u)/(6h²)`` from ``p``, ``u`` padded x, then y, then z, so a
+    diagonal ghost follows the outer axis's rule (z before y before x), as the kernels
+    resolve them."""
     lo = 1 if nd > 2 else 0  # the z padding exists only in 3-D
 
     def at(dz, dy, dx):
@@ -151,7 +170,6 @@ def _isotropic_laplacian(u, axes, zero: bool, t) -> np.ndarray:
         xs = slice(1 + dx, p.shape[2] - 1 + dx if p.shape[2] - 1 + dx else None)
         return p[zs, ys, xs]
 
-    h = axes[0][2]
     c6 = t(1.0 / (6.0 * h * h))
     faces = ((at(0, 0, -1) + at(0, 0, 1)) + at(0, -1, 0)) + at(0, 1, 0)
     corners = ((at(0, -1, -1) + at(0, -1, 1)) + at(0, 1, -1)) + at(0, 1, 1)
@@ -189,6 +207,9 @@ def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray]
     for c in program.refs("coord"):
         env[c] = layout.coordinate(c)
     env.update({k: t(v) for k, v in layout.lengths().items()})
+    if layout.is_grid:  # a boundary ghost's spacings (rdgpu.ir.boundary.SPACING)
+        env.update({f"_d{a}": t(h) for a, h in zip("xyz", layout.spacing(), strict=True)})
+    pad = _Padder(program, layout, env) if layout.is_grid else None
     for name, expr in program.derived:
         with np.errstate(all="ignore"):
             env[name] = np.broadcast_to(np.asarray(
@@ -204,7 +225,7 @@ def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray]
                 c = layout.domain.coefficients_as(dtype)
                 laps[name] = ref.metric_laplacian(a, *(c[k] for k in METRIC_COEFFICIENTS))
             elif layout.is_grid:
-                laps[name] = _grid_laplacian(a, layout, name in program.zero_ghost)
+                laps[name] = _grid_laplacian(name, a, layout, pad)
             else:
                 L = layout.domain.laplacian
                 n = layout.shape[0]
@@ -218,7 +239,7 @@ def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray]
     def diff(d: Diff):
         if d not in diffs:
             with np.errstate(all="ignore"):
-                diffs[d] = _grid_derivative(env[d.name], layout, d, d.name in program.zero_ghost)
+                diffs[d] = _grid_derivative(env[d.name], layout, d, pad)
         return diffs[d]
 
     divs: dict[DivGrad, Any] = {}
@@ -227,8 +248,8 @@ def run_numpy(program: Program, layout: Layout, inputs: Mapping[str, np.ndarray]
         if d not in divs:
             with np.errstate(all="ignore"):
                 if layout.is_grid:
-                    divs[d] = _grid_divergence(env[d.coef.name], env[d.name], layout,
-                                               d.name in program.zero_ghost)
+                    divs[d] = _grid_divergence(d, env[d.coef.name], env[d.name], layout,
+                                               pad)
                 else:
                     divs[d] = _mesh_divergence(env[d.coef.name], env[d.name], layout)
         return divs[d]

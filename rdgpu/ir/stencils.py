@@ -152,6 +152,8 @@ def variable(node: Node, fields: frozenset[str]) -> str:
         return "b_t"
     if node.kind == "coord":
         return f"{node.name}c"
+    if node.kind == "spacing":  # a boundary's ghost (rdgpu.ir.boundary.SPACING)
+        return node.name[1:]
     return f"len_{node.name[1]}"  # Lx -> len_x
 
 
@@ -179,17 +181,24 @@ def neighbour_values(program: Program, kind: str,
     """The stencil walk: for each neighbour of ``kind`` (table order) and each field whose
     Laplacian ``program`` takes, ``(neighbour name, field, value source)``.  ``load(nb,
     i)`` reads input ``i`` at neighbour ``nb``; ``select(side, ghost, value)`` replaces the
-    value by ``ghost`` (the axis's ghost name ``g{axis}``, or ``"0"`` for a zero-ghost
-    input) on that side's boundary, applied inner axis first; None: no boundary can occur
-    (an interior cell)."""
+    value by ``ghost`` (the axis's ghost name ``g{axis}``, ``"0"`` for a zero-ghost
+    input, or on a custom axis the source of the field's ghost expression,
+    `rdgpu.ir.boundary`) on that side's boundary, applied inner axis first; None: no
+    boundary can occur (an interior cell)."""
     stencil = program.stencil_inputs
     for nb in STENCIL_KINDS[kind].neighbours:
         for s in stencil:
             value = neighbour_value(program, s, lambda i, nb=nb: load(nb, i), fields, lit, fn)
             if select is not None:
                 for side, axis in reversed(nb.ghosts):
-                    ghost = ("0" if s in program.zero_ghost else ident("c", s)
-                             if s in program.own_ghost else f"g{axis}")
+                    rule = program.ghost(s, side)
+                    if rule is None:  # a custom axis: the clamped load is the ghost
+                        continue
+                    if rule is False:  # the grid's own condition on this axis
+                        ghost = ("0" if s in program.zero_ghost else ident("c", s)
+                                 if s in program.own_ghost else f"g{axis}")
+                    else:
+                        ghost = emit(rule, lambda n: variable(n, fields), lit, fn)
                     value = select(side, ghost, value)
             yield nb.name, s, value
 

@@ -549,6 +549,7 @@ class Model:
         block_steps: int | None = None,
         lengths: str = "cells",
         solver: str | None = None,
+        bc: Mapping[str, Any] | None = None,
     ):
         """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`, fields at zero.
 
@@ -579,7 +580,11 @@ class Model:
             ``"model"`` runs a mesh in the model's lengths (`rdgpu.models.mesh_lengths`).
         solver : {"auto", "transform", "sor", "multigrid"}, optional
             The implicit diffusion solves (`rdgpu.ops.transforms`): fast transforms on grids
-            else SOR, or one forced; None: ``$RDGPU_IMPLICIT_SOLVER``, else ``"auto"``."""
+            else SOR, or one forced; None: ``$RDGPU_IMPLICIT_SOLVER``, else ``"auto"``.
+        bc : mapping, optional
+            Boundary conditions per species and side on a grid's non-periodic sides
+            (`rdgpu.domains.boundary.parse_field_bcs`), over the grid's own; explicit
+            methods."""
         if solver is not None and solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(map(repr, SOLVERS))} or None, "
                              f"got {solver!r}")
@@ -605,7 +610,7 @@ class Model:
         return ModelStepper(
             fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
-            block_steps=block_steps, solver=solver)
+            block_steps=block_steps, solver=solver, bc=bc)
 
 
 def _members(members: Any) -> int:

@@ -20,6 +20,7 @@ from rdgpu.core import validation
 from rdgpu.core.resources import check_fields
 from rdgpu.ir.schemes import SCHEMES, method_names
 from rdgpu.models import MODELS, define_model
+from rdgpu.simulation.defaults import accepts
 
 if TYPE_CHECKING:
     from rdgpu.models.model import Model
@@ -97,12 +98,20 @@ def spots_count(count: Any, points: int) -> int:
 _OWN = {"domain", "params", "dt", "backend", "dtype", "check_stability", "seed", "members"}
 
 
-def check_options(model: Model, options: Any) -> dict[str, Any]:
+def check_options(model: Model, options: Any, bc: Any = None) -> dict[str, Any]:
     """``options`` (extra keyword arguments of ``model.stepper``) checked against what the
     stepper takes: names it knows, and for models built from equations a ``tol`` that is a
-    positive number given only to a method that solves implicitly."""
+    positive number given only to a method that solves implicitly; ``bc`` (Simulation's
+    per-species conditions) joins them as ``"bc"``."""
     import inspect
 
+    if bc is not None:
+        if isinstance(options, Mapping) and "bc" in options:
+            raise ValueError("bc given twice: as Simulation(..., bc=...) and in options")
+        if not accepts(model.stepper, "bc"):
+            raise ValueError(f"model {getattr(model, 'name', '?')!r} takes no per-species "
+                             "boundary conditions (bc=): models defined by equations do")
+        options = {**(options or {}), "bc": bc}
     if options is None:
         return {}
     if not isinstance(options, Mapping):

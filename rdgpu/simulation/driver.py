@@ -125,6 +125,9 @@ class Simulation:
         (default: the smallest of the members' defaults).  A member that diverges is
         reported (``Result.diverged_members``) and frozen at its last good state; the
         others go on.
+    bc : dict, optional
+        Conditions per species and side over the grid's own, ``{"u": {"x-": ("value",
+        "sin(t)")}, "v": ("neumann", 0.5)}`` (docs/boundaries.md; kept as ``options["bc"]``).
     """
 
     def __init__(
@@ -142,6 +145,7 @@ class Simulation:
         check_stability: bool = True,
         options: Mapping[str, Any] | None = None,
         members: int | None = None,
+        bc: Mapping[str, Any] | None = None,
     ) -> None:
         self.model = lookup_model(model)
         self.domain_source = domain if isinstance(domain, Mapping) else None
@@ -170,7 +174,7 @@ class Simulation:
                 whole(k, "seed") for k in member_seeds(seed, self.members)]
         else:
             self.seed = whole(seed, "seed")
-        self.options = check_options(self.model, options)
+        self.options = check_options(self.model, options, bc)
         each = self._set_params(params)
         self._set_dt(dt, list({id(p): p for p in each}.values()), check_stability)
         self.backend = get_backend(backend)
@@ -392,9 +396,7 @@ class Simulation:
         sim.preset = p
         return sim
 
-    @property
-    def time(self) -> float:
-        return self.step * self.dt
+    time = property(lambda self: self.step * self.dt, doc="The simulated time, step·dt.")
 
     def state(self) -> dict[str, np.ndarray]:
         """Download the current fields."""
@@ -456,8 +458,8 @@ class Simulation:
         Returns
         -------
         tuple of (dict, dict of str to numpy.ndarray)
-            The checkpoint's metadata (model, parameters, domain, dt, dtype, step, run
-            settings) and its arrays (fields, parameter fields, snapshots).
+            Its metadata (model, parameters, domain, dt, dtype, step, run settings) and
+            arrays (fields, parameter fields, snapshots).
         """
         return checkpoints.read_checkpoint(path)
 

@@ -77,7 +77,10 @@ def test_translation_details():
                                        "(u*(1-u) + c*d_dx(u))")
     assert tr.model.equations["v"] == "((1)*laplace(v) + (u - v))/(0.5)"
     assert tr.method == "ab2" and tr.offsets == (-10.0, 0.0)
-    assert tr.grid.bcs.x.kind == 2 and tr.grid.bcs.x.value == 0.25
+    # VisualPDE's Dirichlet value is on the boundary: rdgpu's face value, per species
+    assert tr.grid.bcs.x.kind == 1 and tr.grid.bcs.y.kind == 1  # neumann, overridden
+    assert tr.bc == {"u": dict.fromkeys(("x-", "x+", "y-", "y+"), ("value", "0.25")),
+                     "v": dict.fromkeys(("x-", "x+", "y-", "y+"), ("value", "20.0/80"))}
     line = load({"dimension": "1", "numSpecies": 1, "reactionStr_1": "u_xx - u",
                  "diffusionStr_1_1": "0", "initCond_1": "x", "minX": "5",
                  "domainScale": "10", "spatialStep": "1"})
@@ -113,13 +116,19 @@ def test_parents_json_and_files(tmp_path):
 @pytest.mark.parametrize("preset, words", [
     ({"numAlgebraicSpecies": 1, "numSpecies": 3}, "algebraic species"),
     ({"domainViaIndicatorFun": True}, "indicator function"),
-    ({"boundaryConditions_1": "neumann"}, "differ between species"),
-    ({"boundaryConditions_1": "combo", "boundaryConditions_2": "combo"}, "'combo'"),
-    ({"boundaryConditions_1": "robin", "boundaryConditions_2": "robin"}, "Robin"),
+    ({"boundaryConditions_1": "neumann"}, "periodic on some species' or sides' x"),
+    ({"boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
+      "comboStr_1": "Left: Dirichlet = 1; Right: Neumann = 0; Top: Periodic;"},
+     "gives no condition on y-"),
+    ({"boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
+      "comboStr_1": "Left: Sticky = 1"}, "comboStr_1 part 'Left: Sticky = 1'"),
+    ({"boundaryConditions_1": "robin", "boundaryConditions_2": "neumann",
+      "robinStr_1": "-u^2"}, "not linear in 'u'"),
+    ({"boundaryConditions_1": "robin", "boundaryConditions_2": "neumann",
+      "robinStr_1": "-v"}, "reads v: a Robin condition of 'u'"),
     ({"boundaryConditions_1": "neumann", "boundaryConditions_2": "neumann",
-      "neumannStr_1": "1"}, "non-zero flux"),
-    ({"boundaryConditions_1": "dirichlet", "boundaryConditions_2": "dirichlet",
-      "dirichletStr_1": "sin(t)"}, "varies in space or time"),
+      "neumannStr_1": "u"}, "reads the species u"),
+    ({"boundaryConditions_1": "sticky"}, "boundaryConditions_1 = 'sticky'"),
     ({"reactionStr_1": "ind(u > 0.5 && v < 1)"}, "reactionStr_1 = .*logic \\('&&'\\)"),
     ({"reactionStr_1": "Bump(1, 2, 3)"}, "the function 'Bump'"),
     ({"reactionStr_2": "u_xx"}, "u_xx"),
@@ -165,3 +174,28 @@ def test_every_backend_runs_a_translated_preset(backend_name):
         sim = tr.simulation(backend=backend, dtype="float64")
         out[backend.name] = sim.run(20, progress=False).fields["v"]
     np.testing.assert_allclose(out[be.name], out["numpy"], rtol=1e-12, atol=1e-14)
+
+
+def test_boundary_conditions_per_species_and_side():
+    """VisualPDE's Dirichlet (face values), fluxes, linear Robin conditions and combos,
+    translated side by side; a run holds a Dirichlet face value and feels a flux."""
+    tr = load({**GS, "boundaryConditions_1": "combo", "boundaryConditions_2": "robin",
+               "comboStr_1": "Left: Dirichlet = 1 + 0*t; Right: Neumann = 0.5; "
+                             "Top: Robin = 2 - 3*u; Bottom: Neumann = 0;",
+               "robinStr_2": "-F*v + x/L_x"})
+    assert tr.grid.bcs.x.kind == 1 and tr.grid.bcs.y.kind == 1
+    assert tr.bc["u"] == {"x-": ("value", "1 + 0*t"), "x+": ("neumann", "0.5"),
+                          "y+": ("robin", 3.0, 2.0)}
+    assert set(tr.bc["v"]) == {"x-", "x+", "y-", "y+"}
+    kind, a, g = tr.bc["v"]["x+"]
+    assert kind == "robin" and "F" in a and "x" in g
+    # periodic along y for both, Dirichlet 1 on the left and 0 on the right for u
+    heat = load({"numSpecies": 1, "diffusionStr_1_1": "1", "reactionStr_1": "0",
+                 "domainScale": "16", "spatialStep": "1", "dt": 0.2, "initCond_1": "0",
+                 "boundaryConditions_1": "combo",
+                 "comboStr_1": "Left: Dirichlet = 1; Right: Dirichlet = 0; Top: Periodic; "
+                               "Bottom: Periodic"})
+    assert heat.grid.bcs.y.kind == 0 and heat.grid.bcs.x.kind == 1
+    u = heat.simulation(backend="numpy", dtype="float64").run(4000).fields["u"]
+    x = (np.arange(16) + 0.5) / 16
+    np.testing.assert_allclose(u, np.broadcast_to(1 - x, u.shape), atol=1e-6)

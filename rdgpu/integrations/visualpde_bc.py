@@ -1,0 +1,145 @@
+"""VisualPDE's boundary conditions as rdgpu's (`rdgpu.integrations.visualpde.load`): the
+grid's conditions per axis and the per-species ones (``Simulation(..., bc=...)``,
+docs/boundaries.md).
+
+VisualPDE gives each species ``boundaryConditions_i``: ``periodic``, ``dirichlet``
+(``dirichletStr_i``, the value on the boundary), ``neumann`` (``neumannStr_i``, the outward
+derivative ``∂u/∂n``), ``robin`` (``robinStr_i``: ``∂u/∂n = f``, ``f`` any expression of
+the species) or ``combo`` (``comboStr_i``, one per side: ``"Left: Dirichlet = 0; Right:
+Neumann = 1; Top: Periodic; Bottom: Robin = -u;"``).  They become, side by side, rdgpu's
+``("value", g)`` (the face holds ``g``), ``("neumann", q)`` and ``("robin", a, g)`` where
+``f = g − a·u`` is linear in the species (checked); an axis is periodic where every species
+is periodic on both its sides; anything else is refused by name.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from rdgpu.ir import equations as eq
+
+__all__ = ["boundaries"]
+
+#: VisualPDE's sides (``comboStr``) -> rdgpu's
+_SIDES = {"left": "x-", "right": "x+", "bottom": "y-", "top": "y+"}
+_KINDS = ("periodic", "dirichlet", "neumann", "robin")
+
+
+def boundaries(p: Mapping[str, Any], species: Sequence[str], dim: int,
+               translate: Callable[[str, str], str], params: Sequence[str],
+               refuse: Callable[[str], Exception]) -> tuple[Any, dict[str, dict[str, Any]]]:
+    """``(grid bc, per-species bc)`` of preset ``p`` (module doc); ``translate(text,
+    key)`` makes a VisualPDE expression rdgpu's, ``refuse(message)`` the error to raise."""
+    sides = [s for s in _SIDES.values() if s[0] in "xy"[:dim]]
+    conds: dict[str, dict[str, tuple]] = {}
+    for i, s in enumerate(species, start=1):
+        kind = str(p.get(f"boundaryConditions_{i}", "periodic")).strip().lower()
+        if kind == "combo":
+            conds[s] = _combo(str(p.get(f"comboStr_{i}", "")), i, sides, refuse)
+        elif kind in _KINDS:
+            key = {"dirichlet": "dirichletStr", "neumann": "neumannStr",
+                   "robin": "robinStr"}.get(kind)
+            text = str(p.get(f"{key}_{i}", "0")) if key else ""
+            conds[s] = dict.fromkeys(sides, (kind, text, f"{key}_{i}"))
+        else:
+            raise refuse(f"boundaryConditions_{i} = {kind!r} (periodic, dirichlet, neumann, "
+                         "robin and combo are translated)")
+    grid, out = [], {}
+    for axis in "xy"[:dim]:
+        periodic = {(s, side) for s in species for side in (axis + "-", axis + "+")
+                    if conds[s][side][0] == "periodic"}
+        if periodic and len(periodic) != 2 * len(species):
+            raise refuse(f"periodic on some species' or sides' {axis} boundaries only "
+                         f"({', '.join(f'{s} {d}' for s, d in sorted(periodic))}): rdgpu "
+                         "makes an axis periodic for every species")
+        grid.append("periodic" if periodic else "neumann")
+    for s in species:
+        for side in sides:
+            kind, text, key = conds[s][side]
+            if kind == "periodic":
+                continue
+            cond = _condition(kind, translate(text, key), key, s, species, params, refuse)
+            if cond != "neumann":
+                out.setdefault(s, {})[side] = cond
+    bc = grid[0] if dim == 1 or grid[0] == grid[1] else (grid[1], grid[0])  # (y, x)
+    return bc, out
+
+
+def _combo(text: str, i: int, sides: Sequence[str], refuse) -> dict[str, tuple]:
+    """``comboStr_i``'s conditions per side."""
+    out: dict[str, tuple] = {}
+    for part in (t.strip() for t in text.split(";")):
+        if not part:
+            continue
+        where, sep, rest = part.partition(":")
+        side = _SIDES.get(where.strip().lower())
+        kind, _, value = rest.partition("=")
+        kind = kind.strip().lower()
+        if not sep or side is None or kind not in _KINDS:
+            raise refuse(f"comboStr_{i} part {part!r} (Left/Right/Top/Bottom: Periodic, "
+                         "Dirichlet = ..., Neumann = ... or Robin = ...)")
+        if side in sides:
+            out[side] = (kind, value.strip() or "0", f"comboStr_{i}")
+    missing = [s for s in sides if s not in out]
+    if missing:
+        raise refuse(f"comboStr_{i} = {text!r} gives no condition on "
+                     f"{', '.join(missing)}")
+    return out
+
+
+def _condition(kind: str, text: str, key: str, s: str, species: Sequence[str],
+               params: Sequence[str], refuse) -> Any:
+    """One side's rdgpu condition from VisualPDE's ``kind`` and translated ``text``."""
+    try:
+        tree = eq.parse(text, species=species, params=params, what=key, laplace=False)
+    except eq.EquationError as exc:
+        raise refuse(str(exc)) from None
+    reads = eq.names(tree, "species")
+    if kind != "robin" and reads:
+        raise refuse(f"{key} = {text!r} reads the species {', '.join(sorted(reads))}: "
+                     f"a {kind} value is an expression of x, y, t and the parameters")
+    if kind == "dirichlet":
+        return ("value", text)
+    if kind == "neumann":
+        return "neumann" if eq.is_constant(tree) and _value(tree) == 0.0 else ("neumann", text)
+    if reads - {s}:
+        raise refuse(f"{key} = {text!r} reads {', '.join(sorted(reads - {s}))}: a Robin "
+                     f"condition of {s!r} is linear in {s!r} alone")
+    g = _at(tree, s, 0.0)
+    a = eq.Neg(eq.Bin("-", _at(tree, s, 1.0), g))
+    if not _linear(tree, s):
+        raise refuse(f"{key} = {text!r}: ∂{s}/∂n = f({s}) with f not linear in {s!r} "
+                     "(rdgpu's Robin condition is ∂u/∂n + a·u = g)")
+    return ("robin", *(_value(t) if eq.is_constant(t) else eq.to_text(t) for t in (a, g)))
+
+
+def _at(tree: eq.Node, s: str, v: float) -> eq.Node:
+    return eq.substitute(tree, lambda n: eq.Num(v) if isinstance(n, eq.Ref)
+                         and n.kind == "species" and n.name == s else None)
+
+
+def _value(tree: eq.Node) -> float:
+    with np.errstate(all="ignore"):
+        return float(eq.evaluate(tree, {"pi": math.pi}))
+
+
+def _linear(tree: eq.Node, s: str) -> bool:
+    """Whether ``tree`` is ``g + c·s`` with ``g``, ``c`` free of ``s`` (checked at random
+    x, y, t, parameters and ``s``)."""
+    rng = np.random.default_rng(0)
+    names = {n.name for n in eq.walk(tree) if isinstance(n, eq.Ref)}
+    env = {n: rng.uniform(0.5, 1.5, 8) for n in names}
+    values = []
+    for u in (0.0, 1.0, 2.0, 3.5):
+        env[s] = np.full(8, u)
+        with np.errstate(all="ignore"):
+            values.append(np.broadcast_to(eq.evaluate(tree, env), (8,)))
+    f0, f1, f2, f3 = values
+    slope = f1 - f0
+    return bool(np.allclose(f2 - f1, slope, rtol=1e-9, atol=1e-12)
+                and np.allclose(f3 - f0, 3.5 * slope, rtol=1e-9, atol=1e-12))
+

@@ -1,0 +1,63 @@
+"""A stepper's per-species boundary conditions (``bc=``): checked, parsed and made into the
+ghost expressions its passes print (`rdgpu.ir.boundary`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from rdgpu.domains.boundary import parse_field_bcs
+from rdgpu.ir import equations as eq
+from rdgpu.ir.boundary import Boundary, make_boundary
+from rdgpu.ir.program import PerMember
+from rdgpu.ir.stencils import STENCIL_KINDS
+
+if TYPE_CHECKING:
+    from rdgpu.domains.base import Domain
+    from rdgpu.ir.schemes import Scheme
+
+__all__ = ["stepper_boundary"]
+
+
+def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
+                     species: tuple[str, ...], scheme: Scheme, params: Mapping[str, Any],
+                     inline: Mapping[str, eq.Node]) -> Boundary | None:
+    """The `Boundary` of ``bc`` (`rdgpu.domains.boundary.parse_field_bcs`'s mapping, or
+    its parsed ``{species: {side: SideBC}}``) for a stepper on ``domain`` (stencil kind
+    ``kind``) with the scheme ``scheme``; None for no ``bc``.  ``params``: the stepper's
+    device parameters (numbers, per-member numbers, fields), ``inline``: the parameters
+    given as expressions (their trees)."""
+    if bc is None or (isinstance(bc, Mapping) and not bc):
+        return None
+    row = STENCIL_KINDS.get(kind)
+    if row is None or row.form != "compact":
+        where = {"csr": "a mesh", "metric": "a graph surface",
+                 "isotropic": "the isotropic stencil"}.get(row.form if row else "", kind)
+        raise ValueError(f"per-species boundary conditions (bc=) are set on the sides of a "
+                         f"grid with the compact stencil, not on {where}")
+    if scheme.implicit:
+        raise ValueError(f"per-species boundary conditions (bc=) run with the explicit "
+                         f"methods (euler, heun, rk3, rk4, ab2), not yet with {scheme.name!r}, "
+                         "whose implicit solves take the grid's own conditions")
+    parsed = parse_field_bcs(bc, domain.bcs, domain.ndim, species)
+    scalars = sorted(p for p, v in params.items()
+                     if isinstance(v, (int, float, PerMember)) and not isinstance(v, bool))
+    fields = sorted(p for p in params if p not in scalars)
+
+    def parse_value(v: Any, what: str) -> eq.Node:
+        if not isinstance(v, str):
+            return eq.Num(float(v))
+        try:
+            tree = eq.parse(v, params=[*scalars, *fields, *inline], what=what, laplace=False)
+        except eq.EquationError as exc:
+            raise ValueError(str(exc)) from None
+        used = eq.names(tree, "param")
+        bad = sorted(used & set(fields))
+        if bad:
+            raise ValueError(f"{what} {v!r} reads the parameter field(s) {', '.join(bad)}: "
+                             "boundary values take numbers and expressions of x, y, z, t")
+        return eq.substitute(tree, lambda n: inline.get(n.name)
+                             if isinstance(n, eq.Ref) and n.kind == "param" else None)
+
+    return make_boundary(parsed, domain.bcs, parse_value)
+

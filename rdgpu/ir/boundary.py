@@ -1,0 +1,149 @@
+"""Boundary conditions per field and side, as the ghost-cell expressions a pass reads.
+
+A grid's own conditions (`rdgpu.domains.boundary.GridBC`: one per axis, shared by every
+field) reach the kernels as an integer kind and a value per axis.  A simulation may set
+other conditions for some species on some non-periodic sides
+(`rdgpu.domains.boundary.parse_field_bcs`); then every field a pass reads at its
+neighbours gets, on every side of each such *custom axis*, a ghost expression compiled
+into the kernel (`Boundary.ghost`):
+
+* a species' own condition (`SideBC`), or the grid's where none is given:
+  ``neumann`` ``u + h·q`` (none at all for ``q = 0``: the edge cell's own value, which
+  the clamped load already is), ``dirichlet`` ``g``, ``value`` ``2·g − u``, ``robin``
+  ``(h·g + u·(1 − h·a/2)) / (1 + h·a/2)``, with ``u`` the edge cell's value, ``h`` the
+  spacing across the side and ``g``, ``q``, ``a`` expressions of x, y, z, t, Lx, Ly, Lz and
+  scalar parameters, the coordinate across the side the face's (0 or L);
+* a stored Laplacian ``_lap_s`` (a bilaplacian's pre-pass): 0 where ``s``'s condition
+  is ``dirichlet`` or ``value``, else none (zero flux of ``Δs``);
+* a divergence's coefficient: none (the edge cell's own value);
+* any other derived or stored field (``laplace(expr)``): the grid's own condition.
+
+The kernels then take a custom axis as Dirichlet (`kernel_bcs`: ghost flags on at both
+ends, loads clamped) and select the ghost expression where the flag is set; the NumPy
+reference pads each side with the same expression (`rdgpu.ir.reference`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+
+from rdgpu.domains.boundary import (
+    DIRICHLET,
+    PERIODIC,
+    SIDES,
+    AxisBC,
+    GridBC,
+    SideBC,
+)
+from rdgpu.ir.nodes import Bin, Node, Num, Ref, substitute, walk
+
+__all__ = ["Boundary", "SIDE_OF", "ghost_tree", "make_boundary"]
+
+#: a stencil neighbour's side letter (`rdgpu.ir.stencils.Neighbour`) -> the side's name
+SIDE_OF = {"w": "x-", "e": "x+", "s": "y-", "n": "y+", "b": "z-", "t": "z+"}
+#: the spacing across each axis as an expression name (never a user's: ``_``-prefixed)
+SPACING = {"x": "_dx", "y": "_dy", "z": "_dz"}
+
+
+@dataclass(frozen=True, eq=False)
+class Boundary:
+    """The ghost expressions of a grid pass (module doc): ``axes`` the custom axes;
+    ``rules[(species, side)]`` a species' ghost tree on a side of a custom axis (None: the
+    edge cell's own value); ``grid[side]`` the grid's own ghost there (for the fields
+    without a rule); ``dirichlet``: the (species, side) pairs whose condition fixes the
+    value (``dirichlet``, ``value``: a stored Laplacian's ghost there is 0)."""
+
+    axes: frozenset[str]
+    rules: Mapping[tuple[str, str], Node | None]
+    grid: Mapping[str, Node | None]
+    dirichlet: frozenset[tuple[str, str]] = frozenset()
+    #: the given conditions, as the simulation records them
+    given: Mapping[str, Mapping[str, SideBC]] = field(default_factory=dict)
+
+    def ghost(self, name: str, side: str, zero: bool, own: bool) -> Node | None:
+        """The ghost tree of field ``name`` on ``side`` (a custom axis' side), None for the
+        edge cell's own value; ``zero``/``own``: the field is a stored Laplacian/a
+        divergence's coefficient (`rdgpu.ir.program.Program`)."""
+        if own:
+            return None
+        if zero:
+            base = name[len("_lap_"):] if name.startswith("_lap_") else name
+            fixed = ((base, side) in self.dirichlet if (base, side) in self.rules
+                     else self.grid[side] is not None)
+            return Num(0.0) if fixed else None
+        if (name, side) in self.rules:
+            return self.rules[(name, side)]
+        return self.grid[side]
+
+    def trees(self) -> Iterable[Node]:
+        """Every ghost expression (for the names a pass reads)."""
+        yield from (t for t in self.rules.values() if t is not None)
+        yield from (t for t in self.grid.values() if t is not None)
+
+    def kernel_bcs(self, bcs: GridBC) -> GridBC:
+        """The grid's conditions as the kernels take them: a custom axis as Dirichlet (its
+        ghost flags on, its loads clamped; the value unused)."""
+        def axis(a: str, b: AxisBC) -> AxisBC:
+            return AxisBC(DIRICHLET, 0.0) if a in self.axes else b
+
+        return GridBC(axis("y", bcs.y), axis("x", bcs.x), axis("z", bcs.z))
+
+
+def ghost_tree(cond: SideBC, species: str, side: str, value: Node, alpha: Node) -> Node | None:
+    """The ghost of ``species`` on ``side`` under ``cond`` (module doc), ``value`` and
+    ``alpha`` its parsed ``g`` and ``a``; None: the edge cell's own value."""
+    u = Ref("species", species)
+    h = Ref("spacing", SPACING[side[0]])
+    if cond.kind == "neumann":
+        if isinstance(value, Num) and value.value == 0.0:
+            return None
+        return Bin("+", u, Bin("*", h, value))
+    if cond.kind == "dirichlet":
+        return value
+    if cond.kind == "value":
+        return Bin("-", Bin("*", Num(2.0), value), u)
+    half = Bin("/", Bin("*", h, alpha), Num(2.0))
+    return Bin("/", Bin("+", Bin("*", h, value), Bin("*", u, Bin("-", Num(1.0), half))),
+               Bin("+", Num(1.0), half))
+
+
+def at_face(tree: Node, side: str) -> Node:
+    """``tree`` with the coordinate across ``side`` replaced by the face's: 0 on the low
+    side, the extent (``Lx``...) on the high one."""
+    axis = side[0]
+    face: Node = Num(0.0) if side[1] == "-" else Ref("length", "L" + axis)
+    return substitute(tree, lambda n: face if isinstance(n, Ref) and n.kind == "coord"
+                      and n.name == axis else None)
+
+
+def make_boundary(given: Mapping[str, Mapping[str, SideBC]], bcs: GridBC,
+                  parse_value) -> Boundary | None:
+    """The `Boundary` of the per-species conditions ``given`` on a grid with conditions
+    ``bcs`` (None when nothing is given); ``parse_value(text_or_number, what)`` parses a
+    value into a tree of the allowed names."""
+    if not any(given.values()):
+        return None
+    axes = frozenset(side[0] for sides in given.values() for side in sides)
+    rules: dict[tuple[str, str], Node | None] = {}
+    fixed: set[tuple[str, str]] = set()
+    for s, sides in given.items():
+        for side, cond in sides.items():
+            where = f"the {cond.kind} condition of {s!r} on {side}"
+            value = at_face(parse_value(cond.value, f"{where} (its value)"), side)
+            alpha = at_face(parse_value(cond.alpha, f"{where} (its coefficient)"), side)
+            for tree in (value, alpha):
+                if any(isinstance(n, Ref) and n.kind == "species" for n in walk(tree)):
+                    raise ValueError(f"{where} reads a species: boundary values are "
+                                     "expressions of x, y, z, t, Lx, Ly, Lz and parameters")
+            rules[(s, side)] = ghost_tree(cond, s, side, value, alpha)
+            if cond.kind in ("dirichlet", "value"):
+                fixed.add((s, side))
+    grid: dict[str, Node | None] = {}
+    for side in SIDES:
+        if side[0] in axes:
+            b = {"x": bcs.x, "y": bcs.y, "z": bcs.z}[side[0]]
+            if b.kind == PERIODIC:  # parse_field_bcs refuses this
+                raise ValueError(f"the grid's {side[0]} axis is periodic")
+            grid[side] = Num(b.value) if b.kind == DIRICHLET else None
+    return Boundary(axes, rules, grid, frozenset(fixed), given)
