@@ -36,7 +36,7 @@ from rdgpu.domains.boundary import (
     GridBC,
     SideBC,
 )
-from rdgpu.ir.nodes import Bin, Node, Num, Ref, substitute, walk
+from rdgpu.ir.nodes import Bin, Node, Num, Ref, rename_species, substitute, walk
 
 __all__ = ["Boundary", "SIDE_OF", "ghost_tree", "make_boundary"]
 
@@ -75,6 +75,15 @@ class Boundary:
         if (name, side) in self.rules:
             return self.rules[(name, side)]
         return self.grid[side]
+
+    def renamed(self, names: Mapping[str, str]) -> Boundary:
+        """The same conditions for fields renamed by ``names`` (a stage that reads species
+        ``s`` as the derived field ``names[s]``)."""
+        rules = {(names.get(s, s), side): None if t is None else
+                 rename_species(t, names)
+                 for (s, side), t in self.rules.items()}
+        fixed = frozenset((names.get(s, s), side) for s, side in self.dirichlet)
+        return Boundary(self.axes, rules, self.grid, fixed, self.given)
 
     def trees(self) -> Iterable[Node]:
         """Every ghost expression (for the names a pass reads)."""

@@ -72,12 +72,13 @@ class DeviceRHS:
     ``species``, ``shape`` (each buffer's) and `empty` describe the fields it works on."""
 
     def __init__(self, model: Model, domain: Domain, params: Mapping[str, Any], backend: Backend,
-                 dtype: Any, check_dt: float | None = None):
+                 dtype: Any, check_dt: float | None = None,
+                 bc: Mapping[str, Any] | None = None):
         # check_dt: a forward-Euler step the caller will take, checked against the model's
         # linear stability limit (rdgpu.StabilityError); None checks nothing
         self.stepper = model.stepper(domain, params, dt=check_dt or 1.0, backend=backend,
                                      dtype=dtype, check_stability=check_dt is not None,
-                                     method="euler", block_steps=1)
+                                     method="euler", block_steps=1, bc=bc)
         st = self.stepper
         self.species: tuple[str, ...] = st.species
         self.shape: tuple[int, ...] = st.shape
@@ -199,9 +200,12 @@ class DeviceRHS:
         aux = () if pre is None else pre.names
         inputs = (() if state is not None else (*species, *aux)) + tuple(
             f"_{n}__{s}" for n in names for s in species)
+        boundary = st.boundary
+        if boundary is not None and state is not None:  # the stage's y_s is species s
+            boundary = boundary.renamed(y)
         program = Program(inputs, tuple(outs), frozenset(aux) & (pre.zero_ghost if pre else
                                                                   frozenset()), derived,
-                          own_ghost=pre.own_ghost if pre else frozenset())
+                          own_ghost=pre.own_ghost if pre else frozenset(), boundary=boundary)
         self._programs[key] = program
         return program
 

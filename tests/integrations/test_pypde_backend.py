@@ -227,7 +227,8 @@ def test_refuses_unsupported_operators(cart):
     _refused(pde.PDE({"c": "vector_laplace(c)"}), s, "unknown function 'vector_laplace'")
     _refused(pde.PDE({"c": "d_dz(c)"}), s, r"d_dz\(c\) differentiates along z")
     box = pde.CartesianGrid([[0, 4], [0, 4]], [8, 8])
-    _refused(pde.PDE({"c": "laplace(c) - d_dx(c)"}, bc={"value": 1.0}),
+    # a value varying along its side: the correction fields, which derivatives cannot read
+    _refused(pde.PDE({"c": "laplace(c) - d_dx(c)"}, bc={"value_expression": "sin(x + y)"}),
              pde.ScalarField(box, 0.5), r"d_dx\(c\) with the boundary conditions of 'c'")
 
 

@@ -30,7 +30,10 @@ naming the part it cannot run; it never falls back to another backend):
   and their ``Normal*`` spellings, with values that are numbers, arrays over the boundary
   or expressions of the coordinates; and the expression conditions (``value_expression``,
   ``derivative_expression``, ``mixed_expression``, ``virtual_point``) whose ghost is affine
-  in the edge value and free of ``t``.  An axis where every field's ghost is ``const +
+  in the edge value and free of ``t``.  Where each side's ghost is one number ``const``
+  and one ``factor``, they run natively as rdgpu's per-species conditions
+  (`rdgpu.integrations.pypde.ghosts.native`), read by every operator.  Otherwise (values
+  varying along a side) an axis where every field's ghost is ``const +
   u_edge`` runs with rdgpu's Neumann (ν = 1), any other with rdgpu's ghost 0 (ν = 0); every
   ``laplace(s)`` then reads ``laplace(s) + P_s − W_s s``, two per-cell fields that are zero
   away from the faces (and left out where zero everywhere, as on an axis that is
@@ -95,6 +98,8 @@ from rdgpu.core.conventions import REAL_DTYPES, axis_names
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.pypde import steppers as pypde_steppers
 from rdgpu.integrations.pypde.checks import UnsupportedPDE, check_overrides, check_solver
+from rdgpu.integrations.pypde.ghosts import axis_bcs as axis_conditions
+from rdgpu.integrations.pypde.ghosts import corrections, native
 from rdgpu.integrations.pypde.steppers import species_views
 from rdgpu.ir import equations as eq
 from rdgpu.models.device_rhs import DeviceRHS
@@ -136,6 +141,9 @@ class Translation:
         `Model` named ``"py-pde"``.
     params : dict
         The constants the equations read: numbers or float64 arrays of the grid's shape.
+    bc : dict, optional
+        Per-species conditions over ``grid``'s (``model.stepper(..., bc=...)``): py-pde's
+        conditions run natively where each side's ghost is one affine map.
 
     Attributes
     ----------
@@ -144,8 +152,10 @@ class Translation:
     """
 
     def __init__(self, grid: Grid, species: tuple[str, ...], equations: dict[str, str],
-                 params: dict[str, Any]):
+                 params: dict[str, Any], bc: dict[str, dict[str, Any]] | None = None):
         self.grid = grid
+        #: per-species conditions over the grid's (`rdgpu.integrations.pypde.ghosts`)
+        self.bc = bc or None
         self.species = species
         self.params = params
         self.model = define_model("py-pde", equations, {k: 0.0 for k in params})
@@ -257,47 +267,46 @@ def _conditions(grid: CartesianGrid, data: Any, what: str) -> list[Any]:
     return out
 
 
-def _axis_bcs(per_species: dict[str, list[Any]], ndim: int) -> list[Any]:
-    """rdgpu's condition per axis: periodic; Neumann where every species' ghost is
-    ``const + u_edge`` on both sides (a Neumann condition; the derivatives, if not 0, come
-    from the correction fields); else Dirichlet with ghost 0 (the faces come from the
-    correction fields)."""
-    out: list[Any] = []
-    for k in range(ndim):
-        kinds = {"periodic" if c[k] == "periodic" else "pair" for c in per_species.values()}
-        if len(kinds) > 1:
-            raise _refuse(f"axis {k} is periodic for some fields and not for others")
-        if kinds == {"periodic"}:
-            out.append("periodic")
-        elif all(f == 1.0 for c in per_species.values() for _, factor in c[k]
-                 for f in factor):
-            out.append("neumann")
-        else:
-            out.append(("dirichlet", 0.0))
-    return out
-
-
-def _corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int, ...],
-                 spacing: list[float]) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """``(P, W)`` of species ``s`` (module doc), each None where it is zero everywhere.
-
-    On an axis that rdgpu runs with the ghost ``ν·u_edge`` (ν = 1 Neumann, 0 Dirichlet
-    with ghost 0), py-pde's ghost ``const + factor·u_edge`` adds ``(const + (factor −
-    ν)·u_edge)/h²`` to the Laplacian of the edge cell: ``P += const/h²``, ``W += (ν −
-    factor)/h²``, per face."""
-    P, W = np.zeros(shape), np.zeros(shape)
-    for k, bc in enumerate(axis_bcs):
-        if bc == "periodic":
+def _correction_fields(species: tuple[str, ...], conds: dict[str, list[Any]],
+                       axis_bcs: list[Any], shape: tuple[int, ...], h: list[float],
+                       params: dict[str, Any], written: dict[str, set[eq.Diff]],
+                       trees: dict[str, eq.Node]) -> dict[str, tuple[str | None, str | None]]:
+    """The correction fields (`rdgpu.integrations.pypde.ghosts.corrections`) added to
+    ``params``: species -> the names of its ``(P, W)`` (None where zero); refused where
+    an operator other than ``laplace(s)`` reads a corrected species."""
+    correct: dict[str, tuple[str | None, str | None]] = {}
+    for s in species:
+        pw = corrections(s, conds[s], axis_bcs, shape, h)
+        names = tuple(None if a is None else f"{tag}_{s}"
+                      for a, tag in zip(pw, ("bcface", "bcdiag"), strict=True))
+        if names == (None, None):
             continue
-        nu = 1.0 if bc == "neumann" else 0.0
-        inv = 1.0 / (spacing[k] * spacing[k])
-        face = shape[:k] + shape[k + 1:]
-        for (const, factor), index in zip(conds[k], (0, shape[k] - 1), strict=True):
-            sl: list[Any] = [slice(None)] * len(shape)
-            sl[k] = index
-            P[tuple(sl)] += np.reshape(const, face) * inv
-            W[tuple(sl)] += (nu - np.reshape(factor, face)) * inv
-    return (P if P.any() else None), (W if W.any() else None)
+        clash = [n for n in names if n in params]
+        if clash:
+            raise _refuse(f"the constant name(s) {clash} (used by the backend)")
+        params.update((n, a) for n, a in zip(names, pw, strict=True) if n is not None)
+        correct[s] = names
+    sided = sorted((d.spelling, d.name) for ds in written.values() for d in ds
+                   if d.name in correct)
+    if sided:
+        raise _refuse(f"{sided[0][0]} with the boundary conditions of {sided[0][1]!r} (a "
+                      "Dirichlet, Mixed or non-zero Neumann condition, whose py-pde ghost "
+                      "differs from rdgpu's; periodic and zero-derivative Neumann only there)")
+    twice = sorted({n for t in trees.values() for n, o in eq.laplacians(t)
+                    if o == 2 and n in correct})
+    if twice:
+        raise _refuse(f"laplace(laplace({twice[0]})) with the boundary conditions of "
+                      f"{twice[0]!r} (a Dirichlet, Mixed or non-zero Neumann condition; "
+                      "periodic and zero-derivative Neumann only there)")
+
+    nested = sorted(s for s, t in trees.items() for n in eq.walk(t)
+                    if isinstance(n, (eq.LapOf, eq.DivGrad)))
+    if nested and correct:
+        raise _refuse(f"laplace() of an expression or div() in the equation of {nested[0]!r} "
+                      f"with the boundary conditions of {sorted(correct)[0]!r} (a Dirichlet, "
+                      "Mixed or non-zero Neumann condition; periodic and zero-derivative "
+                      "Neumann only there)")
+    return correct
 
 
 def _classes() -> tuple[type, ...]:
@@ -433,8 +442,8 @@ def translate(pde_obj: Any, state: Any) -> Translation:
         label, data = inner
         if _conditions(grid, data, f"the inner Laplacian ({label})") != conds["c"]:
             raise _refuse(f"{label} {data!r} different from the bc of c {bc_data['c']!r}")
-    axis_bcs = _axis_bcs(conds, len(shape))
     h = list(spacing.values())  # per axis of the field
+    found = native(conds, h)
 
     params: dict[str, Any] = {}
     for name, value in consts.items():
@@ -461,38 +470,13 @@ def translate(pde_obj: Any, state: Any) -> Translation:
         except eq.EquationError as exc:
             raise _refuse(f"the equation of {s!r}: {exc}") from None
         trees[s] = eq.substitute(tree, coords)
-    correct: dict[str, tuple[str | None, str | None]] = {}
-    for s in species:
-        pw = _corrections(s, conds[s], axis_bcs, shape, h)
-        names = tuple(None if a is None else f"{tag}_{s}"
-                      for a, tag in zip(pw, ("bcface", "bcdiag"), strict=True))
-        if names == (None, None):
-            continue
-        clash = [n for n in names if n in params]
-        if clash:
-            raise _refuse(f"the constant name(s) {clash} (used by the backend)")
-        params.update((n, a) for n, a in zip(names, pw, strict=True) if n is not None)
-        correct[s] = names
-    sided = sorted((d.spelling, d.name) for ds in written.values() for d in ds
-                   if d.name in correct)
-    if sided:
-        raise _refuse(f"{sided[0][0]} with the boundary conditions of {sided[0][1]!r} (a "
-                      "Dirichlet, Mixed or non-zero Neumann condition, whose py-pde ghost "
-                      "differs from rdgpu's; periodic and zero-derivative Neumann only there)")
-    twice = sorted({n for t in trees.values() for n, o in eq.laplacians(t)
-                    if o == 2 and n in correct})
-    if twice:
-        raise _refuse(f"laplace(laplace({twice[0]})) with the boundary conditions of "
-                      f"{twice[0]!r} (a Dirichlet, Mixed or non-zero Neumann condition; "
-                      "periodic and zero-derivative Neumann only there)")
-
-    nested = sorted(s for s, t in trees.items() for n in eq.walk(t)
-                    if isinstance(n, (eq.LapOf, eq.DivGrad)))
-    if nested and correct:
-        raise _refuse(f"laplace() of an expression or div() in the equation of {nested[0]!r} "
-                      f"with the boundary conditions of {sorted(correct)[0]!r} (a Dirichlet, "
-                      "Mixed or non-zero Neumann condition; periodic and zero-derivative "
-                      "Neumann only there)")
+    lapof = any(isinstance(n, eq.LapOf) for t in trees.values() for n in eq.walk(t))
+    if found is not None and (inner is not None or lapof) and found[1]:
+        found = None  # their inner conditions: the correction fields' refusals below
+    field_bc = {} if found is None else found[1]
+    axis_bcs = axis_conditions(conds, len(shape)) if found is None else found[0]
+    correct = {} if found is not None else _correction_fields(
+        species, conds, axis_bcs, shape, h, params, written, trees)
 
     def face(n: eq.Node) -> eq.Node | None:
         if isinstance(n, eq.Lap) and n.order == 1 and n.name in correct:
@@ -508,7 +492,7 @@ def translate(pde_obj: Any, state: Any) -> Translation:
 
     text = {s: eq.to_text(eq.substitute(trees[s], face)) for s in species}
     ours = Grid(shape, bc=axis_bcs[0] if len(shape) == 1 else tuple(axis_bcs), **spacing)
-    return Translation(ours, species, text, params)
+    return Translation(ours, species, text, params, field_bc)
 
 
 # ---------------------------------------------------------------------------- the backend
@@ -588,7 +572,7 @@ class RdgpuBackend(BackendBase):
         """
         check_overrides(eq, _classes(), hook=False)  # ScipySolver calls no post-step hook
         tr = translate(eq, state)
-        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state))
+        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state), bc=tr.bc)
         x, out = rhs.empty(), rhs.empty()
         several = isinstance(state, pde.FieldCollection)
         field_shape = tr.grid.field_shape
@@ -637,7 +621,7 @@ class RdgpuBackend(BackendBase):
         if fixed_euler and not tr.uses_time:
             return self._model_stepper(solver, state, tr, dtype)
         check_dt = float(solver.info["dt"]) if fixed_euler and self.check_stability else None
-        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt)
+        rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt, bc=tr.bc)
         several = isinstance(state, pde.FieldCollection)
         stepper = pypde_steppers.make_stepper(solver, rhs, several, tr.grid.field_shape)
         self._describe(solver, tr)
@@ -655,7 +639,7 @@ class RdgpuBackend(BackendBase):
         i·dt``.)"""
         dt = float(solver.info["dt"])
         st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,
-                              check_stability=self.check_stability, method="euler")
+                              check_stability=self.check_stability, method="euler", bc=tr.bc)
         field_shape = tr.grid.field_shape
         several = isinstance(state, pde.FieldCollection)
 
