@@ -366,8 +366,12 @@ def test_refuses_linked_values(box):
 
 def test_refuses_expressions_it_cannot_run(box):
     grid, s = box
-    _refused({"x-": {"value_expression": "sin(t)"}, "x+": "neumann", "y": "neumann"}, s,
-             "ExpressionValueBC", "x- of 'c'", "depends on t")
+    # a condition of t runs natively (test_pypde_native_bc.py), not when it reads the
+    # field's value too, nor with a side whose values vary along it
+    _refused({"x-": {"value_expression": "value*sin(t)"}, "x+": "neumann", "y": "neumann"},
+             s, "ExpressionValueBC", "x- of 'c'", "depends on t")
+    _refused({"x-": {"value_expression": "sin(t)"}, "x+": {"value": np.arange(6.0)},
+              "y": "neumann"}, s, "time-dependent condition of 'c'")
     _refused({"x": "neumann", "y-": {"derivative_expression": "value**2"}, "y+": "neumann"},
              s, "ExpressionDerivativeBC", "y- of 'c'", "not affine")
     _refused({"x": {"type": "value_expression", "value": lambda v, dx, x, y, t: 1.0},

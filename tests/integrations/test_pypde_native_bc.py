@@ -14,7 +14,7 @@ pde = pytest.importorskip("pde")
 
 import rdgpu.pypde  # noqa: E402,F401 - registers the backend
 from rdgpu.integrations.pypde.backend import translate  # noqa: E402
-from rdgpu.integrations.pypde.ghosts import native  # noqa: E402
+from rdgpu.integrations.pypde.ghosts import Side, native  # noqa: E402
 
 BC = {"x-": {"value": 1.0}, "x+": {"derivative": 0.5},
       "y-": {"type": "mixed", "value": 2.0, "const": 0.3}, "y+": {"value": -0.25}}
@@ -63,13 +63,18 @@ def test_solves_agree_with_pypde(solver):
 
 
 def test_sides_that_vary_keep_the_correction_fields():
-    eq = pde.PDE({"c": "0.1*laplace(c) - c"}, bc={"value_expression": "sin(x + y)"})
+    """A coordinate expression runs natively (evaluated on the face, as py-pde does); an
+    array of values along a side keeps the correction fields; both are py-pde's."""
     state = _state()
-    tr = translate(eq, state)
-    assert tr.bc is None and any(k.startswith("bcface") for k in tr.params)
-    rhs = eq.make_pde_rhs(state, backend="rdgpu:numpy")
-    np.testing.assert_allclose(np.asarray(rhs(state.data, 0.0)),
-                               eq.evolution_rate(state).data, rtol=0, atol=1e-12)
+    for bc, native_run in (({"value_expression": "sin(x + y)"}, True),
+                           ({"x": {"value": np.linspace(0, 1, 10)}, "y": "neumann"}, False)):
+        eq = pde.PDE({"c": "0.1*laplace(c) - c"}, bc=bc)
+        tr = translate(eq, state)
+        assert (tr.bc is not None) == native_run
+        assert any(k.startswith("bcface") for k in tr.params) != native_run
+        rhs = eq.make_pde_rhs(state, backend="rdgpu:numpy")
+        np.testing.assert_allclose(np.asarray(rhs(state.data, 0.0)),
+                                   eq.evolution_rate(state).data, rtol=0, atol=1e-12)
 
 
 def test_native_conversion_is_the_same_ghost():
@@ -77,10 +82,35 @@ def test_native_conversion_is_the_same_ghost():
     h = 0.3
     u = np.linspace(-1, 2, 7)
     for c, f in ((0.4, 1.0), (0.7, 0.0), (1.2, -1.0), (0.3, 0.5), (-0.2, -0.6)):
-        grid, bc = native({"s": [((((c,), (f,)), ((0.0,), (1.0,))))]}, [h])
+        grid, bc = native({"s": [(Side((c,), (f,)), Side((0.0,), (1.0,)))]}, [h])
         assert grid == ["neumann"] and set(bc["s"]) == {"x-"}
         kind, *v = bc["s"]["x-"]
         ghost = {"neumann": lambda q: u + h * q, "dirichlet": lambda g: 0 * u + g,
                  "value": lambda g: 2 * g - u,
                  "robin": lambda a, g: (h * g + u * (1 - h * a / 2)) / (1 + h * a / 2)}[kind]
         np.testing.assert_allclose(ghost(*v), c + f * u, rtol=1e-13, atol=1e-14)
+
+
+TIMED = {"x-": {"value_expression": "sin(3*t) + y"}, "x+": {"derivative_expression": "t*y"},
+         "y-": {"type": "mixed_expression", "value": "1 + t", "const": "2*x"},
+         "y+": {"value": 0.5}}
+
+
+@pytest.mark.parametrize("backend", ["numpy", "opencl", "warp"])
+@pytest.mark.parametrize("solver", ["euler", "runge-kutta"])
+def test_time_dependent_conditions_agree_with_pypde(backend, solver):
+    """py-pde's value, derivative and mixed expressions of t and the coordinates (a grid
+    not starting at 0) run as rdgpu's own conditions: the solve is py-pde's to round-off
+    (fixed-step Euler: rdgpu's stepper; RK4: the stage passes, which read each stage's
+    state as a derived field)."""
+    backend_or_skip(backend)
+    grid = pde.CartesianGrid([[0, 1], [0.5, 2]], [12, 15])
+    state = pde.ScalarField.random_uniform(grid, 0.2, 0.8, rng=np.random.default_rng(0))
+    eq = pde.PDE({"c": "0.1*laplace(c) - c**3 + c + 0.1*d_dx(c)"}, bc=TIMED)
+    tr = translate(eq, state)
+    assert tr.bc["c"]["y-"][0] == "value" and "t" in tr.bc["c"]["y-"][1]
+    kw = {"t_range": 0.1, "dt": 1e-3, "solver": solver, "tracker": None, "adaptive": False}
+    ref = eq.solve(state.copy(), backend="numpy", **kw)
+    out = eq.solve(state.copy(), backend=f"rdgpu:{backend}", **kw)
+    np.testing.assert_allclose(out.data, ref.data, rtol=0, atol=1e-12)
+    assert np.abs(out.data - state.data).max() > 0.01

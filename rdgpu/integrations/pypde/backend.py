@@ -30,7 +30,8 @@ naming the part it cannot run; it never falls back to another backend):
   and their ``Normal*`` spellings, with values that are numbers, arrays over the boundary
   or expressions of the coordinates; and the expression conditions (``value_expression``,
   ``derivative_expression``, ``mixed_expression``, ``virtual_point``) whose ghost is affine
-  in the edge value and free of ``t``.  Where each side's ghost is one number ``const``
+  in the edge value, or (value, derivative, mixed) free of the edge value and of the
+  coordinates and ``t``.  Where each side's ghost is one number ``const``
   and one ``factor``, they run natively as rdgpu's per-species conditions
   (`rdgpu.integrations.pypde.ghosts.native`), read by every operator.  Otherwise (values
   varying along a side) an axis where every field's ghost is ``const +
@@ -41,7 +42,8 @@ naming the part it cannot run; it never falls back to another backend):
   ``W += (ν − factor)/h²``.  This is py-pde's Laplacian exactly (to round-off), corners
   included.  Refused, naming the condition and the side: second-order conditions
   (``CurvatureBC``), user conditions and ghost-cell callbacks, values linked to an external
-  array, expressions given as Python functions, depending on ``t`` or not affine in the
+  array, expressions given as Python functions, depending on ``t`` and the field's value
+  (``t`` alone runs natively: ``_expression_native``) or not affine in the
   field, anti-periodic axes, non-finite ghost data, and ``laplace(laplace(s))``, a
   Laplacian of an expression, a divergence or a first derivative where a field needs the
   correction fields.  ``divergence(D*gradient(s))`` is rdgpu's face-averaged flux form
@@ -70,6 +72,7 @@ With a fixed-``dt`` Euler solver rdgpu checks the linear stability limit of ``dt
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -98,8 +101,8 @@ from rdgpu.core.conventions import REAL_DTYPES, axis_names
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.pypde import steppers as pypde_steppers
 from rdgpu.integrations.pypde.checks import UnsupportedPDE, check_overrides, check_solver
+from rdgpu.integrations.pypde.ghosts import Side, corrections, expression_ghost, native
 from rdgpu.integrations.pypde.ghosts import axis_bcs as axis_conditions
-from rdgpu.integrations.pypde.ghosts import corrections, native
 from rdgpu.integrations.pypde.steppers import species_views
 from rdgpu.ir import equations as eq
 from rdgpu.models.device_rhs import DeviceRHS
@@ -117,7 +120,7 @@ _SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
               "WavePDE, KleinGordonPDE")
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
-        "derivative and mixed expressions affine in the field and free of t")
+        "derivative and mixed expressions affine in the field, or of the coordinates and t")
 
 
 def _refuse(what: str) -> UnsupportedPDE:
@@ -189,36 +192,11 @@ def _boundary_array(v: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
     return a
 
 
-def _expression_ghost(bc: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """``(const, factor)`` of py-pde's expression condition ``bc`` (``ExpressionBC`` and its
-    value, derivative and mixed variants): its virtual point must be affine in the edge
-    value (``const`` at value 0, ``factor`` its derivative in the value) and free of ``t``."""
-    name = type(bc).__name__
-    if bc._is_func:
-        raise _refuse(f"the boundary condition {name} at {where} given as a Python function "
-                      "(a user callback; give the expression as a string)")
-    if bc.value_cell is not None:
-        raise _refuse(f"the boundary condition {name} at {where} reading the cell "
-                      f"value_cell={bc.value_cell} (only the edge cell is supported)")
-    expr = bc._func_expression
-    if expr.depends_on("t"):
-        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where} "
-                      "depends on t (time-dependent conditions are not supported)")
-    slope = expr.differentiate("value")
-    curve = slope.differentiate("value")
-    if not (curve.constant and curve.value == 0):
-        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where}: "
-                      f"its ghost value {expr.expression} is not affine in the edge value")
-    dx = float(bc.grid.discretization[bc.axis])
-    coords = np.moveaxis(bc.grid._boundary_coordinates(axis=bc.axis, upper=bc.upper), -1, 0)
-    zero = np.zeros(coords.shape[1:])
-    return expr(zero, dx, *coords, 0.0), slope(zero, dx, *coords, 0.0)
-
-
-def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """py-pde's ghost cell of one side, ``ghost = const + factor·u_edge``, as ``(const,
-    factor)``: tuples of floats over the side's boundary cells (the grid's other axes in
-    order, flattened in C order; one value in 1-D)."""
+def _side(bc: Any, where: str) -> Side:
+    """py-pde's ghost cell of one side, ``ghost = const + factor·u_edge``, as a `Side`:
+    ``const`` and ``factor`` tuples of floats over the side's boundary cells (the grid's
+    other axes in order, flattened in C order; one value in 1-D), None for an expression
+    condition of ``t``, which runs natively only."""
     name = type(bc).__name__
     if isinstance(bc, ConstBC1stOrderBase) and not isinstance(bc, _PeriodicBC):
         if bc.value_is_linked:
@@ -226,7 +204,10 @@ def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
                           "an external array that may change (give the values themselves)")
         const, factor, index = bc.get_virtual_point_data()
     elif isinstance(bc, ExpressionBC):
-        const, factor = _expression_ghost(bc, where)
+        ready = _expression_native(bc, where)
+        if ready is not None and bc._func_expression.depends_on("t"):
+            return Side(None, None, ready)
+        const, factor = expression_ghost(bc, where)
         index = bc._get_value_cell_index(with_ghost_cells=False)
     else:
         kind = "a user condition (ghost cells set by the caller)" if isinstance(bc, UserBC) \
@@ -239,9 +220,32 @@ def _side(bc: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         raise _refuse(f"the boundary condition {name} at {where} reading cell {index} (only "
                       "the edge cell is supported)")
     shape = tuple(m for i, m in enumerate(bc.grid.shape) if i != bc.axis)
-    return tuple(tuple(_boundary_array(v, shape, f"ghost-cell {what} of the boundary "
-                                       f"condition {name} at {where}").ravel().tolist())
-                 for v, what in ((const, "constant"), (factor, "factor")))
+    return Side(*(tuple(_boundary_array(v, shape, f"ghost-cell {what} of the boundary "
+                                        f"condition {name} at {where}").ravel().tolist())
+                  for v, what in ((const, "constant"), (factor, "factor"))),
+                _expression_native(bc, where) if isinstance(bc, ExpressionBC) else None)
+
+
+def _expression_native(bc: Any, where: str) -> tuple | None:
+    """rdgpu's own condition for py-pde's value, derivative or mixed expression condition
+    ``bc`` whose expressions do not read the field's value (``("value", g)``,
+    ``("neumann", g)``, ``("robin", a, g)`` in rdgpu's coordinate names); None for any
+    other."""
+    given = bc._input
+    target = given.get("target")
+    texts = [str(given.get("value_expr", 0)), str(given.get("const_expr", 0))]
+    if bc._is_func or bc.value_cell is not None or target not in ("value", "derivative",
+                                                                    "mixed") \
+            or any(re.search(r"\bvalue\b", t) for t in texts):
+        return None
+    coords = _coordinate_map(bc.grid)
+    try:
+        a, g = (eq.to_text(eq.substitute(eq.parse(t, what=f"the condition at {where}",
+                                                   laplace=False), coords)) for t in texts)
+    except eq.EquationError:
+        return None  # the affine path says what is wrong
+    return {"value": ("value", a), "derivative": ("neumann", a)}.get(target,
+                                                                     ("robin", a, g))
 
 
 def _conditions(grid: CartesianGrid, data: Any, what: str) -> list[Any]:
@@ -473,6 +477,13 @@ def translate(pde_obj: Any, state: Any) -> Translation:
     lapof = any(isinstance(n, eq.LapOf) for t in trees.values() for n in eq.walk(t))
     if found is not None and (inner is not None or lapof) and found[1]:
         found = None  # their inner conditions: the correction fields' refusals below
+    timed = [s for s in species for c in conds[s] if c != "periodic" for d in c
+             if d.const is None]
+    if found is None and timed:
+        raise _refuse(f"the time-dependent condition of {timed[0]!r} with a condition that "
+                      "varies along its side, a bilaplacian or the Laplacian of an "
+                      "expression (a condition of t runs as rdgpu's own, which those need "
+                      "on every side)")
     field_bc = {} if found is None else found[1]
     axis_bcs = axis_conditions(conds, len(shape)) if found is None else found[0]
     correct = {} if found is not None else _correction_fields(

@@ -16,20 +16,31 @@ Every first-order condition of py-pde sets a side's ghost cell to ``const + fact
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from rdgpu.integrations.pypde.checks import UnsupportedPDE
 
-__all__ = ["axis_bcs", "corrections", "native"]
+__all__ = ["Side", "axis_bcs", "corrections", "expression_ghost", "native"]
+
+
+class Side(NamedTuple):
+    """One side's py-pde condition: its ghost ``const + factor·u_edge`` (tuples over the
+    side's cells; None for a condition of ``t``), and, for an expression condition free of
+    the field's value, rdgpu's own condition in rdgpu's names (``("value", text)``...; None
+    otherwise), run natively whatever the other sides are."""
+
+    const: tuple[float, ...] | None
+    factor: tuple[float, ...] | None
+    native: tuple | None = None
 
 
 def native(conds: dict[str, list[Any]], spacing: list[float]
            ) -> tuple[list[Any], dict[str, dict[str, Any]]] | None:
     """``(grid bc per axis, per-species bc)`` of py-pde's ghosts ``conds`` (species -> per
-    axis ``"periodic"`` or ``((const, factor) low, (const, factor) high)``), or None where
-    a side's ghost varies along it (module doc)."""
+    axis ``"periodic"`` or a `Side` pair, low and high), or None where a side's ghost
+    varies along it (module doc)."""
     ndim = len(spacing)
     names = "xyz"[:ndim][::-1] if ndim > 1 else "x"  # field axis k -> rdgpu's axis name
     grid: list[Any] = []
@@ -43,10 +54,13 @@ def native(conds: dict[str, list[Any]], spacing: list[float]
             continue
         h = spacing[k]
         for s, c in conds.items():
-            for (const, factor), sign in zip(c[k], "-+", strict=True):
-                if len(set(const)) != 1 or len(set(factor)) != 1:
+            for side, sign in zip(c[k], "-+", strict=True):
+                if side.native is not None:
+                    cond = side.native
+                elif len(set(side.const)) != 1 or len(set(side.factor)) != 1:
                     return None
-                cond = _condition(const[0], factor[0], h)
+                else:
+                    cond = _condition(side.const[0], side.factor[0], h)
                 if cond is not None:
                     out.setdefault(s, {})[names[k] + sign] = cond
     return grid, out
@@ -80,8 +94,8 @@ def axis_bcs(per_species: dict[str, list[Any]], ndim: int) -> list[Any]:
             raise _refuse(f"axis {k} is periodic for some fields and not for others")
         if kinds == {"periodic"}:
             out.append("periodic")
-        elif all(f == 1.0 for c in per_species.values() for _, factor in c[k]
-                 for f in factor):
+        elif all(f == 1.0 for c in per_species.values() for side in c[k]
+                 for f in side.factor):
             out.append("neumann")
         else:
             out.append(("dirichlet", 0.0))
@@ -103,7 +117,7 @@ def corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int,
         nu = 1.0 if bc == "neumann" else 0.0
         inv = 1.0 / (spacing[k] * spacing[k])
         face = shape[:k] + shape[k + 1:]
-        for (const, factor), index in zip(conds[k], (0, shape[k] - 1), strict=True):
+        for (const, factor, _), index in zip(conds[k], (0, shape[k] - 1), strict=True):
             sl: list[Any] = [slice(None)] * len(shape)
             sl[k] = index
             P[tuple(sl)] += np.reshape(const, face) * inv
@@ -111,3 +125,27 @@ def corrections(s: str, conds: list[Any], axis_bcs: list[Any], shape: tuple[int,
     return (P if P.any() else None), (W if W.any() else None)
 
 
+def expression_ghost(bc: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(const, factor)`` of py-pde's expression condition ``bc`` (``ExpressionBC`` and its
+    value, derivative and mixed variants): its virtual point must be affine in the edge
+    value (``const`` at value 0, ``factor`` its derivative in the value) and free of ``t``."""
+    name = type(bc).__name__
+    if bc._is_func:
+        raise _refuse(f"the boundary condition {name} at {where} given as a Python function "
+                      "(a user callback; give the expression as a string)")
+    if bc.value_cell is not None:
+        raise _refuse(f"the boundary condition {name} at {where} reading the cell "
+                      f"value_cell={bc.value_cell} (only the edge cell is supported)")
+    expr = bc._func_expression
+    if expr.depends_on("t"):
+        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where} "
+                      "depends on t (time-dependent conditions are not supported)")
+    slope = expr.differentiate("value")
+    curve = slope.differentiate("value")
+    if not (curve.constant and curve.value == 0):
+        raise _refuse(f"the boundary condition {name} '{bc._input['value_expr']}' at {where}: "
+                      f"its ghost value {expr.expression} is not affine in the edge value")
+    dx = float(bc.grid.discretization[bc.axis])
+    coords = np.moveaxis(bc.grid._boundary_coordinates(axis=bc.axis, upper=bc.upper), -1, 0)
+    zero = np.zeros(coords.shape[1:])
+    return expr(zero, dx, *coords, 0.0), slope(zero, dx, *coords, 0.0)
