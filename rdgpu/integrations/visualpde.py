@@ -81,7 +81,8 @@ DEFAULTS: dict[str, Any] = {
 SCHEMES = {"Euler": "euler", "AB2": "ab2", "Mid": "midpoint", "RK4": "rk4"}
 #: frames a run lasts unless told otherwise (ten seconds at 60 frames a second)
 RUN_FRAMES = 600
-_FUNCTIONS = {"exp", "log", "sqrt", "sin", "cos", "tan", "tanh", "abs", "min", "max"}
+_FUNCTIONS = {"exp", "log", "sqrt", "sin", "cos", "tan", "tanh", "sinh", "cosh", "abs", "min",
+              "max"}
 #: a name, not the exponent of a number (``1e-3``)
 _NAME = re.compile(r"(?<![0-9.A-Za-z_])[A-Za-z_][A-Za-z0-9_]*")
 
@@ -171,7 +172,7 @@ class Translation:
             if not np.isfinite(value).all():
                 raise UnsupportedPreset(f"initCond of {s!r} = {text!r} is not finite "
                                         "everywhere on the grid")
-            out[s] = np.ascontiguousarray(value)
+            out[s] = np.ascontiguousarray(value).reshape(self.grid.field_shape)
         return out
 
     def simulation(self, backend: Backend | str | None = None, dtype: Any = "float32",
@@ -239,8 +240,9 @@ def load(preset: Mapping[str, Any] | str | Path,
     offsets = (_number(p, "minX", {**constants, **params}),
                _number(p, "minY", {**constants, **params}) if dim == 2 else 0.0)
     words = _Words(species, params, constants, offsets, dim)
+    notes: list[str] = []
     bc, field_bc = boundaries(p, species, dim, words.translate, list(params),
-                              UnsupportedPreset)
+                              UnsupportedPreset, notes)
     equations = {}
     for i, s in enumerate(species, start=1):
         terms = []
@@ -280,9 +282,9 @@ def load(preset: Mapping[str, Any] | str | Path,
                                initial=True)
             for i, s in enumerate(species, start=1)}
     shown = str(p.get("whatToPlot", species[0])).strip()
-    notes = [] if dim == 1 or _flag(p, "squareCanvas") else [
-        "squareCanvas is off: VisualPDE's canvas takes the browser window's shape; the "
-        "translation is square"]
+    if dim == 2 and not _flag(p, "squareCanvas"):
+        notes.append("squareCanvas is off: VisualPDE's canvas takes the browser window's "
+                     "shape; the translation is square")
     return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
                        shown if shown in species else species[0], notes, constants, offsets,
                        field_bc)
@@ -426,10 +428,11 @@ class _Words:
         return _NAME.sub(word, text.replace("**", "^")).replace("^", "**")
 
     def _derivative(self, s: str, suffix: str, key: str, text: str) -> str:
-        if suffix in ("x", "y"):
-            if suffix == "y" and self.dim == 1:
-                raise UnsupportedPreset(f"{key} = {text!r}: {s}_y on a 1-D domain")
-            return f"d_d{suffix}({s})"
+        if suffix in ("x", "y", "xf", "yf", "xb", "yb"):  # central, forward, backward
+            if suffix[0] == "y" and self.dim == 1:
+                raise UnsupportedPreset(f"{key} = {text!r}: {s}_{suffix} on a 1-D domain")
+            side = {"": "", "f": "_forward", "b": "_backward"}[suffix[1:]]
+            return f"d_d{suffix[0]}{side}({s})"
         if suffix == "xx" and self.dim == 1:
             return f"laplace({s})"
         raise UnsupportedPreset(f"{key} = {text!r}: {s}_{suffix} (rdgpu's language has first "

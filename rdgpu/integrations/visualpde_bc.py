@@ -6,8 +6,10 @@ VisualPDE gives each species ``boundaryConditions_i``: ``periodic``, ``dirichlet
 (``dirichletStr_i``, the value on the boundary), ``neumann`` (``neumannStr_i``, the outward
 derivative ``∂u/∂n``), ``robin`` (``robinStr_i``: ``∂u/∂n = f``, ``f`` any expression of
 the species) or ``combo`` (``comboStr_i``, one per side: ``"Left: Dirichlet = 0; Right:
-Neumann = 1; Top: Periodic; Bottom: Robin = -u;"``).  They become, side by side, rdgpu's
-``("value", g)`` (the face holds ``g``), ``("neumann", q)`` and ``("robin", a, g)`` where
+Neumann = 1; Top: Periodic; Bottom: Robin = -u;"``, also ``Ghost = g``, the ghost cell's
+value; a side not named is periodic).  They become, side by side, rdgpu's
+``("value", g)`` (the face holds ``g``), ``("dirichlet", g)`` (a ghost), ``("neumann",
+q)`` and ``("robin", a, g)`` where
 ``f = g − a·u`` is linear in the species (checked); an axis is periodic where every species
 is periodic on both its sides; anything else is refused by name.
 """
@@ -15,6 +17,7 @@ is periodic on both its sides; anything else is refused by name.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -27,19 +30,24 @@ __all__ = ["boundaries"]
 #: VisualPDE's sides (``comboStr``) -> rdgpu's
 _SIDES = {"left": "x-", "right": "x+", "bottom": "y-", "top": "y+"}
 _KINDS = ("periodic", "dirichlet", "neumann", "robin")
+#: one part of a ``comboStr``: side, kind and value (``Ghost``: the ghost cell's value)
+_PART = re.compile(r"(left|right|top|bottom)\s*:\s*(periodic|dirichlet|neumann|robin|ghost)"
+                   r"\s*(?:=\s*(.*))?$", re.IGNORECASE)
 
 
 def boundaries(p: Mapping[str, Any], species: Sequence[str], dim: int,
                translate: Callable[[str, str], str], params: Sequence[str],
-               refuse: Callable[[str], Exception]) -> tuple[Any, dict[str, dict[str, Any]]]:
+               refuse: Callable[[str], Exception], notes: list[str]
+               ) -> tuple[Any, dict[str, dict[str, Any]]]:
     """``(grid bc, per-species bc)`` of preset ``p`` (module doc); ``translate(text,
-    key)`` makes a VisualPDE expression rdgpu's, ``refuse(message)`` the error to raise."""
+    key)`` makes a VisualPDE expression rdgpu's, ``refuse(message)`` the error to raise;
+    what a user should know is appended to ``notes``."""
     sides = [s for s in _SIDES.values() if s[0] in "xy"[:dim]]
     conds: dict[str, dict[str, tuple]] = {}
     for i, s in enumerate(species, start=1):
         kind = str(p.get(f"boundaryConditions_{i}", "periodic")).strip().lower()
         if kind == "combo":
-            conds[s] = _combo(str(p.get(f"comboStr_{i}", "")), i, sides, refuse)
+            conds[s] = _combo(str(p.get(f"comboStr_{i}", "")), i, sides, refuse, notes)
         elif kind in _KINDS:
             key = {"dirichlet": "dirichletStr", "neumann": "neumannStr",
                    "robin": "robinStr"}.get(kind)
@@ -69,25 +77,31 @@ def boundaries(p: Mapping[str, Any], species: Sequence[str], dim: int,
     return bc, out
 
 
-def _combo(text: str, i: int, sides: Sequence[str], refuse) -> dict[str, tuple]:
-    """``comboStr_i``'s conditions per side."""
+def _combo(text: str, i: int, sides: Sequence[str], refuse, notes: list[str]
+           ) -> dict[str, tuple]:
+    """``comboStr_i``'s conditions per side, read as VisualPDE reads them: each ``Side:
+    Kind = value`` part; a part naming no side is ignored and a side no part names stays
+    periodic (both said in ``notes``)."""
     out: dict[str, tuple] = {}
     for part in (t.strip() for t in text.split(";")):
         if not part:
             continue
-        where, sep, rest = part.partition(":")
-        side = _SIDES.get(where.strip().lower())
-        kind, _, value = rest.partition("=")
-        kind = kind.strip().lower()
-        if not sep or side is None or kind not in _KINDS:
-            raise refuse(f"comboStr_{i} part {part!r} (Left/Right/Top/Bottom: Periodic, "
-                         "Dirichlet = ..., Neumann = ... or Robin = ...)")
+        m = _PART.match(part)
+        if m is None:
+            if ":" in part and part.split(":")[0].strip().lower() in _SIDES:
+                raise refuse(f"comboStr_{i} part {part!r} (Left/Right/Top/Bottom: Periodic, "
+                             "Dirichlet = ..., Neumann = ..., Robin = ... or Ghost = ...)")
+            notes.append(f"comboStr_{i} part {part!r} names no side: ignored, as VisualPDE "
+                         "does")
+            continue
+        side = _SIDES[m.group(1).lower()]
+        kind = m.group(2).lower()
         if side in sides:
-            out[side] = (kind, value.strip() or "0", f"comboStr_{i}")
-    missing = [s for s in sides if s not in out]
-    if missing:
-        raise refuse(f"comboStr_{i} = {text!r} gives no condition on "
-                     f"{', '.join(missing)}")
+            out[side] = (kind, (m.group(3) or "").strip() or "0", f"comboStr_{i}")
+    for side in sides:
+        if side not in out:
+            notes.append(f"comboStr_{i} gives no condition on {side}: periodic, as VisualPDE")
+            out[side] = ("periodic", "", f"comboStr_{i}")
     return out
 
 
@@ -104,6 +118,8 @@ def _condition(kind: str, text: str, key: str, s: str, species: Sequence[str],
                      f"a {kind} value is an expression of x, y, t and the parameters")
     if kind == "dirichlet":
         return ("value", text)
+    if kind == "ghost":
+        return ("dirichlet", text)
     if kind == "neumann":
         return "neumann" if eq.is_constant(tree) and _value(tree) == 0.0 else ("neumann", text)
     if reads - {s}:

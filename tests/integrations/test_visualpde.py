@@ -87,6 +87,12 @@ def test_translation_details():
     assert line.grid.shape == (1, 10) or line.grid.shape == (10,)
     assert line.model.equations["u"] == "(laplace(u) - u)"
     np.testing.assert_allclose(line.fields()["u"].ravel(), np.arange(10) + 5.5)
+    assert line.fields()["u"].shape == (10,)  # a 1-D field as users hold it: it runs
+    ran = line.simulation(backend="numpy", dtype="float64").run(3, progress=False)
+    assert ran.fields["u"].shape == (10,) and np.isfinite(ran.fields["u"]).all()
+    sided = load({"reactionStr_1": "-u*u_xb + v_yf - cosh(u) + sinh(v)"})
+    assert sided.model.equations["u"] == ("(0.04)*laplace(u) + (-u*d_dx_backward(u) + "
+                                          "d_dy_forward(v) - cosh(u) + sinh(v))")
     switch = load({"reactionStr_1": "ind(u > 0.5)*u - v", "initCond_1": "ind(x < L_x/2)"})
     assert switch.model.equations["u"] == "(0.04)*laplace(u) + ((u > 0.5)*u - v)"
     half = switch.fields()["u"]
@@ -119,7 +125,7 @@ def test_parents_json_and_files(tmp_path):
     ({"boundaryConditions_1": "neumann"}, "periodic on some species' or sides' x"),
     ({"boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
       "comboStr_1": "Left: Dirichlet = 1; Right: Neumann = 0; Top: Periodic;"},
-     "gives no condition on y-"),
+     "periodic on some species' or sides' y boundaries only"),
     ({"boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
       "comboStr_1": "Left: Sticky = 1"}, "comboStr_1 part 'Left: Sticky = 1'"),
     ({"boundaryConditions_1": "robin", "boundaryConditions_2": "neumann",
@@ -196,6 +202,14 @@ def test_boundary_conditions_per_species_and_side():
                  "comboStr_1": "Left: Dirichlet = 1; Right: Dirichlet = 0; Top: Periodic; "
                                "Bottom: Periodic"})
     assert heat.grid.bcs.y.kind == 0 and heat.grid.bcs.x.kind == 1
+    # VisualPDE's reading of a combo: a side not named is periodic, a part naming no side
+    # is ignored (both noted); Ghost sets the ghost cell (rdgpu's own Dirichlet)
+    same = load({"numSpecies": 1, "boundaryConditions_1": "combo", "reactionStr_1": "0",
+                 "comboStr_1": "Left: Ghost = 2; Right: Dirichlet = 0; Neumann = 0"})
+    assert same.grid.bcs.y.kind == 0
+    assert same.bc == {"u": {"x-": ("dirichlet", "2"), "x+": ("value", "0")}}
+    assert any("names no side" in n for n in same.notes)
+    assert any("no condition on y-" in n for n in same.notes)
     u = heat.simulation(backend="numpy", dtype="float64").run(4000).fields["u"]
     x = (np.arange(16) + 0.5) / 16
     np.testing.assert_allclose(u, np.broadcast_to(1 - x, u.shape), atol=1e-6)
