@@ -1,7 +1,7 @@
 """py-pde's boundary conditions on rdgpu's grids (`rdgpu.integrations.pypde.backend`).
 
 Every first-order condition of py-pde sets a side's ghost cell to ``const + factor·u_edge``
-(`backend._side`).  Two ways to run that on rdgpu:
+(read side by side in `rdgpu.integrations.pypde.backend`).  Two ways to run that on rdgpu:
 
 * **natively** (`native`), where each side's ``const`` and ``factor`` are one number each:
   as rdgpu's per-species conditions (`rdgpu.ir.boundary`, compiled into the fused
