@@ -44,7 +44,8 @@ __all__ = ["OpenCLBlockedPass", "OpenCLFusedPass", "blocked_source", "opencl_cel
            "opencl_source"]
 
 _CL_FUNCS = {"exp": "exp", "log": "log", "sqrt": "SQRT", "sin": "sin", "cos": "cos",
-             "tan": "tan", "tanh": "tanh", "sinh": "sinh", "cosh": "cosh", "abs": "FABS",
+             "tan": "tan", "tanh": "tanh", "sinh": "sinh", "cosh": "cosh", "floor": "floor",
+             "abs": "FABS",
              "pow": "pow", "min": "nanmin2",
              "max": "nanmax2", "lt": "cmp_lt", "le": "cmp_le", "gt": "cmp_gt", "ge": "cmp_ge",
              "eq": "cmp_eq", "ne": "cmp_ne"}

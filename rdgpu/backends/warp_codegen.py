@@ -48,7 +48,8 @@ __all__ = ["WarpFusedPass", "cache_dir", "warp_module", "warp_source"]
 
 _WP_FUNCS = {"exp": "wp.exp", "log": "wp.log", "sqrt": "wp.sqrt", "sin": "wp.sin",
              "cos": "wp.cos", "tan": "wp.tan", "tanh": "wp.tanh", "sinh": "wp.sinh",
-             "cosh": "wp.cosh", "abs": "wp.abs", "pow": "wp.pow", "min": "nanmin2",
+             "cosh": "wp.cosh", "floor": "wp.floor", "abs": "wp.abs", "pow": "wp.pow",
+             "min": "nanmin2",
              "max": "nanmax2", "lt": "cmp_lt",
              "le": "cmp_le", "gt": "cmp_gt", "ge": "cmp_ge", "eq": "cmp_eq", "ne": "cmp_ne"}
 #: the boundary flag of each side in the template

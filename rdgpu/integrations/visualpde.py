@@ -81,8 +81,8 @@ DEFAULTS: dict[str, Any] = {
 SCHEMES = {"Euler": "euler", "AB2": "ab2", "Mid": "midpoint", "RK4": "rk4"}
 #: frames a run lasts unless told otherwise (ten seconds at 60 frames a second)
 RUN_FRAMES = 600
-_FUNCTIONS = {"exp", "log", "sqrt", "sin", "cos", "tan", "tanh", "sinh", "cosh", "abs", "min",
-              "max"}
+_FUNCTIONS = {"exp", "log", "sqrt", "sin", "cos", "tan", "tanh", "sinh", "cosh", "floor", "abs",
+              "min", "max"}
 #: a name, not the exponent of a number (``1e-3``)
 _NAME = re.compile(r"(?<![0-9.A-Za-z_])[A-Za-z_][A-Za-z0-9_]*")
 

@@ -122,7 +122,7 @@ __all__ = [
 
 #: functions of the language and their number of arguments
 FUNCTIONS = {"exp": 1, "log": 1, "sqrt": 1, "sin": 1, "cos": 1, "tan": 1, "tanh": 1,
-             "sinh": 1, "cosh": 1, "abs": 1, "min": 2, "max": 2}
+             "sinh": 1, "cosh": 1, "floor": 1, "abs": 1, "min": 2, "max": 2}
 #: the comparisons (``u > 0.5``: 1 where true, else 0; false where either side is NaN), as
 #: the internal functions of the tree -> their operator
 COMPARISONS = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}

@@ -68,7 +68,7 @@ FUNCS = define_model(
           " + 0.01*abs(u)**1.5 - 0.03*log(1 + u*u) + 0.01*sin(x)*cos(v) + 0.002*tan(u)",
      "v": "Dv*laplace(v) + 0.02*(u*u + 0.5)**2.5 - 0.04*abs(v)**0.5"
           " + 0.01*exp(0.5*v)*tanh(3*u) + 0.01*cos(2*pi*t)*sin(y + z)"
-          " + 0.01*cosh(u - v) - 0.01*sinh(0.5*v)"},
+          " + 0.01*cosh(u - v) - 0.01*sinh(0.5*v) + 0.01*floor(3*x)"},
     {"Du": 0.2, "Dv": 0.1},
 )
 

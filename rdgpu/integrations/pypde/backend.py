@@ -9,8 +9,9 @@ What it runs (anything else raises `UnsupportedPDE`, a ``NotImplementedError``
 naming the part it cannot run; it never falls back to another backend):
 
 * ``pde.PDE`` expression equations (rdgpu's equation language, `rdgpu.models.
-  equations`: arithmetic, ``exp log sqrt sin cos tan tanh sinh cosh abs min max``, ``laplace(s)``,
-  ``laplace(laplace(s))``, ``laplace(expression)``, ``divergence(D*gradient(s))``, the
+  equations`: arithmetic, ``exp log sqrt sin cos tan tanh sinh cosh floor abs min max``,
+  ``laplace(s)``, ``laplace(laplace(s))``, ``laplace(expression)``,
+  ``divergence(D*gradient(s))``, the
   first derivatives, the coordinates and ``t``) with number or array constants
   (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
   ``SwiftHohenbergPDE``, ``CahnHilliardPDE`` (``bc_mu`` equal to ``bc_c``),
