@@ -26,7 +26,7 @@ reference pads each side with the same expression (`rdgpu.ir.reference`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from rdgpu.domains.boundary import (
     DIRICHLET,
@@ -58,8 +58,6 @@ class Boundary:
     rules: Mapping[tuple[str, str], Node | None]
     grid: Mapping[str, Node | None]
     dirichlet: frozenset[tuple[str, str]] = frozenset()
-    #: the given conditions, as the simulation records them
-    given: Mapping[str, Mapping[str, SideBC]] = field(default_factory=dict)
 
     def ghost(self, name: str, side: str, zero: bool, own: bool) -> Node | None:
         """The ghost tree of field ``name`` on ``side`` (a custom axis' side), None for the
@@ -83,7 +81,7 @@ class Boundary:
                  rename_species(t, names)
                  for (s, side), t in self.rules.items()}
         fixed = frozenset((names.get(s, s), side) for s, side in self.dirichlet)
-        return Boundary(self.axes, rules, self.grid, fixed, self.given)
+        return Boundary(self.axes, rules, self.grid, fixed)
 
     def trees(self) -> Iterable[Node]:
         """Every ghost expression (for the names a pass reads)."""
@@ -155,4 +153,4 @@ def make_boundary(given: Mapping[str, Mapping[str, SideBC]], bcs: GridBC,
             if b.kind == PERIODIC:  # parse_field_bcs refuses this
                 raise ValueError(f"the grid's {side[0]} axis is periodic")
             grid[side] = Num(b.value) if b.kind == DIRICHLET else None
-    return Boundary(axes, rules, grid, frozenset(fixed), given)
+    return Boundary(axes, rules, grid, frozenset(fixed))

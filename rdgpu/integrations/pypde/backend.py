@@ -102,6 +102,7 @@ from rdgpu.core.conventions import REAL_DTYPES, axis_names
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.pypde import steppers as pypde_steppers
 from rdgpu.integrations.pypde.checks import UnsupportedPDE, check_overrides, check_solver
+from rdgpu.integrations.pypde.checks import refuse as _refuse
 from rdgpu.integrations.pypde.ghosts import Side, corrections, expression_ghost, native
 from rdgpu.integrations.pypde.ghosts import axis_bcs as axis_conditions
 from rdgpu.integrations.pypde.steppers import species_views
@@ -122,10 +123,6 @@ _SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
         "derivative and mixed expressions affine in the field, or of the coordinates and t")
-
-
-def _refuse(what: str) -> UnsupportedPDE:
-    return UnsupportedPDE(f"py-pde backend 'rdgpu' cannot run this: {what}")
 
 
 # ---------------------------------------------------------------------------- translation

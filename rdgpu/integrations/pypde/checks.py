@@ -35,7 +35,8 @@ class UnsupportedPDE(NotImplementedError):
     not run; the message names the part."""
 
 
-def _refuse(what: str) -> UnsupportedPDE:
+def refuse(what: str) -> UnsupportedPDE:
+    """The `UnsupportedPDE` naming ``what`` the backend cannot run."""
     return UnsupportedPDE(f"py-pde backend 'rdgpu' cannot run this: {what}")
 
 
@@ -65,7 +66,7 @@ def check_overrides(pde_obj: Any, supported: tuple[type, ...], *, hook: bool) ->
     who = " and ".join(
         [f"the PDE class {cls.__name__} replaces {', '.join(replaced)}"] * bool(replaced)
         + [f"this {cls.__name__} object sets its own {', '.join(own)}"] * bool(own))
-    raise _refuse(f"{who} of {base.__name__} ({' and '.join(kinds)}: rdgpu runs the "
+    raise refuse(f"{who} of {base.__name__} ({' and '.join(kinds)}: rdgpu runs the "
                   f"equations of {base.__name__} on the device and would not call that "
                   "code); run this PDE with py-pde's own backends (backend='numpy' or "
                   "'numba')")

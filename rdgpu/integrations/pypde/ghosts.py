@@ -20,7 +20,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rdgpu.integrations.pypde.checks import UnsupportedPDE
+from rdgpu.integrations.pypde.checks import refuse as _refuse
 
 __all__ = ["Side", "axis_bcs", "corrections", "expression_ghost", "native"]
 
@@ -64,10 +64,6 @@ def native(conds: dict[str, list[Any]], spacing: list[float]
                 if cond is not None:
                     out.setdefault(s, {})[names[k] + sign] = cond
     return grid, out
-
-
-def _refuse(what: str) -> UnsupportedPDE:
-    return UnsupportedPDE(f"py-pde backend 'rdgpu' cannot run this: {what}")
 
 
 def _condition(c: float, f: float, h: float) -> Any:
