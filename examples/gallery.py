@@ -82,6 +82,9 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
     ("brusselator-spots", "Brusselator just past the Turing onset (a = 5, b = 6.6): spots",
      []),
     ("brusselator-stripes", "Brusselator further past onset (b = 8): stripes", []),
+    ("brusselator-noise", "Brusselator (b = 9) from its exact homogeneous steady state, "
+     "which no deterministic run leaves: Itô noise on u (variance 1e-4, Euler-Maruyama, "
+     "Philox numbers) starts the Turing labyrinth", []),
     ("brusselator-seed004-fig1", "Brusselator with a and b varying across the domain "
      "(Quillen 2025, Fig. 1): stripes and spots side by side", []),
     ("fitzhugh-nagumo-stripes", "FitzHugh-Nagumo (α = 0.01): a labyrinth of worms", []),

@@ -43,8 +43,8 @@ def test_kernel_sources_are_package_data():
     assert "force-include" not in text
     assert 'packages = ["rdgpu"]' in text
     files = _kernel_files(ROOT / "rdgpu" / "families")
-    assert {"common.cl", "model/model.cl", "model/blocked.cl", "model/warp_model.py.in",
-            "gray_scott/gray_scott.cl"} <= files
+    assert {"common.cl", "philox.cl", "model/model.cl", "model/blocked.cl",
+            "model/warp_model.py.in", "gray_scott/gray_scott.cl", "noise/noise.cl"} <= files
 
 
 @pytest.mark.slow

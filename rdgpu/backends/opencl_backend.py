@@ -2,8 +2,9 @@
 
 One program per (context, dtype, layout) is built from ``families/common.cl`` followed by
 the source of every family that joins it (`rdgpu.families.shared_opencl_families`),
-and its kernel objects are cached; dla and walkers are programs of their own
-(`OpenCLBackend.own_program`).  Launches go to one in-order queue without waiting;
+and its kernel objects are cached; dla, walkers and noise are programs of their own
+(`OpenCLBackend.own_program`, after shared headers such as ``philox.cl`` where a family
+names them).  Launches go to one in-order queue without waiting;
 `OpenCLBackend.download` and `synchronize` wait.
 
 Two launch layouts run the same inline cell functions (see ``families/common.cl``):
@@ -249,19 +250,24 @@ class OpenCLBackend(Backend):
         return program
 
     def own_program(self, family: str, kernel_args: dict[str, str],
-                    dtype: np.dtype | None = None) -> dict[str, Any]:
+                    dtype: np.dtype | None = None,
+                    headers: tuple[str, ...] = ()) -> dict[str, Any]:
         """This thread's kernel objects of a program of ``family``'s own source
         (``<family>/<family>.cl``) rather than the shared program.  With a real ``dtype``:
         ``common.cl`` then the source, built with the shared options for ``dtype`` once per
         (context, dtype, layout, stride); with None: the source alone, built without
         options once per context (an integer-only family).  ``kernel_args``: each kernel's
-        argument types (B buffer, i int32, l int64, u uint32, d float64, r the real type)."""
+        argument types (B buffer, i int32, l int64, u uint32, d float64, r the real type).
+        ``headers``: files of ``rdgpu/families/`` (e.g. ``"philox.cl"``) put before the
+        family's source, in order (after ``common.cl``); a family passes the same ones on
+        every call."""
         char = None if dtype is None else np.dtype(dtype).char
         mine = self.thread_cache("own programs")
         found = mine.get((family, char))
         if found is not None:
             return found
-        source = f'#line 1 "{family}/{family}.cl"\n' + read_source(family, f"{family}.cl")
+        parts = [f'#line 1 "{name}"\n' + read_source("", name) for name in headers]
+        parts.append(f'#line 1 "{family}/{family}.cl"\n' + read_source(family, f"{family}.cl"))
         options = None
         if dtype is None:
             key = (family, self.context.int_ptr)
@@ -269,8 +275,9 @@ class OpenCLBackend(Backend):
             dtype = np.dtype(dtype)
             self.check_real(dtype)
             key = (family, self.context.int_ptr, char, self.layout, self.col_stride)
-            source = '#line 1 "common.cl"\n' + read_source("", "common.cl") + "\n" + source
+            parts.insert(0, '#line 1 "common.cl"\n' + read_source("", "common.cl"))
             options = [f"-D REAL_IS_DOUBLE={int(dtype == np.float64)}", *self._options]
+        source = "\n".join(parts)
         with OPENCL_LOCK:
             program = PROGRAMS.get(key)
             if program is None:

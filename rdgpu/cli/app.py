@@ -50,6 +50,7 @@ from rdgpu.cli.common import (
     one_line,
 )
 from rdgpu.cli.options import (
+    NoiseAction,
     add_domain_options,
     at_least_1,
     finite_float,
@@ -220,6 +221,12 @@ def _add_what_to_run(what: Any) -> None:
                       "(9 points in 2-D, 19 in 3-D; equal spacings)")
     what.add_argument("--method", metavar="NAME", help=f"time stepping: {', '.join(methods())}"
                       " (default euler; Allen-Cahn: explicit, implicit, crank-nicolson)")
+    what.add_argument("--noise", action=NoiseAction, metavar="[SPECIES=]VARIANCE",
+                      help="Itô noise (repeatable): every species' variance, or one "
+                      "species' (SPECIES=VARIANCE), a number or a pointwise expression of "
+                      "the species, x, y, z, t, e.g. --noise 0.01 or --noise 'u=0.1*u' "
+                      "(py-pde's noise); --method euler (Euler-Maruyama, default) or "
+                      "milstein; its numbers drawn from --seed")
     what.add_argument("--solver", choices=list(SOLVERS),
                       help="the implicit methods' diffusion solves: auto (default: fast "
                       "transforms on rectangular grids, exact to round-off; SOR elsewhere), "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -381,6 +382,28 @@ class BcAction(argparse.Action):
         found = dict(getattr(namespace, "field_bc", None) or {})
         found.setdefault(species, {})[side] = cond
         namespace.field_bc = found
+
+
+class NoiseAction(argparse.Action):
+    """``--noise``, repeatable: ``VARIANCE`` for every species (py-pde's ``"*"``) or
+    ``SPECIES=VARIANCE``, each a number or an expression, gathered in one mapping."""
+
+    def __call__(self, parser: Any, namespace: Any, values: Any, option_string: Any = None):
+        name, value = "*", values.strip()
+        head, sep, rest = value.partition("=")
+        if sep and re.fullmatch(r"[A-Za-z]\w*", head.strip()) and not rest.startswith("="):
+            name, value = head.strip(), rest.strip()
+        if not value:
+            raise argparse.ArgumentError(self, f"{values!r}: give a variance, e.g. 0.01, "
+                                         "'0.1*u' or u=0.02*u*v")
+        found = dict(getattr(namespace, self.dest, None) or {})
+        if name in found:
+            raise argparse.ArgumentError(self, f"the noise of {name!r} is given twice")
+        try:
+            found[name] = float(value)
+        except ValueError:
+            found[name] = value
+        setattr(namespace, self.dest, found)
 
 
 def bc_value(bcs: tuple, ndim: int, text: str) -> Any:

@@ -140,7 +140,20 @@ def _announce(args: argparse.Namespace, sim: Simulation, kwargs: dict) -> None:
               + (f" × {sim.members} members" if sim.members else "") + f", {steps_note}"
               f"dt={sim.dt:g}, {sim.dtype.name}, {sim.backend.name} ({sim.backend.device})"
               + (f", from step {sim.step} of {args.resume}" if args.resume else "")
-              + (f"; {params}" if params else ""))
+              + (f"; {params}" if params else "") + _noise_note(sim))
+
+
+def _noise_note(sim: Simulation) -> str:
+    """``"; noise u=0.01 (euler, seed 3)"`` for a noisy run, else ``""``."""
+    noise = getattr(sim.stepper, "noise", None)
+    if noise is None:
+        return ""
+    given = sim.options.get("noise")
+    if not isinstance(given, dict):
+        given = {"*": given}
+    text = ", ".join(f"{v} on every species" if k == "*" else f"{k}={v}"
+                     for k, v in given.items())
+    return f"; noise {text} ({sim.stepper.method}, seed {noise.seed})"
 
 
 def _run(args: argparse.Namespace, sim: Simulation, kwargs: dict) -> tuple[Any, int, Any]:
@@ -338,6 +351,11 @@ def _stepper_options(args: argparse.Namespace, model: Model, preset: Any, domain
                              "only the models defined by equations have")
         options["block_steps"] = args.block_steps
         check_block_memory(args.block_steps, domain, len(model.species), itemsize)
+    if getattr(args, "noise", None):
+        if "noise" not in inspect.signature(model.stepper).parameters:
+            raise UsageError(f"--noise: model {model.name} takes no noise; only the models "
+                             "defined by equations do")
+        options["noise"] = args.noise
     given = getattr(args, "field_bc", None)
     if given:
         if "bc" not in inspect.signature(model.stepper).parameters:

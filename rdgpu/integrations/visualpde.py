@@ -27,14 +27,15 @@ normal) drawn per cell from the run's seed.  A run lasts ``RUN_FRAMES`` frames o
 ``numTimestepsPerFrame`` steps (ten seconds of VisualPDE at 60 frames a second) unless
 told otherwise.
 
-Refused by name (`UnsupportedPreset`), never approximated: algebraic species, domains
-given by an indicator function or an image, boundary conditions that differ between
-species, Robin and per-side ("combo") conditions, a Neumann flux, logic (``&&``, ``||``)
-and functions rdgpu's language lacks (``H``, ``Bump``, ``mod``...; ``ind(u > 0.5)`` is a
-comparison, which rdgpu has),
-second derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is ``laplace(u)``), 3-D, and a
-``parent`` that is not given.  VisualPDE's Dirichlet value sits on the boundary, rdgpu's
-in the ghost cell half a cell outside: the same condition to first order in ``dx``.
+Algebraic species (the last ``numAlgebraicSpecies``) are the value of their right-hand
+side, substituted into the equations (`rdgpu.ir.algebraic`); boundary conditions per
+species and side are rdgpu's (`rdgpu.integrations.visualpde_bc`).  Refused by name
+(`UnsupportedPreset`), never approximated: first derivatives of an algebraic species'
+expression, domains given by an indicator function or an image, an axis periodic for some
+species only, logic (``&&``, ``||``) and functions rdgpu's language lacks (``H``,
+``Bump``, ``mod``...; ``ind(u > 0.5)`` is a comparison, which rdgpu has), second
+derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is ``laplace(u)``), 3-D, and a ``parent``
+that is not given.
 """
 
 from __future__ import annotations
@@ -217,9 +218,10 @@ def load(preset: Mapping[str, Any] | str | Path,
     p = _merged(_as_dict(preset), presets or {})
     name = str(p.get("preset") or "visualpde")
     n = _integer(p, "numSpecies")
-    if _integer(p, "numAlgebraicSpecies") > 0:
-        raise UnsupportedPreset(f"numAlgebraicSpecies = {p['numAlgebraicSpecies']}: "
-                                "algebraic species are not translated yet")
+    n_alg = _integer(p, "numAlgebraicSpecies")
+    if not 0 <= n_alg < n:
+        raise UnsupportedPreset(f"numAlgebraicSpecies = {n_alg} of numSpecies = {n} (at "
+                                "least one species must evolve)")
     if _flag(p, "domainViaIndicatorFun"):
         raise UnsupportedPreset("domainViaIndicatorFun: a domain given by an indicator "
                                 "function (masked domains are not translated yet)")
@@ -241,7 +243,8 @@ def load(preset: Mapping[str, Any] | str | Path,
                _number(p, "minY", {**constants, **params}) if dim == 2 else 0.0)
     words = _Words(species, params, constants, offsets, dim)
     notes: list[str] = []
-    bc, field_bc = boundaries(p, species, dim, words.translate, list(params),
+    evolving = species[:n - n_alg]  # the last numAlgebraicSpecies are algebraic
+    bc, field_bc = boundaries(p, evolving, dim, words.translate, list(params),
                               UnsupportedPreset, notes)
     equations = {}
     for i, s in enumerate(species, start=1):
@@ -261,10 +264,12 @@ def load(preset: Mapping[str, Any] | str | Path,
         terms.append(f"({words.translate(str(p.get(key, '0')), key)})")
         rhs = " + ".join(terms)
         tau = str(p.get(f"timescale_{i}", "1")).strip()
-        if _flag(p, "timescales") and tau not in ("1", "1.0"):
+        if _flag(p, "timescales") and tau not in ("1", "1.0") and s in evolving:
             rhs = f"({rhs})/({words.translate(tau, f'timescale_{i}')})"
         _parse(rhs, species, params, f"the equation of {s!r}")
         equations[s] = rhs
+    # an algebraic species is the value of its right-hand side (no timescale)
+    algebraic = {s: equations.pop(s) for s in species[n - n_alg:]}
     scheme = str(p.get("timesteppingScheme", "Euler"))
     if scheme not in SCHEMES:
         raise UnsupportedPreset(f"timesteppingScheme = {scheme!r} (translated: "
@@ -275,18 +280,21 @@ def load(preset: Mapping[str, Any] | str | Path,
     try:
         model = Model(name, equations, params, description=f"VisualPDE preset {name!r}",
                       source="VisualPDE (visualpde.com)", default_dt=dt,
-                      default_time=steps * dt)
+                      default_time=steps * dt, algebraic=algebraic)
     except eq.EquationError as exc:  # a name rdgpu reserves, say
         raise UnsupportedPreset(str(exc)) from None
     init = {s: words.translate(str(p.get(f"initCond_{i}", "0")), f"initCond_{i}",
                                initial=True)
-            for i, s in enumerate(species, start=1)}
+            for i, s in enumerate(species, start=1) if s in evolving}
     shown = str(p.get("whatToPlot", species[0])).strip()
+    if shown in algebraic:
+        notes.append(f"whatToPlot names the algebraic species {shown!r}: the picture shows "
+                     f"{evolving[0]!r}")
     if dim == 2 and not _flag(p, "squareCanvas"):
         notes.append("squareCanvas is off: VisualPDE's canvas takes the browser window's "
                      "shape; the translation is square")
     return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
-                       shown if shown in species else species[0], notes, constants, offsets,
+                       shown if shown in evolving else evolving[0], notes, constants, offsets,
                        field_bc)
 
 

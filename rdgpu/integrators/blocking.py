@@ -55,6 +55,8 @@ def why_not(stepper: Any) -> str | None:
         return reason
     if stepper.method != "euler":
         return f"method {stepper.method!r} is not a single-pass step; only 'euler' is"
+    if stepper.noise is not None:
+        return "the equations are stochastic (noise=): each step draws new numbers"
     if stepper._pre is not None:
         return "the equations take a bilaplacian, which needs a pre-pass each step"
     kind = stepper.target.kind

@@ -38,26 +38,32 @@ __all__ = ["advective_rate", "frozen_coefficients", "implicit_factors", "stabili
            "with_advection"]
 
 
-def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str) -> float:
-    """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``,
-    ``0 < m <= m_max`` (module doc; ``method`` a name or alias of `SCHEMES`).
-    Remembered per ``(D, B, m_max, method)``: an ensemble or a sweep asks for it once per
-    member."""
+def stability_limit(D: np.ndarray, B: np.ndarray, m_max: float, method: str,
+                    C: np.ndarray | None = None) -> float:
+    """The largest stable step of ``method`` for the linear part ``A(m) = −m D + m² B``
+    (+ ``C``, for an explicit method: the reactions' constant damping ``diag(γ)``, ``γ <=
+    0``), ``0 < m <= m_max`` (module doc; ``method`` a name or alias of `SCHEMES`).
+    Remembered per ``(D, B, m_max, method, C)``: an ensemble or a sweep asks for it once
+    per member."""
     D, B = np.asarray(D, dtype=np.float64), np.asarray(B, dtype=np.float64)
-    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method)
+    C = np.zeros_like(D) if C is None else np.asarray(C, dtype=np.float64)
+    return _stability_limit(D.shape, D.tobytes(), B.tobytes(), float(m_max), method,
+                            C.tobytes())
 
 
 @functools.lru_cache(maxsize=4096)
 def _stability_limit(shape: tuple[int, ...], d: bytes, b: bytes, m_max: float,
-                     method: str) -> float:
+                     method: str, c: bytes) -> float:
     D = np.frombuffer(d, dtype=np.float64).reshape(shape)
     B = np.frombuffer(b, dtype=np.float64).reshape(shape)
+    C = np.frombuffer(c, dtype=np.float64).reshape(shape)
     ms = np.unique(np.concatenate([np.linspace(0.0, m_max, 513)[1:], [m_max]]))
     scheme = get_scheme(method)
     if isinstance(scheme, ExponentialScheme):  # the linear part is exact: no limit
         return math.inf
     if not scheme.implicit:
-        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B).ravel()
+        lam = np.linalg.eigvals(-ms[:, None, None] * D + (ms * ms)[:, None, None] * B
+                                + C).ravel()
         neg = lam[lam.real < -1e-300]
         euler = float(np.min(-2.0 * neg.real / np.abs(neg) ** 2)) if neg.size else math.inf
         if isinstance(scheme, MultistepScheme) and neg.size:

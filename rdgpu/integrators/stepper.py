@@ -93,6 +93,7 @@ from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
 from rdgpu.integrators.boundaries import stepper_boundary
 from rdgpu.integrators.exponential import Etdrk4, split_damping
+from rdgpu.integrators.noise import draw, noise_buffers, stepper_noise
 from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.splitting import linear_split, scalar_numbers
 from rdgpu.integrators.stability import implicit_factors
@@ -204,7 +205,8 @@ class ModelStepper(FieldStepper):
                  backend: Backend, dtype: np.dtype, method: str, tol: float | None = None,
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None, solver: str | None = None,
-                 bc: Mapping[str, Any] | None = None):
+                 bc: Mapping[str, Any] | None = None, noise: Any = None,
+                 noise_seed: int = 0, noise_interpretation: str = "ito"):
         # a positive number for every method (explicit ones do not use it)
         tol = None if tol is None else _positive_tol(tol)
         #: the implicit solves' solver (`rdgpu.ops.transforms.SOLVERS`; None: the default)
@@ -244,6 +246,9 @@ class ModelStepper(FieldStepper):
         #: per-species boundary conditions (`rdgpu.integrators.boundaries`), or None
         self.boundary = stepper_boundary(bc, domain, self.target.kind, self.species,
                                          self.scheme, self._device_params, inline)
+        #: the noise (`rdgpu.integrators.noise`), or None: deterministic
+        self.noise = stepper_noise(noise, noise_seed, domain, self.scheme, self.species,
+                                   self._device_params, inline, noise_interpretation)
         self.D = self._diffusion_numbers()
         #: the exponential step (`rdgpu.integrators.exponential`), or None
         self._etd: Etdrk4 | None = None
@@ -303,6 +308,14 @@ class ModelStepper(FieldStepper):
             Output(s, eq.Bin("+", eq.Ref("species", s), eq.Bin("*", h, low[s])),
                    self._bounds(s))
             for s in self.species)
+        #: the noise's buffers (`rdgpu.integrators.noise.noise_buffers`), read after `_aux`
+        self._xi: list[DeviceArray] = []
+        if self.noise is not None:
+            euler = tuple(o if self.noise.term(o.name) is None else Output(
+                o.name, eq.Bin("+", o.expr, self.noise.term(o.name)), o.bounds) for o in euler)
+            aux_names += self.noise.inputs
+            self._xi = noise_buffers(self.noise, self.backend, self.shape,
+                                     self.target.domain.kernel_shape, self.dtype)
         self._euler = self._program(self.species + aux_names, euler, self._pre)
         if scheme.shu_osher is not None:
             self._setup_shu_osher(scheme, euler, aux_names)
@@ -572,7 +585,9 @@ class ModelStepper(FieldStepper):
                 self._step_butcher(scheme, t0, h)
                 return
             if not self._stages:  # Euler: the first stage is the step
-                self._eval(self._euler, x, y, t0)
+                if self.noise is not None:
+                    draw(self.noise, self.backend, self._xi, self.steps_done)
+                self._eval(self._euler, x, y, t0, self._xi)
                 return
             outs = [*self._stages, y]
             self._eval(self._euler, x, outs[0], t0)

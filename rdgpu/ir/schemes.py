@@ -43,7 +43,9 @@ class ExplicitScheme:
     the Butcher matrix, row ``i`` with ``i`` entries (row 0 empty); ``order``: its order of
     accuracy; ``real_stability``: the length of its stability interval on the negative
     real axis (Euler 2); ``shu_osher``: ``None``, or the stages after the first Euler stage
-    as ``(a, b, c)``, each ``y ← a·x + b·(y + h f(y, t + c h))``."""
+    as ``(a, b, c)``, each ``y ← a·x + b·(y + h f(y, t + c h))``; ``noise``: how it steps
+    stochastic equations (`rdgpu.integrators.noise`: ``"euler-maruyama"``,
+    ``"milstein"``), None: it does not."""
 
     name: str
     order: int
@@ -54,6 +56,7 @@ class ExplicitScheme:
     real_stability: float
     aliases: tuple[str, ...] = ()
     shu_osher: tuple[tuple[float, float, float], ...] | None = None
+    noise: str | None = None
 
     implicit = False
 
@@ -192,7 +195,8 @@ def _q(*xs: int | str) -> tuple[float, ...]:
 #: forward Euler: the default method, and the explicit pass of every IMEX step
 EULER = register_scheme(ExplicitScheme(
     "euler", 1, a=((),), b=(1.0,), c=(0.0,), title="forward Euler",
-    real_stability=2.0, aliases=("explicit", "forward-euler"), shu_osher=()))
+    real_stability=2.0, aliases=("explicit", "forward-euler", "euler-maruyama"), shu_osher=(),
+    noise="euler-maruyama"))
 register_scheme(ExplicitScheme(
     "heun", 2, a=((), (1.0,)), b=(0.5, 0.5), c=(0.0, 1.0), title="Heun (SSP-RK2)",
     real_stability=2.0, aliases=("rk2",), shu_osher=((0.5, 0.5, 1.0),)))
@@ -209,6 +213,10 @@ register_scheme(ExplicitScheme(
 register_scheme(MultistepScheme(
     "ab2", 2, beta=(1.5, -0.5), title="Adams-Bashforth 2 (VisualPDE's)", real_stability=1.0,
     aliases=("adams-bashforth",)))
+register_scheme(ExplicitScheme(
+    "milstein", 1, a=((),), b=(1.0,), c=(0.0,),
+    title="Milstein (stochastic equations; forward Euler without noise)",
+    real_stability=2.0, shu_osher=(), noise="milstein"))
 register_scheme(ImexScheme(
     "imex", 1, theta=1.0, steps=1, title="IMEX backward Euler", aliases=("imex-be",)))
 register_scheme(ImexScheme(

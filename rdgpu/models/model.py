@@ -36,6 +36,7 @@ from rdgpu.backends.base import Backend, DeviceArray
 from rdgpu.backends.registry import get_backend
 from rdgpu.core.errors import StabilityError
 from rdgpu.domains.base import domain_shape, require_domain
+from rdgpu.integrators.exponential import split_damping
 from rdgpu.integrators.stability import (
     advective_rate,
     frozen_coefficients,
@@ -44,6 +45,7 @@ from rdgpu.integrators.stability import (
 )
 from rdgpu.integrators.stepper import ModelStepper
 from rdgpu.ir import equations as eq
+from rdgpu.ir.algebraic import inline, resolve
 from rdgpu.ir.program import expression_tree
 from rdgpu.ir.schemes import get_scheme, method_names
 from rdgpu.ir.stencils import check_stencil
@@ -245,6 +247,9 @@ class Model:
         The time-stepping scheme of a run that names none.
     dt_share : float, optional
         The share of the stability limit a default dt may take (None: 0.9).
+    algebraic : mapping, optional
+        Algebraic species ``{name: expression}``, substituted into the equations
+        (`rdgpu.ir.algebraic`; VisualPDE's).
     """
 
     @property
@@ -271,6 +276,7 @@ class Model:
         default_fields: Mapping[str, Mapping[str, Any]] | None = None,
         default_method: str = "euler",
         dt_share: float | None = None,
+        algebraic: Mapping[str, str] | None = None,
     ):
         if not isinstance(name, str) or not name:
             raise ValueError(f"a model name is a non-empty string, got {name!r}")
@@ -291,15 +297,30 @@ class Model:
                 _constant_value(k, v, eq.parse(v, params=[p for p in self.defaults if p != k],
                                                what=f"parameter {k!r}", laplace=False))
         self.equations = {s: str(equations[s]).strip() for s in self.species}
+        #: algebraic species (`rdgpu.ir.algebraic`): name -> text, and -> its tree in the
+        #: evolving species; the equations read them substituted
+        self.algebraic_equations = {_identifier(a, "algebraic species name"): str(t).strip()
+                                    for a, t in (algebraic or {}).items()}
+        clash = set(self.algebraic_equations) & ({*self.species, *self.defaults})
+        if clash:
+            raise eq.EquationError(f"algebraic species named like a species or parameter: "
+                                   f"{sorted(clash)}")
+        names = (*self.species, *self.algebraic_equations)
+        self.algebraic = resolve({a: eq.parse(t, species=names, params=self.defaults,
+                                              what=f"algebraic species {a!r}")
+                                  for a, t in self.algebraic_equations.items()})
         self.trees = {
-            s: eq.parse(self.equations[s], species=self.species, params=self.defaults,
-                        what=f"equation of {s!r}")
+            s: inline(eq.parse(self.equations[s], species=names, params=self.defaults,
+                               what=f"equation of {s!r}"), self.algebraic)
             for s in self.species
         }
+        written = [f"{s}_t = {self.equations[s]}" for s in self.species] + \
+            [f"{a} = {t}" for a, t in self.algebraic_equations.items()]
+        if self.algebraic:  # what checkpoints and sweeps rebuild the model from
+            self.equations = {s: eq.to_text(t) for s, t in self.trees.items()}
         self.linear = {s: eq.linear_parts(t) for s, t in self.trees.items()}
         self.bounds = check_bounds(bounds, self.species)
-        self.description = description or "; ".join(
-            f"{s}_t = {self.equations[s]}" for s in self.species)
+        self.description = description or "; ".join(written)
         self.source = source
         self._steady_guess = steady_guess
         self.spacing = float(spacing)
@@ -517,20 +538,31 @@ class Model:
         model = fit_to_mesh(self, domain, lengths)
         # divergences with coefficients of x, y, z and parameters: their largest value
         env = {**model._largest(params), **_physical_coordinates(require_domain(domain))}
-        ops = model._operators(params, {s: eq.linear_parts(frozen_coefficients(t, env))
-                                        for s, t in model.trees.items()})
+        parts = {s: eq.linear_parts(frozen_coefficients(t, env)) for s, t in model.trees.items()}
+        ops = model._operators(params, parts)
         rate = advective_rate(self.trees, self._largest(params), require_domain(domain).spacings)
+        method = _method(method or self.default_method, self.methods)
+        # an explicit method also steps each species' constant damping γ s (γ < 0;
+        # `split_damping`), which limits h by itself (u_t = −k u: h <= 2/k)
+        numbers = {k: float(v) for k, v in env.items() if np.ndim(v) == 0}
+        damping = np.diag([0.0 if parts[s] is None else split_damping(parts[s].rest, s,
+                                                                        numbers)[0]
+                           for s in self.species])
         if ops is None:
             return math.inf if rate == 0 else 1.0 / rate
-        method = _method(method or self.default_method, self.methods)
         if get_scheme(method).implicit:
+            damping = None
             for s, beta in zip(self.species, np.diag(ops[1]), strict=True):
                 if beta > 0:
                     raise ValueError(
                         f"method {method!r}: the bilaplacian of {s!r} has the coefficient "
                         f"{beta} > 0 (ill-posed, anti-diffusive at every scale)")
         largest = require_domain(domain).largest_eigenvalue(stencil)  # of −Δ_h (bounded above)
-        return with_advection(stability_limit(ops[0], ops[1], largest, method), rate, method)
+        limit = stability_limit(ops[0], ops[1], largest, method)
+        if damping is not None and damping.any():  # it may only tighten the limit: with
+            # growth terms left out, a damping can move complex eigenvalues to a larger one
+            limit = min(limit, stability_limit(ops[0], ops[1], largest, method, damping))
+        return with_advection(limit, rate, method)
 
     def stepper(
         self,
@@ -550,6 +582,9 @@ class Model:
         lengths: str = "cells",
         solver: str | None = None,
         bc: Mapping[str, Any] | None = None,
+        noise: Any = None,
+        noise_seed: int = 0,
+        noise_interpretation: str = "ito",
     ):
         """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`, fields at zero.
 
@@ -584,7 +619,13 @@ class Model:
         bc : mapping, optional
             Boundary conditions per species and side on a grid's non-periodic sides
             (`rdgpu.domains.boundary.parse_field_bcs`), over the grid's own; explicit
-            methods."""
+            methods.
+        noise, noise_seed, noise_interpretation : number, str or mapping; int; str
+            Noise (py-pde's ``noise``): each species' variance, a number or a pointwise
+            expression (``{"u": "0.1*u"}``; ``"*"`` for the others), stepped by method
+            ``"euler"`` (Euler–Maruyama) or ``"milstein"`` (`rdgpu.integrators.noise`);
+            the Philox key of its numbers (default 0); ``"ito"`` (default) or
+            ``"stratonovich"`` (py-pde's names)."""
         if solver is not None and solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(map(repr, SOLVERS))} or None, "
                              f"got {solver!r}")
@@ -610,7 +651,8 @@ class Model:
         return ModelStepper(
             fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
-            block_steps=block_steps, solver=solver, bc=bc)
+            block_steps=block_steps, solver=solver, bc=bc, noise=noise, noise_seed=noise_seed,
+            noise_interpretation=noise_interpretation)
 
 
 def _members(members: Any) -> int:

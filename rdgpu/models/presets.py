@@ -327,6 +327,17 @@ _add(Preset(
     description="further past onset: a labyrinth of stripes",
 ))
 _add(Preset(
+    "brusselator-noise", "brusselator", {"Du": 2.0, "Dv": 22.0, "a": 5.0, "b": 9.0},
+    dt=0.005, steps=8000, domain={"grid": (256, 256), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "uniform", "values": {"u": 5.0, "v": 1.8}},
+    source="Quillen 2025 §1.1 (the Brusselator); Itô noise as py-pde's noise=",
+    expect="stripes", snapshot_every=1000, classify={"field": "u", "threshold": None},
+    options={"noise": {"u": 1e-4}},
+    description="from the exact homogeneous steady state (u, v) = (a, b/a), which no "
+    "deterministic run leaves: additive noise on u (variance 1e-4, Euler-Maruyama) starts "
+    "the Turing instability",
+))
+_add(Preset(
     "brusselator-seed004-fig1", "brusselator",
     {"Du": 2.0, "Dv": 22.0, "a": {"kind": "sine", "mean": 5.0, "amplitude": 1.0, "axis": "x"},
      "b": {"kind": "sine", "mean": 9.0, "amplitude": 1.0, "axis": "y"}},

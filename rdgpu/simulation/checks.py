@@ -98,20 +98,29 @@ def spots_count(count: Any, points: int) -> int:
 _OWN = {"domain", "params", "dt", "backend", "dtype", "check_stability", "seed", "members"}
 
 
-def check_options(model: Model, options: Any, bc: Any = None) -> dict[str, Any]:
+def check_options(model: Model, options: Any, bc: Any = None, noise: Any = None,
+                  seed: Any = 0) -> dict[str, Any]:
     """``options`` (extra keyword arguments of ``model.stepper``) checked against what the
     stepper takes: names it knows, and for models built from equations a ``tol`` that is a
-    positive number given only to a method that solves implicitly; ``bc`` (Simulation's
-    per-species conditions) joins them as ``"bc"``."""
+    positive number given only to a method that solves implicitly; ``bc`` and ``noise``
+    (Simulation's per-species conditions and noise) join them as ``"bc"`` and ``"noise"``,
+    the noise keyed by ``seed`` (an ensemble's per-member seeds: the first) unless the
+    options say ``"noise_seed"``."""
     import inspect
 
-    if bc is not None:
-        if isinstance(options, Mapping) and "bc" in options:
-            raise ValueError("bc given twice: as Simulation(..., bc=...) and in options")
-        if not accepts(model.stepper, "bc"):
-            raise ValueError(f"model {getattr(model, 'name', '?')!r} takes no per-species "
-                             "boundary conditions (bc=): models defined by equations do")
-        options = {**(options or {}), "bc": bc}
+    for key, value, what in (("bc", bc, "per-species boundary conditions"),
+                             ("noise", noise, "noise")):
+        if value is None:
+            continue
+        if isinstance(options, Mapping) and key in options:
+            raise ValueError(f"{key} given twice: as Simulation(..., {key}=...) and in options")
+        if not accepts(model.stepper, key):
+            raise ValueError(f"model {getattr(model, 'name', '?')!r} takes no {what} "
+                             f"({key}=): models defined by equations do")
+        options = {**(options or {}), key: value}
+    if isinstance(options, Mapping) and options.get("noise") is not None \
+            and "noise_seed" not in options:
+        options = {**options, "noise_seed": seed[0] if isinstance(seed, list) else seed}
     if options is None:
         return {}
     if not isinstance(options, Mapping):

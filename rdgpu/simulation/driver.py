@@ -125,9 +125,11 @@ class Simulation:
         (default: the smallest of the members' defaults).  A member that diverges is
         reported (``Result.diverged_members``) and frozen at its last good state; the
         others go on.
-    bc : dict, optional
+    bc, noise : dict, optional
         Conditions per species and side over the grid's own, ``{"u": {"x-": ("value",
-        "sin(t)")}, "v": ("neumann", 0.5)}`` (docs/boundaries.md; kept as ``options["bc"]``).
+        "sin(t)")}, "v": ("neumann", 0.5)}`` (docs/boundaries.md); Itô noise, each species'
+        variance (``{"u": "0.1*u"}``, docs/noise.md; its numbers keyed by ``seed``).  Kept
+        as ``options["bc"]``, ``options["noise"]``.
     """
 
     def __init__(
@@ -146,6 +148,7 @@ class Simulation:
         options: Mapping[str, Any] | None = None,
         members: int | None = None,
         bc: Mapping[str, Any] | None = None,
+        noise: Any = None,
     ) -> None:
         self.model = lookup_model(model)
         self.domain_source = domain if isinstance(domain, Mapping) else None
@@ -174,7 +177,7 @@ class Simulation:
                 whole(k, "seed") for k in member_seeds(seed, self.members)]
         else:
             self.seed = whole(seed, "seed")
-        self.options = check_options(self.model, options, bc)
+        self.options = check_options(self.model, options, bc, noise, self.seed)
         each = self._set_params(params)
         self._set_dt(dt, list({id(p): p for p in each}.values()), check_stability)
         self.backend = get_backend(backend)
@@ -359,7 +362,8 @@ class Simulation:
         Parameters
         ----------
         preset : Preset or str
-            A `rdgpu.models.Preset` or a name in ``rdgpu.models.PRESETS``.
+            A `rdgpu.models.Preset` or a name in ``rdgpu.models.PRESETS`` (else a
+            ``TypeError``/``ValueError``).
         domain : Grid, SurfaceMesh or dict, optional
             Replaces the preset's domain (default ``None``: the preset's).
         params : dict, optional
@@ -379,20 +383,14 @@ class Simulation:
             As in `Simulation` (default ``True``).
         members : int, optional
             Run an ensemble of that many members (see `Simulation`).
-
-        Raises
-        ------
-        TypeError, ValueError
-            ``preset`` is neither a preset nor a name in ``rdgpu.models.PRESETS``.
         """
         p = lookup_preset(preset)
-        sim = cls(
-            p.model, p.domain if domain is None else domain, {**(p.params or {}), **(params or {})},
-            dt=p.dt if dt is None else dt, backend=backend, dtype=dtype,
-            seed=getattr(p, "seed", 0) if seed is None else seed,
-            init=p.init if init is None else init, check_stability=check_stability,
-            options=getattr(p, "options", None), members=members,
-        )
+        sim = cls(p.model, p.domain if domain is None else domain,
+                  {**(p.params or {}), **(params or {})}, dt=p.dt if dt is None else dt,
+                  backend=backend, dtype=dtype, seed=getattr(p, "seed", 0) if seed is None
+                  else seed, init=p.init if init is None else init,
+                  check_stability=check_stability, options=getattr(p, "options", None),
+                  members=members)
         sim.preset = p
         return sim
 

@@ -105,8 +105,10 @@ def test_readme_custom_model_command_still_runs(capsys, tmp_path):
 def test_the_uniform_hint_works_for_a_user_model(capsys, tmp_path, monkeypatch):
     """E1: the warning suggested `rdgpu presets my-model`, which fails for a user model."""
     monkeypatch.chdir(tmp_path)
+    # dt 1: u' = u − u = 0, the uniform field the hint is for (the default dt is 0.9 of
+    # the decay's limit 2)
     code, _, err = cli(capsys, "run", "decay", "--equation", "u=-u", "--size", "8",
-                       "--steps", "2", *FAST, "--out", "d.png")
+                       "--steps", "2", "--dt", "1", *FAST, "--out", "d.png")
     assert code == 0, err
     warning = [ln for ln in err.splitlines() if "uniform" in ln]
     assert len(warning) == 1, err

@@ -1,7 +1,8 @@
 """The golden cases: every kernel family through the functional API, every built-in model
 (its default method and every implicit method it offers) through ``Simulation``, a user
 model, 1-D/2-D/3-D grids, a mesh, a graph surface, temporal blocking, ensembles, level-set
-fronts driven by a model, DLA and random walkers, on every available backend in both dtypes.
+fronts driven by a model, DLA and random walkers, the noise family's normal numbers, on every
+available backend in both dtypes.
 
 Sizes are small and odd, grids non-square, so that every case runs in well under a second
 once the backends' kernels are compiled (Warp and PoCL cache them on disk).  Inputs come
@@ -299,6 +300,16 @@ def _walkers(be: str, dt: str) -> dict:
             "walker_steps": r.walker_steps, "steps": r.steps, "stopped": r.stopped}
 
 
+# ------------------------------------------------- kernel families without a functional API
+
+def _normal_fill(be: str, dt: str) -> dict:
+    """The noise family's normal numbers (rdgpu/families/noise) of a (7, 11) array."""
+    backend = rdgpu.get_backend(be)
+    out = backend.empty((7, 11), np.dtype(dt))
+    backend.kernel("noise", "normal_fill")(out, seed=2**40 + 9, step=2**33 + 3, stream=1)
+    return {"out": backend.download(out)}
+
+
 # ----------------------------------------------------------------- all of them
 
 def _backends() -> tuple[list[str], list[str]]:
@@ -315,7 +326,8 @@ def all_cases(only: Iterable[str] | None = None) -> tuple[list[Case], list[str]]
     """Every case on every available backend (notes name those left out); ``only``:
     keep the cases whose key contains one of these strings."""
     names, notes = _backends()
-    per_dtype = {**FUNCTIONAL, **_simulation_cases(), "dla": _dla, "front_growth": _front}
+    per_dtype = {**FUNCTIONAL, **_simulation_cases(), "dla": _dla, "front_growth": _front,
+                 "normal_fill": _normal_fill}
     cases = []
     for be in names:
         for name, run in per_dtype.items():

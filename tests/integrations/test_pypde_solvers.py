@@ -323,8 +323,19 @@ def test_pypde_solver_comparison_example():
 
 
 # --------------------------------------------------------------------- refusals
-def test_refuses_other_solvers(gs):
+class _OwnSolver(pde.EulerSolver):
+    """A solver of the user's own: its stepping is Python code rdgpu does not run (its own
+    name: py-pde registers every subclass under its ``name``)."""
+
+    name = "rdgpu-test-own"
+
+
+def test_refuses_other_solvers_and_steps_milstein_as_euler(gs):
     eq, start = gs
-    with pytest.raises(UnsupportedPDE, match="the solver MilsteinSolver"):
-        eq.solve(start.copy(), t_range=0.1, dt=0.01, solver="milstein",
+    with pytest.raises(UnsupportedPDE, match="the solver _OwnSolver"):
+        eq.solve(start.copy(), t_range=0.1, dt=0.01, solver=_OwnSolver,
                  backend="rdgpu:numpy", tracker=None)
+    # a deterministic PDE: Milstein is forward Euler, bit for bit
+    runs = [eq.solve(start.copy(), t_range=0.1, dt=0.01, solver=name,
+                     backend="rdgpu:numpy", tracker=None).data for name in ("milstein", "euler")]
+    np.testing.assert_array_equal(runs[0], runs[1])

@@ -120,7 +120,7 @@ def test_parents_json_and_files(tmp_path):
 
 
 @pytest.mark.parametrize("preset, words", [
-    ({"numAlgebraicSpecies": 1, "numSpecies": 3}, "algebraic species"),
+    ({"numAlgebraicSpecies": 2, "numSpecies": 2}, "at least one species must evolve"),
     ({"domainViaIndicatorFun": True}, "indicator function"),
     ({"boundaryConditions_1": "neumann"}, "periodic on some species' or sides' x"),
     ({"boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
@@ -146,6 +146,37 @@ def test_parents_json_and_files(tmp_path):
 def test_what_rdgpu_cannot_translate_is_refused_by_name(preset, words):
     with pytest.raises(UnsupportedPreset, match=words):
         load(preset)
+
+
+SH_ALGEBRAIC = {
+    "preset": "sh-algebraic", "numSpecies": 2, "numAlgebraicSpecies": 1,
+    "speciesNames": "u v", "crossDiffusion": True, "domainScale": "24", "spatialStep": "1",
+    "squareCanvas": True, "dt": 0.02, "kineticParams": "r = 0.3;",
+    "diffusionStr_1_1": "0", "diffusionStr_1_2": "-1", "diffusionStr_2_1": "1",
+    "diffusionStr_2_2": "0", "reactionStr_1": "(r-1)*u - 2*v - u^3", "reactionStr_2": "0",
+    "boundaryConditions_2": "dirichlet", "timescales": True, "timescale_2": "5",
+    "initCond_1": "0.1*sin(2*pi*x/L_x)", "whatToPlot": "v"}
+
+
+def test_algebraic_species_are_substituted():
+    """VisualPDE's Swift–Hohenberg with the algebraic ``v = Δu`` (cross-diffusion ``D_vu =
+    1``, ``D_uv = −1``): rdgpu's model of ``u`` alone, ``−Δv`` a bilaplacian (B = −1) and
+    ``−2v`` an anti-diffusion (D = −2); ``v``'s boundary condition and timescale do not
+    apply (it has no evolution); the run equals the same model written by hand."""
+    tr = load(SH_ALGEBRAIC)
+    assert tr.model.species == ("u",) and set(tr.model.algebraic) == {"v"}
+    D, B = tr.model.linear_operators()
+    assert D.tolist() == [[-2.0]] and B.tolist() == [[-1.0]]
+    assert tr.field == "u" and any("algebraic species 'v'" in n for n in tr.notes)
+    sim = tr.simulation(backend="numpy", dtype="float64")
+    res = sim.run(100, progress=False)
+    hand = define_model("hand", {"u": "(r - 1)*u - 2*laplace(u) - laplace(laplace(u)) - u**3"},
+                        {"r": 0.3})
+    st = hand.stepper(tr.grid, dt=0.02, backend="numpy")
+    st.set_state(tr.fields(0))
+    st.advance(100)
+    np.testing.assert_allclose(res.fields["u"], st.get_state()["u"], rtol=1e-11, atol=1e-12)
+    assert res.diverged is None and np.abs(res.fields["u"]).max() > 0.01
 
 
 def test_the_command_line_runs_a_preset(tmp_path, capsys):

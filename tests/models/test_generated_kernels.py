@@ -540,8 +540,31 @@ def test_euler_limit_of_cross_diffusion_and_bilaplacian():
         assert expect == pytest.approx(2 / (m_max * (1 + c * c)))
         assert cgl.dt_limit(grid, {}) == pytest.approx(expect, rel=1e-12)
         assert bil.dt_limit(grid, {}) == pytest.approx(2 / (K * m_max**2), rel=1e-12)
-        # 2m − m² decays for m > 2: limit 2/(m² − 2m), smallest at m_max
-        assert SH.dt_limit(grid, {}) == pytest.approx(2 / (m_max**2 - 2 * m_max), rel=1e-12)
+        # 2m − m² + (r − 1) (the constant damping (r − 1)u = −0.7u counts, issue 23):
+        # limit 2/(m² − 2m + 0.7), smallest at m_max
+        assert SH.dt_limit(grid, {}) == pytest.approx(2 / (m_max**2 - 2 * m_max + 0.7),
+                                                      rel=1e-12)
+
+
+def test_constant_damping_tightens_the_explicit_limit():
+    """A species' constant damping ``−k s`` is stepped by an explicit method too: the
+    limit is ``2/(m_max D + k)`` (``2/k`` without diffusion), not the diffusion's alone
+    (``u_t = Δu − u`` once got dt 0.225 > 2/9 by default and diverged); a growth term does
+    not loosen it, and IMEX methods keep their limit."""
+    grid = LIMIT_GRIDS[1]
+    m_max = 4 * _inv_h2(grid)
+    decay = define_model("decay", {"u": "laplace(u) - k*u"}, {"k": 3.0})
+    assert decay.dt_limit(grid) == pytest.approx(2 / (m_max + 3.0), rel=1e-12)
+    assert define_model("ou", {"u": "-k*u"}, {"k": 4.0}).dt_limit(grid) == 0.5
+    grow = define_model("grow", {"u": "laplace(u) + u"})
+    assert grow.dt_limit(grid) == pytest.approx(2 / m_max, rel=1e-12)
+    assert decay.dt_limit(grid, method="imex") == math.inf
+    sim = rdgpu.Simulation(define_model("c", {"u": "laplace(u) - u"}), Grid((24, 24)),
+                           backend="numpy", init={"kind": "uniform", "values": {"u": 0.0},
+                                                            "noise": 1.0})
+    assert sim.dt <= 2 / 9
+    res = sim.run(400, progress=False)
+    assert res.diverged is None and np.abs(res.fields["u"]).max() < 1.0
 
 
 DIFFUSION = define_model("diffusion", {"u": "D*laplace(u)"}, {"D": 0.7})
@@ -615,7 +638,8 @@ def test_factored_linear_terms():
     np.testing.assert_array_equal(D, [[0.5, 0.0], [0.0, 0.5]])
     np.testing.assert_array_equal(B, np.zeros((2, 2)))
     grid = LIMIT_GRIDS[1]
-    assert model.dt_limit(grid) == pytest.approx(1 / (2 * 0.5 * _inv_h2(grid)), rel=1e-12)
+    # −m/2 − 1/2 per mode (the damping −u/2 counts): 2/(2 Σ1/h² + 1/2)
+    assert model.dt_limit(grid) == pytest.approx(2 / (2 * _inv_h2(grid) + 0.5), rel=1e-12)
     with pytest.raises(StabilityError):
         model.stepper(grid, {}, dt=2 * model.dt_limit(grid), backend="numpy")
     st = model.stepper(grid, {}, dt=10 * model.dt_limit(grid), backend="numpy",

@@ -1,5 +1,6 @@
-"""NumPy reference of the random-walker DLA kernels (seed 001 §2): Philox-4x32-10 and
-one walker step plus its in-order sticking resolution.
+"""NumPy reference of the random-walker DLA kernels (seed 001 §2): one walker step plus
+its in-order sticking resolution; Philox-4x32-10 is `rdgpu.families.philox` (shared with
+the noise family; ``philox4x32`` and ``key_of`` are re-exported here).
 
 Conventions shared by every backend (Warp: ``warp_kernels.py``, OpenCL: ``walkers.cl``):
 
@@ -35,38 +36,14 @@ from __future__ import annotations
 
 import numpy as np
 
-M0, M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)
-W0, W1 = 0x9E3779B9, 0xBB67AE85
-MASK32 = np.uint64(0xFFFFFFFF)
+from rdgpu.families.philox import key_of as key_of
+from rdgpu.families.philox import philox4x32 as philox4x32
+
 COUNT, EXT, DONE, STEPS = 0, 1, 2, 3
 STEP, RELEASE, FIRST = 0, 1, 2  # purposes (the counter's last word)
 RADIAL, SLAB = 0, 1
 _DI = np.array([0, 0, 1, -1], np.int64)
 _DJ = np.array([1, -1, 0, 0], np.int64)
-
-
-def philox4x32(ctr, key) -> tuple[np.ndarray, ...]:
-    """Philox-4x32-10 of the counters ``ctr`` (4 uint32 arrays or scalars) under ``key``
-    (2 uint32): returns 4 uint32 arrays."""
-    c0, c1, c2, c3 = (np.asarray(c, np.uint64) & MASK32 for c in ctr)
-    c0, c1, c2, c3 = np.broadcast_arrays(c0, c1, c2, c3)
-    k0, k1 = int(key[0]) & 0xFFFFFFFF, int(key[1]) & 0xFFFFFFFF
-    for rnd in range(10):
-        if rnd:
-            k0, k1 = (k0 + W0) & 0xFFFFFFFF, (k1 + W1) & 0xFFFFFFFF
-        p0, p1 = M0 * c0, M1 * c2
-        c0, c1, c2, c3 = (
-            (p1 >> np.uint64(32)) ^ c1 ^ np.uint64(k0),
-            p1 & MASK32,
-            (p0 >> np.uint64(32)) ^ c3 ^ np.uint64(k1),
-            p0 & MASK32,
-        )
-    return tuple(c.astype(np.uint32) for c in (c0, c1, c2, c3))
-
-
-def key_of(seed: int) -> tuple[int, int]:
-    """The Philox key ``(low, high)`` 32-bit words of a non-negative 64-bit seed."""
-    return seed & 0xFFFFFFFF, (seed >> 32) & 0xFFFFFFFF
 
 
 def draw(walkers, t: int, purpose: int, key) -> tuple[np.ndarray, ...]:

@@ -1,38 +1,11 @@
-/* Random-walker DLA (seed 001 §2): Philox-4x32-10, one walker step and the in-order
- * sticking resolution.  The rules and the state layout (state = COUNT, EXT, DONE, STEPS)
- * are those of walkers/reference.py.  Integer only: this file is built on its own,
- * without common.cl.
+/* Random-walker DLA (seed 001 §2): one walker step and the in-order sticking resolution.
+ * The rules and the state layout (state = COUNT, EXT, DONE, STEPS) are those of
+ * walkers/reference.py.  Integer only: built after the header philox.cl (Philox4,
+ * philox: Philox-4x32-10, shared with the noise family), without common.cl.
  *
  * walk_step: one work-item per walker.  resolve: one work-item for all walkers, in id
  * order.  philox_fill: out[n] = philox((w0 + n, t_lo, t_hi, purpose), (k0, k1)).
  */
-
-typedef struct { uint c[4]; } Philox4;
-
-inline Philox4 philox_round(Philox4 x, uint k0, uint k1)
-{
-    const uint m0 = 0xD2511F53u, m1 = 0xCD9E8D57u;
-    Philox4 y;
-    y.c[0] = mul_hi(m1, x.c[2]) ^ x.c[1] ^ k0;
-    y.c[1] = m1 * x.c[2];
-    y.c[2] = mul_hi(m0, x.c[0]) ^ x.c[3] ^ k1;
-    y.c[3] = m0 * x.c[0];
-    return y;
-}
-
-/* Philox-4x32-10 of the counter (c0, c1, c2, c3) under the key (k0, k1). */
-inline Philox4 philox(uint c0, uint c1, uint c2, uint c3, uint k0, uint k1)
-{
-    Philox4 x;
-    x.c[0] = c0; x.c[1] = c1; x.c[2] = c2; x.c[3] = c3;
-    x = philox_round(x, k0, k1);
-    for (int r = 0; r < 9; ++r) {
-        k0 += 0x9E3779B9u;
-        k1 += 0xBB67AE85u;
-        x = philox_round(x, k0, k1);
-    }
-    return x;
-}
 
 /* (r · n) >> 32: a uniform index below n */
 inline int pick(uint r, int n) { return (int)(((ulong)r * (ulong)n) >> 32); }

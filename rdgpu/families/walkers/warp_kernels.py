@@ -1,6 +1,6 @@
-"""Warp kernels of random-walker DLA: Philox-4x32-10, one walker step (one thread per
-walker) and the in-order sticking resolution (one thread); the rules and the state
-layout are those of ``reference.py``.
+"""Warp kernels of random-walker DLA: one walker step (one thread per walker) and the
+in-order sticking resolution (one thread); the rules and the state layout are those of
+``reference.py``, Philox-4x32-10 is ``rdgpu.families.warp_philox`` (shared).
 
 ``PHILOX`` (one thread per counter) fills ``out[n, 4]`` with ``philox4x32((w0 + n, t_lo,
 t_hi, purpose), (k0, k1))``: the test of the streams against NumPy.
@@ -8,45 +8,15 @@ t_hi, purpose), (k0, k1))``: the test of the streams against NumPy.
 
 import warp as wp
 
+from rdgpu.families.warp_philox import philox, vec4u
+
 # fuse_fp off: no FMA contraction (CUDA contracts a*b+c by default), the rounding of
 # the NumPy reference, as FP_CONTRACT OFF in common.cl gives OpenCL
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
-vec4u = wp.types.vector(length=4, dtype=wp.uint32)
 U8 = wp.array2d(dtype=wp.uint8)
 I2 = wp.array2d(dtype=wp.int32)
 I1 = wp.array(dtype=wp.int32)
-# Philox-4x32 multipliers and Weyl key increments (typed: no int32 literals)
-PHILOX_M0 = wp.constant(wp.uint64(0xD2511F53))
-PHILOX_M1 = wp.constant(wp.uint64(0xCD9E8D57))
-PHILOX_W0 = wp.constant(wp.uint32(0x9E3779B9))
-PHILOX_W1 = wp.constant(wp.uint32(0xBB67AE85))
-LOW32 = wp.constant(wp.uint64(0xFFFFFFFF))
-
-
-@wp.func
-def philox_round(c: vec4u, k0: wp.uint32, k1: wp.uint32) -> vec4u:
-    p0 = wp.uint64(c[0]) * PHILOX_M0
-    p1 = wp.uint64(c[2]) * PHILOX_M1
-    return vec4u(
-        wp.uint32(p1 >> wp.uint64(32)) ^ c[1] ^ k0,
-        wp.uint32(p1 & LOW32),
-        wp.uint32(p0 >> wp.uint64(32)) ^ c[3] ^ k1,
-        wp.uint32(p0 & LOW32),
-    )
-
-
-@wp.func
-def philox(c: vec4u, k0: wp.uint32, k1: wp.uint32) -> vec4u:
-    """Philox-4x32-10 of the counter ``c`` under the key ``(k0, k1)``."""
-    x = philox_round(c, k0, k1)
-    a = k0
-    b = k1
-    for _r in range(9):
-        a = a + PHILOX_W0
-        b = b + PHILOX_W1
-        x = philox_round(x, a, b)
-    return x
 
 
 @wp.func

@@ -16,8 +16,9 @@ naming the part it cannot run; it never falls back to another backend):
   (``ReactionDiffusionPDE`` is one), and the built-in ``DiffusionPDE``, ``AllenCahnPDE``,
   ``SwiftHohenbergPDE``, ``CahnHilliardPDE`` (``bc_mu`` equal to ``bc_c``),
   ``KPZInterfacePDE``, ``KuramotoSivashinskyPDE`` (``bc_lap`` equal to ``bc``), ``WavePDE``
-  and ``KleinGordonPDE`` (every scalar PDE class of py-pde 0.59); no noise, no post-step hook,
-  real fields only, and no subclass replacing what py-pde's solvers call besides the
+  and ``KleinGordonPDE`` (every scalar PDE class of py-pde 0.59); Itô noise with
+  ``EulerSolver`` and ``MilsteinSolver`` (`rdgpu.integrations.pypde.noise`); no post-step
+  hook, real fields only, and no subclass replacing what py-pde's solvers call besides the
   equations (``make_post_step_hook``, ``evolution_rate``, the noise:
   `rdgpu.integrations.pypde.checks`);
 * on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
@@ -105,6 +106,8 @@ from rdgpu.integrations.pypde.checks import UnsupportedPDE, check_overrides, che
 from rdgpu.integrations.pypde.checks import refuse as _refuse
 from rdgpu.integrations.pypde.ghosts import Side, corrections, expression_ghost, native
 from rdgpu.integrations.pypde.ghosts import axis_bcs as axis_conditions
+from rdgpu.integrations.pypde.noise import SOLVERS as NOISE_SOLVERS
+from rdgpu.integrations.pypde.noise import noise_seed, pde_noise
 from rdgpu.integrations.pypde.steppers import species_views
 from rdgpu.ir import equations as eq
 from rdgpu.models.device_rhs import DeviceRHS
@@ -145,6 +148,8 @@ class Translation:
     bc : dict, optional
         Per-species conditions over ``grid``'s (``model.stepper(..., bc=...)``): py-pde's
         conditions run natively where each side's ghost is one affine map.
+    noise : dict, optional
+        rdgpu's ``noise=`` of the PDE's Itô noise (`rdgpu.integrations.pypde.noise`).
 
     Attributes
     ----------
@@ -153,8 +158,10 @@ class Translation:
     """
 
     def __init__(self, grid: Grid, species: tuple[str, ...], equations: dict[str, str],
-                 params: dict[str, Any], bc: dict[str, dict[str, Any]] | None = None):
+                 params: dict[str, Any], bc: dict[str, dict[str, Any]] | None = None,
+                 noise: dict[str, Any] | None = None):
         self.grid = grid
+        self.noise = noise
         #: per-species conditions over the grid's (`rdgpu.integrations.pypde.ghosts`)
         self.bc = bc or None
         self.species = species
@@ -323,8 +330,6 @@ def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, 
     """``(equations, constants, bc data per species, (name, bc) of the inner Laplacian
     or None)`` of a built-in PDE class."""
     cls = type(pde_obj).__name__
-    if getattr(pde_obj, "noise", 0):
-        raise _refuse(f"{cls} with noise={pde_obj.noise} (noise is not supported)")
     if isinstance(pde_obj, pde.DiffusionPDE):
         return ({"c": "diffusivity*laplace(c)"},
                 {"diffusivity": float(pde_obj.diffusivity)}, {"c": pde_obj.bc}, None)
@@ -362,9 +367,6 @@ def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, 
 def _expression_pde(pde_obj: Any) -> tuple[dict[str, str], dict[str, Any],
                                            dict[str, Any]]:
     """``(equations, constants, bc data per species)`` of a ``pde.PDE``."""
-    if pde_obj.is_sde:
-        raise _refuse(f"the noise {getattr(pde_obj, 'noise', '')!r} (stochastic equations "
-                      "are not supported)")
     if pde_obj.complex_valued:
         raise _refuse("complex-valued equations (real fields only)")
     if getattr(pde_obj, "post_step_hook", None) is not None:
@@ -501,7 +503,9 @@ def translate(pde_obj: Any, state: Any) -> Translation:
 
     text = {s: eq.to_text(eq.substitute(trees[s], face)) for s in species}
     ours = Grid(shape, bc=axis_bcs[0] if len(shape) == 1 else tuple(axis_bcs), **spacing)
-    return Translation(ours, species, text, params, field_bc)
+    axes = dict(zip(grid.axes, axis_names(grid.num_axes), strict=True))
+    noise = pde_noise(pde_obj, species, params, coords, axes)
+    return Translation(ours, species, text, params, field_bc, noise)
 
 
 # ---------------------------------------------------------------------------- the backend
@@ -626,9 +630,16 @@ class RdgpuBackend(BackendBase):
                         hook=bool(getattr(solver, "_use_post_step_hook", True)))
         dtype = self._dtype(state)
         tr = translate(solver.pde, state)
-        fixed_euler = name == "EulerSolver" and not solver.adaptive
+        fixed_euler = name in NOISE_SOLVERS and not solver.adaptive
+        if tr.noise is not None:
+            adaptive = bool(getattr(solver, "adaptive", False))
+            if name not in NOISE_SOLVERS or adaptive:
+                raise _refuse(f"noise with the {'adaptive ' * adaptive}{name} "
+                              f"(stochastic equations run with {', '.join(NOISE_SOLVERS)} "
+                              "at a fixed dt)")
+            return self._model_stepper(solver, state, tr, dtype, NOISE_SOLVERS[name])
         if fixed_euler and not tr.uses_time:
-            return self._model_stepper(solver, state, tr, dtype)
+            return self._model_stepper(solver, state, tr, dtype, NOISE_SOLVERS[name])
         check_dt = float(solver.info["dt"]) if fixed_euler and self.check_stability else None
         rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, dtype, check_dt, bc=tr.bc)
         several = isinstance(state, pde.FieldCollection)
@@ -640,22 +651,33 @@ class RdgpuBackend(BackendBase):
         solver.info["rdgpu"] = {"device": self.rd.name, "grid": repr(tr.grid),
                                 "equations": dict(tr.model.equations)}
 
-    def _model_stepper(self, solver: Any, state: Any, tr: Translation, dtype: np.dtype
-                       ) -> Callable[[Any, float, float], float]:
+    def _model_stepper(self, solver: Any, state: Any, tr: Translation, dtype: np.dtype,
+                       method: str = "euler") -> Callable[[Any, float, float], float]:
         """Fixed-step Euler of an equation that does not read ``t``: rdgpu's own
         forward-Euler stepper (temporal blocking where it pays; checks ``dt``).  (With
         ``t`` it runs in `rdgpu.integrations.pypde.steppers`, at py-pde's times ``t_start +
-        i·dt``.)"""
+        i·dt``.)  A stochastic equation always runs here (``method`` Euler–Maruyama or
+        Milstein), from step ``t_start/dt`` (its time and its numbers' step index)."""
         dt = float(solver.info["dt"])
+        noisy = {} if tr.noise is None else {
+            "noise": tr.noise, "noise_seed": noise_seed(solver.pde),
+            "noise_interpretation": getattr(solver.pde, "noise_interpretation", "ito")}
         st = tr.model.stepper(tr.grid, tr.params, dt=dt, backend=self.rd, dtype=dtype,
-                              check_stability=self.check_stability, method="euler", bc=tr.bc)
+                              check_stability=self.check_stability, method=method, bc=tr.bc,
+                              **noisy)
         field_shape = tr.grid.field_shape
         several = isinstance(state, pde.FieldCollection)
+        started: list[bool] = []
 
         def stepper(state: Any, t_start: float, t_end: float) -> float:
             steps = max(1, round((t_end - t_start) / dt))
             views = species_views(state.data, len(tr.species), several)
-            st.set_state(dict(zip(tr.species, views, strict=True)))
+            first = round(t_start / dt) if noisy and not started else None
+            started.append(True)
+            if first is not None and tr.uses_time and abs(first * dt - t_start) > 1e-9 * dt:
+                raise _refuse(f"a stochastic equation of t from t={t_start:g}, not a whole "
+                              f"number of steps dt={dt:g}")
+            st.set_state(dict(zip(tr.species, views, strict=True)), steps=first)
             st.advance(steps)
             out = st.get_state()
             for s, target in zip(tr.species, views, strict=True):

@@ -370,6 +370,7 @@ def _crank_nicolson(solver: Any, rhs: DeviceRHS, f: _Fields) -> Stepper:
 #: the device stepper of each (py-pde solver class, adaptive)
 _MAKERS: dict[tuple[str, bool], Callable[[Any, DeviceRHS, _Fields], Stepper]] = {
     ("EulerSolver", False): _euler_fixed, ("EulerSolver", True): _euler_adaptive,
+    ("MilsteinSolver", False): _euler_fixed,  # without noise, Milstein is forward Euler
     ("RungeKuttaSolver", False): _rk4_fixed, ("RungeKuttaSolver", True): _rkf45_adaptive,
     ("AdamsBashforthSolver", False): _adams_bashforth,
     ("ImplicitSolver", False): _implicit_euler, ("CrankNicolsonSolver", False): _crank_nicolson,

@@ -1,0 +1,107 @@
+"""Algebraic species: names defined by an expression instead of an evolution equation
+(``algebraic={"w": "u*v - laplace(u)"}`` of a model; VisualPDE's algebraic species).
+
+An algebraic species is not state: it is its expression of the evolving species at every
+moment, so the equations read it by substitution (`inline`), and every operator works on
+it as on any expression: ``w`` becomes its expression, ``laplace(w)`` the Laplacian of the
+expression (`rdgpu.ir.nodes.LapOf`, stored by a pre-pass where it takes a Laplacian itself;
+a constant multiple of a Laplacian becomes a bilaplacian), ``laplace(laplace(w))`` the
+Laplacian of that.  An algebraic species may use the evolving species, earlier algebraic
+ones (in any order, no cycles), parameters, x, y, z and t.  First derivatives and the
+gradient of a divergence of an algebraic species whose expression is not a bare species
+are refused (the stencil reads a field); so is a cycle.
+
+This differs from VisualPDE's own stepping, which updates an algebraic species once per
+step from the fields before it (a lag of one step): rdgpu evaluates the same relation
+exactly at every stage, the same equations in the limit of small steps.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from rdgpu.ir.nodes import (
+    Diff,
+    DivGrad,
+    EquationError,
+    Lap,
+    LapOf,
+    Node,
+    Ref,
+    names,
+    substitute,
+    walk,
+)
+
+__all__ = ["inline", "resolve"]
+
+
+def resolve(trees: Mapping[str, Node]) -> dict[str, Node]:
+    """Each algebraic species' tree in terms of the evolving species only (the others
+    substituted, in dependency order); a cycle is an `EquationError` naming it."""
+    done: dict[str, Node] = {}
+    visiting: list[str] = []
+
+    def visit(a: str) -> Node:
+        if a in done:
+            return done[a]
+        if a in visiting:
+            cycle = " -> ".join([*visiting[visiting.index(a):], a])
+            raise EquationError(f"the algebraic species depend on each other in a cycle: "
+                                f"{cycle}")
+        visiting.append(a)
+        used = _used(trees[a]) & set(trees)
+        known = {b: visit(b) for b in sorted(used)}
+        visiting.pop()
+        done[a] = inline(trees[a], known)
+        return done[a]
+
+    for a in trees:
+        visit(a)
+    return done
+
+
+def _used(tree: Node) -> set[str]:
+    """The fields ``tree`` reads: as values and through every operator."""
+    out = names(tree, "species")
+    for n in walk(tree):
+        if isinstance(n, (Lap, Diff, DivGrad)):
+            out.add(n.name)
+    return out
+
+
+def inline(tree: Node, algebraic: Mapping[str, Node]) -> Node:
+    """``tree`` with each algebraic species of ``algebraic`` (name → its resolved tree)
+    replaced by its expression (module doc)."""
+    if not algebraic:
+        return tree
+
+    def bare(a: str) -> str | None:
+        t = algebraic[a]
+        return t.name if isinstance(t, Ref) and t.kind == "species" else None
+
+    def fn(n: Node) -> Node | None:
+        if isinstance(n, Ref) and n.kind == "species" and n.name in algebraic:
+            return algebraic[n.name]
+        if isinstance(n, Lap) and n.name in algebraic:
+            b = bare(n.name)
+            if b is not None:
+                return Lap(b, n.order)
+            out: Node = LapOf(algebraic[n.name])
+            return LapOf(out) if n.order == 2 else out
+        if isinstance(n, Diff) and n.name in algebraic:
+            b = bare(n.name)
+            if b is None:
+                raise EquationError(f"{n.spelling} differentiates the algebraic species "
+                                    f"{n.name!r}, an expression: first derivatives read a "
+                                    "field (write the derivative of its expression)")
+            return Diff(b, n.axis, n.side, n.optional)
+        if isinstance(n, DivGrad) and n.name in algebraic:
+            b = bare(n.name)
+            if b is None:
+                raise EquationError(f"div(D*grad({n.name})) of the algebraic species "
+                                    f"{n.name!r}, an expression: a divergence reads a field")
+            return DivGrad(substitute(n.coef, fn), b)
+        return None
+
+    return substitute(tree, fn)
