@@ -18,8 +18,10 @@ exactly at every stage, the same equations in the limit of small steps.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
+from rdgpu.ir.complex_split import parts, split_equations
+from rdgpu.ir.equations import parse
 from rdgpu.ir.nodes import (
     Diff,
     DivGrad,
@@ -33,7 +35,7 @@ from rdgpu.ir.nodes import (
     walk,
 )
 
-__all__ = ["inline", "resolve"]
+__all__ = ["inline", "model_trees", "resolve"]
 
 
 def resolve(trees: Mapping[str, Node]) -> dict[str, Node]:
@@ -105,3 +107,38 @@ def inline(tree: Node, algebraic: Mapping[str, Node]) -> Node:
         return None
 
     return substitute(tree, fn)
+
+
+def model_trees(equations: Mapping[str, str], params: Sequence[str],
+                algebraic: Mapping[str, str], complex_species: Sequence[str] = ()
+                ) -> tuple[tuple[str, ...], dict[str, Node], dict[str, Node]]:
+    """``(species, trees, algebraic trees)`` of a model: its ``equations`` (species ->
+    text) and ``algebraic`` species (name -> text) parsed with the parameters ``params``,
+    the algebraic ones substituted (`inline`), and each species of ``complex_species``
+    split into its real and imaginary parts (`rdgpu.ir.complex_split`: they replace it in
+    ``species``).  Names that clash are refused by name."""
+    species = tuple(equations)
+    clash = sorted(set(algebraic) & {*species, *params})
+    if clash:
+        raise EquationError(f"algebraic species named like a species or parameter: {clash}")
+    bad = sorted(set(complex_species) - set(species))
+    if bad:
+        raise EquationError(f"complex_species names {bad}, not species of the equations "
+                            f"({', '.join(species)})")
+    cplx = bool(complex_species)
+    names = (*species, *algebraic)
+    resolved = resolve({a: parse(t, species=names, params=params, complex_numbers=cplx,
+                                 what=f"algebraic species {a!r}")
+                        for a, t in algebraic.items()})
+    trees = {s: inline(parse(equations[s], species=names, params=params, complex_numbers=cplx,
+                             what=f"equation of {s!r}"), resolved)
+             for s in species}
+    if not cplx:
+        return species, trees, resolved
+    trees = split_equations(trees, complex_species)
+    made = [p for s in complex_species for p in parts(s)]
+    clash = sorted(set(made) & {*species, *params, *algebraic})
+    if clash:
+        raise EquationError(f"the parts {clash} of the complex species are names of the "
+                            "model already")
+    return tuple(trees), trees, resolved

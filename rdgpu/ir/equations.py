@@ -58,6 +58,7 @@ import sys
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
+from rdgpu.ir.complex_split import COMPLEX_FUNCTIONS, IMAGINARY
 from rdgpu.ir.linear import Linear, expand_operators, linear_parts
 from rdgpu.ir.nodes import (
     Bin,
@@ -173,10 +174,12 @@ def parse(
     params: Iterable[str] = (),
     what: str = "expression",
     laplace: bool = True,
+    complex_numbers: bool = False,
 ) -> Node:
     """Parse one expression of the language (module docstring).  ``species`` and
     ``params`` are the names it may use; ``laplace=False`` forbids Laplacians (parameter
-    expressions)."""
+    expressions); ``complex_numbers``: ``1j`` and ``conj``, ``real``, ``imag`` allowed (the
+    equations of complex species, `rdgpu.ir.complex_split`)."""
     species, params = tuple(species), tuple(params)
     allowed = _allowed_text(species, params)
     if not isinstance(text, str):
@@ -232,6 +235,8 @@ def parse(
             return Call(_COMPARE[type(node.ops[0])], (go(node.left), go(node.comparators[0])))
         if isinstance(node, ast.Constant):
             v = node.value
+            if complex_numbers and isinstance(v, complex):
+                return _imaginary(v)
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise fail(f"the constant {v!r} (only real numbers are allowed)")
             return Num(_real(v, ast.get_source_segment(source, node) or repr(v), fail))
@@ -247,11 +252,12 @@ def parse(
                 return _divergence(node, species, laplace, fail, go)
             if fn in DERIVATIVES or fn in _VECTOR_CALCULUS:
                 return _derivative(node, species, laplace, fail, go)
-            if fn not in FUNCTIONS:
+            table = {**FUNCTIONS, **COMPLEX_FUNCTIONS} if complex_numbers else FUNCTIONS
+            if fn not in table:
                 raise fail(f"the unknown function {fn!r}")
-            if len(node.args) != FUNCTIONS[fn]:
+            if len(node.args) != table[fn]:
                 raise fail(f"{fn}() with {len(node.args)} argument(s) (it takes "
-                           f"{FUNCTIONS[fn]})")
+                           f"{table[fn]})")
             return Call(fn, tuple(go(a) for a in node.args))
         token = ast.unparse(node) if hasattr(ast, "unparse") else type(node).__name__
         raise fail(f"{token!r} ({type(node).__name__} syntax)")
@@ -282,6 +288,12 @@ def _name(n: str, species: tuple[str, ...], params: tuple[str, ...], fail) -> No
     if n in CONSTANTS:
         return Num(CONSTANTS[n])
     raise fail(f"the unknown name {n!r}")
+
+
+def _imaginary(v: complex) -> Node:
+    """The tree of a complex literal (``2j``, ``1 + 2j`` folded by Python): ``re + im·i``."""
+    im = Bin("*", Num(float(v.imag)), IMAGINARY)
+    return im if v.real == 0 else Bin("+", Num(float(v.real)), im)
 
 
 def _ast_depth(tree: ast.AST) -> int:

@@ -45,7 +45,7 @@ from rdgpu.integrators.stability import (
 )
 from rdgpu.integrators.stepper import ModelStepper
 from rdgpu.ir import equations as eq
-from rdgpu.ir.algebraic import inline, resolve
+from rdgpu.ir.algebraic import model_trees
 from rdgpu.ir.program import expression_tree
 from rdgpu.ir.schemes import get_scheme, method_names
 from rdgpu.ir.stencils import check_stencil
@@ -250,6 +250,9 @@ class Model:
     algebraic : mapping, optional
         Algebraic species ``{name: expression}``, substituted into the equations
         (`rdgpu.ir.algebraic`; VisualPDE's).
+    complex_species : sequence of str
+        Species written as complex equations (``1j``, ``abs``, ``conj``...), run as their
+        real and imaginary parts ``<s>_re``, ``<s>_im`` (`rdgpu.ir.complex_split`).
     """
 
     @property
@@ -277,6 +280,7 @@ class Model:
         default_method: str = "euler",
         dt_share: float | None = None,
         algebraic: Mapping[str, str] | None = None,
+        complex_species: Sequence[str] = (),
     ):
         if not isinstance(name, str) or not name:
             raise ValueError(f"a model name is a non-empty string, got {name!r}")
@@ -298,25 +302,16 @@ class Model:
                                                what=f"parameter {k!r}", laplace=False))
         self.equations = {s: str(equations[s]).strip() for s in self.species}
         #: algebraic species (`rdgpu.ir.algebraic`): name -> text, and -> its tree in the
-        #: evolving species; the equations read them substituted
+        #: evolving species; complex species (`rdgpu.ir.complex_split`), run as their parts
         self.algebraic_equations = {_identifier(a, "algebraic species name"): str(t).strip()
                                     for a, t in (algebraic or {}).items()}
-        clash = set(self.algebraic_equations) & ({*self.species, *self.defaults})
-        if clash:
-            raise eq.EquationError(f"algebraic species named like a species or parameter: "
-                                   f"{sorted(clash)}")
-        names = (*self.species, *self.algebraic_equations)
-        self.algebraic = resolve({a: eq.parse(t, species=names, params=self.defaults,
-                                              what=f"algebraic species {a!r}")
-                                  for a, t in self.algebraic_equations.items()})
-        self.trees = {
-            s: inline(eq.parse(self.equations[s], species=names, params=self.defaults,
-                               what=f"equation of {s!r}"), self.algebraic)
-            for s in self.species
-        }
+        self.complex_species = tuple(complex_species)
         written = [f"{s}_t = {self.equations[s]}" for s in self.species] + \
             [f"{a} = {t}" for a, t in self.algebraic_equations.items()]
-        if self.algebraic:  # what checkpoints and sweeps rebuild the model from
+        self.species, self.trees, self.algebraic = model_trees(
+            self.equations, tuple(self.defaults), self.algebraic_equations,
+            self.complex_species)
+        if self.algebraic or self.complex_species:  # what checkpoints and sweeps rebuild
             self.equations = {s: eq.to_text(t) for s, t in self.trees.items()}
         self.linear = {s: eq.linear_parts(t) for s, t in self.trees.items()}
         self.bounds = check_bounds(bounds, self.species)

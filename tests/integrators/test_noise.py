@@ -193,3 +193,37 @@ def test_bad_noise_is_refused_before_any_work():
     # zero variance: no noise at all (the deterministic step)
     assert OU.stepper(grid, dt=0.01, backend="numpy", noise={"*": 0}).noise is None
     assert set(parse_noise({"*": "0.1*u", "v": 0}, ("u", "v"), {}, {})) == {"u"}
+
+
+def test_noise_on_a_mesh_scales_with_each_vertexs_area(backend):
+    """On a disc mesh the vertices stand for different areas ``A_i`` (the inverse areas
+    become a field the step reads): the Ornstein–Uhlenbeck variance of vertex ``i`` is
+    ``(hV/A_i)/(1 − (1 − hk)²)`` in the stationary state — checked on the pooled
+    ``u_i²·A_i`` of 300 steps × every vertex, and on the ratio of the smallest-area third's
+    variance to the largest-area third's."""
+    from rdgpu.domains.mesh.surface_mesh import SurfaceMesh
+
+    mesh = SurfaceMesh.disc(rings=12)
+    areas = np.asarray(mesh.point_weights, dtype=np.float64)
+    assert areas.max() / areas.min() > 1.5  # the volumes differ: the field path
+    k, V, h = 2.0, 0.05, 0.02
+    st = _stepper(OU, mesh, backend, h, V)
+    assert st.noise.inverse_volume is None
+    st.set_state({"u": np.zeros(mesh.field_shape)})
+    st.advance(200)  # past the transient ((1 − hk)^400 ~ 1e-7)
+    samples = []
+    for _ in range(300):
+        st.advance(1)
+        samples.append(st.get_state()["u"].ravel().copy())
+    u = np.array(samples)
+    scaled = (u * u * areas).mean()  # each vertex's variance × its area, pooled
+    want = h * V / (1 - (1 - h * k) ** 2)
+    # successive steps are correlated (factor 1 − hk): an effective ~k h/2 of the samples
+    n_eff = u.size * (h * k) / 2
+    assert abs(scaled - want) < 5 * want * np.sqrt(2 / n_eff)
+    # and vertex by vertex: the small-area third fluctuates more, by their areas' ratio
+    order = np.argsort(areas)
+    small, large = order[: len(order) // 3], order[-(len(order) // 3):]
+    ratio = (u[:, small] ** 2).mean() / (u[:, large] ** 2).mean()
+    expected = (1 / areas[small]).mean() / (1 / areas[large]).mean()
+    assert ratio == pytest.approx(expected, rel=0.25)
