@@ -56,6 +56,9 @@ ENTRIES: list[tuple[str, str, list[str]]] = [
     ("gs-differential-flow", "Gray-Scott with the activator v carried by a uniform flow to "
      "the right (upwind advect, 0.04 cells a step): the labyrinth lines up across the flow",
      []),
+    ("gs-masked-disc", "Gray-Scott labyrinth on a disc cut from the grid by a mask "
+     "(mask=): zero flux across its edge, the stripes meeting the wall at right angles; the "
+     "cells outside grey", []),
     ("cahn-hilliard-coarsening", "Cahn-Hilliard phase separation, laplace(u**3 - u - "
      "g*laplace(u)) (the chemical potential stored by a pre-pass): a noisy mixture "
      "coarsened into a labyrinth at t = 500, its mass conserved", []),

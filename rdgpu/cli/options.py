@@ -462,6 +462,12 @@ def add_domain_options(group: Any) -> None:
                        "(VALUE the outward derivative), dirichlet, value (the face's value) "
                        "or robin:A (du/dn + A u = VALUE), each VALUE a number or an "
                        "expression of x, y, z, t, e.g. --bc neumann --bc u:x-=value:sin(t)")
+    group.add_argument("--mask", metavar="EXPR|PICTURE",
+                       help="evolve only inside a mask on a 2-D or 3-D grid: an indicator "
+                       "expression of x, y, z, Lx, Ly, Lz and the parameters, e.g. "
+                       "'(x-Lx/2)**2 + (y-Ly/2)**2 < (Lx/3)**2', or a picture (.png, .jpg) "
+                       "whose bright pixels are inside; zero flux across its edge, the "
+                       "cells outside grey in the pictures (explicit methods)")
     group.add_argument("--radius", type=positive_float, metavar="R",
                        help="radius of a generated mesh: sphere, uv-sphere, disc; torus: "
                        "the ring radius R, the tube 0.3 R (default 1)")

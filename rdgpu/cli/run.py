@@ -49,6 +49,7 @@ from rdgpu.cli.outputs import default_png, result_of, slices_note, uniform_warni
 from rdgpu.cli.resume import build_resumed
 from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted, StabilityError
 from rdgpu.integrations.visualpde import UnsupportedPreset, load
+from rdgpu.io.images import read_mask
 from rdgpu.io.output import MESH_FORMATS
 from rdgpu.models import MODELS, PRESETS, EquationError, define_model
 from rdgpu.simulation import Simulation
@@ -351,6 +352,8 @@ def _stepper_options(args: argparse.Namespace, model: Model, preset: Any, domain
                              "only the models defined by equations have")
         options["block_steps"] = args.block_steps
         check_block_memory(args.block_steps, domain, len(model.species), itemsize)
+    if getattr(args, "mask", None):
+        options["mask"] = _mask_option(args.mask, model, domain)
     if getattr(args, "noise", None):
         if "noise" not in inspect.signature(model.stepper).parameters:
             raise UsageError(f"--noise: model {model.name} takes no noise; only the models "
@@ -447,3 +450,20 @@ def colour_limits(args: argparse.Namespace, model: Model, field: str) -> tuple[f
         return args.range or None  # "auto" parses to ()
     known = (getattr(model, "value_range", None) or {}).get(field)
     return None if known is None else (float(known[0]), float(known[1]))
+
+
+def _mask_option(text: str, model: Model, domain: dict) -> Any:
+    """``--mask``: the expression, or the picture read onto the grid."""
+    if "mask" not in inspect.signature(model.stepper).parameters:
+        raise UsageError(f"--mask: model {model.name} takes no mask; only the models "
+                         "defined by equations do")
+    if "grid" not in domain:
+        raise UsageError("--mask: a mask is set on a grid, not on a mesh")
+    if not text.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".gif")):
+        return text
+    g = domain["grid"]
+    shape = (g, g) if isinstance(g, int) else tuple(g)
+    try:
+        return read_mask(text, shape)
+    except (ValueError, FileNotFoundError) as exc:
+        raise UsageError(f"--mask {text}: {exc}") from None

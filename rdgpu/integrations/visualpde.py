@@ -29,10 +29,12 @@ told otherwise.
 
 Algebraic species (the last ``numAlgebraicSpecies``) are the value of their right-hand
 side, substituted into the equations (`rdgpu.ir.algebraic`); boundary conditions per
-species and side are rdgpu's (`rdgpu.integrations.visualpde_bc`).  Refused by name
-(`UnsupportedPreset`), never approximated: first derivatives of an algebraic species'
-expression, domains given by an indicator function or an image, an axis periodic for some
-species only, logic (``&&``, ``||``) and functions rdgpu's language lacks (``H``,
+species and side are rdgpu's (`rdgpu.integrations.visualpde_bc`); an indicator domain
+(``domainIndicatorFun``, inside where positive) is rdgpu's mask (`rdgpu.integrators.masks`)
+where its conditions are zero-flux or periodic.  Refused by name (`UnsupportedPreset`),
+never approximated: first derivatives of an algebraic species' expression, indicator
+domains that move or carry Dirichlet/Robin/flux conditions, images, an axis periodic for
+some species only, logic (``&&``, ``||``) and functions rdgpu's language lacks (``H``,
 ``Bump``, ``mod``...; ``ind(u > 0.5)`` is a comparison, which rdgpu has), second
 derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is ``laplace(u)``), 3-D, and a ``parent``
 that is not given.
@@ -49,6 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rdgpu.domains.boundary import DIRICHLET
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.visualpde_bc import boundaries
 from rdgpu.ir import equations as eq
@@ -124,6 +127,8 @@ class Translation:
     bc : dict
         Per-species conditions over the grid's own (``Simulation(..., bc=...)``): VisualPDE's
         Dirichlet values on the faces, fluxes, Robin conditions, per side.
+    mask : str or None
+        An indicator domain as rdgpu's mask expression (``options["mask"]``), or None.
     """
 
     name: str
@@ -140,6 +145,8 @@ class Translation:
     offsets: tuple[float, float] = (0.0, 0.0)
     #: the per-species conditions over the grid's (`rdgpu.integrations.visualpde_bc`)
     bc: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: the indicator domain as rdgpu's mask expression (`rdgpu.integrators.masks`), or None
+    mask: str | None = None
 
     def fields(self, seed: int = 0) -> dict[str, np.ndarray]:
         """The initial fields (float64, the grid's shape): each ``initCond`` evaluated
@@ -195,8 +202,9 @@ class Translation:
             More keyword arguments of `rdgpu.Simulation` (``check_stability``...)."""
         return Simulation(self.model, self.grid, {}, dt=self.dt if dt is None else dt,
                           backend=backend, dtype=dtype, seed=seed, fields=self.fields(seed),
-                          options={"method": method or self.method}, bc=self.bc or None,
-                          **kwargs)
+                          options={"method": method or self.method,
+                                   **({"mask": self.mask} if self.mask else {})},
+                          bc=self.bc or None, **kwargs)
 
 
 def load(preset: Mapping[str, Any] | str | Path,
@@ -222,9 +230,6 @@ def load(preset: Mapping[str, Any] | str | Path,
     if not 0 <= n_alg < n:
         raise UnsupportedPreset(f"numAlgebraicSpecies = {n_alg} of numSpecies = {n} (at "
                                 "least one species must evolve)")
-    if _flag(p, "domainViaIndicatorFun"):
-        raise UnsupportedPreset("domainViaIndicatorFun: a domain given by an indicator "
-                                "function (masked domains are not translated yet)")
     species = str(p["speciesNames"]).split()[:n]
     if len(species) != n:
         raise UnsupportedPreset(f"speciesNames {p['speciesNames']!r} names fewer than "
@@ -246,6 +251,8 @@ def load(preset: Mapping[str, Any] | str | Path,
     evolving = species[:n - n_alg]  # the last numAlgebraicSpecies are algebraic
     bc, field_bc = boundaries(p, evolving, dim, words.translate, list(params),
                               UnsupportedPreset, notes)
+    mask = _indicator(p, words, species, params) if _flag(p, "domainViaIndicatorFun") \
+        else None
     equations = {}
     for i, s in enumerate(species, start=1):
         terms = []
@@ -276,6 +283,9 @@ def load(preset: Mapping[str, Any] | str | Path,
                                 f"{', '.join(SCHEMES)})")
     dt = _number(p, "dt", {})
     grid = Grid((cells,) if dim == 1 else (cells, cells), dx=dx, bc=bc)
+    if mask is not None and (field_bc or DIRICHLET in (grid.bcs.x.kind, grid.bcs.y.kind)):
+        raise UnsupportedPreset("Dirichlet, Robin or flux conditions on a domain given by "
+                                "domainIndicatorFun (rdgpu's mask edge is zero-flux)")
     steps = RUN_FRAMES * _integer(p, "numTimestepsPerFrame")
     try:
         model = Model(name, equations, params, description=f"VisualPDE preset {name!r}",
@@ -295,10 +305,25 @@ def load(preset: Mapping[str, Any] | str | Path,
                      "shape; the translation is square")
     return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
                        shown if shown in evolving else evolving[0], notes, constants, offsets,
-                       field_bc)
+                       field_bc, mask)
 
 
 # ---------------------------------------------------------------------------- the parts
+def _indicator(p: Mapping[str, Any], words: Any, species: list[str],
+               params: Mapping[str, Any]) -> str:
+    """``domainIndicatorFun`` as rdgpu's mask: inside where it is positive, as VisualPDE
+    reads it; the edge of such a domain is zero-flux in rdgpu, so only zero-flux (or
+    periodic) conditions translate."""
+    text = str(p.get("domainIndicatorFun", "1")).strip()
+    expr = words.translate(text, "domainIndicatorFun")
+    tree = _parse(expr, species, params, "domainIndicatorFun")
+    moving = sorted(eq.names(tree, "species") | eq.names(tree, "time"))
+    if moving:
+        raise UnsupportedPreset(f"domainIndicatorFun = {text!r} reads {', '.join(moving)}: "
+                                "a domain that changes during the run (rdgpu's masks are fixed)")
+    return f"({expr}) > 0"
+
+
 def _as_dict(preset: Mapping[str, Any] | str | Path) -> dict[str, Any]:
     if isinstance(preset, Mapping):
         return dict(preset)

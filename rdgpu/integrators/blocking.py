@@ -55,6 +55,8 @@ def why_not(stepper: Any) -> str | None:
         return reason
     if stepper.method != "euler":
         return f"method {stepper.method!r} is not a single-pass step; only 'euler' is"
+    if stepper.mask is not None:
+        return "the domain is masked (mask=): the blocked kernels read no mask"
     if stepper.noise is not None:
         return "the equations are stochastic (noise=): each step draws new numbers"
     if stepper._pre is not None:

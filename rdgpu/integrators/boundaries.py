@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
     from rdgpu.ir.schemes import Scheme
 
-__all__ = ["stepper_boundary"]
+__all__ = ["require_compact_grid", "stepper_boundary"]
 
 
 def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
@@ -29,12 +29,8 @@ def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
     given as expressions (their trees)."""
     if bc is None or (isinstance(bc, Mapping) and not bc):
         return None
-    row = STENCIL_KINDS.get(kind)
-    if row is None or row.form != "compact":
-        where = {"csr": "a mesh", "metric": "a graph surface",
-                 "isotropic": "the isotropic stencil"}.get(row.form if row else "", kind)
-        raise ValueError(f"per-species boundary conditions (bc=) are set on the sides of a "
-                         f"grid with the compact stencil, not on {where}")
+    require_compact_grid(kind, "per-species boundary conditions (bc=) are set on the sides "
+                               "of")
     if scheme.implicit:
         raise ValueError(f"per-species boundary conditions (bc=) run with the explicit "
                          f"methods (euler, heun, rk3, rk4, ab2), not yet with {scheme.name!r}, "
@@ -61,3 +57,12 @@ def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
 
     return make_boundary(parsed, domain.bcs, parse_value)
 
+
+def require_compact_grid(kind: str, what: str) -> None:
+    """Refuse a stepper's stencil ``kind`` other than a grid's compact one: ``what`` (``"a
+    mask is set on"``) then ``a grid with the compact stencil, not on <it>``."""
+    row = STENCIL_KINDS.get(kind)
+    if row is None or row.form != "compact":
+        where = {"csr": "a mesh", "metric": "a graph surface",
+                 "isotropic": "the isotropic stencil"}.get(row.form if row else "", kind)
+        raise ValueError(f"{what} a grid with the compact stencil, not on {where}")

@@ -24,22 +24,19 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   (x' − x) = h f(x)``, by one or two backward-Euler diffusion solves
   (`rdgpu.ops.implicit.ImplicitDiffusion`: fast transforms on rectangular grids, solved
   directly on the host, `rdgpu.ops.transforms`; multicolour SOR on the device elsewhere).
-  Without a bilaplacian,
-  ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1) or Crank-Nicolson
-  (``"imex-cn"``, θ = ½) diffusion with explicit reaction, stable far beyond the explicit
-  limit; a species whose diffusion forward Euler steps with a margin at ``h`` (``h α
-  m_max <= 1``, half its limit, ``m_max`` the largest eigenvalue of ``−Δ``) keeps it
-  explicit, ``a₁ = 0``, and costs no solve (the Brusselator's ``u`` at ten times its
-  explicit step: only ``v``, 11 times faster-diffusing, is solved).
+  Without a bilaplacian, ``a₁ = θ h α``, ``a₂ = 0``: backward Euler (``"imex"``, θ = 1)
+  or Crank-Nicolson (``"imex-cn"``, θ = ½) diffusion, stable far beyond the explicit
+  limit; a species whose diffusion forward Euler steps with a margin at ``h`` (``h α m_max
+  <= 1``, ``m_max`` the largest eigenvalue of ``−Δ``) keeps it explicit, ``a₁ = 0``, and
+  costs no solve (the Brusselator's ``u`` at ten times its explicit step).
   With one (Swift-Hohenberg), ``a₁ a₂ = −h β`` and ``a₁ + a₂ = max(2√(−h β), θ h
   α)``: a linearly stabilised scheme (Eyre's convex splitting in spirit) whose
   amplification factor ``1 + h A(m)/((1 + a₁m)(1 + a₂m))`` stays in the unit disk for
   every decaying mode, so ``h`` is set by accuracy, not by ``1/m_max²``; it keeps steady
   states exactly (``x' = x`` where ``f(x) = 0``). First order in time;
 * the two-level IMEX scheme (``steps=2``), ``"bdf2"`` (2nd order): the semi-implicit
-  BDF2 (SBDF2; seed 002 eq. 18 and its refs, Ascher & Petzold, Ruuth in J. Math. Biol.
-  34), with the same split into implicit ``L``
-  (each species' own ``α Δs + β Δ²s``) and explicit ``N`` (the rest) as ``"imex"``::
+  BDF2 (SBDF2; seed 002 eq. 18, Ascher & Petzold, Ruuth 1995), with the same split into
+  implicit ``L`` (each species' own ``α Δs + β Δ²s``) and explicit ``N`` as ``"imex"``::
 
       (3x' − 4x + x₋)/(2h) = L x' + 2N(x, t) − N(x₋, t − h)
 
@@ -56,13 +53,8 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   ``"imex"`` (backward Euler) step: first order once, second order over a run.  The
   history ``x₋`` is in ``get_state(history=True)`` as ``"_prev_<species>"`` and
   ``set_state`` takes it back, so a stepper restored with it continues bit for bit.
-  Stability (`rdgpu.integrators.stability.stability_limit`: the spectral radius of
-  the two-level recursion's companion matrix per mode): each species' own diffusion is
-  damped at any ``h`` (BDF2 is A-stable: no limit); explicit cross-diffusion sets a
-  limit (``c = 0.3`` between ``Δu`` and ``Δv`` on a 16² grid: 5.5, against Euler's
-  0.32); a bilaplacian's stabilised pair leaves none in practice (Swift-Hohenberg: ~10⁶,
-  where round-off meets the neutral mode ``A(m) = 0``); the reaction terms limit ``h`` as
-  in every explicit method.
+  Stability: `rdgpu.integrators.stability.stability_limit` (the companion matrix's
+  spectral radius per mode; own diffusion damped at any ``h``, cross-diffusion limited).
 
 * the exponential scheme ``"etdrk4"`` (4th order): the same split, each species' own
   ``α Δs + β Δ²s`` (and a constant damping ``γ s``, ``γ < 0``) integrated exactly by fast
@@ -93,6 +85,7 @@ from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
 from rdgpu.integrators.boundaries import stepper_boundary
 from rdgpu.integrators.exponential import Etdrk4, split_damping
+from rdgpu.integrators.masks import MASK, mask_buffer, mask_values, masked_trees
 from rdgpu.integrators.noise import draw, noise_buffers, stepper_noise
 from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.splitting import linear_split, scalar_numbers
@@ -206,7 +199,7 @@ class ModelStepper(FieldStepper):
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None, solver: str | None = None,
                  bc: Mapping[str, Any] | None = None, noise: Any = None,
-                 noise_seed: int = 0, noise_interpretation: str = "ito"):
+                 noise_seed: int = 0, noise_interpretation: str = "ito", mask: Any = None):
         # a positive number for every method (explicit ones do not use it)
         tol = None if tol is None else _positive_tol(tol)
         #: the implicit solves' solver (`rdgpu.ops.transforms.SOLVERS`; None: the default)
@@ -249,6 +242,9 @@ class ModelStepper(FieldStepper):
         #: the noise (`rdgpu.integrators.noise`), or None: deterministic
         self.noise = stepper_noise(noise, noise_seed, domain, self.scheme, self.species,
                                    self._device_params, inline, noise_interpretation)
+        #: the mask's 0/1 values (`rdgpu.integrators.masks`), or None: the whole grid
+        self.mask = mask_values(mask, domain, self.target.kind, self.scheme, self.params)
+        trees = trees if self.mask is None else masked_trees(trees)
         self.D = self._diffusion_numbers()
         #: the exponential step (`rdgpu.integrators.exponential`), or None
         self._etd: Etdrk4 | None = None
@@ -273,15 +269,17 @@ class ModelStepper(FieldStepper):
         """The right-hand sides with what a pass cannot read by itself stored by
         pre-passes (`rdgpu.ir.lowering.lower`), and those pre-passes."""
         fields = [p for p, v in self._device_params.items() if isinstance(v, DeviceArray)]
-        return lower(trees, fields, self.boundary)
+        return lower(trees, fields, self.boundary, None if self.mask is None else MASK)
 
     def _program(self, inputs, outputs, pre: Prepass | None) -> Program:
         """A pass over ``inputs`` (the stored fields of ``pre`` among them) writing
         ``outputs``, with the stored fields' ghosts."""
+        mask = MASK if MASK in inputs else None
         if pre is None:
-            return Program(tuple(inputs), tuple(outputs), boundary=self.boundary)
+            return Program(tuple(inputs), tuple(outputs), boundary=self.boundary, mask=mask)
         return Program(tuple(inputs), tuple(outputs), pre.zero_ghost & set(inputs),
-                       own_ghost=pre.own_ghost & set(inputs), boundary=self.boundary)
+                       own_ghost=pre.own_ghost & set(inputs), boundary=self.boundary,
+                       mask=mask)
 
     def _aux_buffers(self, pre: Prepass | None) -> list[DeviceArray]:
         """The buffers of ``pre``'s stored fields, its static ones stored now."""
@@ -303,6 +301,10 @@ class ModelStepper(FieldStepper):
         self.rates = low
         self._aux = self._aux_buffers(self._pre)
         aux_names = () if self._pre is None else self._pre.names
+        if self.mask is not None:  # read after the stored fields by every pass
+            aux_names += (MASK,)
+            self._aux.append(mask_buffer(self.mask, self.backend, self.shape,
+                                         self.target.domain.kernel_shape, self.dtype))
         h = eq.Ref("builtin", "_h")
         euler = tuple(
             Output(s, eq.Bin("+", eq.Ref("species", s), eq.Bin("*", h, low[s])),

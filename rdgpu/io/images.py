@@ -71,7 +71,8 @@ def flat_field(a: np.ndarray, vmin: float | None = None, vmax: float | None = No
 def to_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
            vmax: float | None = None) -> np.ndarray:
     """Map a 2-D field to an ``(ny, nx, 3)`` uint8 image; row 0 is the top of the image.
-    A field uniform to round-off is one flat colour (see `flat_field`)."""
+    A field uniform to round-off is one flat colour (see `flat_field`); NaN cells (outside
+    a mask, the gaps of a mosaic, a sweep's missing runs) are grey."""
     colormaps = require("matplotlib", "colouring pictures").colormaps
     a = np.asarray(field, dtype=np.float64)
     if a.ndim == 1:
@@ -83,6 +84,7 @@ def to_rgb(field: np.ndarray, cmap: str = "viridis", vmin: float | None = None,
     hi = np.nanmax(a) if vmax is None else vmax
     scaled = (a - lo) / (hi - lo) if hi > lo else np.zeros_like(a)
     rgba = colormaps[cmap](np.clip(scaled, 0.0, 1.0), bytes=True)
+    rgba[np.isnan(a)] = (128, 128, 128, 255)
     return rgba[..., :3]
 
 
@@ -99,3 +101,24 @@ def save_png(path: str | Path, field: np.ndarray, cmap: str = "viridis",
     with atomic_path(path, "the picture") as tmp:
         iio.imwrite(tmp, rgb, extension=".png")
     return path
+
+
+def read_mask(path: str | Path, shape: tuple[int, ...]) -> np.ndarray:
+    """A mask (`rdgpu.integrators.masks`) from a picture: its pixels brighter than mid-grey
+    are inside, the picture resampled (nearest pixel) to a 2-D grid's ``shape`` with row 0
+    at its top, as rdgpu draws fields (bool array of ``shape``)."""
+    iio = require("imageio.v3", "reading a mask picture")
+    if len(shape) != 2:
+        raise ValueError(f"a mask picture is for a 2-D grid, not one of shape {shape}")
+    try:
+        img = np.asarray(iio.imread(path), dtype=np.float64)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"mask picture {str(path)!r} cannot be read: {exc}") from None
+    if img.ndim == 3:
+        img = img[..., :3].mean(axis=2)
+    if img.ndim != 2 or img.size == 0:
+        raise ValueError(f"mask picture {str(path)!r} is not a 2-D picture")
+    rows = (np.arange(shape[0]) * img.shape[0]) // shape[0]
+    cols = (np.arange(shape[1]) * img.shape[1]) // shape[1]
+    top = 255.0 if img.max() > 1.0 else 1.0
+    return img[np.ix_(rows, cols)] > top / 2

@@ -394,7 +394,7 @@ def ensemble_mosaic(fields: np.ndarray, columns: int | None = None, gap: int = 1
     """One 2-D picture of an ensemble's fields ``[M, ny, nx]`` (2-D grids) or ``[M, 1, nx]``
     / ``[M, nx]`` (1-D grids: one row per member, top to bottom).  2-D members are tiled
     row by row, member 0 at the top left, ``columns`` a row (default: about √M), separated
-    by ``gap`` cells of NaN (drawn black).
+    by ``gap`` cells of NaN (drawn grey).
 
     Parameters
     ----------
@@ -551,11 +551,14 @@ def write_outputs(
               "view": view, "level": level}
         written += _ensemble_pictures(result, name, png, movie, kw, fps)
         png = movie = None
+    mask = getattr(result, "mask", None)  # a masked run: outside it grey (NaN)
+    hide = (lambda a: a) if mask is None else (lambda a: np.where(mask, a, np.nan))
     if png is not None:
-        written.append(save_png(png, result.fields[name], result.domain, cmap=cmap, scale=scale,
-                                camera=camera, vmin=vmin, vmax=vmax, view=view, level=level))
+        written.append(save_png(png, hide(result.fields[name]), result.domain, cmap=cmap,
+                                scale=scale, camera=camera, vmin=vmin, vmax=vmax, view=view,
+                                level=level))
     if movie is not None:
-        written.append(save_movie(movie, result.snapshots[name], result.domain, cmap=cmap,
+        written.append(save_movie(movie, hide(result.snapshots[name]), result.domain, cmap=cmap,
                                   fps=fps, scale=scale, camera=camera, vmin=vmin, vmax=vmax,
                                   view=view, level=level))
     if data is not None:

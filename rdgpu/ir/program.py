@@ -91,10 +91,15 @@ class Program:
     #: the ghost expressions of custom boundary conditions (`rdgpu.ir.boundary`), or None:
     #: the grid's own conditions, passed to the kernels per axis
     boundary: Boundary | None = None
+    #: the input holding the domain's mask (1 inside, 0 outside; `rdgpu.integrators.masks`),
+    #: or None: every neighbour a field reads outside the mask reads as the cell's own value
+    mask: str | None = None
     #: per-program caches (names, sources, compiled passes); programs compare by identity
     cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
+        if self.mask is not None and self.mask not in self.inputs:
+            raise ValueError(f"program mask {self.mask!r} is not an input")
         made: dict[tuple[str, Node], str] = {}
         derived, own = list(self.derived), set(self.own_ghost)
         fields = {*self.inputs, *(d for d, _ in self.derived)}

@@ -71,6 +71,22 @@ class _Padder:
             p[tuple(index)] = ghost
         return p
 
+    def sides(self, name: str, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """The low and high neighbours of field ``name`` (``u``) along axis ``k``, ghosts
+        resolved; with a mask, those outside it read as the cell's own value (`rdgpu.ir.
+        stencils.neighbour_values`)."""
+        lo, hi = _sides(self(name, u, k), 3 - k)
+        mask = self.program.mask
+        if mask is None:
+            return lo, hi
+        gc, t = self.gc, u.dtype.type
+        bc = (self.layout.domain.bcs.x, self.layout.domain.bcs.y, self.layout.domain.bcs.z)[k]
+        kind = gc.PERIODIC if bc.kind == gc.PERIODIC else gc.NEUMANN  # the clamped load
+        m = _members4(np.broadcast_to(self.env[mask], self.layout.field_shape), self.layout)
+        m = np.broadcast_to(m, u.shape)
+        mlo, mhi = _sides(gc.pad_axis(np.ascontiguousarray(m), 3 - k, kind, 0.0), 3 - k)
+        return (mlo * lo) + ((t(1) - mlo) * u), (mhi * hi) + ((t(1) - mhi) * u)
+
 
 #: the neighbour side letters of each axis (x, y, z), low then high
 _LETTERS = (("w", "e"), ("s", "n"), ("b", "t"))
@@ -95,7 +111,7 @@ def _grid_laplacian(name: str, a: np.ndarray, layout: Layout, pad: _Padder) -> n
                          for m in range(u.shape[0])]).reshape(a.shape)
     out = None
     for k, h in enumerate((d.dx, d.dy, d.dz)[:d.ndim]):
-        lo, hi = _sides(pad(name, u, k), 3 - k)
+        lo, hi = pad.sides(name, u, k)
         term = ((hi + lo) - t(2) * u) * t(1.0 / (h * h))
         out = term if out is None else out + term
     return out.reshape(a.shape)
@@ -111,7 +127,7 @@ def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, pad: _Padder):
         return t(0)
     u = _members4(a, layout)
     h = t((dom.dx, dom.dy, dom.dz)[k])
-    lo, hi = _sides(pad(d.name, u, k), 3 - k)
+    lo, hi = pad.sides(d.name, u, k)
     if d.side == 0:
         out = (hi - lo) / (t(2) * h)
     elif d.side > 0:
@@ -131,8 +147,8 @@ def _grid_divergence(d: DivGrad, D: np.ndarray, a: np.ndarray, layout: Layout,
     c = np.broadcast_to(D, a.shape).reshape(u.shape)
     out = None
     for k, coef in enumerate(layout.grid_coefficients()[:dom.ndim]):
-        lo, hi = _sides(pad(d.name, u, k), 3 - k)
-        dlo, dhi = _sides(pad(d.coef.name, c, k), 3 - k)
+        lo, hi = pad.sides(d.name, u, k)
+        dlo, dhi = pad.sides(d.coef.name, c, k)
         up = ((c + dhi) / t(2)) * (hi - u)
         down = ((dlo + c) / t(2)) * (u - lo)
         term = (up - down) * t(coef)

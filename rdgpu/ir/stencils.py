@@ -184,8 +184,11 @@ def neighbour_values(program: Program, kind: str,
     value by ``ghost`` (the axis's ghost name ``g{axis}``, ``"0"`` for a zero-ghost
     input, or on a custom axis the source of the field's ghost expression,
     `rdgpu.ir.boundary`) on that side's boundary, applied inner axis first; None: no
-    boundary can occur (an interior cell)."""
+    boundary can occur (an interior cell).  With a ``program.mask``, a neighbour outside
+    the mask (0 there) reads as the cell's own value, ``m·value + (1 − m)·own``: zero flux
+    across the mask's edge."""
     stencil = program.stencil_inputs
+    mask = program.mask
     for nb in STENCIL_KINDS[kind].neighbours:
         for s in stencil:
             value = neighbour_value(program, s, lambda i, nb=nb: load(nb, i), fields, lit, fn)
@@ -200,6 +203,9 @@ def neighbour_values(program: Program, kind: str,
                     else:
                         ghost = emit(rule, lambda n: variable(n, fields), lit, fn)
                     value = select(side, ghost, value)
+            if mask is not None:
+                m = load(nb, mask)
+                value = f"(({m} * {value}) + (({lit(1.0)} - {m}) * {ident('c', s)}))"
             yield nb.name, s, value
 
 

@@ -580,6 +580,7 @@ class Model:
         noise: Any = None,
         noise_seed: int = 0,
         noise_interpretation: str = "ito",
+        mask: Any = None,
     ):
         """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`, fields at zero.
 
@@ -620,7 +621,10 @@ class Model:
             expression (``{"u": "0.1*u"}``; ``"*"`` for the others), stepped by method
             ``"euler"`` (Euler–Maruyama) or ``"milstein"`` (`rdgpu.integrators.noise`);
             the Philox key of its numbers (default 0); ``"ito"`` (default) or
-            ``"stratonovich"`` (py-pde's names)."""
+            ``"stratonovich"`` (py-pde's names).
+        mask : str or array, optional
+            Evolve only inside a mask on a grid: an indicator expression of x, y, z or an
+            array of the grid's shape; zero flux across its edge (`rdgpu.integrators.masks`)."""
         if solver is not None and solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(map(repr, SOLVERS))} or None, "
                              f"got {solver!r}")
@@ -647,7 +651,7 @@ class Model:
             fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
             block_steps=block_steps, solver=solver, bc=bc, noise=noise, noise_seed=noise_seed,
-            noise_interpretation=noise_interpretation)
+            noise_interpretation=noise_interpretation, mask=mask)
 
 
 def _members(members: Any) -> int:

@@ -147,6 +147,19 @@ _add(Preset(
     "labyrinth that fills the 300² torus (class stable from ~25 000 steps)",
 ))
 _add(Preset(
+    "gs-masked-disc", "gray-scott",
+    {"Du": 0.16, "Dv": 0.08, "F": 0.035, "k": 0.060}, dt=1.0, steps=12000,
+    domain={"grid": (256, 256), "dx": 1.0, "bc": "periodic"},
+    init={"kind": "square", "values": {"u": 1.0, "v": 0.0}, "inside": {"u": 0.5, "v": 0.25},
+          "size": 0.1, "noise": 0.05},
+    source="Camphuijsen & Kasim 2016 §3 (the labyrinth's F, k) on a disc: a masked grid",
+    expect="stripes", snapshot_every=1000, classify={"field": "v", "threshold": None},
+    options={"mask": "(x - Lx/2)**2 + (y - Ly/2)**2 < (0.45*Lx)**2"},
+    description="the labyrinth grown from a central square inside a disc cut from the grid "
+    "by a mask (mask=): zero flux across its edge, where the stripes meet the wall at right "
+    "angles; the corners outside stay as they started",
+))
+_add(Preset(
     "gs-differential-flow", "gray-scott-flow",
     {"Vx": 0.04, "Vy": 0.0}, dt=1.0, steps=20000,
     domain={"grid": (256, 256), "dx": 1.0, "bc": "periodic"},

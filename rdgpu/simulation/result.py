@@ -62,6 +62,9 @@ class Result:
     diverged_members : dict of int to str
         The members that diverged and were frozen at their last good state, with what
         happened to each.
+    mask : numpy.ndarray or None
+        A masked run's mask (bool, the domain's field shape; `rdgpu.integrators.masks`):
+        the pictures show the cells outside it grey.
     """
 
     model: str
@@ -87,6 +90,7 @@ class Result:
     #: that diverged and were frozen at their last good state, with what happened
     members: int | None = None
     diverged_members: dict[int, str] = field(default_factory=dict)
+    mask: np.ndarray | None = None
 
     @property
     def species(self) -> tuple[str, ...]:

@@ -256,6 +256,7 @@ class Runner:
             backend=sim.backend.name, device=sim.backend.device, dtype=sim.dtype.name,
             seed=sim.seed, init=sim.init, wall_seconds=_time.perf_counter() - self.t0,
             diverged=diverged, members=sim.members, diverged_members=dict(sim.frozen),
+            mask=_mask(sim),
         )
 
     # -- the loop
@@ -389,3 +390,9 @@ class Runner:
         if self.checkpoint is not None and target == run["start"]:
             self.write_checkpoint(self.check(step))
         return self.result(final)
+
+
+def _mask(sim: Any) -> np.ndarray | None:
+    """A masked run's mask as booleans of the domain's field shape, or None."""
+    values = getattr(sim.stepper, "mask", None)
+    return None if values is None else np.asarray(values, dtype=bool).reshape(sim.shape)

@@ -121,7 +121,7 @@ def test_parents_json_and_files(tmp_path):
 
 @pytest.mark.parametrize("preset, words", [
     ({"numAlgebraicSpecies": 2, "numSpecies": 2}, "at least one species must evolve"),
-    ({"domainViaIndicatorFun": True}, "indicator function"),
+    ({"domainViaIndicatorFun": True, "domainIndicatorFun": "I_S < 0.5"}, "'I_S'"),
     ({"boundaryConditions_1": "neumann"}, "periodic on some species' or sides' x"),
     ({"boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
       "comboStr_1": "Left: Dirichlet = 1; Right: Neumann = 0; Top: Periodic;"},
@@ -179,6 +179,28 @@ def test_algebraic_species_are_substituted():
     assert res.diverged is None and np.abs(res.fields["u"]).max() > 0.01
 
 
+def test_an_indicator_domain_is_a_mask():
+    """``domainIndicatorFun`` (inside where positive) becomes rdgpu's mask: Gray-Scott on a
+    disc with zero-flux sides runs, the cells outside keep their start; a domain that
+    reads t or carries Dirichlet conditions is refused by name."""
+    disc = {**GS, "domainViaIndicatorFun": True, "boundaryConditions_1": "neumann",
+            "boundaryConditions_2": "neumann",
+            "domainIndicatorFun": "(L_min/2.2)^2 - ((x-L_x/2)^2 + (y-L_y/2)^2)"}
+    tr = load(disc)
+    assert tr.mask is not None and tr.mask.endswith("> 0")
+    sim = tr.simulation(backend="numpy")
+    res = sim.run(200, progress=False)
+    start = tr.fields(0)
+    assert 0.5 < res.mask.mean() < 0.8
+    np.testing.assert_array_equal(res.fields["v"][~res.mask],
+                                  start["v"].astype(np.float32)[~res.mask])
+    assert not np.array_equal(res.fields["v"][res.mask], start["v"][res.mask])
+    with pytest.raises(UnsupportedPreset, match="reads t: a domain that changes"):
+        load({**disc, "domainIndicatorFun": "x < t"})
+    with pytest.raises(UnsupportedPreset, match="on a domain given by domainIndicatorFun"):
+        load({**disc, "boundaryConditions_1": "dirichlet", "boundaryConditions_2": "dirichlet"})
+
+
 def test_the_command_line_runs_a_preset(tmp_path, capsys):
     path = tmp_path / "gs.json"
     path.write_text(json.dumps(GS))
@@ -194,9 +216,9 @@ def test_the_command_line_runs_a_preset(tmp_path, capsys):
     st.advance(200)
     np.testing.assert_array_equal(res.fields["v"], st.get_state()["v"])
     bad = tmp_path / "bad.json"
-    bad.write_text(json.dumps({"domainViaIndicatorFun": True}))
+    bad.write_text(json.dumps({"domainViaIndicatorFun": True, "domainIndicatorFun": "x < t"}))
     assert rdgpu_main(["run", "--visualpde", str(bad), "--quiet"]) == 2
-    assert "indicator function" in capsys.readouterr().err
+    assert "a domain that changes during the run" in capsys.readouterr().err
     assert rdgpu_main(["run", "gray-scott", "--visualpde", str(path), "--quiet"]) == 2
     assert "drop MODEL (gray-scott)" in capsys.readouterr().err
 

@@ -361,6 +361,20 @@ def test_seed004_spots_and_stripes(name):
 
 
 @pytest.mark.parametrize("backend", ["warp", "opencl"])
+def test_the_masked_disc_grows_its_labyrinth_inside_only(backend):
+    """gs-masked-disc on 96² (stripes from 6000 steps, seeds 0-1): the labyrinth inside the
+    disc, the cells outside exactly as they started."""
+    sim, res = _simulate("gs-masked-disc", backend, size=96, steps=6000)
+    assert _classify("gs-masked-disc", sim, res) == "stripes"
+    start = initial_state(sim.init, sim.domain, sim.species, sim.seed, sim.dtype)
+    outside = ~res.mask
+    assert 0.3 < outside.mean() < 0.4
+    for s in sim.species:
+        np.testing.assert_array_equal(res.fields[s][outside],
+                                      start[s].reshape(res.mask.shape)[outside])
+
+
+@pytest.mark.parametrize("backend", ["warp", "opencl"])
 def test_noise_alone_starts_the_brusselators_turing_pattern(backend):
     """brusselator-noise on 64² (stripes from 4000 steps, seeds 0-2): from the exact
     homogeneous steady state, noise grows the Turing labyrinth over the whole grid; the

@@ -1,0 +1,107 @@
+"""Masked domains (``mask=``): a grid whose fields evolve only inside a mask, given by an
+indicator expression of ``x``, ``y``, ``z``, ``Lx``... and the scalar parameters, inside
+where it is positive (``"(x - Lx/2)**2 + (y - Ly/2)**2 < (Lx/3)**2"``, a comparison: 1 in
+a disc; ``"(Lx/3)**2 - (x - Lx/2)**2 - (y - Ly/2)**2"`` the same disc), or by an array of
+the grid's shape (booleans, or numbers positive inside; `rdgpu.io.images.read_mask` makes
+one from a picture).
+
+Inside, the equations are the grid's; across the mask's edge the flux is zero: every
+neighbour a stencil reads outside the mask reads as the cell's own value (`rdgpu.ir.
+stencils.neighbour_values`, the NumPy reference alike), so a Laplacian sees a Neumann
+wall there, a divergence a closed face, a derivative a flat field, and diffusion conserves
+``Σ s`` over the mask to round-off.  Outside, nothing changes: each species' right-hand
+side is multiplied by the mask (1 inside, 0 outside), so a field there keeps its value
+exactly (its right-hand side must be finite there: it is evaluated and multiplied by 0).
+The grid's own conditions still hold at its sides.  The explicit Runge-Kutta methods run
+masked (noise too); the implicit, exponential and multistep ones (their solves and
+histories know no mask), meshes and graph surfaces, the isotropic stencil and temporal
+blocking are refused by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rdgpu.integrators.boundaries import require_compact_grid
+from rdgpu.ir import equations as eq
+from rdgpu.ir.schemes import SCHEMES, ExplicitScheme
+
+if TYPE_CHECKING:
+    from rdgpu.backends.base import Backend, DeviceArray
+    from rdgpu.domains.base import Domain
+    from rdgpu.ir.schemes import Scheme
+
+__all__ = ["MASK", "masked_trees", "mask_buffer", "mask_values"]
+
+#: the input name of the mask in every pass (a generated name: users' never start with _)
+MASK = "_mask"
+
+
+def mask_values(mask: Any, domain: Domain, kind: str, scheme: Scheme,
+                params: Mapping[str, Any]) -> np.ndarray | None:
+    """The mask as 0/1 float64 values of ``domain.field_shape`` (module doc), or None for
+    no mask; ``kind``: the stepper's stencil kind, ``params``: its parameters (numbers are
+    the expression's)."""
+    if mask is None:
+        return None
+    require_compact_grid(kind, "a mask (mask=) is set on")
+    if not isinstance(scheme, ExplicitScheme):
+        able = ", ".join(n for n, s in SCHEMES.items() if isinstance(s, ExplicitScheme))
+        raise ValueError(f"a mask (mask=) runs with the explicit Runge-Kutta methods "
+                         f"({able}), not with {scheme.name!r}")
+    if isinstance(mask, str):
+        values = _indicator(mask, domain, params)
+    else:
+        a = np.asarray(mask)
+        if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+            raise TypeError(f"mask must be an expression (a string) or an array, got "
+                            f"{type(mask).__name__}")
+        if a.shape != tuple(domain.field_shape):
+            raise ValueError(f"mask has shape {a.shape}, the grid {tuple(domain.field_shape)}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError("mask holds values that are not finite")
+        values = (a > 0).astype(np.float64)
+    if not values.any():
+        raise ValueError("the mask holds no cell: nothing would evolve")
+    return values
+
+
+def _indicator(text: str, domain: Domain, params: Mapping[str, Any]) -> np.ndarray:
+    """An indicator expression evaluated at the cell centres, positive → 1."""
+    scalars = {k: float(v) for k, v in params.items()
+               if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    try:
+        tree = eq.parse(text, params=list(scalars), what="mask", laplace=False)
+    except eq.EquationError as exc:
+        raise ValueError(str(exc)) from None
+    env: dict[str, Any] = dict(scalars)
+    for c in eq.names(tree, "coord"):
+        if c not in domain.axes:
+            raise ValueError(f"mask {text!r} uses {c!r}, an axis the grid lacks "
+                             f"({', '.join(domain.axes)})")
+        env[c] = domain.kernel_coordinate(c, np.float64).reshape(domain.field_shape)
+    env.update({k: float(v) for k, v in domain.extents.items()})
+    if eq.names(tree, "time"):
+        raise ValueError(f"mask {text!r} uses t: a mask does not change in time")
+    with np.errstate(all="ignore"):
+        v = np.broadcast_to(np.asarray(eq.evaluate(tree, env), dtype=np.float64),
+                            domain.field_shape)
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"mask {text!r} is not finite at every cell")
+    return (v > 0).astype(np.float64)
+
+
+def masked_trees(trees: Mapping[str, eq.Node]) -> dict[str, eq.Node]:
+    """Each right-hand side times the mask: 0 outside it (module doc)."""
+    m = eq.Ref("species", MASK)
+    return {s: eq.Bin("*", m, t) for s, t in trees.items()}
+
+
+def mask_buffer(values: np.ndarray, backend: Backend, shape: tuple[int, ...],
+                kernel_shape: tuple[int, ...], dtype: np.dtype) -> DeviceArray:
+    """The mask on the device, broadcast over an ensemble's members (``shape``)."""
+    a = np.broadcast_to(values.reshape(kernel_shape), shape)
+    return backend.upload(np.ascontiguousarray(a, dtype=dtype))
