@@ -31,7 +31,7 @@ Algebraic species (the last ``numAlgebraicSpecies``) are the value of their righ
 side, substituted into the equations (`rdgpu.ir.algebraic`); boundary conditions per
 species and side are rdgpu's (`rdgpu.integrations.visualpde_bc`); an indicator domain
 (``domainIndicatorFun``, inside where positive) is rdgpu's mask (`rdgpu.integrators.masks`)
-where its conditions are zero-flux or periodic.  Refused by name (`UnsupportedPreset`),
+with each species' condition on its edge (``mask_bc``).  Refused by name (`UnsupportedPreset`),
 never approximated: first derivatives of an algebraic species' expression, indicator
 domains that move or carry Dirichlet/Robin/flux conditions, images, an axis periodic for
 some species only, logic (``&&``, ``||``) and functions rdgpu's language lacks (``H``,
@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rdgpu.domains.boundary import DIRICHLET
+from rdgpu.domains.boundary import DIRICHLET, PERIODIC
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.visualpde_bc import boundaries
 from rdgpu.ir import equations as eq
@@ -129,6 +129,8 @@ class Translation:
         Dirichlet values on the faces, fluxes, Robin conditions, per side.
     mask : str or None
         An indicator domain as rdgpu's mask expression (``options["mask"]``), or None.
+    mask_bc : dict
+        The species' conditions on that domain's edge (``options["mask_bc"]``).
     """
 
     name: str
@@ -147,6 +149,8 @@ class Translation:
     bc: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: the indicator domain as rdgpu's mask expression (`rdgpu.integrators.masks`), or None
     mask: str | None = None
+    #: the conditions on the indicator domain's edge, per species (``mask_bc``)
+    mask_bc: dict[str, Any] = field(default_factory=dict)
 
     def fields(self, seed: int = 0) -> dict[str, np.ndarray]:
         """The initial fields (float64, the grid's shape): each ``initCond`` evaluated
@@ -203,7 +207,8 @@ class Translation:
         return Simulation(self.model, self.grid, {}, dt=self.dt if dt is None else dt,
                           backend=backend, dtype=dtype, seed=seed, fields=self.fields(seed),
                           options={"method": method or self.method,
-                                   **({"mask": self.mask} if self.mask else {})},
+                                   **({"mask": self.mask, "mask_bc": self.mask_bc}
+                                      if self.mask else {})},
                           bc=self.bc or None, **kwargs)
 
 
@@ -283,9 +288,12 @@ def load(preset: Mapping[str, Any] | str | Path,
                                 f"{', '.join(SCHEMES)})")
     dt = _number(p, "dt", {})
     grid = Grid((cells,) if dim == 1 else (cells, cells), dx=dx, bc=bc)
-    if mask is not None and (field_bc or DIRICHLET in (grid.bcs.x.kind, grid.bcs.y.kind)):
-        raise UnsupportedPreset("Dirichlet, Robin or flux conditions on a domain given by "
-                                "domainIndicatorFun (rdgpu's mask edge is zero-flux)")
+    closed = 2 * sum(b.kind != PERIODIC for b in (grid.bcs.x, grid.bcs.y)[:dim])
+    mask_bc = {s: set(sides.values()) for s, sides in field_bc.items()} if mask else {}
+    if any(len(c) > 1 or len(field_bc[s]) < closed for s, c in mask_bc.items()) or (
+            mask is not None and DIRICHLET in (grid.bcs.x.kind, grid.bcs.y.kind)):
+        raise UnsupportedPreset("conditions that differ between sides on a domain given by "
+                                "domainIndicatorFun (its edge takes one per species)")
     steps = RUN_FRAMES * _integer(p, "numTimestepsPerFrame")
     try:
         model = Model(name, equations, params, description=f"VisualPDE preset {name!r}",
@@ -305,7 +313,7 @@ def load(preset: Mapping[str, Any] | str | Path,
                      "shape; the translation is square")
     return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
                        shown if shown in evolving else evolving[0], notes, constants, offsets,
-                       field_bc, mask)
+                       field_bc, mask, {s: next(iter(c)) for s, c in mask_bc.items()})
 
 
 # ---------------------------------------------------------------------------- the parts

@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
     from rdgpu.ir.schemes import Scheme
 
-__all__ = ["require_compact_grid", "stepper_boundary"]
+__all__ = ["require_compact_grid", "stepper_boundary", "value_parser"]
 
 
 def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
@@ -36,6 +36,13 @@ def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
                          f"methods (euler, heun, rk3, rk4, ab2), not yet with {scheme.name!r}, "
                          "whose implicit solves take the grid's own conditions")
     parsed = parse_field_bcs(bc, domain.bcs, domain.ndim, species)
+    return make_boundary(parsed, domain.bcs, value_parser(params, inline))
+
+
+def value_parser(params: Mapping[str, Any], inline: Mapping[str, eq.Node]):
+    """``parse_value(v, what)``: a condition's value (a number, or an expression of x, y,
+    z, t and the scalar parameters, the inlined ones substituted) as a tree; parameter
+    fields refused by name."""
     scalars = sorted(p for p, v in params.items()
                      if isinstance(v, (int, float, PerMember)) and not isinstance(v, bool))
     fields = sorted(p for p in params if p not in scalars)
@@ -55,7 +62,7 @@ def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
         return eq.substitute(tree, lambda n: inline.get(n.name)
                              if isinstance(n, eq.Ref) and n.kind == "param" else None)
 
-    return make_boundary(parsed, domain.bcs, parse_value)
+    return parse_value
 
 
 def require_compact_grid(kind: str, what: str) -> None:

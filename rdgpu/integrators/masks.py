@@ -12,10 +12,11 @@ wall there, a divergence a closed face, a derivative a flat field, and diffusion
 ``Σ s`` over the mask to round-off.  Outside, nothing changes: each species' right-hand
 side is multiplied by the mask (1 inside, 0 outside), so a field there keeps its value
 exactly (its right-hand side must be finite there: it is evaluated and multiplied by 0).
-The grid's own conditions still hold at its sides.  The explicit Runge-Kutta methods run
-masked (noise too); the implicit, exponential and multistep ones (their solves and
-histories know no mask), meshes and graph surfaces, the isotropic stencil and temporal
-blocking are refused by name.
+The grid's own conditions still hold at its sides; ``mask_bc`` gives a species another
+condition on the mask's edge (`mask_ghosts`: the ghost a neighbour outside reads).  The
+explicit Runge-Kutta methods run masked (noise too); the implicit, exponential and
+multistep ones (their solves and histories know no mask), meshes and graph surfaces, the
+isotropic stencil and temporal blocking are refused by name.
 """
 
 from __future__ import annotations
@@ -25,8 +26,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rdgpu.integrators.boundaries import require_compact_grid
+from rdgpu.domains.boundary import parse_side
+from rdgpu.integrators.boundaries import require_compact_grid, value_parser
 from rdgpu.ir import equations as eq
+from rdgpu.ir.boundary import ghost_tree
 from rdgpu.ir.schemes import SCHEMES, ExplicitScheme
 
 if TYPE_CHECKING:
@@ -34,7 +37,7 @@ if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
     from rdgpu.ir.schemes import Scheme
 
-__all__ = ["MASK", "masked_trees", "mask_buffer", "mask_values"]
+__all__ = ["MASK", "mask_buffer", "mask_ghosts", "mask_values", "masked_trees"]
 
 #: the input name of the mask in every pass (a generated name: users' never start with _)
 MASK = "_mask"
@@ -105,3 +108,38 @@ def mask_buffer(values: np.ndarray, backend: Backend, shape: tuple[int, ...],
     """The mask on the device, broadcast over an ensemble's members (``shape``)."""
     a = np.broadcast_to(values.reshape(kernel_shape), shape)
     return backend.upload(np.ascontiguousarray(a, dtype=dtype))
+
+
+def mask_ghosts(mask_bc: Any, species: tuple[str, ...], domain: Domain,
+                params: Mapping[str, Any], inline: Mapping[str, eq.Node]
+                ) -> tuple[tuple[str, str, eq.Node], ...]:
+    """The conditions on the mask's edge (``mask_bc``: species or ``"*"`` → one condition
+    of `rdgpu.domains.boundary.parse_side`'s spelling; a species not named keeps zero
+    flux) as ``(species, side, ghost tree)`` for each side of the grid's axes (`rdgpu.ir.
+    boundary.ghost_tree`: the value a neighbour outside the mask reads, of the edge cell's
+    own value and its centre's coordinates); zero-flux ones are left out."""
+    if not mask_bc:
+        return ()
+    if not isinstance(mask_bc, Mapping):
+        raise TypeError(f"mask_bc maps species (or '*') to a condition, got "
+                        f"{type(mask_bc).__name__}")
+    bad = sorted(str(k) for k in mask_bc if k != "*" and k not in species)
+    if bad:
+        raise ValueError(f"mask_bc names {', '.join(map(repr, bad))}, not species of the "
+                         f"model; allowed: {', '.join(species)} and '*'")
+    parse_value = value_parser(params, inline)
+    out = []
+    for s in species:
+        spec = mask_bc.get(s, mask_bc.get("*"))
+        if spec is None:
+            continue
+        cond = parse_side(spec, f"mask_bc of {s!r}")
+        value = parse_value(cond.value, f"mask_bc of {s!r}")
+        alpha = parse_value(cond.alpha, f"mask_bc of {s!r}") if cond.kind == "robin" \
+            else eq.Num(0.0)
+        for axis in domain.axes:
+            for side in (f"{axis}-", f"{axis}+"):
+                tree = ghost_tree(cond, s, side, value, alpha)
+                if tree is not None:
+                    out.append((s, side, tree))
+    return tuple(out)

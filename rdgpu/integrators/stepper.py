@@ -63,11 +63,8 @@ Methods (``options={"method": ...}``, ``--method``), with ``f`` the right-hand s
   substeps).  No stability limit from the linear part, no solves (``tol`` unused),
   nothing carried between steps.
 
-``laplace(laplace(s))`` in an explicit method is a pre-pass that stores ``laplace(s)``
-(Dirichlet ghost 0, the "simply supported" condition) and a Laplacian of it in the
-fused pass; the Laplacian of an expression that takes a Laplacian itself (Cahn–Hilliard),
-and any other expression a pass cannot evaluate at a neighbour, are stored the same way
-(`rdgpu.ir.lowering`).
+What a pass cannot read by itself (``laplace(laplace(s))``, Cahn–Hilliard's nested
+Laplacian...) is stored by pre-passes first (`rdgpu.ir.lowering`).
 """
 
 from __future__ import annotations
@@ -85,7 +82,7 @@ from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
 from rdgpu.integrators.boundaries import stepper_boundary
 from rdgpu.integrators.exponential import Etdrk4, split_damping
-from rdgpu.integrators.masks import MASK, mask_buffer, mask_values, masked_trees
+from rdgpu.integrators.masks import MASK, mask_buffer, mask_ghosts, mask_values, masked_trees
 from rdgpu.integrators.noise import draw, noise_buffers, stepper_noise
 from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.splitting import linear_split, scalar_numbers
@@ -199,7 +196,8 @@ class ModelStepper(FieldStepper):
                  stencil: str = "compact", members: int | None = None,
                  block_steps: int | None = None, solver: str | None = None,
                  bc: Mapping[str, Any] | None = None, noise: Any = None,
-                 noise_seed: int = 0, noise_interpretation: str = "ito", mask: Any = None):
+                 noise_seed: int = 0, noise_interpretation: str = "ito", mask: Any = None,
+                 mask_bc: Any = None):
         # a positive number for every method (explicit ones do not use it)
         tol = None if tol is None else _positive_tol(tol)
         #: the implicit solves' solver (`rdgpu.ops.transforms.SOLVERS`; None: the default)
@@ -245,6 +243,9 @@ class ModelStepper(FieldStepper):
         #: the mask's 0/1 values (`rdgpu.integrators.masks`), or None: the whole grid
         self.mask = mask_values(mask, domain, self.target.kind, self.scheme, self.params)
         trees = trees if self.mask is None else masked_trees(trees)
+        #: the mask's edge conditions (`rdgpu.integrators.masks.mask_ghosts`)
+        self._mask_ghosts = () if self.mask is None else mask_ghosts(
+            mask_bc, self.species, domain, self._device_params, inline)
         self.D = self._diffusion_numbers()
         #: the exponential step (`rdgpu.integrators.exponential`), or None
         self._etd: Etdrk4 | None = None
@@ -269,17 +270,17 @@ class ModelStepper(FieldStepper):
         """The right-hand sides with what a pass cannot read by itself stored by
         pre-passes (`rdgpu.ir.lowering.lower`), and those pre-passes."""
         fields = [p for p, v in self._device_params.items() if isinstance(v, DeviceArray)]
-        return lower(trees, fields, self.boundary, None if self.mask is None else MASK)
+        return lower(trees, fields, self.boundary, None if self.mask is None else MASK,
+                     self._mask_ghosts)
 
     def _program(self, inputs, outputs, pre: Prepass | None) -> Program:
         """A pass over ``inputs`` (the stored fields of ``pre`` among them) writing
         ``outputs``, with the stored fields' ghosts."""
-        mask = MASK if MASK in inputs else None
+        masked = {"mask": MASK, "mask_ghosts": self._mask_ghosts} if MASK in inputs else {}
         if pre is None:
-            return Program(tuple(inputs), tuple(outputs), boundary=self.boundary, mask=mask)
+            return Program(tuple(inputs), tuple(outputs), boundary=self.boundary, **masked)
         return Program(tuple(inputs), tuple(outputs), pre.zero_ghost & set(inputs),
-                       own_ghost=pre.own_ghost & set(inputs), boundary=self.boundary,
-                       mask=mask)
+                       own_ghost=pre.own_ghost & set(inputs), boundary=self.boundary, **masked)
 
     def _aux_buffers(self, pre: Prepass | None) -> list[DeviceArray]:
         """The buffers of ``pre``'s stored fields, its static ones stored now."""

@@ -72,14 +72,14 @@ def needs_store(expr: Node, fields: Iterable[str] = ()) -> bool:
 
 
 def lower(trees: Mapping[str, Node], fields: Iterable[str] = (),
-          boundary: Boundary | None = None, mask: str | None = None
-          ) -> tuple[dict[str, Node], Prepass | None]:
+          boundary: Boundary | None = None, mask: str | None = None,
+          mask_ghosts: tuple = ()) -> tuple[dict[str, Node], Prepass | None]:
     """``trees`` (species -> right-hand side, or any named expressions) with what must be
     stored replaced by reads of stored fields, and the pre-passes that store them (None
     when nothing is stored).  ``fields``: the parameters given as fields; ``boundary``:
     the per-species conditions every pass takes (`rdgpu.ir.boundary`), or None; ``mask``:
     the input holding a mask (`rdgpu.ir.program.Program.mask`), which a pre-pass that reads
-    neighbours reads too."""
+    neighbours reads too, with its edge conditions ``mask_ghosts``."""
     fields = frozenset(fields)
     bilap = sorted({n.name for t in trees.values() for n in walk(t)
                     if isinstance(n, Lap) and n.order == 2})
@@ -126,12 +126,13 @@ def lower(trees: Mapping[str, Node], fields: Iterable[str] = (),
             outs = [n for n in order if level[n] == lv and (n in fixed) == once]
             if outs:
                 (static if once else programs).append(
-                    _level(outs, exprs, zero, own, boundary, mask))
+                    _level(outs, exprs, zero, own, boundary, mask, mask_ghosts))
     return low, Prepass(tuple(programs), tuple(order), zero, own, tuple(static))
 
 
 def _level(outs: list[str], exprs: Mapping[str, Node], zero: frozenset[str],
-           own: frozenset[str], boundary: Boundary | None, mask: str | None) -> Program:
+           own: frozenset[str], boundary: Boundary | None, mask: str | None,
+           mask_ghosts: tuple = ()) -> Program:
     """The pass storing the fields ``outs`` (their ``exprs``), masked where it reads
     neighbours."""
     reads = set().union(*(_reads(exprs[n]) for n in outs))
@@ -140,7 +141,8 @@ def _level(outs: list[str], exprs: Mapping[str, Node], zero: frozenset[str],
     masked = mask if stencil else None
     inputs = tuple(sorted((reads | ({masked} - {None})) - set(outs)))
     return Program(inputs, tuple(Output(n, exprs[n]) for n in outs), zero & set(inputs),
-                   own_ghost=own & set(inputs), boundary=boundary, mask=masked)
+                   own_ghost=own & set(inputs), boundary=boundary, mask=masked,
+                   mask_ghosts=mask_ghosts if masked else ())
 
 
 def _reads(expr: Node) -> set[str]:

@@ -94,6 +94,9 @@ class Program:
     #: the input holding the domain's mask (1 inside, 0 outside; `rdgpu.integrators.masks`),
     #: or None: every neighbour a field reads outside the mask reads as the cell's own value
     mask: str | None = None
+    #: the mask's edge conditions ``(field, side, ghost tree)`` (`rdgpu.integrators.masks.
+    #: mask_ghosts`): what a neighbour outside the mask reads instead of the own value
+    mask_ghosts: tuple[tuple[str, str, Node], ...] = ()
     #: per-program caches (names, sources, compiled passes); programs compare by identity
     cache: dict = field(default_factory=dict, repr=False)
 
@@ -158,6 +161,8 @@ class Program:
             exprs = [o.expr for o in self.outputs] + [e for _, e in self.derived]
             if self.boundary is not None and self.stencil_inputs:
                 exprs += list(self.boundary.trees())
+            if self.mask is not None and self.stencil_inputs:
+                exprs += [t for _, _, t in self.mask_ghosts]
             found = tuple(sorted({n.name for e in exprs for n in walk(e)
                                   if isinstance(n, Ref) and n.kind == kind}))
             self.cache[key] = found
@@ -211,6 +216,12 @@ class Program:
         """The grid conditions the kernels of this program take on ``domain``: its own, a
         custom axis as Dirichlet (`rdgpu.ir.boundary.Boundary.kernel_bcs`)."""
         return domain.bcs if self.boundary is None else self.boundary.kernel_bcs(domain.bcs)
+
+    def mask_ghost(self, name: str, side: str) -> Node | None:
+        """Field ``name``'s ghost on the mask's edge toward neighbour side ``side`` (a
+        letter), or None: the cell's own value (zero flux)."""
+        key = (name, SIDE_OF[side])
+        return next((t for f, s, t in self.mask_ghosts if (f, s) == key), None)
 
     def derived_expr(self, name: str) -> Node | None:
         return dict(self.derived).get(name)

@@ -85,7 +85,17 @@ class _Padder:
         m = _members4(np.broadcast_to(self.env[mask], self.layout.field_shape), self.layout)
         m = np.broadcast_to(m, u.shape)
         mlo, mhi = _sides(gc.pad_axis(np.ascontiguousarray(m), 3 - k, kind, 0.0), 3 - k)
-        return (mlo * lo) + ((t(1) - mlo) * u), (mhi * hi) + ((t(1) - mhi) * u)
+        edges = []
+        for letter in _LETTERS[k]:
+            rule = self.program.mask_ghost(name, letter)
+            if rule is None:
+                edges.append(u)
+                continue
+            with np.errstate(all="ignore"):
+                g = evaluate(rule, self.env, literal=lambda v: literal(v, u.dtype))
+            edges.append(np.broadcast_to(np.asarray(g, dtype=u.dtype),
+                                         self.layout.field_shape).reshape(u.shape))
+        return (mlo * lo) + ((t(1) - mlo) * edges[0]), (mhi * hi) + ((t(1) - mhi) * edges[1])
 
 
 #: the neighbour side letters of each axis (x, y, z), low then high

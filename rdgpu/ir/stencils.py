@@ -205,7 +205,10 @@ def neighbour_values(program: Program, kind: str,
                     value = select(side, ghost, value)
             if mask is not None:
                 m = load(nb, mask)
-                value = f"(({m} * {value}) + (({lit(1.0)} - {m}) * {ident('c', s)}))"
+                rule = program.mask_ghost(s, nb.ghosts[0][0]) if len(nb.ghosts) == 1 else None
+                edge = ident("c", s) if rule is None else \
+                    emit(rule, lambda n: variable(n, fields), lit, fn)
+                value = f"(({m} * {value}) + (({lit(1.0)} - {m}) * {edge}))"
             yield nb.name, s, value
 
 

@@ -581,6 +581,7 @@ class Model:
         noise_seed: int = 0,
         noise_interpretation: str = "ito",
         mask: Any = None,
+        mask_bc: Any = None,
     ):
         """Bind the model to a domain: a `rdgpu.integrators.ModelStepper`, fields at zero.
 
@@ -624,7 +625,10 @@ class Model:
             ``"stratonovich"`` (py-pde's names).
         mask : str or array, optional
             Evolve only inside a mask on a grid: an indicator expression of x, y, z or an
-            array of the grid's shape; zero flux across its edge (`rdgpu.integrators.masks`)."""
+            array of the grid's shape; zero flux across its edge (`rdgpu.integrators.masks`).
+        mask_bc : mapping, optional
+            Conditions on the mask's edge per species (``"*"``: the others), spelled as
+            ``bc``'s: ``("value", g)``, ``("neumann", q)``, ``("robin", a, g)``..."""
         if solver is not None and solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(map(repr, SOLVERS))} or None, "
                              f"got {solver!r}")
@@ -651,7 +655,7 @@ class Model:
             fit_to_mesh(self, domain, lengths), domain, p, dt, get_backend(backend),
             np.dtype(dtype), method, tol=tol, stencil=stencil, members=members,
             block_steps=block_steps, solver=solver, bc=bc, noise=noise, noise_seed=noise_seed,
-            noise_interpretation=noise_interpretation, mask=mask)
+            noise_interpretation=noise_interpretation, mask=mask, mask_bc=mask_bc)
 
 
 def _members(members: Any) -> int:

@@ -181,8 +181,9 @@ def test_algebraic_species_are_substituted():
 
 def test_an_indicator_domain_is_a_mask():
     """``domainIndicatorFun`` (inside where positive) becomes rdgpu's mask: Gray-Scott on a
-    disc with zero-flux sides runs, the cells outside keep their start; a domain that
-    reads t or carries Dirichlet conditions is refused by name."""
+    disc with zero-flux sides runs, the cells outside keep their start; a species'
+    Dirichlet condition holds on the domain's edge (``mask_bc``); a domain that reads t, or
+    conditions that differ between sides, are refused by name."""
     disc = {**GS, "domainViaIndicatorFun": True, "boundaryConditions_1": "neumann",
             "boundaryConditions_2": "neumann",
             "domainIndicatorFun": "(L_min/2.2)^2 - ((x-L_x/2)^2 + (y-L_y/2)^2)"}
@@ -197,8 +198,16 @@ def test_an_indicator_domain_is_a_mask():
     assert not np.array_equal(res.fields["v"][res.mask], start["v"][res.mask])
     with pytest.raises(UnsupportedPreset, match="reads t: a domain that changes"):
         load({**disc, "domainIndicatorFun": "x < t"})
-    with pytest.raises(UnsupportedPreset, match="on a domain given by domainIndicatorFun"):
-        load({**disc, "boundaryConditions_1": "dirichlet", "boundaryConditions_2": "dirichlet"})
+    # Dirichlet conditions hold on the domain's edge: VisualPDE's value on the face
+    held = load({**disc, "boundaryConditions_1": "dirichlet", "dirichletStr_1": "1",
+                 "boundaryConditions_2": "neumann"})
+    assert held.mask_bc == {"u": ("value", "1")}
+    u = held.simulation(backend="numpy").run(200, progress=False).fields["u"]
+    assert np.isfinite(u).all()
+    with pytest.raises(UnsupportedPreset, match="differ between sides"):
+        load({**disc, "boundaryConditions_1": "combo", "boundaryConditions_2": "neumann",
+              "comboStr_1": "Left: Dirichlet = 1; Right: Neumann = 0; Top: Neumann = 0; "
+                            "Bottom: Neumann = 0;"})
 
 
 def test_the_command_line_runs_a_preset(tmp_path, capsys):

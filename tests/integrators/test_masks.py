@@ -174,3 +174,47 @@ def test_the_command_line_masks_a_disc_and_reads_a_picture(tmp_path):
     res = rdgpu.Simulation("gray-scott", Grid((16, 16)), backend="numpy",
                            options={"mask": "x < Lx/2"}).run(5, progress=False)
     assert res.mask.shape == (16, 16) and res.mask[:, :8].all() and not res.mask[:, 8:].any()
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_edge_conditions_match_the_reference(backend, dtype):
+    """``mask_bc``: a face value of x and t for ``u``, Robin for ``v`` on the mask's edge;
+    every backend equals the NumPy reference bit for bit (only + − × ÷)."""
+    grid = Grid((9, 13), dx=0.7, bc="periodic")
+    rng = np.random.default_rng(8)
+    fields = {s: rng.uniform(0.2, 1, grid.shape) for s in "uv"}
+    edge = {"u": ("value", "0.5 + 0.1*x*t"), "v": ("robin", 2.0, 0.3)}
+    runs = []
+    for be in ("numpy", backend):
+        st = PAIR.stepper(grid, dt=0.1, backend=be, dtype=dtype, mask=DISC, mask_bc=edge)
+        st.set_state(fields)
+        st.advance(6)
+        runs.append(st.get_state())
+    for s in "uv":
+        np.testing.assert_array_equal(runs[1][s], runs[0][s], err_msg=s)
+    plain = PAIR.stepper(grid, dt=0.1, backend="numpy", dtype=dtype, mask=DISC)
+    plain.set_state(fields)
+    plain.advance(6)
+    assert not np.array_equal(plain.get_state()["u"], runs[0]["u"])  # the edge counts
+
+
+def test_a_masked_line_with_a_face_value_is_a_grid_with_that_condition():
+    """Cells 0..12 of a periodic line, the face value 1 on the mask's edge: bit for bit a
+    13-cell grid with ``bc={"u": ("value", 1)}`` on both sides."""
+    u0 = np.random.default_rng(4).uniform(0, 1, 20)
+    st = HEAT.stepper(Grid((20,), bc="periodic"), dt=0.3, backend="numpy", mask="x < 13",
+                      mask_bc={"u": ("value", 1.0)})
+    st.set_state({"u": u0})
+    st.advance(40)
+    alone = HEAT.stepper(Grid((13,), bc="neumann"), dt=0.3, backend="numpy",
+                         bc={"u": ("value", 1.0)})
+    alone.set_state({"u": u0[:13]})
+    alone.advance(40)
+    np.testing.assert_array_equal(st.get_state()["u"].ravel()[:13],
+                                  alone.get_state()["u"].ravel())
+    with pytest.raises(ValueError, match="mask_bc names 'w'"):
+        HEAT.stepper(Grid((20,)), dt=0.3, backend="numpy", mask="x < 13",
+                     mask_bc={"w": "neumann"})
+    with pytest.raises(ValueError, match="unknown condition"):
+        HEAT.stepper(Grid((20,)), dt=0.3, backend="numpy", mask="x < 13",
+                     mask_bc={"u": ("sticky", 1)})
