@@ -334,9 +334,9 @@ def _bc(text: str) -> tuple:
 
 
 _FIELD_FORMS = ("SPECIES[:SIDE]=KIND[:VALUE], SIDE one of x- x+ y- y+ z- z+ x y z (default: "
-                "every non-periodic side), KIND neumann, dirichlet, value or robin:A (each "
-                "VALUE a number or an expression of x, y, z, t and the parameters), e.g. "
-                "u:x-=value:1+sin(t) or v=neumann:0.5")
+                "every non-periodic side), KIND periodic, neumann, dirichlet, value or robin:A "
+                "(each VALUE a number or an expression of x, y, z, t and the parameters), "
+                "e.g. u:x-=value:1+sin(t), v=neumann:0.5 or u:x=periodic")
 
 
 def field_bc(text: str) -> tuple[str, str, Any]:

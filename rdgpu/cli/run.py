@@ -48,6 +48,7 @@ from rdgpu.cli.listing import presets_of
 from rdgpu.cli.outputs import default_png, result_of, slices_note, uniform_warning, write_each
 from rdgpu.cli.resume import build_resumed
 from rdgpu.core.errors import SimulationDiverged, SimulationInterrupted, StabilityError
+from rdgpu.domains.boundary import SideBC
 from rdgpu.integrations.visualpde import UnsupportedPreset, load
 from rdgpu.io.images import read_mask
 from rdgpu.io.output import MESH_FORMATS
@@ -141,7 +142,23 @@ def _announce(args: argparse.Namespace, sim: Simulation, kwargs: dict) -> None:
               + (f" × {sim.members} members" if sim.members else "") + f", {steps_note}"
               f"dt={sim.dt:g}, {sim.dtype.name}, {sim.backend.name} ({sim.backend.device})"
               + (f", from step {sim.step} of {args.resume}" if args.resume else "")
-              + (f"; {params}" if params else "") + _noise_note(sim))
+              + (f"; {params}" if params else "") + _bc_note(sim) + _noise_note(sim))
+
+
+def _bc_note(sim: Simulation) -> str:
+    """``"; bc u x-=value:1 x+=periodic"`` where species have their own conditions."""
+    given = sim.options.get("bc")
+    if not given:
+        return ""
+
+    def cond(c: Any) -> str:
+        c = c.to_json() if isinstance(c, SideBC) else c
+        return c if isinstance(c, str) else ":".join(str(v) for v in c)
+
+    parts = [f"{s} " + (" ".join(f"{side}={cond(c)}" for side, c in sides.items())
+                        if isinstance(sides, dict) else cond(sides))
+             for s, sides in given.items()]
+    return "; bc " + ", ".join(parts)
 
 
 def _noise_note(sim: Simulation) -> str:

@@ -30,8 +30,13 @@ from rdgpu.core.validation import scalar
 PERIODIC = 0
 NEUMANN = 1
 DIRICHLET = 2
+#: the kernels' own kind, never a grid's: an axis whose loads wrap (periodic) and whose end
+#: cells also carry ghost flags, for per-species conditions on an axis some fields read
+#: periodically (`rdgpu.ir.boundary.Boundary.kernel_bcs`)
+WRAPPED = 3
 
-_NAMES = {PERIODIC: "periodic", NEUMANN: "neumann", DIRICHLET: "dirichlet"}
+_NAMES = {PERIODIC: "periodic", NEUMANN: "neumann", DIRICHLET: "dirichlet",
+          WRAPPED: "wrapped"}
 
 ALLOWED = "'periodic', 'neumann' or ('dirichlet', value)"
 
@@ -135,10 +140,12 @@ def parse_bc(bc: Any, ndim: int = 2) -> GridBC:
 SIDES = ("x-", "x+", "y-", "y+", "z-", "z+")
 #: a side's condition kinds (`SideBC`), with their py-pde names as aliases
 SIDE_KINDS = {"neumann": "neumann", "derivative": "neumann", "dirichlet": "dirichlet",
-              "value": "value", "robin": "robin", "mixed": "robin"}
+              "value": "value", "robin": "robin", "mixed": "robin", "periodic": "periodic"}
 SIDE_ALLOWED = ("'neumann', ('neumann', q), ('dirichlet', g), ('value', g) or "
                 "('robin', a, g); q, g and a numbers or expression strings of x, y, z, t, "
                 "Lx, Ly, Lz and the parameters")
+#: what a grid's side takes per species (`parse_field_bcs`): the above, or periodic
+FIELD_ALLOWED = "'periodic', " + SIDE_ALLOWED
 
 
 @dataclass(frozen=True)
@@ -150,11 +157,13 @@ class SideBC:
     * ``value``: the face between the edge cell and its ghost holds ``value`` (py-pde's
       Dirichlet), ghost ``2g − u``;
     * ``robin``: ``∂u/∂n + alpha·u = value`` on the face, ghost ``(h·g + u·(1 − h·a/2)) /
-      (1 + h·a/2)``.
+      (1 + h·a/2)``;
+    * ``periodic`` (a grid's side only, `parse_field_bcs`): the ghost is the cell at the
+      other end of the axis, whatever the grid's own condition there.
 
     Parameters
     ----------
-    kind : {"neumann", "dirichlet", "value", "robin"}
+    kind : {"neumann", "dirichlet", "value", "robin", "periodic"}
         The condition (the canonical names of `SIDE_KINDS`).
     value : float or str, default 0.0
         ``q`` or ``g``: a number or an expression string of x, y, z, t, Lx, Ly, Lz, pi and
@@ -169,11 +178,11 @@ class SideBC:
     alpha: float | str = 0.0
 
     def to_json(self) -> list | str:
-        """``"neumann"``, ``[kind, value]`` or ``["robin", alpha, value]``."""
+        """``"neumann"``, ``"periodic"``, ``[kind, value]`` or ``["robin", alpha, value]``."""
         if self.kind == "robin":
             return ["robin", self.alpha, self.value]
-        if self.kind == "neumann" and self.value == 0.0:
-            return "neumann"
+        if self.kind == "periodic" or (self.kind == "neumann" and self.value == 0.0):
+            return self.kind
         return [self.kind, self.value]
 
 
@@ -185,27 +194,34 @@ def _side_number(v: Any, what: str) -> float | str:
     return scalar(v, what, minimum=None)
 
 
-def parse_side(spec: Any, where: str) -> SideBC:
+def parse_side(spec: Any, where: str, periodic: bool = False) -> SideBC:
     """One side's condition (`SideBC`) from ``"neumann"``, ``(kind, value)`` or
-    ``("robin", alpha, value)``; ``where`` names it in messages."""
+    ``("robin", alpha, value)``, and ``"periodic"`` where ``periodic`` (a grid's side);
+    ``where`` names it in messages."""
+    allowed = FIELD_ALLOWED if periodic else SIDE_ALLOWED
     if isinstance(spec, SideBC):
+        if spec.kind == "periodic" and not periodic:
+            raise ValueError(f"{where}: 'periodic' is a grid side's condition; allowed: "
+                             f"{allowed}")
         return spec
     if isinstance(spec, str):
         name = spec.lower()
         if SIDE_KINDS.get(name) == "neumann":
             return SideBC("neumann")
         if name == "periodic":
-            raise ValueError(f"{where}: 'periodic' belongs to the grid (its axis), not to one "
-                             f"field or side: give the grid bc='periodic' on that axis")
-        raise ValueError(f"{where}: unknown condition {spec!r}; allowed: {SIDE_ALLOWED}")
+            if periodic:
+                return SideBC("periodic")
+            raise ValueError(f"{where}: 'periodic' is a grid side's condition (the cell at "
+                             f"the other end of the axis); allowed here: {allowed}")
+        raise ValueError(f"{where}: unknown condition {spec!r}; allowed: {allowed}")
     if isinstance(spec, (tuple, list)) and spec and isinstance(spec[0], str):
         kind = SIDE_KINDS.get(spec[0].lower())
         if kind == "robin" and len(spec) == 3:
             return SideBC("robin", _side_number(spec[2], f"{where} Robin value"),
                           _side_number(spec[1], f"{where} Robin coefficient"))
-        if kind is not None and kind != "robin" and len(spec) == 2:
+        if kind not in (None, "robin", "periodic") and len(spec) == 2:
             return SideBC(kind, _side_number(spec[1], f"{where} {kind} value"))
-    raise ValueError(f"{where}: unknown condition {spec!r}; allowed: {SIDE_ALLOWED}")
+    raise ValueError(f"{where}: unknown condition {spec!r}; allowed: {allowed}")
 
 
 def _is_side_map(spec: Any) -> bool:
@@ -214,20 +230,23 @@ def _is_side_map(spec: Any) -> bool:
 
 def parse_field_bcs(bc: Any, bcs: GridBC, ndim: int,
                     species: Sequence[str]) -> dict[str, dict[str, SideBC]]:
-    """Per-species conditions on the non-periodic sides of a grid whose own conditions are
-    ``bcs`` (docs/boundaries.md).
+    """Per-species conditions on the sides of a grid whose own conditions are ``bcs``
+    (docs/boundaries.md).
 
     Parameters
     ----------
     bc : mapping
         Species names (or ``"*"``, every species not named) to one condition for all of
         the grid's non-periodic sides, or to a mapping of sides (``"x-"``, ``"x+"``...),
-        axes (``"x"``: both sides; a side named on its own wins) and ``"*"`` (the sides not
-        named) to conditions: ``"neumann"``, ``("neumann", q)``, ``("dirichlet", g)``,
-        ``("value", g)``, ``("robin", a, g)`` (`SideBC`; ``"derivative"`` and ``"mixed"``
-        are aliases).
+        axes (``"x"``: both sides; a side named on its own wins) and ``"*"`` (the
+        non-periodic sides not named) to conditions: ``"neumann"``, ``("neumann", q)``,
+        ``("dirichlet", g)``, ``("value", g)``, ``("robin", a, g)`` (`SideBC`;
+        ``"derivative"`` and ``"mixed"`` are aliases) or ``"periodic"`` (the cell at the
+        other end of the axis).  A side or axis named explicitly may be one of a periodic
+        axis: that species is then not periodic there.
     bcs : GridBC
-        The grid's own conditions (`Grid.bcs`): a periodic axis takes none per species.
+        The grid's own conditions (`Grid.bcs`): the sides of a species not named keep
+        them.
     ndim : int
         The grid's dimension (1, 2 or 3): the sides of the other axes are refused.
     species : sequence of str
@@ -243,8 +262,8 @@ def parse_field_bcs(bc: Any, bcs: GridBC, ndim: int,
     TypeError
         ``bc`` is not a mapping.
     ValueError
-        An unknown species, side or condition, a side of a periodic or absent axis, a
-        value that is not a number or a non-empty string (naming where).
+        An unknown species, side or condition, a side of an absent axis, a value that is
+        not a number or a non-empty string (naming where).
     """
     if not isinstance(bc, Mapping):
         raise TypeError(f"bc must map species names (or '*') to conditions, got "
@@ -264,7 +283,7 @@ def parse_field_bcs(bc: Any, bcs: GridBC, ndim: int,
         spec = bc[s] if s in bc else bc["*"]
         where = f"bc[{s!r}]" if s in bc else "bc['*']"
         if not _is_side_map(spec):
-            side = parse_side(spec, where)
+            side = parse_side(spec, where, periodic=True)
             out[s] = dict.fromkeys(open_sides, side)
             continue
         given: dict[str, SideBC] = {}
@@ -274,21 +293,18 @@ def parse_field_bcs(bc: Any, bcs: GridBC, ndim: int,
                 continue
             if key not in SIDES and key not in ("x", "y", "z"):
                 raise ValueError(f"{label}: unknown side {key!r}; allowed: x- x+ y- y+ z- z+, "
-                                 "an axis x y z (both sides) or '*' (the sides not named)")
+                                 "an axis x y z (both sides) or '*' (the non-periodic sides not "
+                                 "named)")
             if key[0] not in axes:
                 raise ValueError(f"{label}: the grid is {ndim}-D, its axes are "
                                  f"{' '.join(axes)}")
-            if kinds[key[0]] == PERIODIC:
-                raise ValueError(f"{label}: the grid's {key[0]} axis is periodic; per-field "
-                                 f"conditions apply on non-periodic sides (give the grid "
-                                 f"another condition on {key[0]})")
             sides = [key] if len(key) == 2 else [key + "-", key + "+"]
             for side in sides:
                 if side in given and len(key) == 1:
                     continue  # a side named on its own wins over its axis
-                given[side] = parse_side(cond, label)
+                given[side] = parse_side(cond, label, periodic=True)
         if "*" in spec:
-            rest = parse_side(spec["*"], f"{where}['*']")
+            rest = parse_side(spec["*"], f"{where}['*']", periodic=True)
             for side in open_sides:
                 given.setdefault(side, rest)
         out[s] = given

@@ -90,6 +90,9 @@ typedef float real;
 #define BC_PERIODIC 0
 #define BC_NEUMANN 1
 #define BC_DIRICHLET 2
+/* the kernels' own kind (rdgpu.domains.boundary.WRAPPED): loads wrap as periodic ones, the
+ * end cells carry ghost flags as Dirichlet ones (per-species conditions on such an axis) */
+#define BC_WRAPPED 3
 
 #define R0 ((real)0)
 #define R1 ((real)1)
@@ -116,21 +119,23 @@ INLINE real nanmax(real a, real b) { return (a != a || a > b) ? a : b; }
  * always valid (clamped when the ghost is Dirichlet) so the load is always safe.       */
 
 /* index of the neighbour below (idx - 1) of position idx on an axis of length n */
+INLINE bool kind_wraps(int kind) { return kind == BC_PERIODIC || kind == BC_WRAPPED; }
+
 INLINE int lo_index(int idx, int n, int kind)
 {
     if (idx > 0) return idx - 1;
-    return (kind == BC_PERIODIC) ? n - 1 : 0;
+    return kind_wraps(kind) ? n - 1 : 0;
 }
 
 /* index of the neighbour above (idx + 1) */
 INLINE int hi_index(int idx, int n, int kind)
 {
     if (idx < n - 1) return idx + 1;
-    return (kind == BC_PERIODIC) ? 0 : n - 1;
+    return kind_wraps(kind) ? 0 : n - 1;
 }
 
-INLINE bool lo_is_ghost(int idx, int kind) { return idx == 0 && kind == BC_DIRICHLET; }
-INLINE bool hi_is_ghost(int idx, int n, int kind) { return idx == n - 1 && kind == BC_DIRICHLET; }
+INLINE bool lo_is_ghost(int idx, int kind) { return idx == 0 && kind >= BC_DIRICHLET; }
+INLINE bool hi_is_ghost(int idx, int n, int kind) { return idx == n - 1 && kind >= BC_DIRICHLET; }
 
 /* Everything a row needs to find its neighbours (computed once per row). */
 typedef struct {

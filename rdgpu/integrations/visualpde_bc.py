@@ -10,8 +10,9 @@ Neumann = 1; Top: Periodic; Bottom: Robin = -u;"``, also ``Ghost = g``, the ghos
 value; a side not named is periodic).  They become, side by side, rdgpu's
 ``("value", g)`` (the face holds ``g``), ``("dirichlet", g)`` (a ghost), ``("neumann",
 q)`` and ``("robin", a, g)`` where
-``f = g − a·u`` is linear in the species (checked); an axis is periodic where every species
-is periodic on both its sides; anything else is refused by name.
+``f = g − a·u`` is linear in the species (checked), and ``"periodic"``; the grid's axis is
+periodic where every species is periodic on both its sides (else Neumann, the periodic
+sides given per species); anything else is refused by name.
 """
 
 from __future__ import annotations
@@ -60,15 +61,13 @@ def boundaries(p: Mapping[str, Any], species: Sequence[str], dim: int,
     for axis in "xy"[:dim]:
         periodic = {(s, side) for s in species for side in (axis + "-", axis + "+")
                     if conds[s][side][0] == "periodic"}
-        if periodic and len(periodic) != 2 * len(species):
-            raise refuse(f"periodic on some species' or sides' {axis} boundaries only "
-                         f"({', '.join(f'{s} {d}' for s, d in sorted(periodic))}): rdgpu "
-                         "makes an axis periodic for every species")
-        grid.append("periodic" if periodic else "neumann")
+        grid.append("periodic" if len(periodic) == 2 * len(species) else "neumann")
     for s in species:
         for side in sides:
             kind, text, key = conds[s][side]
             if kind == "periodic":
+                if grid["xy".index(side[0])] != "periodic":
+                    out.setdefault(s, {})[side] = "periodic"
                 continue
             cond = _condition(kind, translate(text, key), key, s, species, params, refuse)
             if cond != "neumann":
@@ -121,7 +120,7 @@ def _condition(kind: str, text: str, key: str, s: str, species: Sequence[str],
     if kind == "ghost":
         return ("dirichlet", text)
     if kind == "neumann":
-        return "neumann" if eq.is_constant(tree) and _value(tree) == 0.0 else ("neumann", text)
+        return "neumann" if _number(tree) == 0.0 else ("neumann", text)
     if reads - {s}:
         raise refuse(f"{key} = {text!r} reads {', '.join(sorted(reads - {s}))}: a Robin "
                      f"condition of {s!r} is linear in {s!r} alone")
@@ -130,7 +129,7 @@ def _condition(kind: str, text: str, key: str, s: str, species: Sequence[str],
     if not _linear(tree, s):
         raise refuse(f"{key} = {text!r}: ∂{s}/∂n = f({s}) with f not linear in {s!r} "
                      "(rdgpu's Robin condition is ∂u/∂n + a·u = g)")
-    return ("robin", *(_value(t) if eq.is_constant(t) else eq.to_text(t) for t in (a, g)))
+    return ("robin", *(eq.to_text(t) if _number(t) is None else _number(t) for t in (a, g)))
 
 
 def _at(tree: eq.Node, s: str, v: float) -> eq.Node:
@@ -138,7 +137,11 @@ def _at(tree: eq.Node, s: str, v: float) -> eq.Node:
                          and n.kind == "species" and n.name == s else None)
 
 
-def _value(tree: eq.Node) -> float:
+def _number(tree: eq.Node) -> float | None:
+    """The value of a tree of numbers (and ``pi``) alone, None for one that reads a
+    parameter, a coordinate, ``t`` or a species."""
+    if not eq.is_constant(tree) or eq.names(tree, "param") - {"pi"}:
+        return None
     with np.errstate(all="ignore"):
         return float(eq.evaluate(tree, {"pi": math.pi}))
 

@@ -21,6 +21,13 @@ into the kernel (`Boundary.ghost`):
 The kernels then take a custom axis as Dirichlet (`kernel_bcs`: ghost flags on at both
 ends, loads clamped) and select the ghost expression where the flag is set; the NumPy
 reference pads each side with the same expression (`rdgpu.ir.reference`).
+
+A custom axis that some field reads periodically (the grid's periodic axis, or a species
+given ``periodic`` on one of its sides) is *wrapped*: its loads wrap to the other end, its
+end cells still carry the ghost flags (`rdgpu.domains.boundary.WRAPPED`).  There a field
+that reads periodically selects nothing (``ghost`` is None: the wrapped load), and an edge
+cell's own value is selected explicitly (`OWN`); a divergence's coefficient reads
+periodically where every species it multiplies does.
 """
 
 from __future__ import annotations
@@ -32,18 +39,23 @@ from rdgpu.domains.boundary import (
     DIRICHLET,
     PERIODIC,
     SIDES,
+    WRAPPED,
     AxisBC,
     GridBC,
     SideBC,
 )
 from rdgpu.ir.nodes import Bin, Node, Num, Ref, rename_species, substitute, walk
 
-__all__ = ["Boundary", "SIDE_OF", "ghost_tree", "make_boundary"]
+__all__ = ["OWN", "Boundary", "SIDE_OF", "ghost_tree", "make_boundary"]
 
 #: a stencil neighbour's side letter (`rdgpu.ir.stencils.Neighbour`) -> the side's name
 SIDE_OF = {"w": "x-", "e": "x+", "s": "y-", "n": "y+", "b": "z-", "t": "z+"}
 #: the spacing across each axis as an expression name (never a user's: ``_``-prefixed)
 SPACING = {"x": "_dx", "y": "_dy", "z": "_dz"}
+#: `Boundary.ghost`'s answer where a field on a wrapped axis reads its edge cell's own
+#: value (compared by identity: the kernels print the cell's value, the reference repeats
+#: the edge)
+OWN = Ref("own", "edge cell")
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,27 +64,51 @@ class Boundary:
     ``rules[(species, side)]`` a species' ghost tree on a side of a custom axis (None: the
     edge cell's own value); ``grid[side]`` the grid's own ghost there (for the fields
     without a rule); ``dirichlet``: the (species, side) pairs whose condition fixes the
-    value (``dirichlet``, ``value``: a stored Laplacian's ghost there is 0)."""
+    value (``dirichlet``, ``value``: a stored Laplacian's ghost there is 0);
+    ``periodic``: the (species, side) pairs given ``periodic``; ``wrapped``: the custom
+    axes whose loads wrap (the grid's periodic ones, and those a species reads
+    periodically)."""
 
     axes: frozenset[str]
     rules: Mapping[tuple[str, str], Node | None]
     grid: Mapping[str, Node | None]
     dirichlet: frozenset[tuple[str, str]] = frozenset()
+    periodic: frozenset[tuple[str, str]] = frozenset()
+    wrapped: frozenset[str] = frozenset()
+    #: the grid's own periodic axes among ``axes``
+    grid_periodic: frozenset[str] = frozenset()
 
-    def ghost(self, name: str, side: str, zero: bool, own: bool) -> Node | None:
-        """The ghost tree of field ``name`` on ``side`` (a custom axis' side), None for the
-        edge cell's own value; ``zero``/``own``: the field is a stored Laplacian/a
-        divergence's coefficient (`rdgpu.ir.program.Program`)."""
-        if own:
-            return None
+    def wraps(self, name: str, side: str) -> bool:
+        """Whether field ``name`` reads the other end of the axis beyond ``side``."""
+        if (name, side) in self.rules:
+            return (name, side) in self.periodic
+        return side[0] in self.grid_periodic
+
+    def ghost(self, name: str, side: str, zero: bool,
+              own: tuple[str, ...] | None) -> Node | None:
+        """The ghost tree of field ``name`` on ``side`` (a custom axis' side): None for
+        the load (the edge cell's own value where the axis clamps, the other end's where it
+        wraps), `OWN` for the edge cell's own value on a wrapped axis; ``zero``: the field
+        is a stored Laplacian; ``own``: it is a divergence's coefficient, of the species
+        ``own`` (`rdgpu.ir.program.Program`)."""
+        wrapped = side[0] in self.wrapped
+
+        def edge(tree: Node | None) -> Node | None:
+            return OWN if tree is None and wrapped else tree
+
+        if own is not None:
+            return None if own and all(self.wraps(s, side) for s in own) else edge(None)
         if zero:
             base = name[len("_lap_"):] if name.startswith("_lap_") else name
             fixed = ((base, side) in self.dirichlet if (base, side) in self.rules
                      else self.grid[side] is not None)
-            return Num(0.0) if fixed else None
-        if (name, side) in self.rules:
-            return self.rules[(name, side)]
-        return self.grid[side]
+            if fixed:
+                return Num(0.0)
+            return None if self.wraps(base, side) else edge(None)
+        if self.wraps(name, side):
+            return None
+        return edge(self.rules[(name, side)] if (name, side) in self.rules
+                    else self.grid[side])
 
     def renamed(self, names: Mapping[str, str]) -> Boundary:
         """The same conditions for fields renamed by ``names`` (a stage that reads species
@@ -81,7 +117,9 @@ class Boundary:
                  rename_species(t, names)
                  for (s, side), t in self.rules.items()}
         fixed = frozenset((names.get(s, s), side) for s, side in self.dirichlet)
-        return Boundary(self.axes, rules, self.grid, fixed)
+        periodic = frozenset((names.get(s, s), side) for s, side in self.periodic)
+        return Boundary(self.axes, rules, self.grid, fixed, periodic, self.wrapped,
+                        self.grid_periodic)
 
     def trees(self) -> Iterable[Node]:
         """Every ghost expression (for the names a pass reads)."""
@@ -90,8 +128,11 @@ class Boundary:
 
     def kernel_bcs(self, bcs: GridBC) -> GridBC:
         """The grid's conditions as the kernels take them: a custom axis as Dirichlet (its
-        ghost flags on, its loads clamped; the value unused)."""
+        ghost flags on, its loads clamped; the value unused), a wrapped one as `WRAPPED`
+        (ghost flags on, loads wrapped)."""
         def axis(a: str, b: AxisBC) -> AxisBC:
+            if a in self.wrapped:
+                return AxisBC(WRAPPED, 0.0)
             return AxisBC(DIRICHLET, 0.0) if a in self.axes else b
 
         return GridBC(axis("y", bcs.y), axis("x", bcs.x), axis("z", bcs.z))
@@ -134,8 +175,14 @@ def make_boundary(given: Mapping[str, Mapping[str, SideBC]], bcs: GridBC,
     axes = frozenset(side[0] for sides in given.values() for side in sides)
     rules: dict[tuple[str, str], Node | None] = {}
     fixed: set[tuple[str, str]] = set()
+    periodic: set[tuple[str, str]] = set()
+    kinds = {"x": bcs.x.kind, "y": bcs.y.kind, "z": bcs.z.kind}
     for s, sides in given.items():
         for side, cond in sides.items():
+            if cond.kind == "periodic":
+                rules[(s, side)] = None
+                periodic.add((s, side))
+                continue
             where = f"the {cond.kind} condition of {s!r} on {side}"
             value = at_face(parse_value(cond.value, f"{where} (its value)"), side)
             alpha = at_face(parse_value(cond.alpha, f"{where} (its coefficient)"), side)
@@ -150,7 +197,8 @@ def make_boundary(given: Mapping[str, Mapping[str, SideBC]], bcs: GridBC,
     for side in SIDES:
         if side[0] in axes:
             b = {"x": bcs.x, "y": bcs.y, "z": bcs.z}[side[0]]
-            if b.kind == PERIODIC:  # parse_field_bcs refuses this
-                raise ValueError(f"the grid's {side[0]} axis is periodic")
             grid[side] = Num(b.value) if b.kind == DIRICHLET else None
-    return Boundary(axes, rules, grid, frozenset(fixed))
+    grid_periodic = frozenset(a for a in axes if kinds[a] == PERIODIC)
+    wrapped = grid_periodic | {side[0] for _, side in periodic}
+    return Boundary(axes, rules, grid, frozenset(fixed), frozenset(periodic),
+                    frozenset(wrapped), grid_periodic)

@@ -218,7 +218,7 @@ def to_text(node: Node) -> str:
     if isinstance(node, Num):
         return repr(node.value)
     if isinstance(node, Ref):
-        return node.name
+        return "1j" if node.kind == "imag" else node.name  # the imaginary unit re-parses
     if isinstance(node, Lap):
         return "laplace(" * node.order + node.name + ")" * node.order
     if isinstance(node, Diff):

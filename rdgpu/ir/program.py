@@ -204,13 +204,16 @@ class Program:
 
     def ghost(self, name: str, side: str) -> Node | None | bool:
         """Field ``name``'s ghost on neighbour side ``side`` (``"w"``, ``"e"``, ``"s"``...)
-        of a custom axis (`rdgpu.ir.boundary.Boundary.ghost`: a tree, or None for the edge
-        cell's own value); ``False`` where the axis keeps the grid's own condition (the
-        kernels' ghost value per axis)."""
+        of a custom axis (`rdgpu.ir.boundary.Boundary.ghost`: a tree, None for the load,
+        `rdgpu.ir.boundary.OWN` for the edge cell's own value on a wrapped axis); ``False``
+        where the axis keeps the grid's own condition (the kernels' ghost value per
+        axis)."""
         b = self.boundary
         if b is None or side_axis(side) not in b.axes:
             return False
-        return b.ghost(name, SIDE_OF[side], name in self.zero_ghost, name in self.own_ghost)
+        own = (tuple(sorted({d.name for d in self.divergences if d.coef.name == name}))
+               if name in self.own_ghost else None)
+        return b.ghost(name, SIDE_OF[side], name in self.zero_ghost, own)
 
     def kernel_bcs(self, domain: Domain) -> GridBC:
         """The grid conditions the kernels of this program take on ``domain``: its own, a

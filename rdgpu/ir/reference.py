@@ -18,7 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.domains.boundary import WRAPPED
 from rdgpu.families import load_module
+from rdgpu.ir.boundary import OWN
 from rdgpu.ir.equations import Diff, DivGrad, evaluate
 from rdgpu.ir.layout import Layout
 from rdgpu.ir.program import METRIC_COEFFICIENTS, PerMember, Program, literal
@@ -56,20 +58,32 @@ class _Padder:
             if name in program.own_ghost and kind == gc.DIRICHLET:
                 kind = gc.NEUMANN
             return gc.pad_axis(u, axis, kind, 0.0 if name in program.zero_ghost else bc.value)
-        p = gc.pad_axis(u, axis, gc.NEUMANN, 0.0)
+        p = gc.pad_axis(u, axis, self._load_kind(k), 0.0)
         dtype = u.dtype
         for letter, edge in ((lo, 0), (hi, -1)):
             rule = program.ghost(name, letter)
             if rule is None:
                 continue
-            with np.errstate(all="ignore"):
-                g = evaluate(rule, self.env, literal=lambda v: literal(v, dtype))
-            g = np.broadcast_to(np.asarray(g, dtype=dtype), self.layout.field_shape)
-            ghost = np.take(g.reshape(u.shape), [edge], axis=axis)
+            if rule is OWN:
+                ghost = np.take(u, [edge], axis=axis)
+            else:
+                with np.errstate(all="ignore"):
+                    g = evaluate(rule, self.env, literal=lambda v: literal(v, dtype))
+                g = np.broadcast_to(np.asarray(g, dtype=dtype), self.layout.field_shape)
+                ghost = np.take(g.reshape(u.shape), [edge], axis=axis)
             index = [slice(None)] * p.ndim
             index[axis] = slice(0, 1) if edge == 0 else slice(p.shape[axis] - 1, None)
             p[tuple(index)] = ghost
         return p
+
+    def _load_kind(self, k: int) -> int:
+        """How the kernels load beyond the ends of axis ``k`` (0: x, 1: y, 2: z), as
+        `grid_common.pad_axis` pads: wrapped on a periodic or `WRAPPED` axis, else
+        clamped (Neumann)."""
+        gc = self.gc
+        b = self.program.kernel_bcs(self.layout.domain)
+        kind = (b.x, b.y, b.z)[k].kind
+        return gc.PERIODIC if kind in (gc.PERIODIC, WRAPPED) else gc.NEUMANN
 
     def sides(self, name: str, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The low and high neighbours of field ``name`` (``u``) along axis ``k``, ghosts
@@ -80,8 +94,7 @@ class _Padder:
         if mask is None:
             return lo, hi
         gc, t = self.gc, u.dtype.type
-        bc = (self.layout.domain.bcs.x, self.layout.domain.bcs.y, self.layout.domain.bcs.z)[k]
-        kind = gc.PERIODIC if bc.kind == gc.PERIODIC else gc.NEUMANN  # the clamped load
+        kind = self._load_kind(k)
         m = _members4(np.broadcast_to(self.env[mask], self.layout.field_shape), self.layout)
         m = np.broadcast_to(m, u.shape)
         mlo, mhi = _sides(gc.pad_axis(np.ascontiguousarray(m), 3 - k, kind, 0.0), 3 - k)

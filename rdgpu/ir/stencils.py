@@ -26,6 +26,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from rdgpu.ir.boundary import OWN
 from rdgpu.ir.equations import (
     Bin,
     Diff,
@@ -195,11 +196,13 @@ def neighbour_values(program: Program, kind: str,
             if select is not None:
                 for side, axis in reversed(nb.ghosts):
                     rule = program.ghost(s, side)
-                    if rule is None:  # a custom axis: the clamped load is the ghost
+                    if rule is None:  # a custom axis: the load (clamped or wrapped)
                         continue
                     if rule is False:  # the grid's own condition on this axis
                         ghost = ("0" if s in program.zero_ghost else ident("c", s)
                                  if s in program.own_ghost else f"g{axis}")
+                    elif rule is OWN:  # a wrapped axis: the edge cell's own value
+                        ghost = ident("c", s)
                     else:
                         ghost = emit(rule, lambda n: variable(n, fields), lit, fn)
                     value = select(side, ghost, value)

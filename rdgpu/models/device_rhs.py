@@ -81,6 +81,8 @@ class DeviceRHS:
                                      method="euler", block_steps=1, bc=bc)
         st = self.stepper
         self.species: tuple[str, ...] = st.species
+        #: the values a state holds per cell (a complex species' two parts are one value)
+        self.values = len(st.species) - len(model.complex_species)
         self.shape: tuple[int, ...] = st.shape
         self.dtype = st.dtype
         self.backend = st.backend

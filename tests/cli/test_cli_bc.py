@@ -23,6 +23,7 @@ HEAT = ["run", "--equation", "u=laplace(u) - u*v", "--equation", "v=0.5*laplace(
     ("v:y=robin:2:0.5", ("v", "y", ("robin", 2.0, 0.5))),
     ("*=dirichlet:-1e-3", ("*", "*", ("dirichlet", -1e-3))),
     ("u:x+=neumann:x*t", ("u", "x+", ("neumann", "x*t"))),
+    ("u:x=periodic", ("u", "x", "periodic")),
 ])
 def test_field_bc_forms(text, want):
     assert field_bc(text) == want
@@ -51,11 +52,43 @@ def test_run_matches_the_python_api(capsys, tmp_path):
     assert got["u"][:, 0].mean() > start["u"][:, 0].mean() + 0.1  # pulled up to 1 at x-
 
 
+def test_periodic_for_one_species(capsys, tmp_path):
+    """``--bc u:x=periodic`` on a Neumann grid: the run of ``bc={"u": {"x": "periodic"}}``
+    bit for bit, and ``u`` differs from the all-Neumann run."""
+    runs = []
+    for extra in (["--bc", "u:x=periodic"], []):
+        out = tmp_path / f"p{len(extra)}.npz"
+        code, _, err = cli(capsys, *HEAT, "--bc", "neumann", *extra, "--data", out)
+        assert code == 0, err
+        runs.append(load_npz(out).fields)
+    code, _, err = cli(capsys, *HEAT, "--bc", "neumann", "--steps", "0", "--data",
+                       tmp_path / "s.npz")
+    assert code == 0, err
+    start = load_npz(tmp_path / "s.npz").fields
+    model = rdgpu.define_model("custom", {"u": "laplace(u) - u*v", "v": "0.5*laplace(v)"})
+    sim = rdgpu.Simulation(model, Grid((12, 12), bc="neumann"), dt=0.01, backend="numpy",
+                           dtype="float64", fields={s: start[s] for s in ("u", "v")},
+                           bc={"u": {"x": "periodic"}})
+    want = sim.run(20).fields
+    for s in ("u", "v"):
+        np.testing.assert_array_equal(runs[0][s], want[s])
+    assert not np.array_equal(runs[0]["u"], runs[1]["u"])
+
+
+def test_the_run_says_its_conditions(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the picture of the run lands there
+    args = [a for a in HEAT if a != "--quiet"]
+    code, out, err = cli(capsys, *args, "--steps", "1", "--bc", "neumann", "--bc",
+                         "u:x=periodic", "--bc", "v:y-=value:sin(t)")
+    assert code == 0, err
+    assert "; bc u x=periodic, v y-=value:sin(t)" in out + err
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--bc", "neumann", "--bc", "u:x-=sticky:1"], "unknown condition"),
     (["--bc", "w=neumann"], "'w', which is not a species"),
     (["--bc", "u:q=value:1"], "unknown side 'q'"),
-    (["--bc", "u:x-=value:1"], "x axis is periodic"),
+    (["--bc", "u:x-=periodic:1"], "unknown condition"),
     (["--bc", "u:=value:1"], "expected SPECIES[:SIDE]=KIND"),
     (["--bc", "neumann", "--bc", "periodic"], "the grid's conditions are given once"),
     (["--bc", "neumann", "--bc", "u=value:1", "--method", "imex"], "explicit methods"),

@@ -235,10 +235,10 @@ def test_parse_field_bcs_forms():
 
 @pytest.mark.parametrize("bc, grid, match", [
     ({"w": "neumann"}, Grid((4, 4), bc="neumann"), "'w', which is not a species"),
-    ({"u": {"x-": ("value", 1)}}, Grid((4, 4), bc="periodic"), "x axis is periodic"),
+    ({"u": {"x-": ("periodic", 1)}}, Grid((4, 4), bc="periodic"), "unknown condition"),
     ({"u": {"z-": ("value", 1)}}, Grid((4, 4), bc="neumann"), "axes are x y"),
     ({"u": {"x*": ("value", 1)}}, Grid((4, 4), bc="neumann"), "unknown side 'x\\*'"),
-    ({"u": "periodic"}, Grid((4, 4), bc="neumann"), "'periodic' belongs to the grid"),
+    ({"u": ["periodic"]}, Grid((4, 4), bc="neumann"), "unknown condition"),
     ({"u": ("value",)}, Grid((4, 4), bc="neumann"), "unknown condition"),
     ({"u": ("robin", 1)}, Grid((4, 4), bc="neumann"), "unknown condition"),
     ({"u": ("value", "")}, Grid((4, 4), bc="neumann"), "empty string"),

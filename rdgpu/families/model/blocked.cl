@@ -69,7 +69,7 @@ __kernel void rd_blocked(@ARGS@,
     const long ring_ = 3L * nx;  /* one species' ring of one level */
     __global real *mine_ = scratch_ + (long)item * (steps - 1) * @NS@ * ring_;
     const int bands = (ny + band - 1) / band;
-    const bool wrap = y_kind == BC_PERIODIC;
+    const bool wrap = kind_wraps(y_kind);
     for (int w = item; w < bands * planes; w += items) {
         const long p0 = (long)(w / bands) * ny * nx;  /* the plane's first value */
         const int r0 = (w % bands) * band;

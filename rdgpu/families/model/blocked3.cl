@@ -104,7 +104,7 @@ __kernel void rd_blocked3(@ARGS@,
     const long ring_ = 3L * plane_;  /* one species' ring of one level */
     __global real *mine_ = scratch_ + (long)item * (steps - 1) * @NS@ * ring_;
     const int bands = (nz + band - 1) / band;
-    const bool wrap = z_kind == BC_PERIODIC;
+    const bool wrap = kind_wraps(z_kind);
     for (int w = item; w < bands * volumes; w += items) {
         const int m_ = w / bands;
         const long p0 = (long)m_ * nz * plane_;  /* the member's first value */

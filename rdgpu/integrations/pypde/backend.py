@@ -18,9 +18,12 @@ naming the part it cannot run; it never falls back to another backend):
   ``KPZInterfacePDE``, ``KuramotoSivashinskyPDE`` (``bc_lap`` equal to ``bc``), ``WavePDE``
   and ``KleinGordonPDE`` (every scalar PDE class of py-pde 0.59); Itô noise with
   ``EulerSolver`` and ``MilsteinSolver`` (`rdgpu.integrations.pypde.noise`); no post-step
-  hook, real fields only, and no subclass replacing what py-pde's solvers call besides the
+  hook, and no subclass replacing what py-pde's solvers call besides the
   equations (``make_post_step_hook``, ``evolution_rate``, the noise:
   `rdgpu.integrations.pypde.checks`);
+* real and complex fields (a complex variable runs as its two parts; sympy's ``I`` is
+  ``1j``; names outside ASCII run under generated ones:
+  `rdgpu.integrations.pypde.complex_fields`);
 * on a ``CartesianGrid`` of 1 to 3 dimensions (py-pde's axis ``k`` is axis ``k`` of
   rdgpu's field, so ``[i, j]`` is ``[y, x]`` in 2-D; py-pde's coordinate ``x`` of axis 0
   becomes rdgpu's name for that axis, shifted by the grid's lower bound);
@@ -104,11 +107,18 @@ from rdgpu.domains.grid import Grid
 from rdgpu.integrations.pypde import steppers as pypde_steppers
 from rdgpu.integrations.pypde.checks import UnsupportedPDE, check_overrides, check_solver
 from rdgpu.integrations.pypde.checks import refuse as _refuse
+from rdgpu.integrations.pypde.complex_fields import (
+    device_names,
+    real_dtype,
+    rename,
+    split_bc,
+    views,
+)
 from rdgpu.integrations.pypde.ghosts import Side, corrections, expression_ghost, native
 from rdgpu.integrations.pypde.ghosts import axis_bcs as axis_conditions
 from rdgpu.integrations.pypde.noise import SOLVERS as NOISE_SOLVERS
 from rdgpu.integrations.pypde.noise import noise_seed, pde_noise
-from rdgpu.integrations.pypde.steppers import species_views
+from rdgpu.integrations.pypde.pdes import builtin_equations, expression_equations, pde_classes
 from rdgpu.ir import equations as eq
 from rdgpu.models.device_rhs import DeviceRHS
 from rdgpu.models.model import define_model
@@ -120,9 +130,6 @@ __all__ = ["RdgpuBackend", "Translation", "UnsupportedPDE", "translate"]
 
 NAME = "rdgpu"
 #: rdgpu's coordinate name of each field axis, by number of dimensions
-_SUPPORTED = ("pde.PDE (ReactionDiffusionPDE too), DiffusionPDE, AllenCahnPDE, "
-              "SwiftHohenbergPDE, CahnHilliardPDE, KPZInterfacePDE, KuramotoSivashinskyPDE, "
-              "WavePDE, KleinGordonPDE")
 _BCS = ("periodic, and the first-order conditions Dirichlet, Neumann and Mixed/Robin with "
         "values that are numbers, arrays or expressions of the coordinates, and value, "
         "derivative and mixed expressions affine in the field, or of the coordinates and t")
@@ -139,7 +146,8 @@ class Translation:
     grid : Grid
         The rdgpu grid of py-pde's ``CartesianGrid``, with its boundary conditions.
     species : tuple of str
-        The fields' names, in the order of py-pde's state.
+        The fields' names (ASCII: `rdgpu.integrations.pypde.complex_fields`), in the order
+        of py-pde's state.
     equations : dict of str to str
         Species → right-hand side in rdgpu's equation language; they become ``model``, a
         `Model` named ``"py-pde"``.
@@ -150,6 +158,8 @@ class Translation:
         conditions run natively where each side's ghost is one affine map.
     noise : dict, optional
         rdgpu's ``noise=`` of the PDE's Itô noise (`rdgpu.integrations.pypde.noise`).
+    complex_species : tuple of str, optional
+        The complex variables (each runs as its real and imaginary part).
 
     Attributes
     ----------
@@ -159,14 +169,18 @@ class Translation:
 
     def __init__(self, grid: Grid, species: tuple[str, ...], equations: dict[str, str],
                  params: dict[str, Any], bc: dict[str, dict[str, Any]] | None = None,
-                 noise: dict[str, Any] | None = None):
+                 noise: dict[str, Any] | None = None,
+                 complex_species: tuple[str, ...] = ()):
         self.grid = grid
         self.noise = noise
-        #: per-species conditions over the grid's (`rdgpu.integrations.pypde.ghosts`)
-        self.bc = bc or None
-        self.species = species
+        #: per-species conditions over the grid's (`rdgpu.integrations.pypde.ghosts`),
+        #: a complex species' for its parts (`rdgpu.integrations.pypde.complex_fields`)
+        self.bc = split_bc(bc, complex_species) if bc else None
         self.params = params
-        self.model = define_model("py-pde", equations, {k: 0.0 for k in params})
+        self.model = define_model("py-pde", equations, {k: 0.0 for k in params},
+                                  complex_species=complex_species)
+        #: the device's species: the variables, each complex one as its two parts
+        self.species = self.model.species
         self.uses_time = any(eq.names(t, "time") for t in self.model.trees.values())
 
 
@@ -318,72 +332,6 @@ def _correction_fields(species: tuple[str, ...], conds: dict[str, list[Any]],
     return correct
 
 
-def _classes() -> tuple[type, ...]:
-    """The PDE classes rdgpu runs (a subclass runs as its nearest one of these)."""
-    return (pde.PDE, pde.DiffusionPDE, pde.AllenCahnPDE, pde.SwiftHohenbergPDE,
-            pde.CahnHilliardPDE, pde.KPZInterfacePDE, pde.KuramotoSivashinskyPDE, pde.WavePDE,
-            pde.KleinGordonPDE)
-
-
-def _builtin(pde_obj: Any) -> tuple[dict[str, str], dict[str, float], dict[str, Any],
-                                    Any]:
-    """``(equations, constants, bc data per species, (name, bc) of the inner Laplacian
-    or None)`` of a built-in PDE class."""
-    cls = type(pde_obj).__name__
-    if isinstance(pde_obj, pde.DiffusionPDE):
-        return ({"c": "diffusivity*laplace(c)"},
-                {"diffusivity": float(pde_obj.diffusivity)}, {"c": pde_obj.bc}, None)
-    if isinstance(pde_obj, pde.AllenCahnPDE):
-        return ({"c": "mobility*((interface_width*laplace(c) - c**3) + c)"},
-                {"mobility": float(pde_obj.mobility),
-                 "interface_width": float(pde_obj.interface_width)}, {"c": pde_obj.bc}, None)
-    if isinstance(pde_obj, pde.SwiftHohenbergPDE):
-        return ({"c": "((((rate - kc2**2)*c - 2*kc2*laplace(c)) - laplace(laplace(c)))"
-                      " + delta*c**2) - c**3"},
-                {"rate": float(pde_obj.rate), "kc2": float(pde_obj.kc2),
-                 "delta": float(pde_obj.delta)}, {"c": pde_obj.bc}, ("bc_lap", pde_obj.bc_lap))
-    if isinstance(pde_obj, pde.KPZInterfacePDE):  # py-pde's gradient_squared is central
-        return ({"c": "nu*laplace(c) + lmbda*gradient_squared(c)"},
-                {"nu": float(pde_obj.nu), "lmbda": float(pde_obj.lmbda)}, {"c": pde_obj.bc},
-                None)
-    if isinstance(pde_obj, pde.KuramotoSivashinskyPDE):
-        return ({"c": "-nu*laplace(laplace(c)) - laplace(c) - 0.5*gradient_squared(c)"},
-                {"nu": float(pde_obj.nu)}, {"c": pde_obj.bc}, ("bc_lap", pde_obj.bc_lap))
-    if isinstance(pde_obj, pde.CahnHilliardPDE):  # the outer Laplacian's (μ's) bc: bc_mu
-        return ({"c": "laplace(c**3 - c - interface_width*laplace(c))"},
-                {"interface_width": float(pde_obj.interface_width)}, {"c": pde_obj.bc_c},
-                ("bc_mu", pde_obj.bc_mu))
-    if isinstance(pde_obj, (pde.KleinGordonPDE, pde.WavePDE)):
-        # u_t = v, v_t = c² Δu (− μ² u): the Laplacian of u only, under pde_obj.bc
-        mass = float(getattr(pde_obj, "mass", 0.0))
-        v_rate = "speed2*laplace(u)" + (" - mass2*u" if mass != 0 else "")
-        consts = {"speed2": float(pde_obj.speed) ** 2}
-        if mass != 0:
-            consts["mass2"] = mass ** 2
-        return {"u": "v", "v": v_rate}, consts, {"u": pde_obj.bc, "v": pde_obj.bc}, None
-    raise _refuse(f"the PDE class {cls} (supported: {_SUPPORTED})")
-
-
-def _expression_pde(pde_obj: Any) -> tuple[dict[str, str], dict[str, Any],
-                                           dict[str, Any]]:
-    """``(equations, constants, bc data per species)`` of a ``pde.PDE``."""
-    if pde_obj.complex_valued:
-        raise _refuse("complex-valued equations (real fields only)")
-    if getattr(pde_obj, "post_step_hook", None) is not None:
-        raise _refuse("a post_step_hook (it would run on the host every step)")
-    bcs = {}
-    for s in pde_obj.variables:
-        for key in (f"{s}:laplace", "*:laplace", f"{s}:*", "*:*"):
-            if key in pde_obj.bcs:
-                bcs[s] = pde_obj.bcs[key]
-                break
-    other = sorted(k for k in pde_obj.bcs if not k.endswith((":laplace", ":*")))
-    if other:
-        raise _refuse(f"boundary conditions for the operators {other} (only laplace has "
-                      "boundary conditions here)")
-    return dict(pde_obj.rhs), dict(pde_obj.consts), bcs
-
-
 def _coordinate_map(grid: CartesianGrid) -> Callable[[eq.Node], eq.Node | None]:
     """py-pde's coordinates (axis ``k`` named ``grid.axes[k]``, from its lower bound)
     in rdgpu's names (from 0)."""
@@ -431,10 +379,17 @@ def translate(pde_obj: Any, state: Any) -> Translation:
         if not isinstance(f, pde.ScalarField):
             raise _refuse(f"a {type(f).__name__} in the state (scalar fields only)")
     if isinstance(pde_obj, pde.PDE):
-        equations, consts, bc_data = _expression_pde(pde_obj)
+        equations, consts, bc_data = expression_equations(pde_obj)
         inner = None
     else:
-        equations, consts, bc_data, inner = _builtin(pde_obj)
+        equations, consts, bc_data, inner = builtin_equations(pde_obj)
+    cplx = bool(getattr(pde_obj, "complex_valued", False)) or np.iscomplexobj(state.data)
+    names = device_names(tuple(equations), consts)
+    if (cplx or any(k != v for k, v in names.items())) and getattr(pde_obj, "is_sde", False):
+        raise _refuse("noise on complex fields or on fields named outside ASCII")
+    equations = {names[s]: rename(text, names, cplx and "I" not in consts)
+                 for s, text in equations.items()}
+    bc_data = {names[s]: v for s, v in bc_data.items()}
     species = tuple(equations)
     if len(species) != len(fields):
         raise _refuse(f"{len(fields)} field(s) in the state for the {len(species)} "
@@ -464,7 +419,7 @@ def translate(pde_obj: Any, state: Any) -> Translation:
     for s in species:
         try:
             tree = eq.parse(equations[s], species=species, params=params,
-                            what=f"the equation of {s!r}")
+                            what=f"the equation of {s!r}", complex_numbers=cplx)
         except eq.EquationError as exc:
             raise _refuse(str(exc)) from None
         written[s] = eq.derivatives(tree)  # in py-pde's axis names, for messages
@@ -505,7 +460,8 @@ def translate(pde_obj: Any, state: Any) -> Translation:
     ours = Grid(shape, bc=axis_bcs[0] if len(shape) == 1 else tuple(axis_bcs), **spacing)
     axes = dict(zip(grid.axes, axis_names(grid.num_axes), strict=True))
     noise = pde_noise(pde_obj, species, params, coords, axes)
-    return Translation(ours, species, text, params, field_bc, noise)
+    return Translation(ours, species, text, params, field_bc, noise,
+                       complex_species=species if cplx else ())
 
 
 # ---------------------------------------------------------------------------- the backend
@@ -559,9 +515,10 @@ class RdgpuBackend(BackendBase):
 
     @staticmethod
     def _dtype(state: Any) -> np.dtype:
-        dtype = np.asarray(state.data).dtype
+        dtype = real_dtype(np.asarray(state.data).dtype)
         if dtype not in REAL_DTYPES:
-            raise _refuse(f"state data of dtype {dtype} (float32 or float64)")
+            raise _refuse(f"state data of dtype {np.asarray(state.data).dtype} (float32, "
+                          "float64, complex64 or complex128)")
         return dtype
 
     def make_pde_rhs(self, eq: Any, state: Any) -> Callable[[np.ndarray, float], np.ndarray]:
@@ -583,7 +540,7 @@ class RdgpuBackend(BackendBase):
         UnsupportedPDE
             The PDE or state cannot run on this backend.
         """
-        check_overrides(eq, _classes(), hook=False)  # ScipySolver calls no post-step hook
+        check_overrides(eq, pde_classes(), hook=False)  # ScipySolver calls no post-step hook
         tr = translate(eq, state)
         rhs = DeviceRHS(tr.model, tr.grid, tr.params, self.rd, self._dtype(state), bc=tr.bc)
         x, out = rhs.empty(), rhs.empty()
@@ -591,9 +548,12 @@ class RdgpuBackend(BackendBase):
         field_shape = tr.grid.field_shape
 
         def pde_rhs(state_data: np.ndarray, t: float = 0.0) -> np.ndarray:
-            rhs.upload(species_views(np.asarray(state_data), len(x), several), x)
+            data = np.asarray(state_data)
+            rhs.upload(views(data, several), x)
             rhs.rate(x, out, float(t))
             rates = [d.numpy().reshape(field_shape) for d in out]
+            if np.iscomplexobj(data):  # a complex variable's parts, back as one
+                rates = [re + 1j * im for re, im in zip(rates[::2], rates[1::2], strict=True)]
             return np.stack(rates) if several else rates[0]
 
         return pde_rhs
@@ -626,11 +586,14 @@ class RdgpuBackend(BackendBase):
                           f"{', '.join(pypde_steppers.SUPPORTED)}; ScipySolver runs through "
                           "make_pde_rhs)")
         check_solver(solver)
-        check_overrides(solver.pde, _classes(),
+        check_overrides(solver.pde, pde_classes(),
                         hook=bool(getattr(solver, "_use_post_step_hook", True)))
         dtype = self._dtype(state)
         tr = translate(solver.pde, state)
         fixed_euler = name in NOISE_SOLVERS and not solver.adaptive
+        if tr.model.complex_species and getattr(solver, "adaptive", False):
+            raise _refuse(f"the adaptive {name} on complex fields (py-pde's error is the "
+                          "largest modulus; give solve a fixed dt)")
         if tr.noise is not None:
             adaptive = bool(getattr(solver, "adaptive", False))
             if name not in NOISE_SOLVERS or adaptive:
@@ -671,16 +634,16 @@ class RdgpuBackend(BackendBase):
 
         def stepper(state: Any, t_start: float, t_end: float) -> float:
             steps = max(1, round((t_end - t_start) / dt))
-            views = species_views(state.data, len(tr.species), several)
+            parts = views(state.data, several)
             first = round(t_start / dt) if noisy and not started else None
             started.append(True)
             if first is not None and tr.uses_time and abs(first * dt - t_start) > 1e-9 * dt:
                 raise _refuse(f"a stochastic equation of t from t={t_start:g}, not a whole "
                               f"number of steps dt={dt:g}")
-            st.set_state(dict(zip(tr.species, views, strict=True)), steps=first)
+            st.set_state(dict(zip(tr.species, parts, strict=True)), steps=first)
             st.advance(steps)
             out = st.get_state()
-            for s, target in zip(tr.species, views, strict=True):
+            for s, target in zip(tr.species, parts, strict=True):
                 target[...] = out[s].reshape(field_shape)
             solver.info["steps"] += steps
             return t_start + steps * dt

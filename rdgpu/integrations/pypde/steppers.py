@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.integrations.pypde.complex_fields import views
 from rdgpu.ir.schemes import ExplicitScheme, get_scheme
 from rdgpu.models.device_rhs import DeviceRHS, Field
 
@@ -88,18 +89,11 @@ class _Fields:
         self.x = rhs.empty()
 
     def load(self, state: Any) -> None:
-        self.rhs.upload(species_views(state.data, len(self.x), self.several), self.x)
+        self.rhs.upload(views(state.data, self.several), self.x)
 
     def store(self, state: Any) -> None:
-        views = species_views(state.data, len(self.x), self.several)
-        for target, d in zip(views, self.x, strict=True):
+        for target, d in zip(views(state.data, self.several), self.x, strict=True):
             target[...] = d.numpy().reshape(self.field_shape)
-
-
-def species_views(data: np.ndarray, count: int, several: bool) -> list[np.ndarray]:
-    """py-pde's ``state.data`` as one view per species: a FieldCollection's rows (``several``)
-    or the single field's data."""
-    return [data[i] for i in range(count)] if several else [data]
 
 
 def make_stepper(solver: Any, rhs: DeviceRHS, several: bool, field_shape: tuple[int, ...]
@@ -308,7 +302,7 @@ class _FixedPoint:
     def __init__(self, solver: Any, rhs: DeviceRHS, f: _Fields, what: str):
         self.rhs, self.f, self.what = rhs, f, what
         self.maxiter, self.maxerror2 = int(solver.maxiter), solver.maxerror ** 2
-        self.size = len(rhs.species) * int(np.prod(rhs.shape))
+        self.size = rhs.values * int(np.prod(rhs.shape))  # py-pde's count (complex: one)
         self.est, self.new, self.change = rhs.empty(), rhs.empty(), rhs.empty()
 
     def solve(self, update: Callable[[Field, Field, Field], None]) -> None:
