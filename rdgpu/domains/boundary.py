@@ -143,7 +143,7 @@ SIDE_KINDS = {"neumann": "neumann", "derivative": "neumann", "dirichlet": "diric
               "value": "value", "robin": "robin", "mixed": "robin", "periodic": "periodic"}
 SIDE_ALLOWED = ("'neumann', ('neumann', q), ('dirichlet', g), ('value', g) or "
                 "('robin', a, g); q, g and a numbers or expression strings of x, y, z, t, "
-                "Lx, Ly, Lz and the parameters")
+                "Lx, Ly, Lz, the parameters and the species")
 #: what a grid's side takes per species (`parse_field_bcs`): the above, or periodic
 FIELD_ALLOWED = "'periodic', " + SIDE_ALLOWED
 
@@ -166,9 +166,10 @@ class SideBC:
     kind : {"neumann", "dirichlet", "value", "robin", "periodic"}
         The condition (the canonical names of `SIDE_KINDS`).
     value : float or str, default 0.0
-        ``q`` or ``g``: a number or an expression string of x, y, z, t, Lx, Ly, Lz, pi and
-        scalar parameters (the coordinate across the side is the face's), parsed by
-        `rdgpu.ir.boundary` when a stepper is made.
+        ``q`` or ``g``: a number or an expression string of x, y, z, t, Lx, Ly, Lz, pi,
+        scalar parameters and species (their values in the edge cell; the coordinate
+        across the side is the face's), parsed by `rdgpu.ir.boundary` when a stepper is
+        made.
     alpha : float or str, default 0.0
         Robin's ``a`` (a number or an expression as ``value``); unused by the others.
     """

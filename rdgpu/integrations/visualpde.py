@@ -31,18 +31,20 @@ Algebraic species (the last ``numAlgebraicSpecies``) are the value of their righ
 side, substituted into the equations (`rdgpu.ir.algebraic`); boundary conditions per
 species and side are rdgpu's (`rdgpu.integrations.visualpde_bc`); an indicator domain
 (``domainIndicatorFun``, inside where positive) is rdgpu's mask (`rdgpu.integrators.masks`)
-with each species' condition on its edge (``mask_bc``).  Refused by name (`UnsupportedPreset`),
-never approximated: first derivatives of an algebraic species' expression, indicator
-domains that move or carry Dirichlet/Robin/flux conditions, images, an axis periodic for
-some species only, logic (``&&``, ``||``) and functions rdgpu's language lacks (``H``,
-``Bump``, ``mod``...; ``ind(u > 0.5)`` is a comparison, which rdgpu has), second
-derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is ``laplace(u)``), 3-D, and a ``parent``
-that is not given.
+with each species' condition on its edge (``mask_bc``).  VisualPDE's functions ``H``,
+``Bump``, ``Gauss`` and its logic (``&&``, ``||``) are written out in rdgpu's language, and
+``WhiteNoise`` in a reaction becomes rdgpu's noise (`rdgpu.integrations.visualpde_expr`).
+Refused by name (`UnsupportedPreset`), never approximated: first derivatives of an
+algebraic species' expression, indicator domains that move or carry Dirichlet/Robin/flux
+conditions, images, functions rdgpu's language lacks (``mod``...; ``ind(u > 0.5)`` is a
+comparison, which rdgpu has), second derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is
+``laplace(u)``), 3-D, and a ``parent`` that is not given.
 """
 
 from __future__ import annotations
 
 import json
+import keyword
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -54,6 +56,7 @@ import numpy as np
 from rdgpu.domains.boundary import DIRICHLET, PERIODIC
 from rdgpu.domains.grid import Grid
 from rdgpu.integrations.visualpde_bc import boundaries
+from rdgpu.integrations.visualpde_expr import NOISE, Words, noise_terms
 from rdgpu.ir import equations as eq
 from rdgpu.models.model import Model
 from rdgpu.simulation import Simulation
@@ -85,10 +88,6 @@ DEFAULTS: dict[str, Any] = {
 SCHEMES = {"Euler": "euler", "AB2": "ab2", "Mid": "midpoint", "RK4": "rk4"}
 #: frames a run lasts unless told otherwise (ten seconds at 60 frames a second)
 RUN_FRAMES = 600
-_FUNCTIONS = {"exp", "log", "sqrt", "sin", "cos", "tan", "tanh", "sinh", "cosh", "floor", "abs",
-              "min", "max"}
-#: a name, not the exponent of a number (``1e-3``)
-_NAME = re.compile(r"(?<![0-9.A-Za-z_])[A-Za-z_][A-Za-z0-9_]*")
 
 
 class UnsupportedPreset(NotImplementedError):
@@ -131,6 +130,8 @@ class Translation:
         An indicator domain as rdgpu's mask expression (``options["mask"]``), or None.
     mask_bc : dict
         The species' conditions on that domain's edge (``options["mask_bc"]``).
+    noise : dict
+        ``WhiteNoise`` in the reactions as rdgpu's ``noise=`` (species → variance).
     """
 
     name: str
@@ -151,6 +152,8 @@ class Translation:
     mask: str | None = None
     #: the conditions on the indicator domain's edge, per species (``mask_bc``)
     mask_bc: dict[str, Any] = field(default_factory=dict)
+    #: the reactions' white noise as rdgpu's ``noise=`` (`visualpde_expr.noise_terms`)
+    noise: dict[str, str] = field(default_factory=dict)
 
     def fields(self, seed: int = 0) -> dict[str, np.ndarray]:
         """The initial fields (float64, the grid's shape): each ``initCond`` evaluated
@@ -209,7 +212,7 @@ class Translation:
                           options={"method": method or self.method,
                                    **({"mask": self.mask, "mask_bc": self.mask_bc}
                                       if self.mask else {})},
-                          bc=self.bc or None, **kwargs)
+                          bc=self.bc or None, noise=self.noise or None, **kwargs)
 
 
 def load(preset: Mapping[str, Any] | str | Path,
@@ -251,8 +254,10 @@ def load(preset: Mapping[str, Any] | str | Path,
     params = _params(str(p.get("kineticParams") or ""), constants)
     offsets = (_number(p, "minX", {**constants, **params}),
                _number(p, "minY", {**constants, **params}) if dim == 2 else 0.0)
-    words = _Words(species, params, constants, offsets, dim)
     notes: list[str] = []
+    renames = _keyword_names(params, [*species, *constants], notes)
+    params = {renames.get(k, k): v for k, v in params.items()}
+    words = Words(species, params, constants, offsets, dim, UnsupportedPreset, renames)
     evolving = species[:n - n_alg]  # the last numAlgebraicSpecies are algebraic
     bc, field_bc = boundaries(p, evolving, dim, words.translate, list(params),
                               UnsupportedPreset, notes)
@@ -278,7 +283,7 @@ def load(preset: Mapping[str, Any] | str | Path,
         tau = str(p.get(f"timescale_{i}", "1")).strip()
         if _flag(p, "timescales") and tau not in ("1", "1.0") and s in evolving:
             rhs = f"({rhs})/({words.translate(tau, f'timescale_{i}')})"
-        _parse(rhs, species, params, f"the equation of {s!r}")
+        _parse(rhs, species, [*params, *NOISE], f"the equation of {s!r}")
         equations[s] = rhs
     # an algebraic species is the value of its right-hand side (no timescale)
     algebraic = {s: equations.pop(s) for s in species[n - n_alg:]}
@@ -286,6 +291,13 @@ def load(preset: Mapping[str, Any] | str | Path,
     if scheme not in SCHEMES:
         raise UnsupportedPreset(f"timesteppingScheme = {scheme!r} (translated: "
                                 f"{', '.join(SCHEMES)})")
+    if any(eq.names(_parse(t, species, [*params, *NOISE], f"algebraic {a!r}"), "param")
+           & set(NOISE) for a, t in algebraic.items()):
+        raise UnsupportedPreset("white noise in an algebraic species' expression")
+    equations, noise = noise_terms(equations, species, list(params), UnsupportedPreset)
+    if noise and scheme != "Euler":
+        raise UnsupportedPreset(f"WhiteNoise with timesteppingScheme = {scheme!r} (VisualPDE "
+                                "defines it for Euler's scheme only)")
     dt = _number(p, "dt", {})
     grid = Grid((cells,) if dim == 1 else (cells, cells), dx=dx, bc=bc)
     closed = 2 * sum(b.kind != PERIODIC for b in (grid.bcs.x, grid.bcs.y)[:dim])
@@ -313,7 +325,8 @@ def load(preset: Mapping[str, Any] | str | Path,
                      "shape; the translation is square")
     return Translation(name, model, grid, dt, SCHEMES[scheme], steps, init,
                        shown if shown in evolving else evolving[0], notes, constants, offsets,
-                       field_bc, mask, {s: next(iter(c)) for s, c in mask_bc.items()})
+                       field_bc, mask, {s: next(iter(c)) for s, c in mask_bc.items()},
+                       noise)
 
 
 # ---------------------------------------------------------------------------- the parts
@@ -330,6 +343,23 @@ def _indicator(p: Mapping[str, Any], words: Any, species: list[str],
         raise UnsupportedPreset(f"domainIndicatorFun = {text!r} reads {', '.join(moving)}: "
                                 "a domain that changes during the run (rdgpu's masks are fixed)")
     return f"({expr}) > 0"
+
+
+def _keyword_names(params: Mapping[str, float], taken: list[str], notes: list[str]
+                   ) -> dict[str, str]:
+    """A new name for each parameter named by a Python keyword (``lambda``: rdgpu's
+    language is parsed as Python's), free among the other names; said in ``notes``."""
+    out: dict[str, str] = {}
+    used = {*params, *taken}
+    for k in params:
+        if keyword.iskeyword(k):
+            new = k + "_"
+            while new in used:
+                new += "_"
+            used.add(new)
+            out[k] = new
+            notes.append(f"the parameter {k!r} runs as {new!r} ({k!r} is a Python keyword)")
+    return out
 
 
 def _as_dict(preset: Mapping[str, Any] | str | Path) -> dict[str, Any]:
@@ -423,59 +453,3 @@ def _params(text: str, constants: Mapping[str, float]) -> dict[str, float]:
         value = re.sub(r"\bin\s*\[.*\]\s*$", "", value).strip()
         out[name] = _number({name: value}, name, {**constants, **out})
     return out
-
-
-class _Words:
-    """VisualPDE's names in an expression made rdgpu's (module doc)."""
-
-    def __init__(self, species, params, constants, offsets, dim):
-        self.species, self.params, self.constants = species, params, constants
-        self.offsets, self.dim = offsets, dim
-
-    def translate(self, text: str, key: str, initial: bool = False) -> str:
-        text = text.strip() or "0"
-        for bad in ("&&", "||", "?"):
-            if bad in text:
-                raise UnsupportedPreset(f"{key} = {text!r}: logic ({bad!r}) is not in "
-                                        "rdgpu's language (comparisons are: ind(u > 0.5))")
-
-        def word(m: re.Match) -> str:
-            w = m.group(0)
-            after = text[m.end():m.end() + 1]
-            if after == "(":
-                if w == "ind":  # an indicator: rdgpu's comparisons are 1 or 0 already
-                    return ""
-                if w not in _FUNCTIONS:
-                    raise UnsupportedPreset(f"{key} = {text!r}: the function {w!r} (rdgpu "
-                                            f"has {', '.join(sorted(_FUNCTIONS))})")
-                return w
-            if w in self.species or w in self.params:
-                return w
-            if initial and w in ("RAND", "RANDN"):
-                return w
-            if w in self.constants:
-                return repr(self.constants[w])
-            if w in ("x", "y"):
-                offset = self.offsets["xy".index(w)]
-                return w if offset == 0.0 else f"({w} + {offset!r})"
-            if w in ("t", "pi"):
-                return w
-            for s in self.species:
-                if w.startswith(s + "_"):
-                    return self._derivative(s, w[len(s) + 1:], key, text)
-            raise UnsupportedPreset(f"{key} = {text!r}: the name {w!r} (not a species, a "
-                                    "parameter or one of x y t pi L L_x L_y L_min dx dy)")
-
-        return _NAME.sub(word, text.replace("**", "^")).replace("^", "**")
-
-    def _derivative(self, s: str, suffix: str, key: str, text: str) -> str:
-        if suffix in ("x", "y", "xf", "yf", "xb", "yb"):  # central, forward, backward
-            if suffix[0] == "y" and self.dim == 1:
-                raise UnsupportedPreset(f"{key} = {text!r}: {s}_{suffix} on a 1-D domain")
-            side = {"": "", "f": "_forward", "b": "_backward"}[suffix[1:]]
-            return f"d_d{suffix[0]}{side}({s})"
-        if suffix == "xx" and self.dim == 1:
-            return f"laplace({s})"
-        raise UnsupportedPreset(f"{key} = {text!r}: {s}_{suffix} (rdgpu's language has first "
-                                "derivatives and the Laplacian; a second derivative along one "
-                                "axis only in 1-D)")

@@ -10,7 +10,8 @@ Neumann = 1; Top: Periodic; Bottom: Robin = -u;"``, also ``Ghost = g``, the ghos
 value; a side not named is periodic).  They become, side by side, rdgpu's
 ``("value", g)`` (the face holds ``g``), ``("dirichlet", g)`` (a ghost), ``("neumann",
 q)`` and ``("robin", a, g)`` where
-``f = g − a·u`` is linear in the species (checked), and ``"periodic"``; the grid's axis is
+``f = g − a·u`` is linear in the species (checked; ``g`` may read the other species, as
+any value may), and ``"periodic"``; the grid's axis is
 periodic where every species is periodic on both its sides (else Neumann, the periodic
 sides given per species); anything else is refused by name.
 """
@@ -24,7 +25,9 @@ from typing import Any
 
 import numpy as np
 
+from rdgpu.integrations.visualpde_expr import affine_in
 from rdgpu.ir import equations as eq
+from rdgpu.ir.derivative import derivative
 
 __all__ = ["boundaries"]
 
@@ -112,21 +115,21 @@ def _condition(kind: str, text: str, key: str, s: str, species: Sequence[str],
     except eq.EquationError as exc:
         raise refuse(str(exc)) from None
     reads = eq.names(tree, "species")
-    if kind != "robin" and reads:
-        raise refuse(f"{key} = {text!r} reads the species {', '.join(sorted(reads))}: "
-                     f"a {kind} value is an expression of x, y, t and the parameters")
+    if kind in ("dirichlet", "ghost") and tree == eq.Ref("species", s):
+        return "neumann"  # held at its own value: no condition (VisualPDE's static fields)
+    if kind != "robin" and s in reads:
+        raise refuse(f"{key} = {text!r} reads the species {s}: a {kind} value of {s!r} is an "
+                     f"expression of x, y, t, the parameters and the other species (a Robin "
+                     f"condition reads {s!r} itself)")
     if kind == "dirichlet":
         return ("value", text)
     if kind == "ghost":
         return ("dirichlet", text)
     if kind == "neumann":
         return "neumann" if _number(tree) == 0.0 else ("neumann", text)
-    if reads - {s}:
-        raise refuse(f"{key} = {text!r} reads {', '.join(sorted(reads - {s}))}: a Robin "
-                     f"condition of {s!r} is linear in {s!r} alone")
     g = _at(tree, s, 0.0)
-    a = eq.Neg(eq.Bin("-", _at(tree, s, 1.0), g))
-    if not _linear(tree, s):
+    a = eq.Neg(derivative(tree, s))  # f is affine in s (checked below)
+    if not affine_in(tree, s):
         raise refuse(f"{key} = {text!r}: ∂{s}/∂n = f({s}) with f not linear in {s!r} "
                      "(rdgpu's Robin condition is ∂u/∂n + a·u = g)")
     return ("robin", *(eq.to_text(t) if _number(t) is None else _number(t) for t in (a, g)))
@@ -144,21 +147,3 @@ def _number(tree: eq.Node) -> float | None:
         return None
     with np.errstate(all="ignore"):
         return float(eq.evaluate(tree, {"pi": math.pi}))
-
-
-def _linear(tree: eq.Node, s: str) -> bool:
-    """Whether ``tree`` is ``g + c·s`` with ``g``, ``c`` free of ``s`` (checked at random
-    x, y, t, parameters and ``s``)."""
-    rng = np.random.default_rng(0)
-    names = {n.name for n in eq.walk(tree) if isinstance(n, eq.Ref)}
-    env = {n: rng.uniform(0.5, 1.5, 8) for n in names}
-    values = []
-    for u in (0.0, 1.0, 2.0, 3.5):
-        env[s] = np.full(8, u)
-        with np.errstate(all="ignore"):
-            values.append(np.broadcast_to(eq.evaluate(tree, env), (8,)))
-    f0, f1, f2, f3 = values
-    slope = f1 - f0
-    return bool(np.allclose(f2 - f1, slope, rtol=1e-9, atol=1e-12)
-                and np.allclose(f3 - f0, 3.5 * slope, rtol=1e-9, atol=1e-12))
-

@@ -3,7 +3,7 @@ ghost expressions its passes print (`rdgpu.ir.boundary`)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from rdgpu.domains.boundary import parse_field_bcs
@@ -36,13 +36,14 @@ def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
                          f"methods (euler, heun, rk3, rk4, ab2), not yet with {scheme.name!r}, "
                          "whose implicit solves take the grid's own conditions")
     parsed = parse_field_bcs(bc, domain.bcs, domain.ndim, species)
-    return make_boundary(parsed, domain.bcs, value_parser(params, inline))
+    return make_boundary(parsed, domain.bcs, value_parser(params, inline, species))
 
 
-def value_parser(params: Mapping[str, Any], inline: Mapping[str, eq.Node]):
+def value_parser(params: Mapping[str, Any], inline: Mapping[str, eq.Node],
+                 species: Sequence[str] = ()):
     """``parse_value(v, what)``: a condition's value (a number, or an expression of x, y,
-    z, t and the scalar parameters, the inlined ones substituted) as a tree; parameter
-    fields refused by name."""
+    z, t, the scalar parameters, the inlined ones substituted, and of ``species``: their
+    values in the edge cell) as a tree; parameter fields refused by name."""
     scalars = sorted(p for p, v in params.items()
                      if isinstance(v, (int, float, PerMember)) and not isinstance(v, bool))
     fields = sorted(p for p in params if p not in scalars)
@@ -51,7 +52,8 @@ def value_parser(params: Mapping[str, Any], inline: Mapping[str, eq.Node]):
         if not isinstance(v, str):
             return eq.Num(float(v))
         try:
-            tree = eq.parse(v, params=[*scalars, *fields, *inline], what=what, laplace=False)
+            tree = eq.parse(v, species=list(species), params=[*scalars, *fields, *inline],
+                            what=what, laplace=False)
         except eq.EquationError as exc:
             raise ValueError(str(exc)) from None
         used = eq.names(tree, "param")

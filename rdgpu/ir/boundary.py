@@ -44,7 +44,7 @@ from rdgpu.domains.boundary import (
     GridBC,
     SideBC,
 )
-from rdgpu.ir.nodes import Bin, Node, Num, Ref, rename_species, substitute, walk
+from rdgpu.ir.nodes import Bin, Node, Num, Ref, rename_species, substitute
 
 __all__ = ["OWN", "Boundary", "SIDE_OF", "ghost_tree", "make_boundary"]
 
@@ -186,10 +186,6 @@ def make_boundary(given: Mapping[str, Mapping[str, SideBC]], bcs: GridBC,
             where = f"the {cond.kind} condition of {s!r} on {side}"
             value = at_face(parse_value(cond.value, f"{where} (its value)"), side)
             alpha = at_face(parse_value(cond.alpha, f"{where} (its coefficient)"), side)
-            for tree in (value, alpha):
-                if any(isinstance(n, Ref) and n.kind == "species" for n in walk(tree)):
-                    raise ValueError(f"{where} reads a species: boundary values are "
-                                     "expressions of x, y, z, t, Lx, Ly, Lz and parameters")
             rules[(s, side)] = ghost_tree(cond, s, side, value, alpha)
             if cond.kind in ("dirichlet", "value"):
                 fixed.add((s, side))

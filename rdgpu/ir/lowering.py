@@ -139,6 +139,9 @@ def _level(outs: list[str], exprs: Mapping[str, Node], zero: frozenset[str],
     stencil = any(isinstance(m, (Lap, Diff, DivGrad, LapOf)) for n in outs
                   for m in walk(exprs[n]))
     masked = mask if stencil else None
+    if stencil and boundary is not None:  # a condition's value may read other species
+        reads |= {n.name for t in boundary.trees() for n in walk(t)
+                  if isinstance(n, Ref) and n.kind == "species"}
     inputs = tuple(sorted((reads | ({masked} - {None})) - set(outs)))
     return Program(inputs, tuple(Output(n, exprs[n]) for n in outs), zero & set(inputs),
                    own_ghost=own & set(inputs), boundary=boundary, mask=masked,

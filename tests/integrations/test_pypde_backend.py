@@ -320,6 +320,12 @@ def test_refuses_noise_hooks_and_other_classes(cart):
             return state.laplace("auto_periodic_neumann")
 
     _refused(Custom(), s, "Custom")
+
+    class KuramotoSivashinskyPDE(pde.PDEBase):  # noqa: N801 - py-pde's example does this
+        def evolution_rate(self, state, t=0):
+            return state.laplace("auto_periodic_neumann")
+
+    _refused(KuramotoSivashinskyPDE(), s, "not py-pde's own pde.KuramotoSivashinskyPDE")
     _refused(pde.PDE({"c": "laplace(c)"}, post_step_hook=lambda d, t: None), s,
              "post_step_hook")
 

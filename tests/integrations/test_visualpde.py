@@ -126,13 +126,17 @@ def test_parents_json_and_files(tmp_path):
       "comboStr_1": "Left: Sticky = 1"}, "comboStr_1 part 'Left: Sticky = 1'"),
     ({"boundaryConditions_1": "robin", "boundaryConditions_2": "neumann",
       "robinStr_1": "-u^2"}, "not linear in 'u'"),
-    ({"boundaryConditions_1": "robin", "boundaryConditions_2": "neumann",
-      "robinStr_1": "-v"}, "reads v: a Robin condition of 'u'"),
     ({"boundaryConditions_1": "neumann", "boundaryConditions_2": "neumann",
       "neumannStr_1": "u"}, "reads the species u"),
     ({"boundaryConditions_1": "sticky"}, "boundaryConditions_1 = 'sticky'"),
-    ({"reactionStr_1": "ind(u > 0.5 && v < 1)"}, "reactionStr_1 = .*logic \\('&&'\\)"),
-    ({"reactionStr_1": "Bump(1, 2, 3)"}, "the function 'Bump'"),
+    ({"reactionStr_1": "ind(u > 0.5) ? 1 : 0"}, "reactionStr_1 = .*logic \\('\\?'\\)"),
+    ({"reactionStr_1": "mod(u, 2)"}, "the function 'mod'"),
+    ({"reactionStr_1": "Bump(1, 2)"}, "Bump with 2 argument"),
+    ({"reactionStr_1": "0.1*WhiteNoise", "reactionStr_2": "WhiteNoise"},
+     "WhiteNoise in the equations of 'u' and 'v'"),
+    ({"reactionStr_1": "u*WhiteNoise^2"}, "not linear in WhiteNoise"),
+    ({"reactionStr_1": "WhiteNoise", "timesteppingScheme": "RK4"},
+     "WhiteNoise with timesteppingScheme = 'RK4'"),
     ({"reactionStr_2": "u_xx"}, "u_xx"),
     ({"reactionStr_2": "w*u"}, "the name 'w'"),
     ({"timesteppingScheme": "Leapfrog"}, "timesteppingScheme = 'Leapfrog'"),
@@ -259,6 +263,27 @@ def test_periodic_for_some_species_and_sides():
     assert flux.bc == {"u": {"y-": "periodic", "y+": "periodic"},
                        "v": {"y-": ("neumann", "T_b"), "y+": ("robin", 2.0, 0.25)}}
     assert flux.grid.bcs.x.kind == 0 and flux.grid.bcs.y.kind == 1
+    # values that read another species (VisualPDE's penguins hold T at S on the edge)
+    held = load({**GS, "boundaryConditions_1": "dirichlet", "dirichletStr_1": "2*v",
+                 "boundaryConditions_2": "robin", "robinStr_2": "u - v"})
+    assert held.bc["u"]["x-"] == ("value", "2*v")
+    kind, a, g = held.bc["v"]["x-"]  # ∂v/∂n = u − v: a = 1, g = u
+    assert (kind, a) == ("robin", 1.0) and g.replace(" - 0.0", "").strip("()") == "u"
+    res = held.simulation(backend="numpy", dtype="float64").run(5, progress=False)
+    assert np.isfinite(res.fields["u"]).all()
+    # a field held at its own value is not held at all (VisualPDE's static obstacles)
+    static = load({**GS, "boundaryConditions_2": "dirichlet", "dirichletStr_2": "v"})
+    assert "v" not in static.bc
+
+
+def test_a_parameter_named_by_a_python_keyword():
+    """``lambda`` runs as ``lambda_`` (rdgpu's language is Python's), said in the notes;
+    the run is the one with the parameter so named."""
+    tr = load({**GS, "kineticParams": "F = 0.03;k = 0.055;lambda = 2;lambda_ = 1;",
+               "reactionStr_1": "-u*v^2 + F*(1.0 - u)*lambda/2"})
+    assert tr.model.defaults["lambda__"] == 2.0 and tr.model.defaults["lambda_"] == 1.0
+    assert "lambda__/2" in tr.model.equations["u"].replace(" ", "")
+    assert any("'lambda' runs as 'lambda__'" in n for n in tr.notes)
     got = tr.simulation(backend="numpy", dtype="float64").run(30, progress=False).fields
     hand = rdgpu.Simulation(tr.model, Grid((64, 64), dx=1.0, bc="neumann"), {}, dt=tr.dt,
                             backend="numpy", dtype="float64", fields=tr.fields(),

@@ -29,7 +29,7 @@ MODEL = define_model("bc-probe", {
 #: every kind on some side, values of t, x, y and a parameter
 BC = {"u": {"x-": ("dirichlet", "1 + 0.5*y*t"), "x+": ("value", 0.5),
             "y-": ("neumann", "0.25*x - c"), "y+": ("robin", 2.0, "t + 1")},
-      "v": {"y": ("value", "0.5*t"), "x+": ("neumann", -0.5)}}
+      "v": {"y": ("value", "0.5*t"), "x+": ("neumann", "-0.5*u")}}
 GRIDS = [
     Grid((7,), dx=0.9, bc="neumann"),
     Grid((1,), dx=0.9, bc=("dirichlet", 0.2)),
@@ -150,6 +150,34 @@ def test_reference_against_hand_ghosts():
     assert t0 == 0.0
 
 
+def test_a_value_reads_another_species_at_the_edge():
+    """``u`` held on the face at ``S``'s edge value: ghost ``2·S − u`` (written out here);
+    ``S`` enters the passes that read ``u``'s neighbours, the bilaplacian's pre-pass too."""
+    grid = Grid((5, 6), dx=0.9, bc="neumann")
+    model = define_model("held", {"u": "laplace(u)", "S": "0"})
+    rng = np.random.default_rng(1)
+    u, S = rng.random((5, 6)), rng.random((5, 6))
+    st = model.stepper(grid, dt=0.01, backend="numpy", dtype="float64",
+                       bc={"u": {"x-": ("value", "S")}})
+    st.set_state({"u": u, "S": S})
+    st.advance(1)
+    p = np.pad(u, 1, mode="edge")
+    p[1:-1, 0] = 2 * S[:, 0] - u[:, 0]
+    lap = (((p[1:-1, 2:] + p[1:-1, :-2]) - 2 * u) / 0.81
+           + ((p[2:, 1:-1] + p[:-2, 1:-1]) - 2 * u) / 0.81)
+    np.testing.assert_allclose(st.get_state()["u"], u + 0.01 * lap, rtol=1e-14, atol=1e-15)
+    bilap = define_model("b", {"u": "-0.01*laplace(laplace(u))", "S": "0"})
+    backend_or_skip("opencl")
+    runs = []
+    for backend in ("numpy", "opencl"):
+        st = bilap.stepper(grid, dt=0.01, backend=backend, dtype="float64",
+                           bc={"u": {"x-": ("value", "S")}})
+        st.set_state({"u": u, "S": S})
+        st.advance(2)
+        runs.append(st.get_state())
+    same_fields(runs[1], runs[0])
+
+
 @pytest.mark.parametrize("kind", ["value", "neumann", "robin"])
 def test_second_order_in_space(kind):
     """``u_t = u_xx`` on [0, 1] with the exact ``u = exp(−k²t) sin(kx + φ)`` given on both
@@ -243,7 +271,7 @@ def test_parse_field_bcs_forms():
     ({"u": ("robin", 1)}, Grid((4, 4), bc="neumann"), "unknown condition"),
     ({"u": ("value", "")}, Grid((4, 4), bc="neumann"), "empty string"),
     ({"u": ("value", True)}, Grid((4, 4), bc="neumann"), "value"),
-    ({"u": ("value", "u + 1")}, Grid((4, 4), bc="neumann"), "uses"),
+    ({"u": ("value", "w + 1")}, Grid((4, 4), bc="neumann"), "uses"),
     ({"u": ("value", "laplace(x)")}, Grid((4, 4), bc="neumann"), "laplace"),
     ({"u": ("value", "q")}, Grid((4, 4), bc="neumann"), "parameter field"),
     ("neumann", Grid((4, 4), bc="neumann"), "bc must map species"),

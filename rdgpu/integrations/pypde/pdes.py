@@ -61,6 +61,9 @@ def builtin_equations(pde_obj: Any) -> tuple[dict[str, str], dict[str, float],
         if mass != 0:
             consts["mass2"] = mass ** 2
         return {"u": "v", "v": v_rate}, consts, {"u": pde_obj.bc, "v": pde_obj.bc}, None
+    if cls in SUPPORTED:  # a user's class that shares a built-in class's name
+        raise refuse(f"the PDE class {type(pde_obj).__module__}.{cls}, not py-pde's own "
+                     f"pde.{cls} (supported: {SUPPORTED}, and their subclasses)")
     raise refuse(f"the PDE class {cls} (supported: {SUPPORTED})")
 
 
