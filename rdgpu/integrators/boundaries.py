@@ -10,6 +10,7 @@ from rdgpu.domains.boundary import parse_field_bcs
 from rdgpu.ir import equations as eq
 from rdgpu.ir.boundary import Boundary, make_boundary
 from rdgpu.ir.program import PerMember
+from rdgpu.ir.schemes import ImexScheme
 from rdgpu.ir.stencils import STENCIL_KINDS
 
 if TYPE_CHECKING:
@@ -31,10 +32,11 @@ def stepper_boundary(bc: Mapping[str, Any] | None, domain: Domain, kind: str,
         return None
     require_compact_grid(kind, "per-species boundary conditions (bc=) are set on the sides "
                                "of")
-    if scheme.implicit:
+    if scheme.implicit and not isinstance(scheme, ImexScheme):
         raise ValueError(f"per-species boundary conditions (bc=) run with the explicit "
-                         f"methods (euler, heun, rk3, rk4, ab2), not yet with {scheme.name!r}, "
-                         "whose implicit solves take the grid's own conditions")
+                         f"methods (euler, heun, rk3, rk4, ab2) and the IMEX ones (imex, "
+                         f"imex-cn, bdf2), not yet with {scheme.name!r}, whose transforms "
+                         "take the grid's own conditions")
     parsed = parse_field_bcs(bc, domain.bcs, domain.ndim, species)
     return make_boundary(parsed, domain.bcs, value_parser(params, inline, species))
 

@@ -14,9 +14,9 @@ side is multiplied by the mask (1 inside, 0 outside), so a field there keeps its
 exactly (its right-hand side must be finite there: it is evaluated and multiplied by 0).
 The grid's own conditions still hold at its sides; ``mask_bc`` gives a species another
 condition on the mask's edge (`mask_ghosts`: the ghost a neighbour outside reads).  The
-explicit Runge-Kutta methods run masked (noise too); the implicit, exponential and
-multistep ones (their solves and histories know no mask), meshes and graph surfaces, the
-isotropic stencil and temporal blocking are refused by name.
+explicit Runge-Kutta methods run masked (noise too), and the IMEX ones, whose solves take
+the masked operator (`rdgpu.integrators.imex`); Adams-Bashforth and the exponential method,
+meshes and graph surfaces, the isotropic stencil and temporal blocking are refused by name.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from rdgpu.domains.boundary import parse_side
 from rdgpu.integrators.boundaries import require_compact_grid, value_parser
 from rdgpu.ir import equations as eq
 from rdgpu.ir.boundary import ghost_tree
-from rdgpu.ir.schemes import SCHEMES, ExplicitScheme
+from rdgpu.ir.schemes import SCHEMES, ExplicitScheme, ImexScheme
 
 if TYPE_CHECKING:
     from rdgpu.backends.base import Backend, DeviceArray
@@ -51,10 +51,11 @@ def mask_values(mask: Any, domain: Domain, kind: str, scheme: Scheme,
     if mask is None:
         return None
     require_compact_grid(kind, "a mask (mask=) is set on")
-    if not isinstance(scheme, ExplicitScheme):
-        able = ", ".join(n for n, s in SCHEMES.items() if isinstance(s, ExplicitScheme))
-        raise ValueError(f"a mask (mask=) runs with the explicit Runge-Kutta methods "
-                         f"({able}), not with {scheme.name!r}")
+    if not isinstance(scheme, (ExplicitScheme, ImexScheme)):
+        able = ", ".join(n for n, s in SCHEMES.items()
+                         if isinstance(s, (ExplicitScheme, ImexScheme)))
+        raise ValueError(f"a mask (mask=) runs with the explicit Runge-Kutta and the IMEX "
+                         f"methods ({able}), not with {scheme.name!r}")
     if isinstance(mask, str):
         values = _indicator(mask, domain, params)
     else:

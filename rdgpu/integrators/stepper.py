@@ -82,11 +82,11 @@ from rdgpu.domains.base import domain_shape
 from rdgpu.integrators.blocking import setup as setup_blocking
 from rdgpu.integrators.boundaries import stepper_boundary
 from rdgpu.integrators.exponential import Etdrk4, split_damping
+from rdgpu.integrators.imex import ImplicitSolves, sum_terms
 from rdgpu.integrators.masks import MASK, mask_buffer, mask_ghosts, mask_values, masked_trees
 from rdgpu.integrators.noise import draw, noise_buffers, stepper_noise
 from rdgpu.integrators.passes import bind, launch
 from rdgpu.integrators.splitting import linear_split, scalar_numbers
-from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
 from rdgpu.ir.lowering import Prepass, lower
 from rdgpu.ir.program import Output, PerMember, Program, expression_tree
@@ -100,7 +100,6 @@ from rdgpu.ir.schemes import (
     get_scheme,
 )
 from rdgpu.ir.stencils import check_derivatives
-from rdgpu.ops.implicit import ImplicitDiffusion
 
 __all__ = ["FieldStepper", "ModelStepper"]
 
@@ -242,7 +241,8 @@ class ModelStepper(FieldStepper):
                                    self._device_params, inline, noise_interpretation)
         #: the mask's 0/1 values (`rdgpu.integrators.masks`), or None: the whole grid
         self.mask = mask_values(mask, domain, self.target.kind, self.scheme, self.params)
-        trees = trees if self.mask is None else masked_trees(trees)
+        if self.mask is not None and not isinstance(self.scheme, ImexScheme):
+            trees = masked_trees(trees)  # IMEX masks the explicit rest (`_setup_imex`)
         #: the mask's edge conditions (`rdgpu.integrators.masks.mask_ghosts`)
         self._mask_ghosts = () if self.mask is None else mask_ghosts(
             mask_bc, self.species, domain, self._device_params, inline)
@@ -379,7 +379,7 @@ class ModelStepper(FieldStepper):
         split = self._linear_split(trees, inline)
         linear, rest = {}, {}
         for s, (alpha, beta, terms) in split.items():
-            gamma, own = split_damping(_sum(terms), s, self._numbers())
+            gamma, own = split_damping(sum_terms(terms), s, self._numbers())
             linear[s] = (alpha, beta, gamma)
             rest[s] = eq.Num(0.0) if own is None else own
         low, pre = self._lower(rest)
@@ -397,52 +397,27 @@ class ModelStepper(FieldStepper):
                            {s: self._bounds(s) for s in self.species}, rates, self.method)
 
     def _setup_imex(self, trees, tol, inline) -> None:
-        cache: dict[float, Any] = {}
         scheme: ImexScheme = self.scheme
+        #: the implicit solves (`rdgpu.integrators.imex`): an ensemble solves member by
+        #: member, the same solves, sweeps and convergence tests as each member alone
+        self._imex = ImplicitSolves(self.domain, self.backend, self.dtype, self.species,
+                                    self.members, self.shape, self.boundary, self.params,
+                                    tol, self.solver, self.mask, self._mask_ghosts)
+        masked = (lambda t: t) if self.mask is None else masked_trees
+        # one-step schemes keep a diffusion forward Euler steps with a margin explicit
+        m_max = self.domain.largest_eigenvalue() if scheme.steps == 1 else None
         # the explicit pass of a one-step scheme, or SBDF2's start step (θ = 1 over h), is
         # an Euler step of the explicit rest: its program is ``_euler``
-        start, solvers = self._split(trees, inline, self.dt, scheme.theta, tol, cache)
-        self._setup_explicit(start, EULER)
+        start, solvers = self._imex.split(self._linear_split(trees, inline), self.dt,
+                                          scheme.theta, m_max)
+        self._setup_explicit(masked(start), EULER)
         if scheme.steps == 2:
             self._start_solvers = solvers
-            explicit, self._solvers = self._split(trees, inline, 2.0 * self.dt / 3.0, 1.0,
-                                                  tol, cache)
-            self._setup_bdf2(explicit)
+            explicit, self._solvers = self._imex.split(self._linear_split(trees, inline),
+                                                       2.0 * self.dt / 3.0, 1.0, m_max)
+            self._setup_bdf2(masked(explicit))
         else:
             self._solvers = solvers
-        # an ensemble solves member by member: the same solves, sweeps and convergence
-        # tests as each member alone (one member's field at a time in these buffers)
-        one = self.shape if self.members is None else self.shape[1:]
-        self._tmp = [self.backend.empty(one, self.dtype) for _ in range(2)]
-
-    def _split(self, trees, inline, h: float, theta: float, tol,
-               cache: dict[float, Any]) -> tuple[dict[str, eq.Node], dict[str, list[Any]]]:
-        """``(explicit, solvers)`` of an implicit step over ``h`` (module doc): per species
-        the explicit rest of its right-hand side and the backward-Euler solvers of ``P``
-        (shared through ``cache``, keyed by their ``a``)."""
-        # one-step schemes keep a diffusion forward Euler steps with a margin explicit
-        m_max = self.domain.largest_eigenvalue() if self.scheme.steps == 1 else None
-        explicit: dict[str, eq.Node] = {}
-        solvers: dict[str, list[Any]] = {}
-        for s, (alpha, beta, terms) in self._linear_split(trees, inline).items():
-            a1, a2 = implicit_factors(alpha, beta, h, theta, m_max)
-            # explicit: f without α Δs and β Δ²s, plus (P − I)x/h = −((a₁+a₂)/h) Δs
-            # + (a₁a₂/h) Δ²s = −((a₁+a₂)/h) Δs − β Δ²s: the Δ² terms cancel exactly
-            coeff = alpha - (a1 + a2) / h
-            if beta == 0.0 and theta == 1.0 and a1 > 0.0:
-                coeff = 0.0  # backward Euler: α − θα = 0 exactly
-            if coeff != 0.0:
-                terms.append(eq.Bin("*", eq.Num(coeff), eq.Lap(s)))
-            explicit[s] = _sum(terms)
-            solvers[s] = []
-            for a in (a1, a2):
-                if a > 0:
-                    if a not in cache:
-                        cache[a] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
-                                                     backend=self.backend, dtype=self.dtype,
-                                                     tol=tol, solver=self.solver)
-                    solvers[s].append(cache[a])
-        return explicit, solvers
 
     def _numbers(self) -> dict[str, float | None]:
         return scalar_numbers(self.params)
@@ -481,6 +456,10 @@ class ModelStepper(FieldStepper):
         low, pre = self._lower(exprs)
         aux = self._aux_buffers(pre)
         aux_names = () if pre is None else pre.names
+        if self.mask is not None:  # BDF2's masked rest (a mask refuses Adams-Bashforth)
+            aux_names += (MASK,)
+            aux.append(mask_buffer(self.mask, self.backend, self.shape,
+                                   self.target.domain.kernel_shape, self.dtype))
         prev = tuple(HISTORY.format(s) for s in self.species)
         setattr(self, name, self._program(
             self.species + aux_names + prev,
@@ -600,16 +579,18 @@ class ModelStepper(FieldStepper):
             if self._has_prev:
                 self._eval(self._bdf2, x, y, t0, self._prev, b=2.0 * h / 3.0,
                            prepass=self._bdf2_pre, tp=(self.steps_done - 1) * h)
-                self._solve_all(y, self._solvers)
+                self._imex.solve_all(y, self._solvers, t0 + h)
             else:
                 self._eval(self._euler, x, y, t0)
-                self._solve_all(y, self._start_solvers)
+                self._imex.solve_all(y, self._start_solvers, t0 + h)
             # x₋ ← x; advance() then makes y the new x and the old x₋ the next scratch
             self._prev, self._x = self._x, self._prev
             self._has_prev = True
         else:
-            self._eval(self._euler, x, y, t0)
-            self._solve_all(y, self._solvers)
+            if self.noise is not None:  # semi-implicit Euler-Maruyama
+                draw(self.noise, self.backend, self._xi, self.steps_done)
+            self._eval(self._euler, x, y, t0, self._xi)
+            self._imex.solve_all(y, self._solvers, t0 + h)
 
     def _step_butcher(self, scheme: ExplicitScheme, t0: float, h: float) -> None:
         """One step of a Butcher tableau (module doc): ``Y_1 = x``; per stage ``k_i =
@@ -622,29 +603,6 @@ class ModelStepper(FieldStepper):
             stage = self._y if i == scheme.stages - 1 else self._y_stage
             self._eval(program, x, stage, t0, [k for j in used for k in self._k[j]],
                        prepass=no_pre)
-
-    def _solve_all(self, y: list[DeviceArray], solvers: dict[str, list[Any]]) -> None:
-        """Every species' implicit solves on ``y``, in place; an ensemble member by
-        member."""
-        for i, s in enumerate(self.species):
-            if not solvers[s]:  # its diffusion is explicit (module doc)
-                continue
-            if self.members is None:
-                self._solve(solvers[s], y[i])
-                continue
-            n = self._tmp[1].size
-            for m in range(self.members):
-                self.backend.copy_range(y[i], m * n, self._tmp[1], 0, n)
-                self._solve(solvers[s], self._tmp[1])
-                self.backend.copy_range(self._tmp[1], 0, y[i], m * n, n)
-
-    def _solve(self, solvers: list[Any], y: DeviceArray) -> None:
-        """``y`` ← the implicit solves of one species' IMEX step, in place."""
-        if len(solvers) == 1:
-            solvers[0].step(y, y)
-        elif len(solvers) == 2:
-            solvers[0].step(y, self._tmp[0])
-            solvers[1].step(self._tmp[0], y)
 
     # ------------------------------------------------------------------ state
     @property
@@ -690,11 +648,3 @@ def _positive_tol(tol: Any) -> float:
     if not value > 0:
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     return value
-
-
-def _sum(terms: list[eq.Node]) -> eq.Node:
-    """``terms[0] + terms[1] + ...`` (left to right; 0 for none)."""
-    expr: eq.Node = eq.Num(0.0)
-    for i, term in enumerate(terms):
-        expr = term if i == 0 else eq.Bin("+", expr, term)
-    return expr

@@ -87,6 +87,13 @@ class ImexScheme:
 
     implicit = True
 
+    @property
+    def noise(self) -> str | None:
+        """The stochastic step form: a one-step scheme's explicit pass is an Euler step,
+        so noise enters it as Euler–Maruyama's increment (semi-implicit Euler–Maruyama);
+        SBDF2 takes none."""
+        return "euler-maruyama" if self.steps == 1 else None
+
     def __post_init__(self) -> None:
         if self.steps not in (1, 2) or not 0.0 <= self.theta <= 1.0:
             raise ValueError(f"scheme {self.name!r}: an IMEX scheme has steps 1 (the "

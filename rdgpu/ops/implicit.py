@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -36,6 +35,7 @@ from rdgpu.domains.spectra import components
 from rdgpu.families import load_module
 from rdgpu.ops import transforms
 from rdgpu.ops.multigrid import AlgebraicMultigrid
+from rdgpu.ops.sor_progress import SolveProgress, sor_rate
 
 if TYPE_CHECKING:
     from rdgpu.domains.base import Domain
@@ -62,40 +62,6 @@ def smallest_eigenvalue(domain: Domain) -> tuple[float, bool]:
     is exact (grid: analytic; mesh, graph surface: Lanczos) rather than an estimate
     (`Domain.smallest_eigenvalue <rdgpu.domains.base.Domain.smallest_eigenvalue>`)."""
     return require_domain(domain).smallest_eigenvalue()
-
-
-def _sor_rate(omega: float, rho_j: float) -> float:
-    """Young's asymptotic SOR contraction for a consistently ordered matrix with Jacobi
-    radius ``rho_j``."""
-    opt = 2.0 / (1.0 + math.sqrt(max(0.0, 1.0 - rho_j * rho_j)))
-    if omega >= opt:
-        return omega - 1.0
-    disc = max(0.0, (omega * rho_j) ** 2 - 4.0 * (omega - 1.0))
-    return ((omega * rho_j + math.sqrt(disc)) / 2.0) ** 2
-
-
-@dataclass
-class _Progress:
-    """Where one solve stands at its checks: the sweeps done and when the next check is,
-    the max changes seen (``history``; their lowest, ``low``; the last one that halved
-    them, ``anchor_m`` at ``anchor_at``), the latest change ``m``, the contraction per sweep
-    (``observed`` over the last window, ``rho`` the one used), the error ``estimate``, no
-    stopping test before ``guard_from``, ``umax`` for the round-off bounds and whether it
-    stopped at the round-off ``floor``."""
-
-    umax: float | None
-    next_check: int
-    sweeps: int = 0
-    history: list[tuple[int, float]] = field(default_factory=list)
-    anchor_m: float = math.inf
-    anchor_at: int = 0
-    low: float = math.inf
-    guard_from: int = 0
-    m: float = math.nan
-    estimate: float = math.nan
-    observed: float | None = None
-    rho: float = math.nan
-    floor: bool = False
 
 
 class ImplicitDiffusion:
@@ -137,6 +103,14 @@ class ImplicitDiffusion:
         ``"multigrid"`` (algebraic multigrid, `rdgpu.ops.multigrid`, needs pyamg) force one;
         None (default) reads the environment variable ``RDGPU_IMPLICIT_SOLVER`` (else
         ``"auto"``).  The one chosen is the attribute ``solver``.
+    operator : (scipy.sparse matrix, numpy.ndarray), optional
+        ``(M, b)``: a Laplacian with other boundary conditions than the domain's (default
+        None: ``domain.operator_matrix()``), on the domain's points in its kernel order,
+        such as a species' own conditions (`rdgpu.integrators.imex`); solved by SOR (or
+        multigrid), never by the transforms, which know the domain's conditions only.
+    smallest : (float, bool), optional
+        With ``operator``: the smallest eigenvalue of ``−M`` SOR has to resolve (a lower
+        bound) and whether it is exact (default: ``domain.smallest_eigenvalue()``).
 
     Attributes
     ----------
@@ -170,11 +144,16 @@ class ImplicitDiffusion:
         max_sweeps: int | None = None,
         check_every: int | None = None,
         solver: str | None = None,
+        operator: tuple[Any, np.ndarray] | None = None,
+        smallest: tuple[float, bool] | None = None,
     ):
         self._check_numbers(D, dt, theta, dtype, tol)
         self.domain = require_domain(domain)
         self.backend = get_backend(backend)
-        M, b = domain.operator_matrix()
+        #: a Laplacian of other conditions than the domain's (`rdgpu.integrators.imex`)
+        self.custom = operator is not None
+        self._smallest = smallest
+        M, b = domain.operator_matrix() if operator is None else operator
         self.shape = domain.kernel_shape
         n = M.shape[0]
         self.n = n
@@ -186,6 +165,12 @@ class ImplicitDiffusion:
         self._reset_statistics()
         #: "transform" (direct, rdgpu.ops.transforms), "sor" or "multigrid" (class doc)
         self.solver = transforms.pick_solver(self.domain, solver)
+        if self.custom and self.solver == "transform":  # its transforms: the domain's
+            if solver == "transform":
+                raise ValueError("solver='transform' solves the domain's own conditions; "
+                                 "this operator has others: use 'auto', 'sor' or "
+                                 "'multigrid'")
+            self.solver = "sor"
         self.transform = None if self.solver != "transform" else transforms.DirectDiffusion(
             self.domain, D=self.D, dt=self.dt, theta=self.theta, backend=self.backend,
             dtype=self.dtype, dirichlet=b)
@@ -245,7 +230,8 @@ class ImplicitDiffusion:
         # Σ_i w_i M_ij = 0: the vertex areas, a graph surface's √g dx dy, else 1
         self.weights = domain.mass_weights()
         self._wsum = np.bincount(self._labels, weights=self.weights, minlength=self._count)
-        lam, exact = domain.smallest_eigenvalue()
+        lam, exact = domain.smallest_eigenvalue() if self._smallest is None \
+            else self._smallest
         #: smallest eigenvalue of −M that SOR has to resolve (constant null vectors of closed
         #: components excluded: the projection handles them exactly)
         self.lambda1 = lam
@@ -265,7 +251,7 @@ class ImplicitDiffusion:
         if not 0.0 < self.omega < 2.0:
             raise ValueError(f"omega must lie in the open interval (0, 2), got {omega}")
         #: Young's asymptotic contraction of the error per sweep
-        self.rate = min(_sor_rate(self.omega, rho_j), 1.0 - 1e-15)
+        self.rate = min(sor_rate(self.omega, rho_j), 1.0 - 1e-15)
         self._window = int(min(100_000, max(8, math.ceil(3.0 / (1.0 - self.rate)))))
         if max_sweeps is None:
             max_sweeps = max(5000, math.ceil(50.0 / (1.0 - self.rate)))
@@ -497,7 +483,7 @@ class ImplicitDiffusion:
                          mg.last_error, True)
             self.last_floor, self.last_residual = mg.last_floor, mg.last_residual
             return self.last_sweeps
-        run = _Progress(umax=umax, next_check=min(self.check_every, self.max_sweeps))
+        run = SolveProgress(umax=umax, next_check=min(self.check_every, self.max_sweeps))
         self.last_residual = math.nan
         while True:
             self.sweep(x, rhs)
@@ -517,7 +503,7 @@ class ImplicitDiffusion:
             self._warn_floor(run)
         return run.sweeps
 
-    def _measure(self, run: _Progress, x: DeviceArray, target: np.ndarray | None) -> float:
+    def _measure(self, run: SolveProgress, x: DeviceArray, target: np.ndarray | None) -> float:
         """At a check: the last sweep's max change, the contraction per sweep and the error
         estimate into ``run`` (``x`` projected onto ``target`` on closed components, where
         given); returns ``max|x|`` where the projection measured it, else NaN."""
@@ -538,7 +524,7 @@ class ImplicitDiffusion:
         run.estimate = m * run.rho / (1.0 - run.rho) if run.rho < 1.0 else math.inf
         return xmax
 
-    def _done(self, run: _Progress, rhs: DeviceArray, x: DeviceArray, xmax: float) -> bool:
+    def _done(self, run: SolveProgress, rhs: DeviceArray, x: DeviceArray, xmax: float) -> bool:
         """Whether the solve stops at this check: nothing changed, or the estimate is below
         ``tol`` (or the changes stalled at the round-off floor) and the true residual
         agrees; a residual that disagrees holds the next tests off for a window."""
@@ -567,7 +553,7 @@ class ImplicitDiffusion:
             run.guard_from = run.sweeps + self._window
         return False
 
-    def _check_gap(self, run: _Progress) -> int:
+    def _check_gap(self, run: SolveProgress) -> int:
         """Sweeps to the next check: half of what the contraction says is left to ``tol``,
         within ``[check_every, max(MAX_CHECK_GAP, check_every)]``."""
         gap = self.check_every
@@ -577,7 +563,7 @@ class ImplicitDiffusion:
                           max(MAX_CHECK_GAP, self.check_every)))
         return gap
 
-    def _unconverged(self, run: _Progress) -> ConvergenceError:
+    def _unconverged(self, run: SolveProgress) -> ConvergenceError:
         """The error of a solve that ``max_sweeps`` ended unconverged."""
         tol, rho, estimate = self.tol, run.rho, run.estimate
         more = (math.log(0.5 * tol / estimate) / math.log(rho)
@@ -591,7 +577,7 @@ class ImplicitDiffusion:
             sweeps=run.sweeps, reached=estimate, tol=tol,
         )
 
-    def _warn_floor(self, run: _Progress) -> None:
+    def _warn_floor(self, run: SolveProgress) -> None:
         """The warning of a solve stopped at the dtype's round-off floor above ``tol``."""
         wider = ", or float64" if self.dtype == np.float32 else ""
         warnings.warn(

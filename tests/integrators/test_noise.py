@@ -182,10 +182,11 @@ def test_bad_noise_is_refused_before_any_work():
     for noise, exc, msg in cases:
         with pytest.raises(exc, match=msg):
             OU.stepper(grid, dt=0.01, backend="numpy", noise=noise)
-    with pytest.raises(ValueError, match="stochastic methods euler, milstein, not with 'rk4'"):
+    with pytest.raises(ValueError, match="stochastic methods euler, milstein, imex, "
+                                         "imex-cn, not with 'rk4'"):
         OU.stepper(grid, dt=0.01, backend="numpy", noise=0.1, method="rk4")
     with pytest.raises(ValueError, match="stochastic methods"):
-        OU.stepper(grid, dt=0.01, backend="numpy", noise=0.1, method="imex")
+        OU.stepper(grid, dt=0.01, backend="numpy", noise=0.1, method="bdf2")
     with pytest.raises(ValueError, match="noise_interpretation must be one of"):
         OU.stepper(grid, dt=0.01, backend="numpy", noise=0.1, noise_interpretation="ito2")
     with pytest.raises(ValueError, match="noise_seed"):
