@@ -37,8 +37,8 @@ with each species' condition on its edge (``mask_bc``).  VisualPDE's functions `
 Refused by name (`UnsupportedPreset`), never approximated: first derivatives of an
 algebraic species' expression, indicator domains that move or carry Dirichlet/Robin/flux
 conditions, images, functions rdgpu's language lacks (``mod``...; ``ind(u > 0.5)`` is a
-comparison, which rdgpu has), second derivatives ``u_xx`` in 2-D (in 1-D, ``u_xx`` is
-``laplace(u)``), 3-D, and a ``parent`` that is not given.
+comparison, which rdgpu has), mixed second derivatives ``u_xy``, 3-D, and a ``parent``
+that is not given (``u_xx`` is ``d2_dx2(u)``, in 1-D ``laplace(u)``).
 """
 
 from __future__ import annotations
@@ -338,11 +338,27 @@ def _indicator(p: Mapping[str, Any], words: Any, species: list[str],
     text = str(p.get("domainIndicatorFun", "1")).strip()
     expr = words.translate(text, "domainIndicatorFun")
     tree = _parse(expr, species, params, "domainIndicatorFun")
+    fixed = {}  # a species that never changes is its initial condition (an obstacle)
+    for i, s in enumerate(species, start=1):
+        if s in eq.names(tree, "species") and _static(p, i, len(species)):
+            init = words.translate(str(p.get(f"initCond_{i}", "0")), f"initCond_{i}")
+            fixed[s] = _parse(init, species, params, f"initCond_{i}")
+    tree = eq.substitute(tree, lambda n: fixed.get(n.name) if isinstance(n, eq.Ref)
+                         and n.kind == "species" else None)
+    expr = eq.to_text(tree)
     moving = sorted(eq.names(tree, "species") | eq.names(tree, "time"))
     if moving:
         raise UnsupportedPreset(f"domainIndicatorFun = {text!r} reads {', '.join(moving)}: "
                                 "a domain that changes during the run (rdgpu's masks are fixed)")
     return f"({expr}) > 0"
+
+
+def _static(p: Mapping[str, Any], i: int, n: int) -> bool:
+    """Whether species ``i`` of ``n`` never changes: no reaction, no diffusion."""
+    zero = ("", "0", "0.0")
+    return (str(p.get(f"reactionStr_{i}", "0")).strip() in zero
+            and all(str(p.get(f"diffusionStr_{i}_{j}", "0")).strip() in zero
+                    for j in range(1, n + 1) if j == i or _flag(p, "crossDiffusion")))
 
 
 def _keyword_names(params: Mapping[str, float], taken: list[str], notes: list[str]

@@ -107,9 +107,10 @@ class Words:
             return f"d_d{suffix[0]}{side}({s})"
         if suffix == "xx" and self.dim == 1:
             return f"laplace({s})"
+        if suffix in ("xx", "yy") and self.dim == 2:
+            return f"d2_d{suffix[0]}2({s})"
         raise self.refuse(f"{key} = {text!r}: {s}_{suffix} (rdgpu's language has first "
-                          "derivatives and the Laplacian; a second derivative along one "
-                          "axis only in 1-D)")
+                          "derivatives, the second ones along an axis and the Laplacian)")
 
     def _functions(self, text: str, key: str) -> str:
         """``text`` with each call of ``H``, ``Bump`` and ``Gauss`` written out (module

@@ -128,7 +128,7 @@ def mask_ghosts(mask_bc: Any, species: tuple[str, ...], domain: Domain,
     if bad:
         raise ValueError(f"mask_bc names {', '.join(map(repr, bad))}, not species of the "
                          f"model; allowed: {', '.join(species)} and '*'")
-    parse_value = value_parser(params, inline)
+    parse_value = value_parser(params, inline, species)
     out = []
     for s in species:
         spec = mask_bc.get(s, mask_bc.get("*"))

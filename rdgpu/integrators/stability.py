@@ -192,9 +192,10 @@ def _imex_amplification(D, B, m, h, theta, m_max):
 
 def advective_rate(trees: Mapping[str, eq.Node], env: Mapping[str, Any],
                    spacings: tuple[float, ...]) -> float:
-    """The largest over the equations of ``Σ |c|/h``: each first derivative's constant
-    coefficient ``c`` (products and quotients of numbers and the parameters ``env``, the
-    ``max(v, 0)``/``min(v, 0)`` of an ``advect()`` velocity) over its axis's spacing
+    """The largest over the equations of ``Σ |c|/h`` (``Σ 2|c|/h²`` for a second
+    derivative along an axis): each derivative's constant coefficient ``c`` (products and
+    quotients of numbers and the parameters ``env``, the ``max(v, 0)``/``min(v, 0)`` of an
+    ``advect()`` velocity) over its axis's spacing
     (``spacings``, x first; derivatives along absent axes and field-dependent
     coefficients count nothing)."""
     worst = 0.0
@@ -205,8 +206,9 @@ def advective_rate(trees: Mapping[str, eq.Node], env: Mapping[str, Any],
             node, factor = stack.pop()
             if isinstance(node, eq.Diff):
                 k = "xyz".index(node.axis)
-                if k < len(spacings):
-                    total += factor / spacings[k]
+                if k < len(spacings):  # a second derivative: Euler's 2/|λ|, λ = −4c/h²
+                    total += factor / spacings[k] if node.side != 2 \
+                        else 2.0 * factor / spacings[k] ** 2
             elif isinstance(node, eq.Neg):
                 stack.append((node.a, factor))
             elif isinstance(node, eq.Bin) and node.op in "+-":

@@ -33,7 +33,9 @@ token and listing what is allowed):
   for y and z), ``gradient_squared(s)`` and ``dot(gradient(a), gradient(b))`` (central,
   summed over the grid's axes), and ``advect(s, vx[, vy[, vz]])``, the upwinded
   ``vx ∂s/∂x + vy ∂s/∂y + vz ∂s/∂z`` (each velocity any expression; a component along an
-  axis the grid lacks meets a field constant along it: 0).
+  axis the grid lacks meets a field constant along it: 0);
+* second derivatives along one axis on grids: ``d2_dx2(s)``, ``d2_dy2(s)``, ``d2_dz2(s)``
+  (``(s₊ − 2s + s₋)/h²``, the Laplacian's part along that axis).
 
 Nothing else: a character outside the language (``#``, a newline...) is refused, naming
 it, as is an expression nested more than `MAX_DEPTH` levels deep or of more than
@@ -131,8 +133,9 @@ _COMPARE = {ast.Lt: "lt", ast.LtE: "le", ast.Gt: "gt", ast.GtE: "ge", ast.Eq: "e
             ast.NotEq: "ne"}
 #: the first-derivative operators of a species (module doc): name -> (axis, side), side 0
 #: central, +1 forward, -1 backward
-DERIVATIVES = {f"d_d{a}{suffix}": (a, side) for a in "xyz"
-               for suffix, side in (("", 0), ("_forward", 1), ("_backward", -1))}
+DERIVATIVES = {**{f"d_d{a}{suffix}": (a, side) for a in "xyz"
+                  for suffix, side in (("", 0), ("_forward", 1), ("_backward", -1))},
+               **{f"d2_d{a}2": (a, 2) for a in "xyz"}}  # side 2: the second derivative
 #: names every expression may use besides species and parameters
 COORDINATES = ("x", "y", "z")
 TIME = "t"
@@ -160,7 +163,8 @@ def _allowed_text(species: Iterable[str], params: Iterable[str]) -> str:
         f"({', '.join(sorted(params)) or 'none'}), x y z t, Lx Ly Lz, pi, numbers, "
         f"+ - * / **, laplace(species), laplace(laplace(species)), laplace(expression), "
         f"div(D*grad(species)), the derivatives "
-        f"d_dx d_dy d_dz (and their _forward/_backward forms), gradient_squared, "
+        f"d_dx d_dy d_dz (and their _forward/_backward forms), d2_dx2 d2_dy2 d2_dz2, "
+        f"gradient_squared, "
         f"dot(gradient(a), gradient(b)), advect(species, vx[, vy[, vz]]), the comparisons "
         f"< <= > >= == != (1 or 0) and the functions "
         f"{' '.join(FUNCTIONS)}"

@@ -139,8 +139,10 @@ def _level(outs: list[str], exprs: Mapping[str, Node], zero: frozenset[str],
     stencil = any(isinstance(m, (Lap, Diff, DivGrad, LapOf)) for n in outs
                   for m in walk(exprs[n]))
     masked = mask if stencil else None
-    if stencil and boundary is not None:  # a condition's value may read other species
-        reads |= {n.name for t in boundary.trees() for n in walk(t)
+    if stencil:  # a condition's value may read other species
+        trees = [*(boundary.trees() if boundary is not None else ()),
+                 *(t for _, _, t in (mask_ghosts if masked else ()))]
+        reads |= {n.name for t in trees for n in walk(t)
                   if isinstance(n, Ref) and n.kind == "species"}
     inputs = tuple(sorted((reads | ({masked} - {None})) - set(outs)))
     return Program(inputs, tuple(Output(n, exprs[n]) for n in outs), zero & set(inputs),

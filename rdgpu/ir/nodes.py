@@ -53,7 +53,8 @@ class Lap(Node):
 class Diff(Node):
     """The first derivative of field ``name`` along ``axis`` (``"x"``, ``"y"``, ``"z"``):
     ``side`` 0 central ``(s₊ − s₋)/(2h)``, +1 forward ``(s₊ − s)/h``, −1 backward ``(s −
-    s₋)/h``, the neighbours ``s±`` with the grid's ghosts.  ``optional``: part of an
+    s₋)/h``, or (``side`` 2) the second derivative ``((s₊ + s₋) − 2s)/h²``, the neighbours
+    ``s±`` with the grid's ghosts.  ``optional``: part of an
     operator summed over the grid's axes (``gradient_squared``...), 0 along an axis the
     grid lacks; else that is an error."""
 
@@ -64,7 +65,9 @@ class Diff(Node):
 
     @property
     def spelling(self) -> str:
-        """How the equation wrote it (``d_dx(u)``, ``d_dy_forward(u)``...)."""
+        """How the equation wrote it (``d_dx(u)``, ``d_dy_forward(u)``, ``d2_dx2(u)``...)."""
+        if self.side == 2:
+            return f"d2_d{self.axis}2({self.name})"
         suffix = {0: "", 1: "_forward", -1: "_backward"}[self.side]
         return f"d_d{self.axis}{suffix}({self.name})"
 

@@ -153,6 +153,8 @@ def _grid_derivative(a: np.ndarray, layout: Layout, d: Diff, pad: _Padder):
     lo, hi = pad.sides(d.name, u, k)
     if d.side == 0:
         out = (hi - lo) / (t(2) * h)
+    elif d.side == 2:
+        out = ((hi + lo) - (t(2) * u)) / (h * h)
     elif d.side > 0:
         out = (hi - u) / h
     else:

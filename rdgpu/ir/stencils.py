@@ -217,7 +217,7 @@ def neighbour_values(program: Program, kind: str,
 
 #: a derivative's value in a kernel: role ``d{axis}{c|f|b}`` (central, forward, backward)
 _DIFF_ROLES = {(a, side): f"d{a}{letter}" for a in "xyz"
-               for side, letter in ((0, "c"), (1, "f"), (-1, "b"))}
+               for side, letter in ((0, "c"), (1, "f"), (-1, "b"), (2, "2"))}
 #: the neighbours on the low and high side of each axis, and the spacing's kernel name
 _AXES = {"x": ("w", "e", "dx"), "y": ("s", "n", "dy"), "z": ("b", "t", "dz")}
 
@@ -225,7 +225,8 @@ _AXES = {"x": ("w", "e", "dx"), "y": ("s", "n", "dy"), "z": ("b", "t", "dz")}
 def derivative_text(kind: str, d: Diff, num: Callable[[int], str]) -> str:
     """Derivative ``d`` of a grid cell from its neighbour values ``_q{name}_{s}`` and
     ``_c_{s}`` and the spacing ``dx``/``dy``/``dz``, in the reference's operation order:
-    ``(s₊ − s₋) / (2·h)``, ``(s₊ − s) / h``, ``(s − s₋) / h``; ``num(0)`` along an axis
+    ``(s₊ − s₋) / (2·h)``, ``(s₊ − s) / h``, ``(s − s₋) / h``, ``((s₊ + s₋) − 2·s) /
+    (h·h)``; ``num(0)`` along an axis
     the grid lacks (an `optional <rdgpu.ir.equations.Diff>` one: `check_derivatives`
     refuses the others)."""
     lo, hi, h = _AXES[d.axis]
@@ -234,6 +235,8 @@ def derivative_text(kind: str, d: Diff, num: Callable[[int], str]) -> str:
     c, q_lo, q_hi = ident("c", d.name), ident("q" + lo, d.name), ident("q" + hi, d.name)
     if d.side == 0:
         return f"(({q_hi} - {q_lo}) / ({num(2)} * {h}))"
+    if d.side == 2:
+        return f"((({q_hi} + {q_lo}) - ({num(2)} * {c})) / ({h} * {h}))"
     if d.side > 0:
         return f"(({q_hi} - {c}) / {h})"
     return f"(({c} - {q_lo}) / {h})"

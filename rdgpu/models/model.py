@@ -535,7 +535,9 @@ class Model:
         env = {**model._largest(params), **_physical_coordinates(require_domain(domain))}
         parts = {s: eq.linear_parts(frozen_coefficients(t, env)) for s, t in model.trees.items()}
         ops = model._operators(params, parts)
-        rate = advective_rate(self.trees, self._largest(params), require_domain(domain).spacings)
+        # advective_rate takes x first; a domain's spacings follow its array axes (y, x)
+        rate = advective_rate(self.trees, self._largest(params),
+                              tuple(reversed(require_domain(domain).spacings)))
         method = _method(method or self.default_method, self.methods)
         # an explicit method also steps each species' constant damping γ s (γ < 0;
         # `split_damping`), which limits h by itself (u_t = −k u: h <= 2/k)

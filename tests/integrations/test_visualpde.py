@@ -137,7 +137,7 @@ def test_parents_json_and_files(tmp_path):
     ({"reactionStr_1": "u*WhiteNoise^2"}, "not linear in WhiteNoise"),
     ({"reactionStr_1": "WhiteNoise", "timesteppingScheme": "RK4"},
      "WhiteNoise with timesteppingScheme = 'RK4'"),
-    ({"reactionStr_2": "u_xx"}, "u_xx"),
+    ({"reactionStr_2": "u_xy"}, "u_xy"),
     ({"reactionStr_2": "w*u"}, "the name 'w'"),
     ({"timesteppingScheme": "Leapfrog"}, "timesteppingScheme = 'Leapfrog'"),
     ({"dimension": "3"}, "dimension = '3'"),
@@ -274,6 +274,24 @@ def test_periodic_for_some_species_and_sides():
     # a field held at its own value is not held at all (VisualPDE's static obstacles)
     static = load({**GS, "boundaryConditions_2": "dirichlet", "dirichletStr_2": "v"})
     assert "v" not in static.bc
+
+
+def test_an_indicator_of_a_species_that_never_changes():
+    """``domainIndicatorFun = "S < 1"`` with ``S`` static (no reaction, no diffusion): the
+    mask is its initial condition's, fixed, and the edge holds ``T`` at ``S``."""
+    tr = load({"numSpecies": 2, "speciesNames": "T S", "domainScale": "16",
+               "spatialStep": "1", "diffusionStr_1_1": "1", "diffusionStr_2_2": "0",
+               "reactionStr_1": "0", "reactionStr_2": "0", "dt": 0.1,
+               "boundaryConditions_1": "dirichlet", "dirichletStr_1": "S",
+               "boundaryConditions_2": "dirichlet",
+               "initCond_2": "2*ind((x-8)^2 + (y-8)^2 < 9)",
+               "domainViaIndicatorFun": True, "domainIndicatorFun": "S<1"})
+    assert "S" not in tr.mask and tr.mask_bc["T"] == ("value", "S")
+    res = tr.simulation(backend="numpy", dtype="float64").run(10, progress=False)
+    c = (np.arange(16) + 0.5)
+    inside = ((c[None] - 8) ** 2 + (c[:, None] - 8) ** 2 < 9)
+    np.testing.assert_array_equal(res.mask.reshape(16, 16), ~inside)
+    assert np.isfinite(res.fields["T"]).all()
 
 
 def test_a_parameter_named_by_a_python_keyword():

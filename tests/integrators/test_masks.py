@@ -178,12 +178,13 @@ def test_the_command_line_masks_a_disc_and_reads_a_picture(tmp_path):
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_edge_conditions_match_the_reference(backend, dtype):
-    """``mask_bc``: a face value of x and t for ``u``, Robin for ``v`` on the mask's edge;
-    every backend equals the NumPy reference bit for bit (only + − × ÷)."""
+    """``mask_bc``: a face value of x and t for ``u``, Robin for ``v`` reading ``u`` at
+    the edge cell on the mask's edge; every backend equals the NumPy reference bit for bit
+    (only + − × ÷)."""
     grid = Grid((9, 13), dx=0.7, bc="periodic")
     rng = np.random.default_rng(8)
     fields = {s: rng.uniform(0.2, 1, grid.shape) for s in "uv"}
-    edge = {"u": ("value", "0.5 + 0.1*x*t"), "v": ("robin", 2.0, 0.3)}
+    edge = {"u": ("value", "0.5 + 0.1*x*t"), "v": ("robin", 2.0, "0.3*u")}
     runs = []
     for be in ("numpy", backend):
         st = PAIR.stepper(grid, dt=0.1, backend=be, dtype=dtype, mask=DISC, mask_bc=edge)
