@@ -15,20 +15,24 @@ new time ``t'``: ``b_s`` is the solve's source, evaluated each step on the host
 (`SpeciesSystem.source`).  The coefficient ``c`` must be one number (a Robin coefficient
 of x or t is refused), ``d`` may vary along the side and in time but not read a species (its
 new value is unknown before the solve), and a species with a bilaplacian solved implicitly
-takes no conditions of its own (the product ``P`` has no affine form).  Such a solve runs
-by SOR or multigrid (the direct transforms know the grid's conditions only).
+takes no conditions of its own (the product ``P`` has no affine form).  Where each axis of
+the species is periodic, Neumann (``c = 1``, fluxes in ``d``) or a ghost value (``c = 0``)
+at both ends, the direct transforms solve it as fast as the grid's own conditions
+(`SpeciesSystem.transform_axes`); otherwise (a face value, ``c = −1``; Robin; different
+ends; a mask) SOR or multigrid.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rdgpu.backends.base import DeviceArray
+from rdgpu.domains.boundary import DIRICHLET, NEUMANN, PERIODIC
 from rdgpu.integrators.stability import implicit_factors
 from rdgpu.ir import equations as eq
 from rdgpu.ir.boundary import OWN, Boundary
@@ -49,16 +53,28 @@ class SpeciesSystem:
     """A species' Laplacian under its own conditions (module doc): ``matrix`` (``M_s``,
     CSR over the kernel shape), ``smallest`` a lower bound of the smallest eigenvalue of
     ``−M_s`` (SOR's estimates) and ``sides``, per side with an affine part, the flat indices
-    of its edge cells, ``1/h²`` and ``d``'s tree."""
+    of its edge cells, ``1/h²`` and ``d``'s tree; ``layout`` where ``d`` is evaluated."""
 
     matrix: Any
     smallest: float
     sides: list[tuple[np.ndarray, float, eq.Node]]
     layout: Layout
+    #: ``(n, kind, h)`` per kernel axis where each axis is periodic, Neumann (``c = 1``) or
+    #: a ghost value (``c = 0``) at both ends and there is no mask: the direct transforms
+    #: solve it (`rdgpu.ops.transforms`); else None
+    transform_axes: list[tuple[int, int, float]] | None = None
+    #: `source` per member where it does not change in time
+    kept: dict = field(default_factory=dict)
 
     def source(self, t: float, params: Mapping[str, Any], member: int | None) -> np.ndarray:
-        """``b_s(t)`` over the kernel shape (float64), one member's parameters."""
+        """``b_s(t)`` over the kernel shape (float64), one member's parameters (kept per
+        member where no side reads ``t``)."""
+        steady = not any(eq.names(tree, "time") for _, _, tree in self.sides)
+        if steady and member in self.kept:
+            return self.kept[member]
         b = np.zeros(int(np.prod(self.layout.shape)))
+        if steady:
+            self.kept[member] = b
         if not self.sides:
             return b
         env = _numbers(self.layout, params, member)
@@ -106,6 +122,7 @@ def species_system(domain: Domain, boundary: Boundary | None, s: str,
     inside = np.ones(size, bool) if mask is None else np.asarray(mask).reshape(-1) > 0
     rows, cols, vals, sides = [], [], [], []
     smallest, closed_low = 0.0, math.inf
+    axes: list[tuple[int, int, float]] | None = [] if mask is None else None
 
     def add(r: np.ndarray, c: np.ndarray, v: Any) -> None:
         keep = inside[r]
@@ -116,11 +133,15 @@ def species_system(domain: Domain, boundary: Boundary | None, s: str,
     for k, (n, a) in enumerate(zip(shape, "zyx"[3 - len(shape):], strict=True)):
         w = inv["xyz".index(a)]
         if w == 0.0:
+            if axes is not None:
+                axes.append((n, NEUMANN, math.inf))
             continue
         add(flat.reshape(-1), flat.reshape(-1), -2.0 * w)
         closed = True
+        ends = []
         for side, step in ((a + "-", -1), (a + "+", 1)):
             kind, c, d = _side(domain, boundary, s, side, numbers)
+            ends.append("wrap" if kind == "wrap" else c)
             idx = np.arange(n) + step
             at_edge = (idx < 0) | (idx >= n)
             target = np.where(at_edge, (idx + n) % n if kind == "wrap" else np.arange(n), idx)
@@ -142,6 +163,10 @@ def species_system(domain: Domain, boundary: Boundary | None, s: str,
                 closed &= mc == 1.0
                 if md is not None:
                     sides.append((cells[out & inside], w, md))
+        kinds = {("wrap", "wrap"): PERIODIC, (1.0, 1.0): NEUMANN, (0.0, 0.0): DIRICHLET}
+        if axes is not None:
+            axes = axes + [(n, kinds[tuple(ends)], 1.0 / math.sqrt(w))] \
+                if tuple(ends) in kinds else None
         if not closed:  # one end held: at least the mixed string's lowest mode
             smallest += 4.0 * w * math.sin(math.pi / (2 * (2 * n + 1))) ** 2
         elif n > 1:  # closed: its lowest mode but the constant, Neumann's
@@ -155,7 +180,7 @@ def species_system(domain: Domain, boundary: Boundary | None, s: str,
     low = smallest if smallest > 0 else closed_low
     if mask is not None:  # a masked region's modes: no bound from the box, estimate low
         low = 0.25 * low
-    return SpeciesSystem(M, low, sides, layout)
+    return SpeciesSystem(M, low, sides, layout, axes)
 
 
 def _mask_side(rules: Mapping[str, eq.Node] | None, side: str, s: str,
@@ -224,6 +249,8 @@ class ImplicitSolves:
         one = shape if members is None else shape[1:]
         self.tmp = [backend.empty(one, self.dtype) for _ in range(2)]
         self.source = backend.empty(one, self.dtype)
+        #: the sources that do not change in time, per (species, member), on the device
+        self.uploaded: dict[tuple[str, int | None], DeviceArray] = {}
         self.cache: dict[Any, ImplicitDiffusion] = {}
         #: the species with conditions of their own and their systems
         self.systems: dict[str, SpeciesSystem] = {}
@@ -273,7 +300,8 @@ class ImplicitSolves:
                 sys_ = self.systems[s]
                 n = sys_.matrix.shape[0]
                 extra = {"operator": (sys_.matrix, np.zeros(n)),
-                         "smallest": (sys_.smallest, False)}
+                         "smallest": (sys_.smallest, False),
+                         "transform_axes": sys_.transform_axes}
             self.cache[key] = ImplicitDiffusion(self.domain, D=1.0, dt=a, theta=1.0,
                                                 backend=self.backend, dtype=self.dtype,
                                                 tol=self.tol, solver=self.solver, **extra)
@@ -301,10 +329,13 @@ class ImplicitSolves:
         source: Any = 0.0
         system = self.systems.get(s)
         if system is not None and system.sides:
-            b = system.source(t, self.params, member)
-            self.backend.copy(self.backend.upload(b.astype(self.dtype).reshape(
-                self.source.shape)), self.source)
-            source = self.source
+            key = (s, member)
+            source = self.uploaded.get(key)
+            if source is None:
+                b = system.source(t, self.params, member)
+                source = self.backend.upload(b.astype(self.dtype).reshape(self.source.shape))
+                if member in system.kept:  # steady: uploaded once
+                    self.uploaded[key] = source
         if len(solvers) == 1:
             solvers[0].step(y, y, source)
         elif len(solvers) == 2:

@@ -111,6 +111,10 @@ class ImplicitDiffusion:
     smallest : (float, bool), optional
         With ``operator``: the smallest eigenvalue of ``−M`` SOR has to resolve (a lower
         bound) and whether it is exact (default: ``domain.smallest_eigenvalue()``).
+    transform_axes : list of (int, int, float), optional
+        With ``operator``: its axes as ``(n, kind, h)`` (`rdgpu.ops.transforms.grid_axes`'
+        form) where each is periodic, Neumann or Dirichlet at both ends, so that the
+        direct transforms solve it (``"auto"``, ``"transform"``); None: they cannot.
 
     Attributes
     ----------
@@ -146,6 +150,7 @@ class ImplicitDiffusion:
         solver: str | None = None,
         operator: tuple[Any, np.ndarray] | None = None,
         smallest: tuple[float, bool] | None = None,
+        transform_axes: list[tuple[int, int, float]] | None = None,
     ):
         self._check_numbers(D, dt, theta, dtype, tol)
         self.domain = require_domain(domain)
@@ -165,7 +170,7 @@ class ImplicitDiffusion:
         self._reset_statistics()
         #: "transform" (direct, rdgpu.ops.transforms), "sor" or "multigrid" (class doc)
         self.solver = transforms.pick_solver(self.domain, solver)
-        if self.custom and self.solver == "transform":  # its transforms: the domain's
+        if self.custom and self.solver == "transform" and transform_axes is None:
             if solver == "transform":
                 raise ValueError("solver='transform' solves the domain's own conditions; "
                                  "this operator has others: use 'auto', 'sor' or "
@@ -173,7 +178,7 @@ class ImplicitDiffusion:
             self.solver = "sor"
         self.transform = None if self.solver != "transform" else transforms.DirectDiffusion(
             self.domain, D=self.D, dt=self.dt, theta=self.theta, backend=self.backend,
-            dtype=self.dtype, dirichlet=b)
+            dtype=self.dtype, dirichlet=b, axes=transform_axes)
         self.multigrid = None if self.solver != "multigrid" else AlgebraicMultigrid(
             S, self.weights, self.colouring, backend=self.backend, dtype=self.dtype, tol=self.tol)
 

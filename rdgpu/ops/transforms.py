@@ -459,15 +459,20 @@ class DirectDiffusion:
         The working dtype.
     dirichlet : numpy.ndarray
         ``b`` of ``L u = M u + b`` (flat, float64).
+    axes : list of (int, int, float), optional
+        ``(n, kind, h)`` per axis (`grid_axes`' form) for conditions other than the
+        domain's (a species' own, `rdgpu.integrators.imex`; default: the domain's).
     """
 
     def __init__(self, domain: Domain, *, D: float, dt: float, theta: float, backend: Backend,
-                 dtype: Any, dirichlet: np.ndarray):
+                 dtype: Any, dirichlet: np.ndarray,
+                 axes: list[tuple[int, int, float]] | None = None):
         why = transform_unavailable(domain)
         if why is not None:
             raise ValueError(why)
         self.dtype = np.dtype(dtype)
-        self.solver = TransformSolver(grid_axes(domain), dtype=self.dtype)
+        self.solver = TransformSolver(grid_axes(domain) if axes is None else axes,
+                                      dtype=self.dtype)
         self.shape = self.solver.shape
         self.D, self.dt, self.theta = float(D), float(dt), float(theta)
         self.backend = backend
