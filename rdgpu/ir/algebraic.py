@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from rdgpu.ir.complex_split import parts, split_equations
+from rdgpu.ir.derivative import chain_rule
 from rdgpu.ir.equations import parse
 from rdgpu.ir.nodes import (
     Diff,
@@ -93,11 +94,13 @@ def inline(tree: Node, algebraic: Mapping[str, Node]) -> Node:
             return LapOf(out) if n.order == 2 else out
         if isinstance(n, Diff) and n.name in algebraic:
             b = bare(n.name)
-            if b is None:
+            if b is not None:
+                return Diff(b, n.axis, n.side, n.optional)
+            try:  # the chain rule on its expression
+                return chain_rule(algebraic[n.name], n.axis, n.side, n.optional)
+            except EquationError as exc:
                 raise EquationError(f"{n.spelling} differentiates the algebraic species "
-                                    f"{n.name!r}, an expression: first derivatives read a "
-                                    "field (write the derivative of its expression)")
-            return Diff(b, n.axis, n.side, n.optional)
+                                    f"{n.name!r}: {exc}") from None
         if isinstance(n, DivGrad) and n.name in algebraic:
             b = bare(n.name)
             if b is None:

@@ -1,5 +1,7 @@
 """The exact derivative of a pointwise expression with respect to one species, as a tree
-(what Milstein's correction of a noise term needs: ``dV/ds`` of a variance ``V``).
+(what Milstein's correction of a noise term needs: ``dV/ds`` of a variance ``V``), and
+the chain rule that makes a first derivative of an expression (`chain_rule`: ``d_dx(u*v)``,
+``gradient(1 + tanh(x))``, a derivative of an algebraic species).
 
 `derivative` differentiates every node of the pointwise language (`rdgpu.ir.nodes`): sums,
 products, quotients, ``pow``, the functions of `rdgpu.ir.equations.FUNCTIONS` and the
@@ -12,9 +14,23 @@ so that the kernels do not evaluate ``0·x`` terms.
 
 from __future__ import annotations
 
-from rdgpu.ir.nodes import Bin, Call, Diff, DivGrad, EquationError, Lap, LapOf, Neg, Node, Num, Ref
+from rdgpu.ir.nodes import (
+    Bin,
+    Call,
+    Diff,
+    DivGrad,
+    EquationError,
+    Lap,
+    LapOf,
+    Neg,
+    Node,
+    Num,
+    Ref,
+    names,
+    substitute,
+)
 
-__all__ = ["derivative"]
+__all__ = ["chain_rule", "derivative"]
 
 _ZERO, _ONE = Num(0.0), Num(1.0)
 
@@ -41,6 +57,25 @@ def derivative(node: Node, species: str) -> Node:
     if isinstance(node, Call):
         return _call(node, [derivative(a, species) for a in node.args])
     raise EquationError(f"no derivative of the node {node!r}")
+
+
+def chain_rule(expr: Node, axis: str, side: int = 0, optional: bool = False) -> Node:
+    """The first derivative along ``axis`` of the pointwise expression ``expr``:
+    ``Σ_s ∂expr/∂s · d_axis(s) + ∂expr/∂axis`` with each species' derivative the `Diff`
+    of ``side`` (central, forward, backward) and the coordinate's exact (what ``d_dx`` of
+    an expression means: second order central, as differencing the expression's field is;
+    a second derivative of an expression is refused)."""
+    if side == 2:
+        raise EquationError(f"d2_d{axis}2 of an expression (second derivatives take a "
+                            "species)")
+    own = f"\0{axis}"  # the coordinate as a variable: never a name of the language
+    tree = substitute(expr, lambda n: Ref("species", own) if isinstance(n, Ref)
+                      and n.kind == "coord" and n.name == axis else None)
+    out = derivative(tree, own)
+    for s in sorted(names(expr, "species")):
+        out = _add(out, _mul(derivative(tree, s), Diff(s, axis, side, optional)))
+    return substitute(out, lambda n: Ref("coord", axis) if isinstance(n, Ref)
+                      and n.kind == "species" and n.name == own else None)
 
 
 def _call(node: Call, d: list[Node]) -> Node:

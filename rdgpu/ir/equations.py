@@ -61,6 +61,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from rdgpu.ir.complex_split import COMPLEX_FUNCTIONS, IMAGINARY
+from rdgpu.ir.derivative import chain_rule
 from rdgpu.ir.linear import Linear, expand_operators, linear_parts
 from rdgpu.ir.nodes import (
     Bin,
@@ -179,11 +180,13 @@ def parse(
     what: str = "expression",
     laplace: bool = True,
     complex_numbers: bool = False,
+    chain: bool = True,
 ) -> Node:
     """Parse one expression of the language (module docstring).  ``species`` and
     ``params`` are the names it may use; ``laplace=False`` forbids Laplacians (parameter
     expressions); ``complex_numbers``: ``1j`` and ``conj``, ``real``, ``imag`` allowed (the
-    equations of complex species, `rdgpu.ir.complex_split`)."""
+    equations of complex species, `rdgpu.ir.complex_split`); ``chain=False``: first
+    derivatives take species only (no chain rule for an expression's)."""
     species, params = tuple(species), tuple(params)
     allowed = _allowed_text(species, params)
     if not isinstance(text, str):
@@ -255,7 +258,7 @@ def parse(
             if fn in ("div", "divergence"):
                 return _divergence(node, species, laplace, fail, go)
             if fn in DERIVATIVES or fn in _VECTOR_CALCULUS:
-                return _derivative(node, species, laplace, fail, go)
+                return _derivative(node, species, laplace, fail, go, chain)
             table = {**FUNCTIONS, **COMPLEX_FUNCTIONS} if complex_numbers else FUNCTIONS
             if fn not in table:
                 raise fail(f"the unknown function {fn!r}")
@@ -382,7 +385,8 @@ def _divergence(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, g
 _VECTOR_CALCULUS = ("gradient_squared", "dot", "advect")
 
 
-def _derivative(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, go) -> Node:
+def _derivative(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, go,
+                chain: bool = True) -> Node:
     """A first-derivative operator (module doc), as `Diff` nodes."""
     fn, args = node.func.id, node.args
     if not allowed:
@@ -393,10 +397,25 @@ def _derivative(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, g
             return arg.id
         raise fail(f"{where} of {ast.unparse(arg)!r} (it takes a species)")
 
-    def grad(arg: ast.AST) -> str:
+    def diff(arg: ast.AST, axis: str, side: int, optional: bool, where: str) -> Node:
+        """The derivative of a species, or of a pointwise expression by the chain rule."""
+        if isinstance(arg, ast.Name) and arg.id in species:
+            return Diff(arg.id, axis, side, optional)
+        if not chain:
+            raise fail(f"{where} of {ast.unparse(arg)!r} (it takes a species)")
+        tree = go(arg)
+        if any(isinstance(n, (Lap, Diff, LapOf, DivGrad)) for n in walk(tree)):
+            raise fail(f"{where} of {ast.unparse(arg)!r} (it takes a species or a pointwise "
+                       "expression, without spatial operators)")
+        try:
+            return chain_rule(tree, axis, side, optional)
+        except EquationError as exc:
+            raise fail(f"{where} of {ast.unparse(arg)!r}: {exc}") from None
+
+    def grad(arg: ast.AST) -> ast.AST:
         if (isinstance(arg, ast.Call) and isinstance(arg.func, ast.Name)
                 and arg.func.id == "gradient" and len(arg.args) == 1 and not arg.keywords):
-            return field(arg.args[0], "gradient()")
+            return arg.args[0]
         raise fail(f"dot() of {ast.unparse(arg)!r} (dot takes gradient(a), gradient(b))")
 
     def total(terms: list[Node]) -> Node:
@@ -409,17 +428,18 @@ def _derivative(node: ast.Call, species: tuple[str, ...], allowed: bool, fail, g
         if len(args) != 1:
             raise fail(f"{fn}() with {len(args)} arguments (it takes one species)")
         axis, side = DERIVATIVES[fn]
-        return Diff(field(args[0], f"{fn}()"), axis, side)
+        return diff(args[0], axis, side, False, f"{fn}()")
     if fn == "gradient_squared":
         if len(args) != 1:
             raise fail(f"gradient_squared() with {len(args)} arguments (it takes a species)")
-        s = field(args[0], "gradient_squared()")
-        return total([Bin("*", Diff(s, a, 0, True), Diff(s, a, 0, True)) for a in "xyz"])
+        parts = [diff(args[0], a, 0, True, "gradient_squared()") for a in "xyz"]
+        return total([Bin("*", d, d) for d in parts])
     if fn == "dot":
         if len(args) != 2:
             raise fail(f"dot() with {len(args)} arguments (it takes gradient(a), gradient(b))")
         a, b = grad(args[0]), grad(args[1])
-        return total([Bin("*", Diff(a, ax, 0, True), Diff(b, ax, 0, True)) for ax in "xyz"])
+        return total([Bin("*", diff(a, ax, 0, True, "gradient()"),
+                           diff(b, ax, 0, True, "gradient()")) for ax in "xyz"])
     if not 2 <= len(args) <= 4:
         raise fail(f"advect() with {len(args)} arguments (it takes a species and one to "
                    "three velocities: advect(s, vx[, vy[, vz]]))")

@@ -418,8 +418,10 @@ def translate(pde_obj: Any, state: Any) -> Translation:
     written: dict[str, set[eq.Diff]] = {}
     for s in species:
         try:
+            # py-pde differences an expression's field under the PDE's conditions, rdgpu
+            # would take its exact derivative: a derivative takes a species here
             tree = eq.parse(equations[s], species=species, params=params,
-                            what=f"the equation of {s!r}", complex_numbers=cplx)
+                            what=f"the equation of {s!r}", complex_numbers=cplx, chain=False)
         except eq.EquationError as exc:
             raise _refuse(str(exc)) from None
         written[s] = eq.derivatives(tree)  # in py-pde's axis names, for messages
