@@ -89,10 +89,15 @@ class SpeciesSystem:
         return b
 
 
+#: where `_numbers` lists the per-member parameters (never a name of the language)
+_PER_MEMBER = "\0per member"
+
+
 def _numbers(layout: Layout, params: Mapping[str, Any], member: int | None) -> dict[str, Any]:
     """The numbers a ghost reads: lengths, spacings (`rdgpu.ir.boundary.SPACING`) and the
-    scalar parameters (a per-member one at ``member``)."""
+    scalar parameters (a per-member one at ``member``; their names under `_PER_MEMBER`)."""
     env: dict[str, Any] = dict(layout.lengths())
+    env[_PER_MEMBER] = tuple(k for k, v in params.items() if isinstance(v, PerMember))
     env.update({f"_d{a}": h for a, h in zip("xyz", layout.spacing(), strict=True)})
     for k, v in params.items():
         if isinstance(v, PerMember):
@@ -219,9 +224,12 @@ def _affine(rule: eq.Node, s: str, where: str, numbers: Mapping[str, Any]
                          "bdf2) take values of x, y, z, t and the parameters (an explicit "
                          "method takes it)")
     slope = derivative(rule, s)
-    if eq.names(slope, "species") or eq.names(slope, "coord") or eq.names(slope, "time"):
+    per_member = set(numbers.get(_PER_MEMBER, ()))
+    if (eq.names(slope, "species") or eq.names(slope, "coord") or eq.names(slope, "time")
+            or eq.names(slope, "param") & per_member):
         raise ValueError(f"{where} is not affine in {s!r} with a constant coefficient: "
-                         "implicit methods need one number (an explicit method takes it)")
+                         "implicit methods need one number, the same for every member of "
+                         "an ensemble (an explicit method takes it)")
     with np.errstate(all="ignore"):
         c = float(eq.evaluate(slope, dict(numbers)))
     d = eq.substitute(rule, lambda n: eq.Num(0.0) if isinstance(n, eq.Ref)

@@ -204,3 +204,12 @@ def test_transforms_solve_what_they_can(sides):
         runs.append(st.get_state()["u"])
     np.testing.assert_allclose(runs[0], runs[1], rtol=0, atol=1e-10)
     assert np.abs(runs[0] - u0).max() > 0.05
+
+
+def test_a_per_member_robin_coefficient_is_refused():
+    """The matrix is one for every member: a Robin coefficient that differs between
+    members is refused by name (a per-member value is fine: it is the source)."""
+    model = define_model("h", {"u": "laplace(u)"}, {"a": 1.0})
+    with pytest.raises(ValueError, match="the same for every member"):
+        model.stepper(Grid((8, 8)), {"a": np.array([1.0, 2.0])}, dt=2.0, backend="numpy",
+                      method="imex", members=2, bc={"u": {"x-": ("robin", "a", 0.0)}})
