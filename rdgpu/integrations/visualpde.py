@@ -8,7 +8,8 @@ and ``speciesNames``, ``reactionStr_i`` and ``diffusionStr_i_j`` (with ``crossDi
 ``kineticParams`` (``"a = 0.35 in [0, 1];D = 1;"``), ``boundaryConditions_i`` with
 ``dirichletStr_i``/``neumannStr_i``, ``domainScale`` (the side ``L``), ``spatialStep``,
 ``dimension``, ``minX``/``minY``, ``dt``, ``timesteppingScheme``, ``initCond_i`` and
-``timescales``.  ``parent`` names the preset it extends (looked up in ``presets=``).
+``timescales``.  ``parent`` names the preset it extends (looked up in ``presets=``, ignoring case as
+VisualPDE does).
 Everything about drawing (brushes, views, colours) is left out: it does not change the
 equations.
 
@@ -403,16 +404,19 @@ def _as_dict(preset: Mapping[str, Any] | str | Path) -> dict[str, Any]:
 
 def _merged(preset: dict[str, Any], presets: Mapping[str, Mapping[str, Any]]
             ) -> dict[str, Any]:
-    """``preset`` over its parents over `DEFAULTS`."""
+    """``preset`` over its parents over `DEFAULTS`; a parent's name is looked up as
+    VisualPDE looks it up, ignoring case (``grayScott`` is ``GrayScott``)."""
     chain, seen = [preset], set()
+    folded = {str(k).lower(): k for k in presets}
     parent = preset.get("parent")
     while parent not in (None, "default"):
-        if parent in seen or parent not in presets:
+        name = parent if parent in presets else folded.get(str(parent).lower())
+        if parent in seen or name is None:
             raise UnsupportedPreset(f"parent = {parent!r}: " + (
                 "a cycle of parents" if parent in seen else
                 "not among the presets given (pass presets={name: preset, ...})"))
         seen.add(parent)
-        chain.append(dict(presets[parent]))
+        chain.append(dict(presets[name]))
         parent = chain[-1].get("parent")
     out = dict(DEFAULTS)
     for layer in reversed(chain):

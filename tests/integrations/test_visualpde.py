@@ -108,6 +108,9 @@ def test_parents_json_and_files(tmp_path):
     presets = {"base": dict(GS), "child": {"parent": "base", "kineticParams": "F=0.04;k=0.06"}}
     tr = load(presets["child"], presets=presets)
     assert tr.model.defaults == {"F": 0.04, "k": 0.06} and tr.grid.shape == (64, 64)
+    # VisualPDE looks a parent up ignoring case (its presets say "grayScott" for GrayScott)
+    folded = load({"parent": "BASE", "kineticParams": "F=0.05;k=0.06"}, presets=presets)
+    assert folded.model.defaults == {"F": 0.05, "k": 0.06} and folded.grid.shape == (64, 64)
     path = tmp_path / "gs.json"
     path.write_text(json.dumps(GS))
     assert load(path).model.equations == load(json.dumps(GS)).model.equations
