@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -63,18 +63,15 @@ class SpeciesSystem:
     #: a ghost value (``c = 0``) at both ends and there is no mask: the direct transforms
     #: solve it (`rdgpu.ops.transforms`); else None
     transform_axes: list[tuple[int, int, float]] | None = None
-    #: `source` per member where it does not change in time
-    kept: dict = field(default_factory=dict)
+
+    @property
+    def steady(self) -> bool:
+        """Whether ``b_s`` does not change in time (no side's ``d`` reads ``t``)."""
+        return not any(eq.names(tree, "time") for _, _, tree in self.sides)
 
     def source(self, t: float, params: Mapping[str, Any], member: int | None) -> np.ndarray:
-        """``b_s(t)`` over the kernel shape (float64), one member's parameters (kept per
-        member where no side reads ``t``)."""
-        steady = not any(eq.names(tree, "time") for _, _, tree in self.sides)
-        if steady and member in self.kept:
-            return self.kept[member]
+        """``b_s(t)`` over the kernel shape (float64), one member's parameters."""
         b = np.zeros(int(np.prod(self.layout.shape)))
-        if steady:
-            self.kept[member] = b
         if not self.sides:
             return b
         env = _numbers(self.layout, params, member)
@@ -256,7 +253,7 @@ class ImplicitSolves:
         self.boundary, self.params, self.tol, self.solver = boundary, params, tol, solver
         one = shape if members is None else shape[1:]
         self.tmp = [backend.empty(one, self.dtype) for _ in range(2)]
-        self.source = backend.empty(one, self.dtype)
+        self.one = one
         #: the sources that do not change in time, per (species, member), on the device
         self.uploaded: dict[tuple[str, int | None], DeviceArray] = {}
         self.cache: dict[Any, ImplicitDiffusion] = {}
@@ -341,8 +338,8 @@ class ImplicitSolves:
             source = self.uploaded.get(key)
             if source is None:
                 b = system.source(t, self.params, member)
-                source = self.backend.upload(b.astype(self.dtype).reshape(self.source.shape))
-                if member in system.kept:  # steady: uploaded once
+                source = self.backend.upload(b.astype(self.dtype).reshape(self.one))
+                if system.steady:  # uploaded once
                     self.uploaded[key] = source
         if len(solvers) == 1:
             solvers[0].step(y, y, source)

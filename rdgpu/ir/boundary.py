@@ -65,18 +65,21 @@ class Boundary:
     edge cell's own value); ``grid[side]`` the grid's own ghost there (for the fields
     without a rule); ``dirichlet``: the (species, side) pairs whose condition fixes the
     value (``dirichlet``, ``value``: a stored Laplacian's ghost there is 0);
-    ``periodic``: the (species, side) pairs given ``periodic``; ``wrapped``: the custom
-    axes whose loads wrap (the grid's periodic ones, and those a species reads
-    periodically)."""
+    ``periodic``: the (species, side) pairs given ``periodic``."""
 
     axes: frozenset[str]
     rules: Mapping[tuple[str, str], Node | None]
     grid: Mapping[str, Node | None]
     dirichlet: frozenset[tuple[str, str]] = frozenset()
     periodic: frozenset[tuple[str, str]] = frozenset()
-    wrapped: frozenset[str] = frozenset()
     #: the grid's own periodic axes among ``axes``
     grid_periodic: frozenset[str] = frozenset()
+
+    @property
+    def wrapped(self) -> frozenset[str]:
+        """The custom axes whose loads wrap: the grid's periodic ones and those a species
+        reads periodically on some side."""
+        return self.grid_periodic | {side[0] for _, side in self.periodic}
 
     def wraps(self, name: str, side: str) -> bool:
         """Whether field ``name`` reads the other end of the axis beyond ``side``."""
@@ -118,8 +121,7 @@ class Boundary:
                  for (s, side), t in self.rules.items()}
         fixed = frozenset((names.get(s, s), side) for s, side in self.dirichlet)
         periodic = frozenset((names.get(s, s), side) for s, side in self.periodic)
-        return Boundary(self.axes, rules, self.grid, fixed, periodic, self.wrapped,
-                        self.grid_periodic)
+        return Boundary(self.axes, rules, self.grid, fixed, periodic, self.grid_periodic)
 
     def trees(self) -> Iterable[Node]:
         """Every ghost expression (for the names a pass reads)."""
@@ -195,6 +197,5 @@ def make_boundary(given: Mapping[str, Mapping[str, SideBC]], bcs: GridBC,
             b = {"x": bcs.x, "y": bcs.y, "z": bcs.z}[side[0]]
             grid[side] = Num(b.value) if b.kind == DIRICHLET else None
     grid_periodic = frozenset(a for a in axes if kinds[a] == PERIODIC)
-    wrapped = grid_periodic | {side[0] for _, side in periodic}
     return Boundary(axes, rules, grid, frozenset(fixed), frozenset(periodic),
-                    frozenset(wrapped), grid_periodic)
+                    grid_periodic)
